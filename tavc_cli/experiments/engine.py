@@ -1,0 +1,323 @@
+"""Advance a batch of trials together: the transport loop over the physical world.
+
+Each trial has its own arena copy in a shared pymunk space, its own random
+streams and its own policy. The batch shares one physics step and one call of
+the compiled sensing and behaviour kernel per tick for every robot of every
+trial: Python runs per tick and per event (an arrival, a breakdown), never per
+robot per tick.
+
+Per tick: read true poses -> sense and decide (kernel) -> drive -> step physics
+-> handle arrivals and scheduled events.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from tavc_cli.behaviours import navigation as nav
+from tavc_cli.experiments.records import TableBuilder, TrialRecord
+from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.learning.policies import TaskPolicy, make_policy
+from tavc_cli.sim.arena import SOURCE, Arena
+from tavc_cli.sim.sensors import ray_angles
+from tavc_cli.sim.world import PhysicsWorld
+
+_NOISE_BLOCK_TICKS = 512
+_START_WALL_MARGIN_M = 0.6
+
+
+def seed_sequence(seed: Sequence[int]) -> np.random.SeedSequence:
+    """Rebuild a trial's SeedSequence from its recorded (entropy, *spawn_key)."""
+    return np.random.SeedSequence(entropy=int(seed[0]), spawn_key=tuple(int(s) for s in seed[1:]))
+
+
+def start_poses(arena: Arena, radii: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Random non-overlapping start poses, clear of the walls, random headings."""
+    poses = np.zeros((len(radii), 3))
+    for i, r in enumerate(radii):
+        for _ in range(10_000):
+            x = rng.uniform(_START_WALL_MARGIN_M, arena.width_m - _START_WALL_MARGIN_M)
+            y = rng.uniform(_START_WALL_MARGIN_M, arena.height_m - _START_WALL_MARGIN_M)
+            if all(math.hypot(x - poses[k, 0], y - poses[k, 1]) > r + radii[k] + 0.3 for k in range(i)):
+                break
+        else:
+            raise ValueError("the arena is too small to place every robot")
+        poses[i] = (x, y, rng.uniform(-math.pi, math.pi))
+    return poses
+
+
+class TrialState:
+    """Book-keeping of one trial inside a batch: tasks, policy, events, records."""
+
+    def __init__(self, spec: TrialSpec, arena: Arena, lo: int) -> None:
+        self.spec = spec
+        self.lo, self.hi = lo, lo + spec.n_robots
+        ss = seed_sequence(spec.seed)
+        start_ss, noise_ss, policy_ss, event_ss = ss.spawn(4)
+        self.noise_rng = np.random.default_rng(noise_ss)
+        self.event_rng = np.random.default_rng(event_ss)
+        self.policy_rng = np.random.default_rng(policy_ss)
+        radius = float(spec.robot["radius_m"])
+        n = spec.n_robots
+        self.start = start_poses(arena, np.full(n, radius), np.random.default_rng(start_ss))
+        self.policy: TaskPolicy = make_policy(spec.policy, n, arena.n_circuits, self.policy_rng)
+        self.values = np.array(spec.values, dtype=np.float64)
+        self.state = self.policy_rng.integers(arena.n_circuits, size=n)  # class "last serviced"
+        self.task = np.full(n, -1, dtype=np.int64)
+        self.task_start = np.zeros(n)
+        self.last_circuit = np.full(n, -1, dtype=np.int64)
+        self.alive = np.ones(n, dtype=bool)
+        self.rows = TableBuilder()
+        events = [(b.time_s, 0, b) for b in spec.breakdowns] + [(v.time_s, 1, v) for v in spec.value_changes]
+        self.events = sorted(events, key=lambda e: (e[0], e[1]))
+        self.vc_t: list[float] = []
+        self.vc: list[np.ndarray] = []
+        self.q_t: list[float] = []
+        self.q: list[np.ndarray] = []
+        self.pose_t: list[float] = []
+        self.poses: list[np.ndarray] = []
+        self.pose_alive: list[np.ndarray] = []
+        self.pose_circuit: list[np.ndarray] = []
+
+    def next_event_time(self) -> float:
+        return self.events[0][0] if self.events else math.inf
+
+
+class BatchEngine:
+    """Runs trials of one arena and robot model side by side, tick by tick."""
+
+    def __init__(self, specs: Sequence[TrialSpec]) -> None:
+        if not specs:
+            raise ValueError("a batch needs at least one trial")
+        first = specs[0]
+        self.arena = first.build_arena()
+        for s in specs[1:]:
+            if (s.arena, s.robot, s.dt_s, s.warmup_s) != (first.arena, first.robot, first.dt_s, first.warmup_s):
+                raise ValueError("trials in one batch must share arena, robot model, time step and warm-up")
+        self.dt = first.dt_s
+        robot = first.robot
+        self.trials: list[TrialState] = []
+        lo = 0
+        for spec in specs:
+            self.trials.append(TrialState(spec, self.arena, lo))
+            lo += spec.n_robots
+        n = lo
+        self.n = n
+        self.world = PhysicsWorld(
+            self.arena, [tr.start for tr in self.trials], float(robot["radius_m"]), float(robot["mass_kg"]),
+            float(robot["drive_force_n"]), float(robot["drive_torque_nm"]),
+            first.dt_s, first.physics_substeps, first.solver_iterations,
+        )
+        laser, cam, odo, beh = robot["laser"], robot["camera"], robot["odometry"], robot["behaviour"]
+        self.ray_ang = ray_angles(float(laser["fov_deg"]), int(laser["n_rays"]))
+        self.ray_cs = np.column_stack([np.cos(self.ray_ang), np.sin(self.ray_ang)])
+        self.walls = np.ascontiguousarray(self.arena.walls)
+        self.tsegs = np.ascontiguousarray(self.arena.target_segments)
+        self.tinfo = np.column_stack([self.arena.target_xy, self.arena.target_normals,
+                                      self.arena.target_barcodes.astype(np.float64)])
+        self.gp = np.zeros(nav.N_GPARAM)
+        self.gp[nav.G_AVOID] = beh["avoid_dist_m"]
+        self.gp[nav.G_STOP] = beh["stop_dist_m"]
+        self.gp[nav.G_ARRIVE] = beh["arrive_dist_m"]
+        self.gp[nav.G_WALLD] = beh["wall_dist_m"]
+        self.gp[nav.G_VISMARGIN] = beh["visible_margin_m"]
+        self.gp[nav.G_RELOC] = beh["relocalise_dist_m"]
+        self.gp[nav.G_RANGE] = laser["range_m"]
+        self.gp[nav.G_CAM_FOV_HALF] = math.radians(float(cam["fov_deg"])) / 2
+        self.gp[nav.G_CAM_RANGE] = cam["range_m"]
+        self.gp[nav.G_MARK_HALF] = math.radians(float(cam["marking_half_width_deg"]))
+        self.gp[nav.G_BARCODE_W] = self.arena.barcode_width_m
+        self.fparam = np.zeros((n, nav.N_FPARAM))
+        self.istate = np.zeros((n, nav.N_ISTATE), dtype=np.int64)
+        self.pose = np.zeros((n, 3))
+        for b, tr in enumerate(self.trials):
+            sl = slice(tr.lo, tr.hi)
+            self.fparam[sl, nav.F_RADIUS] = robot["radius_m"]
+            self.fparam[sl, nav.F_VMAX] = tr.spec.speeds_mps
+            self.fparam[sl, nav.F_WMAX] = robot["turn_rate_radps"]
+            self.fparam[sl, nav.F_SIG_T] = odo["trans_noise_per_sqrt_m"]
+            self.fparam[sl, nav.F_SIG_RM] = odo["rot_noise_per_sqrt_m"]
+            self.fparam[sl, nav.F_SIG_RR] = odo["rot_noise_per_sqrt_rad"]
+            self.istate[sl, nav.I_TRIAL] = b
+            self.istate[sl, nav.I_ALIVE] = 1
+            self.istate[sl, nav.I_LO] = tr.lo
+            self.istate[sl, nav.I_HI] = tr.hi
+            self.istate[sl, nav.I_FORCED] = nav.BEH_AUTO
+            self.istate[sl, nav.I_TARGET] = -1
+            self.pose[sl] = tr.start
+        self.est = self.pose.copy()  # robots start localised
+        self.prev_pose = self.pose.copy()
+        self.noise = np.zeros((_NOISE_BLOCK_TICKS, n, 3))
+        nr = len(self.ray_ang)
+        self.ranges = np.zeros((n, nr))
+        self.kinds = np.zeros((n, nr), dtype=np.int64)
+        self.ids = np.zeros((n, nr), dtype=np.int64)
+        self.pts = np.zeros((n, nr, 2))
+        self.barcodes = self.arena.target_barcodes
+        self.cam = np.zeros((n, 4), dtype=np.int64)
+        self.cmd = np.zeros((n, 2))
+        self.src = np.array([c.source for c in self.arena.circuits])
+        self.snk = np.array([c.sink for c in self.arena.circuits])
+        self.kind_of = np.array([t.kind for t in self.arena.targets])
+        self.t0 = -max(s.warmup_s for s in specs)
+        self.tick = 0
+        self.on_tick: Callable[[BatchEngine], None] | None = None
+        for tr in self.trials:
+            for i in range(tr.spec.n_robots):
+                self._assign(tr, i, self._t_start(tr))
+
+    # --- time ---------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        return self.t0 + self.tick * self.dt
+
+    def _t_start(self, tr: TrialState) -> float:
+        return -tr.spec.warmup_s
+
+    # --- tasks --------------------------------------------------------------
+    def _assign(self, tr: TrialState, i: int, t: float) -> None:
+        """Robot i of trial tr picks its next circuit and heads for that circuit's source."""
+        circuit = tr.policy.choose(i, int(tr.state[i]))
+        tr.rows.add("choices", t, i, int(tr.state[i]), circuit)
+        tr.task[i] = circuit
+        tr.task_start[i] = t
+        self.istate[tr.lo + i, nav.I_TARGET] = self.src[circuit]
+        self.istate[tr.lo + i, nav.I_MODE] = nav.MODE_APPROACH
+
+    def _arrive(self, tr: TrialState, i: int, t: float) -> None:
+        g = tr.lo + i
+        target = int(self.istate[g, nav.I_TARGET])
+        circuit = int(tr.task[i])
+        kind = int(self.kind_of[target])
+        tr.rows.add("arrivals", t, i, target, circuit, kind)
+        tr.last_circuit[i] = circuit
+        if kind == SOURCE:
+            self.istate[g, nav.I_TARGET] = self.snk[circuit]
+            return
+        task_time = t - tr.task_start[i]
+        value = float(tr.values[circuit])
+        reward = value / (task_time / tr.spec.time_unit_s)
+        tr.rows.add("deliveries", t, i, circuit, task_time, reward, value,
+                    float(tr.spec.score_values[circuit]))
+        tr.policy.learn(i, int(tr.state[i]), circuit, reward, circuit)
+        tr.state[i] = circuit
+        self._assign(tr, i, t)
+
+    # --- scheduled events ---------------------------------------------------
+    def _pick_robot(self, tr: TrialState, spec_circuit) -> int:
+        live = np.flatnonzero(tr.alive)
+        if spec_circuit is None:
+            pool = live
+        else:
+            if spec_circuit == "high":
+                c = int(np.argmax(tr.values))
+            elif spec_circuit == "low":
+                c = int(np.argmin(tr.values))
+            else:
+                c = int(spec_circuit)
+            pool = live[tr.last_circuit[live] == c]
+            if len(pool) == 0:
+                pool = live[tr.task[live] == c]
+            if len(pool) == 0:
+                pool = live
+        return int(tr.event_rng.choice(pool))
+
+    def _fire_events(self, tr: TrialState, t: float) -> None:
+        while tr.events and tr.events[0][0] <= t:
+            _, kind, ev = tr.events.pop(0)
+            if kind == 0:
+                robot = ev.robot if ev.robot is not None else self._pick_robot(tr, ev.circuit)
+                if not tr.alive[robot]:
+                    continue
+                tr.alive[robot] = False
+                self.world.remove(tr.lo + robot)
+                self.istate[tr.lo + robot, nav.I_ALIVE] = 0
+                tr.rows.add("breakdowns", t, robot)
+            else:
+                tr.values = np.array(ev.values, dtype=np.float64)
+                tr.vc_t.append(t)
+                tr.vc.append(tr.values.copy())
+
+    # --- the loop -----------------------------------------------------------
+    def run(self, progress: Callable[[float], None] | None = None) -> list[TrialRecord]:
+        """Advance until every trial reaches its duration; return their records."""
+        t_end = max(s.spec.duration_s for s in self.trials)
+        n_ticks = int(round((t_end - self.t0) / self.dt))
+        next_q = [tr.spec.q_snapshot_every_s and self._t_start(tr) for tr in self.trials]
+        next_pose = [self._t_start(tr) if tr.spec.pose_every_s > 0 else math.inf for tr in self.trials]
+        report_every = max(1, n_ticks // 200)
+        for tr in self.trials:
+            self._fire_events(tr, self.t)
+        while self.tick < n_ticks:
+            k = self.tick % _NOISE_BLOCK_TICKS
+            if k == 0:
+                for tr in self.trials:
+                    self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((_NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
+            self.pose[:] = self.world.poses()
+            nav.control_tick(self.pose, self.prev_pose, self.est, self.noise[k], self.istate, self.fparam,
+                             self.gp, self.ray_ang, self.ray_cs, self.walls, 4, self.tsegs, self.tinfo,
+                             self.barcodes, self.ranges, self.kinds, self.ids, self.pts, self.cam, self.cmd)
+            self.world.drive(self.cmd)
+            self.world.step()
+            self.prev_pose[:] = self.pose
+            self.tick += 1
+            t = self.t
+            for g in np.flatnonzero(self.istate[:, nav.I_ARRIVED]):
+                tr = self.trials[self.istate[g, nav.I_TRIAL]]
+                self._arrive(tr, int(g - tr.lo), t)
+            for b, tr in enumerate(self.trials):
+                if tr.events and tr.events[0][0] <= t:
+                    self._fire_events(tr, t)
+                if tr.spec.q_snapshot_every_s and t >= next_q[b]:
+                    q = tr.policy.q_tables()
+                    if q is not None:
+                        tr.q_t.append(t)
+                        tr.q.append(q)
+                    next_q[b] = t + tr.spec.q_snapshot_every_s
+                if t >= next_pose[b]:
+                    tr.pose_t.append(t)
+                    tr.poses.append(self.pose[tr.lo:tr.hi].copy())
+                    tr.pose_alive.append(tr.alive.copy())
+                    tr.pose_circuit.append(tr.task.copy())
+                    next_pose[b] = t + tr.spec.pose_every_s
+            if self.on_tick is not None:
+                self.on_tick(self)
+            if progress is not None and self.tick % report_every == 0:
+                progress(self.tick / n_ticks)
+        return [self._record(tr) for tr in self.trials]
+
+    def _record(self, tr: TrialState) -> TrialRecord:
+        spec = tr.spec
+        n = spec.n_robots
+        n_c = self.arena.n_circuits
+        rec = TrialRecord(
+            meta={
+                "trial": spec.trial, "controller": spec.controller, "seed": list(spec.seed),
+                "key": spec.key(), "n_robots": n, "n_circuits": n_c, "groups": list(spec.groups),
+                "speeds_mps": list(spec.speeds_mps), "values": list(spec.values),
+                "score_values": list(spec.score_values), "duration_s": spec.duration_s,
+                "warmup_s": spec.warmup_s, "dt_s": spec.dt_s, "arena": self.arena.name,
+                "policy": spec.policy.get("name"),
+                "start_poses": tr.start.tolist(),
+            },
+            tables=tr.rows.build(),
+        )
+        rec.value_changes_t = np.array(tr.vc_t, dtype=np.float64)
+        rec.value_changes = np.array(tr.vc, dtype=np.float64).reshape(len(tr.vc), n_c)
+        if tr.q:
+            rec.q_t = np.array(tr.q_t)
+            rec.q = np.stack(tr.q)
+        if tr.poses:
+            rec.pose_t = np.array(tr.pose_t)
+            rec.poses = np.stack(tr.poses)
+            rec.pose_alive = np.stack(tr.pose_alive)
+            rec.pose_circuit = np.stack(tr.pose_circuit)
+        return rec
+
+
+def run_trials(specs: Sequence[TrialSpec], progress: Callable[[float], None] | None = None) -> list[TrialRecord]:
+    """Run trials (sharing arena and robot model) side by side and return their records."""
+    return BatchEngine(specs).run(progress)

@@ -1,0 +1,106 @@
+"""A trial's raw record: event tables as numpy arrays, saved atomically as .npz.
+
+Analysis reads only these records, so every table and figure can be redrawn
+without simulating again.
+
+Tables (each a dict of equal-length columns):
+  arrivals     t_s, robot, target, circuit, kind (0 source, 1 sink)
+  deliveries   t_s, robot, circuit, task_time_s, reward, value, score
+  choices      t_s, robot, state, circuit
+  breakdowns   t_s, robot
+  value_changes t_s, values (n_changes, n_circuits)
+  q            t_s, tables (n_snapshots, n_robots, n_states, n_actions)
+  poses        t_s, pose (n_frames, n_robots, 3), alive, circuit, mode (optional)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+TABLES = {
+    "arrivals": {"t_s": float, "robot": int, "target": int, "circuit": int, "kind": int},
+    "deliveries": {"t_s": float, "robot": int, "circuit": int, "task_time_s": float,
+                   "reward": float, "value": float, "score": float},
+    "choices": {"t_s": float, "robot": int, "state": int, "circuit": int},
+    "breakdowns": {"t_s": float, "robot": int},
+}
+
+
+@dataclass
+class TrialRecord:
+    """Raw output of one trial; `meta` is JSON-able (spec digest, seed, team, arena...)."""
+
+    meta: dict
+    tables: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    value_changes_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    value_changes: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    q_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    q: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0, 0)))
+    pose_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    poses: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    pose_alive: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=bool))
+    pose_circuit: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.int64))
+
+    def table(self, name: str) -> dict[str, np.ndarray]:
+        return self.tables[name]
+
+    def save(self, path: Path) -> None:
+        """Write atomically: a temporary file in the same folder, then a rename."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {"meta": np.array(json.dumps(self.meta, sort_keys=True))}
+        for name, cols in self.tables.items():
+            for col, values in cols.items():
+                arrays[f"{name}__{col}"] = values
+        for name in ("value_changes_t", "value_changes", "q_t", "q", "pose_t", "poses", "pose_alive",
+                     "pose_circuit"):
+            arrays[name] = getattr(self, name)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                np.savez_compressed(fh, **arrays)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+
+    @classmethod
+    def load(cls, path: Path) -> TrialRecord:
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            tables: dict[str, dict[str, np.ndarray]] = {}
+            for key in data.files:
+                if "__" in key:
+                    name, col = key.split("__", 1)
+                    tables.setdefault(name, {})[col] = data[key]
+            rec = cls(meta=meta, tables=tables)
+            for name in ("value_changes_t", "value_changes", "q_t", "q", "pose_t", "poses", "pose_alive",
+                         "pose_circuit"):
+                setattr(rec, name, data[name])
+        return rec
+
+
+class TableBuilder:
+    """Appends rows to named tables during a run; arrays are made once at the end."""
+
+    def __init__(self) -> None:
+        self.rows: dict[str, list[tuple]] = {name: [] for name in TABLES}
+
+    def add(self, name: str, *row) -> None:
+        self.rows[name].append(row)
+
+    def build(self) -> dict[str, dict[str, np.ndarray]]:
+        out = {}
+        for name, cols in TABLES.items():
+            rows = self.rows[name]
+            out[name] = {
+                col: np.array([r[k] for r in rows], dtype=np.float64 if typ is float else np.int64)
+                for k, (col, typ) in enumerate(cols.items())
+            }
+        return out

@@ -1,0 +1,82 @@
+"""What one trial needs, as plain data: built from a resolved config, no Hydra here.
+
+A `TrialSpec` fixes a trial completely together with its seed. Specs of one
+experiment differ only in their index, seed and controller, so trials can be
+advanced side by side in one process.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from tavc_cli.sim.arena import Arena, arena_from_mapping
+
+
+@dataclass(frozen=True)
+class Breakdown:
+    """A robot fails at `time_s`: a given robot, or one picked at random among those
+    whose last target was on `circuit` ('high', 'low', an index, or None for any)."""
+
+    time_s: float
+    robot: int | None = None
+    circuit: str | int | None = None
+
+
+@dataclass(frozen=True)
+class ValueChange:
+    time_s: float
+    values: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """Everything that determines one trial, given its seed."""
+
+    arena: Mapping
+    robot: Mapping
+    speeds_mps: tuple[float, ...]
+    groups: tuple[str, ...]
+    policy: Mapping
+    values: tuple[float, ...]
+    score_values: tuple[float, ...]
+    time_unit_s: float
+    duration_s: float
+    warmup_s: float = 0.0
+    dt_s: float = 0.1
+    physics_substeps: int = 1
+    solver_iterations: int = 10
+    breakdowns: tuple[Breakdown, ...] = ()
+    value_changes: tuple[ValueChange, ...] = ()
+    q_snapshot_every_s: float = 600.0
+    pose_every_s: float = 0.0
+    controller: str = "main"
+    trial: int = 0
+    seed: tuple[int, ...] = (0,)
+    extra: Mapping = field(default_factory=dict)
+
+    @property
+    def n_robots(self) -> int:
+        return len(self.speeds_mps)
+
+    def build_arena(self) -> Arena:
+        return arena_from_mapping(self.arena)
+
+    def key(self) -> str:
+        """A digest of everything that fixes the trial's outcome (for reuse of results)."""
+        blob = json.dumps(asdict(self), sort_keys=True, default=_jsonable)
+        return hashlib.sha256(blob.encode()).hexdigest()[:20]
+
+
+def _jsonable(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Mapping):
+        return dict(obj)
+    return str(obj)

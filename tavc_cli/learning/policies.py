@@ -1,0 +1,118 @@
+"""Task-selection policies: which circuit (task class) each robot serves next.
+
+A policy sees integers and rewards, never the simulator. The transport loop asks
+`choose(robot, state)` when a robot finishes a task and tells `learn(...)` the
+reward r = w / t it earned (equation 1.1). In the TAVC learners the state is the
+class the robot last serviced (section 1.5.3).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Protocol
+
+import numpy as np
+
+from tavc_cli.learning.qlearning import epsilon_greedy, q_update, softmax_choice
+
+
+class TaskPolicy(Protocol):
+    """What the transport loop needs from a controller."""
+
+    n_states: int
+
+    def choose(self, robot: int, state: int) -> int: ...
+
+    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None: ...
+
+    def q_tables(self) -> np.ndarray | None: ...
+
+
+class RandomPolicy:
+    """A uniformly random circuit for every task."""
+
+    def __init__(self, n_circuits: int, rng: np.random.Generator) -> None:
+        self.n_states = n_circuits
+        self.n_circuits = n_circuits
+        self.rng = rng
+
+    def choose(self, robot: int, state: int) -> int:
+        return int(self.rng.integers(self.n_circuits))
+
+    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        return None
+
+    def q_tables(self) -> None:
+        return None
+
+
+class StaticPolicy:
+    """A fixed allocation: robot i always serves circuit `assignment[i]`."""
+
+    def __init__(self, assignment: Sequence[int], n_circuits: int) -> None:
+        self.assignment = np.asarray(assignment, dtype=np.int64)
+        self.n_states = n_circuits
+
+    def choose(self, robot: int, state: int) -> int:
+        return int(self.assignment[robot])
+
+    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        return None
+
+    def q_tables(self) -> None:
+        return None
+
+
+class TavcPolicy:
+    """Independent Q-learners over task classes (sections 1.5.3 and 1.6.1).
+
+    Exploration never decays, so the group stays able to fill new vacancies.
+    """
+
+    def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, gamma: float,
+                 selection: str, epsilon: float, tau: float, q_init: tuple[float, float],
+                 rng: np.random.Generator) -> None:
+        self.n_states = n_circuits
+        self.alpha, self.gamma = alpha, gamma
+        self.selection, self.epsilon, self.tau = selection, epsilon, tau
+        self.rng = rng
+        self.q = rng.uniform(q_init[0], q_init[1], size=(n_robots, n_circuits, n_circuits))
+
+    def choose(self, robot: int, state: int) -> int:
+        row = self.q[robot, state]
+        if self.selection == "softmax":
+            return softmax_choice(row, self.tau, self.rng)
+        return epsilon_greedy(row, self.epsilon, self.rng)
+
+    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        q_update(self.q[robot], state, action, reward, next_state, self.alpha, self.gamma)
+
+    def q_tables(self) -> np.ndarray:
+        return self.q.copy()
+
+
+def even_allocation(n_robots: int, n_circuits: int) -> list[int]:
+    """Robots per circuit as even as possible, extra robots on the first circuits."""
+    base, extra = divmod(n_robots, n_circuits)
+    return [base + (1 if c < extra else 0) for c in range(n_circuits)]
+
+
+def make_policy(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+    """Build the policy named by `spec['name']` (a learner config as a plain mapping)."""
+    name = spec["name"]
+    if name == "random":
+        return RandomPolicy(n_circuits, rng)
+    if name == "static":
+        counts = spec.get("allocation") or even_allocation(n_robots, n_circuits)
+        assignment = np.repeat(np.arange(n_circuits), counts)
+        return StaticPolicy(assignment, n_circuits)
+    if name in ("tavc_egreedy", "tavc_softmax"):
+        return TavcPolicy(
+            n_robots, n_circuits,
+            alpha=float(spec.get("alpha", 0.1)), gamma=float(spec.get("gamma", 0.95)),
+            selection="softmax" if name == "tavc_softmax" else "egreedy",
+            epsilon=float(spec.get("epsilon", 0.1)), tau=float(spec.get("tau", 0.005)),
+            q_init=(float(spec.get("q_init_low", -0.1)), float(spec.get("q_init_high", 0.1))),
+            rng=rng,
+        )
+    raise ValueError(f"no task policy named {name!r}")

@@ -1,0 +1,136 @@
+"""Arenas as data: a rectangle of walls, bar-coded targets mounted on them, circuits.
+
+An arena knows nothing of robots or physics. It turns the plain mapping that the
+config holds into the arrays the sensing kernels and the physics world need:
+wall segments, target bar-code segments (set a millimetre in front of their wall
+so a laser ray meets the bar-code before the wall behind it) and, per target, the
+inward normal of the wall it hangs on.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+SOURCE, SINK = 0, 1
+_BARCODE_INSET_M = 1e-3
+
+
+@dataclass(frozen=True)
+class Target:
+    """A source or sink: a bar-code of known id on a wall."""
+
+    name: str
+    kind: int  # SOURCE or SINK
+    barcode: int
+    x: float
+    y: float
+    normal: tuple[float, float]  # unit vector pointing into the arena
+
+
+@dataclass(frozen=True)
+class Circuit:
+    """A transport task class: fetch at `source`, deliver at `sink` (target indices)."""
+
+    name: str
+    source: int
+    sink: int
+
+
+@dataclass(frozen=True)
+class Arena:
+    """Walls, targets and circuits of one arena; all lengths in metres."""
+
+    name: str
+    width_m: float
+    height_m: float
+    walls: np.ndarray  # (n_walls, 4): x1, y1, x2, y2
+    targets: tuple[Target, ...]
+    circuits: tuple[Circuit, ...]
+    barcode_width_m: float
+
+    @property
+    def n_circuits(self) -> int:
+        return len(self.circuits)
+
+    @property
+    def target_xy(self) -> np.ndarray:
+        """(n_targets, 2) bar-code centres."""
+        return np.array([[t.x, t.y] for t in self.targets], dtype=np.float64)
+
+    @property
+    def target_normals(self) -> np.ndarray:
+        return np.array([t.normal for t in self.targets], dtype=np.float64)
+
+    @property
+    def target_barcodes(self) -> np.ndarray:
+        return np.array([t.barcode for t in self.targets], dtype=np.int64)
+
+    @property
+    def target_segments(self) -> np.ndarray:
+        """(n_targets, 4) bar-code segments, inset a millimetre into the arena."""
+        segs = np.empty((len(self.targets), 4))
+        half = self.barcode_width_m / 2
+        for i, t in enumerate(self.targets):
+            nx, ny = t.normal
+            tx, ty = -ny, nx  # along the wall
+            cx, cy = t.x + nx * _BARCODE_INSET_M, t.y + ny * _BARCODE_INSET_M
+            segs[i] = (cx - tx * half, cy - ty * half, cx + tx * half, cy + ty * half)
+        return segs
+
+    @property
+    def target_circuit(self) -> np.ndarray:
+        """Circuit index of each target (-1 for a target no circuit uses)."""
+        out = np.full(len(self.targets), -1, dtype=np.int64)
+        for c, circ in enumerate(self.circuits):
+            out[circ.source] = c
+            out[circ.sink] = c
+        return out
+
+    def contains(self, x: float, y: float, margin: float = 0.0) -> bool:
+        """True if (x, y) lies inside the outer walls by at least `margin`."""
+        return margin <= x <= self.width_m - margin and margin <= y <= self.height_m - margin
+
+
+def _boundary_normal(x: float, y: float, width: float, height: float) -> tuple[float, float]:
+    """Inward normal of the outer wall nearest to (x, y)."""
+    dists = {(1.0, 0.0): x, (-1.0, 0.0): width - x, (0.0, 1.0): y, (0.0, -1.0): height - y}
+    return min(dists, key=dists.get)
+
+
+def arena_from_mapping(spec: Mapping) -> Arena:
+    """Build an Arena from the `arena` config section (a plain mapping).
+
+    Bar-codes hang on the outer walls; each target's facing is the inward normal of
+    the wall nearest to it. Validation of the numbers is the config layer's job.
+    """
+    width, height = float(spec["width_m"]), float(spec["height_m"])
+    outer = [(0, 0, width, 0), (width, 0, width, height), (width, height, 0, height), (0, height, 0, 0)]
+    extra = [tuple(float(v) for v in w) for w in (spec.get("walls") or [])]
+    targets = tuple(
+        Target(
+            name=str(t["name"]),
+            kind=SOURCE if t["kind"] == "source" else SINK,
+            barcode=int(t["barcode"]),
+            x=float(t["x"]),
+            y=float(t["y"]),
+            normal=_boundary_normal(float(t["x"]), float(t["y"]), width, height),
+        )
+        for t in spec["targets"]
+    )
+    index = {t.name: i for i, t in enumerate(targets)}
+    circuits = tuple(
+        Circuit(name=str(c["name"]), source=index[c["source"]], sink=index[c["sink"]])
+        for c in spec["circuits"]
+    )
+    return Arena(
+        name=str(spec["name"]),
+        width_m=width,
+        height_m=height,
+        walls=np.array(outer + extra, dtype=np.float64),
+        targets=targets,
+        circuits=circuits,
+        barcode_width_m=float(spec.get("barcode_width_m", 0.6)),
+    )

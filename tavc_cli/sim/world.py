@@ -1,0 +1,153 @@
+"""The physical world: one pymunk space holding the walls and robots of a batch of trials.
+
+Robots are discs with a mass. Each is driven, as in pymunk's `tank.py` example,
+through a kinematic control body joined to it by a pivot joint and a gear joint
+whose forces are bounded: the control body carries the commanded velocity and the
+joints pull the robot toward it with at most the drive's force and torque. A robot
+pushing into another or a wall is therefore stopped by contact forces instead of
+being teleported through it, and the sideways pull of the pivot joint plays the
+part of the wheels' lateral grip.
+
+Several trials share one space, each in its own copy of the arena, side by side
+and far apart, so one `step` call advances them all (the per-call cost is paid
+once per batch, not once per trial). Callers see every trial in its own arena
+coordinates. A trial's copy sits at a place fixed by its slot in the batch, and
+the batch a trial runs in is fixed by the trial alone (see the runner), so a
+seed gives the same trial whatever the number of processes.
+
+Poses are read and velocities written for all bodies at once with `pymunk.batch`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pymunk
+import pymunk.batch as pb
+
+from tavc_cli.sim.arena import Arena
+
+_FIELDS_READ = pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
+_FIELDS_WRITE = pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
+# pymunk's default collision slop (0.1) suits pixels; robots here are metres across
+COLLISION_SLOP_M = 0.002
+WALL_FRICTION = 0.3
+ROBOT_FRICTION = 0.3
+SLOT_GAP_M = 10.0
+
+
+class PhysicsWorld:
+    """A pymunk space with one walled arena per trial slot and a driven disc per robot.
+
+    Robots are numbered 0..n-1 across all slots; `slot_of[i]` says whose arena robot
+    i lives in.
+    """
+
+    def __init__(
+        self,
+        arena: Arena,
+        start_poses: Sequence[np.ndarray],
+        radius_m: float,
+        mass_kg: float,
+        drive_force_n: float,
+        drive_torque_nm: float,
+        dt_s: float,
+        substeps: int = 1,
+        iterations: int = 10,
+    ) -> None:
+        self.space = pymunk.Space()
+        self.space.iterations = iterations
+        self.space.collision_slop = COLLISION_SLOP_M
+        self.space.gravity = (0.0, 0.0)
+        self.h = dt_s / substeps
+        self.substeps = substeps
+        pitch = arena.width_m + SLOT_GAP_M
+        slots = [np.full(len(p), k) for k, p in enumerate(start_poses)]
+        self.slot_of = np.concatenate(slots) if slots else np.zeros(0, dtype=int)
+        self.offset = np.zeros((len(self.slot_of), 3))
+        self.offset[:, 0] = self.slot_of * pitch
+        self.n_robots = len(self.slot_of)
+        for k in range(len(start_poses)):
+            for x1, y1, x2, y2 in arena.walls:
+                seg = pymunk.Segment(self.space.static_body, (x1 + k * pitch, y1), (x2 + k * pitch, y2), 0.0)
+                seg.friction = WALL_FRICTION
+                self.space.add(seg)
+        poses = np.concatenate([np.asarray(p, dtype=np.float64) for p in start_poses]) + self.offset
+        moment = pymunk.moment_for_circle(mass_kg, 0, radius_m)
+        self._parts: list[tuple] = []
+        for x, y, th in poses:
+            body = pymunk.Body(mass_kg, moment)
+            body.position = (float(x), float(y))
+            body.angle = float(th)
+            shape = pymunk.Circle(body, radius_m)
+            shape.friction = ROBOT_FRICTION
+            control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            control.position = body.position
+            pivot = pymunk.PivotJoint(control, body, (0, 0), (0, 0))
+            pivot.max_bias = 0.0  # match velocities only; never yank the robot to a position
+            pivot.max_force = drive_force_n
+            gear = pymunk.GearJoint(control, body, 0.0, 1.0)
+            gear.max_bias = 0.0
+            gear.max_force = drive_torque_nm
+            self.space.add(body, shape, control, pivot, gear)
+            self._parts.append((body, shape, control, pivot, gear))
+        self.alive = np.ones(self.n_robots, dtype=bool)
+        self._read = pb.Buffer()
+        self._write = pb.Buffer()
+        self._poses = poses - self.offset
+        self._state: np.ndarray | None = None
+        self._index_bodies()
+
+    def _index_bodies(self) -> None:
+        """Map batch-buffer rows to robots (pymunk reorders bodies on removal)."""
+        self._read.clear()
+        pb.get_space_bodies(self.space, pb.BodyFields.BODY_ID, self._read)
+        ids = np.frombuffer(self._read.int_buf(), dtype=np.uintp)
+        row = {int(b): k for k, b in enumerate(ids)}
+        self._live = np.flatnonzero(self.alive)
+        self._robot_rows = np.array([row[self._parts[i][0].id] for i in self._live], dtype=np.int64)
+        self._control_rows = np.array([row[self._parts[i][2].id] for i in self._live], dtype=np.int64)
+        self._n_bodies = len(ids)
+        self._wbuf = np.zeros(3 * self._n_bodies)
+        self._write.set_float_buf(self._wbuf)
+        self._state = None
+
+    def _read_state(self) -> np.ndarray:
+        self._read.clear()
+        pb.get_space_bodies(self.space, _FIELDS_READ, self._read)
+        return np.frombuffer(self._read.float_buf(), dtype=np.float64).reshape(self._n_bodies, 6)
+
+    def poses(self) -> np.ndarray:
+        """(n_robots, 3) true x, y, heading in each robot's own arena frame.
+
+        A removed robot keeps its last pose. The returned array is reused.
+        """
+        self._state = self._read_state()
+        self._poses[self._live] = self._state[self._robot_rows, :3] - self.offset[self._live]
+        return self._poses
+
+    def drive(self, cmd: np.ndarray) -> None:
+        """Set each live robot's commanded (forward speed, turn rate) for the next step."""
+        state = self._state if self._state is not None else self._read_state()
+        w = self._wbuf.reshape(self._n_bodies, 3)
+        w[:] = state[:, 3:6]  # every body keeps its velocity ...
+        th = state[self._robot_rows, 2]
+        v = cmd[self._live, 0]
+        w[self._control_rows, 0] = v * np.cos(th)  # ... but the control bodies carry the command
+        w[self._control_rows, 1] = v * np.sin(th)
+        w[self._control_rows, 2] = cmd[self._live, 1]
+        pb.set_space_bodies(self.space, _FIELDS_WRITE, self._write)
+
+    def step(self) -> None:
+        for _ in range(self.substeps):
+            self.space.step(self.h)
+        self._state = None
+
+    def remove(self, robot: int) -> None:
+        """Take a broken-down robot out of the world."""
+        if not self.alive[robot]:
+            return
+        self.space.remove(*self._parts[robot])
+        self.alive[robot] = False
+        self._index_bodies()
