@@ -235,14 +235,16 @@ def behave(r, pose, est, istate, fparam, gp, ray_ang, tinfo, ranges, kinds, ids,
 
 @njit(cache=True)
 def control_tick(pose, prev_pose, est, noise, istate, fparam, gp, ray_ang, ray_cs, walls, n_outer,
-                 tsegs, tinfo, barcodes, ranges, kinds, ids, pts, cam, cmd):
+                 tsegs, target_wall, tinfo, barcodes, ranges, kinds, ids, pts, cam, cmd):
     """Sense and decide for every live robot: odometry, laser, camera, behaviours.
 
     Rows of `pose` are robots; robots of one trial occupy rows I_LO..I_HI and only
-    see each other. `cmd` receives (forward speed m/s, turn rate rad/s).
+    see each other. `cmd` receives (forward speed m/s, turn rate rad/s). Returns
+    how many robots reached their target this tick.
     """
     alive = istate[:, I_ALIVE]
     radius = fparam[:, F_RADIUS]
+    n_arrived = 0
     for r in range(pose.shape[0]):
         if alive[r] == 0:
             cmd[r, 0] = 0.0
@@ -251,8 +253,10 @@ def control_tick(pose, prev_pose, est, noise, istate, fparam, gp, ray_ang, ray_c
         lo, hi = istate[r, I_LO], istate[r, I_HI]
         odometry_update(r, prev_pose, pose, est, noise, fparam[r, F_SIG_T], fparam[r, F_SIG_RM],
                         fparam[r, F_SIG_RR])
-        cast_laser(r, pose, radius, alive, lo, hi, ray_ang, ray_cs, gp[G_RANGE], walls, tsegs, barcodes,
+        cast_laser(r, pose, radius, alive, lo, hi, ray_ang, ray_cs, gp[G_RANGE], walls, tsegs, target_wall, barcodes,
                    ranges, kinds, ids, pts)
         camera_nearest(r, pose, radius, alive, lo, hi, gp[G_CAM_FOV_HALF], gp[G_CAM_RANGE], walls,
                        n_outer, gp[G_MARK_HALF], cam)
         behave(r, pose, est, istate, fparam, gp, ray_ang, tinfo, ranges, kinds, ids, pts, cmd)
+        n_arrived += istate[r, I_ARRIVED]
+    return n_arrived

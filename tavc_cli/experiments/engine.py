@@ -65,6 +65,7 @@ class TrialState:
         self.start = start_poses(arena, np.full(n, radius), np.random.default_rng(start_ss))
         self.policy: TaskPolicy = make_policy(spec.policy, n, arena.n_circuits, self.policy_rng)
         self.values = np.array(spec.values, dtype=np.float64)
+        self.scores = np.array(spec.score_values, dtype=np.float64)
         self.state = self.policy_rng.integers(arena.n_circuits, size=n)  # class "last serviced"
         self.task = np.full(n, -1, dtype=np.int64)
         self.task_start = np.zeros(n)
@@ -157,6 +158,7 @@ class BatchEngine:
         self.ids = np.zeros((n, nr), dtype=np.int64)
         self.pts = np.zeros((n, nr, 2))
         self.barcodes = self.arena.target_barcodes
+        self.target_wall = self.arena.target_wall
         self.cam = np.zeros((n, 4), dtype=np.int64)
         self.cmd = np.zeros((n, 2))
         self.src = np.array([c.source for c in self.arena.circuits])
@@ -200,8 +202,7 @@ class BatchEngine:
         task_time = t - tr.task_start[i]
         value = float(tr.values[circuit])
         reward = value / (task_time / tr.spec.time_unit_s)
-        tr.rows.add("deliveries", t, i, circuit, task_time, reward, value,
-                    float(tr.spec.score_values[circuit]))
+        tr.rows.add("deliveries", t, i, circuit, task_time, reward, value, float(tr.scores[circuit]))
         tr.policy.learn(i, int(tr.state[i]), circuit, reward, circuit)
         tr.state[i] = circuit
         self._assign(tr, i, t)
@@ -238,6 +239,9 @@ class BatchEngine:
                 tr.rows.add("breakdowns", t, robot)
             else:
                 tr.values = np.array(ev.values, dtype=np.float64)
+                # scores follow the values' ranking: the new high-value circuit earns the high score
+                tr.scores = np.empty_like(tr.scores)
+                tr.scores[np.argsort(-tr.values, kind="stable")] = np.sort(tr.spec.score_values)[::-1]
                 tr.vc_t.append(t)
                 tr.vc.append(tr.values.copy())
 
@@ -246,48 +250,58 @@ class BatchEngine:
         """Advance until every trial reaches its duration; return their records."""
         t_end = max(s.spec.duration_s for s in self.trials)
         n_ticks = int(round((t_end - self.t0) / self.dt))
-        next_q = [tr.spec.q_snapshot_every_s and self._t_start(tr) for tr in self.trials]
+        next_q = [self._t_start(tr) if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in self.trials]
         next_pose = [self._t_start(tr) if tr.spec.pose_every_s > 0 else math.inf for tr in self.trials]
         report_every = max(1, n_ticks // 200)
         for tr in self.trials:
             self._fire_events(tr, self.t)
+        next_due = -math.inf
         while self.tick < n_ticks:
             k = self.tick % _NOISE_BLOCK_TICKS
             if k == 0:
                 for tr in self.trials:
                     self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((_NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
             self.pose[:] = self.world.poses()
-            nav.control_tick(self.pose, self.prev_pose, self.est, self.noise[k], self.istate, self.fparam,
-                             self.gp, self.ray_ang, self.ray_cs, self.walls, 4, self.tsegs, self.tinfo,
-                             self.barcodes, self.ranges, self.kinds, self.ids, self.pts, self.cam, self.cmd)
+            n_arrived = nav.control_tick(self.pose, self.prev_pose, self.est, self.noise[k], self.istate,
+                                         self.fparam,
+                                         self.gp, self.ray_ang, self.ray_cs, self.walls, 4, self.tsegs,
+                                         self.target_wall, self.tinfo, self.barcodes, self.ranges, self.kinds,
+                                         self.ids, self.pts, self.cam, self.cmd)
             self.world.drive(self.cmd)
             self.world.step()
             self.prev_pose[:] = self.pose
             self.tick += 1
             t = self.t
-            for g in np.flatnonzero(self.istate[:, nav.I_ARRIVED]):
-                tr = self.trials[self.istate[g, nav.I_TRIAL]]
-                self._arrive(tr, int(g - tr.lo), t)
-            for b, tr in enumerate(self.trials):
-                if tr.events and tr.events[0][0] <= t:
-                    self._fire_events(tr, t)
-                if tr.spec.q_snapshot_every_s and t >= next_q[b]:
-                    q = tr.policy.q_tables()
-                    if q is not None:
-                        tr.q_t.append(t)
-                        tr.q.append(q)
-                    next_q[b] = t + tr.spec.q_snapshot_every_s
-                if t >= next_pose[b]:
-                    tr.pose_t.append(t)
-                    tr.poses.append(self.pose[tr.lo:tr.hi].copy())
-                    tr.pose_alive.append(tr.alive.copy())
-                    tr.pose_circuit.append(tr.task.copy())
-                    next_pose[b] = t + tr.spec.pose_every_s
+            if n_arrived:
+                for g in np.flatnonzero(self.istate[:, nav.I_ARRIVED]):
+                    tr = self.trials[self.istate[g, nav.I_TRIAL]]
+                    self._arrive(tr, int(g - tr.lo), t)
+            if t >= next_due:
+                for b, tr in enumerate(self.trials):
+                    self._due(b, tr, t, next_q, next_pose)
+                next_due = min(min(next_q), min(next_pose), min(tr.next_event_time() for tr in self.trials))
             if self.on_tick is not None:
                 self.on_tick(self)
             if progress is not None and self.tick % report_every == 0:
                 progress(self.tick / n_ticks)
         return [self._record(tr) for tr in self.trials]
+
+    def _due(self, b: int, tr: TrialState, t: float, next_q: list[float], next_pose: list[float]) -> None:
+        """Scheduled events, Q-table snapshots and pose frames that fall due at time t."""
+        if tr.events and tr.events[0][0] <= t:
+            self._fire_events(tr, t)
+        if t >= next_q[b]:
+            q = tr.policy.q_tables()
+            if q is not None:
+                tr.q_t.append(t)
+                tr.q.append(q)
+            next_q[b] = t + tr.spec.q_snapshot_every_s
+        if t >= next_pose[b]:
+            tr.pose_t.append(t)
+            tr.poses.append(self.pose[tr.lo:tr.hi].copy())
+            tr.pose_alive.append(tr.alive.copy())
+            tr.pose_circuit.append(tr.task.copy())
+            next_pose[b] = t + tr.spec.pose_every_s
 
     def _record(self, tr: TrialState) -> TrialRecord:
         spec = tr.spec

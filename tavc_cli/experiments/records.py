@@ -16,12 +16,12 @@ Tables (each a dict of equal-length columns):
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from tavc_cli.io import atomic_path
 
 TABLES = {
     "arrivals": {"t_s": float, "robot": int, "target": int, "circuit": int, "kind": int},
@@ -61,14 +61,8 @@ class TrialRecord:
         for name in ("value_changes_t", "value_changes", "q_t", "q", "pose_t", "poses", "pose_alive",
                      "pose_circuit"):
             arrays[name] = getattr(self, name)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez_compressed(fh, **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
 
     @classmethod
     def load(cls, path: Path) -> TrialRecord:

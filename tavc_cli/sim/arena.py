@@ -81,6 +81,12 @@ class Arena:
         return segs
 
     @property
+    def target_wall(self) -> np.ndarray:
+        """Index of the outer wall (0 bottom, 1 right, 2 top, 3 left) each target hangs on."""
+        side = {(0.0, 1.0): 0, (-1.0, 0.0): 1, (0.0, -1.0): 2, (1.0, 0.0): 3}
+        return np.array([side[t.normal] for t in self.targets], dtype=np.int64)
+
+    @property
     def target_circuit(self) -> np.ndarray:
         """Circuit index of each target (-1 for a target no circuit uses)."""
         out = np.full(len(self.targets), -1, dtype=np.int64)

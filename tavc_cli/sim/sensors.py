@@ -46,10 +46,13 @@ def ray_segment(px, py, dx, dy, x1, y1, x2, y2) -> float:
     denom = dx * sy - dy * sx
     if abs(denom) < 1e-12:
         return np.inf
+    inv = 1.0 / denom
     qx, qy = x1 - px, y1 - py
-    t = (qx * sy - qy * sx) / denom
-    u = (qx * dy - qy * dx) / denom
-    if t >= 0.0 and 0.0 <= u <= 1.0:
+    t = (qx * sy - qy * sx) * inv
+    if t < 0.0:
+        return np.inf
+    u = (qx * dy - qy * dx) * inv
+    if 0.0 <= u <= 1.0:
         return t
     return np.inf
 
@@ -84,14 +87,15 @@ def _ray_window(rel, half, a0, spacing, n, full_circle):
 
 @njit(cache=True)
 def cast_laser(
-    r, pose, radius, alive, lo, hi, ray_ang, ray_cs, max_range, walls, tsegs, barcodes,
+    r, pose, radius, alive, lo, hi, ray_ang, ray_cs, max_range, walls, tsegs, target_wall, barcodes,
     out_range, out_kind, out_id, out_pts,
 ):
     """Cast every ray of robot `r` (rows lo..hi of `pose` share its world).
 
     Rays are evenly spaced (`ray_ang`, with their cos and sin in `ray_cs`). Every
-    ray is tested against every wall; bar-codes and robots are tested only by the
-    rays inside their angular extent, which gives the same answer for less work.
+    ray is tested against every wall; a bar-code (on outer wall `target_wall[k]`)
+    only by the rays that leave through that wall, and a robot only by the rays
+    inside its angular extent, which gives the same answer for less work.
     Writes range, hit kind, hit id and the hit point in the robot's frame into
     row `r` of the outputs.
     """
@@ -101,33 +105,42 @@ def cast_laser(
     full_circle = n > 1 and (ray_ang[n - 1] - a0 + spacing) >= 2.0 * math.pi - 1e-9
     px, py, th = pose[r, 0], pose[r, 1], pose[r, 2]
     c, s = math.cos(th), math.sin(th)
+    # rows 0-3 of `walls` are the outer rectangle (bottom, right, top, left, as the
+    # arena builds them): a ray from inside leaves it through exactly one side, found
+    # with two divisions; further rows are interior walls, tested in general
+    width, height = walls[0, 2], walls[1, 3]
     for j in range(n):
         dx = c * ray_cs[j, 0] - s * ray_cs[j, 1]
         dy = s * ray_cs[j, 0] + c * ray_cs[j, 1]
+        tx, wx = np.inf, -1
+        if dx > 1e-12:
+            tx, wx = (width - px) / dx, 1
+        elif dx < -1e-12:
+            tx, wx = -px / dx, 3
+        ty, wy = np.inf, -1
+        if dy > 1e-12:
+            ty, wy = (height - py) / dy, 2
+        elif dy < -1e-12:
+            ty, wy = -py / dy, 0
+        t, w = (tx, wx) if tx < ty else (ty, wy)
         best, kind, ident = max_range, HIT_NONE, -1
-        for w in range(walls.shape[0]):
+        if t < best:
+            best, kind, ident = t, HIT_WALL, w
+            # bar-codes hang on the outer walls, a hair in front of them: the ray
+            # reads one if it leaves the arena through that code's stretch of wall
+            for k in range(tsegs.shape[0]):
+                if target_wall[k] != w:
+                    continue
+                tk = ray_segment(px, py, dx, dy, tsegs[k, 0], tsegs[k, 1], tsegs[k, 2], tsegs[k, 3])
+                if tk < best:
+                    best, kind, ident = tk, HIT_TARGET, barcodes[k]
+        for w in range(4, walls.shape[0]):
             t = ray_segment(px, py, dx, dy, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3])
             if t < best:
                 best, kind, ident = t, HIT_WALL, w
         out_range[r, j] = best
         out_kind[r, j] = kind
         out_id[r, j] = ident
-    for k in range(tsegs.shape[0]):
-        x1, y1, x2, y2 = tsegs[k, 0], tsegs[k, 1], tsegs[k, 2], tsegs[k, 3]
-        e1 = wrap_angle(math.atan2(y1 - py, x1 - px) - th)
-        e2 = wrap_angle(math.atan2(y2 - py, x2 - px) - th)
-        mid = e1 + 0.5 * wrap_angle(e2 - e1)
-        half = 0.5 * abs(wrap_angle(e2 - e1)) + 1e-9
-        jlo, jhi = _ray_window(mid, half, a0, spacing, n, full_circle)
-        for jj in range(jlo, jhi + 1):
-            j = jj % n
-            dx = c * ray_cs[j, 0] - s * ray_cs[j, 1]
-            dy = s * ray_cs[j, 0] + c * ray_cs[j, 1]
-            t = ray_segment(px, py, dx, dy, x1, y1, x2, y2)
-            if t < out_range[r, j]:
-                out_range[r, j] = t
-                out_kind[r, j] = HIT_TARGET
-                out_id[r, j] = barcodes[k]
     for o in range(lo, hi):
         if o == r or not alive[o]:
             continue

@@ -25,6 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 import pymunk
 import pymunk.batch as pb
+from numba import njit
 
 from tavc_cli.sim.arena import Arena
 
@@ -35,6 +36,30 @@ COLLISION_SLOP_M = 0.002
 WALL_FRICTION = 0.3
 ROBOT_FRICTION = 0.3
 SLOT_GAP_M = 10.0
+
+
+@njit(cache=True)
+def _gather_poses(state, robot_rows, live, offset, out):
+    for k in range(live.shape[0]):
+        i, row = live[k], robot_rows[k]
+        for c in range(3):
+            out[i, c] = state[row, c] - offset[i, c]
+
+
+@njit(cache=True)
+def _scatter_commands(state, robot_rows, control_rows, live, cmd, out):
+    """Every body keeps its velocity, but each control body carries its robot's command."""
+    for b in range(state.shape[0]):
+        out[b, 0] = state[b, 3]
+        out[b, 1] = state[b, 4]
+        out[b, 2] = state[b, 5]
+    for k in range(live.shape[0]):
+        i = live[k]
+        th = state[robot_rows[k], 2]
+        row = control_rows[k]
+        out[row, 0] = cmd[i, 0] * np.cos(th)
+        out[row, 1] = cmd[i, 0] * np.sin(th)
+        out[row, 2] = cmd[i, 1]
 
 
 class PhysicsWorld:
@@ -110,6 +135,7 @@ class PhysicsWorld:
         self._control_rows = np.array([row[self._parts[i][2].id] for i in self._live], dtype=np.int64)
         self._n_bodies = len(ids)
         self._wbuf = np.zeros(3 * self._n_bodies)
+        self._wview = self._wbuf.reshape(self._n_bodies, 3)
         self._write.set_float_buf(self._wbuf)
         self._state = None
 
@@ -124,19 +150,13 @@ class PhysicsWorld:
         A removed robot keeps its last pose. The returned array is reused.
         """
         self._state = self._read_state()
-        self._poses[self._live] = self._state[self._robot_rows, :3] - self.offset[self._live]
+        _gather_poses(self._state, self._robot_rows, self._live, self.offset, self._poses)
         return self._poses
 
     def drive(self, cmd: np.ndarray) -> None:
         """Set each live robot's commanded (forward speed, turn rate) for the next step."""
         state = self._state if self._state is not None else self._read_state()
-        w = self._wbuf.reshape(self._n_bodies, 3)
-        w[:] = state[:, 3:6]  # every body keeps its velocity ...
-        th = state[self._robot_rows, 2]
-        v = cmd[self._live, 0]
-        w[self._control_rows, 0] = v * np.cos(th)  # ... but the control bodies carry the command
-        w[self._control_rows, 1] = v * np.sin(th)
-        w[self._control_rows, 2] = cmd[self._live, 1]
+        _scatter_commands(state, self._robot_rows, self._control_rows, self._live, cmd, self._wview)
         pb.set_space_bodies(self.space, _FIELDS_WRITE, self._write)
 
     def step(self) -> None:

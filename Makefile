@@ -1,0 +1,43 @@
+# tavc: set up, test, benchmark and reproduce. Works from nothing but Python 3.11+ and the
+# package index: every target that needs tavc builds .venv first.
+
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+# Reinstall only when the dependencies change.
+STAMP := $(VENV)/.installed-stamp
+EXPERIMENTS := initial_distribution breakdown breakdown_no_vacancy value_change heterogeneous spatiotemporal
+REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
+
+.DEFAULT_GOAL := help
+.PHONY: help venv test test-fast bench reproduce-all $(REPRODUCE) clean
+
+help: ## List the targets
+	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
+	@echo "  reproduce-NAME  Run one experiment at paper scale ($(EXPERIMENTS))"
+
+venv: $(STAMP) ## Create .venv and install tavc with its test dependencies
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --upgrade pip
+	$(BIN)/python -m pip install -e '.[test]'
+	touch $@
+
+test: venv ## Run the whole test suite
+	$(BIN)/python -m pytest -q
+
+test-fast: venv ## Run the tests not marked slow
+	$(BIN)/python -m pytest -q -m "not slow"
+
+bench: venv ## Print simulator throughput as one JSON object
+	$(BIN)/tavc bench --json
+
+reproduce-all: $(REPRODUCE) ## Run every experiment at paper scale
+
+$(REPRODUCE): reproduce-%: venv
+	$(BIN)/tavc run experiment=$* scale=paper
+
+clean: ## Remove build artefacts and caches (keeps .venv and results/)
+	rm -rf build dist *.egg-info .pytest_cache .ruff_cache
+	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -exec rm -rf {} +

@@ -1,0 +1,48 @@
+"""Group performance: score value delivered per second, over time and per period.
+
+Pure functions of trial records (deliveries carry the score value of the circuit
+they were made on at the moment of delivery).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+import pandas as pd
+
+from tavc_cli.experiments.records import TrialRecord
+
+
+def value_rate_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: float) -> tuple[np.ndarray, np.ndarray]:
+    """(bin centres, score value delivered per second in each bin) for one trial."""
+    edges = np.arange(t_from, t_to + 1e-9, bin_s)
+    if len(edges) < 2:
+        edges = np.array([t_from, t_to])
+    d = rec.table("deliveries")
+    sums, _ = np.histogram(d["t_s"], bins=edges, weights=d["score"])
+    return 0.5 * (edges[:-1] + edges[1:]), sums / np.diff(edges)
+
+
+def value_rate(rec: TrialRecord, t_from: float, t_to: float) -> float:
+    """Mean score value delivered per second over [t_from, t_to)."""
+    d = rec.table("deliveries")
+    mask = (d["t_s"] >= t_from) & (d["t_s"] < t_to)
+    return float(d["score"][mask].sum() / (t_to - t_from))
+
+
+def performance_table(records: Iterable[TrialRecord], bin_s: float, t_from: float, t_to: float) -> pd.DataFrame:
+    """`t_s,controller,mean,std,n_trials`: value per second in time bins, over trials."""
+    by_ctrl: dict[str, list[np.ndarray]] = {}
+    centres = None
+    for rec in records:
+        centres, rate = value_rate_series(rec, bin_s, t_from, t_to)
+        by_ctrl.setdefault(rec.meta["controller"], []).append(rate)
+    rows = []
+    for ctrl, rates in by_ctrl.items():
+        m = np.vstack(rates)
+        std = m.std(axis=0, ddof=1) if len(m) > 1 else np.zeros(m.shape[1])
+        for k, t in enumerate(centres):
+            rows.append({"t_s": float(t), "controller": ctrl, "mean": float(m[:, k].mean()),
+                         "std": float(std[k]), "n_trials": len(m)})
+    return pd.DataFrame(rows, columns=["t_s", "controller", "mean", "std", "n_trials"])

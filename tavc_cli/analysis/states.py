@@ -1,0 +1,176 @@
+"""Group states over time and the share of time spent in each (Tables 1.2-1.6).
+
+The state of the group at a moment counts, among the working robots, where each
+robot's LAST target was. Two notations, both as in the chapter:
+
+- `circuits`: robots per circuit, high-value circuit first (`3:3`, `3:2`); with
+  more circuits, one number per circuit in order of value.
+- `groups`: for a team made of groups (fast and slow robots), how many robots of
+  each group, fastest group first, had their last target on the high-value
+  circuit (`2:1` = two fast and one slow robot on the high circuit).
+
+Which circuit is "high" follows the task values in force at that moment, so a
+value change relabels the circuits. Times before every working robot has reached
+a first target have no state and are left out.
+
+All functions are pure: they read a `TrialRecord` and return numbers.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from itertools import product
+
+import numpy as np
+import pandas as pd
+
+from tavc_cli.experiments.records import TrialRecord
+
+
+def _events(rec: TrialRecord):
+    """Time-ordered (t, kind, payload) of everything that changes the state."""
+    ev = []
+    a = rec.table("arrivals")
+    for t, robot, circuit in zip(a["t_s"], a["robot"], a["circuit"]):
+        ev.append((float(t), 1, (int(robot), int(circuit))))
+    b = rec.table("breakdowns")
+    for t, robot in zip(b["t_s"], b["robot"]):
+        ev.append((float(t), 0, int(robot)))
+    for t, values in zip(rec.value_changes_t, rec.value_changes):
+        ev.append((float(t), 2, tuple(float(v) for v in values)))
+    ev.sort(key=lambda e: (e[0], e[1]))
+    return ev
+
+
+def group_order(groups: Sequence[str], speeds: Sequence[float]) -> list[str]:
+    """Group names, fastest (by mean speed) first, ties by first appearance."""
+    names = list(dict.fromkeys(groups))
+    mean = {g: np.mean([s for s, gg in zip(speeds, groups) if gg == g]) for g in names}
+    return sorted(names, key=lambda g: (-mean[g], names.index(g)))
+
+
+def state_label(last: np.ndarray, alive: np.ndarray, values: Sequence[float], scheme: str,
+                groups: Sequence[str] = (), order: Sequence[str] = ()) -> str | None:
+    """The state string for robots' last circuits, or None while one has none yet."""
+    live = np.flatnonzero(alive)
+    if len(live) == 0 or np.any(last[live] < 0):
+        return None
+    rank = np.argsort(-np.asarray(values), kind="stable")  # circuits, most valuable first
+    if scheme == "groups":
+        high = rank[0]
+        return ":".join(str(sum(1 for i in live if groups[i] == g and last[i] == high)) for g in order)
+    counts = np.bincount(last[live], minlength=len(values))
+    return ":".join(str(int(counts[c])) for c in rank)
+
+
+def state_intervals(rec: TrialRecord, scheme: str = "circuits") -> list[tuple[float, float, str | None]]:
+    """(start, end, state) pieces covering the record from its first to its last second."""
+    meta = rec.meta
+    n = int(meta["n_robots"])
+    groups = meta["groups"]
+    order = group_order(groups, meta["speeds_mps"])
+    last = np.full(n, -1, dtype=np.int64)
+    alive = np.ones(n, dtype=bool)
+    values = list(meta["values"])
+    t_prev = -float(meta.get("warmup_s", 0.0))
+    t_end = float(meta["duration_s"])
+    state = None
+    out = []
+    for t, kind, payload in _events(rec):
+        if t > t_prev:
+            out.append((t_prev, min(t, t_end), state))
+            t_prev = t
+        if kind == 1:
+            last[payload[0]] = payload[1]
+        elif kind == 0:
+            alive[payload] = False
+        else:
+            values = list(payload)
+        state = state_label(last, alive, values, scheme, groups, order)
+    if t_end > t_prev:
+        out.append((t_prev, t_end, state))
+    return [(a, b, s) for a, b, s in out if b > a]
+
+
+def time_shares(rec: TrialRecord, t_from: float, t_to: float, scheme: str = "circuits") -> dict[str, float]:
+    """Percent of the defined time in [t_from, t_to] spent in each state."""
+    share: dict[str, float] = {}
+    for a, b, s in state_intervals(rec, scheme):
+        lo, hi = max(a, t_from), min(b, t_to)
+        if hi > lo and s is not None:
+            share[s] = share.get(s, 0.0) + (hi - lo)
+    total = sum(share.values())
+    return {s: 100.0 * v / total for s, v in share.items()} if total > 0 else {}
+
+
+def all_states(n_robots: int, n_circuits: int, scheme: str, group_sizes: Sequence[int] = ()) -> list[str]:
+    """Every possible state, in the chapter's order (first number ascending)."""
+    if scheme == "groups":
+        return [":".join(map(str, c)) for c in product(*(range(g + 1) for g in group_sizes))]
+    states = [c for c in product(range(n_robots + 1), repeat=n_circuits) if sum(c) == n_robots]
+    return [":".join(map(str, c)) for c in sorted(states)]
+
+
+def theory_pct(n_robots: int, n_circuits: int, scheme: str, group_sizes: Sequence[int] = ()) -> dict[str, float]:
+    """Share of each state if every robot picks a circuit uniformly at random (eq. 1.5, 1.7).
+
+    circuits: multinomial m! / (n_1! ... n_k!) / k^m; groups: the product over groups
+    of C(g, f) p^f (1 - p)^(g - f) with p = 1/k, the chance of the high circuit.
+    """
+    out = {}
+    if scheme == "groups":
+        p = 1.0 / n_circuits
+        for label in all_states(n_robots, n_circuits, scheme, group_sizes):
+            counts = [int(x) for x in label.split(":")]
+            prob = 1.0
+            for g, f in zip(group_sizes, counts):
+                prob *= math.comb(g, f) * p**f * (1 - p) ** (g - f)
+            out[label] = 100.0 * prob
+        return out
+    for label in all_states(n_robots, n_circuits, scheme):
+        counts = [int(x) for x in label.split(":")]
+        ways = math.factorial(n_robots)
+        for c in counts:
+            ways //= math.factorial(c)
+        out[label] = 100.0 * ways / n_circuits**n_robots
+    return out
+
+
+def alive_at_end(rec: TrialRecord) -> np.ndarray:
+    alive = np.ones(int(rec.meta["n_robots"]), dtype=bool)
+    alive[rec.table("breakdowns")["robot"].astype(int)] = False
+    return alive
+
+
+def state_time_table(records: Iterable[TrialRecord], t_from: float, t_to: float, scheme: str = "circuits",
+                     with_theory: bool = True) -> pd.DataFrame:
+    """`state,controller,mean_pct,std_pct,n_trials` over trials, plus `theory` rows.
+
+    Every possible state of the team that is working at the end appears, with 0 %
+    where it never occurred. The std is the sample standard deviation over trials.
+    """
+    records = list(records)
+    if not records:
+        return pd.DataFrame(columns=["state", "controller", "mean_pct", "std_pct", "n_trials"])
+    first = records[0]
+    alive = alive_at_end(first)
+    groups = [g for g, a in zip(first.meta["groups"], alive) if a]
+    order = group_order(first.meta["groups"], first.meta["speeds_mps"])
+    sizes = [groups.count(g) for g in order]
+    n_live, n_c = int(alive.sum()), int(first.meta["n_circuits"])
+    states = all_states(n_live, n_c, scheme, sizes)
+    by_ctrl: dict[str, list[dict[str, float]]] = {}
+    for rec in records:
+        by_ctrl.setdefault(rec.meta["controller"], []).append(time_shares(rec, t_from, t_to, scheme))
+    rows = []
+    for ctrl, shares in by_ctrl.items():
+        extra = sorted({s for sh in shares for s in sh} - set(states))
+        for s in states + extra:
+            x = np.array([sh.get(s, 0.0) for sh in shares])
+            rows.append({"state": s, "controller": ctrl, "mean_pct": float(x.mean()),
+                         "std_pct": float(x.std(ddof=1)) if len(x) > 1 else 0.0, "n_trials": len(x)})
+    if with_theory:
+        for s, v in theory_pct(n_live, n_c, scheme, sizes).items():
+            rows.append({"state": s, "controller": "theory", "mean_pct": v, "std_pct": 0.0, "n_trials": 0})
+    return pd.DataFrame(rows)

@@ -1,0 +1,251 @@
+"""The ``tavc`` command line.
+
+Each command parses its arguments and hands them to one keyword-only function below it; those
+functions load the config, call the library, and print. There is no domain logic here. A
+``TavcError`` anywhere becomes one ``error: ...`` line on stderr and exit status 1; Ctrl-C
+becomes exit status 130. Any other exception is a bug and keeps its traceback.
+
+Modules that pull in the simulator are imported inside the commands that need them, so that
+``tavc config`` and ``tavc list`` start fast.
+"""
+
+import json
+import sys
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any, Optional
+
+import typer
+
+from tavc_cli import __version__, config
+from tavc_cli.errors import TavcError
+
+app = typer.Typer(
+    name="tavc",
+    help="Reproduce task allocation through vacancy chains in multi-robot transportation.",
+    no_args_is_help=True,
+    add_completion=False,
+    # A bug's traceback is for developers; the locals (whole configs) would drown it.
+    pretty_exceptions_show_locals=False,
+)
+
+Overrides = Annotated[
+    Optional[list[str]],
+    typer.Argument(
+        help="Hydra overrides, e.g. experiment=breakdown scale=paper team.n_robots=4.",
+        show_default=False,
+    ),
+]
+
+
+@contextmanager
+def _user_errors() -> Iterator[None]:
+    """Turn a ``TavcError`` into one line and exit 1, and Ctrl-C into exit 130."""
+    try:
+        yield
+    except TavcError as error:
+        typer.echo(f"error: {error}", err=True)
+        raise typer.Exit(code=1) from None
+    except KeyboardInterrupt:
+        typer.echo("error: interrupted", err=True)
+        raise typer.Exit(code=130) from None
+
+
+def _show_version(value: bool) -> None:
+    if value:
+        typer.echo(f"tavc {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", help="Print the version and exit.", callback=_show_version, is_eager=True
+        ),
+    ] = False,
+) -> None:
+    """Reproduce task allocation through vacancy chains in multi-robot transportation."""
+
+
+# --------------------------------------------------------------------------------------------
+# Commands
+# --------------------------------------------------------------------------------------------
+
+
+@app.command("config")
+def config_command(overrides: Overrides = None) -> None:
+    """Print the composed, validated config as YAML and exit."""
+    with _user_errors():
+        _print_config(overrides=overrides or [])
+
+
+@app.command("list")
+def list_command() -> None:
+    """List the experiments: name, chapter section, what each shows."""
+    with _user_errors():
+        _print_experiments()
+
+
+@app.command()
+def run(
+    overrides: Overrides = None,
+    multirun: Annotated[
+        bool,
+        typer.Option(
+            "--multirun",
+            "-m",
+            help="Sweep comma lists, range() and choice(); one output folder per job.",
+        ),
+    ] = False,
+    progress: Annotated[
+        Optional[bool],
+        typer.Option(
+            "--progress/--no-progress",
+            help="Show progress (default: when stdout is a terminal).",
+            show_default=False,
+        ),
+    ] = None,
+) -> None:
+    """Run every trial and controller an experiment needs and write its results."""
+    with _user_errors():
+        _run(
+            overrides=overrides or [],
+            multirun=multirun,
+            progress=sys.stdout.isatty() if progress is None else progress,
+        )
+
+
+@app.command()
+def bench(
+    json_output: Annotated[
+        bool, typer.Option("--json", help="Print one JSON object and nothing else.")
+    ] = False,
+    scenario: Annotated[str, typer.Option(help="Arena to simulate.")] = "two_circuits",
+    n_robots: Annotated[int, typer.Option("--n-robots", min=1, help="Robots in the arena.")] = 6,
+    duration_s: Annotated[
+        float, typer.Option("--duration-s", min=0.0, help="Simulated seconds per repeat.")
+    ] = 600.0,
+    repeats: Annotated[int, typer.Option(min=1, help="Timed repeats; the best counts.")] = 3,
+    batch: Annotated[
+        Optional[int],
+        typer.Option(
+            min=1,
+            help="Trials advanced together (default: the simulator's choice).",
+            show_default=False,
+        ),
+    ] = None,
+) -> None:
+    """Measure simulator throughput (simulated seconds per wall second, one core)."""
+    with _user_errors():
+        _bench(
+            json_output=json_output,
+            scenario=scenario,
+            n_robots=n_robots,
+            duration_s=duration_s,
+            repeats=repeats,
+            batch=batch,
+        )
+
+
+@app.command()
+def animate(
+    overrides: Overrides = None,
+    out: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--out", help="File to write (default: in the run's output_dir).", show_default=False
+        ),
+    ] = None,
+    duration_s: Annotated[
+        float, typer.Option("--duration-s", min=0.0, help="Simulated seconds to render.")
+    ] = 300.0,
+    fps: Annotated[int, typer.Option(min=1, help="Frames per second of the animation.")] = 10,
+    mp4: Annotated[
+        bool, typer.Option("--mp4/--no-mp4", help="Also write an MP4 (needs ffmpeg).")
+    ] = False,
+) -> None:
+    """Render one run (robots, markings, targets, trails) to GIF or MP4."""
+    with _user_errors():
+        _animate(overrides=overrides or [], out=out, duration_s=duration_s, fps=fps, mp4=mp4)
+
+
+# --------------------------------------------------------------------------------------------
+# What the commands do
+# --------------------------------------------------------------------------------------------
+
+
+def _print_config(*, overrides: Sequence[str]) -> None:
+    """Print the resolved config as YAML."""
+    typer.echo(config.to_yaml(config.load_config(overrides)), nl=False)
+
+
+def _print_experiments() -> None:
+    """Print one aligned line per experiment."""
+    experiments = config.list_experiments()
+    name_width = max((len(item["name"]) for item in experiments), default=0)
+    section_width = max((len(item["section"]) for item in experiments), default=0)
+    for item in experiments:
+        name, section = f"{item['name']:<{name_width}}", f"{item['section']:<{section_width}}"
+        typer.echo(f"{name}  {section}  {item['description']}")
+
+
+def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
+    """Run one experiment, or every job of a sweep after validating them all."""
+    configs = config.load_sweep(overrides) if multirun else [config.load_config(overrides)]
+    from tavc_cli.experiments.runner import run_experiment
+
+    for index, cfg in enumerate(configs):
+        if multirun:
+            typer.echo(f"job {index + 1}/{len(configs)}: {cfg.output_dir}")
+        _print_summary(run_experiment(cfg, progress=progress))
+
+
+def _print_summary(summary: dict[str, Any]) -> None:
+    """Print where results went, how many trials ran, and any summary tables."""
+    n_trials, n_reused = summary["n_trials"], summary["n_reused"]
+    typer.echo(f"results: {summary['output_dir']}")
+    typer.echo(
+        f"trials: {n_trials} ({n_reused} reused) in {summary['wall_time_s']:.1f} s wall time"
+    )
+    for name, table in (summary.get("tables") or {}).items():
+        typer.echo(f"\n{name}")
+        typer.echo(table.to_string(index=False))
+
+
+def _bench(
+    *,
+    json_output: bool,
+    scenario: str,
+    n_robots: int,
+    duration_s: float,
+    repeats: int,
+    batch: Optional[int],
+) -> None:
+    """Run the benchmark and print its result as JSON or as aligned lines."""
+    from tavc_cli.bench import run_bench
+
+    result = run_bench(
+        scenario=scenario, n_robots=n_robots, duration_s=duration_s, repeats=repeats, batch=batch
+    )
+    if json_output:
+        typer.echo(json.dumps(result))
+        return
+    width = max((len(key) for key in result), default=0)
+    for key, value in result.items():
+        shown = f"{value:,.2f}" if isinstance(value, float) else str(value)
+        typer.echo(f"{key:<{width}}  {shown}")
+
+
+def _animate(
+    *, overrides: Sequence[str], out: Optional[Path], duration_s: float, fps: int, mp4: bool
+) -> None:
+    """Render a run and print the files written."""
+    cfg = config.load_config(overrides)
+    from tavc_cli.viz.animate import animate_run
+
+    paths = animate_run(cfg, out=out, duration_s=duration_s, fps=fps, mp4=mp4)
+    for path in paths:
+        typer.echo(str(path))

@@ -1,0 +1,134 @@
+"""Turn a resolved config (as a plain mapping) into the trials an experiment needs.
+
+Controllers: the configured `learner` (labelled `tavc` for the TAVC learners,
+else by its name) and every entry of `baselines`. Each controller runs its own
+trials; trial j of controller c gets the seed SeedSequence(seed).spawn-key (c, j),
+where c is the controller's fixed code below, so adding trials or baselines never
+changes the seeds of the others.
+
+Batches: trials of one controller are advanced together in fixed groups of
+`executor.batch_size` consecutive trial numbers. A trial's batch (and its place in
+the shared physics space) therefore depends on the trial alone, not on how many
+processes run the batches.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+from tavc_cli.experiments.spec import Breakdown, TrialSpec, ValueChange
+
+CONTROLLER_CODES = {"tavc": 0, "random": 1, "static": 2, "behaviour": 3}
+_TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
+
+
+@dataclass(frozen=True)
+class Batch:
+    """Trials advanced together in one process; `key` identifies its outcome."""
+
+    controller: str
+    index: int
+    specs: tuple[TrialSpec, ...]
+
+    @property
+    def key(self) -> str:
+        import hashlib
+
+        blob = "|".join(s.key() for s in self.specs)
+        return hashlib.sha256(blob.encode()).hexdigest()[:20]
+
+    @property
+    def sim_seconds(self) -> float:
+        return sum(s.duration_s + s.warmup_s for s in self.specs)
+
+
+def controller_label(learner_name: str) -> str:
+    if learner_name.startswith("tavc"):
+        return "tavc"
+    if learner_name.startswith("behaviour"):
+        return "behaviour"
+    return learner_name
+
+
+def controllers(cfg: Mapping) -> list[tuple[str, dict, int]]:
+    """(label, learner spec, number of trials) for the learner and each baseline."""
+    main = dict(cfg["learner"])
+    out = [(controller_label(main["name"]), main, int(cfg["trials"]))]
+    n_base = int(cfg.get("baseline_trials") or cfg["trials"])
+    for name in cfg.get("baselines") or []:
+        if any(label == name for label, _, _ in out):
+            continue
+        spec = {"name": name}
+        if name == "static":
+            spec["allocation"] = cfg.get("static_allocation")
+        out.append((name, spec, n_base))
+    return out
+
+
+def base_spec(cfg: Mapping) -> TrialSpec:
+    """The spec every trial of this config shares, before controller, index and seed."""
+    team = cfg["team"]
+    members = team["members"]
+    sim = cfg["sim"]
+    tasks = cfg["tasks"]
+    events = cfg["events"]
+    return TrialSpec(
+        arena=_plain(cfg["arena"]),
+        robot=_plain(cfg["robot"]),
+        speeds_mps=tuple(float(m["speed_mps"]) for m in members),
+        groups=tuple(str(m["group"]) for m in members),
+        policy={},
+        values=tuple(float(v) for v in tasks["values"]),
+        score_values=tuple(float(v) for v in tasks["score_values"]),
+        time_unit_s=_TIME_UNITS_S[tasks["time_unit"]],
+        duration_s=float(cfg["duration_s"]),
+        warmup_s=float(sim["warmup_s"]),
+        dt_s=float(sim["dt_s"]),
+        physics_substeps=int(sim["physics_substeps"]),
+        solver_iterations=int(sim["solver_iterations"]),
+        breakdowns=tuple(
+            Breakdown(float(b["time_s"]), b.get("robot"), b.get("circuit")) for b in events["breakdowns"]
+        ),
+        value_changes=tuple(
+            ValueChange(float(v["time_s"]), tuple(float(x) for x in v["values"])) for v in events["value_changes"]
+        ),
+        q_snapshot_every_s=float(sim["q_snapshot_every_s"]),
+        pose_every_s=float(sim["pose_every_s"]),
+    )
+
+
+def trial_specs(cfg: Mapping) -> list[TrialSpec]:
+    """Every trial of every controller, in a fixed order."""
+    base = base_spec(cfg)
+    seed = int(cfg["seed"])
+    batch_size = int(cfg["executor"]["batch_size"])
+    specs = []
+    for label, policy, n_trials in controllers(cfg):
+        code = CONTROLLER_CODES.get(label, 9)
+        for j in range(n_trials):
+            specs.append(replace(base, policy=policy, controller=label, trial=j, seed=(seed, code, j),
+                                 extra={"batch_size": batch_size}))
+    return specs
+
+
+def batches(cfg: Mapping) -> list[Batch]:
+    """Trials grouped into the fixed batches they are advanced in."""
+    size = int(cfg["executor"]["batch_size"])
+    by_controller: dict[str, list[TrialSpec]] = {}
+    for spec in trial_specs(cfg):
+        by_controller.setdefault(spec.controller, []).append(spec)
+    out = []
+    for label, specs in by_controller.items():
+        for k in range(0, len(specs), size):
+            out.append(Batch(label, k // size, tuple(specs[k:k + size])))
+    return out
+
+
+def _plain(obj):
+    """Deep-convert mappings and sequences to dicts and tuples (hashable, comparable)."""
+    if isinstance(obj, Mapping):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    return obj

@@ -1,0 +1,230 @@
+"""Run an experiment's trials: batches over processes, reuse of finished trials, outputs.
+
+`run_experiment` is what `tavc run` calls. It
+1. splits the trials into their fixed batches (see `build`);
+2. skips every batch whose trial files already exist with a matching key, and
+   runs the rest on the chosen executor, each batch writing one file per trial
+   atomically when it finishes (a killed run loses at most the batches in flight);
+3. writes `config.yaml`, `provenance.json`, and the shared analysis tables
+   (`state_time.csv`, `performance.csv`), each atomically.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Mapping
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from tavc_cli.analysis.performance import performance_table
+from tavc_cli.analysis.states import state_time_table
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import Batch, batches
+from tavc_cli.experiments.engine import run_trials
+from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.io import write_text_atomic
+
+_PACKAGES = ("numpy", "scipy", "pandas", "pymunk", "numba", "hydra-core", "omegaconf", "typer", "matplotlib")
+
+
+def trial_path(out_dir: Path, controller: str, trial: int) -> Path:
+    return out_dir / "trials" / f"{controller}_{trial:03d}.npz"
+
+
+def _stored_key(path: Path) -> str | None:
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return json.loads(str(data["meta"])).get("batch_key")
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def batch_done(out_dir: Path, batch: Batch) -> bool:
+    """True if every trial file of the batch exists and was made by this exact batch."""
+    key = batch.key
+    return all(_stored_key(trial_path(out_dir, s.controller, s.trial)) == key for s in batch.specs)
+
+
+def run_batch(batch: Batch, out_dir: str | Path, report: Callable[[float], None] | None = None) -> float:
+    """Simulate one batch and write its trial files; returns the wall time (s)."""
+    start = time.perf_counter()
+    records = run_trials(batch.specs, report)
+    for spec, rec in zip(batch.specs, records):
+        rec.meta["batch_key"] = batch.key
+        rec.meta["batch_index"] = batch.index
+        rec.save(trial_path(Path(out_dir), spec.controller, spec.trial))
+    return time.perf_counter() - start
+
+
+class _QueueReporter:
+    """Progress callback for a worker process: sends (batch id, fraction) to the parent."""
+
+    def __init__(self, queue, key) -> None:
+        self.queue, self.key = queue, key
+
+    def __call__(self, frac: float) -> None:
+        self.queue.put((self.key, frac))
+
+
+class _Progress:
+    """A rich bar on a terminal, plain periodic lines otherwise; fed with sim seconds."""
+
+    def __init__(self, total_s: float, tty: bool) -> None:
+        self.total = total_s
+        self.done: dict = {}
+        self.weights: dict = {}
+        self.tty = tty
+        self.start = time.perf_counter()
+        self.last_line = 0.0
+        self.bar = None
+        if tty and total_s > 0:
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+            self.bar = Progress(TextColumn("simulating"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
+                                TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), transient=True)
+            self.task = self.bar.add_task("run", total=total_s)
+            self.bar.start()
+
+    def update(self, key, frac: float, weight: float) -> None:
+        self.done[key] = frac * weight
+        done = sum(self.done.values())
+        if self.bar is not None:
+            self.bar.update(self.task, completed=done)
+        elif time.perf_counter() - self.last_line > 10.0 and self.total > 0:
+            self.last_line = time.perf_counter()
+            elapsed = self.last_line - self.start
+            pct = 100.0 * done / self.total
+            eta = elapsed * (self.total - done) / done if done > 0 else float("nan")
+            print(f"  {pct:5.1f}% of {self.total:,.0f} simulated s, {elapsed:,.0f} s elapsed, eta {eta:,.0f} s",
+                  flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+
+
+def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None:
+    """Run pending batches in this process (n_jobs 1 or a single batch) or a process pool."""
+    prog = _Progress(sum(b.sim_seconds for b in pending), tty)
+    weights = {(b.controller, b.index): b.sim_seconds for b in pending}
+    try:
+        if n_jobs <= 1 or len(pending) <= 1:
+            for b in pending:
+                key = (b.controller, b.index)
+                run_batch(b, out_dir, lambda f, k=key: prog.update(k, f, weights[k]))
+            return
+        import multiprocessing as mp
+
+        ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+        with ctx.Manager() as manager:
+            queue = manager.Queue()
+            with ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=ctx) as pool:
+                futures = {pool.submit(run_batch, b, str(out_dir), _QueueReporter(queue, (b.controller, b.index))): b
+                           for b in pending}
+                remaining = set(futures)
+                while remaining:
+                    finished, remaining = wait(remaining, timeout=0.5, return_when=FIRST_COMPLETED)
+                    while not queue.empty():
+                        key, frac = queue.get()
+                        prog.update(key, frac, weights[key])
+                    for f in finished:
+                        f.result()  # re-raise a worker's error here
+                        b = futures[f]
+                        prog.update((b.controller, b.index), 1.0, weights[(b.controller, b.index)])
+    finally:
+        prog.close()
+
+
+def load_records(out_dir: Path, plan: list[Batch]) -> list[TrialRecord]:
+    return [TrialRecord.load(trial_path(out_dir, s.controller, s.trial)) for b in plan for s in b.specs]
+
+
+def provenance(cfg: Mapping, plan: list[Batch], wall_time_s: float, n_reused: int) -> dict:
+    """Who, what and where of a run: versions, seeds, command line, machine."""
+    from tavc_cli import __version__
+
+    versions = {}
+    for pkg in _PACKAGES:
+        try:
+            versions[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            versions[pkg] = None
+    return {
+        "tavc_version": __version__,
+        "git_commit": _git_commit(),
+        "packages": versions,
+        "python": platform.python_version(),
+        "root_seed": int(cfg["seed"]),
+        "batch_size": int(cfg["executor"]["batch_size"]),
+        "trials": [
+            {"controller": s.controller, "trial": s.trial, "seed": list(s.seed), "batch": b.index,
+             "file": str(trial_path(Path("."), s.controller, s.trial))}
+            for b in plan for s in b.specs
+        ],
+        "command_line": sys.argv,
+        "wall_time_s": wall_time_s,
+        "n_trials_reused": n_reused,
+        "machine": {"platform": platform.platform(), "processor": platform.processor(),
+                    "cpu_count": os.cpu_count()},
+    }
+
+
+def _git_commit() -> str | None:
+    here = Path(__file__).resolve().parent
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=5)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() or None if out.returncode == 0 else None
+
+
+def analyse(cfg: Mapping, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:
+    """The tables every experiment shares, from saved records only."""
+    t_from, t_to = float(cfg["convergence_s"]), float(cfg["duration_s"])
+    scheme = cfg["analysis"]["state"]
+    state = state_time_table(records, t_from, t_to, scheme)
+    perf = performance_table(records, float(cfg["analysis"]["performance_bin_s"]),
+                             -float(cfg["sim"]["warmup_s"]), t_to)
+    return {"state_time": state, "performance": perf}
+
+
+def run_experiment(cfg, *, progress: bool = False) -> dict:
+    """Run (or reuse) every trial of the config's experiment and write its outputs."""
+    from tavc_cli.config import to_container, to_yaml
+
+    plain = to_container(cfg) if not isinstance(cfg, dict) else cfg
+    out_dir = Path(plain["output_dir"])
+    try:
+        (out_dir / "trials").mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise TavcError(f"output_dir: cannot create {out_dir}: {exc.strerror}") from None
+    backend = plain["executor"]["backend"]
+    if backend != "local":
+        raise TavcError(f"executor.backend: '{backend}' is not available in this version; use 'local'")
+    start = time.perf_counter()
+    plan = batches(plain)
+    pending = [b for b in plan if not batch_done(out_dir, b)]
+    n_total = sum(len(b.specs) for b in plan)
+    n_reused = n_total - sum(len(b.specs) for b in pending)
+    if n_reused:
+        print(f"reusing {n_reused} of {n_total} finished trials in {out_dir / 'trials'}", flush=True)
+    execute(pending, out_dir, int(plain["executor"]["n_jobs"]), progress)
+    wall = time.perf_counter() - start
+    write_text_atomic(out_dir / "config.yaml", to_yaml(cfg) if not isinstance(cfg, dict) else json.dumps(cfg))
+    records = load_records(out_dir, plan)
+    tables = analyse(plain, records)
+    for name, df in tables.items():
+        write_text_atomic(out_dir / f"{name}.csv", df.to_csv(index=False, float_format="%.4f"))
+    write_text_atomic(out_dir / "provenance.json",
+                      json.dumps(provenance(plain, plan, wall, n_reused), indent=2, default=str))
+    return {"output_dir": str(out_dir), "n_trials": n_total, "n_reused": n_reused, "wall_time_s": wall,
+            "tables": tables}

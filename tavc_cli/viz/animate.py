@@ -1,0 +1,145 @@
+"""Pictures of a run: an animation (GIF, and MP4 where ffmpeg exists) and a trajectory plot.
+
+They are drawn from a trial record's pose trace, so what they show is what the
+simulator did: walls, bar-coded targets with their ids, robots with heading and
+their red (left), green (right) and yellow (rear) markings, coloured by the
+circuit they serve, with short trails.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+from dataclasses import replace
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib import animation  # noqa: E402
+from matplotlib.patches import Circle, Wedge  # noqa: E402
+
+from tavc_cli.errors import TavcError  # noqa: E402
+from tavc_cli.experiments.build import trial_specs  # noqa: E402
+from tavc_cli.experiments.engine import run_trials  # noqa: E402
+from tavc_cli.experiments.records import TrialRecord  # noqa: E402
+from tavc_cli.sim.arena import SOURCE, Arena, arena_from_mapping  # noqa: E402
+
+CIRCUIT_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2"]
+MARKINGS = [(90.0, "#d62728"), (-90.0, "#2ca02c"), (180.0, "#e6c619")]  # left red, right green, rear yellow
+_MARK_HALF_DEG = 35.0
+
+
+def simulate_for_pictures(cfg: dict, duration_s: float, frame_every_s: float) -> tuple[TrialRecord, Arena]:
+    """Run the config's first trial for `duration_s` (no warm-up) with a pose trace."""
+    spec = trial_specs(cfg)[0]
+    spec = replace(spec, duration_s=duration_s, warmup_s=0.0, pose_every_s=frame_every_s,
+                   breakdowns=tuple(b for b in spec.breakdowns if b.time_s < duration_s),
+                   value_changes=tuple(v for v in spec.value_changes if v.time_s < duration_s))
+    return run_trials([spec])[0], arena_from_mapping(spec.arena)
+
+
+def _draw_arena(ax, arena: Arena) -> None:
+    for x1, y1, x2, y2 in arena.walls:
+        ax.plot([x1, x2], [y1, y2], color="black", lw=2)
+    circuit_of = arena.target_circuit
+    for k, (t, seg) in enumerate(zip(arena.targets, arena.target_segments)):
+        colour = CIRCUIT_COLOURS[circuit_of[k] % len(CIRCUIT_COLOURS)] if circuit_of[k] >= 0 else "grey"
+        ax.plot([seg[0], seg[2]], [seg[1], seg[3]], color=colour, lw=7, solid_capstyle="butt")
+        nx, ny = t.normal
+        ax.annotate(f"{t.name}\n#{t.barcode}", (t.x + nx * 0.45, t.y + ny * 0.45), ha="center", va="center",
+                    fontsize=7, color=colour, weight="bold" if t.kind == SOURCE else "normal")
+    ax.set_xlim(-0.3, arena.width_m + 0.3)
+    ax.set_ylim(-0.3, arena.height_m + 0.3)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+
+
+def trajectory_plot(rec: TrialRecord, arena: Arena, path: Path) -> Path:
+    """Every robot's path over the whole trace, coloured by the circuit it was serving."""
+    fig, ax = plt.subplots(figsize=(arena.width_m * 0.7 + 1.5, arena.height_m * 0.7 + 1))
+    _draw_arena(ax, arena)
+    poses, circuits = rec.poses, rec.pose_circuit
+    for i in range(poses.shape[1]):
+        for c in np.unique(circuits[:, i]):
+            pts = np.where((circuits[:, i] == c)[:, None], poses[:, i, :2], np.nan)
+            ax.plot(pts[:, 0], pts[:, 1], lw=0.6, alpha=0.5, color=CIRCUIT_COLOURS[int(c) % len(CIRCUIT_COLOURS)])
+    ax.set_title(f"{arena.name}: {poses.shape[1]} robots, {rec.pose_t[-1] - rec.pose_t[0]:.0f} s "
+                 "(colour = circuit served)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def _robot_artists(ax, radius: float):
+    body = Circle((0, 0), radius, fc="white", ec="black", lw=1.2, zorder=3)
+    marks = [Wedge((0, 0), radius, 0, 1, width=radius * 0.22, color=c, zorder=4) for _, c in MARKINGS]
+    (heading,) = ax.plot([], [], color="black", lw=1.2, zorder=5)
+    (trail,) = ax.plot([], [], lw=1.0, alpha=0.6, zorder=2)
+    ax.add_patch(body)
+    for m in marks:
+        ax.add_patch(m)
+    return body, marks, heading, trail
+
+
+def animate_record(rec: TrialRecord, arena: Arena, radius: float, path: Path, fps: int,
+                   trail_frames: int = 30, mp4: bool = False) -> list[Path]:
+    """Render the pose trace to a GIF (and an MP4 beside it when asked and ffmpeg exists)."""
+    fig, ax = plt.subplots(figsize=(arena.width_m * 0.6 + 1.2, arena.height_m * 0.6 + 1))
+    _draw_arena(ax, arena)
+    artists = [_robot_artists(ax, radius) for _ in range(rec.poses.shape[1])]
+    title = ax.set_title("", fontsize=9)
+
+    def draw(f: int):
+        for i, (body, marks, heading, trail) in enumerate(artists):
+            x, y, th = rec.poses[f, i]
+            alive = bool(rec.pose_alive[f, i])
+            colour = CIRCUIT_COLOURS[int(rec.pose_circuit[f, i]) % len(CIRCUIT_COLOURS)]
+            body.center = (x, y)
+            body.set_facecolor(colour if alive else "lightgrey")
+            for (offset, _), m in zip(MARKINGS, marks):
+                m.set_center((x, y))
+                m.set_theta1(math.degrees(th) + offset - _MARK_HALF_DEG)
+                m.set_theta2(math.degrees(th) + offset + _MARK_HALF_DEG)
+                m.set_visible(alive)
+            heading.set_data([x, x + radius * 1.3 * math.cos(th)], [y, y + radius * 1.3 * math.sin(th)])
+            lo = max(0, f - trail_frames)
+            trail.set_data(rec.poses[lo:f + 1, i, 0], rec.poses[lo:f + 1, i, 1])
+            trail.set_color(colour)
+        title.set_text(f"t = {rec.pose_t[f]:7.1f} s")
+        return []
+
+    anim = animation.FuncAnimation(fig, draw, frames=len(rec.pose_t), blit=False)
+    written = [path]
+    anim.save(path, writer=animation.PillowWriter(fps=fps), dpi=80)
+    if mp4 and shutil.which("ffmpeg"):
+        mp4_path = path.with_suffix(".mp4")
+        anim.save(mp4_path, writer=animation.FFMpegWriter(fps=fps), dpi=100)
+        written.append(mp4_path)
+    plt.close(fig)
+    return written
+
+
+def animate_run(cfg, *, out: Path | None = None, duration_s: float = 300.0, fps: int = 10,
+                mp4: bool = True, frame_every_s: float = 1.0) -> list[Path]:
+    """Simulate the config's first trial and write animation.gif (+ .mp4) and trajectories.png."""
+    from tavc_cli.config import to_container
+
+    plain = to_container(cfg) if not isinstance(cfg, dict) else cfg
+    if duration_s <= 0:
+        raise TavcError(f"--duration-s: must be > 0, got {duration_s}")
+    if fps < 1:
+        raise TavcError(f"--fps: must be >= 1, got {fps}")
+    out = Path(out) if out is not None else Path(plain["output_dir"]) / "animation.gif"
+    if out.suffix.lower() != ".gif":
+        raise TavcError(f"--out: the animation is written as a .gif, got '{out.name}'")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    rec, arena = simulate_for_pictures(plain, duration_s, frame_every_s)
+    radius = float(plain["robot"]["radius_m"])
+    written = animate_record(rec, arena, radius, out, fps, mp4=mp4)
+    written.append(trajectory_plot(rec, arena, out.with_name("trajectories.png")))
+    return written

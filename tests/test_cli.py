@@ -1,0 +1,99 @@
+"""The ``tavc`` command line: help, config, list, and one-line errors."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from tavc_cli import __version__
+from tavc_cli.cli import app
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+runner = CliRunner()
+
+
+def test_help_lists_the_commands():
+    result = runner.invoke(app, ["--help"])
+    assert result.exit_code == 0
+    for command in ("run", "list", "config", "bench", "animate"):
+        assert command in result.output
+
+
+def test_no_arguments_shows_help():
+    result = runner.invoke(app, [])
+    assert "Usage" in result.output
+
+
+def test_version():
+    result = runner.invoke(app, ["--version"])
+    assert result.exit_code == 0
+    assert __version__ in result.stdout
+
+
+def test_python_dash_m_works():
+    completed = subprocess.run(
+        [sys.executable, "-m", "tavc_cli", "--help"],
+        cwd=REPO_ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert completed.returncode == 0, completed.stderr
+    assert "config" in completed.stdout
+
+
+def test_config_prints_parseable_yaml_with_the_override():
+    result = runner.invoke(app, ["config", "experiment=breakdown", "learner.epsilon=0.2", "seed=7"])
+    assert result.exit_code == 0, result.output
+    parsed = yaml.safe_load(result.stdout)
+    assert parsed["learner"]["epsilon"] == 0.2
+    assert parsed["seed"] == 7
+    assert parsed["experiment_name"] == "breakdown"
+    assert parsed["trials"] == 6
+
+
+def test_list_prints_one_line_per_experiment():
+    expected = {
+        "spatiotemporal",
+        "initial_distribution",
+        "breakdown",
+        "breakdown_no_vacancy",
+        "value_change",
+        "heterogeneous",
+    }
+    result = runner.invoke(app, ["list"])
+    assert result.exit_code == 0, result.output
+    lines = [line for line in result.stdout.splitlines() if line.strip()]
+    names = {line.split()[0] for line in lines}
+    assert expected <= names
+    assert len(lines) == len(names)
+
+
+@pytest.mark.parametrize(
+    ("args", "key"),
+    [
+        (["config", "team.n_robots=-2"], "team.n_robots"),
+        (["config", "learner=tavc_egreedy", "learner.epsilon=1.5"], "learner.epsilon"),
+        (["config", "arena.targets.0.x=20"], "arena.targets[0].x"),
+        (["config", "team.n_robot=3"], "team.n_robot"),
+        (["config", "seed=abc"], "seed"),
+        (["config", "arena=nope"], "arena"),
+        (["config", "experiment=breakdown", "tasks.values=[1,2,3]"], "tasks.values"),
+        (["config", "learner.epsilon=[1"], "learner.epsilon"),
+        (["run", "learner.epsilon=0.1,0.2"], "learner.epsilon"),
+        (["run", "-m", "learner=tavc_egreedy", "learner.epsilon=0.1,1.5"], "learner.epsilon"),
+        (["animate", "team.n_robots=0"], "team.n_robots"),
+    ],
+)
+def test_bad_input_is_one_error_line_and_exit_1(args, key):
+    result = runner.invoke(app, args)
+    assert result.exit_code == 1, result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1, result.output
+    assert lines[0].startswith("error: ")
+    assert key in lines[0]
+    assert result.stderr.strip() == lines[0]
+    assert "Traceback" not in result.output

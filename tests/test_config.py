@@ -1,0 +1,328 @@
+"""Composing, resolving and validating configs (tavc_cli.config)."""
+
+import os
+
+import pytest
+import yaml
+
+from tavc_cli.config import (
+    expand_sweep,
+    find_conf_dir,
+    list_experiments,
+    load_config,
+    load_sweep,
+    to_container,
+    to_yaml,
+)
+from tavc_cli.errors import TavcError
+
+CONF_DIR = find_conf_dir()
+EXPERIMENTS = sorted(path.stem for path in (CONF_DIR / "experiment").glob("*.yaml"))
+SCALES = sorted(path.stem for path in (CONF_DIR / "scale").glob("*.yaml"))
+GROUP_OPTIONS = sorted(
+    f"{path.parent.name}={path.stem}"
+    for group in ("arena", "robot", "team", "learner", "scale", "executor")
+    for path in (CONF_DIR / group).glob("*.yaml")
+)
+
+
+# ----------------------------------------------------------------------------- composition
+
+
+def test_conf_dir_holds_the_main_config():
+    assert (CONF_DIR / "config.yaml").is_file()
+
+
+def test_the_six_chapter_experiments_exist():
+    expected = {
+        "spatiotemporal",
+        "initial_distribution",
+        "breakdown",
+        "breakdown_no_vacancy",
+        "value_change",
+        "heterogeneous",
+    }
+    assert expected <= set(EXPERIMENTS)
+
+
+@pytest.mark.parametrize("scale", SCALES)
+@pytest.mark.parametrize("experiment", EXPERIMENTS)
+def test_every_experiment_composes_and_validates(experiment, scale):
+    cfg = load_config([f"experiment={experiment}", f"scale={scale}"])
+    assert cfg.experiment_name == experiment
+    assert cfg.trials >= 1 and cfg.duration_s > 0
+    assert len(cfg.team.members) == cfg.team.n_robots
+    assert len(cfg.tasks["values"]) == len(cfg.arena.circuits)
+
+
+@pytest.mark.parametrize("option", GROUP_OPTIONS)
+def test_every_group_option_composes(option):
+    load_config([option])
+
+
+def test_default_config_composes():
+    cfg = load_config()
+    assert cfg.experiment_name == "default"
+    assert cfg.output_dir == "results/default"
+
+
+# ------------------------------------------------------------------------------ resolution
+
+
+def test_breakdown_at_quick_scale_resolves_by_hand():
+    cfg = load_config(["experiment=breakdown", "scale=quick"])
+    assert cfg.trials == 6  # min(scale 6, paper 20)
+    assert cfg.baseline_trials == 5  # min(scale 6, paper baseline 5)
+    assert cfg.duration_s == 27000 * 0.25
+    assert cfg.convergence_s == 9000 * 0.25
+    assert cfg.sim.warmup_s == 18000 * 0.25
+    assert cfg.events.breakdowns[0].time_s == 0.0
+    assert cfg.events.breakdowns[0].circuit == "high"
+    assert cfg.output_dir == "results/breakdown"
+    assert list(cfg.tasks["values"]) == [2200.0, 2000.0]
+    assert list(cfg.tasks.score_values) == [10.0, 1.0]
+
+
+def test_breakdown_at_paper_scale_uses_the_chapter_counts():
+    cfg = load_config(["experiment=breakdown", "scale=paper"])
+    assert (cfg.trials, cfg.baseline_trials) == (20, 5)
+    assert (cfg.duration_s, cfg.convergence_s, cfg.sim.warmup_s) == (27000.0, 9000.0, 18000.0)
+
+
+def test_baseline_trials_default_to_trials():
+    cfg = load_config(["experiment=initial_distribution", "scale=quick"])
+    assert cfg.baseline_trials == cfg.trials == 6
+    cfg = load_config(["experiment=initial_distribution", "scale=quick", "trials=4"])
+    assert cfg.baseline_trials == 4
+
+
+def test_scale_trials_only_ever_reduce_the_paper_count():
+    cfg = load_config(["experiment=spatiotemporal", "scale=quick", "scale.trials=10"])
+    assert cfg.trials == 5
+
+
+def test_smoke_scale_shrinks_time():
+    cfg = load_config(["experiment=spatiotemporal", "scale=smoke"])
+    assert cfg.trials == 2
+    assert cfg.duration_s == pytest.approx(200000 * 0.02)
+    assert cfg.convergence_s == 0.0
+
+
+def test_event_times_and_warmup_scale_with_time_factor():
+    cfg = load_config(["experiment=value_change", "scale=quick"])
+    assert cfg.sim.warmup_s == 36000 * 0.25
+    assert cfg.events.breakdowns[0].time_s == -18000 * 0.25
+    assert cfg.events.value_changes[0].time_s == 0.0
+    assert list(cfg.events.value_changes[0]["values"]) == [2000.0, 2200.0]
+
+
+def test_explicit_values_beat_derived_ones():
+    cfg = load_config(
+        [
+            "experiment=breakdown",
+            "trials=3",
+            "baseline_trials=2",
+            "duration_s=100",
+            "convergence_s=10",
+            "output_dir=/tmp/somewhere",
+        ]
+    )
+    assert (cfg.trials, cfg.baseline_trials) == (3, 2)
+    assert (cfg.duration_s, cfg.convergence_s) == (100.0, 10.0)
+    assert cfg.output_dir == "/tmp/somewhere"
+
+
+def test_homogeneous_team_gets_one_member_per_robot():
+    cfg = load_config(["team.n_robots=4", "robot.speed_mps=0.3"])
+    members = to_container(cfg)["team"]["members"]
+    assert members == [{"speed_mps": 0.3, "group": "all"}] * 4
+
+
+def test_heterogeneous_team_keeps_its_members():
+    cfg = load_config(["experiment=heterogeneous"])
+    groups = [member.group for member in cfg.team.members]
+    assert groups == ["fast"] * 3 + ["slow"] * 3
+    assert cfg.analysis.state == "groups"
+
+
+def test_task_values_default_to_one_per_circuit():
+    cfg = load_config(["arena=two_circuits"])
+    assert list(cfg.tasks["values"]) == [1.0, 1.0]
+    assert list(cfg.tasks.score_values) == [1.0, 1.0]
+
+
+def test_n_jobs_defaults_to_all_cores():
+    assert load_config().executor.n_jobs == (os.cpu_count() or 1)
+
+
+def test_learner_defaults_fill_fields_an_option_does_not_set():
+    cfg = load_config(["learner=tavc_egreedy"])
+    assert (cfg.learner.alpha, cfg.learner.gamma, cfg.learner.epsilon) == (0.1, 0.95, 0.1)
+    assert cfg.learner.tau == 0.005
+
+
+def test_config_is_read_only():
+    cfg = load_config()
+    with pytest.raises(Exception, match="read-only"):
+        cfg.seed = 3
+
+
+def test_yaml_round_trips_to_the_container():
+    cfg = load_config(["experiment=breakdown"])
+    assert yaml.safe_load(to_yaml(cfg)) == to_container(cfg)
+
+
+# ------------------------------------------------------------------------------ validation
+
+
+@pytest.mark.parametrize(
+    ("overrides", "message"),
+    [
+        (["team.n_robots=-2"], "team.n_robots: must be >= 1, got -2"),
+        (
+            ["learner=tavc_egreedy", "learner.epsilon=1.5"],
+            "learner.epsilon: must be in [0, 1], got 1.5",
+        ),
+        (
+            ["experiment=initial_distribution", "arena.targets.1.x=13", "arena.targets.1.y=4"],
+            "arena.targets[1].x: target (13.0, 4.0) lies outside the 12 x 8 m arena",
+        ),
+        (
+            ["experiment=initial_distribution", "tasks.values=[1,2,3]"],
+            "tasks.values: needs one value per circuit (2), got 3",
+        ),
+    ],
+)
+def test_errors_read_exactly(overrides, message):
+    with pytest.raises(TavcError) as caught:
+        load_config(overrides)
+    assert str(caught.value) == message
+
+
+@pytest.mark.parametrize(
+    ("overrides", "key"),
+    [
+        (["team.n_robot=3"], "team.n_robot"),
+        (["seed=abc"], "seed"),
+        (["seed=-1"], "seed"),
+        (["arena=nope"], "arena"),
+        (["experiment=nope"], "experiment"),
+        (["+colour=red"], "colour"),
+        (["learner.epsilon=[1"], "learner.epsilon"),
+        (["learner.epsilon=0.1,0.2"], "learner.epsilon"),
+        (["learner.gamma=-0.1"], "learner.gamma"),
+        (["learner.alpha=2"], "learner.alpha"),
+        (["learner.tau=0"], "learner.tau"),
+        (["learner.name=greedy"], "learner.name"),
+        (["trials=0"], "trials"),
+        (["duration_s=-5"], "duration_s"),
+        (["duration_s=100", "convergence_s=100"], "convergence_s"),
+        (["robot.radius_m=0"], "robot.radius_m"),
+        (["robot.speed_mps=-0.1"], "robot.speed_mps"),
+        (["robot.laser.n_rays=0"], "robot.laser.n_rays"),
+        (["robot.laser.fov_deg=400"], "robot.laser.fov_deg"),
+        (["robot.laser.range_m=0"], "robot.laser.range_m"),
+        (["arena.targets.0.x=4"], "arena.targets[0]"),
+        (["arena.circuits.0.source=nowhere"], "arena.circuits[0].source"),
+        (["arena.circuits.0.source=sink"], "arena.circuits[0].source"),
+        (["arena=two_circuits", "arena.targets.1.barcode=11"], "arena.targets"),
+        (["team=heterogeneous", "team.n_robots=4"], "team.n_robots"),
+        (["team=heterogeneous", "team.members.0.speed_mps=0"], "team.members[0].speed_mps"),
+        (["experiment=breakdown", "static_allocation=[3,2]"], "static_allocation"),
+        (["experiment=breakdown", "static_allocation=[6]"], "static_allocation"),
+        (
+            ["learner=static", "arena=two_circuits", "learner.allocation=[1,1]"],
+            "learner.allocation",
+        ),
+        (
+            ["experiment=breakdown", "events.breakdowns.0.circuit=middle"],
+            "events.breakdowns[0].circuit",
+        ),
+        (["experiment=breakdown", "events.breakdowns.0.circuit=2"], "events.breakdowns[0].circuit"),
+        (["events.breakdowns=[{time_s: 0}, {time_s: 0}]", "team.n_robots=2"], "events.breakdowns"),
+        (["experiment=value_change", "sim.warmup_s=0"], "events.breakdowns[0].time_s"),
+        (
+            ["experiment=value_change", "events.value_changes.0.values=[1]"],
+            "events.value_changes[0].values",
+        ),
+        (["baselines=[random,oracle]"], "baselines[1]"),
+        (["executor.backend=slurm"], "executor.backend"),
+        (["executor.n_jobs=0"], "executor.n_jobs"),
+        (["analysis.state=robots"], "analysis.state"),
+        (["sim.dt_s=0"], "sim.dt_s"),
+        (["arena.walls=[[1,1,30,1]]"], "arena.walls[0][2]"),
+        (["arena.walls=[[1,1,3]]"], "arena.walls[0]"),
+        (["sim.physics_substeps=0"], "sim.physics_substeps"),
+        (["scale.time_factor=0"], "scale.time_factor"),
+        (["paper.trials=null"], "paper.trials"),
+    ],
+)
+def test_bad_values_fail_with_one_line_naming_the_key(overrides, key):
+    with pytest.raises(TavcError) as caught:
+        load_config(overrides)
+    message = str(caught.value)
+    assert "\n" not in message
+    assert message.startswith(key), message
+
+
+def test_interior_walls_are_four_numbers():
+    cfg = load_config(["arena.walls=[[1,1,3.5,1]]"])
+    assert to_container(cfg)["arena"]["walls"] == [[1, 1, 3.5, 1]]
+
+
+def test_target_must_be_on_a_wall():
+    with pytest.raises(TavcError, match="not on a wall"):
+        load_config(["arena.targets.0.x=4", "arena.targets.0.y=3"])
+
+
+def test_misspelled_key_suggests_the_right_one():
+    with pytest.raises(TavcError, match="n_robots"):
+        load_config(["team.n_robot=3"])
+
+
+def test_error_messages_are_single_lines():
+    assert str(TavcError("first\n  second")) == "first second"
+
+
+# ---------------------------------------------------------------------------------- sweeps
+
+
+def test_expand_sweep_is_a_cartesian_product_in_order():
+    jobs = expand_sweep(["learner.epsilon=0.05,0.1", "seed=range(0,2)", "scale=smoke"])
+    assert jobs == [
+        ["learner.epsilon=0.05", "seed=0", "scale=smoke"],
+        ["learner.epsilon=0.05", "seed=1", "scale=smoke"],
+        ["learner.epsilon=0.1", "seed=0", "scale=smoke"],
+        ["learner.epsilon=0.1", "seed=1", "scale=smoke"],
+    ]
+
+
+def test_expand_sweep_accepts_choice():
+    assert expand_sweep(["learner=choice(random,tavc_egreedy)"]) == [
+        ["learner=random"],
+        ["learner=tavc_egreedy"],
+    ]
+
+
+def test_load_sweep_gives_each_job_its_own_folder():
+    configs = load_sweep(["experiment=breakdown", "learner.epsilon=0.05,0.2"])
+    assert [cfg.learner.epsilon for cfg in configs] == [0.05, 0.2]
+    assert [cfg.output_dir for cfg in configs] == [
+        "results/breakdown/0_learner.epsilon=0.05",
+        "results/breakdown/1_learner.epsilon=0.2",
+    ]
+
+
+def test_load_sweep_validates_every_job_and_names_the_bad_one():
+    with pytest.raises(TavcError, match=r"job 1 .*learner\.epsilon: must be in \[0, 1\]"):
+        load_sweep(["learner=tavc_egreedy", "learner.epsilon=0.1,1.5"])
+
+
+# ------------------------------------------------------------------------------ experiments
+
+
+def test_list_experiments_describes_every_file():
+    experiments = list_experiments()
+    assert [item["name"] for item in experiments] == EXPERIMENTS
+    for item in experiments:
+        assert item["section"] and item["description"]
