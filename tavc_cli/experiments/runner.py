@@ -84,7 +84,7 @@ class _Progress:
         self.weights: dict = {}
         self.tty = tty
         self.start = time.perf_counter()
-        self.last_line = 0.0
+        self.last_line = self.start
         self.bar = None
         if tty and total_s > 0:
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
