@@ -119,6 +119,35 @@ def run(
 
 
 @app.command()
+def model(
+    overrides: Overrides = None,
+    save_calibration: Annotated[
+        bool,
+        typer.Option(
+            "--save-calibration",
+            help="Record the calibrated values as the config option tasks=calibrated (conf/tasks/).",
+        ),
+    ] = False,
+    progress: Annotated[
+        Optional[bool],
+        typer.Option(
+            "--progress/--no-progress",
+            help="Show progress (default: when stdout is a terminal).",
+            show_default=False,
+        ),
+    ] = None,
+) -> None:
+    """Measure c_i(n) in the simulator and apply the TAVC model: slot values, predicted
+    allocation, constraints (1.3)/(1.4) and calibrated task values."""
+    with _user_errors():
+        _model(
+            overrides=overrides or [],
+            save=save_calibration,
+            progress=sys.stdout.isatty() if progress is None else progress,
+        )
+
+
+@app.command()
 def bench(
     json_output: Annotated[
         bool, typer.Option("--json", help="Print one JSON object and nothing else.")
@@ -204,15 +233,35 @@ def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
 
 
 def _print_summary(summary: dict[str, Any]) -> None:
-    """Print where results went, how many trials ran, and any summary tables."""
+    """Print where results went, how many trials ran, and the state and performance summary."""
     n_trials, n_reused = summary["n_trials"], summary["n_reused"]
     typer.echo(f"results: {summary['output_dir']}")
     typer.echo(
         f"trials: {n_trials} ({n_reused} reused) in {summary['wall_time_s']:.1f} s wall time"
     )
-    for name, table in (summary.get("tables") or {}).items():
-        typer.echo(f"\n{name}")
-        typer.echo(table.to_string(index=False))
+    tables = summary.get("tables") or {}
+    if "state_time" in tables and len(tables["state_time"]):
+        from tavc_cli.analysis.summary import state_table_text
+
+        typer.echo("\n% of the stable period in each state (mean +- std over trials)")
+        typer.echo(state_table_text(tables["state_time"]))
+    if "performance" in tables and len(tables["performance"]):
+        perf = tables["performance"].groupby("controller", sort=False)["mean"].mean()
+        typer.echo("\nscore value delivered per second, whole run: "
+                   + ", ".join(f"{c} {v:.4f}" for c, v in perf.items()))
+
+
+def _model(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
+    """Measure, predict and calibrate; print the model's summary."""
+    cfg = config.load_config(overrides)
+    from tavc_cli.model.api import run_model, save_calibration
+    from tavc_cli.model.report import model_text
+
+    result = run_model(cfg, progress=progress)
+    typer.echo(model_text(result))
+    if save:
+        path = save_calibration(result, config.find_conf_dir() / "tasks")
+        typer.echo(f"calibrated values saved as {path}")
 
 
 def _bench(

@@ -276,6 +276,17 @@ class AnalysisConfig:
 
 
 @dataclass
+class ModelConfig:
+    """How `tavc model` measures task-processing frequencies (times scale with `scale`)."""
+
+    trials_per_split: int = 4
+    warmup_s: float = 300.0
+    measure_s: float = 3000.0
+    confidence: float = 0.9
+    max_robots: Optional[int] = None
+
+
+@dataclass
 class TavcConfig:
     """The whole configuration, as composed from conf/config.yaml."""
 
@@ -301,6 +312,7 @@ class TavcConfig:
     events: EventsConfig = field(default_factory=EventsConfig)
     sim: SimConfig = field(default_factory=SimConfig)
     analysis: AnalysisConfig = field(default_factory=AnalysisConfig)
+    model: ModelConfig = field(default_factory=ModelConfig)
 
 
 # --------------------------------------------------------------------------------------------
@@ -774,6 +786,17 @@ def _validate(cfg: DictConfig) -> None:
     _validate_executor(cfg.executor)
     _one_of("analysis.state", cfg.analysis.state, ANALYSIS_STATES)
     _positive("analysis.performance_bin_s", cfg.analysis.performance_bin_s)
+    _validate_model(cfg.model)
+
+
+def _validate_model(model: DictConfig) -> None:
+    """Measurement settings of the TAVC model."""
+    _at_least("model.trials_per_split", model.trials_per_split, 2)
+    _at_least("model.warmup_s", model.warmup_s, 0)
+    _positive("model.measure_s", model.measure_s)
+    _check(0 < model.confidence < 1, "model.confidence", f"must be in (0, 1), got {model.confidence!r}")
+    if model.max_robots is not None:
+        _at_least("model.max_robots", model.max_robots, 1)
 
 
 def _validate_arena(arena: DictConfig) -> None:

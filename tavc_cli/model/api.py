@@ -1,0 +1,169 @@
+"""`tavc model`: measure the simulator, apply the TAVC model, write model.csv and model.json."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from tavc_cli.errors import TavcError
+from tavc_cli.io import write_text_atomic
+from tavc_cli.model import core
+from tavc_cli.model.measure import measure
+
+_TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
+
+
+def _scaled_measurement(cfg: Mapping) -> tuple[int, float, float]:
+    """Trials per split and times, shrunk by the chosen scale like every other run."""
+    m, scale = cfg["model"], cfg["scale"]
+    trials = int(m["trials_per_split"])
+    if scale.get("trials"):
+        trials = max(2, min(trials, int(scale["trials"])))
+    factor = float(scale["time_factor"])
+    return trials, float(m["warmup_s"]) * factor, float(m["measure_s"]) * factor
+
+
+def team_sizes(n_robots: int, values) -> tuple[int, int]:
+    """(N, N') where N' is the team the vacancy constraint (1.4) is checked on: one robot
+    fewer when N robots split evenly (6 -> 5, as after the chapter's breakdown), else N."""
+    intended = core.intended_split(n_robots, values)
+    balanced = len(set(intended)) == 1
+    return n_robots, (n_robots - 1 if balanced and n_robots > 1 else n_robots)
+
+
+def predictions(table: core.CTable, n_robots: int, values) -> dict:
+    pred = core.predicted_split(table, n_robots, values)
+    opt = core.optimal_split(table, n_robots, values)
+    fill = core.slot_fill(table, n_robots, values)
+    eq = core.equilibria(table, n_robots, values)
+    return {
+        "n_robots": n_robots,
+        "predicted_state": core.state_label(pred, values),
+        "optimal_state": core.state_label(opt, values),
+        "slot_fill_state": core.state_label(fill, values),
+        "equilibria": [core.state_label(n, values) for n in eq],
+        "predictions_differ": pred != opt,
+        "total_value_per_s": {core.state_label(n, values): core.total_value(table, n, values)
+                              for n in core.splits(n_robots, table.n_circuits)},
+    }
+
+
+def constraints(table: core.CTable, n_robots: int, values) -> dict:
+    """The chapter's (1.3) and (1.4) for two circuits; empty otherwise."""
+    if table.n_circuits != 2:
+        return {}
+    n, n_vac = team_sizes(n_robots, values)
+    high = int(np.argmax(values))
+    m = max(core.intended_split(n, values))
+    m_vac = max(core.intended_split(n_vac, values))
+    return {"1.3": core.constraint_1_3(table, n, values, m),
+            "1.4": core.constraint_1_4(table, n_vac, values, m_vac, high)}
+
+
+def table_rows(table: core.CTable, values, time_unit_s: float) -> pd.DataFrame:
+    rows = []
+    for n, cells in sorted(table.cells.items(), key=lambda kv: (sum(kv[0]), [-v for v in kv[0]])):
+        for i, cell in enumerate(cells):
+            rows.append({
+                "split": ":".join(map(str, n)), "state": core.state_label(n, values), "n_robots": sum(n),
+                "circuit": i, "n_on_circuit": n[i], "c_per_s": cell.c, "c_lo": cell.c_lo, "c_hi": cell.c_hi,
+                "task_time_s": cell.t, "t_lo": cell.t_lo, "t_hi": cell.t_hi,
+                "reward_per_task": core.reward_rate(table, n, i, values, time_unit_s) if n[i] else math.nan,
+                "slot_value": core.slot_value(table, n, i, values), "n_trials": cell.n_trials,
+            })
+    return pd.DataFrame(rows)
+
+
+def run_model(cfg, *, progress: bool = False) -> dict:
+    """Measure c_i(n), t_i(n) for all splits up to the team size, then predict and calibrate."""
+    from tavc_cli.config import to_container
+
+    plain = to_container(cfg) if not isinstance(cfg, dict) else cfg
+    k = len(plain["arena"]["circuits"])
+    if k < 2:
+        raise TavcError("arena: the TAVC model needs at least two circuits to allocate robots between")
+    n_robots = int(plain["model"]["max_robots"] or plain["team"]["n_robots"])
+    values = [float(v) for v in plain["tasks"]["values"]]
+    time_unit_s = _TIME_UNITS_S[plain["tasks"]["time_unit"]]
+    trials, warmup_s, measure_s = _scaled_measurement(plain)
+    out_dir = Path(plain["output_dir"]) / "model"
+    table, n_reused = measure(plain, out_dir, n_max=n_robots, trials=trials, warmup_s=warmup_s,
+                              measure_s=measure_s, confidence=float(plain["model"]["confidence"]),
+                              n_jobs=int(plain["executor"]["n_jobs"]), progress=progress)
+    n, n_vac = team_sizes(n_robots, values)
+    result = {
+        "arena": plain["arena"]["name"], "n_robots": n_robots, "n_circuits": k,
+        "values": values, "time_unit": plain["tasks"]["time_unit"],
+        "high_circuit": int(np.argmax(values)),
+        **predictions(table, n, values),
+        "by_team_size": {str(m): predictions(table, m, values) for m in sorted({n, n_vac})},
+        "constraints": constraints(table, n, values),
+        "measurement": {"trials_per_split": trials, "warmup_s": warmup_s, "measure_s": measure_s,
+                        "confidence": float(plain["model"]["confidence"]), "n_trials_reused": n_reused,
+                        "robot_speed_mps": float(plain["robot"]["speed_mps"])},
+    }
+    if k == 2:
+        targets = [(m, core.intended_split(m, [2.0, 1.0])) for m in sorted({n, n_vac}, reverse=True)]
+        cal = core.calibrate(table, targets, low_value=min(values), high=0)
+        if cal["feasible"]:
+            cal_values = cal["values"]
+            cal["predicted_state"] = predictions(table, n, cal_values)["predicted_state"]
+            cal["by_team_size"] = {str(m): predictions(table, m, cal_values) for m in sorted({n, n_vac})}
+            cal["constraints"] = constraints(table, n, cal_values)
+        result["calibration"] = cal
+    frame = table_rows(table, values, time_unit_s)
+    write_text_atomic(out_dir / "model.csv", frame.to_csv(index=False, float_format="%.6g"))
+    write_text_atomic(out_dir / "model.json", json.dumps(_finite(result), indent=2))
+    return {"output_dir": str(out_dir), "model": result, "table": frame, "n_reused": n_reused}
+
+
+def _finite(obj):
+    """JSON has no inf/nan: write them as null."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, (np.floating, np.integer, np.bool_)):
+        return _finite(obj.item())
+    return obj
+
+
+def save_calibration(result: dict, tasks_dir: Path) -> Path:
+    """Record calibrated task values as the `tasks=calibrated` config option.
+
+    Writes `calibrated.yaml` and, under `calibration/`, the model output it came from,
+    so the values in conf/ always travel with the measurements that justify them.
+    """
+    m = result["model"]
+    cal = m.get("calibration")
+    if not cal or not cal["feasible"]:
+        raise TavcError("model: no feasible calibration to save (see the constraints in model.json)")
+    stem = f"{m['arena']}_{m['n_robots']}robots"
+    out_dir = Path(result["output_dir"])
+    record_dir = tasks_dir / "calibration"
+    for name in ("model.json", "model.csv"):
+        write_text_atomic(record_dir / f"{stem}_{name}", (out_dir / name).read_text())
+    lo, hi = cal["ratio_interval"]
+    rlo, rhi = cal["robust_ratio_interval"]
+    text = (
+        f"# Task values calibrated in tavc's own simulator by `tavc model` ({m['arena']},\n"
+        f"# {m['n_robots']} robots, {m['measurement']['trials_per_split']} static trials per split of "
+        f"{m['measurement']['measure_s']:g} s):\n"
+        f"# the values under which {' and '.join(str(t['split']) for t in cal['targets'])} are the individual\n"
+        f"# equilibria. Feasible w_high / w_low: [{lo:.4f}, {hi:.4f}]; robust to the measurement\n"
+        f"# intervals: [{rlo:.4f}, {rhi:.4f}] ({'non-empty' if cal['robust'] else 'empty'}).\n"
+        f"# Model output: calibration/{stem}_model.json and .csv beside this file.\n"
+        f"values: [{float(cal['values'][0])}, {float(cal['values'][1])}]\n"
+        "score_values: [10.0, 1.0]\n"
+        f"time_unit: {m['time_unit']}\n"
+    )
+    path = tasks_dir / "calibrated.yaml"
+    write_text_atomic(path, text)
+    return path

@@ -1,0 +1,53 @@
+"""A readable summary of a `tavc model` result for the terminal."""
+
+from __future__ import annotations
+
+import math
+
+
+def _fmt(x: float, spec: str = ".4g") -> str:
+    return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
+
+
+def model_text(result: dict) -> str:
+    """Per split of the full team: c_i, t_i and reward per task by circuit, total value, and
+    which splits are individual equilibria; then predictions, constraints and calibration."""
+    m = result["model"]
+    frame = result["table"]
+    n = m["n_robots"]
+    values = m["values"]
+    eq = set(m["equilibria"])
+    lines = [f"TAVC model: {m['arena']}, {n} robots, task values {values} (t in {m['time_unit']})",
+             f"written to {result['output_dir']} ({result['n_reused']} measurement trials reused)", ""]
+    full = frame[frame["n_robots"] == n]
+    head = f"{'state':>7}  {'circuit':>7}  {'robots':>6}  {'c (1/s)':>9}  {'90% CI':>19}  {'t (s)':>7}  " \
+           f"{'w/t':>9}  {'slot value':>10}"
+    lines.append(head)
+    for state, rows in full.groupby("state", sort=False):
+        mark = "  <- equilibrium" if state in eq else ""
+        for k, r in enumerate(rows.itertuples()):
+            ci = f"[{_fmt(r.c_lo)}, {_fmt(r.c_hi)}]"
+            lines.append(f"{state if k == 0 else '':>7}  {r.circuit:>7}  {r.n_on_circuit:>6}  {_fmt(r.c_per_s):>9}  "
+                         f"{ci:>19}  {_fmt(r.task_time_s, '.1f'):>7}  {_fmt(r.reward_per_task):>9}  "
+                         f"{_fmt(r.slot_value):>10}" + (mark if k == 0 else ""))
+    lines += ["",
+              f"individual equilibrium (predicted): {m['predicted_state']}   "
+              f"value-maximising optimum: {m['optimal_state']}   slot filling: {m['slot_fill_state']}"]
+    if m["predictions_differ"]:
+        lines.append("the learners' predicted allocation differs from the model's optimum")
+    for size, p in m["by_team_size"].items():
+        if int(size) != n:
+            lines.append(f"with {size} robots: predicted {p['predicted_state']}, optimum {p['optimal_state']}")
+    for name, c in m.get("constraints", {}).items():
+        lines.append(f"constraint ({name}) with {c['n_robots']} robots: {'holds' if c['holds'] else 'fails'}")
+    cal = m.get("calibration")
+    if cal:
+        lo, hi = cal["ratio_interval"]
+        if cal["feasible"]:
+            lines.append(f"calibrated values {cal['values']} (w_high / w_low in [{_fmt(lo)}, {_fmt(hi)}], "
+                         f"robust to the 90% intervals: {'yes' if cal['robust'] else 'no'}); "
+                         f"predicted then: {cal['predicted_state']}")
+        else:
+            lines.append(f"no task values make {[t['split'] for t in cal['targets']]} the equilibria "
+                         f"(w_high / w_low would need to lie in [{_fmt(lo)}, {_fmt(hi)}])")
+    return "\n".join(lines)

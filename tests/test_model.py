@@ -1,0 +1,124 @@
+"""The TAVC model on hand-made tables, and one small real measurement end to end."""
+
+import json
+import math
+
+import pytest
+
+from tavc_cli.config import load_config
+from tavc_cli.model import core
+from tavc_cli.model.api import run_model
+
+
+def table_from(c_and_t: dict) -> core.CTable:
+    """{split: ((c_0, t_0), (c_1, t_1))} -> CTable."""
+    table = core.CTable(2)
+    for n, cells in c_and_t.items():
+        table.cells[n] = tuple(core.Cell(c=c, t=t) for c, t in cells)
+    return table
+
+
+INF = math.inf
+# Two robots, equal values. Circuit 0 crowds badly: two robots on it deliver 0.12/s
+# together (each robot's cycle 2 / 0.12 = 16.67 s), one alone 0.1/s (10 s). Circuit 1
+# is slow: one robot 0.05/s (20 s), two 0.06/s (33.3 s).
+TRAGEDY = table_from({
+    (1, 0): ((0.10, 10.0), (0.0, INF)),
+    (0, 1): ((0.0, INF), (0.05, 20.0)),
+    (2, 0): ((0.12, 2 / 0.12), (0.0, INF)),
+    (1, 1): ((0.10, 10.0), (0.05, 20.0)),
+    (0, 2): ((0.0, INF), (0.06, 2 / 0.06)),
+})
+
+
+def test_slot_values_follow_equation_1_2():
+    w = [1.0, 1.0]
+    # s_0((1,0)) = w_0 (c_0(2,0) - c_0(1,0)) = 0.12 - 0.10 = 0.02
+    assert core.slot_value(TRAGEDY, (1, 0), 0, w) == pytest.approx(0.02)
+    # s_1((1,0)) = w_1 (c_1(1,1) - c_1(1,0)) = 0.05 - 0 = 0.05
+    assert core.slot_value(TRAGEDY, (1, 0), 1, w) == pytest.approx(0.05)
+    # scaled by the value: w_0 = 10 -> 0.2
+    assert core.slot_value(TRAGEDY, (1, 0), 0, [10.0, 1.0]) == pytest.approx(0.2)
+    # a split beyond the table has no slot value
+    assert math.isnan(core.slot_value(TRAGEDY, (2, 0), 0, w))
+
+
+def test_optimum_and_individual_equilibrium_differ_when_crowding_pays_individually():
+    w = [1.0, 1.0]
+    # total value: (2,0) 0.12, (1,1) 0.10 + 0.05 = 0.15, (0,2) 0.06 -> optimum (1,1)
+    assert core.optimal_split(TRAGEDY, 2, w) == (1, 1)
+    assert core.slot_fill(TRAGEDY, 2, w) == (1, 1)
+    # in (1,1) the robot on circuit 1 earns 1/20 = 0.05 and would earn 1/16.67 = 0.06 on
+    # circuit 0, so it moves; in (2,0) a robot moving to circuit 1 would drop to 1/20
+    assert not core.is_equilibrium(TRAGEDY, (1, 1), w)
+    assert core.is_equilibrium(TRAGEDY, (2, 0), w)
+    assert core.equilibria(TRAGEDY, 2, w) == [(2, 0)]
+    assert core.predicted_split(TRAGEDY, 2, w) == (2, 0)
+
+
+def test_state_label_puts_the_high_value_circuit_first():
+    assert core.state_label((2, 4), [2200, 2000]) == "2:4"
+    assert core.state_label((2, 4), [2000, 2200]) == "4:2"
+    assert core.intended_split(6, [2200, 2000]) == (3, 3)
+    assert core.intended_split(5, [2200, 2000]) == (3, 2)
+    assert core.intended_split(5, [2000, 2200]) == (2, 3)
+
+
+def crowding_table(n_max: int) -> core.CTable:
+    """Task time grows with the robots on the same circuit only: t(k) = 60 (1 + 0.3 (k - 1))."""
+    def t(k):
+        return 60.0 * (1 + 0.3 * (k - 1))
+
+    table = core.CTable(2)
+    for n in core.splits_up_to(n_max, 2):
+        table.cells[n] = tuple(core.Cell(c=(k / t(k) if k else 0.0), t=(t(k) if k else INF), t_lo=t(k) * 0.99,
+                                         t_hi=t(k) * 1.01) for k in n)
+    return table
+
+
+def test_calibration_makes_3_3_and_3_2_the_equilibria_and_meets_1_3_and_1_4():
+    table = crowding_table(6)
+    # t(2)=78, t(3)=96, t(4)=114. With rho = w_high / w_low:
+    # 6 robots at 3:3: high stays iff rho/96 >= 1/114 (rho >= 0.842); low stays iff rho <= 114/96 = 1.1875
+    # 5 robots at 3:2: high stays iff rho/96 >= 1/96 (rho >= 1); low stays iff rho <= 114/78 = 1.4615
+    # feasible [1, 1.1875]; geometric middle sqrt(1.1875) = 1.0897 -> w_high = round(2000 * 1.0897) = 2179
+    cal = core.calibrate(table, [(6, (3, 3)), (5, (3, 2))], low_value=2000.0)
+    assert cal["feasible"]
+    assert cal["ratio_interval"] == pytest.approx([1.0, 114 / 96])
+    assert cal["values"] == [2179, 2000.0]
+    w = cal["values"]
+    assert core.equilibria(table, 6, w) == [(3, 3)]
+    assert core.predicted_split(table, 5, w) == (3, 2)
+    assert core.constraint_1_3(table, 6, w, 3)["holds"]
+    assert core.constraint_1_4(table, 5, w, 3, preferred=0)["holds"]
+    # the chapter's literal 2200/2000 (rho 1.1) also lies inside; 2400/2000 (rho 1.2) does not
+    assert core.constraint_1_3(table, 6, [2200, 2000], 3)["holds"]
+    assert not core.constraint_1_3(table, 6, [2400, 2000], 3)["holds"]
+
+
+def test_calibration_reports_infeasible_targets():
+    table = crowding_table(6)
+    # 4:2 and 3:3 cannot both be equilibria of six robots: at 4:2 a high robot stays only
+    # if rho / t(4) >= 1 / t(3), rho >= 114/96; at 3:3 a low robot stays only if
+    # 1 / t(3) >= rho / t(4), rho <= 114/96. The interval shrinks to a point: no margin.
+    cal = core.calibrate(table, [(6, (4, 2)), (6, (3, 3))], low_value=2000.0)
+    assert not cal["feasible"]
+    assert math.isnan(cal["ratio"])
+
+
+def test_model_smoke_measurement_end_to_end(tmp_path):
+    cfg = load_config(["arena=two_circuits", "team.n_robots=3", "scale=smoke", f"output_dir={tmp_path}",
+                       "model.trials_per_split=2", "model.measure_s=3000", "tasks.values=[2200,2000]"])
+    result = run_model(cfg)
+    model_json = json.loads((tmp_path / "model" / "model.json").read_text())
+    assert model_json["n_robots"] == 3
+    assert model_json["predicted_state"] in {"3:0", "2:1", "1:2", "0:3"}
+    assert set(model_json["by_team_size"]) == {"3"}
+    csv = (tmp_path / "model" / "model.csv").read_text().splitlines()
+    assert csv[0].startswith("split,state,n_robots,circuit,n_on_circuit,c_per_s")
+    # splits of 1..3 robots over 2 circuits: 2 + 3 + 4 = 9 splits, 2 rows each
+    assert len(csv) - 1 == 18
+    # a rerun measures nothing again
+    again = run_model(cfg)
+    assert again["n_reused"] == 9 * 2
+    assert again["model"]["predicted_state"] == result["model"]["predicted_state"]
