@@ -69,6 +69,19 @@ def test_default_config_composes():
 # ------------------------------------------------------------------------------ resolution
 
 
+def calibrated_values() -> list[float]:
+    """The experiments' default task values, as recorded by `tavc model --save-calibration`."""
+    text = (find_conf_dir() / "tasks" / "calibrated.yaml").read_text()
+    return list(yaml.safe_load(text)["values"])
+
+
+def test_chapter_values_are_one_override_away():
+    cfg = load_config(["experiment=breakdown", "tasks=chapter"])
+    assert list(cfg.tasks["values"]) == [2200.0, 2000.0]
+    cfg = load_config(["experiment=breakdown", "tasks.values=[2200,2000]"])
+    assert list(cfg.tasks["values"]) == [2200.0, 2000.0]
+
+
 def test_breakdown_at_quick_scale_resolves_by_hand():
     cfg = load_config(["experiment=breakdown", "scale=quick"])
     assert cfg.trials == 6  # min(scale 6, paper 20)
@@ -79,7 +92,7 @@ def test_breakdown_at_quick_scale_resolves_by_hand():
     assert cfg.events.breakdowns[0].time_s == 0.0
     assert cfg.events.breakdowns[0].circuit == "high"
     assert cfg.output_dir == "results/breakdown"
-    assert list(cfg.tasks["values"]) == [2200.0, 2000.0]
+    assert list(cfg.tasks["values"]) == calibrated_values()
     assert list(cfg.tasks.score_values) == [10.0, 1.0]
 
 
@@ -113,7 +126,8 @@ def test_event_times_and_warmup_scale_with_time_factor():
     assert cfg.sim.warmup_s == 36000 * 0.25
     assert cfg.events.breakdowns[0].time_s == -18000 * 0.25
     assert cfg.events.value_changes[0].time_s == 0.0
-    assert list(cfg.events.value_changes[0]["values"]) == [2000.0, 2200.0]
+    high, low = calibrated_values()
+    assert list(cfg.events.value_changes[0]["values"]) == [low, high]  # swapped
 
 
 def test_explicit_values_beat_derived_ones():
@@ -222,7 +236,7 @@ def test_errors_read_exactly(overrides, message):
         (["robot.laser.n_rays=0"], "robot.laser.n_rays"),
         (["robot.laser.fov_deg=400"], "robot.laser.fov_deg"),
         (["robot.laser.range_m=0"], "robot.laser.range_m"),
-        (["arena.targets.0.x=4"], "arena.targets[0]"),
+        (["arena=one_circuit", "arena.targets.0.x=4"], "arena.targets[0]"),
         (["arena.circuits.0.source=nowhere"], "arena.circuits[0].source"),
         (["arena.circuits.0.source=sink"], "arena.circuits[0].source"),
         (["arena=two_circuits", "arena.targets.1.barcode=11"], "arena.targets"),
