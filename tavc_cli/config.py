@@ -117,7 +117,7 @@ class CameraConfig:
 
     fov_deg: float = 80.0
     range_m: float = 6.0
-    marking_half_width_deg: float = 50.0
+    side_sector_deg: float = 112.5
 
 
 @dataclass
@@ -139,6 +139,9 @@ class BehaviourConfig:
     wall_dist_m: float = 0.5
     visible_margin_m: float = 0.5
     relocalise_dist_m: float = 2.0
+    stall_s: float = 20.0
+    progress_m: float = 0.3
+    escape_s: float = 15.0
 
 
 @dataclass
@@ -877,10 +880,11 @@ def _validate_robot(robot: DictConfig) -> None:
     _positive("robot.laser.range_m", robot.laser.range_m)
     _angle("robot.camera.fov_deg", robot.camera.fov_deg, 360.0)
     _positive("robot.camera.range_m", robot.camera.range_m)
-    _angle("robot.camera.marking_half_width_deg", robot.camera.marking_half_width_deg, 180.0)
+    _angle("robot.camera.side_sector_deg", robot.camera.side_sector_deg, 180.0)
     for name, value in robot.odometry.items():
         _at_least(f"robot.odometry.{name}", value, 0)
-    for name in ("avoid_dist_m", "arrive_dist_m", "wall_dist_m", "relocalise_dist_m"):
+    for name in ("avoid_dist_m", "arrive_dist_m", "wall_dist_m", "relocalise_dist_m", "stall_s", "escape_s",
+                 "progress_m"):
         _positive(f"robot.behaviour.{name}", robot.behaviour[name])
     for name in ("stop_dist_m", "visible_margin_m"):
         _at_least(f"robot.behaviour.{name}", robot.behaviour[name], 0)
@@ -1024,3 +1028,5 @@ def _validate_executor(executor: DictConfig) -> None:
     _one_of("executor.backend", executor.backend, BACKENDS)
     _at_least("executor.n_jobs", executor.n_jobs, 1)
     _at_least("executor.batch_size", executor.batch_size, 1)
+    _check(executor.batch_size <= 32, "executor.batch_size",
+           f"must be at most 32 (one collision-filter bit per trial), got {executor.batch_size}")

@@ -15,8 +15,15 @@ from tavc_cli.experiments.records import TrialRecord
 
 
 def value_rate_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: float) -> tuple[np.ndarray, np.ndarray]:
-    """(bin centres, score value delivered per second in each bin) for one trial."""
-    edges = np.arange(t_from, t_to + 1e-9, bin_s)
+    """(bin centres, score value delivered per second in each bin) for one trial.
+
+    Bins are `bin_s` wide from `t_from`; time left over at the end forms a last, shorter bin
+    (its rate is still per second), so no delivery before `t_to` goes uncounted.
+    """
+    n_full = int(np.floor((t_to - t_from) / bin_s + 1e-9))
+    edges = t_from + bin_s * np.arange(n_full + 1)
+    if t_to - edges[-1] > 1e-9 * max(1.0, abs(t_to)):
+        edges = np.append(edges, t_to)
     if len(edges) < 2:
         edges = np.array([t_from, t_to])
     d = rec.table("deliveries")

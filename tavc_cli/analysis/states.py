@@ -148,7 +148,9 @@ def state_time_table(records: Iterable[TrialRecord], t_from: float, t_to: float,
     """`state,controller,mean_pct,std_pct,n_trials` over trials, plus `theory` rows.
 
     Every possible state of the team that is working at the end appears, with 0 %
-    where it never occurred. The std is the sample standard deviation over trials.
+    where it never occurred. The std is the sample standard deviation over trials;
+    a trial whose state is never defined in the window (a robot that never reached
+    a target) is left out, and `n_trials` counts the trials used.
     """
     records = list(records)
     if not records:
@@ -162,7 +164,9 @@ def state_time_table(records: Iterable[TrialRecord], t_from: float, t_to: float,
     states = all_states(n_live, n_c, scheme, sizes)
     by_ctrl: dict[str, list[dict[str, float]]] = {}
     for rec in records:
-        by_ctrl.setdefault(rec.meta["controller"], []).append(time_shares(rec, t_from, t_to, scheme))
+        shares = time_shares(rec, t_from, t_to, scheme)
+        if shares:  # a trial with no defined state in the window has nothing to say
+            by_ctrl.setdefault(rec.meta["controller"], []).append(shares)
     rows = []
     for ctrl, shares in by_ctrl.items():
         extra = sorted({s for sh in shares for s in sh} - set(states))

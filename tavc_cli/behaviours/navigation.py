@@ -13,6 +13,8 @@ top of obstacle avoidance:
   estimate is judged wrong and the robot follows the wall until it reads a
   bar-code close by, which resets its localisation (the bar-code reader gives
   range, bearing and orientation, as Stage's fiducial finder did);
+- escape: a robot that has made no progress toward its goal for a while follows
+  the wall for a while, which frees it from dead ends;
 - stopping: stand still (a behaviour a learner may pick, section 1.4.2).
 
 `forced` selects a behaviour from outside (a learner choosing behaviours,
@@ -38,17 +40,21 @@ from tavc_cli.sim.sensors import (
 )
 
 # columns of the integer robot state
-I_TRIAL, I_ALIVE, I_TARGET, I_MODE, I_SIDE, I_FORCED, I_ARRIVED, I_TVIS, I_LO, I_HI, I_TURN = range(11)
-N_ISTATE = 11
+I_TRIAL, I_ALIVE, I_TARGET, I_MODE, I_SIDE, I_FORCED, I_ARRIVED, I_TVIS, I_LO, I_HI, I_TURN, I_LASTTGT = range(12)
+N_ISTATE = 12
+# columns of the per-robot float state: best distance to the goal so far, seconds
+# without progress, seconds of escape left
+FS_BEST, FS_STALL, FS_ESCAPE = range(3)
+N_FSTATE = 3
 # columns of the per-robot float parameters
 F_RADIUS, F_VMAX, F_WMAX, F_SIG_T, F_SIG_RM, F_SIG_RR = range(6)
 N_FPARAM = 6
 # global behaviour and sensor parameters
 (G_AVOID, G_STOP, G_ARRIVE, G_WALLD, G_VISMARGIN, G_RELOC, G_RANGE,
- G_CAM_FOV_HALF, G_CAM_RANGE, G_MARK_HALF, G_BARCODE_W) = range(11)
-N_GPARAM = 11
+ G_CAM_FOV_HALF, G_CAM_RANGE, G_SIDE_SECTOR, G_BARCODE_W, G_STALL_S, G_ESCAPE_S, G_PROGRESS_M, G_DT) = range(15)
+N_GPARAM = 15
 
-MODE_APPROACH, MODE_WALLFOLLOW = 0, 1
+MODE_APPROACH, MODE_WALLFOLLOW, MODE_ESCAPE = 0, 1, 2
 BEH_AUTO, BEH_DIRECT, BEH_WALL, BEH_STOP = -1, 0, 1, 2
 _CORRIDOR_MARGIN_M = 0.05
 
@@ -98,7 +104,8 @@ def steer_to(r, bearing, dist, own_barcode, istate, ranges, kinds, ids, pts, ray
         cmd[r, 1] = istate[r, I_TURN] * wmax
         return
     spacing = (ray_ang[n - 1] - ray_ang[0]) / max(n - 1, 1)
-    need = min(avoid, max(dist - radius, stop))
+    # the robot only has to get within reading range of its goal
+    need = min(avoid, max(dist - gp[G_ARRIVE], stop))
     heading = np.nan
     free = free_distance(r, bearing, radius, pts, kinds, ids, own_barcode)
     if free >= need:
@@ -184,7 +191,35 @@ def should_see_target(r, est, tx, ty, nx, ny, ranges, kinds, ray_ang, gp):
 
 
 @njit(cache=True)
-def behave(r, pose, est, istate, fparam, gp, ray_ang, tinfo, ranges, kinds, ids, pts, cmd):
+def track_progress(r, goal_dist, bearing, istate, fstate, gp):
+    """Escape from dead ends: after `stall` seconds without getting `progress` metres
+    closer to the goal, follow the wall (on the side toward the goal) for `escape`
+    seconds. Behaviour-based robots need such a rule: approach and avoidance alone
+    can trap a robot in a corner by its goal or two robots in each other's way."""
+    if istate[r, I_TARGET] != istate[r, I_LASTTGT]:
+        istate[r, I_LASTTGT] = istate[r, I_TARGET]
+        fstate[r, FS_BEST] = np.inf
+        fstate[r, FS_STALL] = 0.0
+    if goal_dist < fstate[r, FS_BEST] - gp[G_PROGRESS_M]:
+        fstate[r, FS_BEST] = goal_dist
+        fstate[r, FS_STALL] = 0.0
+    else:
+        fstate[r, FS_STALL] += gp[G_DT]
+    if istate[r, I_MODE] == MODE_ESCAPE:
+        fstate[r, FS_ESCAPE] -= gp[G_DT]
+        if fstate[r, FS_ESCAPE] <= 0.0:
+            istate[r, I_MODE] = MODE_APPROACH
+            fstate[r, FS_BEST] = goal_dist
+            fstate[r, FS_STALL] = 0.0
+    elif fstate[r, FS_STALL] > gp[G_STALL_S]:
+        istate[r, I_MODE] = MODE_ESCAPE
+        istate[r, I_SIDE] = -1 if bearing > 0 else 1
+        fstate[r, FS_ESCAPE] = gp[G_ESCAPE_S]
+        fstate[r, FS_STALL] = 0.0
+
+
+@njit(cache=True)
+def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kinds, ids, pts, cmd):
     """Choose robot r's wheel command for this tick and flag arrival at its target."""
     tgt = istate[r, I_TARGET]
     own_barcode = int(tinfo[tgt, 4]) if tgt >= 0 else -999
@@ -204,24 +239,32 @@ def behave(r, pose, est, istate, fparam, gp, ray_ang, tinfo, ranges, kinds, ids,
     if near_min <= gp[G_RELOC]:
         # a bar-code close by gives range, bearing and orientation: localisation resets
         est[r, 0], est[r, 1], est[r, 2] = pose[r, 0], pose[r, 1], pose[r, 2]
-        istate[r, I_MODE] = MODE_APPROACH
+        if istate[r, I_MODE] == MODE_WALLFOLLOW:
+            istate[r, I_MODE] = MODE_APPROACH
     forced = istate[r, I_FORCED]
     if forced == BEH_STOP or tgt < 0:
         cmd[r, 0] = 0.0
         cmd[r, 1] = 0.0
         return
+    tx, ty = tinfo[tgt, 0], tinfo[tgt, 1]
+    dx, dy = tx - est[r, 0], ty - est[r, 1]
+    bearing = wrap_angle(math.atan2(dy, dx) - est[r, 2])
+    est_dist = math.sqrt(dx * dx + dy * dy)
+    if forced == BEH_AUTO:
+        track_progress(r, own_min if own_cnt > 0 else est_dist, bearing, istate, fstate, gp)
+        if istate[r, I_MODE] == MODE_ESCAPE:
+            wall_follow(r, istate[r, I_SIDE], ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
+            return
     if forced == BEH_WALL or (forced == BEH_AUTO and istate[r, I_MODE] == MODE_WALLFOLLOW):
         if own_cnt > 0 and forced == BEH_AUTO:
             istate[r, I_MODE] = MODE_APPROACH  # the target came into view: approach it
         else:
             wall_follow(r, istate[r, I_SIDE], ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
             return
-    tx, ty = tinfo[tgt, 0], tinfo[tgt, 1]
     if own_cnt > 0:
-        steer_to(r, own_sum / own_cnt, own_min, own_barcode, istate, ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
+        steer_to(r, own_sum / own_cnt, own_min, own_barcode, istate, ranges, kinds, ids, pts, ray_ang,
+                 fparam, gp, cmd)
         return
-    dx, dy = tx - est[r, 0], ty - est[r, 1]
-    bearing = wrap_angle(math.atan2(dy, dx) - est[r, 2])
     if forced == BEH_AUTO and should_see_target(r, est, tx, ty, tinfo[tgt, 2], tinfo[tgt, 3],
                                                 ranges, kinds, ray_ang, gp):
         istate[r, I_MODE] = MODE_WALLFOLLOW
@@ -229,12 +272,11 @@ def behave(r, pose, est, istate, fparam, gp, ray_ang, tinfo, ranges, kinds, ids,
         istate[r, I_SIDE] = -1 if bearing > 0 else 1
         wall_follow(r, istate[r, I_SIDE], ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
         return
-    steer_to(r, bearing, math.sqrt(dx * dx + dy * dy), own_barcode, istate, ranges, kinds, ids, pts, ray_ang,
-             fparam, gp, cmd)
+    steer_to(r, bearing, est_dist, own_barcode, istate, ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
 
 
 @njit(cache=True)
-def control_tick(pose, prev_pose, est, noise, istate, fparam, gp, ray_ang, ray_cs, walls, n_outer,
+def control_tick(pose, prev_pose, est, noise, istate, fstate, fparam, gp, ray_ang, ray_cs, walls, n_outer,
                  tsegs, target_wall, tinfo, barcodes, ranges, kinds, ids, pts, cam, cmd):
     """Sense and decide for every live robot: odometry, laser, camera, behaviours.
 
@@ -256,7 +298,7 @@ def control_tick(pose, prev_pose, est, noise, istate, fparam, gp, ray_ang, ray_c
         cast_laser(r, pose, radius, alive, lo, hi, ray_ang, ray_cs, gp[G_RANGE], walls, tsegs, target_wall, barcodes,
                    ranges, kinds, ids, pts)
         camera_nearest(r, pose, radius, alive, lo, hi, gp[G_CAM_FOV_HALF], gp[G_CAM_RANGE], walls,
-                       n_outer, gp[G_MARK_HALF], cam)
-        behave(r, pose, est, istate, fparam, gp, ray_ang, tinfo, ranges, kinds, ids, pts, cmd)
+                       n_outer, gp[G_SIDE_SECTOR], cam)
+        behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kinds, ids, pts, cmd)
         n_arrived += istate[r, I_ARRIVED]
     return n_arrived

@@ -6,10 +6,10 @@ trials; trial j of controller c gets the seed SeedSequence(seed).spawn-key (c, j
 where c is the controller's fixed code below, so adding trials or baselines never
 changes the seeds of the others.
 
-Batches: trials of one controller are advanced together in fixed groups of
-`executor.batch_size` consecutive trial numbers. A trial's batch (and its place in
-the shared physics space) therefore depends on the trial alone, not on how many
-processes run the batches.
+Batches: trials still to run are advanced together in groups of up to
+`executor.batch_size` (one process, one physics space). A trial computes exactly
+what it would compute alone (see `sim.world`), so batching changes speed, never
+results, and neither does the number of processes.
 """
 
 from __future__ import annotations
@@ -25,18 +25,11 @@ _TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
 
 @dataclass(frozen=True)
 class Batch:
-    """Trials advanced together in one process; `key` identifies its outcome."""
+    """Trials advanced together in one process."""
 
     controller: str
     index: int
     specs: tuple[TrialSpec, ...]
-
-    @property
-    def key(self) -> str:
-        import hashlib
-
-        blob = "|".join(s.key() for s in self.specs)
-        return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
     @property
     def sim_seconds(self) -> float:
@@ -102,26 +95,23 @@ def trial_specs(cfg: Mapping) -> list[TrialSpec]:
     """Every trial of every controller, in a fixed order."""
     base = base_spec(cfg)
     seed = int(cfg["seed"])
-    batch_size = int(cfg["executor"]["batch_size"])
     specs = []
     for label, policy, n_trials in controllers(cfg):
         code = CONTROLLER_CODES.get(label, 9)
         for j in range(n_trials):
-            specs.append(replace(base, policy=policy, controller=label, trial=j, seed=(seed, code, j),
-                                 extra={"batch_size": batch_size}))
+            specs.append(replace(base, policy=policy, controller=label, trial=j, seed=(seed, code, j)))
     return specs
 
 
-def batches(cfg: Mapping) -> list[Batch]:
-    """Trials grouped into the fixed batches they are advanced in."""
-    size = int(cfg["executor"]["batch_size"])
+def make_batches(specs: list[TrialSpec], size: int) -> list[Batch]:
+    """Group trials, controller by controller, into batches of at most `size`."""
     by_controller: dict[str, list[TrialSpec]] = {}
-    for spec in trial_specs(cfg):
+    for spec in specs:
         by_controller.setdefault(spec.controller, []).append(spec)
     out = []
-    for label, specs in by_controller.items():
-        for k in range(0, len(specs), size):
-            out.append(Batch(label, k // size, tuple(specs[k:k + size])))
+    for label, group in by_controller.items():
+        for k in range(0, len(group), size):
+            out.append(Batch(label, k // size, tuple(group[k:k + size])))
     return out
 
 

@@ -129,10 +129,16 @@ class BatchEngine:
         self.gp[nav.G_RANGE] = laser["range_m"]
         self.gp[nav.G_CAM_FOV_HALF] = math.radians(float(cam["fov_deg"])) / 2
         self.gp[nav.G_CAM_RANGE] = cam["range_m"]
-        self.gp[nav.G_MARK_HALF] = math.radians(float(cam["marking_half_width_deg"]))
+        self.gp[nav.G_SIDE_SECTOR] = math.radians(float(cam["side_sector_deg"]))
         self.gp[nav.G_BARCODE_W] = self.arena.barcode_width_m
+        self.gp[nav.G_STALL_S] = beh["stall_s"]
+        self.gp[nav.G_ESCAPE_S] = beh["escape_s"]
+        self.gp[nav.G_PROGRESS_M] = beh["progress_m"]
+        self.gp[nav.G_DT] = self.dt
         self.fparam = np.zeros((n, nav.N_FPARAM))
         self.istate = np.zeros((n, nav.N_ISTATE), dtype=np.int64)
+        self.fstate = np.zeros((n, nav.N_FSTATE))
+        self.fstate[:, nav.FS_BEST] = np.inf
         self.pose = np.zeros((n, 3))
         for b, tr in enumerate(self.trials):
             sl = slice(tr.lo, tr.hi)
@@ -148,6 +154,7 @@ class BatchEngine:
             self.istate[sl, nav.I_HI] = tr.hi
             self.istate[sl, nav.I_FORCED] = nav.BEH_AUTO
             self.istate[sl, nav.I_TARGET] = -1
+            self.istate[sl, nav.I_LASTTGT] = -1
             self.pose[sl] = tr.start
         self.est = self.pose.copy()  # robots start localised
         self.prev_pose = self.pose.copy()
@@ -263,7 +270,7 @@ class BatchEngine:
                     self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((_NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
             self.pose[:] = self.world.poses()
             n_arrived = nav.control_tick(self.pose, self.prev_pose, self.est, self.noise[k], self.istate,
-                                         self.fparam,
+                                         self.fstate, self.fparam,
                                          self.gp, self.ray_ang, self.ray_cs, self.walls, 4, self.tsegs,
                                          self.target_wall, self.tinfo, self.barcodes, self.ranges, self.kinds,
                                          self.ids, self.pts, self.cam, self.cmd)

@@ -32,6 +32,22 @@ TABLES = {
 }
 
 
+ARRAY_FIELDS = ("value_changes_t", "value_changes", "q_t", "q", "pose_t", "poses", "pose_alive", "pose_circuit")
+
+
+def records_differ(a: "TrialRecord", b: "TrialRecord") -> list[str]:
+    """Names of everything in which two records differ (empty if identical, bit for bit)."""
+    out = [] if a.meta == b.meta else ["meta"]
+    if a.tables.keys() != b.tables.keys():
+        return [*out, "tables"]
+    for name, cols in a.tables.items():
+        for col, values in cols.items():
+            if col not in b.tables[name] or not np.array_equal(values, b.tables[name][col]):
+                out.append(f"{name}.{col}")
+    out += [name for name in ARRAY_FIELDS if not np.array_equal(getattr(a, name), getattr(b, name))]
+    return out
+
+
 @dataclass
 class TrialRecord:
     """Raw output of one trial; `meta` is JSON-able (spec digest, seed, team, arena...)."""
@@ -58,8 +74,7 @@ class TrialRecord:
         for name, cols in self.tables.items():
             for col, values in cols.items():
                 arrays[f"{name}__{col}"] = values
-        for name in ("value_changes_t", "value_changes", "q_t", "q", "pose_t", "poses", "pose_alive",
-                     "pose_circuit"):
+        for name in ARRAY_FIELDS:
             arrays[name] = getattr(self, name)
         with atomic_path(path) as tmp, open(tmp, "wb") as fh:
             np.savez_compressed(fh, **arrays)
@@ -74,8 +89,7 @@ class TrialRecord:
                     name, col = key.split("__", 1)
                     tables.setdefault(name, {})[col] = data[key]
             rec = cls(meta=meta, tables=tables)
-            for name in ("value_changes_t", "value_changes", "q_t", "q", "pose_t", "poses", "pose_alive",
-                         "pose_circuit"):
+            for name in ARRAY_FIELDS:
                 setattr(rec, name, data[name])
         return rec
 

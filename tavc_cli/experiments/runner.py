@@ -1,10 +1,11 @@
 """Run an experiment's trials: batches over processes, reuse of finished trials, outputs.
 
 `run_experiment` is what `tavc run` calls. It
-1. splits the trials into their fixed batches (see `build`);
-2. skips every batch whose trial files already exist with a matching key, and
-   runs the rest on the chosen executor, each batch writing one file per trial
-   atomically when it finishes (a killed run loses at most the batches in flight);
+1. skips every trial whose file already exists with a matching key (a digest of
+   everything that fixes its outcome, seed included);
+2. groups the rest into batches (see `build`) and runs them on the chosen
+   executor, each batch writing one file per trial atomically when it finishes
+   (a killed run loses at most the batches in flight);
 3. writes `config.yaml`, `provenance.json`, and the shared analysis tables
    (`state_time.csv`, `performance.csv`), each atomically.
 """
@@ -28,9 +29,10 @@ import pandas as pd
 from tavc_cli.analysis.performance import performance_table
 from tavc_cli.analysis.states import state_time_table
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.build import Batch, batches
+from tavc_cli.experiments.build import Batch, make_batches, trial_specs
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.io import write_text_atomic
 
 _PACKAGES = ("numpy", "scipy", "pandas", "pymunk", "numba", "hydra-core", "omegaconf", "typer", "matplotlib")
@@ -43,15 +45,20 @@ def trial_path(out_dir: Path, controller: str, trial: int) -> Path:
 def _stored_key(path: Path) -> str | None:
     try:
         with np.load(path, allow_pickle=False) as data:
-            return json.loads(str(data["meta"])).get("batch_key")
+            return json.loads(str(data["meta"])).get("key")
     except (OSError, ValueError, KeyError):
         return None
 
 
-def batch_done(out_dir: Path, batch: Batch) -> bool:
-    """True if every trial file of the batch exists and was made by this exact batch."""
-    key = batch.key
-    return all(_stored_key(trial_path(out_dir, s.controller, s.trial)) == key for s in batch.specs)
+def trial_done(out_dir: Path, spec: TrialSpec) -> bool:
+    """True if the trial's file exists and was made from this exact spec and seed."""
+    return _stored_key(trial_path(out_dir, spec.controller, spec.trial)) == spec.key()
+
+
+def pending_batches(out_dir: Path, specs: list[TrialSpec], batch_size: int) -> tuple[list[Batch], int]:
+    """Batches of the trials still to run, and how many finished trials are reused."""
+    todo = [s for s in specs if not trial_done(out_dir, s)]
+    return make_batches(todo, batch_size), len(specs) - len(todo)
 
 
 def run_batch(batch: Batch, out_dir: str | Path, report: Callable[[float], None] | None = None) -> float:
@@ -59,8 +66,6 @@ def run_batch(batch: Batch, out_dir: str | Path, report: Callable[[float], None]
     start = time.perf_counter()
     records = run_trials(batch.specs, report)
     for spec, rec in zip(batch.specs, records):
-        rec.meta["batch_key"] = batch.key
-        rec.meta["batch_index"] = batch.index
         rec.save(trial_path(Path(out_dir), spec.controller, spec.trial))
     return time.perf_counter() - start
 
@@ -144,11 +149,11 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None
         prog.close()
 
 
-def load_records(out_dir: Path, plan: list[Batch]) -> list[TrialRecord]:
-    return [TrialRecord.load(trial_path(out_dir, s.controller, s.trial)) for b in plan for s in b.specs]
+def load_records(out_dir: Path, specs: list[TrialSpec]) -> list[TrialRecord]:
+    return [TrialRecord.load(trial_path(out_dir, s.controller, s.trial)) for s in specs]
 
 
-def provenance(cfg: Mapping, plan: list[Batch], wall_time_s: float, n_reused: int) -> dict:
+def provenance(cfg: Mapping, specs: list[TrialSpec], wall_time_s: float, n_reused: int) -> dict:
     """Who, what and where of a run: versions, seeds, command line, machine."""
     from tavc_cli import __version__
 
@@ -166,9 +171,9 @@ def provenance(cfg: Mapping, plan: list[Batch], wall_time_s: float, n_reused: in
         "root_seed": int(cfg["seed"]),
         "batch_size": int(cfg["executor"]["batch_size"]),
         "trials": [
-            {"controller": s.controller, "trial": s.trial, "seed": list(s.seed), "batch": b.index,
+            {"controller": s.controller, "trial": s.trial, "seed": list(s.seed), "key": s.key(),
              "file": str(trial_path(Path("."), s.controller, s.trial))}
-            for b in plan for s in b.specs
+            for s in specs
         ],
         "command_line": sys.argv,
         "wall_time_s": wall_time_s,
@@ -211,20 +216,19 @@ def run_experiment(cfg, *, progress: bool = False) -> dict:
     if backend != "local":
         raise TavcError(f"executor.backend: '{backend}' is not available in this version; use 'local'")
     start = time.perf_counter()
-    plan = batches(plain)
-    pending = [b for b in plan if not batch_done(out_dir, b)]
-    n_total = sum(len(b.specs) for b in plan)
-    n_reused = n_total - sum(len(b.specs) for b in pending)
+    specs = trial_specs(plain)
+    pending, n_reused = pending_batches(out_dir, specs, int(plain["executor"]["batch_size"]))
+    n_total = len(specs)
     if n_reused:
         print(f"reusing {n_reused} of {n_total} finished trials in {out_dir / 'trials'}", flush=True)
     execute(pending, out_dir, int(plain["executor"]["n_jobs"]), progress)
     wall = time.perf_counter() - start
     write_text_atomic(out_dir / "config.yaml", to_yaml(cfg) if not isinstance(cfg, dict) else json.dumps(cfg))
-    records = load_records(out_dir, plan)
+    records = load_records(out_dir, specs)
     tables = analyse(plain, records)
     for name, df in tables.items():
         write_text_atomic(out_dir / f"{name}.csv", df.to_csv(index=False, float_format="%.4f"))
     write_text_atomic(out_dir / "provenance.json",
-                      json.dumps(provenance(plain, plan, wall, n_reused), indent=2, default=str))
+                      json.dumps(provenance(plain, specs, wall, n_reused), indent=2, default=str))
     return {"output_dir": str(out_dir), "n_trials": n_total, "n_reused": n_reused, "wall_time_s": wall,
             "tables": tables}

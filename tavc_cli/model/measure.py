@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from tavc_cli.experiments.build import Batch, base_spec
+from tavc_cli.experiments.build import base_spec
 from tavc_cli.experiments.records import TrialRecord
-from tavc_cli.experiments.runner import batch_done, execute, trial_path
+from tavc_cli.experiments.runner import execute, pending_batches, trial_path
+from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.model.core import Cell, CTable, Split, splits_up_to
 
 MODEL_CONTROLLER_CODE = 10
@@ -30,22 +31,22 @@ def split_name(n: Split) -> str:
     return "split_" + "_".join(str(v) for v in n)
 
 
-def measurement_batches(cfg: Mapping, n_max: int, trials: int, warmup_s: float, measure_s: float) -> list[Batch]:
-    """One batch per split: `trials` static-allocation trials of warm-up plus measurement."""
+def measurement_specs(cfg: Mapping, n_max: int, trials: int, warmup_s: float,
+                      measure_s: float) -> dict[Split, list[TrialSpec]]:
+    """Per split, `trials` static-allocation trials of warm-up plus measurement."""
     base = base_spec(cfg)
     speed = float(cfg["robot"]["speed_mps"])
     k = len(cfg["arena"]["circuits"])
-    out = []
-    for idx, n in enumerate(splits_up_to(n_max, k)):
+    out = {}
+    for n in splits_up_to(n_max, k):
         m = sum(n)
-        specs = tuple(
+        out[n] = [
             replace(base, speeds_mps=(speed,) * m, groups=("all",) * m,
                     policy={"name": "static", "allocation": list(n)}, controller=split_name(n), trial=j,
                     seed=(int(cfg["seed"]), MODEL_CONTROLLER_CODE, *n, j), duration_s=warmup_s + measure_s,
                     warmup_s=0.0, breakdowns=(), value_changes=(), q_snapshot_every_s=0.0, pose_every_s=0.0)
             for j in range(trials)
-        )
-        out.append(Batch(split_name(n), idx, specs))
+        ]
     return out
 
 
@@ -82,13 +83,12 @@ def cells_for(records: list[TrialRecord], n: Split, warmup_s: float, measure_s: 
 def measure(cfg: Mapping, out_dir: Path, *, n_max: int, trials: int, warmup_s: float, measure_s: float,
             confidence: float, n_jobs: int, progress: bool) -> tuple[CTable, int]:
     """Run (or reuse) every split's trials; return the table and how many trials were reused."""
-    plan = measurement_batches(cfg, n_max, trials, warmup_s, measure_s)
-    pending = [b for b in plan if not batch_done(out_dir, b)]
-    n_reused = sum(len(b.specs) for b in plan) - sum(len(b.specs) for b in pending)
+    plan = measurement_specs(cfg, n_max, trials, warmup_s, measure_s)
+    all_specs = [s for specs in plan.values() for s in specs]
+    pending, n_reused = pending_batches(out_dir, all_specs, int(cfg["executor"]["batch_size"]))
     execute(pending, out_dir, n_jobs, progress)
     table = CTable(len(cfg["arena"]["circuits"]))
-    for b in plan:
-        records = [TrialRecord.load(trial_path(out_dir, s.controller, s.trial)) for s in b.specs]
-        n = tuple(b.specs[0].policy["allocation"])
+    for n, specs in plan.items():
+        records = [TrialRecord.load(trial_path(out_dir, s.controller, s.trial)) for s in specs]
         table.cells[n] = cells_for(records, n, warmup_s, measure_s, confidence)
     return table, n_reused

@@ -9,11 +9,10 @@ Laser: each ray returns its range and what it hit (`HIT_*`) with an id (the
 bar-code number for a target, the robot's index for a robot).
 
 Camera: reports which colour markings of the nearest robot in its field of view
-face the camera. A marking is an arc of the observed robot's rim centred on its
-left (red), right (green) or rear (yellow). Seen from distance d, the part of a
-disc of radius R facing the camera is the arc within arccos(R / d) of the
-direction to the camera, so a marking is visible when its arc comes within that
-angle of the camera's bearing.
+can be seen: red on its left, green on its right, yellow at its rear, each seen
+over a sector of bearings around the robot as a ship's lanterns are (the
+chapter's inspiration for them), so a robot seen from ahead shows red and green,
+from behind yellow, from the side its side colour.
 
 Odometry: integrates the robot's true motion as its wheel encoders would see it
 (only the component along its heading: a sideways shove goes unnoticed), with
@@ -105,6 +104,7 @@ def cast_laser(
     full_circle = n > 1 and (ray_ang[n - 1] - a0 + spacing) >= 2.0 * math.pi - 1e-9
     px, py, th = pose[r, 0], pose[r, 1], pose[r, 2]
     c, s = math.cos(th), math.sin(th)
+    half_fov = max(abs(ray_ang[0]), abs(ray_ang[n - 1]))
     # rows 0-3 of `walls` are the outer rectangle (bottom, right, top, left, as the
     # arena builds them): a ray from inside leaves it through exactly one side, found
     # with two divisions; further rows are interior walls, tested in general
@@ -148,6 +148,8 @@ def cast_laser(
         d = math.sqrt(ox * ox + oy * oy)
         if d - radius[o] > max_range or d <= radius[o]:
             continue
+        if not full_circle and half_fov <= math.pi / 2 and ox * c + oy * s < -radius[o]:
+            continue  # wholly behind a laser that sees no further back than its sides
         rel = wrap_angle(math.atan2(oy, ox) - th)
         jlo, jhi = _ray_window(rel, math.asin(radius[o] / d), a0, spacing, n, full_circle)
         for jj in range(jlo, jhi + 1):
@@ -165,20 +167,22 @@ def cast_laser(
 
 
 @njit(cache=True)
-def markings_visible(obs_x, obs_y, ox, oy, oth, o_radius, half_width, out, k):
-    """Set out[k, 0..2] to whether the observed robot's left/right/rear markings face the observer."""
-    dx, dy = obs_x - ox, obs_y - oy
-    d = math.sqrt(dx * dx + dy * dy)
-    # bearing of the observer in the observed robot's frame
-    beta = wrap_angle(math.atan2(dy, dx) - oth)
-    facing = math.acos(min(1.0, o_radius / d)) if d > o_radius else 0.0
-    for m in range(3):
-        gap = abs(wrap_angle(beta - MARKING_ANGLES[m]))
-        out[k, m] = 1 if gap < facing + half_width else 0
+def markings_visible(obs_x, obs_y, ox, oy, oth, side_sector, out, k):
+    """Set out[k, 0..2] to whether the observed robot's red (left), green (right) and
+    yellow (rear) markings can be seen from the observer's position.
+
+    As with a ship's lanterns, which inspired the markings: red shows from dead ahead
+    round the left side to `side_sector` off the bow, green likewise on the right,
+    yellow over the rest of the circle astern.
+    """
+    beta = wrap_angle(math.atan2(obs_y - oy, obs_x - ox) - oth)  # observer's bearing, observed robot's frame
+    out[k, 0] = 1 if 0.0 <= beta <= side_sector else 0
+    out[k, 1] = 1 if -side_sector <= beta <= 0.0 else 0
+    out[k, 2] = 1 if abs(beta) >= side_sector else 0
 
 
 @njit(cache=True)
-def camera_nearest(r, pose, radius, alive, lo, hi, fov_half, max_range, walls, n_outer, half_width, out):
+def camera_nearest(r, pose, radius, alive, lo, hi, fov_half, max_range, walls, n_outer, side_sector, out):
     """Nearest robot in robot r's camera view and its visible markings.
 
     out[r] = (red, green, yellow, index of the seen robot or -1). Interior walls
@@ -191,9 +195,10 @@ def camera_nearest(r, pose, radius, alive, lo, hi, fov_half, max_range, walls, n
             continue
         dx, dy = pose[o, 0] - px, pose[o, 1] - py
         d = math.sqrt(dx * dx + dy * dy)
-        if d >= best:
+        if d >= best or d == 0.0:
             continue
-        if abs(wrap_angle(math.atan2(dy, dx) - th)) > fov_half:
+        # inside the field of view iff the angle to the heading is at most fov_half
+        if (dx * math.cos(th) + dy * math.sin(th)) < d * math.cos(fov_half):
             continue
         blocked = False
         for w in range(n_outer, walls.shape[0]):
@@ -208,8 +213,7 @@ def camera_nearest(r, pose, radius, alive, lo, hi, fov_half, max_range, walls, n
         out[r, 1] = 0
         out[r, 2] = 0
     else:
-        markings_visible(px, py, pose[best_o, 0], pose[best_o, 1], pose[best_o, 2],
-                         radius[best_o], half_width, out, r)
+        markings_visible(px, py, pose[best_o, 0], pose[best_o, 1], pose[best_o, 2], side_sector, out, r)
 
 
 @njit(cache=True)

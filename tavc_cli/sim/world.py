@@ -8,12 +8,13 @@ pushing into another or a wall is therefore stopped by contact forces instead of
 being teleported through it, and the sideways pull of the pivot joint plays the
 part of the wheels' lateral grip.
 
-Several trials share one space, each in its own copy of the arena, side by side
-and far apart, so one `step` call advances them all (the per-call cost is paid
-once per batch, not once per trial). Callers see every trial in its own arena
-coordinates. A trial's copy sits at a place fixed by its slot in the batch, and
-the batch a trial runs in is fixed by the trial alone (see the runner), so a
-seed gives the same trial whatever the number of processes.
+Several trials share one space, so one `step` call advances them all (the
+per-call cost is paid once per batch, not once per trial). Every trial lies at the
+same coordinates, in its own copy of the walls, and collision filters keep trials
+apart: a shape of slot k collides only with shapes of slot k. A trial therefore
+computes with exactly the numbers it would compute alone, and its outcome does not
+depend on which other trials share its batch, nor on its slot (checked bit for bit
+by the tests). A space holds at most `MAX_SLOTS` trials, one filter bit each.
 
 Poses are read and velocities written for all bodies at once with `pymunk.batch`.
 """
@@ -35,15 +36,15 @@ _FIELDS_WRITE = pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
 COLLISION_SLOP_M = 0.002
 WALL_FRICTION = 0.3
 ROBOT_FRICTION = 0.3
-SLOT_GAP_M = 10.0
+MAX_SLOTS = 32
 
 
 @njit(cache=True)
-def _gather_poses(state, robot_rows, live, offset, out):
+def _gather_poses(state, robot_rows, live, out):
     for k in range(live.shape[0]):
         i, row = live[k], robot_rows[k]
         for c in range(3):
-            out[i, c] = state[row, c] - offset[i, c]
+            out[i, c] = state[row, c]
 
 
 @njit(cache=True)
@@ -69,6 +70,10 @@ class PhysicsWorld:
     i lives in.
     """
 
+    @staticmethod
+    def _filter(slot: int) -> pymunk.ShapeFilter:
+        return pymunk.ShapeFilter(categories=1 << slot, mask=1 << slot)
+
     def __init__(
         self,
         arena: Arena,
@@ -87,26 +92,27 @@ class PhysicsWorld:
         self.space.gravity = (0.0, 0.0)
         self.h = dt_s / substeps
         self.substeps = substeps
-        pitch = arena.width_m + SLOT_GAP_M
-        slots = [np.full(len(p), k) for k, p in enumerate(start_poses)]
-        self.slot_of = np.concatenate(slots) if slots else np.zeros(0, dtype=int)
-        self.offset = np.zeros((len(self.slot_of), 3))
-        self.offset[:, 0] = self.slot_of * pitch
+        if len(start_poses) > MAX_SLOTS:
+            raise ValueError(f"a physics space holds at most {MAX_SLOTS} trials, got {len(start_poses)}")
+        slots = [np.full(len(p), k, dtype=np.int64) for k, p in enumerate(start_poses)]
+        self.slot_of = np.concatenate(slots) if slots else np.zeros(0, dtype=np.int64)
         self.n_robots = len(self.slot_of)
         for k in range(len(start_poses)):
             for x1, y1, x2, y2 in arena.walls:
-                seg = pymunk.Segment(self.space.static_body, (x1 + k * pitch, y1), (x2 + k * pitch, y2), 0.0)
+                seg = pymunk.Segment(self.space.static_body, (x1, y1), (x2, y2), 0.0)
                 seg.friction = WALL_FRICTION
+                seg.filter = self._filter(k)
                 self.space.add(seg)
-        poses = np.concatenate([np.asarray(p, dtype=np.float64) for p in start_poses]) + self.offset
+        poses = np.concatenate([np.asarray(p, dtype=np.float64) for p in start_poses])
         moment = pymunk.moment_for_circle(mass_kg, 0, radius_m)
         self._parts: list[tuple] = []
-        for x, y, th in poses:
+        for (x, y, th), slot in zip(poses, self.slot_of):
             body = pymunk.Body(mass_kg, moment)
             body.position = (float(x), float(y))
             body.angle = float(th)
             shape = pymunk.Circle(body, radius_m)
             shape.friction = ROBOT_FRICTION
+            shape.filter = self._filter(int(slot))
             control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
             control.position = body.position
             pivot = pymunk.PivotJoint(control, body, (0, 0), (0, 0))
@@ -120,7 +126,7 @@ class PhysicsWorld:
         self.alive = np.ones(self.n_robots, dtype=bool)
         self._read = pb.Buffer()
         self._write = pb.Buffer()
-        self._poses = poses - self.offset
+        self._poses = poses.copy()
         self._state: np.ndarray | None = None
         self._index_bodies()
 
@@ -145,12 +151,12 @@ class PhysicsWorld:
         return np.frombuffer(self._read.float_buf(), dtype=np.float64).reshape(self._n_bodies, 6)
 
     def poses(self) -> np.ndarray:
-        """(n_robots, 3) true x, y, heading in each robot's own arena frame.
+        """(n_robots, 3) true x, y, heading of every robot.
 
         A removed robot keeps its last pose. The returned array is reused.
         """
         self._state = self._read_state()
-        _gather_poses(self._state, self._robot_rows, self._live, self.offset, self._poses)
+        _gather_poses(self._state, self._robot_rows, self._live, self._poses)
         return self._poses
 
     def drive(self, cmd: np.ndarray) -> None:

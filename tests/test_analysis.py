@@ -1,0 +1,300 @@
+"""Group states and performance (tavc_cli.analysis) on hand-made trial records."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tavc_cli.analysis.performance import performance_table, value_rate, value_rate_series
+from tavc_cli.analysis.states import (
+    all_states,
+    state_intervals,
+    state_time_table,
+    theory_pct,
+    time_shares,
+)
+from tavc_cli.experiments.records import TrialRecord
+
+
+def _record(
+    arrivals=(),
+    breakdowns=(),
+    value_changes=(),
+    deliveries=(),
+    *,
+    n_robots=3,
+    values=(2.0, 1.0),
+    groups=("fast", "slow", "fast"),
+    speeds=(0.3, 0.2, 0.3),
+    duration_s=100.0,
+    warmup_s=0.0,
+    controller="tavc",
+):
+    """A TrialRecord from rows: arrivals (t, robot, circuit), breakdowns (t, robot),
+    value changes (t, values), deliveries (t, score)."""
+    arrivals = list(arrivals)
+    tables = {
+        "arrivals": {
+            "t_s": np.array([a[0] for a in arrivals], dtype=float),
+            "robot": np.array([a[1] for a in arrivals], dtype=np.int64),
+            "target": np.zeros(len(arrivals), dtype=np.int64),
+            "circuit": np.array([a[2] for a in arrivals], dtype=np.int64),
+            "kind": np.zeros(len(arrivals), dtype=np.int64),
+        },
+        "breakdowns": {
+            "t_s": np.array([b[0] for b in breakdowns], dtype=float),
+            "robot": np.array([b[1] for b in breakdowns], dtype=np.int64),
+        },
+        "deliveries": {
+            "t_s": np.array([d[0] for d in deliveries], dtype=float),
+            "score": np.array([d[1] for d in deliveries], dtype=float),
+        },
+    }
+    rec = TrialRecord(
+        meta={
+            "n_robots": n_robots,
+            "n_circuits": len(values),
+            "groups": list(groups),
+            "speeds_mps": list(speeds),
+            "values": list(values),
+            "duration_s": duration_s,
+            "warmup_s": warmup_s,
+            "controller": controller,
+        },
+        tables=tables,
+    )
+    rec.value_changes_t = np.array([v[0] for v in value_changes], dtype=float)
+    rec.value_changes = np.array([v[1] for v in value_changes], dtype=float).reshape(
+        len(value_changes), len(values)
+    )
+    return rec
+
+
+def _merged(intervals):
+    """Join neighbouring pieces with the same state (the split points carry no meaning)."""
+    out = []
+    for a, b, s in intervals:
+        if out and out[-1][2] == s and out[-1][1] == a:
+            out[-1] = (out[-1][0], b, s)
+        else:
+            out.append((a, b, s))
+    return out
+
+
+# Three robots (0 fast, 1 slow, 2 fast), two circuits, circuit 0 worth more at first.
+#   t=10 robot 0 reaches circuit 0          -> robots 1, 2 have no target yet: no state
+#   t=20 robot 1 reaches circuit 1
+#   t=30 robot 2 reaches circuit 0          -> high:low = 2:1
+#   t=50 robot 1 reaches circuit 0          -> 3:0
+#   t=60 robot 2 breaks down                -> two robots left, both on circuit 0: 2:0
+#   t=80 values swap, circuit 1 now "high"  -> 0 on high, 2 on low: 0:2
+#   t=100 end
+STORY = {
+    "arrivals": [(10.0, 0, 0), (20.0, 1, 1), (30.0, 2, 0), (50.0, 1, 0)],
+    "breakdowns": [(60.0, 2)],
+    "value_changes": [(80.0, (1.0, 3.0))],
+}
+
+
+@pytest.fixture
+def story():
+    return _record(**STORY)
+
+
+def test_state_intervals_follow_the_story(story):
+    assert _merged(state_intervals(story)) == [
+        (0.0, 30.0, None),
+        (30.0, 50.0, "2:1"),
+        (50.0, 60.0, "3:0"),
+        (60.0, 80.0, "2:0"),
+        (80.0, 100.0, "0:2"),
+    ]
+
+
+def test_state_intervals_in_group_notation(story):
+    # "fast:slow" robots whose last target was on the high-value circuit
+    #   t=30: fast 0, 2 on circuit 0 (high), slow 1 on circuit 1     -> 2:0
+    #   t=50: slow 1 joins circuit 0                                 -> 2:1
+    #   t=60: fast 2 broken                                          -> 1:1
+    #   t=80: circuit 1 becomes high, nobody there                   -> 0:0
+    assert _merged(state_intervals(story, "groups")) == [
+        (0.0, 30.0, None),
+        (30.0, 50.0, "2:0"),
+        (50.0, 60.0, "2:1"),
+        (60.0, 80.0, "1:1"),
+        (80.0, 100.0, "0:0"),
+    ]
+
+
+def test_time_shares_leave_out_undefined_time(story):
+    # defined from 30 to 100 s = 70 s: 2:1 for 20 s, 3:0 for 10, 2:0 for 20, 0:2 for 20
+    shares = time_shares(story, 0.0, 100.0)
+    assert shares == pytest.approx(
+        {"2:1": 100 * 20 / 70, "3:0": 100 * 10 / 70, "2:0": 100 * 20 / 70, "0:2": 100 * 20 / 70}
+    )
+    assert shares["2:1"] == pytest.approx(28.5714, abs=1e-4)
+
+
+def test_time_shares_within_a_window(story):
+    # [40, 90]: 2:1 40-50 (10 s), 3:0 50-60 (10), 2:0 60-80 (20), 0:2 80-90 (10); 50 s in all
+    assert time_shares(story, 40.0, 90.0) == pytest.approx(
+        {"2:1": 20.0, "3:0": 20.0, "2:0": 40.0, "0:2": 20.0}
+    )
+    # a window with no defined time has no shares
+    assert time_shares(story, 0.0, 25.0) == {}
+
+
+def test_simultaneous_events_apply_breakdown_first():
+    # at t=20 robot 1 breaks down and robot 0 arrives: the state right away counts robot 0 only
+    rec = _record(
+        arrivals=[(10.0, 0, 1), (10.0, 1, 0), (20.0, 0, 0)],
+        breakdowns=[(20.0, 1)],
+        n_robots=2,
+        groups=("all", "all"),
+        speeds=(0.25, 0.25),
+        duration_s=40.0,
+    )
+    assert _merged(state_intervals(rec)) == [
+        (0.0, 10.0, None),
+        (10.0, 20.0, "1:1"),
+        (20.0, 40.0, "1:0"),
+    ]
+
+
+def test_warmup_time_is_covered_from_its_negative_start():
+    rec = _record(
+        arrivals=[(-50.0, 0, 0), (-40.0, 1, 1), (-30.0, 2, 1)], warmup_s=100.0, duration_s=50.0
+    )
+    assert _merged(state_intervals(rec)) == [(-100.0, -30.0, None), (-30.0, 50.0, "1:2")]
+    assert time_shares(rec, 0.0, 50.0) == pytest.approx({"1:2": 100.0})
+
+
+# --- theory --------------------------------------------------------------------------------------
+
+
+def test_theory_circuits_is_binomial_for_two_circuits():
+    # 6 robots, each on either circuit with p = 1/2: P(n on high) = C(6, n) / 2^6 = C(6, n) / 64
+    # C(6, n) = 1, 6, 15, 20, 15, 6, 1 -> 1.5625, 9.375, 23.4375, 31.25, 23.4375, 9.375, 1.5625 %
+    th = theory_pct(6, 2, "circuits")
+    assert list(th) == ["0:6", "1:5", "2:4", "3:3", "4:2", "5:1", "6:0"]
+    np.testing.assert_allclose(
+        list(th.values()), [1.5625, 9.375, 23.4375, 31.25, 23.4375, 9.375, 1.5625]
+    )
+
+
+def test_theory_circuits_is_multinomial_for_three():
+    # 3 robots on 3 circuits: 3^3 = 27 outcomes; 1:1:1 in 3! = 6 ways, 3:0:0 in 1, 2:1:0 in 3
+    th = theory_pct(3, 3, "circuits")
+    assert len(th) == 10
+    assert th["1:1:1"] == pytest.approx(100 * 6 / 27)
+    assert th["3:0:0"] == pytest.approx(100 / 27)
+    assert th["2:1:0"] == pytest.approx(100 * 3 / 27)
+    assert sum(th.values()) == pytest.approx(100.0)
+
+
+def test_theory_groups_is_a_product_of_binomials():
+    # 3 fast and 3 slow, each on the high circuit with p = 1/2: P(f:s) = C(3,f) C(3,s) / 64
+    th = theory_pct(6, 2, "groups", (3, 3))
+    assert len(th) == 16
+    c3 = [1, 3, 3, 1]
+    for f in range(4):
+        for s in range(4):
+            assert th[f"{f}:{s}"] == pytest.approx(100 * c3[f] * c3[s] / 64)
+    assert th["1:2"] == pytest.approx(14.0625)  # 3 * 3 / 64
+    assert sum(th.values()) == pytest.approx(100.0)
+
+
+def test_all_states_in_the_chapters_order():
+    assert all_states(3, 2, "circuits") == ["0:3", "1:2", "2:1", "3:0"]
+    assert all_states(3, 2, "groups", (2, 1)) == ["0:0", "0:1", "1:0", "1:1", "2:0", "2:1"]
+
+
+# --- tables over trials --------------------------------------------------------------------------
+
+
+def _two_state_record(first_state_robots_on_high, switch_t, controller="tavc"):
+    """3 robots defined from t=0: `first` robots on circuit 0 until switch_t, then 2 of them."""
+    k = first_state_robots_on_high
+    arrivals = [(0.0, i, 0 if i < k else 1) for i in range(3)]
+    arrivals += [(switch_t, i, 0 if i < 2 else 1) for i in range(3)]
+    return _record(
+        arrivals=arrivals, groups=("all",) * 3, speeds=(0.25,) * 3, controller=controller
+    )
+
+
+def test_state_time_table_mean_and_std_by_hand():
+    # record A: 3:0 for 75 s, then 2:1 for 25 s; record B: 1:2 for 25 s, then 2:1 for 75 s
+    a = _two_state_record(3, 75.0)
+    b = _two_state_record(1, 25.0)
+    table = state_time_table([a, b], 0.0, 100.0)
+    tavc = table[table.controller == "tavc"].set_index("state")
+    assert list(tavc.index) == ["0:3", "1:2", "2:1", "3:0"]
+    # 2:1: A 25 %, B 75 % -> mean 50, sample std sqrt(((25-50)^2 + (75-50)^2) / 1) = 35.3553
+    # 3:0: A 75, B 0 -> mean 37.5, std 75 / sqrt(2) = 53.0330
+    # 1:2: A 0, B 25 -> mean 12.5, std 25 / sqrt(2) = 17.6777; 0:3 never: 0, 0
+    np.testing.assert_allclose(tavc["mean_pct"], [0.0, 12.5, 50.0, 37.5])
+    np.testing.assert_allclose(tavc["std_pct"], [0.0, 17.6777, 35.3553, 53.0330], atol=1e-4)
+    assert set(tavc["n_trials"]) == {2}
+    # theory rows for 3 robots: C(3, n) / 8 = 12.5, 37.5, 37.5, 12.5 %
+    theory = table[table.controller == "theory"].set_index("state")
+    np.testing.assert_allclose(
+        theory.loc[["0:3", "1:2", "2:1", "3:0"], "mean_pct"], [12.5, 37.5, 37.5, 12.5]
+    )
+    assert list(table.columns) == ["state", "controller", "mean_pct", "std_pct", "n_trials"]
+
+
+def test_state_time_table_keeps_controllers_apart():
+    table = state_time_table(
+        [_two_state_record(3, 75.0), _two_state_record(1, 25.0, controller="random")],
+        0.0,
+        100.0,
+        with_theory=False,
+    )
+    assert set(table.controller) == {"tavc", "random"}
+    one = table[(table.controller == "random") & (table.state == "2:1")].iloc[0]
+    assert (one.mean_pct, one.std_pct, one.n_trials) == (75.0, 0.0, 1)
+
+
+def test_state_time_table_after_a_breakdown_lists_the_smaller_teams_states():
+    # the story ends with 2 robots working: states of 2 robots, 3-robot states as extras
+    rec = _record(**STORY)
+    table = state_time_table([rec], 0.0, 100.0)
+    states = list(table[table.controller == "tavc"].state)
+    assert states[:3] == ["0:2", "1:1", "2:0"]
+    assert set(states[3:]) == {"2:1", "3:0"}
+    theory = table[table.controller == "theory"]
+    np.testing.assert_allclose(theory.mean_pct, [25.0, 50.0, 25.0])  # C(2, n) / 4
+
+
+# --- performance ---------------------------------------------------------------------------------
+
+
+def test_performance_table_bins_by_hand():
+    # bins [0, 50) and [50, 100]; value per second = summed score / 50 s
+    a = _record(
+        deliveries=[(10.0, 10.0), (40.0, 1.0), (60.0, 10.0)]
+    )  # 11 / 50 = 0.22, 10 / 50 = 0.2
+    b = _record(deliveries=[(49.9, 10.0), (99.0, 1.0)])  # 10 / 50 = 0.2, 1 / 50 = 0.02
+    table = performance_table([a, b], 50.0, 0.0, 100.0)
+    assert list(table.columns) == ["t_s", "controller", "mean", "std", "n_trials"]
+    np.testing.assert_allclose(table.t_s, [25.0, 75.0])
+    # means (0.22 + 0.2) / 2 = 0.21 and (0.2 + 0.02) / 2 = 0.11;
+    # sample std |x1 - x2| / sqrt(2): 0.02 / sqrt(2) = 0.0141421, 0.18 / sqrt(2) = 0.1272792
+    np.testing.assert_allclose(table["mean"], [0.21, 0.11])
+    np.testing.assert_allclose(table["std"], [0.02 / math.sqrt(2), 0.18 / math.sqrt(2)])
+    assert set(table.n_trials) == {2}
+
+
+def test_performance_counts_a_trailing_partial_bin():
+    # 100 s in 30 s bins: [0, 30), [30, 60), [60, 90), and the 10 s left over, [90, 100]
+    rec = _record(deliveries=[(5.0, 3.0), (95.0, 2.0)])
+    centres, rate = value_rate_series(rec, 30.0, 0.0, 100.0)
+    np.testing.assert_allclose(centres, [15.0, 45.0, 75.0, 95.0])
+    np.testing.assert_allclose(rate, [3.0 / 30, 0.0, 0.0, 2.0 / 10])
+
+
+def test_value_rate_over_a_period():
+    rec = _record(deliveries=[(10.0, 10.0), (40.0, 1.0), (60.0, 10.0)])
+    # [0, 50): 11 points in 50 s = 0.22 per second; [50, 100): 10 / 50 = 0.2
+    assert value_rate(rec, 0.0, 50.0) == pytest.approx(0.22)
+    assert value_rate(rec, 50.0, 100.0) == pytest.approx(0.2)

@@ -1,0 +1,270 @@
+"""The transport loop (tavc_cli.experiments.engine): tasks, interference, events, seeding."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from tavc_cli.config import load_config, to_container
+from tavc_cli.experiments import engine
+from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.engine import BatchEngine, run_trials
+from tavc_cli.experiments.records import records_differ
+
+DT_S = 0.1
+
+
+def _specs(*overrides):
+    """Trial specs of a config; scale=paper so event times are taken as written (factor 1)."""
+    cfg = load_config(["scale=paper", "convergence_s=0", *overrides])
+    return trial_specs(to_container(cfg))
+
+
+def _assert_records_equal(a, b):
+    assert records_differ(a, b) == []
+
+
+# --- one robot alone -----------------------------------------------------------------------------
+
+# one_circuit: source bar-code on x = 0, sink on x = 8, both hung 1 mm in front of their walls,
+# so 7.998 m apart. A robot arrives when it reads its bar-code within arrive_dist = 0.75 m, so it
+# drives at least 7.998 - 2 * 0.75 = 6.498 m between arrivals, at 0.25 m/s: 25.992 s per leg.
+# At each end it turns round, 180 deg at 1.2 rad/s: pi / 1.2 = 2.618 s.
+# A delivery cycle (sink -> source -> sink): 2 * 25.992 + 2 * 2.618 = 57.220 s.
+CYCLE_LOWER_BOUND_S = 2 * (7.998 - 2 * 0.75) / 0.25 + 2 * math.pi / 1.2
+
+
+def test_cycle_bound_by_hand():
+    assert CYCLE_LOWER_BOUND_S == pytest.approx(57.220, abs=1e-3)
+
+
+@pytest.fixture(scope="module")
+def alone():
+    """One robot on one_circuit for 900 s."""
+    spec = _specs(
+        "arena=one_circuit", "learner=static", "team.n_robots=1", "duration_s=900", "trials=1"
+    )[0]
+    return run_trials([spec])[0]
+
+
+@pytest.fixture(scope="module")
+def crowd():
+    """Six robots, all on the one circuit, for 900 s."""
+    spec = _specs(
+        "arena=one_circuit", "learner=static", "team.n_robots=6", "duration_s=900", "trials=1"
+    )[0]
+    return run_trials([spec])[0]
+
+
+def test_lone_robot_keeps_delivering_near_the_ideal_cycle_time(alone):
+    d = alone.table("deliveries")
+    a = alone.table("arrivals")
+    # alternating source (kind 0) and sink (kind 1) arrivals on the only circuit
+    np.testing.assert_array_equal(a["kind"], np.arange(len(a["kind"])) % 2)
+    np.testing.assert_array_equal(a["target"], a["kind"])  # target 0 = source, 1 = sink
+    # 900 s / 57.22 s: at least 14 deliveries (the first from wherever it started)
+    assert len(d["t_s"]) >= 14
+    # the first task starts at a random pose; the rest are full sink -> source -> sink cycles
+    cycles = d["task_time_s"][1:]
+    assert 1.0 * CYCLE_LOWER_BOUND_S <= cycles.mean() <= 1.6 * CYCLE_LOWER_BOUND_S
+    # task time is the time since the previous delivery (the next task starts at delivery)
+    np.testing.assert_allclose(cycles, np.diff(d["t_s"]), atol=1e-9)
+
+
+def test_rewards_are_value_over_task_time_in_the_configured_unit(alone):
+    d = alone.table("deliveries")
+    # value 1.0 (tasks.values defaults to 1 per circuit), time unit ms:
+    # r = w / t = 1.0 / (task_time_s * 1000)
+    np.testing.assert_allclose(d["value"], 1.0)
+    np.testing.assert_allclose(d["reward"], 1.0 / (d["task_time_s"] * 1000.0), rtol=1e-12)
+    np.testing.assert_allclose(d["score"], 1.0)
+
+
+def test_interference_slows_a_crowded_circuit(alone, crowd):
+    """Six robots on one circuit get in each other's way: each delivery takes longer.
+
+    Welch's t-test (unequal variances: the lone robot's cycle hardly varies), one-sided, on
+    task times after the first. Successive deliveries of one robot are correlated, which makes
+    the test optimistic, so a practical effect (at least 10 % slower on average) is required
+    too; the observed slow-down is about 17 %.
+    """
+    one = alone.table("deliveries")["task_time_s"][1:]
+    d6 = crowd.table("deliveries")
+    first = np.array([np.flatnonzero(d6["robot"] == i)[0] for i in np.unique(d6["robot"])])
+    six = np.delete(d6["task_time_s"], first)
+    assert len(six) >= 40
+    assert stats.ttest_ind(six, one, equal_var=False, alternative="greater").pvalue < 0.01
+    assert six.mean() > 1.1 * one.mean()
+
+
+# --- scheduled events ----------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def events_run():
+    """Four robots on two_circuits, 2 per circuit.
+
+    Robot 2 breaks down at 100 s; the circuits' values swap at 200 s.
+    """
+    spec = _specs(
+        "arena=two_circuits",
+        "learner=static",
+        "team.n_robots=4",
+        "duration_s=400",
+        "trials=1",
+        "events.breakdowns=[{time_s:100.0,robot:2}]",
+        "events.value_changes=[{time_s:200.0,values:[2000.0,2200.0]}]",
+        "tasks.values=[2200.0,2000.0]",
+        "tasks.score_values=[10.0,1.0]",
+    )[0]
+    return run_trials([spec])[0]
+
+
+def test_breakdown_removes_the_robot_at_its_time(events_run):
+    b = events_run.table("breakdowns")
+    np.testing.assert_array_equal(b["robot"], [2])
+    assert 100.0 <= b["t_s"][0] <= 100.0 + DT_S
+    a = events_run.table("arrivals")
+    assert np.any((a["robot"] == 2) & (a["t_s"] < b["t_s"][0]))  # it was working before
+    assert not np.any((a["robot"] == 2) & (a["t_s"] > b["t_s"][0]))
+    # the others keep working: each of robots 0, 1, 3 arrives somewhere after 300 s
+    late = a["robot"][a["t_s"] > 300.0]
+    assert set(late) == {0, 1, 3}
+
+
+def test_value_change_is_recorded_and_applies_to_later_deliveries(events_run):
+    np.testing.assert_allclose(events_run.value_changes_t, [200.0], atol=DT_S)
+    np.testing.assert_array_equal(events_run.value_changes, [[2000.0, 2200.0]])
+    d = events_run.table("deliveries")
+    t_change = events_run.value_changes_t[0]
+    before, after = d["t_s"] < t_change, d["t_s"] >= t_change
+    assert before.sum() >= 4 and after.sum() >= 4
+    for mask, values, scores in (
+        (before, [2200.0, 2000.0], [10.0, 1.0]),
+        (after, [2000.0, 2200.0], [1.0, 10.0]),
+    ):
+        # each delivery carries its circuit's value, and the score follows the value's rank:
+        # the circuit worth more to the learners earns the high score
+        np.testing.assert_array_equal(d["value"][mask], np.take(values, d["circuit"][mask]))
+        np.testing.assert_array_equal(d["score"][mask], np.take(scores, d["circuit"][mask]))
+    # reward = value / task time in ms
+    np.testing.assert_allclose(d["reward"], d["value"] / (d["task_time_s"] * 1000.0), rtol=1e-12)
+
+
+def test_breakdown_on_the_high_circuit_picks_a_robot_serving_it():
+    # static even split of 4 over 2 circuits: robots 0, 1 on circuit 0 (worth 2200, "high")
+    spec = _specs(
+        "arena=two_circuits",
+        "learner=static",
+        "team.n_robots=4",
+        "duration_s=250",
+        "trials=1",
+        "events.breakdowns=[{time_s:200.0,circuit:high}]",
+        "tasks.values=[2200.0,2000.0]",
+    )[0]
+    rec = run_trials([spec])[0]
+    assert rec.table("breakdowns")["robot"].tolist() in ([0], [1])
+
+
+# --- seeding and reproducibility -----------------------------------------------------------------
+
+
+def _random_specs(seed, n_trials=2):
+    return _specs(
+        "arena=two_circuits",
+        "learner=tavc_egreedy",
+        "team.n_robots=4",
+        "duration_s=300",
+        f"trials={n_trials}",
+        f"seed={seed}",
+        "sim.q_snapshot_every_s=100",
+    )
+
+
+def test_same_seed_same_records():
+    specs = _random_specs(3)
+    first, second = run_trials(specs), run_trials(specs)
+    for a, b in zip(first, second, strict=True):
+        _assert_records_equal(a, b)
+    assert len(first[0].q_t) == 3  # snapshots at 0, 100, 200 s: the Q-tables were compared too
+
+
+def test_different_seeds_differ():
+    a = run_trials(_random_specs(3, 1))[0]
+    b = run_trials(_random_specs(4, 1))[0]
+    assert a.meta["start_poses"] != b.meta["start_poses"]
+    assert not np.array_equal(a.table("choices")["circuit"], b.table("choices")["circuit"])
+    # ... and trials of one run get different seeds of their own
+    c, d = run_trials(_random_specs(3, 2))
+    assert c.meta["seed"] != d.meta["seed"]
+    assert not np.array_equal(c.table("arrivals")["t_s"], d.table("arrivals")["t_s"])
+
+
+def test_a_trial_is_the_same_alone_or_batched_with_others():
+    # batching is for speed: a trial's record must not depend on its batch mates or its slot
+    specs = _random_specs(3, 3)
+    alone = run_trials([specs[1]])[0]
+    _assert_records_equal(alone, run_trials(specs)[1])
+    _assert_records_equal(alone, run_trials([specs[2], specs[0], specs[1]])[2])
+
+
+def test_batch_rejects_trials_of_different_arenas():
+    one = _specs("arena=one_circuit", "trials=1", "duration_s=10")[0]
+    two = _specs("arena=two_circuits", "trials=1", "duration_s=10")[0]
+    with pytest.raises(ValueError, match="share arena"):
+        BatchEngine([one, two])
+
+
+def test_start_poses_are_clear_of_walls_and_each_other():
+    spec = _specs("arena=one_circuit", "team.n_robots=6", "trials=1", "duration_s=10")[0]
+    poses = np.array(run_trials([spec])[0].meta["start_poses"])
+    assert np.all((poses[:, 0] >= 0.6) & (poses[:, 0] <= 8.0 - 0.6))
+    assert np.all((poses[:, 1] >= 0.6) & (poses[:, 1] <= 6.0 - 0.6))
+    gaps = np.hypot(*(poses[:, None, :2] - poses[None, :, :2]).transpose(2, 0, 1))
+    assert gaps[np.triu_indices(6, 1)].min() > 2 * 0.22 + 0.3
+
+
+# --- known navigation failure --------------------------------------------------------------------
+
+
+def test_robot_starting_beside_its_targets_wall_reaches_it(monkeypatch):
+    # two_circuits, one robot serving circuit 2 (source2, bar-code on the top wall at (8, 8)),
+    # starting 0.47 m below that wall and 0.92 m to the right of the code, facing up-right
+    spec = _specs(
+        "arena=two_circuits",
+        "learner=static",
+        "learner.allocation=[0,1]",
+        "team.n_robots=1",
+        "duration_s=120",
+        "trials=1",
+    )[0]
+    monkeypatch.setattr(
+        engine, "start_poses", lambda arena, radii, rng: np.array([[8.66, 7.29, 0.48]])
+    )
+    rec = run_trials([spec])[0]
+    a = rec.table("arrivals")
+    # about 1 m from the code: it should arrive within seconds and then deliver
+    assert len(a["t_s"]) > 0 and a["t_s"][0] < 30.0
+
+
+@pytest.mark.slow
+def test_every_robot_keeps_reaching_targets():
+    specs = _specs(
+        "arena=two_circuits",
+        "learner=random",
+        "team.n_robots=6",
+        "duration_s=2400",
+        "trials=32",
+        "executor.batch_size=8",
+    )
+    worst = []
+    for k in range(0, len(specs), 8):
+        for rec in run_trials(specs[k : k + 8]):
+            a = rec.table("arrivals")
+            for i in range(6):
+                times = np.concatenate([[0.0], a["t_s"][a["robot"] == i], [2400.0]])
+                worst.append((np.diff(times).max(), rec.meta["trial"], i))
+    # no robot goes 300 s (several legs' worth) without reaching a source or sink
+    stuck = [w for w in worst if w[0] > 300.0]
+    assert stuck == [], f"(longest gap s, trial, robot): {sorted(stuck, reverse=True)}"

@@ -1,0 +1,213 @@
+"""Q-learning and task-selection policies (tavc_cli.learning)."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from tavc_cli.learning.policies import (
+    RandomPolicy,
+    StaticPolicy,
+    TavcPolicy,
+    even_allocation,
+    make_policy,
+)
+from tavc_cli.learning.qlearning import epsilon_greedy, q_update, softmax_choice, softmax_probs
+
+N_DRAWS = 20_000
+
+
+def _chi2_pvalue(counts, probs):
+    counts = np.asarray(counts, dtype=float)
+    return stats.chisquare(counts, counts.sum() * np.asarray(probs)).pvalue
+
+
+# --- q_update ------------------------------------------------------------------------------------
+
+
+def test_q_update_by_hand():
+    q = np.array([[0.5, 1.0], [2.0, -1.0]])
+    td = q_update(q, state=0, action=1, reward=3.0, next_state=1, alpha=0.1, gamma=0.95)
+    # target = r + gamma * max_b Q(1, b) = 3 + 0.95 * 2.0 = 4.9
+    # td = target - Q(0, 1) = 4.9 - 1.0 = 3.9
+    # Q(0, 1) = 1.0 + 0.1 * 3.9 = 1.39
+    assert td == pytest.approx(3.9)
+    np.testing.assert_allclose(q, [[0.5, 1.39], [2.0, -1.0]])
+
+
+def test_q_update_on_its_own_state_uses_the_value_before_the_update():
+    # the TAVC learners move from state s to s' = the action taken, often s itself
+    q = np.array([[0.2, 0.4]])
+    td = q_update(q, state=0, action=0, reward=1.0, next_state=0, alpha=0.1, gamma=0.95)
+    # target = 1 + 0.95 * max(0.2, 0.4) = 1.38; td = 1.38 - 0.2 = 1.18; Q = 0.2 + 0.118 = 0.318
+    assert td == pytest.approx(1.18)
+    np.testing.assert_allclose(q, [[0.318, 0.4]])
+
+
+def test_repeated_updates_converge_to_the_fixed_point():
+    # one state, one action, reward 1 every time: Q* = r / (1 - gamma) = 1 / 0.05 = 20
+    q = np.zeros((1, 1))
+    for _ in range(5000):
+        q_update(q, 0, 0, 1.0, 0, 0.1, 0.95)
+    assert q[0, 0] == pytest.approx(20.0, rel=1e-6)
+
+
+# --- epsilon-greedy ------------------------------------------------------------------------------
+
+
+def test_epsilon_zero_always_takes_the_greedy_action():
+    rng = np.random.default_rng(0)
+    row = np.array([0.1, 0.7, -0.3])
+    assert {epsilon_greedy(row, 0.0, rng) for _ in range(1000)} == {1}
+
+
+def test_epsilon_one_is_uniform():
+    rng = np.random.default_rng(1)
+    row = np.array([0.1, 0.7, -0.3, 0.0])
+    counts = np.bincount([epsilon_greedy(row, 1.0, rng) for _ in range(N_DRAWS)], minlength=4)
+    assert _chi2_pvalue(counts, [0.25] * 4) > 0.001
+
+
+def test_epsilon_mixes_greedy_and_uniform():
+    rng = np.random.default_rng(2)
+    row = np.array([0.1, 0.7, -0.3, 0.0])
+    counts = np.bincount([epsilon_greedy(row, 0.2, rng) for _ in range(N_DRAWS)], minlength=4)
+    # P(greedy) = 1 - 0.2 + 0.2 / 4 = 0.85, every other action 0.2 / 4 = 0.05
+    assert _chi2_pvalue(counts, [0.05, 0.85, 0.05, 0.05]) > 0.001
+
+
+def test_greedy_ties_are_broken_at_random():
+    rng = np.random.default_rng(3)
+    row = np.array([0.5, 0.2, 0.5, 0.5])
+    counts = np.bincount([epsilon_greedy(row, 0.0, rng) for _ in range(N_DRAWS)], minlength=4)
+    assert counts[1] == 0
+    assert _chi2_pvalue(counts[[0, 2, 3]], [1 / 3] * 3) > 0.001
+
+
+# --- softmax -------------------------------------------------------------------------------------
+
+
+def test_softmax_probs_by_hand():
+    # tau = 0.5: exp(Q / tau) = exp(0), exp(1), exp(2) for Q = 0, 0.5, 1
+    p = softmax_probs(np.array([0.0, 0.5, 1.0]), 0.5)
+    e = np.array([1.0, math.e, math.e**2])  # sum = 1 + 2.71828 + 7.38906 = 11.10734
+    np.testing.assert_allclose(p, e / e.sum(), rtol=1e-12)
+    np.testing.assert_allclose(p, [0.090031, 0.244728, 0.665241], atol=1e-6)
+
+
+def test_softmax_does_not_overflow_at_low_temperature():
+    # Q / tau up to 1e4 (exp(1e4) overflows a double): only differences matter
+    p = softmax_probs(np.array([50.0, 49.999, 10.0]), 0.005)
+    assert np.all(np.isfinite(p))
+    # exp((49.999 - 50) / 0.005) = exp(-0.2) = 0.818731; exp(-8000) = 0
+    e = np.array([1.0, math.exp(-0.2), 0.0])
+    np.testing.assert_allclose(p, e / e.sum(), rtol=1e-12)
+
+
+def test_softmax_choice_follows_its_probabilities():
+    rng = np.random.default_rng(4)
+    row = np.array([0.0, 0.5, 1.0])
+    counts = np.bincount([softmax_choice(row, 0.5, rng) for _ in range(N_DRAWS)], minlength=3)
+    assert _chi2_pvalue(counts, softmax_probs(row, 0.5)) > 0.001
+
+
+def test_softmax_choice_never_picks_an_impossible_action():
+    rng = np.random.default_rng(5)
+    row = np.array([1.0, 0.0])  # p = (1, exp(-200)) at tau 0.005
+    assert {softmax_choice(row, 0.005, rng) for _ in range(1000)} == {0}
+
+
+# --- policies ------------------------------------------------------------------------------------
+
+
+def test_tavc_q_tables_start_within_the_init_range():
+    rng = np.random.default_rng(6)
+    policy = TavcPolicy(
+        6,
+        2,
+        alpha=0.1,
+        gamma=0.95,
+        selection="egreedy",
+        epsilon=0.1,
+        tau=0.005,
+        q_init=(-0.1, 0.1),
+        rng=rng,
+    )
+    q = policy.q_tables()
+    assert q.shape == (6, 2, 2)  # robots x states (class last serviced) x actions (circuits)
+    assert np.all((q >= -0.1) & (q <= 0.1))
+    assert len(np.unique(q)) == q.size  # random, so ties (and a bias to circuit 0) are unlikely
+
+
+def test_tavc_learns_only_its_own_table():
+    policy = TavcPolicy(
+        2,
+        2,
+        alpha=0.1,
+        gamma=0.95,
+        selection="egreedy",
+        epsilon=0.0,
+        tau=0.005,
+        q_init=(0.0, 0.0),
+        rng=np.random.default_rng(7),
+    )
+    policy.learn(robot=1, state=0, action=1, reward=2.0, next_state=1)
+    q = policy.q_tables()
+    # Q(0, 1) = 0 + 0.1 * (2 + 0.95 * 0 - 0) = 0.2, robot 0 untouched
+    np.testing.assert_allclose(q[1], [[0.0, 0.2], [0.0, 0.0]])
+    np.testing.assert_array_equal(q[0], 0.0)
+    assert policy.choose(1, 0) == 1  # greedy now prefers the rewarded circuit
+    q[1, 0, 1] = -5.0  # q_tables() hands out a copy
+    assert policy.choose(1, 0) == 1
+
+
+def test_static_policy_follows_its_allocation():
+    policy = StaticPolicy([0, 0, 1, 1, 1], 2)
+    assert [policy.choose(i, state) for i in range(5) for state in (0, 1)] == [
+        0,
+        0,
+        0,
+        0,
+        1,
+        1,
+        1,
+        1,
+        1,
+        1,
+    ]
+    assert policy.q_tables() is None
+
+
+def test_even_allocation_by_hand():
+    assert even_allocation(6, 2) == [3, 3]
+    assert even_allocation(5, 2) == [3, 2]  # the extra robot on the first circuit
+    assert even_allocation(7, 3) == [3, 2, 2]
+
+
+def test_make_policy_static_splits_evenly_or_as_told():
+    rng = np.random.default_rng(8)
+    even = make_policy({"name": "static", "allocation": None}, 5, 2, rng)
+    assert [even.choose(i, 0) for i in range(5)] == [0, 0, 0, 1, 1]
+    told = make_policy({"name": "static", "allocation": [1, 4]}, 5, 2, rng)
+    assert [told.choose(i, 0) for i in range(5)] == [0, 1, 1, 1, 1]
+
+
+def test_make_policy_builds_each_learner():
+    rng = np.random.default_rng(9)
+    assert isinstance(make_policy({"name": "random"}, 3, 2, rng), RandomPolicy)
+    soft = make_policy(
+        {"name": "tavc_softmax", "tau": 0.01, "q_init_low": 0.0, "q_init_high": 0.5}, 3, 2, rng
+    )
+    assert isinstance(soft, TavcPolicy) and soft.selection == "softmax" and soft.tau == 0.01
+    assert np.all((soft.q >= 0.0) & (soft.q <= 0.5))
+    greedy = make_policy({"name": "tavc_egreedy", "epsilon": 0.2}, 3, 2, rng)
+    assert greedy.selection == "egreedy" and greedy.epsilon == 0.2
+    with pytest.raises(ValueError, match="no task policy"):
+        make_policy({"name": "nope"}, 3, 2, rng)
+
+
+def test_random_policy_is_uniform_over_circuits():
+    policy = RandomPolicy(3, np.random.default_rng(10))
+    counts = np.bincount([policy.choose(0, 0) for _ in range(N_DRAWS)], minlength=3)
+    assert _chi2_pvalue(counts, [1 / 3] * 3) > 0.001
