@@ -49,6 +49,8 @@ from tavc_cli.errors import TavcError
 
 SCHEMA_NAME = "tavc_schema"
 LEARNERS = ("random", "static", "tavc_egreedy", "tavc_softmax", "behaviour_softmax")
+AVAILABLE_LEARNERS = ("random", "static", "tavc_egreedy", "tavc_softmax")
+AVAILABLE_BACKENDS = ("local",)
 BASELINES = ("random", "static")
 BACKENDS = ("local", "ray", "dask")
 ANALYSIS_STATES = ("circuits", "groups")
@@ -888,6 +890,9 @@ def _validate_robot(robot: DictConfig) -> None:
         _positive(f"robot.behaviour.{name}", robot.behaviour[name])
     for name in ("stop_dist_m", "visible_margin_m"):
         _at_least(f"robot.behaviour.{name}", robot.behaviour[name], 0)
+    _check(robot.behaviour.avoid_dist_m > robot.behaviour.stop_dist_m, "robot.behaviour.avoid_dist_m",
+           f"must exceed robot.behaviour.stop_dist_m ({robot.behaviour.stop_dist_m:g}), "
+           f"got {robot.behaviour.avoid_dist_m:g}")
 
 
 def _validate_team(team: DictConfig) -> None:
@@ -906,6 +911,8 @@ def _validate_team(team: DictConfig) -> None:
 def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> None:
     """Learner name and Q-learning parameters."""
     _one_of("learner.name", learner.name, LEARNERS)
+    _check(learner.name in AVAILABLE_LEARNERS, "learner.name",
+           f"'{learner.name}' is not available in this version; use one of {', '.join(AVAILABLE_LEARNERS)}")
     for name in ("alpha", "gamma", "epsilon"):
         _unit(f"learner.{name}", learner[name])
     _positive("learner.tau", learner.tau)
@@ -1026,6 +1033,8 @@ def _validate_sim(sim: DictConfig) -> None:
 def _validate_executor(executor: DictConfig) -> None:
     """Backend and parallelism."""
     _one_of("executor.backend", executor.backend, BACKENDS)
+    _check(executor.backend in AVAILABLE_BACKENDS, "executor.backend",
+           f"'{executor.backend}' is not available in this version; use 'local'")
     _at_least("executor.n_jobs", executor.n_jobs, 1)
     _at_least("executor.batch_size", executor.batch_size, 1)
     _check(executor.batch_size <= 32, "executor.batch_size",

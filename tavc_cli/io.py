@@ -30,6 +30,8 @@ def atomic_path(path: Path) -> Iterator[Path]:
     os.close(fd)
     try:
         yield Path(tmp)
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())  # the data is on disk before the name points at it
         os.chmod(tmp, _FILE_MODE)  # mkstemp makes files private; results are for sharing
         os.replace(tmp, path)
     except BaseException:

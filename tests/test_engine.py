@@ -187,7 +187,9 @@ def test_same_seed_same_records():
     first, second = run_trials(specs), run_trials(specs)
     for a, b in zip(first, second, strict=True):
         _assert_records_equal(a, b)
-    assert len(first[0].q_t) == 3  # snapshots at 0, 100, 200 s: the Q-tables were compared too
+    # snapshots on their own 100 s grid, plus the tables as the trial ends at 300 s: the
+    # Q-tables were compared too
+    np.testing.assert_allclose(first[0].q_t, [0.0, 100.0, 200.0, 300.0], atol=1e-9)
 
 
 def test_different_seeds_differ():
@@ -268,3 +270,21 @@ def test_every_robot_keeps_reaching_targets():
     # no robot goes 300 s (several legs' worth) without reaching a source or sink
     stuck = [w for w in worst if w[0] > 300.0]
     assert stuck == [], f"(longest gap s, trial, robot): {sorted(stuck, reverse=True)}"
+
+
+@pytest.mark.parametrize("delay_ticks", [-1, 0, 1])
+def test_a_robot_that_breaks_down_as_it_arrives_stays_silent(delay_ticks):
+    from dataclasses import replace
+
+    from tavc_cli.experiments.spec import Breakdown
+
+    spec = _specs("arena=two_circuits", "learner=random", "team.n_robots=4", "duration_s=400", "trials=1")[0]
+    free = run_trials([spec])[0].table("arrivals")
+    robot = int(free["robot"][3])
+    t_break = float(free["t_s"][3]) + delay_ticks * spec.dt_s  # around the moment it reads a bar-code
+    broken = run_trials([replace(spec, breakdowns=(Breakdown(t_break, robot=robot),))])[0]
+    a, d = broken.table("arrivals"), broken.table("deliveries")
+    # nothing is ever recorded for the robot after its breakdown, whatever the other robots do
+    assert not np.any((a["robot"] == robot) & (a["t_s"] > t_break))
+    assert not np.any((d["robot"] == robot) & (d["t_s"] > t_break))
+    assert len(a["t_s"]) > 20  # the others carry on

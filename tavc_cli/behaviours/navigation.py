@@ -196,10 +196,13 @@ def track_progress(r, goal_dist, bearing, istate, fstate, gp):
     closer to the goal, follow the wall (on the side toward the goal) for `escape`
     seconds. Behaviour-based robots need such a rule: approach and avoidance alone
     can trap a robot in a corner by its goal or two robots in each other's way."""
-    if istate[r, I_TARGET] != istate[r, I_LASTTGT]:
+    if istate[r, I_TARGET] != istate[r, I_LASTTGT]:  # a new goal: start afresh
         istate[r, I_LASTTGT] = istate[r, I_TARGET]
         fstate[r, FS_BEST] = np.inf
         fstate[r, FS_STALL] = 0.0
+        if istate[r, I_MODE] == MODE_ESCAPE:
+            istate[r, I_MODE] = MODE_APPROACH
+            fstate[r, FS_ESCAPE] = 0.0
     if goal_dist < fstate[r, FS_BEST] - gp[G_PROGRESS_M]:
         fstate[r, FS_BEST] = goal_dist
         fstate[r, FS_STALL] = 0.0
@@ -291,6 +294,7 @@ def control_tick(pose, prev_pose, est, noise, istate, fstate, fparam, gp, ray_an
         if alive[r] == 0:
             cmd[r, 0] = 0.0
             cmd[r, 1] = 0.0
+            istate[r, I_ARRIVED] = 0
             continue
         lo, hi = istate[r, I_LO], istate[r, I_HI]
         odometry_update(r, prev_pose, pose, est, noise, fparam[r, F_SIG_T], fparam[r, F_SIG_RM],

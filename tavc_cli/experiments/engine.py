@@ -18,6 +18,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from tavc_cli.behaviours import navigation as nav
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.records import TableBuilder, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.learning.policies import TaskPolicy, make_policy
@@ -44,7 +45,8 @@ def start_poses(arena: Arena, radii: np.ndarray, rng: np.random.Generator) -> np
             if all(math.hypot(x - poses[k, 0], y - poses[k, 1]) > r + radii[k] + 0.3 for k in range(i)):
                 break
         else:
-            raise ValueError("the arena is too small to place every robot")
+            raise TavcError(f"team.n_robots: cannot place {len(radii)} robots of radius {r:g} m apart "
+                            f"in the {arena.width_m:g} x {arena.height_m:g} m arena")
         poses[i] = (x, y, rng.uniform(-math.pi, math.pi))
     return poses
 
@@ -243,6 +245,7 @@ class BatchEngine:
                 tr.alive[robot] = False
                 self.world.remove(tr.lo + robot)
                 self.istate[tr.lo + robot, nav.I_ALIVE] = 0
+                self.istate[tr.lo + robot, nav.I_ARRIVED] = 0
                 tr.rows.add("breakdowns", t, robot)
             else:
                 tr.values = np.array(ev.values, dtype=np.float64)
@@ -260,10 +263,13 @@ class BatchEngine:
         next_q = [self._t_start(tr) if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in self.trials]
         next_pose = [self._t_start(tr) if tr.spec.pose_every_s > 0 else math.inf for tr in self.trials]
         report_every = max(1, n_ticks // 200)
-        for tr in self.trials:
-            self._fire_events(tr, self.t)
         next_due = -math.inf
         while self.tick < n_ticks:
+            t = self.t  # the time at which this tick senses and decides
+            if t >= next_due:  # scheduled events, Q-table snapshots, pose frames
+                for b, tr in enumerate(self.trials):
+                    self._due(b, tr, t, next_q, next_pose)
+                next_due = min(min(next_q), min(next_pose), min(tr.next_event_time() for tr in self.trials))
             k = self.tick % _NOISE_BLOCK_TICKS
             if k == 0:
                 for tr in self.trials:
@@ -274,19 +280,14 @@ class BatchEngine:
                                          self.gp, self.ray_ang, self.ray_cs, self.walls, 4, self.tsegs,
                                          self.target_wall, self.tinfo, self.barcodes, self.ranges, self.kinds,
                                          self.ids, self.pts, self.cam, self.cmd)
+            if n_arrived:
+                for g in np.flatnonzero(self.istate[:, nav.I_ARRIVED] & self.istate[:, nav.I_ALIVE]):
+                    tr = self.trials[self.istate[g, nav.I_TRIAL]]
+                    self._arrive(tr, int(g - tr.lo), t)
             self.world.drive(self.cmd)
             self.world.step()
             self.prev_pose[:] = self.pose
             self.tick += 1
-            t = self.t
-            if n_arrived:
-                for g in np.flatnonzero(self.istate[:, nav.I_ARRIVED]):
-                    tr = self.trials[self.istate[g, nav.I_TRIAL]]
-                    self._arrive(tr, int(g - tr.lo), t)
-            if t >= next_due:
-                for b, tr in enumerate(self.trials):
-                    self._due(b, tr, t, next_q, next_pose)
-                next_due = min(min(next_q), min(next_pose), min(tr.next_event_time() for tr in self.trials))
             if self.on_tick is not None:
                 self.on_tick(self)
             if progress is not None and self.tick % report_every == 0:
@@ -298,20 +299,26 @@ class BatchEngine:
         if tr.events and tr.events[0][0] <= t:
             self._fire_events(tr, t)
         if t >= next_q[b]:
-            q = tr.policy.q_tables()
-            if q is not None:
-                tr.q_t.append(t)
-                tr.q.append(q)
-            next_q[b] = t + tr.spec.q_snapshot_every_s
+            self._snapshot_q(tr, t)
+            next_q[b] += tr.spec.q_snapshot_every_s  # on the schedule's own grid: no drift
         if t >= next_pose[b]:
             tr.pose_t.append(t)
-            tr.poses.append(self.pose[tr.lo:tr.hi].copy())
+            tr.poses.append(self.world.poses()[tr.lo:tr.hi].copy())
             tr.pose_alive.append(tr.alive.copy())
             tr.pose_circuit.append(tr.task.copy())
-            next_pose[b] = t + tr.spec.pose_every_s
+            next_pose[b] += tr.spec.pose_every_s
+
+    @staticmethod
+    def _snapshot_q(tr: TrialState, t: float) -> None:
+        q = tr.policy.q_tables()
+        if q is not None:
+            tr.q_t.append(t)
+            tr.q.append(q)
 
     def _record(self, tr: TrialState) -> TrialRecord:
         spec = tr.spec
+        if spec.q_snapshot_every_s > 0 and (not tr.q_t or tr.q_t[-1] < self.t):
+            self._snapshot_q(tr, self.t)  # the tables as the trial ends
         n = spec.n_robots
         n_c = self.arena.n_circuits
         rec = TrialRecord(

@@ -32,7 +32,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, make_batches, trial_specs
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.records import TrialRecord
-from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.experiments.spec import TrialSpec, code_digest
 from tavc_cli.io import write_text_atomic
 
 _PACKAGES = ("numpy", "scipy", "pandas", "pymunk", "numba", "hydra-core", "omegaconf", "typer", "matplotlib")
@@ -46,7 +46,7 @@ def _stored_key(path: Path) -> str | None:
     try:
         with np.load(path, allow_pickle=False) as data:
             return json.loads(str(data["meta"])).get("key")
-    except (OSError, ValueError, KeyError):
+    except Exception:  # missing, truncated or foreign: the trial is simply run again
         return None
 
 
@@ -132,7 +132,8 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
         with ctx.Manager() as manager:
             queue = manager.Queue()
-            with ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=ctx) as pool:
+            pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=ctx)
+            try:
                 futures = {pool.submit(run_batch, b, str(out_dir), _QueueReporter(queue, (b.controller, b.index))): b
                            for b in pending}
                 remaining = set(futures)
@@ -145,6 +146,10 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None
                         f.result()  # re-raise a worker's error here
                         b = futures[f]
                         prog.update((b.controller, b.index), 1.0, weights[(b.controller, b.index)])
+            except BaseException:
+                pool.shutdown(wait=True, cancel_futures=True)  # don't start batches nobody will wait for
+                raise
+            pool.shutdown(wait=True)
     finally:
         prog.close()
 
@@ -166,6 +171,7 @@ def provenance(cfg: Mapping, specs: list[TrialSpec], wall_time_s: float, n_reuse
     return {
         "tavc_version": __version__,
         "git_commit": _git_commit(),
+        "code_digest": code_digest(),
         "packages": versions,
         "python": platform.python_version(),
         "root_seed": int(cfg["seed"]),
@@ -184,12 +190,17 @@ def provenance(cfg: Mapping, specs: list[TrialSpec], wall_time_s: float, n_reuse
 
 
 def _git_commit() -> str | None:
+    """HEAD of the checkout tavc runs from, with '-dirty' if its files have uncommitted changes."""
     here = Path(__file__).resolve().parent
     try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=5)
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=5)
+        if head.returncode != 0:
+            return None
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "."],
+                               cwd=here.parent, capture_output=True, text=True, timeout=5)
     except (OSError, subprocess.SubprocessError):
         return None
-    return out.stdout.strip() or None if out.returncode == 0 else None
+    return head.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
 
 
 def analyse(cfg: Mapping, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:

@@ -11,6 +11,8 @@ import hashlib
 import json
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
+from functools import cache
+from pathlib import Path
 
 import numpy as np
 
@@ -67,9 +69,26 @@ class TrialSpec:
         return arena_from_mapping(self.arena)
 
     def key(self) -> str:
-        """A digest of everything that fixes the trial's outcome (for reuse of results)."""
-        blob = json.dumps(asdict(self), sort_keys=True, default=_jsonable)
+        """A digest of everything that fixes the trial's outcome, the simulator's own code
+        included, so a rerun reuses a trial only if it would come out the same."""
+        blob = json.dumps(asdict(self), sort_keys=True, default=_jsonable) + code_digest()
         return hashlib.sha256(blob.encode()).hexdigest()[:20]
+
+
+_OUTCOME_CODE = ("sim", "behaviours", "learning", "experiments/engine.py", "experiments/spec.py")
+
+
+@cache
+def code_digest() -> str:
+    """Digest of the source files that decide a trial's outcome."""
+    root = Path(__file__).resolve().parent.parent
+    h = hashlib.sha256()
+    for part in _OUTCOME_CODE:
+        path = root / part
+        for f in sorted(path.rglob("*.py")) if path.is_dir() else [path]:
+            h.update(f.relative_to(root).as_posix().encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:16]
 
 
 def _jsonable(obj):

@@ -65,6 +65,29 @@ def constraints(table: core.CTable, n_robots: int, values) -> dict:
             "1.4": core.constraint_1_4(table, n_vac, values, m_vac, high)}
 
 
+def switch_legs(arena: Mapping, speed_mps: float) -> list[dict]:
+    """How much shorter (straight-line) the empty leg is when a robot switches circuit.
+
+    The model's t_i(n) are measured on robots that never switch, but the learners'
+    state is the class last serviced, and a task that follows a switch starts with the
+    leg from the old circuit's sink to the new circuit's source. Where that leg is
+    shorter than the leg back to the old source, switching is rewarded for geometry
+    alone, which the static model does not see.
+    """
+    pos = {t["name"]: (float(t["x"]), float(t["y"])) for t in arena["targets"]}
+    circuits = arena["circuits"]
+    out = []
+    for i, ci in enumerate(circuits):
+        for j, cj in enumerate(circuits):
+            if i == j:
+                continue
+            stay = math.dist(pos[ci["sink"]], pos[ci["source"]])
+            switch = math.dist(pos[ci["sink"]], pos[cj["source"]])
+            out.append({"from": i, "to": j, "stay_leg_m": stay, "switch_leg_m": switch,
+                        "switch_saves_s": (stay - switch) / speed_mps})
+    return out
+
+
 def table_rows(table: core.CTable, values, time_unit_s: float) -> pd.DataFrame:
     rows = []
     for n, cells in sorted(table.cells.items(), key=lambda kv: (sum(kv[0]), [-v for v in kv[0]])):
@@ -103,6 +126,7 @@ def run_model(cfg, *, progress: bool = False) -> dict:
         **predictions(table, n, values),
         "by_team_size": {str(m): predictions(table, m, values) for m in sorted({n, n_vac})},
         "constraints": constraints(table, n, values),
+        "switch_legs": switch_legs(plain["arena"], float(plain["robot"]["speed_mps"])),
         "measurement": {"trials_per_split": trials, "warmup_s": warmup_s, "measure_s": measure_s,
                         "confidence": float(plain["model"]["confidence"]), "n_trials_reused": n_reused,
                         "robot_speed_mps": float(plain["robot"]["speed_mps"])},

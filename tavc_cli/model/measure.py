@@ -33,7 +33,11 @@ def split_name(n: Split) -> str:
 
 def measurement_specs(cfg: Mapping, n_max: int, trials: int, warmup_s: float,
                       measure_s: float) -> dict[Split, list[TrialSpec]]:
-    """Per split, `trials` static-allocation trials of warm-up plus measurement."""
+    """Per split, `trials` static-allocation trials of warm-up plus measurement.
+
+    Static robots do not learn, so the task values play no part: they are fixed at 1 so
+    that measurements are reused whatever values the model is then applied with.
+    """
     base = base_spec(cfg)
     speed = float(cfg["robot"]["speed_mps"])
     k = len(cfg["arena"]["circuits"])
@@ -41,7 +45,7 @@ def measurement_specs(cfg: Mapping, n_max: int, trials: int, warmup_s: float,
     for n in splits_up_to(n_max, k):
         m = sum(n)
         out[n] = [
-            replace(base, speeds_mps=(speed,) * m, groups=("all",) * m,
+            replace(base, speeds_mps=(speed,) * m, groups=("all",) * m, values=(1.0,) * k, score_values=(1.0,) * k,
                     policy={"name": "static", "allocation": list(n)}, controller=split_name(n), trial=j,
                     seed=(int(cfg["seed"]), MODEL_CONTROLLER_CODE, *n, j), duration_s=warmup_s + measure_s,
                     warmup_s=0.0, breakdowns=(), value_changes=(), q_snapshot_every_s=0.0, pose_every_s=0.0)

@@ -40,6 +40,10 @@ def model_text(result: dict) -> str:
             lines.append(f"with {size} robots: predicted {p['predicted_state']}, optimum {p['optimal_state']}")
     for name, c in m.get("constraints", {}).items():
         lines.append(f"constraint ({name}) with {c['n_robots']} robots: {'holds' if c['holds'] else 'fails'}")
+    saves = [leg["switch_saves_s"] for leg in m.get("switch_legs", [])]
+    if saves and max(saves) > 0:
+        lines.append(f"note: switching circuit shortens the empty leg by up to {max(saves):.1f} s (straight line); "
+                     "the static model does not see this")
     cal = m.get("calibration")
     if cal:
         lo, hi = cal["ratio_interval"]
