@@ -156,8 +156,10 @@ def wall_follow(r, side, ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd):
         cmd[r, 0] = 0.0 if gap < stop else 0.3 * vmax
         cmd[r, 1] = -side * wmax
     elif side_d > 2.0 * wall_d:
-        cmd[r, 0] = 0.7 * vmax
-        cmd[r, 1] = side * 0.5 * wmax
+        # no wall on that side: drive on, curving gently toward it (a 2 m radius), until
+        # a wall comes up ahead or alongside
+        cmd[r, 0] = vmax
+        cmd[r, 1] = side * min(wmax, vmax / 2.0)
     else:
         cmd[r, 0] = vmax
         cmd[r, 1] = min(wmax, max(-wmax, side * 2.0 * (side_d - wall_d)))
@@ -259,6 +261,14 @@ def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kin
             wall_follow(r, istate[r, I_SIDE], ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
             return
     if forced == BEH_WALL or (forced == BEH_AUTO and istate[r, I_MODE] == MODE_WALLFOLLOW):
+        if istate[r, I_SIDE] == 0:  # chosen from outside: follow whatever is nearer, left or right
+            left, right = np.inf, np.inf
+            for j in range(n):
+                if ray_ang[j] > 0:
+                    left = min(left, ranges[r, j])
+                else:
+                    right = min(right, ranges[r, j])
+            istate[r, I_SIDE] = 1 if left < right else -1
         if own_cnt > 0 and forced == BEH_AUTO:
             istate[r, I_MODE] = MODE_APPROACH  # the target came into view: approach it
         else:
