@@ -13,7 +13,7 @@ Per tick: read true poses -> sense and decide (kernel) -> drive -> step physics
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -89,6 +89,28 @@ class TrialState:
         return self.events[0][0] if self.events else math.inf
 
 
+def behaviour_params(robot: Mapping, barcode_width_m: float, dt_s: float) -> np.ndarray:
+    """The kernel's global sensor and behaviour parameters, from a robot config mapping."""
+    laser, cam, beh = robot["laser"], robot["camera"], robot["behaviour"]
+    gp = np.zeros(nav.N_GPARAM)
+    gp[nav.G_AVOID] = beh["avoid_dist_m"]
+    gp[nav.G_STOP] = beh["stop_dist_m"]
+    gp[nav.G_ARRIVE] = beh["arrive_dist_m"]
+    gp[nav.G_WALLD] = beh["wall_dist_m"]
+    gp[nav.G_VISMARGIN] = beh["visible_margin_m"]
+    gp[nav.G_RELOC] = beh["relocalise_dist_m"]
+    gp[nav.G_STALL_S] = beh["stall_s"]
+    gp[nav.G_ESCAPE_S] = beh["escape_s"]
+    gp[nav.G_PROGRESS_M] = beh["progress_m"]
+    gp[nav.G_RANGE] = laser["range_m"]
+    gp[nav.G_CAM_FOV_HALF] = math.radians(float(cam["fov_deg"])) / 2
+    gp[nav.G_CAM_RANGE] = cam["range_m"]
+    gp[nav.G_SIDE_SECTOR] = math.radians(float(cam["side_sector_deg"]))
+    gp[nav.G_BARCODE_W] = barcode_width_m
+    gp[nav.G_DT] = dt_s
+    return gp
+
+
 class BatchEngine:
     """Runs trials of one arena and robot model side by side, tick by tick."""
 
@@ -114,50 +136,15 @@ class BatchEngine:
             float(robot["drive_force_n"]), float(robot["drive_torque_nm"]),
             first.dt_s, first.physics_substeps, first.solver_iterations,
         )
-        laser, cam, odo, beh = robot["laser"], robot["camera"], robot["odometry"], robot["behaviour"]
+        laser = robot["laser"]
         self.ray_ang = ray_angles(float(laser["fov_deg"]), int(laser["n_rays"]))
         self.ray_cs = np.column_stack([np.cos(self.ray_ang), np.sin(self.ray_ang)])
         self.walls = np.ascontiguousarray(self.arena.walls)
         self.tsegs = np.ascontiguousarray(self.arena.target_segments)
         self.tinfo = np.column_stack([self.arena.target_xy, self.arena.target_normals,
                                       self.arena.target_barcodes.astype(np.float64)])
-        self.gp = np.zeros(nav.N_GPARAM)
-        self.gp[nav.G_AVOID] = beh["avoid_dist_m"]
-        self.gp[nav.G_STOP] = beh["stop_dist_m"]
-        self.gp[nav.G_ARRIVE] = beh["arrive_dist_m"]
-        self.gp[nav.G_WALLD] = beh["wall_dist_m"]
-        self.gp[nav.G_VISMARGIN] = beh["visible_margin_m"]
-        self.gp[nav.G_RELOC] = beh["relocalise_dist_m"]
-        self.gp[nav.G_RANGE] = laser["range_m"]
-        self.gp[nav.G_CAM_FOV_HALF] = math.radians(float(cam["fov_deg"])) / 2
-        self.gp[nav.G_CAM_RANGE] = cam["range_m"]
-        self.gp[nav.G_SIDE_SECTOR] = math.radians(float(cam["side_sector_deg"]))
-        self.gp[nav.G_BARCODE_W] = self.arena.barcode_width_m
-        self.gp[nav.G_STALL_S] = beh["stall_s"]
-        self.gp[nav.G_ESCAPE_S] = beh["escape_s"]
-        self.gp[nav.G_PROGRESS_M] = beh["progress_m"]
-        self.gp[nav.G_DT] = self.dt
-        self.fparam = np.zeros((n, nav.N_FPARAM))
-        self.istate = np.zeros((n, nav.N_ISTATE), dtype=np.int64)
-        self.fstate = np.zeros((n, nav.N_FSTATE))
-        self.fstate[:, nav.FS_BEST] = np.inf
-        self.pose = np.zeros((n, 3))
-        for b, tr in enumerate(self.trials):
-            sl = slice(tr.lo, tr.hi)
-            self.fparam[sl, nav.F_RADIUS] = robot["radius_m"]
-            self.fparam[sl, nav.F_VMAX] = tr.spec.speeds_mps
-            self.fparam[sl, nav.F_WMAX] = robot["turn_rate_radps"]
-            self.fparam[sl, nav.F_SIG_T] = odo["trans_noise_per_sqrt_m"]
-            self.fparam[sl, nav.F_SIG_RM] = odo["rot_noise_per_sqrt_m"]
-            self.fparam[sl, nav.F_SIG_RR] = odo["rot_noise_per_sqrt_rad"]
-            self.istate[sl, nav.I_TRIAL] = b
-            self.istate[sl, nav.I_ALIVE] = 1
-            self.istate[sl, nav.I_LO] = tr.lo
-            self.istate[sl, nav.I_HI] = tr.hi
-            self.istate[sl, nav.I_FORCED] = nav.BEH_AUTO
-            self.istate[sl, nav.I_TARGET] = -1
-            self.istate[sl, nav.I_LASTTGT] = -1
-            self.pose[sl] = tr.start
+        self.gp = behaviour_params(robot, self.arena.barcode_width_m, self.dt)
+        self._robot_arrays(robot)
         self.est = self.pose.copy()  # robots start localised
         self.prev_pose = self.pose.copy()
         self.noise = np.zeros((_NOISE_BLOCK_TICKS, n, 3))
@@ -179,6 +166,31 @@ class BatchEngine:
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
                 self._assign(tr, i, self._t_start(tr))
+
+    def _robot_arrays(self, robot: Mapping) -> None:
+        """Per-robot parameters and state for the kernel, trial after trial."""
+        n, odo = self.n, robot["odometry"]
+        self.fparam = np.zeros((n, nav.N_FPARAM))
+        self.istate = np.zeros((n, nav.N_ISTATE), dtype=np.int64)
+        self.fstate = np.zeros((n, nav.N_FSTATE))
+        self.fstate[:, nav.FS_BEST] = np.inf
+        self.pose = np.zeros((n, 3))
+        for b, tr in enumerate(self.trials):
+            sl = slice(tr.lo, tr.hi)
+            self.fparam[sl, nav.F_RADIUS] = robot["radius_m"]
+            self.fparam[sl, nav.F_VMAX] = tr.spec.speeds_mps
+            self.fparam[sl, nav.F_WMAX] = robot["turn_rate_radps"]
+            self.fparam[sl, nav.F_SIG_T] = odo["trans_noise_per_sqrt_m"]
+            self.fparam[sl, nav.F_SIG_RM] = odo["rot_noise_per_sqrt_m"]
+            self.fparam[sl, nav.F_SIG_RR] = odo["rot_noise_per_sqrt_rad"]
+            self.istate[sl, nav.I_TRIAL] = b
+            self.istate[sl, nav.I_ALIVE] = 1
+            self.istate[sl, nav.I_LO] = tr.lo
+            self.istate[sl, nav.I_HI] = tr.hi
+            self.istate[sl, nav.I_FORCED] = nav.BEH_AUTO
+            self.istate[sl, nav.I_TARGET] = -1
+            self.istate[sl, nav.I_LASTTGT] = -1
+            self.pose[sl] = tr.start
 
     # --- time ---------------------------------------------------------------
     @property
