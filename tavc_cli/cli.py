@@ -39,6 +39,16 @@ Overrides = Annotated[
 ]
 
 
+ProgressFlag = Annotated[
+    Optional[bool],
+    typer.Option(
+        "--progress/--no-progress",
+        help="Show progress (default: when stdout is a terminal).",
+        show_default=False,
+    ),
+]
+
+
 @contextmanager
 def _user_errors() -> Iterator[None]:
     """Turn a ``TavcError`` into one line and exit 1, and Ctrl-C into exit 130."""
@@ -100,14 +110,7 @@ def run(
             help="Sweep comma lists, range() and choice(); one output folder per job.",
         ),
     ] = False,
-    progress: Annotated[
-        Optional[bool],
-        typer.Option(
-            "--progress/--no-progress",
-            help="Show progress (default: when stdout is a terminal).",
-            show_default=False,
-        ),
-    ] = None,
+    progress: ProgressFlag = None,
 ) -> None:
     """Run every trial and controller an experiment needs and write its results."""
     with _user_errors():
@@ -128,14 +131,7 @@ def model(
             help="Record the calibrated values as the config option tasks=calibrated (conf/tasks/).",
         ),
     ] = False,
-    progress: Annotated[
-        Optional[bool],
-        typer.Option(
-            "--progress/--no-progress",
-            help="Show progress (default: when stdout is a terminal).",
-            show_default=False,
-        ),
-    ] = None,
+    progress: ProgressFlag = None,
 ) -> None:
     """Measure c_i(n) in the simulator and apply the TAVC model: slot values, predicted
     allocation, constraints (1.3)/(1.4) and calibrated task values."""
