@@ -4,7 +4,6 @@ direct target approach. Each is forced on one robot and its effect checked."""
 import math
 
 import numpy as np
-import pytest
 
 from tavc_cli.behaviours import navigation as nav
 from tavc_cli.config import load_config, to_container

@@ -32,12 +32,12 @@ def _events(rec: TrialRecord):
     """Time-ordered (t, kind, payload) of everything that changes the state."""
     ev = []
     a = rec.table("arrivals")
-    for t, robot, circuit in zip(a["t_s"], a["robot"], a["circuit"]):
+    for t, robot, circuit in zip(a["t_s"], a["robot"], a["circuit"], strict=True):
         ev.append((float(t), 1, (int(robot), int(circuit))))
     b = rec.table("breakdowns")
-    for t, robot in zip(b["t_s"], b["robot"]):
+    for t, robot in zip(b["t_s"], b["robot"], strict=True):
         ev.append((float(t), 0, int(robot)))
-    for t, values in zip(rec.value_changes_t, rec.value_changes):
+    for t, values in zip(rec.value_changes_t, rec.value_changes, strict=True):
         ev.append((float(t), 2, tuple(float(v) for v in values)))
     ev.sort(key=lambda e: (e[0], e[1]))
     return ev
@@ -46,7 +46,7 @@ def _events(rec: TrialRecord):
 def group_order(groups: Sequence[str], speeds: Sequence[float]) -> list[str]:
     """Group names, fastest (by mean speed) first, ties by first appearance."""
     names = list(dict.fromkeys(groups))
-    mean = {g: np.mean([s for s, gg in zip(speeds, groups) if gg == g]) for g in names}
+    mean = {g: np.mean([s for s, gg in zip(speeds, groups, strict=True) if gg == g]) for g in names}
     return sorted(names, key=lambda g: (-mean[g], names.index(g)))
 
 
@@ -124,7 +124,7 @@ def theory_pct(n_robots: int, n_circuits: int, scheme: str, group_sizes: Sequenc
         for label in all_states(n_robots, n_circuits, scheme, group_sizes):
             counts = [int(x) for x in label.split(":")]
             prob = 1.0
-            for g, f in zip(group_sizes, counts):
+            for g, f in zip(group_sizes, counts, strict=True):
                 prob *= math.comb(g, f) * p**f * (1 - p) ** (g - f)
             out[label] = 100.0 * prob
         return out
@@ -157,7 +157,7 @@ def state_time_table(records: Iterable[TrialRecord], t_from: float, t_to: float,
         return pd.DataFrame(columns=["state", "controller", "mean_pct", "std_pct", "n_trials"])
     first = records[0]
     alive = alive_at_end(first)
-    groups = [g for g, a in zip(first.meta["groups"], alive) if a]
+    groups = [g for g, a in zip(first.meta["groups"], alive, strict=True) if a]
     order = group_order(first.meta["groups"], first.meta["speeds_mps"])
     sizes = [groups.count(g) for g in order]
     n_live, n_c = int(alive.sum()), int(first.meta["n_circuits"])

@@ -11,10 +11,10 @@ def state_table_text(state_time: pd.DataFrame) -> str:
     states = list(dict.fromkeys(state_time["state"]))
     cell = {(r.state, r.controller): r for r in state_time.itertuples()}
     widths = [max(5, max(len(s) for s in states))] + [max(13, len(c)) for c in controllers]
-    lines = ["  ".join(h.rjust(w) for h, w in zip(["state", *controllers], widths))]
+    lines = ["  ".join(h.rjust(w) for h, w in zip(["state", *controllers], widths, strict=True))]
     for s in states:
         parts = [s.rjust(widths[0])]
-        for c, w in zip(controllers, widths[1:]):
+        for c, w in zip(controllers, widths[1:], strict=True):
             r = cell.get((s, c))
             if r is None:
                 text = "-"

@@ -65,7 +65,7 @@ def run_batch(batch: Batch, out_dir: str | Path, report: Callable[[float], None]
     """Simulate one batch and write its trial files; returns the wall time (s)."""
     start = time.perf_counter()
     records = run_trials(batch.specs, report)
-    for spec, rec in zip(batch.specs, records):
+    for spec, rec in zip(batch.specs, records, strict=True):
         rec.save(trial_path(Path(out_dir), spec.controller, spec.trial))
     return time.perf_counter() - start
 

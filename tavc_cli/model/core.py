@@ -211,7 +211,7 @@ def ratio_bounds(table: CTable, targets: Iterable[tuple[int, Split]], high: int 
     `pessimistic` uses each task time's confidence bound that makes the bound tighter.
     """
     lo, hi = 0.0, math.inf
-    for n_robots, n in targets:
+    for _n_robots, n in targets:
         for i in range(2):
             if n[i] == 0:
                 continue

@@ -45,7 +45,7 @@ def _draw_arena(ax, arena: Arena) -> None:
     for x1, y1, x2, y2 in arena.walls:
         ax.plot([x1, x2], [y1, y2], color="black", lw=2)
     circuit_of = arena.target_circuit
-    for k, (t, seg) in enumerate(zip(arena.targets, arena.target_segments)):
+    for k, (t, seg) in enumerate(zip(arena.targets, arena.target_segments, strict=True)):
         colour = CIRCUIT_COLOURS[circuit_of[k] % len(CIRCUIT_COLOURS)] if circuit_of[k] >= 0 else "grey"
         ax.plot([seg[0], seg[2]], [seg[1], seg[3]], color=colour, lw=7, solid_capstyle="butt")
         nx, ny = t.normal
@@ -101,7 +101,7 @@ def animate_record(rec: TrialRecord, arena: Arena, radius: float, path: Path, fp
             colour = CIRCUIT_COLOURS[int(rec.pose_circuit[f, i]) % len(CIRCUIT_COLOURS)]
             body.center = (x, y)
             body.set_facecolor(colour if alive else "lightgrey")
-            for (offset, _), m in zip(MARKINGS, marks):
+            for (offset, _), m in zip(MARKINGS, marks, strict=True):
                 m.set_center((x, y))
                 m.set_theta1(math.degrees(th) + offset - _MARK_HALF_DEG)
                 m.set_theta2(math.degrees(th) + offset + _MARK_HALF_DEG)
