@@ -21,13 +21,11 @@ from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine
 
 
-def _specs(scenario: str, n_robots: int, duration_s: float, batch: int):
+def _config(scenario: str, n_robots: int, duration_s: float) -> dict:
     from tavc_cli.config import load_config, to_container
 
-    cfg = to_container(load_config([f"arena={scenario}", "learner=tavc_egreedy", f"team.n_robots={n_robots}",
-                                    f"trials={batch}", f"duration_s={duration_s}", "convergence_s=0",
-                                    "sim.q_snapshot_every_s=0"]))
-    return [replace(s, duration_s=duration_s) for s in trial_specs(cfg)], cfg
+    return to_container(load_config([f"arena={scenario}", "learner=tavc_egreedy", f"team.n_robots={n_robots}",
+                                     f"duration_s={duration_s}", "convergence_s=0", "sim.q_snapshot_every_s=0"]))
 
 
 def _full_loop(specs) -> float:
@@ -63,11 +61,11 @@ def run_bench(*, scenario: str = "two_circuits", n_robots: int = 6, duration_s: 
         raise TavcError(f"--repeats: must be >= 1, got {repeats}")
     if duration_s <= 0:
         raise TavcError(f"--duration-s: must be > 0, got {duration_s}")
-    specs, cfg = _specs(scenario, n_robots, duration_s, 1)
+    cfg = _config(scenario, n_robots, duration_s)
     batch = int(batch or cfg["executor"]["batch_size"])
     if batch < 1:
         raise TavcError(f"--batch: must be >= 1, got {batch}")
-    specs, cfg = _specs(scenario, n_robots, duration_s, batch)
+    specs = trial_specs({**cfg, "trials": batch, "baselines": []})
     _full_loop([replace(s, duration_s=min(duration_s, 30.0)) for s in specs])  # load compiled kernels
     full, phys = [], []
     for _ in range(repeats):

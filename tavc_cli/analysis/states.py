@@ -50,18 +50,22 @@ def group_order(groups: Sequence[str], speeds: Sequence[float]) -> list[str]:
     return sorted(names, key=lambda g: (-mean[g], names.index(g)))
 
 
+def split_label(counts: Sequence[int], values: Sequence[float]) -> str:
+    """Robots per circuit in the tables' notation: most valuable circuit first (`3:2`)."""
+    rank = np.argsort(-np.asarray(values, dtype=np.float64), kind="stable")
+    return ":".join(str(int(counts[c])) for c in rank)
+
+
 def state_label(last: np.ndarray, alive: np.ndarray, values: Sequence[float], scheme: str,
                 groups: Sequence[str] = (), order: Sequence[str] = ()) -> str | None:
     """The state string for robots' last circuits, or None while one has none yet."""
     live = np.flatnonzero(alive)
     if len(live) == 0 or np.any(last[live] < 0):
         return None
-    rank = np.argsort(-np.asarray(values), kind="stable")  # circuits, most valuable first
     if scheme == "groups":
-        high = rank[0]
+        high = int(np.argsort(-np.asarray(values), kind="stable")[0])
         return ":".join(str(sum(1 for i in live if groups[i] == g and last[i] == high)) for g in order)
-    counts = np.bincount(last[live], minlength=len(values))
-    return ":".join(str(int(counts[c])) for c in rank)
+    return split_label(np.bincount(last[live], minlength=len(values)), values)
 
 
 def state_intervals(rec: TrialRecord, scheme: str = "circuits") -> list[tuple[float, float, str | None]]:

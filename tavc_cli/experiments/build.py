@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 from tavc_cli.experiments.spec import Breakdown, TrialSpec, ValueChange
 
 CONTROLLER_CODES = {"tavc": 0, "random": 1, "static": 2, "behaviour": 3}
-_TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
+TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}  # unit of t in r = w / t, in seconds
 
 
 @dataclass(frozen=True)
@@ -67,14 +67,14 @@ def base_spec(cfg: Mapping) -> TrialSpec:
     tasks = cfg["tasks"]
     events = cfg["events"]
     return TrialSpec(
-        arena=_plain(cfg["arena"]),
-        robot=_plain(cfg["robot"]),
+        arena=cfg["arena"],
+        robot=cfg["robot"],
         speeds_mps=tuple(float(m["speed_mps"]) for m in members),
         groups=tuple(str(m["group"]) for m in members),
         policy={},
         values=tuple(float(v) for v in tasks["values"]),
         score_values=tuple(float(v) for v in tasks["score_values"]),
-        time_unit_s=_TIME_UNITS_S[tasks["time_unit"]],
+        time_unit_s=TIME_UNITS_S[tasks["time_unit"]],
         duration_s=float(cfg["duration_s"]),
         warmup_s=float(sim["warmup_s"]),
         dt_s=float(sim["dt_s"]),
@@ -113,12 +113,3 @@ def make_batches(specs: list[TrialSpec], size: int) -> list[Batch]:
         for k in range(0, len(group), size):
             out.append(Batch(label, k // size, tuple(group[k:k + size])))
     return out
-
-
-def _plain(obj):
-    """Deep-convert mappings and sequences to dicts and tuples (hashable, comparable)."""
-    if isinstance(obj, Mapping):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
-    return obj

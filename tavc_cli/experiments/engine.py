@@ -160,12 +160,12 @@ class BatchEngine:
         self.src = np.array([c.source for c in self.arena.circuits])
         self.snk = np.array([c.sink for c in self.arena.circuits])
         self.kind_of = np.array([t.kind for t in self.arena.targets])
-        self.t0 = -max(s.warmup_s for s in specs)
+        self.t0 = -first.warmup_s  # every trial of a batch starts its warm-up here
         self.tick = 0
         self.on_tick: Callable[[BatchEngine], None] | None = None
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
-                self._assign(tr, i, self._t_start(tr))
+                self._assign(tr, i, self.t0)
 
     def _robot_arrays(self, robot: Mapping) -> None:
         """Per-robot parameters and state for the kernel, trial after trial."""
@@ -196,9 +196,6 @@ class BatchEngine:
     @property
     def t(self) -> float:
         return self.t0 + self.tick * self.dt
-
-    def _t_start(self, tr: TrialState) -> float:
-        return -tr.spec.warmup_s
 
     # --- tasks --------------------------------------------------------------
     def _assign(self, tr: TrialState, i: int, t: float) -> None:
@@ -257,7 +254,6 @@ class BatchEngine:
                 tr.alive[robot] = False
                 self.world.remove(tr.lo + robot)
                 self.istate[tr.lo + robot, nav.I_ALIVE] = 0
-                self.istate[tr.lo + robot, nav.I_ARRIVED] = 0
                 tr.rows.add("breakdowns", t, robot)
             else:
                 tr.values = np.array(ev.values, dtype=np.float64)
@@ -272,8 +268,8 @@ class BatchEngine:
         """Advance until every trial reaches its duration; return their records."""
         t_end = max(s.spec.duration_s for s in self.trials)
         n_ticks = int(round((t_end - self.t0) / self.dt))
-        next_q = [self._t_start(tr) if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in self.trials]
-        next_pose = [self._t_start(tr) if tr.spec.pose_every_s > 0 else math.inf for tr in self.trials]
+        next_q = [self.t0 if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in self.trials]
+        next_pose = [self.t0 if tr.spec.pose_every_s > 0 else math.inf for tr in self.trials]
         report_every = max(1, n_ticks // 200)
         next_due = -math.inf
         while self.tick < n_ticks:
@@ -293,7 +289,7 @@ class BatchEngine:
                                          self.target_wall, self.tinfo, self.barcodes, self.ranges, self.kinds,
                                          self.ids, self.pts, self.cam, self.cmd)
             if n_arrived:
-                for g in np.flatnonzero(self.istate[:, nav.I_ARRIVED] & self.istate[:, nav.I_ALIVE]):
+                for g in np.flatnonzero(self.istate[:, nav.I_ARRIVED]):
                     tr = self.trials[self.istate[g, nav.I_TRIAL]]
                     self._arrive(tr, int(g - tr.lo), t)
             self.world.drive(self.cmd)

@@ -81,13 +81,13 @@ class _QueueReporter:
 
 
 class _Progress:
-    """A rich bar on a terminal, plain periodic lines otherwise; fed with sim seconds."""
+    """A rich bar on a terminal, plain periodic lines otherwise, over the simulated seconds
+    of the batches; each batch reports the fraction of itself that is done."""
 
-    def __init__(self, total_s: float, tty: bool) -> None:
-        self.total = total_s
+    def __init__(self, batches: list[Batch], tty: bool) -> None:
+        self.weights = {(b.controller, b.index): b.sim_seconds for b in batches}
+        self.total = total_s = sum(self.weights.values())
         self.done: dict = {}
-        self.weights: dict = {}
-        self.tty = tty
         self.start = time.perf_counter()
         self.last_line = self.start
         self.bar = None
@@ -99,8 +99,8 @@ class _Progress:
             self.task = self.bar.add_task("run", total=total_s)
             self.bar.start()
 
-    def update(self, key, frac: float, weight: float) -> None:
-        self.done[key] = frac * weight
+    def update(self, key, frac: float) -> None:
+        self.done[key] = frac * self.weights[key]
         done = sum(self.done.values())
         if self.bar is not None:
             self.bar.update(self.task, completed=done)
@@ -119,13 +119,12 @@ class _Progress:
 
 def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None:
     """Run pending batches in this process (n_jobs 1 or a single batch) or a process pool."""
-    prog = _Progress(sum(b.sim_seconds for b in pending), tty)
-    weights = {(b.controller, b.index): b.sim_seconds for b in pending}
+    prog = _Progress(pending, tty)
     try:
         if n_jobs <= 1 or len(pending) <= 1:
             for b in pending:
                 key = (b.controller, b.index)
-                run_batch(b, out_dir, lambda f, k=key: prog.update(k, f, weights[k]))
+                run_batch(b, out_dir, lambda f, k=key: prog.update(k, f))
             return
         import multiprocessing as mp
 
@@ -141,11 +140,11 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None
                     finished, remaining = wait(remaining, timeout=0.5, return_when=FIRST_COMPLETED)
                     while not queue.empty():
                         key, frac = queue.get()
-                        prog.update(key, frac, weights[key])
+                        prog.update(key, frac)
                     for f in finished:
                         f.result()  # re-raise a worker's error here
                         b = futures[f]
-                        prog.update((b.controller, b.index), 1.0, weights[(b.controller, b.index)])
+                        prog.update((b.controller, b.index), 1.0)
             except BaseException:
                 pool.shutdown(wait=True, cancel_futures=True)  # don't start batches nobody will wait for
                 raise
@@ -217,7 +216,7 @@ def run_experiment(cfg, *, progress: bool = False) -> dict:
     """Run (or reuse) every trial of the config's experiment and write its outputs."""
     from tavc_cli.config import to_container, to_yaml
 
-    plain = to_container(cfg) if not isinstance(cfg, dict) else cfg
+    plain = to_container(cfg)
     out_dir = Path(plain["output_dir"])
     try:
         (out_dir / "trials").mkdir(parents=True, exist_ok=True)
@@ -234,7 +233,7 @@ def run_experiment(cfg, *, progress: bool = False) -> dict:
         print(f"reusing {n_reused} of {n_total} finished trials in {out_dir / 'trials'}", flush=True)
     execute(pending, out_dir, int(plain["executor"]["n_jobs"]), progress)
     wall = time.perf_counter() - start
-    write_text_atomic(out_dir / "config.yaml", to_yaml(cfg) if not isinstance(cfg, dict) else json.dumps(cfg))
+    write_text_atomic(out_dir / "config.yaml", to_yaml(cfg))
     records = load_records(out_dir, specs)
     tables = analyse(plain, records)
     for name, df in tables.items():

@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from functools import cache
 from pathlib import Path
 
@@ -59,7 +59,6 @@ class TrialSpec:
     controller: str = "main"
     trial: int = 0
     seed: tuple[int, ...] = (0,)
-    extra: Mapping = field(default_factory=dict)
 
     @property
     def n_robots(self) -> int:

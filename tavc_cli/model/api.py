@@ -11,11 +11,10 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import TIME_UNITS_S
 from tavc_cli.io import write_text_atomic
 from tavc_cli.model import core
 from tavc_cli.model.measure import measure
-
-_TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
 
 
 def _scaled_measurement(cfg: Mapping) -> tuple[int, float, float]:
@@ -106,13 +105,13 @@ def run_model(cfg, *, progress: bool = False) -> dict:
     """Measure c_i(n), t_i(n) for all splits up to the team size, then predict and calibrate."""
     from tavc_cli.config import to_container
 
-    plain = to_container(cfg) if not isinstance(cfg, dict) else cfg
+    plain = to_container(cfg)
     k = len(plain["arena"]["circuits"])
     if k < 2:
         raise TavcError("arena: the TAVC model needs at least two circuits to allocate robots between")
     n_robots = int(plain["model"]["max_robots"] or plain["team"]["n_robots"])
     values = [float(v) for v in plain["tasks"]["values"]]
-    time_unit_s = _TIME_UNITS_S[plain["tasks"]["time_unit"]]
+    time_unit_s = TIME_UNITS_S[plain["tasks"]["time_unit"]]
     trials, warmup_s, measure_s = _scaled_measurement(plain)
     out_dir = Path(plain["output_dir"]) / "model"
     table, n_reused = measure(plain, out_dir, n_max=n_robots, trials=trials, warmup_s=warmup_s,

@@ -25,11 +25,16 @@ Everything here is pure arithmetic on plain data.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from itertools import product
 
+from tavc_cli.analysis.states import split_label
+
 Split = tuple[int, ...]
+
+# a split in the state notation of the tables: high-value circuit first
+state_label = split_label
 
 
 @dataclass(frozen=True)
@@ -148,12 +153,6 @@ def predicted_split(table: CTable, n_robots: int, values: Sequence[float]) -> Sp
     return min(splits(n_robots, table.n_circuits), key=worst_gain)
 
 
-def state_label(n: Split, values: Sequence[float]) -> str:
-    """A split in the state notation of the tables: high-value circuit first."""
-    order = sorted(range(len(n)), key=lambda i: -values[i])
-    return ":".join(str(n[i]) for i in order)
-
-
 def intended_split(n_robots: int, values: Sequence[float]) -> Split:
     """Robots spread evenly, the extra ones on the most valuable circuits (6 -> 3:3, 5 -> 3:2)."""
     k = len(values)
@@ -254,18 +253,3 @@ def calibrate(table: CTable, targets: Sequence[tuple[int, Split]], low_value: fl
     return {"feasible": feasible, "ratio_interval": [lo, hi], "ratio": rho,
             "robust_ratio_interval": [max(rlo, 1.0), rhi], "robust": max(rlo, 1.0) < rhi,
             "values": values, "targets": [{"n_robots": n_r, "split": list(n)} for n_r, n in targets]}
-
-
-def cells_from_rows(rows: Iterable[Mapping]) -> CTable:
-    """Rebuild a CTable from model.csv-style rows (split as a tuple, circuit index, fields)."""
-    rows = list(rows)
-    k = max(int(r["circuit"]) for r in rows) + 1
-    table = CTable(k)
-    grouped: dict[Split, dict[int, Cell]] = {}
-    for r in rows:
-        grouped.setdefault(tuple(r["split"]), {})[int(r["circuit"])] = Cell(
-            c=r["c"], t=r["t"], c_lo=r.get("c_lo", math.nan), c_hi=r.get("c_hi", math.nan),
-            t_lo=r.get("t_lo", math.nan), t_hi=r.get("t_hi", math.nan), n_trials=r.get("n_trials", 0))
-    for n, cells in grouped.items():
-        table.cells[n] = tuple(cells.get(i, Cell(0.0, math.inf)) for i in range(k))
-    return table

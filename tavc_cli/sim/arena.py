@@ -95,9 +95,6 @@ class Arena:
             out[circ.sink] = c
         return out
 
-    def contains(self, x: float, y: float, margin: float = 0.0) -> bool:
-        """True if (x, y) lies inside the outer walls by at least `margin`."""
-        return margin <= x <= self.width_m - margin and margin <= y <= self.height_m - margin
 
 
 def _boundary_normal(x: float, y: float, width: float, height: float) -> tuple[float, float]:

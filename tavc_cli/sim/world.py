@@ -106,7 +106,7 @@ class PhysicsWorld:
         poses = np.concatenate([np.asarray(p, dtype=np.float64) for p in start_poses])
         moment = pymunk.moment_for_circle(mass_kg, 0, radius_m)
         self._parts: list[tuple] = []
-        for (x, y, th), slot in zip(poses, self.slot_of):
+        for (x, y, th), slot in zip(poses, self.slot_of, strict=True):
             body = pymunk.Body(mass_kg, moment)
             body.position = (float(x), float(y))
             body.angle = float(th)

@@ -129,7 +129,7 @@ def animate_run(cfg, *, out: Path | None = None, duration_s: float = 300.0, fps:
     """Simulate the config's first trial and write animation.gif (+ .mp4) and trajectories.png."""
     from tavc_cli.config import to_container
 
-    plain = to_container(cfg) if not isinstance(cfg, dict) else cfg
+    plain = to_container(cfg)
     if duration_s <= 0:
         raise TavcError(f"--duration-s: must be > 0, got {duration_s}")
     if fps < 1:

@@ -1,0 +1,62 @@
+"""Resolution: fill every derived value of a composed config in place.
+
+Rules:
+
+- ``trials``: ``min(scale.trials, paper.trials)``, or ``paper.trials`` when the scale sets none.
+- ``baseline_trials``: ``paper.baseline_trials`` capped by ``scale.trials`` like ``trials``;
+  when the paper gives none, the same as ``trials``.
+- ``duration_s``, ``convergence_s``: the paper's value times ``scale.time_factor``.
+- ``sim.warmup_s`` and every event time (``events.breakdowns[*].time_s``,
+  ``events.value_changes[*].time_s``) are ALWAYS multiplied by ``scale.time_factor``, also when
+  set on the command line, so that an experiment keeps its shape at every scale.
+- ``output_dir``: ``results/<experiment_name>``.
+- ``team.members``: ``team.n_robots`` copies of ``{speed_mps: robot.speed_mps, group: all}``.
+- ``tasks.values``: 1.0 per circuit; ``tasks.score_values``: ``tasks.values``.
+- ``executor.n_jobs``: ``os.cpu_count()``.
+"""
+
+import os
+from pathlib import Path
+from typing import Optional
+
+from omegaconf import DictConfig
+
+from tavc_cli.config.schema import MemberConfig
+
+
+def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
+    """Fill every derived value in place (rules in the module docstring)."""
+    factor = cfg.scale.time_factor
+    if cfg.trials is None:
+        cfg.trials = _capped(cfg.paper.trials, cfg.scale.trials)
+    if cfg.baseline_trials is None:
+        paper_baseline = cfg.paper.baseline_trials
+        cfg.baseline_trials = (
+            cfg.trials if paper_baseline is None else _capped(paper_baseline, cfg.scale.trials)
+        )
+    if cfg.duration_s is None:
+        cfg.duration_s = cfg.paper.duration_s * factor
+    if cfg.convergence_s is None:
+        cfg.convergence_s = cfg.paper.convergence_s * factor
+    # Warm-up and event times scale with the experiment, even when set by hand, so that a
+    # quick run keeps the paper run's shape (a breakdown a third of the way in stays there).
+    cfg.sim.warmup_s = cfg.sim.warmup_s * factor
+    for event in [*cfg.events.breakdowns, *cfg.events.value_changes]:
+        event.time_s = event.time_s * factor
+    base_dir = cfg.output_dir if cfg.output_dir is not None else f"results/{cfg.experiment_name}"
+    cfg.output_dir = str(Path(base_dir) / job_dir) if job_dir else base_dir
+    if cfg.team.members is None and cfg.team.n_robots >= 1:
+        speed_mps = cfg.robot.speed_mps
+        cfg.team.members = [MemberConfig(speed_mps=speed_mps) for _ in range(cfg.team.n_robots)]
+    # ``values`` is read by subscript: on a DictConfig, ``.values`` is the dict method.
+    if cfg.tasks["values"] is None:
+        cfg.tasks["values"] = [1.0] * len(cfg.arena.circuits)
+    if cfg.tasks.score_values is None:
+        cfg.tasks.score_values = list(cfg.tasks["values"])
+    if cfg.executor.n_jobs is None:
+        cfg.executor.n_jobs = os.cpu_count() or 1
+
+
+def _capped(count: int, cap: Optional[int]) -> int:
+    """``count``, limited to ``cap`` when the scale sets one."""
+    return count if cap is None else min(cap, count)

@@ -1,0 +1,354 @@
+"""Validation: each check raises one ``TavcError("<key>: <problem>")`` line."""
+
+import math
+from collections.abc import Sequence
+from typing import Any, NoReturn
+
+from omegaconf import DictConfig, OmegaConf
+
+from tavc_cli.config.schema import (
+    ANALYSIS_STATES,
+    AVAILABLE_BACKENDS,
+    AVAILABLE_LEARNERS,
+    BACKENDS,
+    BASELINES,
+    LEARNERS,
+    TARGET_KINDS,
+    TIME_UNITS,
+    WALL_TOLERANCE_M,
+)
+from tavc_cli.errors import TavcError
+
+
+def _fail(key: str, problem: str) -> NoReturn:
+    raise TavcError(f"{key}: {problem}")
+
+
+def _check(ok: bool, key: str, problem: str) -> None:
+    if not ok:
+        _fail(key, problem)
+
+
+def _positive(key: str, value: float) -> None:
+    _check(math.isfinite(value) and value > 0, key, f"must be > 0, got {value!r}")
+
+
+def _at_least(key: str, value: float, low: float) -> None:
+    _check(math.isfinite(value) and value >= low, key, f"must be >= {low}, got {value!r}")
+
+
+def _unit(key: str, value: float) -> None:
+    _check(0 <= value <= 1, key, f"must be in [0, 1], got {value!r}")
+
+
+def _angle(key: str, value: float, high: float) -> None:
+    _check(0 < value <= high, key, f"must be in (0, {high:g}], got {value!r}")
+
+
+def _one_of(key: str, value: Any, choices: Sequence[str]) -> None:
+    _check(value in choices, key, f"must be one of {', '.join(choices)}; got {value!r}")
+
+
+def _per_circuit(key: str, values: Sequence[Any], n_circuits: int, what: str) -> None:
+    _check(
+        len(values) == n_circuits,
+        key,
+        f"needs one {what} per circuit ({n_circuits}), got {len(values)}",
+    )
+
+
+def _unique(key: str, values: Sequence[Any], what: str) -> None:
+    seen = set()
+    for value in values:
+        _check(value not in seen, key, f"{what} {value!r} appears more than once")
+        seen.add(value)
+
+
+def check_no_missing(cfg: DictConfig) -> None:
+    """Every ``???`` in the schema must have been filled by a config file or override."""
+    missing = sorted(OmegaConf.missing_keys(cfg))
+    if missing:
+        _fail(missing[0], "missing value (set it in its config file or on the command line)")
+
+
+def validate_scaling(cfg: DictConfig) -> None:
+    """Check what resolution derives values from, so errors name the key the user set."""
+    _positive("scale.time_factor", cfg.scale.time_factor)
+    if cfg.scale.trials is not None:
+        _at_least("scale.trials", cfg.scale.trials, 1)
+    paper = cfg.paper
+    _at_least("paper.trials", paper.trials, 1)
+    if paper.baseline_trials is not None:
+        _at_least("paper.baseline_trials", paper.baseline_trials, 1)
+    _positive("paper.duration_s", paper.duration_s)
+    _check(
+        0 <= paper.convergence_s < paper.duration_s,
+        "paper.convergence_s",
+        f"must be in [0, paper.duration_s = {paper.duration_s:g}), got {paper.convergence_s!r}",
+    )
+
+
+def validate(cfg: DictConfig) -> None:
+    """Validate a resolved config."""
+    _validate_arena(cfg.arena)
+    _validate_robot(cfg.robot)
+    _validate_team(cfg.team)
+    n_circuits, n_robots = len(cfg.arena.circuits), cfg.team.n_robots
+    _validate_learner(cfg.learner, n_circuits, n_robots)
+    _validate_run(cfg)
+    if cfg.static_allocation is not None:
+        _validate_allocation("static_allocation", cfg.static_allocation, n_circuits, n_robots)
+    _validate_tasks(cfg.tasks, n_circuits)
+    _validate_events(cfg, n_circuits)
+    _validate_sim(cfg.sim)
+    _validate_executor(cfg.executor)
+    _one_of("analysis.state", cfg.analysis.state, ANALYSIS_STATES)
+    _positive("analysis.performance_bin_s", cfg.analysis.performance_bin_s)
+    _validate_model(cfg.model)
+
+
+def _validate_model(model: DictConfig) -> None:
+    """Measurement settings of the TAVC model."""
+    _at_least("model.trials_per_split", model.trials_per_split, 2)
+    _at_least("model.warmup_s", model.warmup_s, 0)
+    _positive("model.measure_s", model.measure_s)
+    _check(0 < model.confidence < 1, "model.confidence", f"must be in (0, 1), got {model.confidence!r}")
+    if model.max_robots is not None:
+        _at_least("model.max_robots", model.max_robots, 1)
+
+
+def _validate_arena(arena: DictConfig) -> None:
+    """Walls, targets on walls, circuits between existing sources and sinks."""
+    _positive("arena.width_m", arena.width_m)
+    _positive("arena.height_m", arena.height_m)
+    _positive("arena.barcode_width_m", arena.barcode_width_m)
+    for index, wall in enumerate(arena.walls):
+        _validate_wall(f"arena.walls[{index}]", wall, arena)
+    for index, target in enumerate(arena.targets):
+        _validate_target(f"arena.targets[{index}]", target, arena)
+    _unique("arena.targets", [target.name for target in arena.targets], "name")
+    _unique("arena.targets", [target.barcode for target in arena.targets], "barcode")
+    _check(len(arena.circuits) >= 1, "arena.circuits", "needs at least one circuit")
+    _unique("arena.circuits", [circuit.name for circuit in arena.circuits], "name")
+    kinds = {target.name: target.kind for target in arena.targets}
+    for index, circuit in enumerate(arena.circuits):
+        for end in ("source", "sink"):
+            key, name = f"arena.circuits[{index}].{end}", circuit[end]
+            _check(name in kinds, key, f"no target named {name!r} in arena.targets")
+            _check(kinds[name] == end, key, f"target {name!r} is a {kinds[name]}, not a {end}")
+
+
+def _arena_size(arena: DictConfig) -> str:
+    return f"the {arena.width_m:g} x {arena.height_m:g} m arena"
+
+
+def _validate_target(key: str, target: DictConfig, arena: DictConfig) -> None:
+    """A target lies on one of the four walls: its bar-code is mounted there."""
+    _one_of(f"{key}.kind", target.kind, TARGET_KINDS)
+    _at_least(f"{key}.barcode", target.barcode, 0)
+    x, y, width, height = target.x, target.y, arena.width_m, arena.height_m
+    where = f"target ({x!r}, {y!r})"
+    for axis, value, size in (("x", x, width), ("y", y, height)):
+        inside = -WALL_TOLERANCE_M <= value <= size + WALL_TOLERANCE_M
+        _check(inside, f"{key}.{axis}", f"{where} lies outside {_arena_size(arena)}")
+    gap_m = min(abs(x), abs(x - width), abs(y), abs(y - height))
+    _check(
+        gap_m <= WALL_TOLERANCE_M,
+        key,
+        f"{where} is not on a wall of {_arena_size(arena)} (bar-codes are mounted on walls)",
+    )
+
+
+def _validate_wall(key: str, wall: Sequence[float], arena: DictConfig) -> None:
+    """An interior wall ``[x1, y1, x2, y2]`` lies inside the arena and has a length."""
+    shape_ok = OmegaConf.is_list(wall) and len(wall) == 4
+    numbers_ok = shape_ok and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in wall
+    )
+    _check(numbers_ok, key, f"a wall is [x1, y1, x2, y2] in metres, got {_plain(wall)!r}")
+    sizes = (arena.width_m, arena.height_m) * 2
+    for index, (value, size) in enumerate(zip(wall, sizes, strict=True)):
+        problem = f"{value!r} lies outside {_arena_size(arena)}"
+        _check(0 <= value <= size, f"{key}[{index}]", problem)
+    _check(tuple(wall[:2]) != tuple(wall[2:]), key, "a wall needs two distinct end points")
+
+
+def _plain(value: Any) -> Any:
+    """A config node as builtin types, for messages."""
+    return OmegaConf.to_container(value) if OmegaConf.is_config(value) else value
+
+
+def _validate_robot(robot: DictConfig) -> None:
+    """Body, drive and sensors."""
+    body = (
+        "radius_m",
+        "mass_kg",
+        "speed_mps",
+        "turn_rate_radps",
+        "drive_force_n",
+        "drive_torque_nm",
+    )
+    for name in body:
+        _positive(f"robot.{name}", robot[name])
+    _at_least("robot.laser.n_rays", robot.laser.n_rays, 1)
+    _angle("robot.laser.fov_deg", robot.laser.fov_deg, 360.0)
+    _positive("robot.laser.range_m", robot.laser.range_m)
+    _angle("robot.camera.fov_deg", robot.camera.fov_deg, 360.0)
+    _positive("robot.camera.range_m", robot.camera.range_m)
+    _angle("robot.camera.side_sector_deg", robot.camera.side_sector_deg, 180.0)
+    for name, value in robot.odometry.items():
+        _at_least(f"robot.odometry.{name}", value, 0)
+    for name in ("avoid_dist_m", "arrive_dist_m", "wall_dist_m", "relocalise_dist_m", "stall_s", "escape_s",
+                 "progress_m"):
+        _positive(f"robot.behaviour.{name}", robot.behaviour[name])
+    for name in ("stop_dist_m", "visible_margin_m"):
+        _at_least(f"robot.behaviour.{name}", robot.behaviour[name], 0)
+    _check(robot.behaviour.avoid_dist_m > robot.behaviour.stop_dist_m, "robot.behaviour.avoid_dist_m",
+           f"must exceed robot.behaviour.stop_dist_m ({robot.behaviour.stop_dist_m:g}), "
+           f"got {robot.behaviour.avoid_dist_m:g}")
+
+
+def _validate_team(team: DictConfig) -> None:
+    """Team size, and members matching it."""
+    _at_least("team.n_robots", team.n_robots, 1)
+    _check(
+        len(team.members) == team.n_robots,
+        "team.n_robots",
+        f"{team.n_robots} does not match the {len(team.members)} robots listed in team.members",
+    )
+    for index, member in enumerate(team.members):
+        _positive(f"team.members[{index}].speed_mps", member.speed_mps)
+        _check(bool(member.group), f"team.members[{index}].group", "must not be empty")
+
+
+def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> None:
+    """Learner name and Q-learning parameters."""
+    _one_of("learner.name", learner.name, LEARNERS)
+    _check(learner.name in AVAILABLE_LEARNERS, "learner.name",
+           f"'{learner.name}' is not available in this version; use one of {', '.join(AVAILABLE_LEARNERS)}")
+    for name in ("alpha", "gamma", "epsilon"):
+        _unit(f"learner.{name}", learner[name])
+    _positive("learner.tau", learner.tau)
+    _check(
+        learner.q_init_low <= learner.q_init_high,
+        "learner.q_init_low",
+        f"must be <= learner.q_init_high ({learner.q_init_high!r}), got {learner.q_init_low!r}",
+    )
+    if learner.allocation is not None:
+        _validate_allocation("learner.allocation", learner.allocation, n_circuits, n_robots)
+
+
+def _validate_allocation(
+    key: str, allocation: Sequence[int], n_circuits: int, n_robots: int
+) -> None:
+    """Robots per circuit: one non-negative count per circuit, summing to the team size."""
+    _per_circuit(key, allocation, n_circuits, "robot count")
+    for index, count in enumerate(allocation):
+        _at_least(f"{key}[{index}]", count, 0)
+    _check(
+        sum(allocation) == n_robots,
+        key,
+        f"must sum to team.n_robots ({n_robots}), got {sum(allocation)}",
+    )
+
+
+def _validate_run(cfg: DictConfig) -> None:
+    """Seed, trial counts, durations, baselines, output folder."""
+    _at_least("seed", cfg.seed, 0)
+    _at_least("trials", cfg.trials, 1)
+    _at_least("baseline_trials", cfg.baseline_trials, 1)
+    _positive("duration_s", cfg.duration_s)
+    _check(
+        0 <= cfg.convergence_s < cfg.duration_s,
+        "convergence_s",
+        f"must be in [0, duration_s = {cfg.duration_s:g}), got {cfg.convergence_s!r}",
+    )
+    for index, baseline in enumerate(cfg.baselines):
+        _one_of(f"baselines[{index}]", baseline, BASELINES)
+    _unique("baselines", list(cfg.baselines), "controller")
+    _check(bool(cfg.output_dir), "output_dir", "must not be empty")
+
+
+def _validate_tasks(tasks: DictConfig, n_circuits: int) -> None:
+    """One learning value and one score value per circuit."""
+    for name in ("values", "score_values"):
+        key = f"tasks.{name}"
+        _per_circuit(key, tasks[name], n_circuits, "value")
+        for index, value in enumerate(tasks[name]):
+            problem = f"must be a finite number, got {value!r}"
+            _check(math.isfinite(value), f"{key}[{index}]", problem)
+    _one_of("tasks.time_unit", tasks.time_unit, TIME_UNITS)
+
+
+def _validate_events(cfg: DictConfig, n_circuits: int) -> None:
+    """Scheduled breakdowns and value changes fall inside the simulated time."""
+    n_robots = cfg.team.n_robots
+    breakdowns = cfg.events.breakdowns
+    _check(
+        len(breakdowns) < n_robots,
+        "events.breakdowns",
+        f"{len(breakdowns)} breakdowns would leave none of the {n_robots} robots running",
+    )
+    for index, breakdown in enumerate(breakdowns):
+        key = f"events.breakdowns[{index}]"
+        _validate_event_time(f"{key}.time_s", breakdown.time_s, cfg)
+        _validate_breakdown_target(key, breakdown, n_robots, n_circuits)
+    robots = [breakdown.robot for breakdown in breakdowns if breakdown.robot is not None]
+    _unique("events.breakdowns", robots, "robot")
+    for index, change in enumerate(cfg.events.value_changes):
+        key = f"events.value_changes[{index}]"
+        _validate_event_time(f"{key}.time_s", change.time_s, cfg)
+        _per_circuit(f"{key}.values", change["values"], n_circuits, "value")
+
+
+def _validate_event_time(key: str, time_s: float, cfg: DictConfig) -> None:
+    """Events happen between the start of the warm-up (negative time) and the end of a trial."""
+    start_s = 0.0 - cfg.sim.warmup_s  # not -warmup_s: that prints "-0" when there is none
+    _check(
+        start_s <= time_s < cfg.duration_s,
+        key,
+        f"{time_s:g} s (after scaling) is outside the simulated time "
+        f"[-sim.warmup_s = {start_s:g}, duration_s = {cfg.duration_s:g})",
+    )
+
+
+def _validate_breakdown_target(
+    key: str, breakdown: DictConfig, n_robots: int, n_circuits: int
+) -> None:
+    """A breakdown names a robot, a circuit (high, low or an index), or neither (random robot)."""
+    if breakdown.robot is not None:
+        _check(
+            0 <= breakdown.robot < n_robots,
+            f"{key}.robot",
+            f"must be a robot index in [0, {n_robots}), got {breakdown.robot!r}",
+        )
+        _check(breakdown.circuit is None, key, "give robot or circuit, not both")
+    circuit = breakdown.circuit
+    if circuit is None or circuit in ("high", "low"):
+        return
+    _check(
+        circuit.isdigit() and int(circuit) < n_circuits,
+        f"{key}.circuit",
+        f"must be null, high, low or a circuit index in [0, {n_circuits}), got {circuit!r}",
+    )
+
+
+def _validate_sim(sim: DictConfig) -> None:
+    """Simulator timing."""
+    _positive("sim.dt_s", sim.dt_s)
+    _at_least("sim.physics_substeps", sim.physics_substeps, 1)
+    _at_least("sim.solver_iterations", sim.solver_iterations, 1)
+    _at_least("sim.q_snapshot_every_s", sim.q_snapshot_every_s, 0)
+    _at_least("sim.pose_every_s", sim.pose_every_s, 0)
+    _at_least("sim.warmup_s", sim.warmup_s, 0)
+
+
+def _validate_executor(executor: DictConfig) -> None:
+    """Backend and parallelism."""
+    _one_of("executor.backend", executor.backend, BACKENDS)
+    _check(executor.backend in AVAILABLE_BACKENDS, "executor.backend",
+           f"'{executor.backend}' is not available in this version; use 'local'")
+    _at_least("executor.n_jobs", executor.n_jobs, 1)
+    _at_least("executor.batch_size", executor.batch_size, 1)
+    _check(executor.batch_size <= 32, "executor.batch_size",
+           f"must be at most 32 (one collision-filter bit per trial), got {executor.batch_size}")
