@@ -30,8 +30,18 @@ import math
 import numpy as np
 from numba import njit
 
+from tavc_cli.behaviours.activities import (
+    ACT_AVOID,
+    ACT_DOCK,
+    ACT_DRIVE,
+    ACT_ESCAPE,
+    ACT_IDLE,
+    ACT_SEARCH,
+    ACT_WAIT,
+)
 from tavc_cli.sim.sensors import (
     HIT_ROBOT,
+    HIT_WALL,
     HIT_TARGET,
     camera_nearest,
     cast_laser,
@@ -40,34 +50,50 @@ from tavc_cli.sim.sensors import (
 )
 
 # columns of the integer robot state
-I_TRIAL, I_ALIVE, I_TARGET, I_MODE, I_SIDE, I_FORCED, I_ARRIVED, I_TVIS, I_LO, I_HI, I_TURN, I_LASTTGT = range(12)
-N_ISTATE = 12
+(I_TRIAL, I_ALIVE, I_TARGET, I_MODE, I_SIDE, I_FORCED, I_ARRIVED, I_TVIS, I_LO, I_HI, I_TURN, I_LASTTGT,
+ I_ACT) = range(13)
+N_ISTATE = 13
 # columns of the per-robot float state: best distance to the goal so far, seconds
-# without progress, seconds of escape left
-FS_BEST, FS_STALL, FS_ESCAPE = range(3)
-N_FSTATE = 3
+# without progress, seconds of escape left, seconds left of the current dock phase
+FS_BEST, FS_STALL, FS_ESCAPE, FS_TIMER = range(4)
+N_FSTATE = 4
 # columns of the per-robot float parameters
 F_RADIUS, F_VMAX, F_WMAX, F_SIG_T, F_SIG_RM, F_SIG_RR = range(6)
 N_FPARAM = 6
 # global behaviour and sensor parameters
 (G_AVOID, G_STOP, G_ARRIVE, G_WALLD, G_VISMARGIN, G_RELOC, G_RANGE,
- G_CAM_FOV_HALF, G_CAM_RANGE, G_SIDE_SECTOR, G_BARCODE_W, G_STALL_S, G_ESCAPE_S, G_PROGRESS_M, G_DT) = range(15)
-N_GPARAM = 15
+ G_CAM_FOV_HALF, G_CAM_RANGE, G_SIDE_SECTOR, G_BARCODE_W, G_STALL_S, G_ESCAPE_S, G_PROGRESS_M, G_DT,
+ G_DOCK_LAT, G_DOCK_HEAD, G_DOCK_APPROACH, G_DWELL, G_BACKOUT, G_OCCUPIED, G_HOLD) = range(22)
+N_GPARAM = 22
+# columns of the target table: bar-code centre x, y, inward normal x, y, bar-code id, outer wall index
+T_X, T_Y, T_NX, T_NY, T_CODE, T_WALL = range(6)
 
-MODE_APPROACH, MODE_WALLFOLLOW, MODE_ESCAPE = 0, 1, 2
+MODE_APPROACH, MODE_WALLFOLLOW, MODE_ESCAPE, MODE_DOCK, MODE_SERVICE, MODE_UNDOCK = range(6)
 BEH_AUTO, BEH_DIRECT, BEH_WALL, BEH_STOP = -1, 0, 1, 2
 _CORRIDOR_MARGIN_M = 0.05
+# the final approach runs along the code's normal toward a point this far ahead of the robot
+_DOCK_LOOKAHEAD_M = 0.35
+# slowest forward speed of the final approach and of backing out, as a fraction of top speed
+_DOCK_CREEP = 0.2
+_BACKOUT_SPEED = 0.5
+# a robot counts another as nearer the dock only if it is nearer by this much (no ties)
+_QUEUE_MARGIN_M = 0.1
+# arrival: the code read at the reading distance, give or take this much
+_READ_TOL_M = 0.02
 
 
 @njit(cache=True)
-def free_distance(r, heading, radius, pts, kinds, ids, skip_barcode):
+def free_distance(r, heading, radius, pts, kinds, ids, skip_barcode, skip_wall=-1):
     """How far robot r can drive along `heading` (robot frame) before its disc,
-    widened by a small margin, touches a laser hit point (ignoring one bar-code)."""
+    widened by a small margin, touches a laser hit point (ignoring one bar-code, and
+    the outer wall `skip_wall` that a docking robot drives up to on purpose)."""
     half = radius + _CORRIDOR_MARGIN_M
     ux, uy = math.cos(heading), math.sin(heading)
     best = np.inf
     for i in range(pts.shape[1]):
         if kinds[r, i] == HIT_TARGET and ids[r, i] == skip_barcode:
+            continue
+        if kinds[r, i] == HIT_WALL and ids[r, i] == skip_wall:
             continue
         px = pts[r, i, 0]
         py = pts[r, i, 1]
@@ -88,12 +114,14 @@ def steer_to(r, bearing, dist, own_barcode, istate, ranges, kinds, ids, pts, ray
     The heading taken is the free direction nearest the goal's: candidates are
     tried outward from the goal bearing, and the first along which the robot's
     disc can travel `need` metres wins. Speed falls as the free distance ahead
-    shrinks toward `stop_dist`.
+    shrinks toward `stop_dist`. Sets the tick's activity to avoiding whenever an
+    obstacle bends the path or slows the robot.
     """
     radius, vmax, wmax = fparam[r, F_RADIUS], fparam[r, F_VMAX], fparam[r, F_WMAX]
     avoid, stop = gp[G_AVOID], gp[G_STOP]
     n = ray_ang.shape[0]
     fov_half = max(abs(ray_ang[0]), abs(ray_ang[n - 1]))
+    istate[r, I_ACT] = ACT_DRIVE
     if abs(bearing) > fov_half:
         # the goal is behind: turn on the spot until it is in view, keeping the
         # direction already chosen while the goal is nearly straight behind (the
@@ -104,8 +132,8 @@ def steer_to(r, bearing, dist, own_barcode, istate, ranges, kinds, ids, pts, ray
         cmd[r, 1] = istate[r, I_TURN] * wmax
         return
     spacing = (ray_ang[n - 1] - ray_ang[0]) / max(n - 1, 1)
-    # the robot only has to get within reading range of its goal
-    need = min(avoid, max(dist - gp[G_ARRIVE], stop))
+    # the robot only has to get to its goal point
+    need = min(avoid, max(dist, stop))
     heading = np.nan
     free = free_distance(r, bearing, radius, pts, kinds, ids, own_barcode)
     if free >= need:
@@ -133,10 +161,13 @@ def steer_to(r, bearing, dist, own_barcode, istate, ranges, kinds, ids, pts, ray
             istate[r, I_TURN] = 1 if left >= right else -1
         cmd[r, 0] = 0.0
         cmd[r, 1] = 0.5 * wmax * istate[r, I_TURN]
+        istate[r, I_ACT] = ACT_AVOID
         return
     istate[r, I_TURN] = 0
     ahead = free_distance(r, 0.0, radius, pts, kinds, ids, own_barcode)
     slow = min(1.0, max(0.0, (min(ahead, free) - stop) / max(avoid - stop, 1e-9)))
+    if heading != bearing or slow < 1.0:
+        istate[r, I_ACT] = ACT_AVOID
     cmd[r, 0] = vmax * slow * max(0.0, math.cos(heading)) ** 2
     cmd[r, 1] = min(wmax, max(-wmax, 2.0 * heading))
 
@@ -223,13 +254,120 @@ def track_progress(r, goal_dist, bearing, istate, fstate, gp):
         fstate[r, FS_STALL] = 0.0
 
 
+@njit(cache=True, inline="always")
+def to_frame(px, py, th, gx, gy):
+    """Bearing (robot frame) and distance from pose (px, py, th) to the point (gx, gy)."""
+    dx, dy = gx - px, gy - py
+    return wrap_angle(math.atan2(dy, dx) - th), math.sqrt(dx * dx + dy * dy)
+
+
+@njit(cache=True, inline="always")
+def dock_frame(px, py, th, tinfo, tgt, standoff):
+    """Pose relative to target tgt's dock spot, the point `standoff` out from the bar-code
+    along its wall's normal: (along the normal, positive into the arena; along the wall;
+    heading error from facing the wall)."""
+    nx, ny = tinfo[tgt, T_NX], tinfo[tgt, T_NY]
+    dx = px - (tinfo[tgt, T_X] + nx * standoff)
+    dy = py - (tinfo[tgt, T_Y] + ny * standoff)
+    return dx * nx + dy * ny, dy * nx - dx * ny, wrap_angle(th - math.atan2(-ny, -nx))
+
+
+@njit(cache=True)
+def dock_occupied(r, px, py, th, dock_x, dock_y, my_dist, ranges, kinds, ids, pts, radius, gp):
+    """Whether the laser shows another robot at the dock spot, nearer to it than robot r.
+
+    The rays that hit one robot form a blob; the shortest of them passes nearest its
+    centre, which lies about a radius further along that ray (a glancing ray would put
+    it up to a third of a metre off). Only a robot nearer the spot than r by a margin
+    counts, so of several robots the nearest one never waits, and none wait for each
+    other in a ring.
+    """
+    c, s = math.cos(th), math.sin(th)
+    n = pts.shape[1]
+    for j in range(n):
+        if kinds[r, j] != HIT_ROBOT:
+            continue
+        nearest = True
+        for k in range(n):
+            if kinds[r, k] == HIT_ROBOT and ids[r, k] == ids[r, j] and (
+                    ranges[r, k] < ranges[r, j] or (ranges[r, k] == ranges[r, j] and k < j)):
+                nearest = False
+                break
+        if not nearest:
+            continue
+        rng = max(ranges[r, j], 1e-9)
+        hx = pts[r, j, 0] * (1.0 + radius / rng)
+        hy = pts[r, j, 1] * (1.0 + radius / rng)
+        wx = px + c * hx - s * hy
+        wy = py + s * hx + c * hy
+        d = math.sqrt((wx - dock_x) ** 2 + (wy - dock_y) ** 2)
+        if d < gp[G_OCCUPIED] and d < my_dist - _QUEUE_MARGIN_M:
+            return True
+    return False
+
+
+@njit(cache=True)
+def dock_drive(r, along, lat, face, own_barcode, own_wall, kinds, ids, pts, fparam, gp, cmd):
+    """The final approach: drive along the bar-code's normal up to the dock spot, facing the wall.
+
+    The robot pursues a point on the normal a short look-ahead in front of it (this steers
+    out its lateral offset as it closes in), slowing to a creep near the spot. The dock's
+    own wall and bar-code are no obstacle here, other robots are.
+    """
+    radius, vmax, wmax = fparam[r, F_RADIUS], fparam[r, F_VMAX], fparam[r, F_WMAX]
+    aim_along = max(along - _DOCK_LOOKAHEAD_M, -0.05)
+    # the aim point relative to the robot, in the dock frame (x along the normal, y along the wall)
+    ax, ay = aim_along - along, -lat
+    # heading of the aim point relative to facing the wall: facing the wall is -x in this frame
+    aim_dir = math.atan2(-ay, -ax)  # sign: lat grows toward +y, angles measured from -x
+    err = wrap_angle(aim_dir - face)
+    if abs(err) > math.pi / 3:
+        cmd[r, 0] = 0.0
+        cmd[r, 1] = wmax if err > 0 else -wmax
+        return
+    ahead = free_distance(r, 0.0, radius, pts, kinds, ids, own_barcode, own_wall)
+    speed = vmax * min(1.0, max(_DOCK_CREEP, (along + 0.05) / max(gp[G_DOCK_APPROACH], 1e-9)))
+    if ahead < gp[G_STOP]:
+        speed = 0.0  # another robot in the way
+    cmd[r, 0] = speed * math.cos(err) ** 2
+    cmd[r, 1] = min(wmax, max(-wmax, 2.5 * err))
+
+
+@njit(cache=True)
+def dock_phase(r, istate, fstate, fparam, gp, cmd):
+    """Standing at the dock (loading or unloading), then backing straight out, both timed:
+    whatever is behind, the robot leaves the spot after `dwell` plus the back-out time."""
+    fstate[r, FS_TIMER] -= gp[G_DT]
+    istate[r, I_ACT] = ACT_DOCK
+    cmd[r, 1] = 0.0
+    if istate[r, I_MODE] == MODE_SERVICE:
+        cmd[r, 0] = 0.0
+        if fstate[r, FS_TIMER] <= 0.0:
+            istate[r, I_MODE] = MODE_UNDOCK
+            fstate[r, FS_TIMER] = gp[G_BACKOUT] / (_BACKOUT_SPEED * fparam[r, F_VMAX])
+    else:
+        cmd[r, 0] = -_BACKOUT_SPEED * fparam[r, F_VMAX]
+        if fstate[r, FS_TIMER] <= 0.0:
+            istate[r, I_MODE] = MODE_APPROACH
+            fstate[r, FS_BEST] = np.inf
+            fstate[r, FS_STALL] = 0.0
+
+
 @njit(cache=True)
 def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kinds, ids, pts, cmd):
-    """Choose robot r's wheel command for this tick and flag arrival at its target."""
+    """Choose robot r's wheel command for this tick and flag arrival at its target.
+
+    A target is served at its dock spot: the robot comes to the bar-code's normal, drives
+    in facing the wall, and counts as arrived when it reads its code at `arrive_dist`
+    from its centre, within the lateral and heading tolerances. It then stands for
+    `dwell` seconds and backs out `backout` metres before heading for its next target. A
+    robot that finds its dock spot taken by another robot holds back until it is free.
+    """
     tgt = istate[r, I_TARGET]
-    own_barcode = int(tinfo[tgt, 4]) if tgt >= 0 else -999
+    own_barcode = int(tinfo[tgt, T_CODE]) if tgt >= 0 else -999
+    own_wall = int(tinfo[tgt, T_WALL]) if tgt >= 0 else -1
     n = ray_ang.shape[0]
-    own_min, own_sum, own_cnt = np.inf, 0.0, 0
+    own_min, own_cnt = np.inf, 0
     near_min = np.inf
     for j in range(n):
         if kinds[r, j] != HIT_TARGET:
@@ -237,28 +375,93 @@ def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kin
         near_min = min(near_min, ranges[r, j])
         if ids[r, j] == own_barcode:
             own_min = min(own_min, ranges[r, j])
-            own_sum += ray_ang[j]
             own_cnt += 1
     istate[r, I_TVIS] = 1 if own_cnt > 0 else 0
-    istate[r, I_ARRIVED] = 1 if own_min <= gp[G_ARRIVE] else 0
+    istate[r, I_ARRIVED] = 0
     if near_min <= gp[G_RELOC]:
         # a bar-code close by gives range, bearing and orientation: localisation resets
         est[r, 0], est[r, 1], est[r, 2] = pose[r, 0], pose[r, 1], pose[r, 2]
         if istate[r, I_MODE] == MODE_WALLFOLLOW:
             istate[r, I_MODE] = MODE_APPROACH
+    mode = istate[r, I_MODE]
+    if mode == MODE_SERVICE or mode == MODE_UNDOCK:
+        dock_phase(r, istate, fstate, fparam, gp, cmd)
+        return
     forced = istate[r, I_FORCED]
     if forced == BEH_STOP or tgt < 0:
         cmd[r, 0] = 0.0
         cmd[r, 1] = 0.0
+        istate[r, I_ACT] = ACT_IDLE
         return
-    tx, ty = tinfo[tgt, 0], tinfo[tgt, 1]
-    dx, dy = tx - est[r, 0], ty - est[r, 1]
-    bearing = wrap_angle(math.atan2(dy, dx) - est[r, 2])
-    est_dist = math.sqrt(dx * dx + dy * dy)
+    # where the dock spot is: from the bar-code reading while the code is in view (the
+    # reader gives its range, bearing and orientation), else from the dead-reckoned pose
+    if own_cnt > 0:
+        gx, gy, gth = pose[r, 0], pose[r, 1], pose[r, 2]
+    else:
+        gx, gy, gth = est[r, 0], est[r, 1], est[r, 2]
+    standoff = gp[G_ARRIVE]
+    along, lat, face = dock_frame(gx, gy, gth, tinfo, tgt, standoff)
+    dock_x = tinfo[tgt, T_X] + tinfo[tgt, T_NX] * standoff
+    dock_y = tinfo[tgt, T_Y] + tinfo[tgt, T_NY] * standoff
+    dock_dist = math.sqrt(along * along + lat * lat)
+    # the funnel in front of the dock spot from which the final approach starts, and the
+    # slightly wider one it keeps to (down to just past the spot, where arrival fires)
+    enter_funnel = (0.05 < along <= gp[G_DOCK_APPROACH] + 0.1
+                    and abs(lat) <= gp[G_DOCK_LAT] + 0.5 * along and abs(face) < 0.6 * math.pi)
+    in_funnel = (-0.1 < along <= gp[G_DOCK_APPROACH] + 0.3
+                 and abs(lat) <= gp[G_DOCK_LAT] + 0.5 * max(along, 0.0) + 0.1 and abs(face) < 0.6 * math.pi)
+    occupied = dock_dist <= gp[G_HOLD] + 0.5 and dock_occupied(
+        r, gx, gy, gth, dock_x, dock_y, dock_dist, ranges, kinds, ids, pts, fparam[r, F_RADIUS], gp)
+
+    if mode == MODE_DOCK:
+        if occupied or not in_funnel:
+            istate[r, I_MODE] = MODE_APPROACH  # lost the line or beaten to the spot: line up again
+        elif (own_cnt > 0 and own_min <= gp[G_ARRIVE] + _READ_TOL_M and abs(lat) <= gp[G_DOCK_LAT]
+              and abs(face) <= gp[G_DOCK_HEAD]):
+            istate[r, I_ARRIVED] = 1
+            istate[r, I_MODE] = MODE_SERVICE
+            fstate[r, FS_TIMER] = gp[G_DWELL]
+            cmd[r, 0] = 0.0
+            cmd[r, 1] = 0.0
+            istate[r, I_ACT] = ACT_DOCK
+            return
+        else:
+            track_progress(r, dock_dist, lat, istate, fstate, gp)
+            if istate[r, I_MODE] == MODE_ESCAPE:
+                # no progress into the dock: back out and line up again
+                istate[r, I_MODE] = MODE_UNDOCK
+                fstate[r, FS_TIMER] = gp[G_BACKOUT] / (_BACKOUT_SPEED * fparam[r, F_VMAX])
+                dock_phase(r, istate, fstate, fparam, gp, cmd)
+                return
+            dock_drive(r, along, lat, face, own_barcode, own_wall, kinds, ids, pts, fparam, gp, cmd)
+            istate[r, I_ACT] = ACT_DOCK
+            return
+
+    if occupied and dock_dist <= gp[G_HOLD]:
+        # the spot is taken: wait here, facing the dock, without counting it as a stall
+        istate[r, I_ACT] = ACT_WAIT
+        bearing, _ = to_frame(gx, gy, gth, dock_x, dock_y)
+        cmd[r, 0] = 0.0
+        cmd[r, 1] = 0.0 if abs(bearing) < 0.3 else min(fparam[r, F_WMAX], max(-fparam[r, F_WMAX], bearing))
+        fstate[r, FS_STALL] = 0.0
+        return
+    if enter_funnel and not occupied and (mode == MODE_APPROACH or own_cnt > 0):
+        istate[r, I_MODE] = MODE_DOCK
+        fstate[r, FS_BEST] = np.inf
+        fstate[r, FS_STALL] = 0.0
+        dock_drive(r, along, lat, face, own_barcode, own_wall, kinds, ids, pts, fparam, gp, cmd)
+        istate[r, I_ACT] = ACT_DOCK
+        return
+
+    # on the way: head for the point `dock_approach` out along the code's normal
+    pre_x = dock_x + tinfo[tgt, T_NX] * gp[G_DOCK_APPROACH]
+    pre_y = dock_y + tinfo[tgt, T_NY] * gp[G_DOCK_APPROACH]
+    bearing, pre_dist = to_frame(gx, gy, gth, pre_x, pre_y)
     if forced == BEH_AUTO:
-        track_progress(r, own_min if own_cnt > 0 else est_dist, bearing, istate, fstate, gp)
+        track_progress(r, dock_dist, bearing, istate, fstate, gp)
         if istate[r, I_MODE] == MODE_ESCAPE:
             wall_follow(r, istate[r, I_SIDE], ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
+            istate[r, I_ACT] = ACT_ESCAPE
             return
     if forced == BEH_WALL or (forced == BEH_AUTO and istate[r, I_MODE] == MODE_WALLFOLLOW):
         if istate[r, I_SIDE] == 0:  # chosen from outside: follow whatever is nearer, left or right
@@ -273,29 +476,30 @@ def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kin
             istate[r, I_MODE] = MODE_APPROACH  # the target came into view: approach it
         else:
             wall_follow(r, istate[r, I_SIDE], ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
+            istate[r, I_ACT] = ACT_SEARCH
             return
-    if own_cnt > 0:
-        steer_to(r, own_sum / own_cnt, own_min, own_barcode, istate, ranges, kinds, ids, pts, ray_ang,
-                 fparam, gp, cmd)
-        return
-    if forced == BEH_AUTO and should_see_target(r, est, tx, ty, tinfo[tgt, 2], tinfo[tgt, 3],
-                                                ranges, kinds, ray_ang, gp):
-        istate[r, I_MODE] = MODE_WALLFOLLOW
-        # follow the wall on the side that leads round toward the expected target
-        istate[r, I_SIDE] = -1 if bearing > 0 else 1
-        wall_follow(r, istate[r, I_SIDE], ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
-        return
-    steer_to(r, bearing, est_dist, own_barcode, istate, ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
+    if own_cnt == 0 and forced == BEH_AUTO:
+        tb, _ = to_frame(est[r, 0], est[r, 1], est[r, 2], tinfo[tgt, T_X], tinfo[tgt, T_Y])
+        if should_see_target(r, est, tinfo[tgt, T_X], tinfo[tgt, T_Y], tinfo[tgt, T_NX], tinfo[tgt, T_NY],
+                             ranges, kinds, ray_ang, gp):
+            istate[r, I_MODE] = MODE_WALLFOLLOW
+            # follow the wall on the side that leads round toward the expected target
+            istate[r, I_SIDE] = -1 if tb > 0 else 1
+            wall_follow(r, istate[r, I_SIDE], ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
+            istate[r, I_ACT] = ACT_SEARCH
+            return
+    steer_to(r, bearing, pre_dist, own_barcode, istate, ranges, kinds, ids, pts, ray_ang, fparam, gp, cmd)
 
 
 @njit(cache=True)
 def control_tick(pose, prev_pose, est, noise, istate, fstate, fparam, gp, ray_ang, ray_cs, walls, n_outer,
-                 tsegs, target_wall, tinfo, barcodes, ranges, kinds, ids, pts, cam, cmd):
+                 tsegs, target_wall, tinfo, barcodes, ranges, kinds, ids, pts, cam, cmd, act_s):
     """Sense and decide for every live robot: odometry, laser, camera, behaviours.
 
     Rows of `pose` are robots; robots of one trial occupy rows I_LO..I_HI and only
-    see each other. `cmd` receives (forward speed m/s, turn rate rad/s). Returns
-    how many robots reached their target this tick.
+    see each other. `cmd` receives (forward speed m/s, turn rate rad/s); `act_s[r]`
+    adds this tick's seconds to the robot's activity of the tick. Returns how many
+    robots reached their target this tick.
     """
     alive = istate[:, I_ALIVE]
     radius = fparam[:, F_RADIUS]
@@ -314,5 +518,6 @@ def control_tick(pose, prev_pose, est, noise, istate, fstate, fparam, gp, ray_an
         camera_nearest(r, pose, radius, alive, lo, hi, gp[G_CAM_FOV_HALF], gp[G_CAM_RANGE], walls,
                        n_outer, gp[G_SIDE_SECTOR], cam)
         behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kinds, ids, pts, cmd)
+        act_s[r, istate[r, I_ACT]] += gp[G_DT]
         n_arrived += istate[r, I_ARRIVED]
     return n_arrived

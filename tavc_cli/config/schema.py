@@ -20,6 +20,8 @@ TARGET_KINDS = ("source", "sink")
 TIME_UNITS = ("s", "ms")
 # A target must sit on a wall (bar-codes are mounted on walls); this is how close counts as on.
 WALL_TOLERANCE_M = 1e-6
+# A docked robot's front must stay at least this far from the wall.
+MIN_DOCK_CLEARANCE_M = 0.03
 
 
 # --------------------------------------------------------------------------------------------
@@ -99,13 +101,26 @@ class BehaviourConfig:
 
     avoid_dist_m: float = 0.7
     stop_dist_m: float = 0.25
-    arrive_dist_m: float = 0.75
+    arrive_dist_m: float = 0.30
     wall_dist_m: float = 0.5
     visible_margin_m: float = 0.5
     relocalise_dist_m: float = 2.0
     stall_s: float = 20.0
     progress_m: float = 0.3
     escape_s: float = 15.0
+
+
+@dataclass
+class DockConfig:
+    """How a robot serves a source or sink: at the dock spot in front of the bar-code."""
+
+    lateral_tol_m: float = 0.1
+    heading_tol_deg: float = 20.0
+    approach_m: float = 0.8
+    dwell_s: float = 0.0
+    backout_m: float = 0.4
+    occupied_m: float = 0.6
+    hold_m: float = 1.2
 
 
 @dataclass
@@ -123,6 +138,7 @@ class RobotConfig:
     camera: CameraConfig = field(default_factory=CameraConfig)
     odometry: OdometryConfig = field(default_factory=OdometryConfig)
     behaviour: BehaviourConfig = field(default_factory=BehaviourConfig)
+    dock: DockConfig = field(default_factory=DockConfig)
 
 
 @dataclass

@@ -15,6 +15,7 @@ from tavc_cli.config.schema import (
     LEARNERS,
     TARGET_KINDS,
     TIME_UNITS,
+    MIN_DOCK_CLEARANCE_M,
     WALL_TOLERANCE_M,
 )
 from tavc_cli.errors import TavcError
@@ -206,6 +207,20 @@ def _validate_robot(robot: DictConfig) -> None:
     _check(robot.behaviour.avoid_dist_m > robot.behaviour.stop_dist_m, "robot.behaviour.avoid_dist_m",
            f"must exceed robot.behaviour.stop_dist_m ({robot.behaviour.stop_dist_m:g}), "
            f"got {robot.behaviour.avoid_dist_m:g}")
+    # the dock spot: the robot reads its code at arrive_dist_m from its centre, so its front
+    # must stay clear of the wall there (a few cm at least) or it could never get that close
+    clearance = robot.radius_m + MIN_DOCK_CLEARANCE_M
+    _check(robot.behaviour.arrive_dist_m >= clearance, "robot.behaviour.arrive_dist_m",
+           f"must be at least robot.radius_m + {MIN_DOCK_CLEARANCE_M:g} = {clearance:g} (the robot reads "
+           f"its code from the dock spot in front of the wall), got {robot.behaviour.arrive_dist_m:g}")
+    dock = robot.dock
+    for name in ("lateral_tol_m", "approach_m", "backout_m", "occupied_m", "hold_m"):
+        _positive(f"robot.dock.{name}", dock[name])
+    _at_least("robot.dock.dwell_s", dock.dwell_s, 0)
+    _angle("robot.dock.heading_tol_deg", dock.heading_tol_deg, 90.0)
+    _check(dock.hold_m > dock.occupied_m, "robot.dock.hold_m",
+           f"must exceed robot.dock.occupied_m ({dock.occupied_m:g}): a waiting robot holds back outside "
+           f"the zone that counts as occupied, got {dock.hold_m:g}")
 
 
 def _validate_team(team: DictConfig) -> None:

@@ -18,6 +18,7 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from tavc_cli.behaviours import navigation as nav
+from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.records import TableBuilder, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
@@ -108,6 +109,14 @@ def behaviour_params(robot: Mapping, barcode_width_m: float, dt_s: float) -> np.
     gp[nav.G_SIDE_SECTOR] = math.radians(float(cam["side_sector_deg"]))
     gp[nav.G_BARCODE_W] = barcode_width_m
     gp[nav.G_DT] = dt_s
+    dock = robot["dock"]
+    gp[nav.G_DOCK_LAT] = dock["lateral_tol_m"]
+    gp[nav.G_DOCK_HEAD] = math.radians(float(dock["heading_tol_deg"]))
+    gp[nav.G_DOCK_APPROACH] = dock["approach_m"]
+    gp[nav.G_DWELL] = dock["dwell_s"]
+    gp[nav.G_BACKOUT] = dock["backout_m"]
+    gp[nav.G_OCCUPIED] = dock["occupied_m"]
+    gp[nav.G_HOLD] = dock["hold_m"]
     return gp
 
 
@@ -142,7 +151,8 @@ class BatchEngine:
         self.walls = np.ascontiguousarray(self.arena.walls)
         self.tsegs = np.ascontiguousarray(self.arena.target_segments)
         self.tinfo = np.column_stack([self.arena.target_xy, self.arena.target_normals,
-                                      self.arena.target_barcodes.astype(np.float64)])
+                                      self.arena.target_barcodes.astype(np.float64),
+                                      self.arena.target_wall.astype(np.float64)])
         self.gp = behaviour_params(robot, self.arena.barcode_width_m, self.dt)
         self._robot_arrays(robot)
         self.est = self.pose.copy()  # robots start localised
@@ -157,6 +167,9 @@ class BatchEngine:
         self.target_wall = self.arena.target_wall
         self.cam = np.zeros((n, 4), dtype=np.int64)
         self.cmd = np.zeros((n, 2))
+        # seconds each robot spent in each activity (nav.ACTIVITIES), in all and at its task's start
+        self.act_s = np.zeros((n, N_ACT))
+        self.act_at_task = np.zeros((n, N_ACT))
         self.src = np.array([c.source for c in self.arena.circuits])
         self.snk = np.array([c.sink for c in self.arena.circuits])
         self.kind_of = np.array([t.kind for t in self.arena.targets])
@@ -204,8 +217,9 @@ class BatchEngine:
         tr.rows.add("choices", t, i, int(tr.state[i]), circuit)
         tr.task[i] = circuit
         tr.task_start[i] = t
+        self.act_at_task[tr.lo + i] = self.act_s[tr.lo + i]
+        # the robot finishes what it is doing at the dock it leaves before heading off
         self.istate[tr.lo + i, nav.I_TARGET] = self.src[circuit]
-        self.istate[tr.lo + i, nav.I_MODE] = nav.MODE_APPROACH
 
     def _arrive(self, tr: TrialState, i: int, t: float) -> None:
         g = tr.lo + i
@@ -220,7 +234,8 @@ class BatchEngine:
         task_time = t - tr.task_start[i]
         value = float(tr.values[circuit])
         reward = value / (task_time / tr.spec.time_unit_s)
-        tr.rows.add("deliveries", t, i, circuit, task_time, reward, value, float(tr.scores[circuit]))
+        spent = self.act_s[g] - self.act_at_task[g]
+        tr.rows.add("deliveries", t, i, circuit, task_time, reward, value, float(tr.scores[circuit]), *spent)
         tr.policy.learn(i, int(tr.state[i]), circuit, reward, circuit)
         tr.state[i] = circuit
         self._assign(tr, i, t)
@@ -287,7 +302,7 @@ class BatchEngine:
                                          self.fstate, self.fparam,
                                          self.gp, self.ray_ang, self.ray_cs, self.walls, 4, self.tsegs,
                                          self.target_wall, self.tinfo, self.barcodes, self.ranges, self.kinds,
-                                         self.ids, self.pts, self.cam, self.cmd)
+                                         self.ids, self.pts, self.cam, self.cmd, self.act_s)
             if n_arrived:
                 for g in np.flatnonzero(self.istate[:, nav.I_ARRIVED]):
                     tr = self.trials[self.istate[g, nav.I_TRIAL]]

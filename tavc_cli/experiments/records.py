@@ -5,7 +5,8 @@ without simulating again.
 
 Tables (each a dict of equal-length columns):
   arrivals     t_s, robot, target, circuit, kind (0 source, 1 sink)
-  deliveries   t_s, robot, circuit, task_time_s, reward, value, score
+  deliveries   t_s, robot, circuit, task_time_s, reward, value, score, and the seconds of
+               the task spent driving, avoiding, waiting, docking, searching, escaping, idle
   choices      t_s, robot, state, circuit
   breakdowns   t_s, robot
   value_changes t_s, values (n_changes, n_circuits)
@@ -21,12 +22,15 @@ from pathlib import Path
 
 import numpy as np
 
+from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.io import atomic_path
 
 TABLES = {
     "arrivals": {"t_s": float, "robot": int, "target": int, "circuit": int, "kind": int},
     "deliveries": {"t_s": float, "robot": int, "circuit": int, "task_time_s": float,
-                   "reward": float, "value": float, "score": float},
+                   "reward": float, "value": float, "score": float,
+                   # where the task's time went (behaviours.activities), summing to task_time_s
+                   **{f"{a}_s": float for a in ACTIVITIES}},
     "choices": {"t_s": float, "robot": int, "state": int, "circuit": int},
     "breakdowns": {"t_s": float, "robot": int},
 }
