@@ -120,7 +120,7 @@ class DockConfig:
     dwell_s: float = 0.0
     backout_m: float = 0.4
     occupied_m: float = 0.6
-    hold_m: float = 1.2
+    hold_margin_m: float = 0.6
 
 
 @dataclass

@@ -214,13 +214,10 @@ def _validate_robot(robot: DictConfig) -> None:
            f"must be at least robot.radius_m + {MIN_DOCK_CLEARANCE_M:g} = {clearance:g} (the robot reads "
            f"its code from the dock spot in front of the wall), got {robot.behaviour.arrive_dist_m:g}")
     dock = robot.dock
-    for name in ("lateral_tol_m", "approach_m", "backout_m", "occupied_m", "hold_m"):
+    for name in ("lateral_tol_m", "approach_m", "backout_m", "occupied_m", "hold_margin_m"):
         _positive(f"robot.dock.{name}", dock[name])
     _at_least("robot.dock.dwell_s", dock.dwell_s, 0)
     _angle("robot.dock.heading_tol_deg", dock.heading_tol_deg, 90.0)
-    _check(dock.hold_m > dock.occupied_m, "robot.dock.hold_m",
-           f"must exceed robot.dock.occupied_m ({dock.occupied_m:g}): a waiting robot holds back outside "
-           f"the zone that counts as occupied, got {dock.hold_m:g}")
 
 
 def _validate_team(team: DictConfig) -> None:

@@ -10,11 +10,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import TIME_UNITS_S
 from tavc_cli.io import write_text_atomic
 from tavc_cli.model import core
 from tavc_cli.model.measure import measure
+from tavc_cli.reference import chapter_world
+from tavc_cli.sim.arena import arena_from_mapping
 
 
 def _scaled_measurement(cfg: Mapping) -> tuple[int, float, float]:
@@ -88,17 +91,89 @@ def switch_legs(arena: Mapping, speed_mps: float) -> list[dict]:
 
 
 def table_rows(table: core.CTable, values, time_unit_s: float) -> pd.DataFrame:
+    """One row per split and circuit: c_i, t_i with intervals, reward, slot value, and where
+    the completed tasks' time went (seconds per task in each activity)."""
     rows = []
     for n, cells in sorted(table.cells.items(), key=lambda kv: (sum(kv[0]), [-v for v in kv[0]])):
         for i, cell in enumerate(cells):
+            budget = dict(zip((f"{a}_s" for a in ACTIVITIES), cell.budget, strict=True)) if cell.budget else {}
             rows.append({
                 "split": ":".join(map(str, n)), "state": core.state_label(n, values), "n_robots": sum(n),
                 "circuit": i, "n_on_circuit": n[i], "c_per_s": cell.c, "c_lo": cell.c_lo, "c_hi": cell.c_hi,
                 "task_time_s": cell.t, "t_lo": cell.t_lo, "t_hi": cell.t_hi,
+                "task_time_delivered_s": cell.t_delivered,
                 "reward_per_task": core.reward_rate(table, n, i, values, time_unit_s) if n[i] else math.nan,
                 "slot_value": core.slot_value(table, n, i, values), "n_trials": cell.n_trials,
+                "arrivals_per_h": table.arrivals_per_h.get(n, math.nan),
+                **{f"{a}_s": budget.get(f"{a}_s", math.nan) for a in ACTIVITIES},
             })
     return pd.DataFrame(rows)
+
+
+def dock_spots(arena: Mapping, reading_m: float) -> dict[str, tuple[float, float]]:
+    """Where each target's dock spot is: `reading_m` out from its bar-code along the wall's normal."""
+    built = arena_from_mapping(arena)
+    return {t.name: (t.x + t.normal[0] * reading_m, t.y + t.normal[1] * reading_m) for t in built.targets}
+
+
+def world_facts(table: core.CTable, cfg: Mapping, n_robots: int, values) -> dict:
+    """What static allocations show of the world, beside what the chapter says of its own.
+
+    - a robot alone: its time per leg (target to target) against the straight line between
+      the two dock spots at top speed;
+    - the team split as intended (3:3 for six): target arrivals per 5 h, against the
+      chapter's 3000 "traversals" per 5 h trial of six robots (which fit only as legs);
+    - the ratio t(m+1) / t(m) that constraint (1.3) needs above w_high / w_low;
+    - per number of robots on a circuit (the rest of the team on the other): where a
+      completed task's time went.
+    """
+    speed = float(cfg["robot"]["speed_mps"])
+    spots = dock_spots(cfg["arena"], float(cfg["robot"]["behaviour"]["arrive_dist_m"]))
+    k = table.n_circuits
+    lone = []
+    for c, circ in enumerate(cfg["arena"]["circuits"]):
+        alone = tuple(1 if j == c else 0 for j in range(k))
+        if alone in table.cells:
+            straight = math.dist(spots[circ["source"]], spots[circ["sink"]]) / speed
+            leg = table.t(alone, c) / 2
+            lone.append({"circuit": c, "leg_s": leg, "straight_line_leg_s": straight, "ratio": leg / straight})
+    intended = core.intended_split(n_robots, values)
+    per_h = table.arrivals_per_h.get(intended, math.nan)
+    ref = chapter_world()
+    facts = {
+        "lone_robot": lone,
+        "team_split": core.state_label(intended, values),
+        "arrivals_per_5h": per_h * 5.0,
+        "chapter_arrivals_per_5h": float(ref["traversals_per_trial"]) if n_robots == ref["n_robots"] else None,
+        "time_budget": time_budget(table, n_robots),
+    }
+    if k == 2:
+        m = max(intended)
+        high = int(np.argmax(values))
+        crowd = core.pair_split(n_robots, high, m + 1)
+        even = intended
+        if table.has(crowd) and table.has(even):
+            facts["crowding_ratio"] = {
+                "split_crowded": core.state_label(crowd, values), "split_even": core.state_label(even, values),
+                "t_crowded_s": table.t(crowd, high), "t_even_other_s": table.t(even, 1 - high),
+                "ratio": table.t(crowd, high) / table.t(even, 1 - high),
+                "needed_above": max(values) / min(values),
+            }
+    return facts
+
+
+def time_budget(table: core.CTable, n_robots: int) -> list[dict]:
+    """Seconds per completed task in each activity, by robots on the circuit (whole team placed)."""
+    rows = []
+    for n, cells in table.cells.items():
+        if sum(n) != n_robots:
+            continue
+        for i, cell in enumerate(cells):
+            if n[i] == 0 or not cell.budget:
+                continue
+            rows.append({"n_on_circuit": n[i], "circuit": i, "split": ":".join(map(str, n)),
+                         "task_time_s": cell.t, **dict(zip(ACTIVITIES, cell.budget, strict=True))})
+    return sorted(rows, key=lambda r: (r["n_on_circuit"], r["circuit"]))
 
 
 def run_model(cfg, *, progress: bool = False) -> dict:
@@ -126,6 +201,7 @@ def run_model(cfg, *, progress: bool = False) -> dict:
         "by_team_size": {str(m): predictions(table, m, values) for m in sorted({n, n_vac})},
         "constraints": constraints(table, n, values),
         "switch_legs": switch_legs(plain["arena"], float(plain["robot"]["speed_mps"])),
+        "world": world_facts(table, plain, n, values),
         "measurement": {"trials_per_split": trials, "warmup_s": warmup_s, "measure_s": measure_s,
                         "confidence": float(plain["model"]["confidence"]), "n_trials_reused": n_reused,
                         "robot_speed_mps": float(plain["robot"]["speed_mps"])},

@@ -48,6 +48,8 @@ class Cell:
     t_lo: float = math.nan
     t_hi: float = math.nan
     n_trials: int = 0
+    t_delivered: float = math.nan  # mean time of the tasks completed (t counts stuck robots too)
+    budget: tuple[float, ...] = ()  # mean seconds per completed task in each activity
 
 
 @dataclass
@@ -56,6 +58,7 @@ class CTable:
 
     n_circuits: int
     cells: dict[Split, tuple[Cell, ...]] = field(default_factory=dict)
+    arrivals_per_h: dict[Split, float] = field(default_factory=dict)  # whole group, sources and sinks
 
     def c(self, n: Split, i: int) -> float:
         return 0.0 if n[i] == 0 else self.cells[n][i].c
@@ -78,7 +81,7 @@ def splits_up_to(n_robots: int, n_circuits: int) -> list[Split]:
     return [s for m in range(1, n_robots + 1) for s in splits(m, n_circuits)]
 
 
-def _plus(n: Split, i: int, d: int = 1) -> Split:
+def add_robot(n: Split, i: int, d: int = 1) -> Split:
     return tuple(v + d if k == i else v for k, v in enumerate(n))
 
 
@@ -89,7 +92,7 @@ def total_value(table: CTable, n: Split, values: Sequence[float]) -> float:
 
 def slot_value(table: CTable, n: Split, i: int, values: Sequence[float]) -> float:
     """s_i(n) = w_i (c_i(n + e_i) - c_i(n)), eq. 1.2; NaN if n + e_i was not measured."""
-    m = _plus(n, i)
+    m = add_robot(n, i)
     if not table.has(m):
         return math.nan
     return values[i] * (table.c(m, i) - table.c(n, i))
@@ -111,7 +114,7 @@ def slot_fill(table: CTable, n_robots: int, values: Sequence[float]) -> Split:
     for _ in range(n_robots):
         gains = [slot_value(table, n, i, values) for i in range(table.n_circuits)]
         best = max(range(table.n_circuits), key=lambda i: (-math.inf if math.isnan(gains[i]) else gains[i]))
-        n = _plus(n, best)
+        n = add_robot(n, best)
     return n
 
 
@@ -125,7 +128,7 @@ def deviation_gains(table: CTable, n: Split, values: Sequence[float]) -> list[tu
         for j in range(table.n_circuits):
             if j == i:
                 continue
-            m = _plus(_plus(n, i, -1), j)
+            m = add_robot(add_robot(n, i, -1), j)
             if table.has(m) and m[j] > 0:
                 out.append((i, j, reward_rate(table, m, j, values) / here - 1.0))
     return out
@@ -167,7 +170,7 @@ def intended_split(n_robots: int, values: Sequence[float]) -> Split:
 # --- the chapter's constraints, two circuits ------------------------------------
 
 
-def _pair_split(n_robots: int, x: int, k: int) -> Split:
+def pair_split(n_robots: int, x: int, k: int) -> Split:
     """Two circuits: k robots on circuit x, the rest on the other."""
     return (k, n_robots - k) if x == 0 else (n_robots - k, k)
 
@@ -177,7 +180,7 @@ def constraint_1_3(table: CTable, n_robots: int, values: Sequence[float], m: int
     for all x, y: r_x(m+1 on x) < r_y(m on y), the rest of the n_robots on the other circuit."""
     checks = []
     for x, y in product(range(2), repeat=2):
-        a, b = _pair_split(n_robots, x, m + 1), _pair_split(n_robots, y, m)
+        a, b = pair_split(n_robots, x, m + 1), pair_split(n_robots, y, m)
         if table.has(a) and table.has(b) and a[x] > 0 and b[y] > 0:
             ra, rb = reward_rate(table, a, x, values), reward_rate(table, b, y, values)
             checks.append({"x": x, "y": y, "r_x_m+1": ra, "r_y_m": rb, "holds": bool(ra < rb)})
@@ -189,7 +192,7 @@ def constraint_1_4(table: CTable, n_robots: int, values: Sequence[float], m: int
     """(1.4): the m-th robot on the preferred circuit earns more than the m-th on the other
     (with n_robots in all, e.g. 5 after a breakdown: r_high(3:2) > r_low(2:3))."""
     other = 1 - preferred
-    a, b = _pair_split(n_robots, preferred, m), _pair_split(n_robots, other, m)
+    a, b = pair_split(n_robots, preferred, m), pair_split(n_robots, other, m)
     if not (table.has(a) and table.has(b)):
         return {"m": m, "n_robots": n_robots, "holds": False, "checks": []}
     rp, ro = reward_rate(table, a, preferred, values), reward_rate(table, b, other, values)
@@ -215,7 +218,7 @@ def ratio_bounds(table: CTable, targets: Iterable[tuple[int, Split]], high: int 
             if n[i] == 0:
                 continue
             j = 1 - i
-            m = _plus(_plus(n, i, -1), j)
+            m = add_robot(add_robot(n, i, -1), j)
             if not table.has(m):
                 continue
             t_stay, t_move = table.cells[n][i], table.cells[m][j]

@@ -1,0 +1,15 @@
+"""The chapter's numbers, as data shipped with the package."""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+from pathlib import Path
+
+_HERE = Path(__file__).resolve().parent
+
+
+@cache
+def chapter_world() -> dict:
+    """Facts the chapter states about its simulated world (speed, values, arrivals per trial)."""
+    return json.loads((_HERE / "world.json").read_text())
