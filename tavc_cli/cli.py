@@ -144,6 +144,28 @@ def model(
 
 
 @app.command()
+def calibrate(
+    overrides: Overrides = None,
+    save: Annotated[
+        bool,
+        typer.Option(
+            "--save",
+            help="Record the chosen world as the config option world=calibrated (conf/world/).",
+        ),
+    ] = False,
+    progress: ProgressFlag = None,
+) -> None:
+    """Search the reconstructed docking world (calibration.grid) for the settings under which
+    the chapter's task values meet its constraints (1.3)/(1.4); static allocations only."""
+    with _user_errors():
+        _calibrate(
+            overrides=overrides or [],
+            save=save,
+            progress=sys.stdout.isatty() if progress is None else progress,
+        )
+
+
+@app.command()
 def bench(
     json_output: Annotated[
         bool, typer.Option("--json", help="Print one JSON object and nothing else.")
@@ -258,6 +280,36 @@ def _model(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
     if save:
         path = save_calibration(result, config.find_conf_dir() / "tasks")
         typer.echo(f"calibrated values saved as {path}")
+
+
+def _calibrate(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
+    """Compose one config per grid point, measure them all, print and optionally save the choice."""
+    if not any(o.split("=", 1)[0].lstrip("+~") == "experiment" for o in overrides):
+        overrides = ["experiment=initial_distribution", *overrides]  # six robots, the chapter's values
+    base = config.to_container(config.load_config(overrides))
+    from tavc_cli.model.world_search import grid_points, point_overrides, run_search, save_world
+
+    axes = base["calibration"]["grid"]
+    if not axes:
+        raise TavcError("calibration.grid: empty; nothing to search")
+    points = [(p, config.to_container(config.load_config([*overrides, *point_overrides(p)])))
+              for p in grid_points(axes)]
+    cal, factor = base["calibration"], float(base["scale"]["time_factor"])
+    trials = int(cal["trials_per_split"])
+    if base["scale"].get("trials"):
+        trials = max(2, min(trials, int(base["scale"]["trials"])))
+    search = run_search(
+        points, Path(base["output_dir"]).parent / "calibration" / "world",
+        n_robots=int(base["team"]["n_robots"]), trials=trials, warmup_s=float(cal["warmup_s"]) * factor,
+        measure_s=float(cal["measure_s"]) * factor, confidence=float(base["model"]["confidence"]),
+        n_jobs=int(base["executor"]["n_jobs"]), batch_size=int(base["executor"]["batch_size"]), progress=progress,
+    )
+    from tavc_cli.model.report import search_text
+
+    typer.echo(search_text(search))
+    if save:
+        path = save_world(search, config.find_conf_dir() / "world", [a["key"] for a in axes])
+        typer.echo(f"chosen world saved as {path}")
 
 
 def _bench(

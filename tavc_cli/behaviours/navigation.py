@@ -78,6 +78,9 @@ _DOCK_CREEP = 0.2
 _BACKOUT_SPEED = 0.5
 # a robot counts another as nearer the dock only if it is nearer by this much (no ties)
 _QUEUE_MARGIN_M = 0.1
+# a waiting robot backs off at this fraction of top speed from a robot nearer than this to its front
+_GIVEWAY_SPEED = 0.3
+_GIVEWAY_GAP_M = 0.35
 # arrival: the code read at the reading distance, give or take this much
 _READ_TOL_M = 0.02
 
@@ -307,6 +310,15 @@ def dock_occupied(r, px, py, th, dock_x, dock_y, my_dist, ranges, kinds, ids, pt
 
 
 @njit(cache=True)
+def robot_in_front(r, ranges, kinds, ray_ang, radius):
+    """Whether a robot is within a give-way gap of robot r's front (rays within 60 degrees)."""
+    for j in range(ray_ang.shape[0]):
+        if kinds[r, j] == HIT_ROBOT and abs(ray_ang[j]) <= math.pi / 3 and ranges[r, j] < radius + _GIVEWAY_GAP_M:
+            return True
+    return False
+
+
+@njit(cache=True)
 def dock_drive(r, along, lat, face, own_barcode, own_wall, kinds, ids, pts, fparam, gp, cmd):
     """The final approach: drive along the bar-code's normal up to the dock spot, facing the wall.
 
@@ -438,10 +450,12 @@ def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kin
             return
 
     if occupied and dock_dist <= gp[G_HOLD]:
-        # the spot is taken: wait here, facing the dock, without counting it as a stall
+        # the spot is taken: wait here, facing the dock, without counting it as a stall; and
+        # give way, backing off slowly, to a robot close in front (one leaving the dock)
         istate[r, I_ACT] = ACT_WAIT
         bearing, _ = to_frame(gx, gy, gth, dock_x, dock_y)
-        cmd[r, 0] = 0.0
+        cmd[r, 0] = -_GIVEWAY_SPEED * fparam[r, F_VMAX] if robot_in_front(r, ranges, kinds, ray_ang,
+                                                                      fparam[r, F_RADIUS]) else 0.0
         cmd[r, 1] = 0.0 if abs(bearing) < 0.3 else min(fparam[r, F_WMAX], max(-fparam[r, F_WMAX], bearing))
         fstate[r, FS_STALL] = 0.0
         return

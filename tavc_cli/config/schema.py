@@ -270,6 +270,24 @@ class ModelConfig:
 
 
 @dataclass
+class GridAxis:
+    """One axis of the world search: a config key and the values it takes."""
+
+    key: str = MISSING
+    values: List[Any] = MISSING
+
+
+@dataclass
+class CalibrationConfig:
+    """How `tavc calibrate` searches the reconstructed world (times scale with `scale`)."""
+
+    trials_per_split: int = 6
+    warmup_s: float = 300.0
+    measure_s: float = 3000.0
+    grid: List[GridAxis] = field(default_factory=list)
+
+
+@dataclass
 class TavcConfig:
     """The whole configuration, as composed from conf/config.yaml."""
 
@@ -296,3 +314,4 @@ class TavcConfig:
     sim: SimConfig = field(default_factory=SimConfig)
     analysis: AnalysisConfig = field(default_factory=AnalysisConfig)
     model: ModelConfig = field(default_factory=ModelConfig)
+    calibration: CalibrationConfig = field(default_factory=CalibrationConfig)

@@ -106,6 +106,7 @@ def validate(cfg: DictConfig) -> None:
     _one_of("analysis.state", cfg.analysis.state, ANALYSIS_STATES)
     _positive("analysis.performance_bin_s", cfg.analysis.performance_bin_s)
     _validate_model(cfg.model)
+    _validate_calibration(cfg.calibration)
 
 
 def _validate_model(model: DictConfig) -> None:
@@ -116,6 +117,18 @@ def _validate_model(model: DictConfig) -> None:
     _check(0 < model.confidence < 1, "model.confidence", f"must be in (0, 1), got {model.confidence!r}")
     if model.max_robots is not None:
         _at_least("model.max_robots", model.max_robots, 1)
+
+
+def _validate_calibration(cal: DictConfig) -> None:
+    """The world search: measurement settings and a grid over existing config keys."""
+    _at_least("calibration.trials_per_split", cal.trials_per_split, 2)
+    _at_least("calibration.warmup_s", cal.warmup_s, 0)
+    _positive("calibration.measure_s", cal.measure_s)
+    for index, axis in enumerate(cal.grid):
+        key = f"calibration.grid[{index}]"
+        _check(len(axis["values"]) >= 1, f"{key}.values", "needs at least one value")
+        _check(OmegaConf.select(cal._get_root(), axis.key, default="__absent__") != "__absent__", f"{key}.key",
+               f"no config key named {axis.key!r}")
 
 
 def _validate_arena(arena: DictConfig) -> None:

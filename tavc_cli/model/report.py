@@ -55,3 +55,27 @@ def model_text(result: dict) -> str:
             lines.append(f"no task values make {[t['split'] for t in cal['targets']]} the equilibria "
                          f"(w_high / w_low would need to lie in [{_fmt(lo)}, {_fmt(hi)}])")
     return "\n".join(lines)
+
+
+def search_text(search: dict) -> str:
+    """The world search as a table, one grid point a line, the chosen one marked."""
+    res, frame = search["result"], search["table"]
+    keys = [c for c in frame.columns if "." in c]
+    short = {k: k.rsplit(".", 1)[1] for k in keys}
+    lines = [f"world search: {res['n_points']} points, {res['measurement']['trials_per_split']} trials per split "
+             f"({res['n_trials_reused']} trials reused), values {res['values']}; written to {search['output_dir']}",
+             "  ".join(f"{short[k]:>13}" for k in keys)
+             + f"  {'leg s':>6}  {'arr/5h':>6}  {'t4/t3':>6}  {'wait@4':>6}  {'ratio interval':>15}  verdict"]
+    for _, row in frame.iterrows():
+        verdict = "robust" if row["robust"] else ("feasible" if row["feasible"] else "-")
+        interval = f"[{_fmt(row['ratio_lo'], '.3f')}, {_fmt(row['ratio_hi'], '.3f')}]"
+        lines.append("  ".join(f"{_fmt(row[k], 'g'):>13}" for k in keys)
+                     + f"  {_fmt(row['lone_leg_s'], '.1f'):>6}  {_fmt(row['arrivals_per_5h'], '.0f'):>6}  "
+                     f"{_fmt(row['crowding_ratio_6'], '.3f'):>6}  {_fmt(row['wait_s_at_4'], '.1f'):>6}  "
+                     f"{interval:>15}  {verdict}" + ("  <- chosen" if row["chosen"] else ""))
+    if res["chosen"] is None:
+        lines.append("no point meets the chapter's constraints: nothing chosen")
+    else:
+        lines.append(f"chosen ({'robust' if res['robust'] else 'NOT robust to the intervals'}): "
+                     + " ".join(res["chosen_overrides"]))
+    return "\n".join(lines)

@@ -40,6 +40,7 @@ from itertools import product
 from pathlib import Path
 
 import pandas as pd
+import yaml
 
 from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.errors import TavcError
@@ -207,8 +208,14 @@ def save_world(search: dict, world_dir: Path, grid_keys: Sequence[str]) -> Path:
         f"[{chosen['robust_ratio_lo']:.3f}, {chosen['robust_ratio_hi']:.3f}].",
         "# The search table: calibration/search.csv beside this file.",
     ]
+    nested: dict = {}
     for key in grid_keys:
-        lines.append(f"{key}: {chosen[key]}")
+        *parents, leaf = key.split(".")
+        node = nested
+        for part in parents:
+            node = node.setdefault(part, {})
+        value = chosen[key]
+        node[leaf] = value.item() if hasattr(value, "item") else value
     path = world_dir / "calibrated.yaml"
-    write_text_atomic(path, "\n".join(lines) + "\n")
+    write_text_atomic(path, "\n".join(lines) + "\n" + yaml.safe_dump(nested, sort_keys=False))
     return path
