@@ -55,8 +55,8 @@ from tavc_cli.sim.sensors import (
 N_ISTATE = 13
 # columns of the per-robot float state: best distance to the goal so far, seconds
 # without progress, seconds of escape left, seconds left of the current dock phase
-FS_BEST, FS_STALL, FS_ESCAPE, FS_TIMER = range(4)
-N_FSTATE = 4
+FS_BEST, FS_STALL, FS_ESCAPE, FS_TIMER, FS_WAITED = range(5)
+N_FSTATE = 5
 # columns of the per-robot float parameters
 F_RADIUS, F_VMAX, F_WMAX, F_SIG_T, F_SIG_RM, F_SIG_RR = range(6)
 N_FPARAM = 6
@@ -81,6 +81,8 @@ _QUEUE_MARGIN_M = 0.1
 # a waiting robot backs off at this fraction of top speed from a robot nearer than this to its front
 _GIVEWAY_SPEED = 0.3
 _GIVEWAY_GAP_M = 0.35
+# a robot that has waited this long for a dock goes in anyway (its view of the queue may be wrong)
+_PATIENCE_S = 90.0
 # arrival: the code read at the reading distance, give or take this much
 _READ_TOL_M = 0.02
 
@@ -276,14 +278,15 @@ def dock_frame(px, py, th, tinfo, tgt, standoff):
 
 
 @njit(cache=True)
-def dock_occupied(r, px, py, th, dock_x, dock_y, my_dist, ranges, kinds, ids, pts, radius, gp):
-    """Whether the laser shows another robot at the dock spot, nearer to it than robot r.
+def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, ranges, kinds, ids, pts, radius):
+    """Whether the laser shows another robot within `zone` of the dock spot, nearer to it than robot r.
 
     The rays that hit one robot form a blob; the shortest of them passes nearest its
     centre, which lies about a radius further along that ray (a glancing ray would put
     it up to a third of a metre off). Only a robot nearer the spot than r by a margin
     counts, so of several robots the nearest one never waits, and none wait for each
-    other in a ring.
+    other in a ring. Two robots about equally near (within the margin) go in the order
+    of their position along the wall, which both see alike.
     """
     c, s = math.cos(th), math.sin(th)
     n = pts.shape[1]
@@ -304,16 +307,21 @@ def dock_occupied(r, px, py, th, dock_x, dock_y, my_dist, ranges, kinds, ids, pt
         wx = px + c * hx - s * hy
         wy = py + s * hx + c * hy
         d = math.sqrt((wx - dock_x) ** 2 + (wy - dock_y) ** 2)
-        if d < gp[G_OCCUPIED] and d < my_dist - _QUEUE_MARGIN_M:
+        if d >= zone:
+            continue
+        if d < my_dist - _QUEUE_MARGIN_M:
+            return True
+        lat = (wy - dock_y) * nx - (wx - dock_x) * ny
+        if d <= my_dist + _QUEUE_MARGIN_M and lat > my_lat:
             return True
     return False
 
 
 @njit(cache=True)
 def robot_in_front(r, ranges, kinds, ray_ang, radius):
-    """Whether a robot is within a give-way gap of robot r's front (rays within 60 degrees)."""
+    """Whether a robot is within a give-way gap of robot r, anywhere in its laser's view."""
     for j in range(ray_ang.shape[0]):
-        if kinds[r, j] == HIT_ROBOT and abs(ray_ang[j]) <= math.pi / 3 and ranges[r, j] < radius + _GIVEWAY_GAP_M:
+        if kinds[r, j] == HIT_ROBOT and ranges[r, j] < radius + _GIVEWAY_GAP_M:
             return True
     return False
 
@@ -418,12 +426,23 @@ def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kin
     dock_dist = math.sqrt(along * along + lat * lat)
     # the funnel in front of the dock spot from which the final approach starts, and the
     # slightly wider one it keeps to (down to just past the spot, where arrival fires)
-    enter_funnel = (0.05 < along <= gp[G_DOCK_APPROACH] + 0.1
+    enter_funnel = (0.05 < along <= gp[G_DOCK_APPROACH] + 0.3
                     and abs(lat) <= gp[G_DOCK_LAT] + 0.5 * along and abs(face) < 0.6 * math.pi)
-    in_funnel = (-0.1 < along <= gp[G_DOCK_APPROACH] + 0.3
+    in_funnel = (-0.1 < along <= gp[G_DOCK_APPROACH] + 0.5
                  and abs(lat) <= gp[G_DOCK_LAT] + 0.5 * max(along, 0.0) + 0.1 and abs(face) < 0.6 * math.pi)
-    occupied = dock_dist <= gp[G_HOLD] + 0.5 and dock_occupied(
-        r, gx, gy, gth, dock_x, dock_y, dock_dist, ranges, kinds, ids, pts, fparam[r, F_RADIUS], gp)
+    nx, ny = tinfo[tgt, T_NX], tinfo[tgt, T_NY]
+    funnel_m = gp[G_DOCK_APPROACH] + 0.5
+    near = dock_dist <= max(gp[G_HOLD], funnel_m) + 0.5
+    occupied = near and dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat, gp[G_OCCUPIED],
+                                      ranges, kinds, ids, pts, fparam[r, F_RADIUS])
+    # two robots in the approach funnel at once would block each other: the one with priority goes
+    if not occupied and dock_dist <= funnel_m and mode != MODE_DOCK or mode == MODE_DOCK and not occupied:
+        occupied = dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat,
+                                 max(gp[G_OCCUPIED], funnel_m), ranges, kinds, ids, pts, fparam[r, F_RADIUS])
+    if occupied and fstate[r, FS_WAITED] > _PATIENCE_S:
+        occupied = False  # waited far longer than any dock visit takes: a misread, go anyway
+    if not occupied or dock_dist > max(gp[G_HOLD], funnel_m):
+        fstate[r, FS_WAITED] = 0.0
 
     if mode == MODE_DOCK:
         if occupied or not in_funnel:
@@ -449,7 +468,7 @@ def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kin
             istate[r, I_ACT] = ACT_DOCK
             return
 
-    if occupied and dock_dist <= gp[G_HOLD]:
+    if occupied and dock_dist <= max(gp[G_HOLD], funnel_m):
         # the spot is taken: wait here, facing the dock, without counting it as a stall; and
         # give way, backing off slowly, to a robot close in front (one leaving the dock)
         istate[r, I_ACT] = ACT_WAIT
@@ -458,6 +477,7 @@ def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kin
                                                                       fparam[r, F_RADIUS]) else 0.0
         cmd[r, 1] = 0.0 if abs(bearing) < 0.3 else min(fparam[r, F_WMAX], max(-fparam[r, F_WMAX], bearing))
         fstate[r, FS_STALL] = 0.0
+        fstate[r, FS_WAITED] += gp[G_DT]
         return
     if enter_funnel and not occupied and (mode == MODE_APPROACH or own_cnt > 0):
         istate[r, I_MODE] = MODE_DOCK

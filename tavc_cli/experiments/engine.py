@@ -170,6 +170,7 @@ class BatchEngine:
         # seconds each robot spent in each activity (nav.ACTIVITIES), in all and at its task's start
         self.act_s = np.zeros((n, N_ACT))
         self.act_at_task = np.zeros((n, N_ACT))
+        self.tick_started = False
         self.src = np.array([c.source for c in self.arena.circuits])
         self.snk = np.array([c.sink for c in self.arena.circuits])
         self.kind_of = np.array([t.kind for t in self.arena.targets])
@@ -217,7 +218,7 @@ class BatchEngine:
         tr.rows.add("choices", t, i, int(tr.state[i]), circuit)
         tr.task[i] = circuit
         tr.task_start[i] = t
-        self.act_at_task[tr.lo + i] = self.act_s[tr.lo + i]
+        self.act_at_task[tr.lo + i] = self._act_before_tick(tr.lo + i)
         # the robot finishes what it is doing at the dock it leaves before heading off
         self.istate[tr.lo + i, nav.I_TARGET] = self.src[circuit]
 
@@ -234,11 +235,19 @@ class BatchEngine:
         task_time = t - tr.task_start[i]
         value = float(tr.values[circuit])
         reward = value / (task_time / tr.spec.time_unit_s)
-        spent = self.act_s[g] - self.act_at_task[g]
+        spent = self._act_before_tick(g) - self.act_at_task[g]
         tr.rows.add("deliveries", t, i, circuit, task_time, reward, value, float(tr.scores[circuit]), *spent)
         tr.policy.learn(i, int(tr.state[i]), circuit, reward, circuit)
         tr.state[i] = circuit
         self._assign(tr, i, t)
+
+    def _act_before_tick(self, g: int) -> np.ndarray:
+        """Robot g's activity seconds up to the start of this tick: the tick in which a robot
+        arrives is spent at the dock, on its next task (none yet before the first tick)."""
+        spent = self.act_s[g].copy()
+        if self.tick_started:
+            spent[self.istate[g, nav.I_ACT]] -= self.dt
+        return spent
 
     # --- scheduled events ---------------------------------------------------
     def _pick_robot(self, tr: TrialState, spec_circuit) -> int:
@@ -303,6 +312,7 @@ class BatchEngine:
                                          self.gp, self.ray_ang, self.ray_cs, self.walls, 4, self.tsegs,
                                          self.target_wall, self.tinfo, self.barcodes, self.ranges, self.kinds,
                                          self.ids, self.pts, self.cam, self.cmd, self.act_s)
+            self.tick_started = True
             if n_arrived:
                 for g in np.flatnonzero(self.istate[:, nav.I_ARRIVED]):
                     tr = self.trials[self.istate[g, nav.I_TRIAL]]
