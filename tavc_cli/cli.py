@@ -307,6 +307,11 @@ def _calibrate(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
     from tavc_cli.model.report import search_text
 
     typer.echo(search_text(search))
+    from tavc_cli.viz.sensitivity import sensitivity_figure
+
+    for path in sensitivity_figure(Path(search["output_dir"]) / "search.csv",
+                                   Path(search["output_dir"]) / "sensitivity"):
+        typer.echo(f"figure: {path}")
     if save:
         path = save_world(search, config.find_conf_dir() / "world", [a["key"] for a in axes])
         typer.echo(f"chosen world saved as {path}")

@@ -70,14 +70,16 @@ def test_default_config_composes():
 
 
 def calibrated_values() -> list[float]:
-    """The experiments' default task values, as recorded by `tavc model --save-calibration`."""
+    """The alternative task values recorded by `tavc model --save-calibration`."""
     text = (find_conf_dir() / "tasks" / "calibrated.yaml").read_text()
     return list(yaml.safe_load(text)["values"])
 
 
-def test_chapter_values_are_one_override_away():
-    cfg = load_config(["experiment=breakdown", "tasks=chapter"])
-    assert list(cfg.tasks["values"]) == [2200.0, 2000.0]
+def test_experiments_use_the_chapters_values_and_calibrated_ones_are_one_override_away():
+    for name in ("initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change", "heterogeneous"):
+        assert list(load_config([f"experiment={name}"]).tasks["values"]) == [2200.0, 2000.0], name
+    cfg = load_config(["experiment=breakdown", "tasks=calibrated"])
+    assert list(cfg.tasks["values"]) == calibrated_values()
     cfg = load_config(["experiment=breakdown", "tasks.values=[2200,2000]"])
     assert list(cfg.tasks["values"]) == [2200.0, 2000.0]
 
@@ -92,7 +94,7 @@ def test_breakdown_at_quick_scale_resolves_by_hand():
     assert cfg.events.breakdowns[0].time_s == 0.0
     assert cfg.events.breakdowns[0].circuit == "high"
     assert cfg.output_dir == "results/breakdown"
-    assert list(cfg.tasks["values"]) == calibrated_values()
+    assert list(cfg.tasks["values"]) == [2200.0, 2000.0]
     assert list(cfg.tasks.score_values) == [10.0, 1.0]
 
 
@@ -126,8 +128,7 @@ def test_event_times_and_warmup_scale_with_time_factor():
     assert cfg.sim.warmup_s == 36000 * 0.25
     assert cfg.events.breakdowns[0].time_s == -18000 * 0.25
     assert cfg.events.value_changes[0].time_s == 0.0
-    high, low = calibrated_values()
-    assert list(cfg.events.value_changes[0]["values"]) == [low, high]  # swapped
+    assert list(cfg.events.value_changes[0]["values"]) == [2000.0, 2200.0]  # the chapter's, swapped
 
 
 def test_explicit_values_beat_derived_ones():

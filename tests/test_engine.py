@@ -88,13 +88,14 @@ def test_interference_slows_a_crowded_circuit(alone, crowd):
     Welch's t-test (unequal variances: the lone robot's cycle hardly varies), one-sided, on
     task times after the first. Successive deliveries of one robot are correlated, which makes
     the test optimistic, so a practical effect (at least 10 % slower on average) is required
-    too; the observed slow-down is about 17 %.
+    too. With docking, six robots queue at the two docks: a task takes about 100 s against
+    about 75 s alone.
     """
     one = alone.table("deliveries")["task_time_s"][1:]
     d6 = crowd.table("deliveries")
     first = np.array([np.flatnonzero(d6["robot"] == i)[0] for i in np.unique(d6["robot"])])
     six = np.delete(d6["task_time_s"], first)
-    assert len(six) >= 40
+    assert len(six) >= 30
     assert stats.ttest_ind(six, one, equal_var=False, alternative="greater").pvalue < 0.01
     assert six.mean() > 1.1 * one.mean()
 

@@ -122,3 +122,71 @@ def test_model_smoke_measurement_end_to_end(tmp_path):
     again = run_model(cfg)
     assert again["n_reused"] == 9 * 2
     assert again["model"]["predicted_state"] == result["model"]["predicted_state"]
+
+
+# --- measurement: stuck robots count -----------------------------------------------------------
+
+
+def _record(deliveries: list[tuple[float, int]], n_arrivals: int = 0):
+    """A trial record with deliveries (t_s, circuit) of 60 s tasks spent driving."""
+    from tavc_cli.experiments.records import TableBuilder, TrialRecord
+
+    rows = TableBuilder()
+    for t, circuit in deliveries:
+        rows.add("deliveries", t, 0, circuit, 60.0, 1.0, 1.0, 1.0, 60.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    for k in range(n_arrivals):
+        rows.add("arrivals", 100.0 + k, 0, 0, 0, 0)
+    return TrialRecord(meta={}, tables=rows.build())
+
+
+def test_task_time_counts_a_trial_whose_robots_delivered_nothing():
+    from tavc_cli.model.measure import cells_for
+
+    # split (2, 0), window 1000 s after 0 s: trial A delivers 20 times, trial B (stuck) never
+    a = _record([(10.0 + 40 * k, 0) for k in range(20)])
+    b = _record([])
+    (cell, empty) = cells_for([a, b], (2, 0), 0.0, 1000.0, 0.9)
+    # c = mean(20 / 1000, 0) = 0.01 per s; t = n / c = 2 / 0.01 = 200 s, not the 60 s of the
+    # tasks that were completed (dropping trial B would have said 2 / 0.02 = 100 s)
+    assert cell.c == pytest.approx(0.01)
+    assert cell.t == pytest.approx(200.0)
+    assert cell.t_delivered == pytest.approx(60.0)
+    # two trials: half-width t(0.95, 1) * std / sqrt(2) = 6.314 * 0.01414 / 1.414 = 0.06314 > c,
+    # so the interval's lower end is below zero and t's upper end is infinite
+    assert cell.c_lo < 0 and cell.t_hi == INF
+    assert cell.budget[0] == pytest.approx(60.0)  # all of it driving
+    assert empty.c == 0.0 and empty.t == INF
+
+
+def test_arrivals_per_hour_average_over_trials():
+    from tavc_cli.model.measure import arrivals_per_hour
+
+    # 30 and 10 arrivals in a 1800 s window: 20 per half hour on average, 40 per hour
+    assert arrivals_per_hour([_record([], 30), _record([], 10)], 0.0, 1800.0) == pytest.approx(40.0)
+
+
+# --- the world search's selection rule ----------------------------------------------------------
+
+
+def _row(arrivals, feasible, robust, rays=31):
+    return {"arrivals_per_5h": arrivals, "feasible": feasible, "robust": robust, "robot.laser.n_rays": rays}
+
+
+def test_world_search_prefers_robust_then_most_arrivals_then_fewer_rays():
+    from tavc_cli.model.world_search import choose
+
+    # a feasible point with more arrivals loses to a robust one
+    assert choose([_row(2500, True, False), _row(2000, True, True)]) == (1, True)
+    # among robust points the most arrivals wins; on a tie the cheaper laser
+    assert choose([_row(2000, True, True), _row(2200, True, True, 61), _row(2200, True, True, 31)]) == (2, True)
+    # no robust point: the best feasible one, flagged as not robust
+    assert choose([_row(1800, True, False), _row(1900, True, False), _row(3000, False, False)]) == (1, False)
+    # nothing feasible: nothing chosen
+    assert choose([_row(3000, False, False)]) == (None, False)
+
+
+def test_world_search_measures_the_splits_the_constraints_need():
+    from tavc_cli.model.world_search import needed_splits
+
+    # six robots: 3:3 and its one-robot moves; five: 3:2 and its moves; one robot alone
+    assert needed_splits(6, [2200.0, 2000.0]) == [(1, 0), (2, 3), (3, 2), (4, 1), (2, 4), (3, 3), (4, 2)]

@@ -13,9 +13,9 @@ from tavc_cli.config.schema import (
     BACKENDS,
     BASELINES,
     LEARNERS,
+    MIN_DOCK_CLEARANCE_M,
     TARGET_KINDS,
     TIME_UNITS,
-    MIN_DOCK_CLEARANCE_M,
     WALL_TOLERANCE_M,
 )
 from tavc_cli.errors import TavcError

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+from tavc_cli.behaviours.activities import ACTIVITIES
+
 
 def _fmt(x: float, spec: str = ".4g") -> str:
     return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
@@ -40,6 +42,24 @@ def model_text(result: dict) -> str:
             lines.append(f"with {size} robots: predicted {p['predicted_state']}, optimum {p['optimal_state']}")
     for name, c in m.get("constraints", {}).items():
         lines.append(f"constraint ({name}) with {c['n_robots']} robots: {'holds' if c['holds'] else 'fails'}")
+    world = m.get("world") or {}
+    for lone in world.get("lone_robot", []):
+        lines.append(f"a robot alone on circuit {lone['circuit']}: {lone['leg_s']:.1f} s per leg, "
+                     f"{lone['ratio']:.2f} x the straight line between its dock spots at top speed")
+    if world.get("arrivals_per_5h") is not None:
+        ref = world.get("chapter_arrivals_per_5h")
+        lines.append(f"target arrivals per 5 h in {world['team_split']}: {_fmt(world['arrivals_per_5h'], '.0f')}"
+                     + (f" (the chapter: {ref:.0f})" if ref else ""))
+    crowd = world.get("crowding_ratio")
+    if crowd:
+        lines.append(f"t({crowd['split_crowded']}, crowded circuit) / t({crowd['split_even']}, other) = "
+                     f"{crowd['ratio']:.3f}; constraint (1.3) needs more than {crowd['needed_above']:.3f}")
+    if world.get("time_budget"):
+        lines.append("where a task's time goes (s per task), by robots on the circuit:")
+        lines.append("  robots  " + "  ".join(f"{a:>7}" for a in ACTIVITIES[:6]) + "     total")
+        for row in world["time_budget"]:
+            lines.append(f"  {row['n_on_circuit']:>6}  " + "  ".join(f"{row[a]:7.1f}" for a in ACTIVITIES[:6])
+                         + f"  {sum(row[a] for a in ACTIVITIES):8.1f}  (circuit {row['circuit']}, {row['split']})")
     saves = [leg["switch_saves_s"] for leg in m.get("switch_legs", [])]
     if saves and max(saves) > 0:
         lines.append(f"note: switching circuit shortens the empty leg by up to {max(saves):.1f} s (straight line); "

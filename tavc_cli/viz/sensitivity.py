@@ -1,0 +1,57 @@
+"""How much the predicted allocation rests on the docking reconstruction: a figure of the
+world search (a pure function of its saved table, `search.csv`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import pandas as pd  # noqa: E402
+
+ZONE, DWELL, READ, RAYS = "robot.dock.occupied_m", "robot.dock.dwell_s", "robot.behaviour.arrive_dist_m", \
+    "robot.laser.n_rays"
+
+
+def sensitivity_figure(search_csv: Path, out_stem: Path) -> list[Path]:
+    """Crowding ratio t(4 on a circuit) / t(3 on the other) and arrivals per 5 h against the
+    dock zone, one line per dwell, one column of panels per reading distance and laser
+    resolution; the chapter's w_high / w_low drawn as the line (1.3) must clear."""
+    frame = pd.read_csv(search_csv)
+    needed = {ZONE, DWELL, READ, RAYS}
+    if not needed <= set(frame.columns):
+        return []
+    panels = sorted({(r, n) for r, n in zip(frame[READ], frame[RAYS], strict=True)})
+    fig, axes = plt.subplots(2, len(panels), figsize=(3.2 * len(panels), 5.6), sharex=True, sharey="row",
+                             squeeze=False)
+    rho = float(frame["chapter_ratio"].iloc[0])
+    for col, (read, rays) in enumerate(panels):
+        sub = frame[(frame[READ] == read) & (frame[RAYS] == rays)]
+        for dwell, rows in sub.groupby(DWELL):
+            rows = rows.sort_values(ZONE)
+            line, = axes[0, col].plot(rows[ZONE], rows["crowding_ratio_6"], marker="o", label=f"dwell {dwell:g} s")
+            robust = rows[rows["robust"]]
+            axes[0, col].plot(robust[ZONE], robust["crowding_ratio_6"], "o", ms=10, mfc="none", color=line.get_color())
+            axes[1, col].plot(rows[ZONE], rows["arrivals_per_5h"], marker="o", color=line.get_color())
+        chosen = sub[sub["chosen"]]
+        if len(chosen):
+            axes[0, col].plot(chosen[ZONE], chosen["crowding_ratio_6"], "*", ms=16, color="k", label="chosen")
+        axes[0, col].axhline(rho, color="grey", ls="--", lw=1)
+        axes[1, col].axhline(3000, color="grey", ls="--", lw=1)
+        axes[0, col].set_title(f"reading {read:g} m, {rays:g} rays", fontsize=9)
+        axes[1, col].set_xlabel("dock zone held by one robot (m)")
+    axes[0, 0].set_ylabel("t(4 on a circuit) / t(3 on the other)")
+    axes[1, 0].set_ylabel("target arrivals per 5 h, six robots")
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle("Docking reconstruction: crowding needed by (1.3) (dashed: w_high / w_low = "
+                 f"{rho:.2f}; circles: robust) and arrivals (dashed: the chapter's 3000)", fontsize=9)
+    fig.tight_layout()
+    paths = []
+    for ext in ("png", "svg"):
+        path = out_stem.with_suffix(f".{ext}")
+        fig.savefig(path, dpi=110)
+        paths.append(path)
+    plt.close(fig)
+    return paths
