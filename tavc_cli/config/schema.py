@@ -262,7 +262,7 @@ class AnalysisConfig:
 class ModelConfig:
     """How `tavc model` measures task-processing frequencies (times scale with `scale`)."""
 
-    trials_per_split: int = 4
+    trials_per_split: int = 12
     warmup_s: float = 300.0
     measure_s: float = 3000.0
     confidence: float = 0.9
