@@ -21,11 +21,13 @@ from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine
 
 
-def _config(scenario: str, n_robots: int, duration_s: float) -> dict:
+def _config(scenario: str, n_robots: int, duration_s: float, n_rays: int | None) -> dict:
     from tavc_cli.config import load_config, to_container
 
+    rays = [f"robot.laser.n_rays={n_rays}"] if n_rays else []
     return to_container(load_config([f"arena={scenario}", "learner=tavc_egreedy", f"team.n_robots={n_robots}",
-                                     f"duration_s={duration_s}", "convergence_s=0", "sim.q_snapshot_every_s=0"]))
+                                     f"duration_s={duration_s}", "convergence_s=0", "sim.q_snapshot_every_s=0",
+                                     *rays]))
 
 
 def _full_loop(specs) -> float:
@@ -55,13 +57,13 @@ def _physics_only(specs) -> float:
 
 
 def run_bench(*, scenario: str = "two_circuits", n_robots: int = 6, duration_s: float = 600.0,
-              repeats: int = 3, batch: int | None = None) -> dict:
+              repeats: int = 3, batch: int | None = None, n_rays: int | None = None) -> dict:
     """Median real-time factors over `repeats` runs (after one warm-up run)."""
     if repeats < 1:
         raise TavcError(f"--repeats: must be >= 1, got {repeats}")
     if duration_s <= 0:
         raise TavcError(f"--duration-s: must be > 0, got {duration_s}")
-    cfg = _config(scenario, n_robots, duration_s)
+    cfg = _config(scenario, n_robots, duration_s, n_rays)
     batch = int(batch or cfg["executor"]["batch_size"])
     if batch < 1:
         raise TavcError(f"--batch: must be >= 1, got {batch}")

@@ -184,6 +184,10 @@ def bench(
             show_default=False,
         ),
     ] = None,
+    n_rays: Annotated[
+        Optional[int],
+        typer.Option("--n-rays", min=1, help="Laser rays (default: the configured world's).", show_default=False),
+    ] = None,
 ) -> None:
     """Measure simulator throughput (simulated seconds per wall second, one core)."""
     with _user_errors():
@@ -194,6 +198,7 @@ def bench(
             duration_s=duration_s,
             repeats=repeats,
             batch=batch,
+            n_rays=n_rays,
         )
 
 
@@ -325,12 +330,14 @@ def _bench(
     duration_s: float,
     repeats: int,
     batch: Optional[int],
+    n_rays: Optional[int] = None,
 ) -> None:
     """Run the benchmark and print its result as JSON or as aligned lines."""
     from tavc_cli.bench import run_bench
 
     result = run_bench(
-        scenario=scenario, n_robots=n_robots, duration_s=duration_s, repeats=repeats, batch=batch
+        scenario=scenario, n_robots=n_robots, duration_s=duration_s, repeats=repeats, batch=batch,
+        n_rays=n_rays,
     )
     if json_output:
         typer.echo(json.dumps(result))
