@@ -17,8 +17,10 @@ RADIUS_M, READ_M, LATERAL_TOL_M, HEADING_TOL = 0.22, 0.30, 0.10, math.radians(20
 
 
 def _specs(*overrides):
+    """Specs in a pinned dock world (the hand-computed geometry below is for it)."""
     cfg = to_container(load_config(["scale=paper", "convergence_s=0", "learner=static",
-                                    "sim.q_snapshot_every_s=0", *overrides]))
+                                    "sim.q_snapshot_every_s=0", "robot.behaviour.arrive_dist_m=0.30",
+                                    "robot.dock.dwell_s=0", "robot.dock.occupied_m=0.6", *overrides]))
     return trial_specs(cfg)
 
 
@@ -130,11 +132,17 @@ def test_every_second_of_a_task_is_accounted_for(lone_robots, pair):
 
 
 @pytest.mark.slow
-def test_a_crowd_on_one_circuit_keeps_flowing(monkeypatch):
-    """Six robots on the small one-circuit arena: waiting robots must not wall in a leaver."""
+@pytest.mark.parametrize("world", [(), ("robot.dock.dwell_s=5", "robot.dock.occupied_m=1.2")])
+def test_a_crowd_on_one_circuit_keeps_flowing(monkeypatch, world):
+    """Six robots on the small one-circuit arena: waiting robots must not wall in a leaver.
+
+    Without a queue discipline a robot can lose the race for a dock several times running
+    (gaps near 560 s have been seen with the larger dock zone); none may be stuck for good.
+    """
     monkeypatch.setattr(engine, "start_poses", ORIGINAL_START_POSES)
-    (rec,) = run_trials(_specs("arena=one_circuit", "team.n_robots=6", "trials=1", "duration_s=1200"))
+    (rec,) = run_trials(_specs("arena=one_circuit", "team.n_robots=6", "trials=1", "duration_s=1800", *world))
     a = rec.table("arrivals")
     for i in range(6):
-        times = np.concatenate([[0.0], a["t_s"][a["robot"] == i], [1200.0]])
-        assert np.diff(times).max() < 400.0, f"robot {i} stuck"
+        times = np.concatenate([[0.0], a["t_s"][a["robot"] == i], [1800.0]])
+        assert np.diff(times).max() < 700.0, f"robot {i} stuck"
+        assert np.count_nonzero(a["robot"] == i) >= 6

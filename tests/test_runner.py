@@ -24,6 +24,11 @@ SMOKE = [
 ]
 
 
+# A world with little crowding (no dwell, a small dock zone, the reading at 0.30 m, 31 rays),
+# for tests whose expectations are computed by hand for it or assume near-independent robots.
+LOW_CROWDING_WORLD = ["robot.behaviour.arrive_dist_m=0.30", "robot.dock.dwell_s=0", "robot.dock.occupied_m=0.6",
+                      "robot.laser.n_rays=31"]
+
 def _run(out_dir, *extra):
     return run_experiment(load_config([*SMOKE, f"output_dir={out_dir}", *extra]))
 
@@ -194,10 +199,14 @@ def test_random_allocation_matches_the_binomial_model(tmp_path):
     mean has a standard error of at most about 5.5 / sqrt(8) = 1.9 points, and 6 points is over
     3 standard errors: P(|Z| > 3.1) = 0.2 % per state, under 1 % for the 7 states together, for
     a simulator whose states really follow the binomial row. The largest deviation seen with
-    this seed is 2.9 points (2:4).
+    this seed is 2.9 points (2:4). The binomial row assumes robots that do not slow each
+    other down, so the test runs in a world with little crowding; in the calibrated docking
+    world crowded circuits are slow, which holds random robots longer in unbalanced splits
+    they then leave, and 3:3 rises to about 37 %.
     """
     cfg = load_config(
         [
+            *LOW_CROWDING_WORLD,
             "scale=paper",
             "arena=two_circuits",
             "learner=random",
