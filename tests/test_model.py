@@ -156,6 +156,9 @@ def test_task_time_counts_a_trial_whose_robots_delivered_nothing():
     assert cell.c_lo < 0 and cell.t_hi == INF
     assert cell.budget[0] == pytest.approx(60.0)  # all of it driving
     assert empty.c == 0.0 and empty.t == INF
+    # one trial: no interval at all, on c nor on t
+    (single, _) = cells_for([a], (2, 0), 0.0, 1000.0, 0.9)
+    assert single.t == pytest.approx(100.0) and math.isnan(single.t_lo) and math.isnan(single.t_hi)
 
 
 def test_arrivals_per_hour_average_over_trials():
@@ -181,8 +184,9 @@ def test_world_search_prefers_robust_then_most_arrivals_then_fewer_rays():
     assert choose([_row(2000, True, True), _row(2200, True, True, 61), _row(2200, True, True, 31)]) == (2, True)
     # no robust point: the best feasible one, flagged as not robust
     assert choose([_row(1800, True, False), _row(1900, True, False), _row(3000, False, False)]) == (1, False)
-    # nothing feasible: nothing chosen
+    # nothing feasible: nothing chosen; a point with no arrivals measured is never chosen
     assert choose([_row(3000, False, False)]) == (None, False)
+    assert choose([_row(math.nan, True, True), _row(1000, True, True)]) == (1, True)
 
 
 def test_world_search_measures_the_splits_the_constraints_need():

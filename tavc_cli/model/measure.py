@@ -105,7 +105,7 @@ def cells_for(records: list[TrialRecord], n: Split, warmup_s: float, measure_s: 
         spent = np.concatenate(budgets)
         cells.append(Cell(
             c=c, t=_per_robot_time(n[i], c), c_lo=c_lo, c_hi=c_hi,
-            t_lo=_per_robot_time(n[i], c_hi), t_hi=_per_robot_time(n[i], c_lo) if c_lo > 0 else math.inf,
+            t_lo=_per_robot_time(n[i], c_hi), t_hi=_per_robot_time(n[i], c_lo),
             n_trials=len(records),
             t_delivered=float(done.mean()) if len(done) else math.nan,
             budget=tuple(float(v) for v in spent.mean(axis=0)) if len(done) else (),

@@ -126,7 +126,7 @@ def judge(table: core.CTable, cfg: Mapping, n_robots: int, values: Sequence[floa
 def choose(rows: list[dict], rays_key: str = "robot.laser.n_rays") -> tuple[int | None, bool]:
     """The selection rule of the module docstring: (index of the chosen row, robust?)."""
     for flag in ("robust", "feasible"):
-        pool = [i for i, r in enumerate(rows) if r[flag]]
+        pool = [i for i, r in enumerate(rows) if r[flag] and math.isfinite(r["arrivals_per_5h"])]
         if pool:
             best = max(pool, key=lambda i: (round(rows[i]["arrivals_per_5h"], 6),
                                             -float(rows[i].get(rays_key, 0) or 0), -i))
