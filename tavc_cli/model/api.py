@@ -217,20 +217,20 @@ def run_model(cfg, *, progress: bool = False) -> dict:
         result["calibration"] = cal
     frame = table_rows(table, values, time_unit_s)
     write_text_atomic(out_dir / "model.csv", frame.to_csv(index=False, float_format="%.6g"))
-    write_text_atomic(out_dir / "model.json", json.dumps(_finite(result), indent=2))
+    write_text_atomic(out_dir / "model.json", json.dumps(json_safe(result), indent=2))
     return {"output_dir": str(out_dir), "model": result, "table": frame, "n_reused": n_reused}
 
 
-def _finite(obj):
+def json_safe(obj):
     """JSON has no inf/nan: write them as null."""
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
     if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
+        return {k: json_safe(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
+        return [json_safe(v) for v in obj]
     if isinstance(obj, (np.floating, np.integer, np.bool_)):
-        return _finite(obj.item())
+        return json_safe(obj.item())
     return obj
 
 

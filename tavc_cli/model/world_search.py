@@ -47,7 +47,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.runner import execute, pending_batches
 from tavc_cli.io import write_text_atomic
 from tavc_cli.model import core
-from tavc_cli.model.api import _finite, dock_spots
+from tavc_cli.model.api import json_safe, dock_spots
 from tavc_cli.model.measure import measurement_specs, table_from
 
 Point = dict[str, object]
@@ -175,7 +175,7 @@ def run_search(points: Sequence[tuple[Point, Mapping]], out_dir: Path, *, n_robo
         "n_robust": int(sum(r["robust"] for r in rows)),
     }
     write_text_atomic(out_dir / "search.csv", frame.to_csv(index=False, float_format="%.6g"))
-    write_text_atomic(out_dir / "search.json", json.dumps(_finite(result), indent=2))
+    write_text_atomic(out_dir / "search.json", json.dumps(json_safe(result), indent=2))
     return {"output_dir": str(out_dir), "result": result, "table": frame}
 
 

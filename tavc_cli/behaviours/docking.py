@@ -1,0 +1,165 @@
+"""Serving a target at its dock spot: where the robot stands relative to the spot, whether
+another robot holds the spot, the aligned final approach, and the timed stand and back-out.
+Compiled with numba; everything works on one robot's rows of the arrays.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from tavc_cli.behaviours.activities import ACT_DOCK
+from tavc_cli.behaviours.layout import (
+    F_RADIUS,
+    F_VMAX,
+    F_WMAX,
+    FS_BEST,
+    FS_STALL,
+    FS_TIMER,
+    G_BACKOUT,
+    G_DOCK_APPROACH,
+    G_DT,
+    G_STOP,
+    I_ACT,
+    I_MODE,
+    MODE_APPROACH,
+    MODE_SERVICE,
+    MODE_UNDOCK,
+    T_NX,
+    T_NY,
+    T_X,
+    T_Y,
+)
+from tavc_cli.behaviours.motion import free_distance
+from tavc_cli.sim.sensors import HIT_ROBOT, wrap_angle
+
+# the final approach runs along the code's normal toward a point this far ahead of the robot
+DOCK_LOOKAHEAD_M = 0.35
+# slowest forward speed of the final approach and of backing out, as a fraction of top speed
+DOCK_CREEP = 0.2
+BACKOUT_SPEED = 0.5
+# a robot counts another as nearer the dock only if it is nearer by this much (no ties)
+QUEUE_MARGIN_M = 0.1
+# a waiting robot backs off at this fraction of top speed from a robot nearer than this to its front
+GIVEWAY_SPEED = 0.3
+GIVEWAY_GAP_M = 0.35
+# a robot that has waited this long for a dock goes in anyway (its view of the queue may be wrong)
+PATIENCE_S = 90.0
+# arrival: the code read at the reading distance, give or take this much
+READ_TOL_M = 0.02
+
+
+@njit(cache=True, inline="always")
+def to_frame(px, py, th, gx, gy):
+    """Bearing (robot frame) and distance from pose (px, py, th) to the point (gx, gy)."""
+    dx, dy = gx - px, gy - py
+    return wrap_angle(math.atan2(dy, dx) - th), math.sqrt(dx * dx + dy * dy)
+
+
+@njit(cache=True, inline="always")
+def dock_frame(px, py, th, tinfo, tgt, standoff):
+    """Pose relative to target tgt's dock spot, the point `standoff` out from the bar-code
+    along its wall's normal: (along the normal, positive into the arena; along the wall;
+    heading error from facing the wall)."""
+    nx, ny = tinfo[tgt, T_NX], tinfo[tgt, T_NY]
+    dx = px - (tinfo[tgt, T_X] + nx * standoff)
+    dy = py - (tinfo[tgt, T_Y] + ny * standoff)
+    return dx * nx + dy * ny, dy * nx - dx * ny, wrap_angle(th - math.atan2(-ny, -nx))
+
+
+@njit(cache=True)
+def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, ranges, kinds, ids, pts, radius):
+    """Whether the laser shows another robot within `zone` of the dock spot, nearer to it than robot r.
+
+    The rays that hit one robot form a blob; the shortest of them passes nearest its
+    centre, which lies about a radius further along that ray (a glancing ray would put
+    it up to a third of a metre off). Only a robot nearer the spot than r by a margin
+    counts, so of several robots the nearest one never waits, and none wait for each
+    other in a ring. Two robots about equally near (within the margin) go in the order
+    of their position along the wall, which both see alike.
+    """
+    c, s = math.cos(th), math.sin(th)
+    n = pts.shape[1]
+    for j in range(n):
+        if kinds[r, j] != HIT_ROBOT:
+            continue
+        nearest = True
+        for k in range(n):
+            if kinds[r, k] == HIT_ROBOT and ids[r, k] == ids[r, j] and (
+                    ranges[r, k] < ranges[r, j] or (ranges[r, k] == ranges[r, j] and k < j)):
+                nearest = False
+                break
+        if not nearest:
+            continue
+        rng = max(ranges[r, j], 1e-9)
+        hx = pts[r, j, 0] * (1.0 + radius / rng)
+        hy = pts[r, j, 1] * (1.0 + radius / rng)
+        wx = px + c * hx - s * hy
+        wy = py + s * hx + c * hy
+        d = math.sqrt((wx - dock_x) ** 2 + (wy - dock_y) ** 2)
+        if d >= zone:
+            continue
+        if d < my_dist - QUEUE_MARGIN_M:
+            return True
+        lat = (wy - dock_y) * nx - (wx - dock_x) * ny
+        if d <= my_dist + QUEUE_MARGIN_M and lat > my_lat:
+            return True
+    return False
+
+
+@njit(cache=True)
+def robot_in_front(r, ranges, kinds, ray_ang, radius):
+    """Whether a robot is within a give-way gap of robot r, anywhere in its laser's view."""
+    for j in range(ray_ang.shape[0]):
+        if kinds[r, j] == HIT_ROBOT and ranges[r, j] < radius + GIVEWAY_GAP_M:
+            return True
+    return False
+
+
+@njit(cache=True)
+def dock_drive(r, along, lat, face, own_barcode, own_wall, kinds, ids, pts, fparam, gp, cmd):
+    """The final approach: drive along the bar-code's normal up to the dock spot, facing the wall.
+
+    The robot pursues a point on the normal a short look-ahead in front of it (this steers
+    out its lateral offset as it closes in), slowing to a creep near the spot. The dock's
+    own wall and bar-code are no obstacle here, other robots are.
+    """
+    radius, vmax, wmax = fparam[r, F_RADIUS], fparam[r, F_VMAX], fparam[r, F_WMAX]
+    aim_along = max(along - DOCK_LOOKAHEAD_M, -0.05)
+    # the aim point relative to the robot, in the dock frame (x along the normal, y along the wall)
+    ax, ay = aim_along - along, -lat
+    # heading of the aim point relative to facing the wall: facing the wall is -x in this frame
+    aim_dir = math.atan2(-ay, -ax)  # sign: lat grows toward +y, angles measured from -x
+    err = wrap_angle(aim_dir - face)
+    if abs(err) > math.pi / 3:
+        cmd[r, 0] = 0.0
+        cmd[r, 1] = wmax if err > 0 else -wmax
+        return
+    ahead = free_distance(r, 0.0, radius, pts, kinds, ids, own_barcode, own_wall)
+    speed = vmax * min(1.0, max(DOCK_CREEP, (along + 0.05) / max(gp[G_DOCK_APPROACH], 1e-9)))
+    if ahead < gp[G_STOP]:
+        speed = 0.0  # another robot in the way
+    cmd[r, 0] = speed * math.cos(err) ** 2
+    cmd[r, 1] = min(wmax, max(-wmax, 2.5 * err))
+
+
+@njit(cache=True)
+def dock_phase(r, istate, fstate, fparam, gp, cmd):
+    """Standing at the dock (loading or unloading), then backing straight out, both timed:
+    whatever is behind, the robot leaves the spot after `dwell` plus the back-out time."""
+    fstate[r, FS_TIMER] -= gp[G_DT]
+    istate[r, I_ACT] = ACT_DOCK
+    cmd[r, 1] = 0.0
+    if istate[r, I_MODE] == MODE_SERVICE:
+        cmd[r, 0] = 0.0
+        if fstate[r, FS_TIMER] <= 0.0:
+            istate[r, I_MODE] = MODE_UNDOCK
+            fstate[r, FS_TIMER] = gp[G_BACKOUT] / (BACKOUT_SPEED * fparam[r, F_VMAX])
+    else:
+        cmd[r, 0] = -BACKOUT_SPEED * fparam[r, F_VMAX]
+        if fstate[r, FS_TIMER] <= 0.0:
+            istate[r, I_MODE] = MODE_APPROACH
+            fstate[r, FS_BEST] = np.inf
+            fstate[r, FS_STALL] = 0.0

@@ -1,0 +1,96 @@
+"""The kernel's data layout: columns of the per-robot state and parameter arrays, the
+global parameter vector, the target table, the behaviour modes.
+
+The compiled kernel works on plain arrays; these names say what each column holds.
+"""
+
+# columns of the integer robot state
+(I_TRIAL, I_ALIVE, I_TARGET, I_MODE, I_SIDE, I_FORCED, I_ARRIVED, I_TVIS, I_LO, I_HI, I_TURN, I_LASTTGT,
+ I_ACT) = range(13)
+N_ISTATE = 13
+# columns of the per-robot float state: best distance to the goal so far, seconds
+# without progress, seconds of escape left, seconds left of the current dock phase
+FS_BEST, FS_STALL, FS_ESCAPE, FS_TIMER, FS_WAITED = range(5)
+N_FSTATE = 5
+# columns of the per-robot float parameters
+F_RADIUS, F_VMAX, F_WMAX, F_SIG_T, F_SIG_RM, F_SIG_RR = range(6)
+N_FPARAM = 6
+# global behaviour and sensor parameters
+(G_AVOID, G_STOP, G_ARRIVE, G_WALLD, G_VISMARGIN, G_RELOC, G_RANGE,
+ G_CAM_FOV_HALF, G_CAM_RANGE, G_SIDE_SECTOR, G_BARCODE_W, G_STALL_S, G_ESCAPE_S, G_PROGRESS_M, G_DT,
+ G_DOCK_LAT, G_DOCK_HEAD, G_DOCK_APPROACH, G_DWELL, G_BACKOUT, G_OCCUPIED, G_HOLD) = range(22)
+N_GPARAM = 22
+# columns of the target table: bar-code centre x, y, inward normal x, y, bar-code id, outer wall index
+T_X, T_Y, T_NX, T_NY, T_CODE, T_WALL = range(6)
+
+MODE_APPROACH, MODE_WALLFOLLOW, MODE_ESCAPE, MODE_DOCK, MODE_SERVICE, MODE_UNDOCK = range(6)
+BEH_AUTO, BEH_DIRECT, BEH_WALL, BEH_STOP = -1, 0, 1, 2
+
+__all__ = [
+    "BEH_AUTO",
+    "BEH_DIRECT",
+    "BEH_STOP",
+    "BEH_WALL",
+    "FS_BEST",
+    "FS_ESCAPE",
+    "FS_STALL",
+    "FS_TIMER",
+    "FS_WAITED",
+    "F_RADIUS",
+    "F_SIG_RM",
+    "F_SIG_RR",
+    "F_SIG_T",
+    "F_VMAX",
+    "F_WMAX",
+    "G_ARRIVE",
+    "G_AVOID",
+    "G_BACKOUT",
+    "G_BARCODE_W",
+    "G_CAM_FOV_HALF",
+    "G_CAM_RANGE",
+    "G_DOCK_APPROACH",
+    "G_DOCK_HEAD",
+    "G_DOCK_LAT",
+    "G_DT",
+    "G_DWELL",
+    "G_ESCAPE_S",
+    "G_HOLD",
+    "G_OCCUPIED",
+    "G_PROGRESS_M",
+    "G_RANGE",
+    "G_RELOC",
+    "G_SIDE_SECTOR",
+    "G_STALL_S",
+    "G_STOP",
+    "G_VISMARGIN",
+    "G_WALLD",
+    "I_ACT",
+    "I_ALIVE",
+    "I_ARRIVED",
+    "I_FORCED",
+    "I_HI",
+    "I_LASTTGT",
+    "I_LO",
+    "I_MODE",
+    "I_SIDE",
+    "I_TARGET",
+    "I_TRIAL",
+    "I_TURN",
+    "I_TVIS",
+    "MODE_APPROACH",
+    "MODE_DOCK",
+    "MODE_ESCAPE",
+    "MODE_SERVICE",
+    "MODE_UNDOCK",
+    "MODE_WALLFOLLOW",
+    "N_FPARAM",
+    "N_FSTATE",
+    "N_GPARAM",
+    "N_ISTATE",
+    "T_CODE",
+    "T_NX",
+    "T_NY",
+    "T_WALL",
+    "T_X",
+    "T_Y",
+]
