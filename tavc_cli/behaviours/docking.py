@@ -45,8 +45,6 @@ QUEUE_MARGIN_M = 0.1
 # a waiting robot backs off at this fraction of top speed from a robot nearer than this to its front
 GIVEWAY_SPEED = 0.3
 GIVEWAY_GAP_M = 0.35
-# a robot that has waited this long for a dock goes in anyway (its view of the queue may be wrong)
-PATIENCE_S = 90.0
 # arrival: the code read at the reading distance, give or take this much
 READ_TOL_M = 0.02
 

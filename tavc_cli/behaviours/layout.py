@@ -18,8 +18,8 @@ N_FPARAM = 6
 # global behaviour and sensor parameters
 (G_AVOID, G_STOP, G_ARRIVE, G_WALLD, G_VISMARGIN, G_RELOC, G_RANGE,
  G_CAM_FOV_HALF, G_CAM_RANGE, G_SIDE_SECTOR, G_BARCODE_W, G_STALL_S, G_ESCAPE_S, G_PROGRESS_M, G_DT,
- G_DOCK_LAT, G_DOCK_HEAD, G_DOCK_APPROACH, G_DWELL, G_BACKOUT, G_OCCUPIED, G_HOLD) = range(22)
-N_GPARAM = 22
+ G_DOCK_LAT, G_DOCK_HEAD, G_DOCK_APPROACH, G_DWELL, G_BACKOUT, G_OCCUPIED, G_HOLD, G_PATIENCE) = range(23)
+N_GPARAM = 23
 # columns of the target table: bar-code centre x, y, inward normal x, y, bar-code id, outer wall index
 T_X, T_Y, T_NX, T_NY, T_CODE, T_WALL = range(6)
 
@@ -56,6 +56,7 @@ __all__ = [
     "G_ESCAPE_S",
     "G_HOLD",
     "G_OCCUPIED",
+    "G_PATIENCE",
     "G_PROGRESS_M",
     "G_RANGE",
     "G_RELOC",

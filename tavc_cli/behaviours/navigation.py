@@ -34,7 +34,6 @@ from tavc_cli.behaviours.activities import ACT_DOCK, ACT_ESCAPE, ACT_IDLE, ACT_S
 from tavc_cli.behaviours.docking import (
     BACKOUT_SPEED,
     GIVEWAY_SPEED,
-    PATIENCE_S,
     READ_TOL_M,
     dock_drive,
     dock_frame,
@@ -108,16 +107,21 @@ def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kin
     nx, ny = tinfo[tgt, T_NX], tinfo[tgt, T_NY]
     funnel_m = gp[G_DOCK_APPROACH] + 0.5
     near = dock_dist <= max(gp[G_HOLD], funnel_m) + 0.5
-    occupied = near and dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat, gp[G_OCCUPIED],
-                                      ranges, kinds, ids, pts, fparam[r, F_RADIUS])
-    # two robots in the approach funnel at once would block each other: the one with priority goes
-    if not occupied and (dock_dist <= funnel_m or mode == MODE_DOCK):
-        occupied = dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat,
-                                 max(gp[G_OCCUPIED], funnel_m), ranges, kinds, ids, pts, fparam[r, F_RADIUS])
-    if occupied and fstate[r, FS_WAITED] > PATIENCE_S:
-        occupied = False  # waited far longer than any dock visit takes: a misread, go anyway
-    if not occupied or dock_dist > max(gp[G_HOLD], funnel_m):
-        fstate[r, FS_WAITED] = 0.0
+    if not near:
+        fstate[r, FS_WAITED] = 0.0  # away from the dock: any wait there starts afresh
+    if fstate[r, FS_WAITED] > gp[G_PATIENCE]:
+        # waited long: stop deferring to robots that are merely nearer, and yield only to one
+        # at the spot or backing out of it (so a robot can't lose the race for a dock forever)
+        occupied = near and dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat,
+                                          gp[G_BACKOUT] + fparam[r, F_RADIUS], ranges, kinds, ids, pts,
+                                          fparam[r, F_RADIUS])
+    else:
+        occupied = near and dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat,
+                                          gp[G_OCCUPIED], ranges, kinds, ids, pts, fparam[r, F_RADIUS])
+        # two robots in the approach funnel at once would block each other: the one with priority goes
+        if not occupied and (dock_dist <= funnel_m or mode == MODE_DOCK):
+            occupied = dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat,
+                                     max(gp[G_OCCUPIED], funnel_m), ranges, kinds, ids, pts, fparam[r, F_RADIUS])
 
     if mode == MODE_DOCK:
         if occupied or not in_funnel:
@@ -127,6 +131,7 @@ def behave(r, pose, est, istate, fstate, fparam, gp, ray_ang, tinfo, ranges, kin
             istate[r, I_ARRIVED] = 1
             istate[r, I_MODE] = MODE_SERVICE
             fstate[r, FS_TIMER] = gp[G_DWELL]
+            fstate[r, FS_WAITED] = 0.0
             cmd[r, 0] = 0.0
             cmd[r, 1] = 0.0
             istate[r, I_ACT] = ACT_DOCK

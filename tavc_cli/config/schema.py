@@ -121,6 +121,7 @@ class DockConfig:
     backout_m: float = 0.4
     occupied_m: float = 0.6
     hold_margin_m: float = 0.6
+    patience_s: float = 90.0
 
 
 @dataclass

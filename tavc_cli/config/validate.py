@@ -227,7 +227,7 @@ def _validate_robot(robot: DictConfig) -> None:
            f"must be at least robot.radius_m + {MIN_DOCK_CLEARANCE_M:g} = {clearance:g} (the robot reads "
            f"its code from the dock spot in front of the wall), got {robot.behaviour.arrive_dist_m:g}")
     dock = robot.dock
-    for name in ("lateral_tol_m", "approach_m", "backout_m", "occupied_m", "hold_margin_m"):
+    for name in ("lateral_tol_m", "approach_m", "backout_m", "occupied_m", "hold_margin_m", "patience_s"):
         _positive(f"robot.dock.{name}", dock[name])
     _at_least("robot.dock.dwell_s", dock.dwell_s, 0)
     _angle("robot.dock.heading_tol_deg", dock.heading_tol_deg, 90.0)

@@ -117,6 +117,7 @@ def behaviour_params(robot: Mapping, barcode_width_m: float, dt_s: float) -> np.
     gp[nav.G_BACKOUT] = dock["backout_m"]
     gp[nav.G_OCCUPIED] = dock["occupied_m"]
     gp[nav.G_HOLD] = dock["occupied_m"] + dock["hold_margin_m"]
+    gp[nav.G_PATIENCE] = dock["patience_s"]
     return gp
 
 
