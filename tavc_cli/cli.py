@@ -292,7 +292,14 @@ def _calibrate(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
     if not any(o.split("=", 1)[0].lstrip("+~") == "experiment" for o in overrides):
         overrides = ["experiment=initial_distribution", *overrides]  # six robots, the chapter's values
     base = config.to_container(config.load_config(overrides))
-    from tavc_cli.model.world_search import grid_points, point_overrides, run_search, save_world
+    from tavc_cli.model.world_search import (
+        grid_points,
+        one_axis_variants,
+        point_overrides,
+        run_search,
+        run_sensitivity,
+        save_world,
+    )
 
     axes = base["calibration"]["grid"]
     if not axes:
@@ -303,19 +310,27 @@ def _calibrate(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
     trials = int(cal["trials_per_split"])
     if base["scale"].get("trials"):
         trials = max(2, min(trials, int(base["scale"]["trials"])))
-    search = run_search(
-        points, Path(base["output_dir"]).parent / "calibration" / "world",
+    out_dir = Path(base["output_dir"]).parent / "calibration" / "world"
+    measurement = dict(
         n_robots=int(base["team"]["n_robots"]), trials=trials, warmup_s=float(cal["warmup_s"]) * factor,
         measure_s=float(cal["measure_s"]) * factor, confidence=float(base["model"]["confidence"]),
         n_jobs=int(base["executor"]["n_jobs"]), batch_size=int(base["executor"]["batch_size"]), progress=progress,
     )
-    from tavc_cli.model.report import search_text
+    search = run_search(points, out_dir, **measurement)
+    from tavc_cli.model.report import search_text, sensitivity_text
+    from tavc_cli.viz.sensitivity import sensitivity_figure, task_time_figure
 
     typer.echo(search_text(search))
-    from tavc_cli.viz.sensitivity import sensitivity_figure
-
-    for path in sensitivity_figure(Path(search["output_dir"]) / "search.csv",
-                                   Path(search["output_dir"]) / "sensitivity"):
+    figures = sensitivity_figure(out_dir / "search.csv", out_dir / "sensitivity")
+    chosen = search["result"]["chosen"]
+    if chosen is not None:
+        # the chosen world and its one-setting-changed neighbours, every split of N and N-1 robots
+        variants = [(varied, p, config.to_container(config.load_config([*overrides, *point_overrides(p)])))
+                    for varied, p in one_axis_variants(axes, {a["key"]: chosen[a["key"]] for a in axes})]
+        sens = run_sensitivity(variants, out_dir, **measurement)
+        typer.echo(sensitivity_text(sens))
+        figures += task_time_figure(out_dir / "sensitivity.csv", out_dir / "sensitivity.json", out_dir / "task_times")
+    for path in figures:
         typer.echo(f"figure: {path}")
     if save:
         path = save_world(search, config.find_conf_dir() / "world", [a["key"] for a in axes])

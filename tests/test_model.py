@@ -194,3 +194,42 @@ def test_world_search_measures_the_splits_the_constraints_need():
 
     # six robots: 3:3 and its one-robot moves; five: 3:2 and its moves; one robot alone
     assert needed_splits(6, [2200.0, 2000.0]) == [(1, 0), (2, 3), (3, 2), (4, 1), (2, 4), (3, 3), (4, 2)]
+
+
+def test_sensitivity_varies_one_setting_of_the_chosen_world_at_a_time():
+    from tavc_cli.model.world_search import one_axis_variants
+
+    axes = [{"key": "a", "values": [1, 2]}, {"key": "b", "values": [0.0, 5.0, 10.0]}]
+    assert one_axis_variants(axes, {"a": 2, "b": 5.0}) == [
+        ("chosen", {"a": 2, "b": 5.0}), ("a", {"a": 1, "b": 5.0}), ("b", {"a": 2, "b": 0.0}), ("b", {"a": 2, "b": 10.0}),
+    ]
+
+
+@pytest.mark.slow
+def test_sensitivity_end_to_end_writes_task_times_per_world_and_a_figure(tmp_path):
+    from tavc_cli.config import to_container
+    from tavc_cli.model.report import sensitivity_text
+    from tavc_cli.model.world_search import run_sensitivity
+    from tavc_cli.viz.sensitivity import task_time_figure
+
+    base = ["arena=two_circuits", "team.n_robots=3", "scale=smoke", f"output_dir={tmp_path}", "learner=static",
+            "tasks.values=[2200,2000]"]
+    variants = [(varied, point, to_container(load_config([*base, f"robot.dock.dwell_s={point['robot.dock.dwell_s']}"])))
+                for varied, point in [("chosen", {"robot.dock.dwell_s": 5.0}),
+                                      ("robot.dock.dwell_s", {"robot.dock.dwell_s": 0.0})]]
+    sens = run_sensitivity(variants, tmp_path, n_robots=3, trials=2, warmup_s=10.0, measure_s=300.0, confidence=0.9,
+                           n_jobs=1, batch_size=8, progress=False)
+    frame = sens["table"]
+    # two worlds x two circuits x n = 1..3 robots on the circuit
+    assert len(frame) == 2 * 2 * 3
+    assert list(dict.fromkeys(frame["world"])) == ["chosen", "dwell_s=0"]
+    worlds = sens["result"]["worlds"]
+    assert [w["predicted_3"] in {"3:0", "2:1", "1:2", "0:3"} for w in worlds] == [True, True]
+    assert all(w["intended_2"] == "1:1" for w in worlds)
+    # a task is two dock visits: standing 5 s at each makes it longer than standing not at all
+    t3 = frame[(frame["circuit"] == 0) & (frame["n_on_circuit"] == 3)].set_index("world")["task_time_s"]
+    assert t3["chosen"] > t3["dwell_s=0"]
+    text = sensitivity_text(sens)
+    assert "chosen" in text and "dwell_s=0" in text and "3->" in text
+    paths = task_time_figure(tmp_path / "sensitivity.csv", tmp_path / "sensitivity.json", tmp_path / "task_times")
+    assert [p.suffix for p in paths] == [".png", ".svg"] and all(p.stat().st_size > 0 for p in paths)

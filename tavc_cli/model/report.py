@@ -99,3 +99,26 @@ def search_text(search: dict) -> str:
         lines.append(f"chosen ({'robust' if res['robust'] else 'NOT robust to the intervals'}): "
                      + " ".join(res["chosen_overrides"]))
     return "\n".join(lines)
+
+
+def sensitivity_text(sens: dict) -> str:
+    """Per world (the chosen one, then one setting changed at a time): t_i(n) on each circuit
+    for n = 1..N, the crowding ratio and the predicted allocations."""
+    res, frame = sens["result"], sens["table"]
+    n_team = int(res["measurement"]["n_robots"])
+    ns = range(1, n_team + 1)
+    lines = [f"sensitivity: every split of {n_team} and {n_team - 1} robots, {res['measurement']['trials_per_split']} "
+             f"trials each; t_i(n) in s with n robots on circuit i and the rest on the other",
+             f"{'world':>22}  {'circuit':>7}  " + "  ".join(f"{f't({k})':>6}" for k in ns)
+             + f"  {'t4/t3':>6}  {'wait@4':>6}  predicted"]
+    for w in res["worlds"]:
+        for i in range(2):
+            rows = frame[(frame["world"] == w["world"]) & (frame["circuit"] == i)].set_index("n_on_circuit")
+            t = "  ".join(f"{_fmt(rows['task_time_s'].get(k, math.nan), '.1f'):>6}" for k in ns)
+            tail = (f"  {_fmt(w['crowding_ratio_6'], '.3f'):>6}  {_fmt(w['wait_s_at_4'], '.1f'):>6}  "
+                    f"{n_team}->{w[f'predicted_{n_team}']}, {n_team - 1}->{w[f'predicted_{n_team - 1}']}"
+                    + ("" if w["robust"] else ("  (not robust)" if w["feasible"] else "  (fails a constraint)"))
+                    if i == 0 else "")
+            lines.append(f"{w['world'] if i == 0 else '':>22}  {('w=' + format(rows['value'].iloc[0], 'g')):>7}  {t}"
+                         + tail)
+    return "\n".join(lines)

@@ -219,3 +219,65 @@ def save_world(search: dict, world_dir: Path, grid_keys: Sequence[str]) -> Path:
     path = world_dir / "calibrated.yaml"
     write_text_atomic(path, "\n".join(lines) + "\n" + yaml.safe_dump(nested, sort_keys=False))
     return path
+
+
+def one_axis_variants(axes: Sequence[Mapping], chosen: Point) -> list[tuple[str, Point]]:
+    """The chosen point, then every point that differs from it on one grid axis only:
+    (the key varied, or "chosen"; the point)."""
+    out: list[tuple[str, Point]] = [("chosen", dict(chosen))]
+    for axis in axes:
+        key = str(axis["key"])
+        out += [(key, {**chosen, key: v}) for v in axis["values"] if v != chosen[key]]
+    return out
+
+
+def sensitivity_rows(table: core.CTable, n_robots: int, values: Sequence[float]) -> list[dict]:
+    """t_i(n) for n = 1..N robots on circuit i and the rest of the team on the other, both circuits."""
+    rows = []
+    for i in range(2):
+        for k in range(1, n_robots + 1):
+            n = core.pair_split(n_robots, i, k)
+            cell = table.cells[n][i]
+            rows.append({
+                "circuit": i, "value": float(values[i]), "n_on_circuit": k, "state": core.state_label(n, values),
+                "task_time_s": cell.t, "t_lo": cell.t_lo, "t_hi": cell.t_hi,
+                "wait_s": cell.budget[ACTIVITIES.index("wait")] if cell.budget else math.nan,
+                "n_trials": cell.n_trials,
+            })
+    return rows
+
+
+def run_sensitivity(variants: Sequence[tuple[str, Point, Mapping]], out_dir: Path, *, n_robots: int, trials: int,
+                    warmup_s: float, measure_s: float, confidence: float, n_jobs: int, batch_size: int,
+                    progress: bool) -> dict:
+    """Measure every split of N and N-1 robots in each variant world (reusing the search's
+    trials where they coincide) and say, per world, t_i(n) for n = 1..N, the crowding ratio
+    and the allocations the model predicts with the chapter's values. Writes
+    `sensitivity.csv` (t_i(n), one row per world, circuit and n) and `sensitivity.json`."""
+    plans, pending = [], []
+    for _, point, cfg in variants:
+        only = [(1, 0), *core.splits(n_robots, 2), *core.splits(n_robots - 1, 2)]
+        plan = measurement_specs(cfg, n_robots, trials, warmup_s, measure_s, only=only,
+                                 prefix=point_id(point) + "_")
+        todo, _ = pending_batches(out_dir, [s for group in plan.values() for s in group], batch_size)
+        plans.append(plan)
+        pending += todo
+    execute(pending, out_dir, n_jobs, progress)
+    worlds, rows = [], []
+    for (varied, point, cfg), plan in zip(variants, plans, strict=True):
+        values = [float(v) for v in cfg["tasks"]["values"]]
+        table = table_from(plan, out_dir, 2, warmup_s, measure_s, confidence)
+        label = "chosen" if varied == "chosen" else f"{varied.rsplit('.', 1)[1]}={point[varied]:g}"
+        world = {"world": label, "varied": varied, "point": point_id(point), **point,
+                 **judge(table, cfg, n_robots, values)}
+        for m in (n_robots, n_robots - 1):
+            world[f"predicted_{m}"] = core.state_label(core.predicted_split(table, m, values), values)
+            world[f"intended_{m}"] = core.state_label(core.intended_split(m, values), values)
+        worlds.append(world)
+        rows += [{"world": label, "varied": varied, **point, **r} for r in sensitivity_rows(table, n_robots, values)]
+    frame = pd.DataFrame(rows)
+    result = {"measurement": {"trials_per_split": trials, "warmup_s": warmup_s, "measure_s": measure_s,
+                              "confidence": confidence, "n_robots": n_robots}, "worlds": worlds}
+    write_text_atomic(out_dir / "sensitivity.csv", frame.to_csv(index=False, float_format="%.6g"))
+    write_text_atomic(out_dir / "sensitivity.json", json.dumps(json_safe(result), indent=2))
+    return {"output_dir": str(out_dir), "result": result, "table": frame}

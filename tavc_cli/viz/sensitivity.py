@@ -55,3 +55,47 @@ def sensitivity_figure(search_csv: Path, out_stem: Path) -> list[Path]:
         paths.append(path)
     plt.close(fig)
     return paths
+
+
+def task_time_figure(sensitivity_csv: Path, sensitivity_json: Path, out_stem: Path) -> list[Path]:
+    """t_i(n) on the high-value circuit for n = 1..N (the rest of the team on the other),
+    one panel per grid axis: the chosen world in black, the worlds that differ from it on
+    that axis alone in colour, each labelled with its crowding ratio and the allocations
+    the model predicts for N and N-1 robots with the chapter's values."""
+    import json
+
+    frame = pd.read_csv(sensitivity_csv)
+    worlds = {w["world"]: w for w in json.loads(Path(sensitivity_json).read_text())["worlds"]}
+    axes_varied = [v for v in dict.fromkeys(frame["varied"]) if v != "chosen"]
+    if not axes_varied or "chosen" not in worlds:
+        return []
+    n_team = int(frame["n_on_circuit"].max())
+    fig, axes = plt.subplots(1, len(axes_varied), figsize=(3.6 * len(axes_varied), 4.0), sharey=True, squeeze=False)
+
+    def label(name: str) -> str:
+        w = worlds[name]
+        return (f"{name}: t4/t3 {w['crowding_ratio_6']:.2f}, "
+                f"{n_team}\u2192{w[f'predicted_{n_team}']}, {n_team - 1}\u2192{w[f'predicted_{n_team - 1}']}")
+
+    for ax, varied in zip(axes[0], axes_varied, strict=True):
+        others = dict.fromkeys(frame["world"][frame["varied"] == varied])
+        for name, color in [("chosen", "k")] + [(w, None) for w in others]:
+            rows = frame[(frame["world"] == name) & (frame["circuit"] == 0)].sort_values("n_on_circuit")
+            err = [rows["task_time_s"] - rows["t_lo"], rows["t_hi"] - rows["task_time_s"]]
+            ax.errorbar(rows["n_on_circuit"], rows["task_time_s"], yerr=err, marker="o", ms=4, capsize=2,
+                        color=color, lw=2 if name == "chosen" else 1, label=label(name))
+        ax.set_title(f"varying {varied.rsplit('.', 1)[1]}", fontsize=9)
+        ax.set_xlabel(f"robots on the high-value circuit (of {n_team})")
+        ax.legend(fontsize=6.5, loc="upper left")
+        ax.set_xticks(range(1, n_team + 1))
+    axes[0, 0].set_ylabel("task time t(n) on the high-value circuit (s), 90 % interval")
+    fig.suptitle("How the task times and the predicted allocation rest on the docking reconstruction "
+                 "(one setting changed at a time)", fontsize=9)
+    fig.tight_layout()
+    paths = []
+    for ext in ("png", "svg"):
+        path = out_stem.with_suffix(f".{ext}")
+        fig.savefig(path, dpi=110)
+        paths.append(path)
+    plt.close(fig)
+    return paths
