@@ -224,6 +224,17 @@ def animate(
         _animate(overrides=overrides or [], out=out, duration_s=duration_s, fps=fps, mp4=mp4)
 
 
+@app.command()
+def report(
+    results_dir: Annotated[
+        Path, typer.Argument(help="Folder holding one folder per experiment run.", show_default=True)
+    ] = Path("results"),
+) -> None:
+    """Write RESULTS_DIR/REPORT.md and claims.csv from saved results (never simulates)."""
+    with _user_errors():
+        _report(results_dir)
+
+
 # --------------------------------------------------------------------------------------------
 # What the commands do
 # --------------------------------------------------------------------------------------------
@@ -272,6 +283,12 @@ def _print_summary(summary: dict[str, Any]) -> None:
         perf = tables["performance"].groupby("controller", sort=False)["mean"].mean()
         typer.echo("\nscore value delivered per second, whole run: "
                    + ", ".join(f"{c} {v:.4f}" for c, v in perf.items()))
+    claims = summary.get("claims")
+    if claims is not None and len(claims):
+        from tavc_cli.analysis.summary import claims_text
+
+        typer.echo("\nthe chapter's claims about this experiment (t-tests at 90 %; claims.csv has every part)")
+        typer.echo(claims_text(claims))
 
 
 def _model(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
@@ -321,6 +338,9 @@ def _calibrate(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
     from tavc_cli.viz.sensitivity import sensitivity_figure, task_time_figure
 
     typer.echo(search_text(search))
+    if save:
+        path = save_world(search, config.find_conf_dir() / "world", [a["key"] for a in axes])
+        typer.echo(f"chosen world saved as {path}")
     figures = sensitivity_figure(out_dir / "search.csv", out_dir / "sensitivity")
     chosen = search["result"]["chosen"]
     if chosen is not None:
@@ -332,9 +352,6 @@ def _calibrate(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
         figures += task_time_figure(out_dir / "sensitivity.csv", out_dir / "sensitivity.json", out_dir / "task_times")
     for path in figures:
         typer.echo(f"figure: {path}")
-    if save:
-        path = save_world(search, config.find_conf_dir() / "world", [a["key"] for a in axes])
-        typer.echo(f"chosen world saved as {path}")
 
 
 def _bench(
@@ -373,3 +390,13 @@ def _animate(
     paths = animate_run(cfg, out=out, duration_s=duration_s, fps=fps, mp4=mp4)
     for path in paths:
         typer.echo(str(path))
+
+
+def _report(results_dir: Path) -> None:
+    """Build the report and print its summary line and where it went."""
+    from tavc_cli.report import build_report
+
+    result = build_report(results_dir)
+    typer.echo(f"claims reproduced: {result['n_reproduced']} of {result['n_tested']} tested "
+               f"({', '.join(result['experiments'])})")
+    typer.echo(result["report"])

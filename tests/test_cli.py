@@ -86,6 +86,8 @@ def test_list_prints_one_line_per_experiment():
         (["run", "learner.epsilon=0.1,0.2"], "learner.epsilon"),
         (["run", "-m", "learner=tavc_egreedy", "learner.epsilon=0.1,1.5"], "learner.epsilon"),
         (["animate", "team.n_robots=0"], "team.n_robots"),
+        (["config", "robot.dock.patience_s=-5"], "robot.dock.patience_s"),
+        (["report", "/nonexistent/results"], "RESULTS_DIR"),
     ],
 )
 def test_bad_input_is_one_error_line_and_exit_1(args, key):

@@ -135,6 +135,7 @@ def test_every_second_of_a_task_is_accounted_for(lone_robots, pair):
 @pytest.mark.parametrize("world", [
     (),
     ("robot.dock.dwell_s=5", "robot.dock.occupied_m=1.2"),
+    ("robot.behaviour.arrive_dist_m=0.45", "robot.dock.occupied_m=1.5", "robot.laser.n_rays=61"),
 ])
 def test_a_crowd_on_one_circuit_keeps_flowing(monkeypatch, world):
     """Six robots on the small one-circuit arena: waiting robots must not wall in a leaver.

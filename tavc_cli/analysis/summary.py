@@ -25,3 +25,15 @@ def state_table_text(state_time: pd.DataFrame) -> str:
             parts.append(text.rjust(w))
         lines.append("  ".join(parts))
     return "\n".join(lines)
+
+
+def claims_text(claims: pd.DataFrame) -> str:
+    """One line per claim: id, verdict, the headline test's statistic and p-value, then its parts."""
+    lines = []
+    for r in claims.itertuples():
+        head = f"claim {r.claim_id}: {r.verdict.replace('_', ' ')}"
+        if pd.notna(r.p_value):
+            head += f" (t = {r.statistic:.2f}, p = {r.p_value:.3g})"
+        lines.append(head)
+        lines += [f"    {part}" for part in str(r.detail).split("; ")]
+    return "\n".join(lines)

@@ -28,6 +28,7 @@ import pandas as pd
 
 from tavc_cli.analysis.performance import performance_table
 from tavc_cli.analysis.states import state_time_table
+from tavc_cli.analysis.trial_stats import trial_stats
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, make_batches, trial_specs
 from tavc_cli.experiments.engine import run_trials
@@ -209,7 +210,21 @@ def analyse(cfg: Mapping, records: list[TrialRecord]) -> dict[str, pd.DataFrame]
     state = state_time_table(records, t_from, t_to, scheme)
     perf = performance_table(records, float(cfg["analysis"]["performance_bin_s"]),
                              -float(cfg["sim"]["warmup_s"]), t_to)
-    return {"state_time": state, "performance": perf}
+    return {"state_time": state, "performance": perf, "trial_stats": trial_stats(records, cfg)}
+
+
+def experiment_claims(cfg: Mapping, stats: pd.DataFrame, out_dir: Path) -> pd.DataFrame:
+    """The chapter's claims about this experiment, tested on its trials (and, where a claim
+    compares two experiments, on the other's `trial_stats.csv` beside this output if present)."""
+    from tavc_cli.analysis.claims import CLAIMS, claim_rows
+
+    name = str(cfg.get("experiment_name") or "")
+    runs = {name: stats}
+    for other in {e for e, _ in CLAIMS.values()} - {name}:
+        path = out_dir.parent / other / "trial_stats.csv"
+        if path.is_file():
+            runs[other] = pd.read_csv(path)
+    return claim_rows(runs, only_experiment=name)
 
 
 def run_experiment(cfg, *, progress: bool = False) -> dict:
@@ -238,7 +253,15 @@ def run_experiment(cfg, *, progress: bool = False) -> dict:
     tables = analyse(plain, records)
     for name, df in tables.items():
         write_text_atomic(out_dir / f"{name}.csv", df.to_csv(index=False, float_format="%.4f"))
+    from tavc_cli.analysis.comparison import experiment_comparison
+
+    comparison = experiment_comparison(str(plain.get("experiment_name") or ""), tables["state_time"])
+    if comparison is not None:
+        write_text_atomic(out_dir / "comparison.csv", comparison.to_csv(index=False, float_format="%.4f"))
+    claims = experiment_claims(plain, tables["trial_stats"], out_dir)
+    if len(claims):
+        write_text_atomic(out_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
     write_text_atomic(out_dir / "provenance.json",
                       json.dumps(provenance(plain, specs, wall, n_reused), indent=2, default=str))
     return {"output_dir": str(out_dir), "n_trials": n_total, "n_reused": n_reused, "wall_time_s": wall,
-            "tables": tables}
+            "tables": tables, "claims": claims}

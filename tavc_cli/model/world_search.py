@@ -267,7 +267,9 @@ def run_sensitivity(variants: Sequence[tuple[str, Point, Mapping]], out_dir: Pat
     for (varied, point, cfg), plan in zip(variants, plans, strict=True):
         values = [float(v) for v in cfg["tasks"]["values"]]
         table = table_from(plan, out_dir, 2, warmup_s, measure_s, confidence)
-        label = "chosen" if varied == "chosen" else f"{varied.rsplit('.', 1)[1]}={point[varied]:g}"
+        value = point.get(varied)
+        shown = format(value, "g") if isinstance(value, (int, float)) else str(value)
+        label = "chosen" if varied == "chosen" else f"{varied.rsplit('.', 1)[-1]}={shown}"
         world = {"world": label, "varied": varied, "point": point_id(point), **point,
                  **judge(table, cfg, n_robots, values)}
         for m in (n_robots, n_robots - 1):

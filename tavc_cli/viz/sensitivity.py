@@ -70,17 +70,19 @@ def task_time_figure(sensitivity_csv: Path, sensitivity_json: Path, out_stem: Pa
     if not axes_varied or "chosen" not in worlds:
         return []
     n_team = int(frame["n_on_circuit"].max())
+    high = int(frame.loc[frame["value"].idxmax(), "circuit"])
     fig, axes = plt.subplots(1, len(axes_varied), figsize=(3.6 * len(axes_varied), 4.0), sharey=True, squeeze=False)
 
     def label(name: str) -> str:
         w = worlds[name]
-        return (f"{name}: t4/t3 {w['crowding_ratio_6']:.2f}, "
+        ratio = w.get("crowding_ratio_6")
+        return (f"{name}: t4/t3 {'-' if ratio is None else format(ratio, '.2f')}, "
                 f"{n_team}\u2192{w[f'predicted_{n_team}']}, {n_team - 1}\u2192{w[f'predicted_{n_team - 1}']}")
 
     for ax, varied in zip(axes[0], axes_varied, strict=True):
         others = dict.fromkeys(frame["world"][frame["varied"] == varied])
         for name, color in [("chosen", "k")] + [(w, None) for w in others]:
-            rows = frame[(frame["world"] == name) & (frame["circuit"] == 0)].sort_values("n_on_circuit")
+            rows = frame[(frame["world"] == name) & (frame["circuit"] == high)].sort_values("n_on_circuit")
             err = [rows["task_time_s"] - rows["t_lo"], rows["t_hi"] - rows["task_time_s"]]
             ax.errorbar(rows["n_on_circuit"], rows["task_time_s"], yerr=err, marker="o", ms=4, capsize=2,
                         color=color, lw=2 if name == "chosen" else 1, label=label(name))

@@ -1,0 +1,315 @@
+"""The chapter's claims 3-8 as tests on per-trial numbers (`trial_stats.csv`).
+
+Every test is the chapter's kind, a t-test at 90 % confidence (alpha = 0.10), written
+down here before any verdict was looked at and never tuned to one:
+
+- "A is significantly above B" between controllers (independent trials of unequal
+  spread): Welch's t-test, one-sided, because the claim names a direction;
+- "state X is the most frequent": within the same trials, a paired one-sided t-test of
+  X's share against every other state's, and all must hold (an intersection of one-sided
+  tests needs no correction for their number);
+- "not significantly different" over several states: two-sided tests, one per state,
+  Holm-corrected so that the family's error rate is alpha; the claim holds if none rejects.
+  A single "not different" comparison is one two-sided test.
+
+A claim is `reproduced` when every one of its parts holds, `not_reproduced` when a part
+is decided against it, and `inconclusive` when no part fails but some part could not be
+tested (fewer than two trials a side, no variation at all, or a run missing).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from tavc_cli.analysis.trial_stats import STATE_PREFIX, states_of
+
+ALPHA = 0.10
+CLAIMS = {
+    3: ("initial_distribution", "The learners spend significantly more time in 3:3 than random allocation, "
+                                "and 3:3 is significantly their most frequent state."),
+    4: ("initial_distribution", "Random allocation's state distribution is close to the binomial theory row."),
+    5: ("initial_distribution", "The learners' group performance is significantly above random allocation's."),
+    6: ("breakdown", "After a high-circuit robot breaks down the learners prefer 3:2, significantly more than "
+                     "random; their performance beats random and a static allocation tuned for six robots."),
+    7: ("breakdown_no_vacancy", "With a low-circuit robot broken down the distribution does not differ "
+                                "significantly from breakdown's; performance stays above random; convergence "
+                                "and stable periods do not differ significantly."),
+    8: ("value_change", "After the values swap, 3:2 is significantly above random and every other state "
+                        "significantly below; performance returns to a level not significantly different "
+                        "from before the change."),
+}
+COLUMNS = ["claim_id", "claim", "verdict", "statistic", "p_value", "detail"]
+
+
+@dataclass(frozen=True)
+class Part:
+    """One test of a claim: what it asked, its statistic and p-value, and whether it holds
+    (None: could not be tested)."""
+
+    what: str
+    statistic: float
+    p_value: float
+    holds: bool | None
+
+    def text(self) -> str:
+        if self.holds is None:
+            return f"{self.what}: not testable"
+        return f"{self.what}: t = {self.statistic:.3f}, p = {self.p_value:.4g} ({'holds' if self.holds else 'fails'})"
+
+
+def _clean(x) -> np.ndarray:
+    a = np.asarray(x, dtype=float)
+    return a[np.isfinite(a)]
+
+
+def _testable(*samples: np.ndarray) -> bool:
+    return all(len(s) >= 2 for s in samples) and any(np.ptp(s) > 0 for s in samples)
+
+
+def greater(what: str, a, b) -> Part:
+    """a's mean significantly above b's: Welch's t-test, one-sided."""
+    a, b = _clean(a), _clean(b)
+    if not _testable(a, b):
+        return Part(what, math.nan, math.nan, None)
+    t, p = stats.ttest_ind(a, b, equal_var=False, alternative="greater")
+    return Part(f"{what} ({a.mean():.4g} vs {b.mean():.4g}, Welch one-sided)", float(t), float(p), bool(p < ALPHA))
+
+
+def less(what: str, a, b) -> Part:
+    """a's mean significantly below b's: Welch's t-test, one-sided."""
+    a, b = _clean(a), _clean(b)
+    if not _testable(a, b):
+        return Part(what, math.nan, math.nan, None)
+    t, p = stats.ttest_ind(a, b, equal_var=False, alternative="less")
+    return Part(f"{what} ({a.mean():.4g} vs {b.mean():.4g}, Welch one-sided)", float(t), float(p), bool(p < ALPHA))
+
+
+def paired_greater(what: str, a, b) -> Part:
+    """Within the same trials, a significantly above b: paired t-test, one-sided."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    ok = np.isfinite(a) & np.isfinite(b)
+    d = a[ok] - b[ok]
+    if not _testable(d):
+        return Part(what, math.nan, math.nan, None)
+    t, p = stats.ttest_1samp(d, 0.0, alternative="greater")
+    return Part(f"{what} (mean difference {d.mean():.4g}, paired one-sided)", float(t), float(p), bool(p < ALPHA))
+
+
+def not_different(what: str, a, b, paired: bool = False) -> Part:
+    """No significant difference between a and b: two-sided t-test (Welch, or paired)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if paired:
+        ok = np.isfinite(a) & np.isfinite(b)
+        d = a[ok] - b[ok]
+        if not _testable(d):
+            return Part(what, math.nan, math.nan, None)
+        t, p = stats.ttest_1samp(d, 0.0)
+        label = f"{what} (mean difference {d.mean():.4g}, paired two-sided)"
+    else:
+        a, b = _clean(a), _clean(b)
+        if not _testable(a, b):
+            return Part(what, math.nan, math.nan, None)
+        t, p = stats.ttest_ind(a, b, equal_var=False)
+        label = f"{what} ({a.mean():.4g} vs {b.mean():.4g}, Welch two-sided)"
+    return Part(label, float(t), float(p), bool(p >= ALPHA))
+
+
+def holm_none_differ(what: str, tests: Sequence[tuple[str, Callable[[], tuple[float, float]]]]) -> Part:
+    """Several two-sided tests (name, () -> (t, p)), Holm-corrected: holds if none rejects.
+    Reported: the test with the smallest p, and its Holm-adjusted p."""
+    results = []
+    for name, run in tests:
+        t, p = run()
+        if math.isfinite(p):
+            results.append((p, t, name))
+    if not results:
+        return Part(what, math.nan, math.nan, None)
+    results.sort()
+    m = len(results)
+    adjusted, running = [], 0.0
+    for k, (p, _, _) in enumerate(results):
+        running = max(running, min(1.0, (m - k) * p))
+        adjusted.append(running)
+    p0, t0, name0 = results[0]
+    holds = all(a >= ALPHA for a in adjusted)
+    return Part(f"{what} (most different: {name0}, raw p {p0:.4g}, Holm over {m} states)", float(t0),
+                float(adjusted[0]), holds)
+
+
+def _one_sample(x, mu: float) -> tuple[float, float]:
+    x = _clean(x)
+    if not _testable(x):
+        return math.nan, math.nan
+    t, p = stats.ttest_1samp(x, mu)
+    return float(t), float(p)
+
+
+def _welch(a, b) -> tuple[float, float]:
+    a, b = _clean(a), _clean(b)
+    if not _testable(a, b):
+        return math.nan, math.nan
+    t, p = stats.ttest_ind(a, b, equal_var=False)
+    return float(t), float(p)
+
+
+def _ctrl(stats_: pd.DataFrame, controller: str) -> pd.DataFrame:
+    return stats_[stats_["controller"] == controller]
+
+
+def _share(frame: pd.DataFrame, state: str) -> np.ndarray:
+    col = STATE_PREFIX + state
+    return frame[col].to_numpy(float) if col in frame else np.full(len(frame), np.nan)
+
+
+def _missing(what: str) -> Part:
+    return Part(what, math.nan, math.nan, None)
+
+
+def _most_frequent(frame: pd.DataFrame, state: str, label: str) -> list[Part]:
+    return [paired_greater(f"{label}: {state} above {s}", _share(frame, state), _share(frame, s))
+            for s in states_of(frame) if s != state]
+
+
+def claim_3(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+    s = runs.get("initial_distribution")
+    if s is None:
+        return [_missing("initial_distribution not run")]
+    tavc, rnd = _ctrl(s, "tavc"), _ctrl(s, "random")
+    return [greater("time in 3:3, TAVC above random (%)", _share(tavc, "3:3"), _share(rnd, "3:3")),
+            *_most_frequent(tavc, "3:3", "TAVC")]
+
+
+def claim_4(runs: Mapping[str, pd.DataFrame], theory: Mapping[str, float] | None = None) -> list[Part]:
+    s = runs.get("initial_distribution")
+    if s is None:
+        return [_missing("initial_distribution not run")]
+    rnd = _ctrl(s, "random")
+    if theory is None:
+        from tavc_cli.analysis.states import theory_pct
+
+        n = len(states_of(s)) - 1
+        theory = theory_pct(n, 2, "circuits")
+    tests = [(st, (lambda st=st: _one_sample(_share(rnd, st), theory[st]))) for st in states_of(s)]
+    return [holm_none_differ("random's share of each state against the binomial theory row", tests)]
+
+
+def claim_5(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+    s = runs.get("initial_distribution")
+    if s is None:
+        return [_missing("initial_distribution not run")]
+    return [greater("score per second in the stable period, TAVC above random",
+                    _ctrl(s, "tavc")["value_rate_stable"], _ctrl(s, "random")["value_rate_stable"])]
+
+
+def claim_6(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+    s = runs.get("breakdown")
+    if s is None:
+        return [_missing("breakdown not run")]
+    tavc, rnd, static = _ctrl(s, "tavc"), _ctrl(s, "random"), _ctrl(s, "static")
+    return [greater("time in 3:2, TAVC above random (%)", _share(tavc, "3:2"), _share(rnd, "3:2")),
+            *_most_frequent(tavc, "3:2", "TAVC"),
+            greater("score per second, TAVC above random", tavc["value_rate_stable"], rnd["value_rate_stable"]),
+            greater("score per second, TAVC above the static allocation tuned for six",
+                    tavc["value_rate_stable"], static["value_rate_stable"])]
+
+
+def claim_7(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+    s = runs.get("breakdown_no_vacancy")
+    if s is None:
+        return [_missing("breakdown_no_vacancy not run")]
+    tavc, rnd = _ctrl(s, "tavc"), _ctrl(s, "random")
+    parts = []
+    b = runs.get("breakdown")
+    if b is None:
+        parts.append(_missing("distribution against breakdown's: breakdown not run"))
+    else:
+        bt = _ctrl(b, "tavc")
+        tests = [(st, (lambda st=st: _welch(_share(tavc, st), _share(bt, st)))) for st in states_of(s)]
+        parts.append(holm_none_differ("TAVC's share of each state, against breakdown's", tests))
+    parts.append(greater("score per second, TAVC above random", tavc["value_rate_stable"], rnd["value_rate_stable"]))
+    parts.append(not_different("TAVC score per second, convergence against stable period",
+                               tavc["value_rate_convergence"], tavc["value_rate_stable"], paired=True))
+    return parts
+
+
+def claim_8(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+    s = runs.get("value_change")
+    if s is None:
+        return [_missing("value_change not run")]
+    tavc, rnd = _ctrl(s, "tavc"), _ctrl(s, "random")
+    parts = [greater("time in 3:2, TAVC above random (%)", _share(tavc, "3:2"), _share(rnd, "3:2"))]
+    parts += [less(f"time in {st}, TAVC below random (%)", _share(tavc, st), _share(rnd, st))
+              for st in states_of(s) if st != "3:2"]
+    parts.append(not_different("TAVC score per second, after the change against before it",
+                               tavc["value_rate_stable"], tavc["value_rate_before"], paired=True))
+    return parts
+
+
+TESTS: dict[int, Callable[[Mapping[str, pd.DataFrame]], list[Part]]] = {
+    3: claim_3, 4: claim_4, 5: claim_5, 6: claim_6, 7: claim_7, 8: claim_8,
+}
+
+
+def verdict(parts: Sequence[Part]) -> str:
+    if any(p.holds is False for p in parts):
+        return "not_reproduced"
+    if any(p.holds is None for p in parts):
+        return "inconclusive"
+    return "reproduced"
+
+
+def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None) -> pd.DataFrame:
+    """`claim_id,claim,verdict,statistic,p_value,detail` for claims 3-8 (those of one
+    experiment if given). statistic and p_value are the first part's (the claim's headline
+    comparison); `detail` lists every part."""
+    rows = []
+    for cid, test in TESTS.items():
+        experiment, text = CLAIMS[cid]
+        if only_experiment is not None and experiment != only_experiment:
+            continue
+        parts = test(runs)
+        rows.append({"claim_id": cid, "claim": text, "verdict": verdict(parts),
+                     "statistic": parts[0].statistic, "p_value": parts[0].p_value,
+                     "detail": "; ".join(p.text() for p in parts)})
+    return pd.DataFrame(rows, columns=COLUMNS)
+
+
+# --- the same tests on the chapter's own tables (from their means, stds and trial counts) -------
+
+# trials behind each of the chapter's state tables: (TAVC, random)
+CHAPTER_TRIALS = {"1.2": (20, 20), "1.3": (20, 5)}
+
+
+def chapter_checks() -> list[dict]:
+    """The state-table tests of claims 3, 4 and 6, applied to the chapter's printed numbers:
+    does the chapter's own table pass the test tavc applies to ours?"""
+    from tavc_cli.reference import chapter_table
+
+    out = []
+    for cid, table_id, state in ((3, "1.2", "3:3"), (6, "1.3", "3:2")):
+        t = chapter_table(table_id).set_index("state")
+        n_t, n_r = CHAPTER_TRIALS[table_id]
+        res = stats.ttest_ind_from_stats(t.loc[state, "tavc_mean_pct"], t.loc[state, "tavc_std_pct"], n_t,
+                                         t.loc[state, "random_mean_pct"], t.loc[state, "random_std_pct"], n_r,
+                                         equal_var=False, alternative="greater")
+        out.append({"claim_id": cid, "test": f"Table {table_id}: time in {state}, TAVC above random (Welch one-sided)",
+                    "statistic": float(res.statistic), "p_value": float(res.pvalue),
+                    "holds": bool(res.pvalue < ALPHA)})
+    t = chapter_table("1.2").set_index("state")
+    n = CHAPTER_TRIALS["1.2"][1]
+    tests = []
+    for state, r in t.iterrows():
+        se = r["random_std_pct"] / math.sqrt(n)
+        tt = (r["random_mean_pct"] - r["theory_pct"]) / se if se > 0 else math.nan
+        p = float(2 * stats.t.sf(abs(tt), n - 1)) if math.isfinite(tt) else math.nan
+        tests.append((state, (lambda tt=tt, p=p: (tt, p))))
+    part = holm_none_differ("Table 1.2: random against the theory row", tests)
+    out.append({"claim_id": 4, "test": part.what, "statistic": part.statistic, "p_value": part.p_value,
+                "holds": part.holds})
+    return out

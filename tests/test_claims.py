@@ -1,0 +1,148 @@
+"""The chapter's claims as tests on per-trial numbers: each verdict, on synthetic trials
+whose outcome is plain by construction, and the statistics against hand computation."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tavc_cli.analysis import claims as C
+from tavc_cli.analysis.states import theory_pct
+
+STATES6 = ["0:6", "1:5", "2:4", "3:3", "4:2", "5:1", "6:0"]
+STATES5 = ["0:5", "1:4", "2:3", "3:2", "4:1", "5:0"]
+
+
+def _trials(controller, shares, rate=0.3, n=6, jitter=1.0, **rates):
+    """n trials of one controller: state shares (%) around `shares` with a small seeded
+    jitter that sums to zero (each trial still sums to 100), and value rates around `rate`."""
+    rows = []
+    for j in range(n):
+        noise = np.random.default_rng(j).normal(0.0, jitter, len(shares))
+        noise -= noise.mean()
+        row = {"controller": controller, "trial": j, "value_rate_stable": rate + 0.001 * (j % 3),
+               "value_rate_convergence": rates.get("convergence", rate) + 0.001 * ((j + 1) % 3),
+               "value_rate_before": rates.get("before", rate) + 0.001 * ((j + 2) % 3)}
+        row.update({f"pct_{k}": v + e for (k, v), e in zip(shares.items(), noise, strict=True)})
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _peaked(states, peak, height):
+    rest = (100.0 - height) / (len(states) - 1)
+    return {s: (height if s == peak else rest) for s in states}
+
+
+def test_welch_statistic_matches_hand_computation():
+    # a: mean 2, variance 1; b: mean 1/3, variance 1/3; se = sqrt(1/3 + 1/9) = 2/3, t = (5/3)/(2/3) = 2.5
+    part = C.greater("x", [1, 2, 3], [0, 0, 1])
+    assert part.statistic == pytest.approx(2.5)
+    assert part.holds is True
+    # the same test the other way round names the opposite direction
+    assert C.less("x", [1, 2, 3], [0, 0, 1]).holds is False
+
+
+def test_holm_correction_decides_not_different_families():
+    def fixed(p):
+        return lambda: (1.0, p)
+
+    # raw p 0.01, 0.04, 0.3 -> Holm 0.03, 0.08, 0.3: the smallest rejects at 0.10
+    part = C.holm_none_differ("f", [("a", fixed(0.04)), ("b", fixed(0.01)), ("c", fixed(0.3))])
+    assert part.holds is False and part.p_value == pytest.approx(0.03) and "most different: b" in part.what
+    # raw 0.04, 0.2, 0.5 -> Holm 0.12, 0.4, 0.5: none rejects, though 0.04 alone would have
+    part = C.holm_none_differ("f", [("a", fixed(0.04)), ("b", fixed(0.2)), ("c", fixed(0.5))])
+    assert part.holds is True and part.p_value == pytest.approx(0.12)
+    # nothing testable: no verdict
+    assert C.holm_none_differ("f", [("a", fixed(math.nan))]).holds is None
+
+
+def test_claim_3_reproduced_when_learners_concentrate_on_3_3():
+    runs = {"initial_distribution": pd.concat([
+        _trials("tavc", _peaked(STATES6, "3:3", 50.0)), _trials("random", theory_pct(6, 2, "circuits"))])}
+    rows = C.claim_rows(runs, only_experiment="initial_distribution").set_index("claim_id")
+    assert list(rows.index) == [3, 4, 5]
+    assert rows.loc[3, "verdict"] == "reproduced"
+    # the headline is the TAVC-against-random comparison of 3:3: 50 % against 31.25 %
+    assert rows.loc[3, "statistic"] > 0 and rows.loc[3, "p_value"] < 0.10
+
+
+def test_claim_3_not_reproduced_when_another_state_is_as_frequent():
+    shares = _peaked(STATES6, "3:3", 40.0)
+    shares["2:4"], shares["0:6"] = 40.0, shares["0:6"] - (40.0 - shares["2:4"])
+    rnd = _trials("random", _peaked(STATES6, "3:3", 31))
+    runs = {"initial_distribution": pd.concat([_trials("tavc", shares), rnd])}
+    row = C.claim_rows(runs, "initial_distribution").set_index("claim_id").loc[3]
+    assert row["verdict"] == "not_reproduced"
+    assert "3:3 above 2:4" in row["detail"] and "(fails)" in row["detail"]
+
+
+def test_claims_are_inconclusive_with_one_trial_or_a_missing_run():
+    runs = {"initial_distribution": pd.concat([_trials("tavc", _peaked(STATES6, "3:3", 50.0), n=1),
+                                               _trials("random", _peaked(STATES6, "3:3", 31.0), n=1)])}
+    rows = C.claim_rows(runs).set_index("claim_id")
+    assert rows.loc[3, "verdict"] == "inconclusive" and math.isnan(rows.loc[3, "p_value"])
+    # breakdown, breakdown_no_vacancy and value_change were not run
+    assert (rows.loc[[6, 7, 8], "verdict"] == "inconclusive").all()
+
+
+def test_claim_4_compares_random_with_the_binomial_row():
+    theory = theory_pct(6, 2, "circuits")
+    near = {"initial_distribution": _trials("random", theory)}
+    assert C.claim_rows(near, "initial_distribution").set_index("claim_id").loc[4, "verdict"] == "reproduced"
+    far = {"initial_distribution": _trials("random", _peaked(STATES6, "3:3", 60.0))}
+    assert C.claim_rows(far, "initial_distribution").set_index("claim_id").loc[4, "verdict"] == "not_reproduced"
+
+
+def test_claim_5_tests_performance_in_the_stable_period():
+    runs = {"initial_distribution": pd.concat([_trials("tavc", _peaked(STATES6, "3:3", 50), rate=0.40),
+                                               _trials("random", _peaked(STATES6, "3:3", 31), rate=0.35)])}
+    assert C.claim_rows(runs, "initial_distribution").set_index("claim_id").loc[5, "verdict"] == "reproduced"
+    runs["initial_distribution"].loc[runs["initial_distribution"].controller == "tavc", "value_rate_stable"] -= 0.1
+    assert C.claim_rows(runs, "initial_distribution").set_index("claim_id").loc[5, "verdict"] == "not_reproduced"
+
+
+def test_claim_6_needs_3_2_and_performance_above_random_and_static():
+    tavc = _trials("tavc", _peaked(STATES5, "3:2", 50), rate=0.40)
+    rnd = _trials("random", _peaked(STATES5, "3:2", 31), rate=0.35)
+    static = _trials("static", _peaked(STATES5, "2:3", 90), rate=0.38)
+    runs = {"breakdown": pd.concat([tavc, rnd, static])}
+    assert C.claim_rows(runs, "breakdown").iloc[0]["verdict"] == "reproduced"
+    # the static allocation tuned for six does better: the claim's last part fails
+    runs = {"breakdown": pd.concat([tavc, rnd, static.assign(value_rate_stable=0.45)])}
+    row = C.claim_rows(runs, "breakdown").iloc[0]
+    assert row["verdict"] == "not_reproduced" and "static allocation" in row["detail"]
+
+
+def test_claim_7_compares_with_breakdown_and_the_convergence_period():
+    shares = _peaked(STATES5, "3:2", 46)
+    no_vac = pd.concat([_trials("tavc", shares, rate=0.40), _trials("random", _peaked(STATES5, "3:2", 31), rate=0.35)])
+    breakdown = _trials("tavc", shares, rate=0.40)
+    runs = {"breakdown_no_vacancy": no_vac, "breakdown": breakdown}
+    assert C.claim_rows(runs, "breakdown_no_vacancy").iloc[0]["verdict"] == "reproduced"
+    # without breakdown's trials the comparison cannot be made
+    row = C.claim_rows({"breakdown_no_vacancy": no_vac}, "breakdown_no_vacancy").iloc[0]
+    assert row["verdict"] == "inconclusive"
+    # a convergence period far below the stable one: they differ
+    slow = pd.concat([_trials("tavc", shares, rate=0.40, convergence=0.30),
+                      _trials("random", _peaked(STATES5, "3:2", 31), rate=0.35)])
+    assert C.claim_rows({"breakdown_no_vacancy": slow, "breakdown": breakdown},
+                        "breakdown_no_vacancy").iloc[0]["verdict"] == "not_reproduced"
+
+
+def test_claim_8_needs_every_other_state_below_random_and_performance_back():
+    rnd = _trials("random", theory_pct(5, 2, "circuits"), rate=0.35)
+    # 3:2 at 90 %, every other state at 2 %: below each binomial share (the least is 3.1 %)
+    tavc = _trials("tavc", _peaked(STATES5, "3:2", 90), rate=0.40, before=0.40, jitter=0.3)
+    assert C.claim_rows({"value_change": pd.concat([tavc, rnd])}, "value_change").iloc[0]["verdict"] == "reproduced"
+    lower = _trials("tavc", _peaked(STATES5, "3:2", 90), rate=0.40, before=0.48, jitter=0.3)
+    row = C.claim_rows({"value_change": pd.concat([lower, rnd])}, "value_change").iloc[0]
+    assert row["verdict"] == "not_reproduced" and "before it" in row["detail"]
+
+
+def test_claims_csv_columns_follow_the_contract():
+    frame = C.claim_rows({})
+    assert list(frame.columns) == ["claim_id", "claim", "verdict", "statistic", "p_value", "detail"]
+    assert frame["claim_id"].tolist() == [3, 4, 5, 6, 7, 8]
+    assert set(frame["verdict"]) == {"inconclusive"}
+    assert np.isnan(frame["statistic"]).all()
