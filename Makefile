@@ -33,7 +33,8 @@ test-fast: venv ## Run the tests not marked slow
 bench: venv ## Print simulator throughput as one JSON object
 	$(BIN)/tavc bench --json
 
-reproduce-all: $(REPRODUCE) ## Run every experiment at paper scale
+reproduce-all: $(REPRODUCE) ## Run every experiment at paper scale, then write results/REPORT.md
+	$(BIN)/tavc report results
 
 $(REPRODUCE): reproduce-%: venv
 	$(BIN)/tavc run experiment=$* scale=paper

@@ -1,0 +1,84 @@
+"""`tavc report`: REPORT.md and claims.csv from saved results only, the chapter's tables
+beside ours cell by cell."""
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from tavc_cli.analysis.comparison import compare
+from tavc_cli.cli import app
+from tavc_cli.reference import chapter_table
+
+runner = CliRunner()
+EXPERIMENTS = ["initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change"]
+
+
+def _long(table_id: str) -> pd.DataFrame:
+    """A chapter table rewritten as our state_time.csv (rows per state and controller)."""
+    rows = []
+    for r in chapter_table(table_id).itertuples(index=False):
+        for ctrl in ("tavc", "random"):
+            if hasattr(r, f"{ctrl}_mean_pct"):
+                rows.append({"state": r.state, "controller": ctrl, "mean_pct": getattr(r, f"{ctrl}_mean_pct"),
+                             "std_pct": getattr(r, f"{ctrl}_std_pct"), "n_trials": 20})
+        if hasattr(r, "theory_pct"):
+            rows.append({"state": r.state, "controller": "theory", "mean_pct": r.theory_pct, "std_pct": 0.0,
+                         "n_trials": 0})
+    return pd.DataFrame(rows)
+
+
+@pytest.mark.parametrize("table_id", ["1.2", "1.3", "1.4", "1.5"])
+def test_the_chapters_own_table_compares_equal_to_itself(table_id):
+    cmp = compare(_long(table_id), table_id)
+    chapter = chapter_table(table_id)
+    # one row per printed cell
+    assert len(cmp) == len(chapter) * (len(chapter.columns) - 1)
+    assert (cmp["difference"].abs() < 1e-12).all()
+
+
+def test_comparison_differences_are_ours_minus_the_chapters():
+    ours = _long("1.2")
+    ours.loc[(ours.state == "3:3") & (ours.controller == "tavc"), "mean_pct"] = 50.0  # chapter: 44.5
+    ours = ours[ours.controller != "random"]
+    cmp = compare(ours, "1.2").set_index(["state", "quantity"])
+    assert cmp.loc[("3:3", "tavc_mean_pct"), "difference"] == pytest.approx(5.5)
+    # a controller we did not run leaves our cells empty, not zero
+    assert cmp.loc[("3:3", "random_mean_pct"), "ours"] != cmp.loc[("3:3", "random_mean_pct"), "ours"]
+
+
+def test_table_1_6_differences_are_recomputed_from_our_means():
+    ours = _long("1.6")
+    cmp = compare(ours, "1.6").set_index(["state", "quantity"])
+    # the chapter printed 5.30 for 2:1, its means give 19.4 - 15.7 = 3.7
+    assert cmp.loc[("2:1", "diff_pct"), "ours"] == pytest.approx(3.7)
+    assert cmp.loc[("2:1", "diff_pct"), "chapter"] == pytest.approx(5.3)
+
+
+def test_report_refuses_a_folder_without_runs(tmp_path):
+    result = runner.invoke(app, ["report", str(tmp_path)])
+    assert result.exit_code == 1
+    assert result.output.strip().startswith("error: RESULTS_DIR")
+    assert not (tmp_path / "REPORT.md").exists()
+
+
+@pytest.mark.slow
+def test_smoke_runs_of_the_four_experiments_through_report(tmp_path):
+    for name in EXPERIMENTS:
+        result = runner.invoke(app, ["run", f"experiment={name}", "scale=smoke", "trials=2", "baseline_trials=2",
+                                     f"output_dir={tmp_path / name}"])
+        assert result.exit_code == 0, result.output
+        assert "the chapter's claims about this experiment" in result.output
+        assert (tmp_path / name / "comparison.csv").is_file()
+        stats = pd.read_csv(tmp_path / name / "trial_stats.csv")
+        # every trial's stable-period shares sum to 100 % (each written to 4 decimals)
+        shares = stats[[c for c in stats.columns if c.startswith("pct_")]].sum(axis=1)
+        assert ((shares - 100.0).abs() < 1e-3).all()
+    result = runner.invoke(app, ["report", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    claims = pd.read_csv(tmp_path / "claims.csv")
+    assert claims["claim_id"].tolist() == [3, 4, 5, 6, 7, 8]
+    assert set(claims["verdict"]) <= {"reproduced", "not_reproduced", "inconclusive"}
+    text = (tmp_path / "REPORT.md").read_text()
+    for name in EXPERIMENTS:
+        assert f"## {name}" in text
+    assert "Table 1.3 beside ours" in text and "of 6 tested" in text
