@@ -127,6 +127,64 @@ def _differences(cfg: dict) -> list[str]:
     return out
 
 
+def _find_model(experiments: dict[str, Path]) -> Path | None:
+    """The model's output to draw predictions from: initial_distribution's, else any run's."""
+    folders = sorted(experiments.items(), key=lambda kv: kv[0] != "initial_distribution")
+    for _, d in folders:
+        if (d / "model" / "model.json").is_file():
+            return d / "model" / "model.json"
+    return None
+
+
+def _predicted_segments(cfg: dict, model_json: Path | None) -> list[tuple[float, float, str, float]]:
+    """(from s, to s, label, robots on the high circuit) the model predicts between breakdowns."""
+    if model_json is None:
+        return []
+    by_size = json.loads(model_json.read_text()).get("by_team_size", {})
+    start, end = -float((cfg.get("sim") or {}).get("warmup_s", 0.0)), float(cfg["duration_s"])
+    times = sorted(float(b["time_s"]) for b in (cfg.get("events") or {}).get("breakdowns", []) or []
+                   if start < float(b["time_s"]) < end)
+    n = int(cfg["team"]["n_robots"]) - sum(
+        1 for b in (cfg.get("events") or {}).get("breakdowns", []) or [] if float(b["time_s"]) <= start)
+    out = []
+    for a, b in zip([start, *times], [*times, end], strict=True):
+        pred = by_size.get(str(n))
+        if pred is not None:
+            state = pred["predicted_state"]
+            out.append((a, b, f"{n} robots: {state}", float(state.split(":")[0])))
+        n -= 1
+    return out
+
+
+def _figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, results_dir: Path,
+             model_json: Path | None) -> list[str]:
+    """Draw this experiment's figures under results_dir/figures; markdown lines that show them."""
+    from tavc_cli.reference import chapter_table
+    from tavc_cli.viz.figures import FIGURES, allocation_figure, performance_figure, state_figure
+
+    fig_dir = results_dir / "figures"
+    state_fig, perf_fig = FIGURES.get(name, (None, None))
+    conv = float(cfg.get("convergence_s") or 0.0)
+    event = float((cfg.get("sim") or {}).get("warmup_s", 0.0)) > 0
+    lines = []
+    if state_fig is not None:
+        table = TABLES.get(name)
+        state_figure(state_time, chapter_table(table) if table else None,
+                     f"{name}: % of the stable period in each state (the chapter's Figure {state_fig})",
+                     fig_dir / f"fig_{state_fig.replace('.', '_')}")
+        lines.append(f"![Figure {state_fig}, tavc](figures/fig_{state_fig.replace('.', '_')}.png)")
+    if perf_fig is not None and (d / "performance.csv").is_file():
+        performance_figure(pd.read_csv(d / "performance.csv"), conv, event,
+                           f"{name}: performance over time (the chapter's Figure {perf_fig})",
+                           fig_dir / f"fig_{perf_fig.replace('.', '_')}")
+        lines.append(f"![Figure {perf_fig}, tavc](figures/fig_{perf_fig.replace('.', '_')}.png)")
+    if (d / "allocation.csv").is_file():
+        allocation_figure(pd.read_csv(d / "allocation.csv"), _predicted_segments(cfg, model_json), conv, event,
+                          f"{name}: robots on the high-value circuit over time", fig_dir / f"allocation_{name}")
+        lines.append(f"![robots on the high-value circuit, {name}](figures/allocation_{name}.png)")
+    return [*lines, ""] if lines else []
+
+
 def build_report(results_dir: Path) -> dict:
     """Write `claims.csv` and `REPORT.md` under results_dir; return what was found."""
     results_dir = Path(results_dir)
@@ -154,6 +212,7 @@ def build_report(results_dir: Path) -> dict:
     lines += ["", "Tests: t-tests at 90 % (alpha 0.10): Welch's one-sided for \"above\"/\"below\" between "
               "controllers, paired one-sided for \"most frequent\" within the same trials, two-sided (Holm-"
               "corrected over states) for \"not different\". The rules are in `tavc_cli/analysis/claims.py`.", ""]
+    model_json = _find_model(experiments)
     for name, d in experiments.items():
         cfg = yaml.safe_load((d / "config.yaml").read_text()) or {}
         prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
@@ -169,6 +228,7 @@ def build_report(results_dir: Path) -> dict:
         lines += _model_lines(d / "model" / "model.json", state_time)
         if (d / "model" / "model.json").is_file():
             lines.append("")
+        lines += _figures(name, d, cfg, state_time, results_dir, model_json)
         own = claims[[CLAIMS[c][0] == name for c in claims["claim_id"]]]
         if len(own) and name in runs:
             lines += [*_claims_table(own), ""]

@@ -182,3 +182,45 @@ def state_time_table(records: Iterable[TrialRecord], t_from: float, t_to: float,
         for s, v in theory_pct(n_live, n_c, scheme, sizes).items():
             rows.append({"state": s, "controller": "theory", "mean_pct": v, "std_pct": 0.0, "n_trials": 0})
     return pd.DataFrame(rows)
+
+
+def high_circuit_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: float) -> tuple[np.ndarray, np.ndarray]:
+    """(bin centres, time-weighted mean number of robots whose last target was on the
+    high-value circuit, per bin) for one trial; NaN where the state is not yet defined.
+    The first number of a circuits-state label is that count (the high circuit first)."""
+    edges = np.arange(t_from, t_to + 1e-9, bin_s)
+    if edges[-1] < t_to - 1e-9:
+        edges = np.append(edges, t_to)
+    weighted = np.zeros(len(edges) - 1)
+    covered = np.zeros(len(edges) - 1)
+    for a, b, s in state_intervals(rec, "circuits"):
+        if s is None:
+            continue
+        h = float(s.split(":")[0])
+        first = max(int(np.searchsorted(edges, a, side="right")) - 1, 0)
+        last = min(int(np.searchsorted(edges, b, side="left")), len(edges) - 1)
+        for k in range(first, last):
+            lo, hi = max(a, edges[k]), min(b, edges[k + 1])
+            if hi > lo:
+                weighted[k] += h * (hi - lo)
+                covered[k] += hi - lo
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(covered > 0, weighted / covered, np.nan)
+    return 0.5 * (edges[:-1] + edges[1:]), mean
+
+
+def allocation_table(records: Iterable[TrialRecord], bin_s: float, t_from: float, t_to: float) -> pd.DataFrame:
+    """`t_s,controller,mean_high,std_high,n_trials`: robots on the high-value circuit over time."""
+    by_ctrl: dict[str, list[np.ndarray]] = {}
+    centres = np.array([])
+    for rec in records:
+        centres, series = high_circuit_series(rec, bin_s, t_from, t_to)
+        by_ctrl.setdefault(rec.meta["controller"], []).append(series)
+    rows = []
+    for ctrl, series in by_ctrl.items():
+        m = np.vstack(series)
+        for k, t in enumerate(centres):
+            col = m[:, k][np.isfinite(m[:, k])]
+            rows.append({"t_s": float(t), "controller": ctrl, "mean_high": float(col.mean()) if len(col) else np.nan,
+                         "std_high": float(col.std(ddof=1)) if len(col) > 1 else np.nan, "n_trials": len(col)})
+    return pd.DataFrame(rows, columns=["t_s", "controller", "mean_high", "std_high", "n_trials"])

@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.performance import performance_table
-from tavc_cli.analysis.states import state_time_table
+from tavc_cli.analysis.states import allocation_table, state_time_table
 from tavc_cli.analysis.trial_stats import trial_stats
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, make_batches, trial_specs
@@ -210,7 +210,12 @@ def analyse(cfg: Mapping, records: list[TrialRecord]) -> dict[str, pd.DataFrame]
     state = state_time_table(records, t_from, t_to, scheme)
     perf = performance_table(records, float(cfg["analysis"]["performance_bin_s"]),
                              -float(cfg["sim"]["warmup_s"]), t_to)
-    return {"state_time": state, "performance": perf, "trial_stats": trial_stats(records, cfg)}
+    alloc = allocation_table(records, float(cfg["analysis"]["performance_bin_s"]), -float(cfg["sim"]["warmup_s"]),
+                             t_to) if scheme == "circuits" else None
+    tables = {"state_time": state, "performance": perf, "trial_stats": trial_stats(records, cfg)}
+    if alloc is not None:
+        tables["allocation"] = alloc
+    return tables
 
 
 def experiment_claims(cfg: Mapping, stats: pd.DataFrame, out_dir: Path) -> pd.DataFrame:
