@@ -298,3 +298,22 @@ def test_value_rate_over_a_period():
     # [0, 50): 11 points in 50 s = 0.22 per second; [50, 100): 10 / 50 = 0.2
     assert value_rate(rec, 0.0, 50.0) == pytest.approx(0.22)
     assert value_rate(rec, 50.0, 100.0) == pytest.approx(0.2)
+
+
+def test_robots_on_the_high_circuit_over_time_by_hand():
+    from tavc_cli.analysis.states import allocation_table, high_circuit_series
+
+    # record A: 3 on the high circuit for 0-75 s, then 2; in 50 s bins: 3, then (25*3 + 25*2)/50 = 2.5
+    a = _two_state_record(3, 75.0)
+    centres, series = high_circuit_series(a, 50.0, 0.0, 100.0)
+    np.testing.assert_allclose(centres, [25.0, 75.0])
+    np.testing.assert_allclose(series, [3.0, 2.5])
+    # record B: 1 until 25 s, then 2: bins (25*1 + 25*2)/50 = 1.5 and 2; over A and B:
+    # means 2.25 and 2.25, sample stds |3 - 1.5| / sqrt(2) = 1.0607 and 0.5 / sqrt(2) = 0.3536
+    b = _two_state_record(1, 25.0)
+    table = allocation_table([a, b], 50.0, 0.0, 100.0)
+    np.testing.assert_allclose(table["mean_high"], [2.25, 2.25])
+    np.testing.assert_allclose(table["std_high"], [1.0607, 0.3536], atol=1e-4)
+    # before any robot has reached a target the count is undefined, not zero
+    _, early = high_circuit_series(a, 10.0, -20.0, 0.0)
+    assert np.isnan(early).all()
