@@ -18,6 +18,7 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
+matplotlib.rcParams["svg.hashsalt"] = "tavc"
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
@@ -38,7 +39,8 @@ def _save(fig, out_stem: Path) -> list[Path]:
     paths = []
     for ext in ("png", "svg"):
         path = out_stem.with_suffix(f".{ext}")
-        fig.savefig(path, dpi=110)
+        # no date and fixed element ids in the SVG, so a figure redrawn from the same numbers is the same file
+        fig.savefig(path, dpi=110, metadata={"Date": None} if ext == "svg" else None)
         paths.append(path)
     plt.close(fig)
     return paths
