@@ -127,6 +127,29 @@ def _differences(cfg: dict) -> list[str]:
     return out
 
 
+def _vacancy_lines(d: Path) -> list[str]:
+    """The vacancy chains of a run with an event: a summary per controller, TAVC's trials in a table."""
+    path = d / "vacancy.csv"
+    if not path.is_file():
+        return []
+    from tavc_cli.analysis.vacancy import SETTLE_TASKS, vacancy_summary
+
+    table = pd.read_csv(path)
+    lines = [f"Vacancy chains (a move counts once the robot serves its new circuit {SETTLE_TASKS} tasks running; "
+             "`vacancy.csv` has every trial):", ""]
+    lines += [f"- {text}" for text in (vacancy_summary(table, c) for c in dict.fromkeys(table["controller"])) if text]
+    tavc = table[table["controller"] == "tavc"]
+    if len(tavc):
+        lines += ["", "| trial | vacancy on circuit | filled by | from circuit | after (s) | moves before | chain |",
+                  "|---|---|---|---|---|---|---|"]
+        for r in tavc.itertuples():
+            filled = bool(r.filled)
+            lines.append(f"| {r.trial} | {r.vacancy_circuit} | {r.filler if filled else '-'} | "
+                         f"{r.filler_from if filled else '-'} | {_fmt(r.fill_delay_s, '.0f')} | {r.moves_before_fill} | "
+                         f"{'' if pd.isna(r.chain) else r.chain} |")
+    return [*lines, ""]
+
+
 def _find_model(experiments: dict[str, Path]) -> Path | None:
     """The model's output to draw predictions from: initial_distribution's, else any run's."""
     folders = sorted(experiments.items(), key=lambda kv: kv[0] != "initial_distribution")
@@ -229,6 +252,7 @@ def build_report(results_dir: Path) -> dict:
         if (d / "model" / "model.json").is_file():
             lines.append("")
         lines += _figures(name, d, cfg, state_time, results_dir, model_json)
+        lines += _vacancy_lines(d)
         own = claims[[CLAIMS[c][0] == name for c in claims["claim_id"]]]
         if len(own) and name in runs:
             lines += [*_claims_table(own), ""]

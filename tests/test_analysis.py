@@ -317,3 +317,51 @@ def test_robots_on_the_high_circuit_over_time_by_hand():
     # before any robot has reached a target the count is undefined, not zero
     _, early = high_circuit_series(a, 10.0, -20.0, 0.0)
     assert np.isnan(early).all()
+
+
+# --- vacancy chains -----------------------------------------------------------------------------
+
+
+def _with_choices(rec, choices, trial=0):
+    """Add a choices table (t, robot, state = circuit last served, circuit chosen)."""
+    rec.tables["choices"] = {
+        "t_s": np.array([c[0] for c in choices], dtype=float),
+        "robot": np.array([c[1] for c in choices], dtype=np.int64),
+        "state": np.array([c[2] for c in choices], dtype=np.int64),
+        "circuit": np.array([c[3] for c in choices], dtype=np.int64),
+    }
+    rec.meta["trial"] = trial
+    return rec
+
+
+def test_vacancy_chain_on_a_hand_made_event_log():
+    from tavc_cli.analysis.vacancy import settled_moves, vacancy_row
+
+    # robot 0 serves circuit 0 (high) and breaks down at t = 0, opening a vacancy there.
+    # robot 1 visits circuit 0 once at +10 s and goes back: exploration, not a settled move.
+    # robot 2 moves 0 -> 1 at +20 s and stays (settled); robot 1 then moves 1 -> 0 at +50 s
+    # and stays three tasks: it fills the vacancy 50 s after the event, one settled move first.
+    choices = [(-10.0, 0, 0, 0), (-5.0, 1, 1, 1), (-5.0, 2, 0, 0),
+               (10.0, 1, 1, 0), (15.0, 1, 0, 1),
+               (20.0, 2, 0, 1), (30.0, 2, 1, 1), (40.0, 2, 1, 1),
+               (50.0, 1, 1, 0), (60.0, 1, 0, 0), (70.0, 1, 0, 0)]
+    rec = _with_choices(_record(breakdowns=[(0.0, 0)]), choices)
+    assert settled_moves(rec, 0.0) == [(20.0, 2, 0, 1), (50.0, 1, 1, 0)]
+    row = vacancy_row(rec)
+    assert row["event"] == "breakdown" and row["vacancy_circuit"] == 0
+    assert row["filled"] and row["filler"] == 1 and row["filler_from"] == 1
+    assert row["fill_delay_s"] == pytest.approx(50.0) and row["moves_before_fill"] == 1
+    assert row["chain"] == "robot 2 0->1 at +20 s; robot 1 1->0 at +50 s"
+
+
+def test_vacancy_after_a_value_change_is_on_the_new_high_circuit_and_may_stay_open():
+    from tavc_cli.analysis.vacancy import vacancy_row
+
+    # values swap at t = 0: circuit 1 becomes the high one; only a two-task visit follows
+    choices = [(-5.0, 0, 0, 0), (10.0, 0, 0, 1), (20.0, 0, 1, 1), (30.0, 0, 1, 0)]
+    rec = _with_choices(_record(value_changes=[(0.0, (1.0, 3.0))]), choices)
+    row = vacancy_row(rec)
+    assert row["event"] == "value_change" and row["vacancy_circuit"] == 1
+    assert not row["filled"] and math.isnan(row["fill_delay_s"]) and row["chain"] == ""
+    # a trial without any event has no row
+    assert vacancy_row(_with_choices(_record(), choices)) is None

@@ -29,6 +29,7 @@ import pandas as pd
 from tavc_cli.analysis.performance import performance_table
 from tavc_cli.analysis.states import allocation_table, state_time_table
 from tavc_cli.analysis.trial_stats import trial_stats
+from tavc_cli.analysis.vacancy import vacancy_table
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, make_batches, trial_specs
 from tavc_cli.experiments.engine import run_trials
@@ -215,6 +216,9 @@ def analyse(cfg: Mapping, records: list[TrialRecord]) -> dict[str, pd.DataFrame]
     tables = {"state_time": state, "performance": perf, "trial_stats": trial_stats(records, cfg)}
     if alloc is not None:
         tables["allocation"] = alloc
+    vacancy = vacancy_table(records)
+    if len(vacancy):
+        tables["vacancy"] = vacancy
     return tables
 
 
