@@ -144,9 +144,10 @@ def _vacancy_lines(d: Path) -> list[str]:
                   "|---|---|---|---|---|---|---|"]
         for r in tavc.itertuples():
             filled = bool(r.filled)
+            chain = "" if pd.isna(r.chain) else r.chain
             lines.append(f"| {r.trial} | {r.vacancy_circuit} | {r.filler if filled else '-'} | "
-                         f"{r.filler_from if filled else '-'} | {_fmt(r.fill_delay_s, '.0f')} | {r.moves_before_fill} | "
-                         f"{'' if pd.isna(r.chain) else r.chain} |")
+                         f"{r.filler_from if filled else '-'} | {_fmt(r.fill_delay_s, '.0f')} | "
+                         f"{r.moves_before_fill} | {chain} |")
     return [*lines, ""]
 
 
