@@ -24,6 +24,7 @@ from tavc_cli.reference import TABLES
 
 ORDER = ["spatiotemporal", "initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change",
          "heterogeneous"]
+KIND_WORDS = {"stayer": "stayers", "alternator": "alternators", "mixed": "mixed", "idle": "idle (broken down or stuck)"}
 CONTROLLER_NAMES = {"tavc": "TAVC", "random": "random", "static": "static", "theory": "theory"}
 
 
@@ -125,6 +126,21 @@ def _differences(cfg: dict) -> list[str]:
     if values is not None and chapter_values and [float(v) for v in values] != [2200.0, 2000.0]:
         out.append(f"task values {values} (the chapter: [2200, 2000])")
     return out
+
+
+def _robot_lines(d: Path) -> list[str]:
+    """How many robots per trial stayed on one circuit, alternated, or mixed (`robots.csv`)."""
+    path = d / "robots.csv"
+    if not path.is_file():
+        return []
+    from tavc_cli.analysis.robots import ALTERNATOR_RATE, STAYER_SHARE, robot_summary
+
+    parts = []
+    for ctrl, kinds in robot_summary(pd.read_csv(path)).items():
+        parts.append(f"{CONTROLLER_NAMES.get(ctrl, ctrl)} " + ", ".join(
+            f"{v:.1f} {KIND_WORDS[k]}" for k, v in kinds.items() if v > 0))
+    return [f"Robots per trial in the stable period (stayer: {STAYER_SHARE:.0%} or more of its choices on one "
+            f"circuit; alternator: {ALTERNATOR_RATE:.0%} or more of its choices switch): " + "; ".join(parts) + ".", ""]
 
 
 def _vacancy_lines(d: Path) -> list[str]:
@@ -253,6 +269,7 @@ def build_report(results_dir: Path) -> dict:
         if (d / "model" / "model.json").is_file():
             lines.append("")
         lines += _figures(name, d, cfg, state_time, results_dir, model_json)
+        lines += _robot_lines(d)
         lines += _vacancy_lines(d)
         own = claims[[CLAIMS[c][0] == name for c in claims["claim_id"]]]
         if len(own) and name in runs:

@@ -365,3 +365,23 @@ def test_vacancy_after_a_value_change_is_on_the_new_high_circuit_and_may_stay_op
     assert not row["filled"] and math.isnan(row["fill_delay_s"]) and row["chain"] == ""
     # a trial without any event has no row
     assert vacancy_row(_with_choices(_record(), choices)) is None
+
+
+def test_robots_are_classified_from_their_choices_by_hand():
+    from tavc_cli.analysis.robots import robot_rows
+
+    # robot 0: 10 choices, 9 of circuit 0 -> share 0.9: a stayer on circuit 0
+    # robot 1: 0,1,0,1,... 8 choices each switching -> rate 1.0: an alternator
+    # robot 2: 1,1,0,0,1,1,0,0 from state 1: switches at 3 of 8 choices, share 0.5: mixed
+    choices = [(float(k), 0, 0, 1 if k == 4 else 0) for k in range(10)]
+    choices[5] = (5.0, 0, 1, 0)  # after the one visit to circuit 1 its state is 1
+    choices += [(float(k), 1, k % 2, 1 - k % 2) for k in range(8)]
+    seq = [1, 1, 0, 0, 1, 1, 0, 0]
+    choices += [(float(k), 2, ([1] + seq)[k], seq[k]) for k in range(8)]
+    rec = _with_choices(_record(), choices)
+    rows = {r["robot"]: r for r in robot_rows(rec, 0.0, 100.0)}
+    assert rows[0]["kind"] == "stayer" and rows[0]["circuit"] == 0 and rows[0]["share_main"] == pytest.approx(0.9)
+    assert rows[1]["kind"] == "alternator" and rows[1]["switch_rate"] == pytest.approx(1.0)
+    assert rows[2]["kind"] == "mixed" and rows[2]["switch_rate"] == pytest.approx(3 / 8)
+    # outside the window nobody chose anything: idle
+    assert {r["kind"] for r in robot_rows(rec, 200.0, 300.0)} == {"idle"}

@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.performance import performance_table
+from tavc_cli.analysis.robots import robot_table
 from tavc_cli.analysis.states import allocation_table, state_time_table
 from tavc_cli.analysis.trial_stats import trial_stats
 from tavc_cli.analysis.vacancy import vacancy_table
@@ -216,6 +217,8 @@ def analyse(cfg: Mapping, records: list[TrialRecord]) -> dict[str, pd.DataFrame]
     tables = {"state_time": state, "performance": perf, "trial_stats": trial_stats(records, cfg)}
     if alloc is not None:
         tables["allocation"] = alloc
+    if records and "choices" in records[0].tables:
+        tables["robots"] = robot_table(records, t_from, t_to)
     vacancy = vacancy_table(records)
     if len(vacancy):
         tables["vacancy"] = vacancy
