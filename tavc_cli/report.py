@@ -128,6 +128,27 @@ def _differences(cfg: dict) -> list[str]:
     return out
 
 
+def _settle_lines(stats: pd.DataFrame, cfg: dict) -> list[str]:
+    """When the trials' allocations settled, beside the chapter's convergence period."""
+    if "settle_s" not in stats:
+        return []
+    from tavc_cli.analysis.trial_stats import SETTLE_TOL
+
+    parts = []
+    for ctrl, g in stats.groupby("controller", sort=False):
+        x = g["settle_s"].to_numpy(float)
+        done = x[pd.notna(x)]
+        text = f"{CONTROLLER_NAMES.get(ctrl, ctrl)} settled in {len(done)} of {len(x)} trials"
+        if len(done):
+            text += f", median {pd.Series(done).median():.0f} s"
+        parts.append(text)
+    paper = (cfg.get("paper") or {}).get("convergence_s")
+    return [f"Settling (the first {float(cfg['analysis']['performance_bin_s']):g} s bin after which the mean number "
+            f"of robots on the high-value circuit stays within {SETTLE_TOL:g} of its stable-period mean, counted "
+            "from t = 0): " + "; ".join(parts)
+            + (f". The chapter took {float(paper):g} s as its convergence period." if paper else "."), ""]
+
+
 def _robot_lines(d: Path) -> list[str]:
     """How many robots per trial stayed on one circuit, alternated, or mixed (`robots.csv`)."""
     path = d / "robots.csv"
@@ -265,6 +286,7 @@ def build_report(results_dir: Path) -> dict:
         lines += ["", *_state_table(state_time, comparison), ""]
         if name in runs:
             lines += [_performance(runs[name]), ""]
+            lines += _settle_lines(runs[name], cfg)
         lines += _model_lines(d / "model" / "model.json", state_time)
         if (d / "model" / "model.json").is_file():
             lines.append("")

@@ -385,3 +385,17 @@ def test_robots_are_classified_from_their_choices_by_hand():
     assert rows[2]["kind"] == "mixed" and rows[2]["switch_rate"] == pytest.approx(3 / 8)
     # outside the window nobody chose anything: idle
     assert {r["kind"] for r in robot_rows(rec, 200.0, 300.0)} == {"idle"}
+
+
+def test_settle_time_by_hand():
+    from tavc_cli.analysis.trial_stats import settle_time
+
+    # 100 s bins from 0; stable period from 300 s: mean of 3.0, 3.2, 2.8 = 3.0.
+    # Bins: 1.0, 3.6 (off by 0.6), 2.7, 3.0, 3.2, 2.8 -> the last off bin is the second (100-200 s),
+    # so the allocation settles at 200 s
+    centres = [50, 150, 250, 350, 450, 550]
+    assert settle_time(centres, [1.0, 3.6, 2.7, 3.0, 3.2, 2.8], 100.0, 300.0) == pytest.approx(200.0)
+    # never off: settled from the start; the last bin off: never settled
+    assert settle_time(centres, [3.0] * 6, 100.0, 300.0) == 0.0
+    # stable mean (3 + 3 + 1) / 3 = 2.33, the last bin 1.33 below it
+    assert math.isnan(settle_time(centres, [3.0, 3.0, 3.0, 3.0, 3.0, 1.0], 100.0, 300.0))

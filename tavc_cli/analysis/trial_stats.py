@@ -6,6 +6,7 @@ period spent in each group state, and the score value delivered per second in th
 stable period, in the convergence period and, when the trial ran a warm-up before an
 event, in a window of the same length just before the event. `trial_stats.csv` keeps
 them, so `tavc report` can test claims from saved results without the trial records.
+It also keeps `settle_s`, when the trial's allocation settled (`settle_time`).
 """
 
 from __future__ import annotations
@@ -13,13 +14,33 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 
+import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.performance import value_rate
-from tavc_cli.analysis.states import alive_at_end, all_states, group_order, time_shares
+from tavc_cli.analysis.states import alive_at_end, all_states, group_order, high_circuit_series, time_shares
 from tavc_cli.experiments.records import TrialRecord
 
 STATE_PREFIX = "pct_"
+# a trial's allocation has settled from the first bin after which every bin's mean number of
+# robots on the high-value circuit stays within this many robots of its stable-period mean
+SETTLE_TOL = 0.5
+
+
+def settle_time(centres, series, bin_s: float, t_conv: float) -> float:
+    """Seconds from t = 0 to the start of the first bin from which the series stays within
+    SETTLE_TOL of its mean over the stable period (bins centred at or after t_conv); NaN if
+    the last bin is already off, or nothing was defined."""
+    centres, series = np.asarray(centres, float), np.asarray(series, float)
+    stable = series[(centres >= t_conv) & np.isfinite(series)]
+    if not len(stable):
+        return math.nan
+    level = stable.mean()
+    off = ~(np.abs(series - level) <= SETTLE_TOL)  # NaN (undefined) counts as off
+    if off[-1]:
+        return math.nan
+    k = int(np.flatnonzero(off)[-1]) + 1 if off.any() else 0
+    return max(float(centres[k] - bin_s / 2), 0.0)
 
 
 def trial_stats(records: Iterable[TrialRecord], cfg: Mapping) -> pd.DataFrame:
@@ -35,6 +56,7 @@ def trial_stats(records: Iterable[TrialRecord], cfg: Mapping) -> pd.DataFrame:
     warm = float(cfg["sim"]["warmup_s"])
     before = min(warm, t_end - t_conv)
     scheme = cfg["analysis"]["state"]
+    bin_s = float(cfg["analysis"]["performance_bin_s"])
     states: list[str] = []
     if records:
         first = records[0]
@@ -50,11 +72,13 @@ def trial_stats(records: Iterable[TrialRecord], cfg: Mapping) -> pd.DataFrame:
             "value_rate_stable": value_rate(rec, t_conv, t_end),
             "value_rate_convergence": value_rate(rec, 0.0, t_conv) if t_conv > 0 else math.nan,
             "value_rate_before": value_rate(rec, -before, 0.0) if before > 0 else math.nan,
+            "settle_s": settle_time(*high_circuit_series(rec, bin_s, 0.0, t_end), bin_s, t_conv)
+            if scheme == "circuits" else math.nan,
         }
         for s in states:
             row[STATE_PREFIX + s] = shares.get(s, 0.0) if shares else math.nan
         rows.append(row)
-    columns = ["controller", "trial", "value_rate_stable", "value_rate_convergence", "value_rate_before",
+    columns = ["controller", "trial", "value_rate_stable", "value_rate_convergence", "value_rate_before", "settle_s",
                *(STATE_PREFIX + s for s in states)]
     return pd.DataFrame(rows, columns=columns)
 
