@@ -341,3 +341,10 @@ def test_list_experiments_describes_every_file():
     assert [item["name"] for item in experiments] == EXPERIMENTS
     for item in experiments:
         assert item["section"] and item["description"]
+
+
+def test_long_scale_multiplies_durations_and_warm_up_by_ten():
+    # breakdown: 7.5 h with 2.5 h to converge after 5 h of warm-up, each ten times longer
+    cfg = load_config(["experiment=breakdown", "scale=long"])
+    assert (cfg.duration_s, cfg.convergence_s, cfg.sim.warmup_s) == (270000.0, 90000.0, 180000.0)
+    assert cfg.trials == 8
