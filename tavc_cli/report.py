@@ -130,7 +130,7 @@ def _differences(cfg: dict) -> list[str]:
 
 def _settle_lines(stats: pd.DataFrame, cfg: dict) -> list[str]:
     """When the trials' allocations settled, beside the chapter's convergence period."""
-    if "settle_s" not in stats:
+    if "settle_s" not in stats or not stats["settle_s"].notna().any():
         return []
     from tavc_cli.analysis.trial_stats import SETTLE_TOL
 
@@ -172,8 +172,10 @@ def _vacancy_lines(d: Path) -> list[str]:
     from tavc_cli.analysis.vacancy import SETTLE_TASKS, vacancy_summary
 
     table = pd.read_csv(path)
-    lines = [f"Vacancy chains (a move counts once the robot serves its new circuit {SETTLE_TASKS} tasks running; "
-             "`vacancy.csv` has every trial):", ""]
+    lines = [f"Vacancy chains. The event leaves one circuit short: the broken robot's, or the one that became "
+             f"high-valued. A move counts once the robot serves its new circuit {SETTLE_TASKS} tasks running, and "
+             "the first such move onto the short circuit fills it; this does not check that the circuit's count is "
+             "restored, and random choices make such moves by chance (`vacancy.csv` has every trial):", ""]
     lines += [f"- {text}" for text in (vacancy_summary(table, c) for c in dict.fromkeys(table["controller"])) if text]
     tavc = table[table["controller"] == "tavc"]
     if len(tavc):
@@ -199,7 +201,7 @@ def _find_model(experiments: dict[str, Path]) -> Path | None:
 
 def _predicted_segments(cfg: dict, model_json: Path | None) -> list[tuple[float, float, str, float]]:
     """(from s, to s, label, robots on the high circuit) the model predicts between breakdowns."""
-    if model_json is None:
+    if model_json is None or len((cfg.get("arena") or {}).get("circuits", [])) != 2:
         return []
     by_size = json.loads(model_json.read_text()).get("by_team_size", {})
     start, end = -float((cfg.get("sim") or {}).get("warmup_s", 0.0)), float(cfg["duration_s"])

@@ -345,7 +345,7 @@ def test_vacancy_chain_on_a_hand_made_event_log():
                (10.0, 1, 1, 0), (15.0, 1, 0, 1),
                (20.0, 2, 0, 1), (30.0, 2, 1, 1), (40.0, 2, 1, 1),
                (50.0, 1, 1, 0), (60.0, 1, 0, 0), (70.0, 1, 0, 0)]
-    rec = _with_choices(_record(breakdowns=[(0.0, 0)]), choices)
+    rec = _with_choices(_record(arrivals=[(-8.0, 0, 0)], breakdowns=[(0.0, 0)]), choices)
     assert settled_moves(rec, 0.0) == [(20.0, 2, 0, 1), (50.0, 1, 1, 0)]
     row = vacancy_row(rec)
     assert row["event"] == "breakdown" and row["vacancy_circuit"] == 0

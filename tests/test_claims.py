@@ -146,3 +146,12 @@ def test_claims_csv_columns_follow_the_contract():
     assert frame["claim_id"].tolist() == [3, 4, 5, 6, 7, 8]
     assert set(frame["verdict"]) == {"inconclusive"}
     assert np.isnan(frame["statistic"]).all()
+
+
+def test_a_share_with_no_spread_still_counts_in_a_not_different_family():
+    # random never left 0:6 empty nor full: always exactly 0 % where theory says 1.56 %: it differs
+    shares = dict(theory_pct(6, 2, "circuits"))
+    rnd = _trials("random", shares)
+    rnd["pct_0:6"] = 0.0
+    row = C.claim_rows({"initial_distribution": rnd}, "initial_distribution").set_index("claim_id").loc[4]
+    assert row["verdict"] == "not_reproduced" and "most different: 0:6" in row["detail"]

@@ -49,8 +49,10 @@ def test_comparison_differences_are_ours_minus_the_chapters():
 def test_table_1_6_differences_are_recomputed_from_our_means():
     ours = _long("1.6")
     cmp = compare(ours, "1.6").set_index(["state", "quantity"])
-    # the chapter printed 5.30 for 2:1, its means give 19.4 - 15.7 = 3.7
-    assert cmp.loc[("2:1", "diff_pct"), "ours"] == pytest.approx(3.7)
+    # the differences are over the theory row (here the chapter's own, 14.1 for 2:1):
+    # 19.4 - 14.1 = 5.3 as printed (over random it would be 3.7), relative 5.3 / 14.1 = 0.3759
+    assert cmp.loc[("2:1", "diff_pct"), "ours"] == pytest.approx(5.3)
+    assert cmp.loc[("2:1", "rel_diff"), "ours"] == pytest.approx(0.37589, abs=1e-4)
     assert cmp.loc[("2:1", "diff_pct"), "chapter"] == pytest.approx(5.3)
 
 

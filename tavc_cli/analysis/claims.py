@@ -72,22 +72,22 @@ def _testable(*samples: np.ndarray) -> bool:
     return all(len(s) >= 2 for s in samples) and any(np.ptp(s) > 0 for s in samples)
 
 
-def greater(what: str, a, b) -> Part:
-    """a's mean significantly above b's: Welch's t-test, one-sided."""
+def _one_sided(what: str, a, b, alternative: str) -> Part:
     a, b = _clean(a), _clean(b)
     if not _testable(a, b):
         return Part(what, math.nan, math.nan, None)
-    t, p = stats.ttest_ind(a, b, equal_var=False, alternative="greater")
+    t, p = stats.ttest_ind(a, b, equal_var=False, alternative=alternative)
     return Part(f"{what} ({a.mean():.4g} vs {b.mean():.4g}, Welch one-sided)", float(t), float(p), bool(p < ALPHA))
+
+
+def greater(what: str, a, b) -> Part:
+    """a's mean significantly above b's: Welch's t-test, one-sided."""
+    return _one_sided(what, a, b, "greater")
 
 
 def less(what: str, a, b) -> Part:
     """a's mean significantly below b's: Welch's t-test, one-sided."""
-    a, b = _clean(a), _clean(b)
-    if not _testable(a, b):
-        return Part(what, math.nan, math.nan, None)
-    t, p = stats.ttest_ind(a, b, equal_var=False, alternative="less")
-    return Part(f"{what} ({a.mean():.4g} vs {b.mean():.4g}, Welch one-sided)", float(t), float(p), bool(p < ALPHA))
+    return _one_sided(what, a, b, "less")
 
 
 def paired_greater(what: str, a, b) -> Part:
@@ -144,6 +144,9 @@ def holm_none_differ(what: str, tests: Sequence[tuple[str, Callable[[], tuple[fl
 
 def _one_sample(x, mu: float) -> tuple[float, float]:
     x = _clean(x)
+    if len(x) >= 2 and np.ptp(x) == 0:
+        # no spread at all: exactly mu says nothing differs, anything else differs for certain
+        return (0.0, 1.0) if x[0] == mu else (math.copysign(math.inf, x[0] - mu), 0.0)
     if not _testable(x):
         return math.nan, math.nan
     t, p = stats.ttest_1samp(x, mu)
@@ -152,6 +155,8 @@ def _one_sample(x, mu: float) -> tuple[float, float]:
 
 def _welch(a, b) -> tuple[float, float]:
     a, b = _clean(a), _clean(b)
+    if len(a) >= 2 and len(b) >= 2 and np.ptp(a) == 0 and np.ptp(b) == 0:
+        return (0.0, 1.0) if a[0] == b[0] else (math.copysign(math.inf, a[0] - b[0]), 0.0)
     if not _testable(a, b):
         return math.nan, math.nan
     t, p = stats.ttest_ind(a, b, equal_var=False)

@@ -5,8 +5,9 @@ the chapter's tables have one column per controller and statistic (`tavc_mean_pc
 `random_std_pct`, `theory_pct`, ...). Every cell the chapter printed gets one row of
 `comparison.csv`: `table,state,quantity,chapter,ours,difference` (ours minus the chapter's;
 empty where we have no such number, e.g. a controller the run did not include).
-Columns the chapter derived from others (Table 1.6's differences) are compared too, from
-our own means.
+Columns the chapter derived from others are compared too, from our own means: Table 1.6's
+differences are the learners' share over the binomial theory row (TAVC - theory and
+(TAVC - theory) / theory), which is what every one of its rows gives to rounding.
 """
 
 from __future__ import annotations
@@ -30,10 +31,10 @@ def _ours(state_time: pd.DataFrame) -> dict[tuple[str, str], float]:
             out[(r.state, f"{r.controller}_mean_pct")] = float(r.mean_pct)
             out[(r.state, f"{r.controller}_std_pct")] = float(r.std_pct)
     for state in {s for s, _ in out}:
-        tavc, rnd = out.get((state, "tavc_mean_pct")), out.get((state, "random_mean_pct"))
-        if tavc is not None and rnd is not None:
-            out[(state, "diff_pct")] = tavc - rnd
-            out[(state, "rel_diff")] = (tavc - rnd) / rnd if rnd > 0 else math.nan
+        tavc, theory = out.get((state, "tavc_mean_pct")), out.get((state, "theory_pct"))
+        if tavc is not None and theory is not None:
+            out[(state, "diff_pct")] = tavc - theory
+            out[(state, "rel_diff")] = (tavc - theory) / theory if theory > 0 else math.nan
     return out
 
 

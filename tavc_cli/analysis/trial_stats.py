@@ -47,14 +47,16 @@ def trial_stats(records: Iterable[TrialRecord], cfg: Mapping) -> pd.DataFrame:
     """`controller,trial,value_rate_stable,value_rate_convergence,value_rate_before,pct_<state>...`.
 
     Stable period: [convergence_s, duration_s); convergence period: [0, convergence_s);
-    before: [-w, 0) with w the stable period's length, capped by the warm-up (NaN without one).
+    before: [-w, 0) with w = analysis.before_s, or the stable period's length if that is null,
+    capped by the warm-up (NaN without one).
     A state that never occurred in a trial's stable period has 0 %; a trial whose state was
     never defined in it has NaN in every state column.
     """
     records = list(records)
     t_conv, t_end = float(cfg["convergence_s"]), float(cfg["duration_s"])
     warm = float(cfg["sim"]["warmup_s"])
-    before = min(warm, t_end - t_conv)
+    before_s = cfg["analysis"].get("before_s")
+    before = min(warm, float(before_s) if before_s is not None else t_end - t_conv)
     scheme = cfg["analysis"]["state"]
     bin_s = float(cfg["analysis"]["performance_bin_s"])
     states: list[str] = []

@@ -51,12 +51,12 @@ def _event(rec: TrialRecord) -> tuple[str, float, int] | None:
     vc_t = [t for t in rec.value_changes_t if t >= 0.0]
     if len(after) and (not vc_t or b["t_s"][after[0]] <= vc_t[0]):
         t, robot = float(b["t_s"][after[0]]), int(b["robot"][after[0]])
-        c = rec.table("choices")
-        mine = (c["robot"] == robot) & (c["t_s"] <= t)
+        a = rec.table("arrivals")
+        mine = (a["robot"] == robot) & (a["t_s"] <= t)
         if not np.any(mine):
             return None
-        # the circuit it served last, as the breakdown event chose it (the state of its last choice)
-        return "breakdown", t, int(c["state"][mine][np.argmax(c["t_s"][mine])])
+        # the circuit of its last target, as the breakdown event chose the robot
+        return "breakdown", t, int(a["circuit"][mine][np.argmax(a["t_s"][mine])])
     if vc_t:
         k = list(rec.value_changes_t).index(vc_t[0])
         return "value_change", float(vc_t[0]), int(np.argmax(rec.value_changes[k]))
@@ -97,7 +97,7 @@ def vacancy_summary(table: pd.DataFrame, controller: str = "tavc") -> str:
     if not len(t):
         return ""
     filled = t[t["filled"].astype(bool)]
-    text = f"{controller}: vacancy filled in {len(filled)} of {len(t)} trials"
+    text = f"{controller}: a robot moved onto the short circuit in {len(filled)} of {len(t)} trials"
     if len(filled):
         delays = filled["fill_delay_s"].to_numpy(float)
         text += (f", a median {np.median(delays):.0f} s after the event (range {delays.min():.0f}-{delays.max():.0f} s)"

@@ -257,6 +257,7 @@ class AnalysisConfig:
 
     state: str = "circuits"
     performance_bin_s: float = 600.0
+    before_s: Optional[float] = None
 
 
 @dataclass

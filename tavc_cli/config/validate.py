@@ -105,6 +105,8 @@ def validate(cfg: DictConfig) -> None:
     _validate_executor(cfg.executor)
     _one_of("analysis.state", cfg.analysis.state, ANALYSIS_STATES)
     _positive("analysis.performance_bin_s", cfg.analysis.performance_bin_s)
+    if cfg.analysis.before_s is not None:
+        _positive("analysis.before_s", cfg.analysis.before_s)
     _validate_model(cfg.model)
     _validate_calibration(cfg.calibration)
 

@@ -71,13 +71,13 @@ def state_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: 
     return _save(fig, out_stem)
 
 
-def performance_figure(perf: pd.DataFrame, convergence_s: float, event: bool, title: str,
-                       out_stem: Path) -> list[Path]:
-    """Score per second over time (ks), mean and one-std band per controller."""
+def _over_time(frame: pd.DataFrame, mean: str, std: str, convergence_s: float, event: bool, ylabel: str):
+    """A figure of one quantity over time (ks): per controller its mean and a one-std band, the
+    event at t = 0 and the end of the convergence period marked."""
     fig, ax = plt.subplots(figsize=(7.5, 4.0))
-    for ctrl, rows in perf.groupby("controller", sort=False):
+    for ctrl, rows in frame.groupby("controller", sort=False):
         t = rows["t_s"].to_numpy(float) / 1000.0
-        m, s = rows["mean"].to_numpy(float), rows["std"].to_numpy(float)
+        m, s = rows[mean].to_numpy(float), rows[std].to_numpy(float)
         ax.plot(t, m, color=COLOURS.get(ctrl), label=LABELS.get(ctrl, ctrl))
         ax.fill_between(t, m - s, m + s, color=COLOURS.get(ctrl), alpha=0.15, lw=0)
     if event:
@@ -85,34 +85,31 @@ def performance_figure(perf: pd.DataFrame, convergence_s: float, event: bool, ti
     if convergence_s > 0:
         ax.axvline(convergence_s / 1000.0, color="k", ls="--", lw=1, label="end of convergence period")
     ax.set_xlabel("time (1000 s)")
-    ax.set_ylabel("score value delivered per second")
+    ax.set_ylabel(ylabel)
+    return fig, ax
+
+
+def _finish(fig, ax, title: str, out_stem: Path) -> list[Path]:
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
     return _save(fig, out_stem)
+
+
+def performance_figure(perf: pd.DataFrame, convergence_s: float, event: bool, title: str,
+                       out_stem: Path) -> list[Path]:
+    """Score per second over time (ks), mean and one-std band per controller."""
+    fig, ax = _over_time(perf, "mean", "std", convergence_s, event, "score value delivered per second")
+    return _finish(fig, ax, title, out_stem)
 
 
 def allocation_figure(alloc: pd.DataFrame, predicted: Sequence[tuple[float, float, str, float]],
                       convergence_s: float, event: bool, title: str, out_stem: Path) -> list[Path]:
     """Robots on the high-value circuit over time, mean and one-std band per controller, with
     the model's predicted count drawn as dotted lines: (from s, to s, label, robots) each."""
-    fig, ax = plt.subplots(figsize=(7.5, 4.0))
-    for ctrl, rows in alloc.groupby("controller", sort=False):
-        t = rows["t_s"].to_numpy(float) / 1000.0
-        m, s = rows["mean_high"].to_numpy(float), rows["std_high"].to_numpy(float)
-        ax.plot(t, m, color=COLOURS.get(ctrl), label=LABELS.get(ctrl, ctrl))
-        ax.fill_between(t, m - s, m + s, color=COLOURS.get(ctrl), alpha=0.15, lw=0)
+    fig, ax = _over_time(alloc, "mean_high", "std_high", convergence_s, event, "robots on the high-value circuit")
     for k, (a, b, label, value) in enumerate(predicted):
         ax.hlines(value, a / 1000.0, b / 1000.0, colors="k", linestyles=":", lw=2,
                   label="the model's prediction" if k == 0 else None)
         ax.text(a / 1000.0, value + 0.05, label, fontsize=8)
-    if event:
-        ax.axvline(0.0, color="r", lw=1, label="event")
-    if convergence_s > 0:
-        ax.axvline(convergence_s / 1000.0, color="k", ls="--", lw=1, label="end of convergence period")
-    ax.set_xlabel("time (1000 s)")
-    ax.set_ylabel("robots on the high-value circuit")
-    ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    return _save(fig, out_stem)
+    return _finish(fig, ax, title, out_stem)
