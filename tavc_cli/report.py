@@ -304,8 +304,9 @@ def build_report(results_dir: Path) -> dict:
             command = " ".join(["tavc", *command[1:]])
         lines += [f"Run: `{command}`; root seed "
                   f"{prov.get('root_seed', cfg.get('seed'))}; tavc {prov.get('tavc_version', '?')} at "
-                  f"{prov.get('git_commit') or 'no git commit'}; {len(prov.get('trials', []))} trials, "
-                  f"{_fmt(prov.get('wall_time_s'), '.0f')} s wall time.", ""]
+                  f"{prov.get('git_commit') or 'no git commit'}; {len(prov.get('trials', []))} trials "
+                  f"({prov.get('n_trials_reused', 0)} reused from an earlier run), "
+                  f"{_fmt(prov.get('wall_time_s'), '.0f')} s wall time for this invocation.", ""]
         if diffs:
             lines += ["Differs from the chapter: " + "; ".join(diffs) + ".", ""]
     lines += ["## The same tests on the chapter's own tables", "",
