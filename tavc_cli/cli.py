@@ -305,53 +305,10 @@ def _model(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
 
 
 def _calibrate(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
-    """Compose one config per grid point, measure them all, print and optionally save the choice."""
-    if not any(o.split("=", 1)[0].lstrip("+~") == "experiment" for o in overrides):
-        overrides = ["experiment=initial_distribution", *overrides]  # six robots, the chapter's values
-    base = config.to_container(config.load_config(overrides))
-    from tavc_cli.model.world_search import (
-        grid_points,
-        one_axis_variants,
-        point_overrides,
-        run_search,
-        run_sensitivity,
-        save_world,
-    )
+    """Search the docking world, print the table and the sensitivity, optionally save the choice."""
+    from tavc_cli.model.calibrate import calibrate_world
 
-    axes = base["calibration"]["grid"]
-    if not axes:
-        raise TavcError("calibration.grid: empty; nothing to search")
-    points = [(p, config.to_container(config.load_config([*overrides, *point_overrides(p)])))
-              for p in grid_points(axes)]
-    cal, factor = base["calibration"], float(base["scale"]["time_factor"])
-    trials = int(cal["trials_per_split"])
-    if base["scale"].get("trials"):
-        trials = max(2, min(trials, int(base["scale"]["trials"])))
-    out_dir = Path(base["output_dir"]).parent / "calibration" / "world"
-    measurement = dict(
-        n_robots=int(base["team"]["n_robots"]), trials=trials, warmup_s=float(cal["warmup_s"]) * factor,
-        measure_s=float(cal["measure_s"]) * factor, confidence=float(base["model"]["confidence"]),
-        n_jobs=int(base["executor"]["n_jobs"]), batch_size=int(base["executor"]["batch_size"]), progress=progress,
-    )
-    search = run_search(points, out_dir, **measurement)
-    from tavc_cli.model.report import search_text, sensitivity_text
-    from tavc_cli.viz.sensitivity import sensitivity_figure, task_time_figure
-
-    typer.echo(search_text(search))
-    if save:
-        path = save_world(search, config.find_conf_dir() / "world", [a["key"] for a in axes])
-        typer.echo(f"chosen world saved as {path}")
-    figures = sensitivity_figure(out_dir / "search.csv", out_dir / "sensitivity")
-    chosen = search["result"]["chosen"]
-    if chosen is not None:
-        # the chosen world and its one-setting-changed neighbours, every split of N and N-1 robots
-        variants = [(varied, p, config.to_container(config.load_config([*overrides, *point_overrides(p)])))
-                    for varied, p in one_axis_variants(axes, {a["key"]: chosen[a["key"]] for a in axes})]
-        sens = run_sensitivity(variants, out_dir, **measurement)
-        typer.echo(sensitivity_text(sens))
-        figures += task_time_figure(out_dir / "sensitivity.csv", out_dir / "sensitivity.json", out_dir / "task_times")
-    for path in figures:
-        typer.echo(f"figure: {path}")
+    calibrate_world(overrides, save=save, progress=progress, echo=typer.echo)
 
 
 def _bench(

@@ -11,6 +11,7 @@ from collections.abc import Iterable
 import numpy as np
 import pandas as pd
 
+from tavc_cli.analysis.series import bin_edges, over_trials
 from tavc_cli.experiments.records import TrialRecord
 
 
@@ -20,12 +21,7 @@ def value_rate_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: float
     Bins are `bin_s` wide from `t_from`; time left over at the end forms a last, shorter bin
     (its rate is still per second), so no delivery before `t_to` goes uncounted.
     """
-    n_full = int(np.floor((t_to - t_from) / bin_s + 1e-9))
-    edges = t_from + bin_s * np.arange(n_full + 1)
-    if t_to - edges[-1] > 1e-9 * max(1.0, abs(t_to)):
-        edges = np.append(edges, t_to)
-    if len(edges) < 2:
-        edges = np.array([t_from, t_to])
+    edges = bin_edges(t_from, t_to, bin_s)
     d = rec.table("deliveries")
     sums, _ = np.histogram(d["t_s"], bins=edges, weights=d["score"])
     return 0.5 * (edges[:-1] + edges[1:]), sums / np.diff(edges)
@@ -45,11 +41,4 @@ def performance_table(records: Iterable[TrialRecord], bin_s: float, t_from: floa
     for rec in records:
         centres, rate = value_rate_series(rec, bin_s, t_from, t_to)
         by_ctrl.setdefault(rec.meta["controller"], []).append(rate)
-    rows = []
-    for ctrl, rates in by_ctrl.items():
-        m = np.vstack(rates)
-        std = m.std(axis=0, ddof=1) if len(m) > 1 else np.zeros(m.shape[1])
-        for k, t in enumerate(centres):
-            rows.append({"t_s": float(t), "controller": ctrl, "mean": float(m[:, k].mean()),
-                         "std": float(std[k]), "n_trials": len(m)})
-    return pd.DataFrame(rows, columns=["t_s", "controller", "mean", "std", "n_trials"])
+    return over_trials(by_ctrl, centres, "mean", "std", std_of_one=0.0)

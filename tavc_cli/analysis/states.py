@@ -25,6 +25,7 @@ from itertools import product
 import numpy as np
 import pandas as pd
 
+from tavc_cli.analysis.series import bin_edges, over_trials
 from tavc_cli.experiments.records import TrialRecord
 
 
@@ -69,7 +70,15 @@ def state_label(last: np.ndarray, alive: np.ndarray, values: Sequence[float], sc
 
 
 def state_intervals(rec: TrialRecord, scheme: str = "circuits") -> list[tuple[float, float, str | None]]:
-    """(start, end, state) pieces covering the record from its first to its last second."""
+    """(start, end, state) pieces covering the record from its first to its last second
+    (derived once per record and scheme: every table of a run reads them)."""
+    key = ("state_intervals", scheme)
+    if key not in rec.derived:
+        rec.derived[key] = _state_intervals(rec, scheme)
+    return rec.derived[key]
+
+
+def _state_intervals(rec: TrialRecord, scheme: str) -> list[tuple[float, float, str | None]]:
     meta = rec.meta
     n = int(meta["n_robots"])
     groups = meta["groups"]
@@ -188,9 +197,7 @@ def high_circuit_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: flo
     """(bin centres, time-weighted mean number of robots whose last target was on the
     high-value circuit, per bin) for one trial; NaN where the state is not yet defined.
     The first number of a circuits-state label is that count (the high circuit first)."""
-    edges = np.arange(t_from, t_to + 1e-9, bin_s)
-    if edges[-1] < t_to - 1e-9:
-        edges = np.append(edges, t_to)
+    edges = bin_edges(t_from, t_to, bin_s)
     weighted = np.zeros(len(edges) - 1)
     covered = np.zeros(len(edges) - 1)
     for a, b, s in state_intervals(rec, "circuits"):
@@ -216,11 +223,4 @@ def allocation_table(records: Iterable[TrialRecord], bin_s: float, t_from: float
     for rec in records:
         centres, series = high_circuit_series(rec, bin_s, t_from, t_to)
         by_ctrl.setdefault(rec.meta["controller"], []).append(series)
-    rows = []
-    for ctrl, series in by_ctrl.items():
-        m = np.vstack(series)
-        for k, t in enumerate(centres):
-            col = m[:, k][np.isfinite(m[:, k])]
-            rows.append({"t_s": float(t), "controller": ctrl, "mean_high": float(col.mean()) if len(col) else np.nan,
-                         "std_high": float(col.std(ddof=1)) if len(col) > 1 else np.nan, "n_trials": len(col)})
-    return pd.DataFrame(rows, columns=["t_s", "controller", "mean_high", "std_high", "n_trials"])
+    return over_trials(by_ctrl, centres, "mean_high", "std_high", std_of_one=np.nan)

@@ -66,6 +66,8 @@ class TrialRecord:
     poses: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     pose_alive: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=bool))
     pose_circuit: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.int64))
+    # what analysis derives from the record, kept so that it is derived once (never saved)
+    derived: dict = field(default_factory=dict, repr=False, compare=False)
 
     def table(self, name: str) -> dict[str, np.ndarray]:
         return self.tables[name]

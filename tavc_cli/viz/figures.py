@@ -34,7 +34,8 @@ COLOURS = {"tavc": "tab:blue", "random": "tab:orange", "static": "tab:green", "t
 LABELS = {"tavc": "TAVC", "random": "random", "static": "static", "theory": "theory"}
 
 
-def _save(fig, out_stem: Path) -> list[Path]:
+def save_figure(fig, out_stem: Path) -> list[Path]:
+    """Write the figure as PNG and SVG beside each other and close it."""
     out_stem.parent.mkdir(parents=True, exist_ok=True)
     paths = []
     for ext in ("png", "svg"):
@@ -68,7 +69,7 @@ def state_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: 
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return _save(fig, out_stem)
+    return save_figure(fig, out_stem)
 
 
 def _over_time(frame: pd.DataFrame, mean: str, std: str, convergence_s: float, event: bool, ylabel: str):
@@ -93,7 +94,7 @@ def _finish(fig, ax, title: str, out_stem: Path) -> list[Path]:
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return _save(fig, out_stem)
+    return save_figure(fig, out_stem)
 
 
 def performance_figure(perf: pd.DataFrame, convergence_s: float, event: bool, title: str,

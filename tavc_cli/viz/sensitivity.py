@@ -11,6 +11,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from tavc_cli.viz.figures import save_figure  # noqa: E402
+
 ZONE, DWELL, READ, RAYS = "robot.dock.occupied_m", "robot.dock.dwell_s", "robot.behaviour.arrive_dist_m", \
     "robot.laser.n_rays"
 
@@ -48,13 +50,7 @@ def sensitivity_figure(search_csv: Path, out_stem: Path) -> list[Path]:
     fig.suptitle("Docking reconstruction: crowding needed by (1.3) (dashed: w_high / w_low = "
                  f"{rho:.2f}; circles: robust) and arrivals (dashed: the chapter's 3000)", fontsize=9)
     fig.tight_layout()
-    paths = []
-    for ext in ("png", "svg"):
-        path = out_stem.with_suffix(f".{ext}")
-        fig.savefig(path, dpi=110)
-        paths.append(path)
-    plt.close(fig)
-    return paths
+    return save_figure(fig, out_stem)
 
 
 def task_time_figure(sensitivity_csv: Path, sensitivity_json: Path, out_stem: Path) -> list[Path]:
@@ -94,10 +90,4 @@ def task_time_figure(sensitivity_csv: Path, sensitivity_json: Path, out_stem: Pa
     fig.suptitle("How the task times and the predicted allocation rest on the docking reconstruction "
                  "(one setting changed at a time)", fontsize=9)
     fig.tight_layout()
-    paths = []
-    for ext in ("png", "svg"):
-        path = out_stem.with_suffix(f".{ext}")
-        fig.savefig(path, dpi=110)
-        paths.append(path)
-    plt.close(fig)
-    return paths
+    return save_figure(fig, out_stem)
