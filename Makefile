@@ -10,7 +10,10 @@ EXPERIMENTS := initial_distribution breakdown breakdown_no_vacancy value_change 
 REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
 
 .DEFAULT_GOAL := help
-.PHONY: help venv test test-fast bench reproduce-all $(REPRODUCE) clean
+# Learning values [w_high, w_low] for the value-ratio sweep: ratios 1.0, 1.1 (the chapter's), 1.25 ... 2.0
+VALUE_RATIOS := [2000,2000],[2200,2000],[2500,2000],[3000,2000],[3500,2000],[4000,2000]
+
+.PHONY: help venv test test-fast bench reproduce-all value-ratio $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -35,6 +38,12 @@ bench: venv ## Print simulator throughput as one JSON object
 
 reproduce-all: $(REPRODUCE) ## Run every experiment at paper scale, then write results/REPORT.md
 	$(BIN)/tavc report results
+
+value-ratio: venv ## Share of time on the high-value circuit against the value ratio, at 5 h and 50 h, t in ms and in s
+	$(BIN)/tavc run -m experiment=initial_distribution scale=paper 'baselines=[]' tasks.time_unit=ms,s \
+		'tasks.values=$(VALUE_RATIOS)' output_dir=results/value_ratio/paper
+	$(BIN)/tavc run -m experiment=initial_distribution scale=long 'baselines=[]' tasks.time_unit=ms,s \
+		'tasks.values=$(VALUE_RATIOS)' output_dir=results/value_ratio/long
 
 $(REPRODUCE): reproduce-%: venv
 	$(BIN)/tavc run experiment=$* scale=paper

@@ -235,3 +235,18 @@ def test_random_allocation_matches_the_binomial_model(tmp_path):
         assert table.loc[("theory", state), "mean_pct"] == pytest.approx(expected)
         got = table.loc[("random", state), "mean_pct"]
         assert abs(got - expected) <= 6.0, f"{state}: {got:.2f} % vs binomial {expected:.2f} %"
+
+
+def test_batches_give_every_worker_a_share_of_a_small_run():
+    from tavc_cli.config import to_container
+    from tavc_cli.experiments.build import make_batches, trial_specs
+
+    specs = trial_specs(to_container(load_config([*SMOKE, "trials=8", "baselines=[]"])))
+    assert len(specs) == 8
+    # 8 trials on 2 workers: two batches of 4, not one of 8 on a single core
+    assert [len(b.specs) for b in make_batches(specs, 8, workers=2)] == [4, 4]
+    # the batch size still caps a large run, and one worker keeps whole batches
+    assert [len(b.specs) for b in make_batches(specs, 3, workers=2)] == [3, 3, 2]
+    assert [len(b.specs) for b in make_batches(specs, 8, workers=1)] == [8]
+    # every trial is in exactly one batch, in order
+    assert [s.trial for b in make_batches(specs, 8, workers=3) for s in b.specs] == list(range(8))

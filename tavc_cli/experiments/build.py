@@ -103,8 +103,10 @@ def trial_specs(cfg: Mapping) -> list[TrialSpec]:
     return specs
 
 
-def make_batches(specs: list[TrialSpec], size: int) -> list[Batch]:
-    """Group trials, controller by controller, into batches of at most `size`."""
+def make_batches(specs: list[TrialSpec], size: int, workers: int = 1) -> list[Batch]:
+    """Group trials, controller by controller, into batches of at most `size`, and small
+    enough that `workers` processes all get one when there are trials enough."""
+    size = max(1, min(size, -(-len(specs) // max(1, workers))))
     by_controller: dict[str, list[TrialSpec]] = {}
     for spec in specs:
         by_controller.setdefault(spec.controller, []).append(spec)

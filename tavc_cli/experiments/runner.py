@@ -58,10 +58,11 @@ def trial_done(out_dir: Path, spec: TrialSpec) -> bool:
     return _stored_key(trial_path(out_dir, spec.controller, spec.trial)) == spec.key()
 
 
-def pending_batches(out_dir: Path, specs: list[TrialSpec], batch_size: int) -> tuple[list[Batch], int]:
+def pending_batches(out_dir: Path, specs: list[TrialSpec], batch_size: int,
+                    workers: int = 1) -> tuple[list[Batch], int]:
     """Batches of the trials still to run, and how many finished trials are reused."""
     todo = [s for s in specs if not trial_done(out_dir, s)]
-    return make_batches(todo, batch_size), len(specs) - len(todo)
+    return make_batches(todo, batch_size, workers), len(specs) - len(todo)
 
 
 def run_batch(batch: Batch, out_dir: str | Path, report: Callable[[float], None] | None = None) -> float:
@@ -254,7 +255,8 @@ def run_experiment(cfg, *, progress: bool = False) -> dict:
         raise TavcError(f"executor.backend: '{backend}' is not available in this version; use 'local'")
     start = time.perf_counter()
     specs = trial_specs(plain)
-    pending, n_reused = pending_batches(out_dir, specs, int(plain["executor"]["batch_size"]))
+    pending, n_reused = pending_batches(out_dir, specs, int(plain["executor"]["batch_size"]),
+                                        int(plain["executor"]["n_jobs"]))
     n_total = len(specs)
     if n_reused:
         print(f"reusing {n_reused} of {n_total} finished trials in {out_dir / 'trials'}", flush=True)

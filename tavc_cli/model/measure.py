@@ -127,7 +127,7 @@ def measure(cfg: Mapping, out_dir: Path, *, n_max: int, trials: int, warmup_s: f
     table and how many trials were reused."""
     plan = measurement_specs(cfg, n_max, trials, warmup_s, measure_s, only)
     all_specs = [s for specs in plan.values() for s in specs]
-    pending, n_reused = pending_batches(out_dir, all_specs, int(cfg["executor"]["batch_size"]))
+    pending, n_reused = pending_batches(out_dir, all_specs, int(cfg["executor"]["batch_size"]), n_jobs)
     execute(pending, out_dir, n_jobs, progress)
     return table_from(plan, out_dir, len(cfg["arena"]["circuits"]), warmup_s, measure_s, confidence), n_reused
 

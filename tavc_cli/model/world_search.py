@@ -149,7 +149,7 @@ def run_search(points: Sequence[tuple[Point, Mapping]], out_dir: Path, *, n_robo
         plan = measurement_specs(cfg, n_robots, trials, warmup_s, measure_s,
                                  only=needed_splits(n_robots, values), prefix=point_id(point) + "_")
         specs = [s for group in plan.values() for s in group]
-        todo, reused = pending_batches(out_dir, specs, batch_size)
+        todo, reused = pending_batches(out_dir, specs, batch_size, n_jobs)
         plans.append(plan)
         pending += todo
         n_reused += reused
@@ -259,7 +259,7 @@ def run_sensitivity(variants: Sequence[tuple[str, Point, Mapping]], out_dir: Pat
         only = [(1, 0), *core.splits(n_robots, 2), *core.splits(n_robots - 1, 2)]
         plan = measurement_specs(cfg, n_robots, trials, warmup_s, measure_s, only=only,
                                  prefix=point_id(point) + "_")
-        todo, _ = pending_batches(out_dir, [s for group in plan.values() for s in group], batch_size)
+        todo, _ = pending_batches(out_dir, [s for group in plan.values() for s in group], batch_size, n_jobs)
         plans.append(plan)
         pending += todo
     execute(pending, out_dir, n_jobs, progress)
