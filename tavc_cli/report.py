@@ -143,10 +143,33 @@ def _settle_lines(stats: pd.DataFrame, cfg: dict) -> list[str]:
             text += f", median {pd.Series(done).median():.0f} s"
         parts.append(text)
     paper = (cfg.get("paper") or {}).get("convergence_s")
-    return [f"Settling (the first {float(cfg['analysis']['performance_bin_s']):g} s bin after which the mean number "
+    lines = [f"Settling (the first {float(cfg['analysis']['performance_bin_s']):g} s bin after which the mean number "
             f"of robots on the high-value circuit stays within {SETTLE_TOL:g} of its stable-period mean, counted "
             "from t = 0): " + "; ".join(parts)
             + (f". The chapter took {float(paper):g} s as its convergence period." if paper else "."), ""]
+    return lines + _policy_lines(stats)
+
+
+def _policy_lines(stats: pd.DataFrame) -> list[str]:
+    """When the learners' greedy policies stopped changing, and how often they changed."""
+    if "policy_changes" not in stats or not stats["policy_changes"].notna().any():
+        return []
+    parts = []
+    for ctrl, g in stats.groupby("controller", sort=False):
+        changes = g["policy_changes"].dropna()
+        if not len(changes):
+            continue
+        settle = g["policy_settle_s"].dropna()
+        text = (f"{CONTROLLER_NAMES.get(ctrl, ctrl)}: in {int((changes == 0).sum())} of {len(changes)} trials no "
+                f"robot's greedy policy changed at all; {changes.sum():.0f} changes in all "
+                f"({changes.mean():.2f} per trial)")
+        if len(settle) < len(changes):
+            text += f"; still changing at the end in {len(changes) - len(settle)} trials"
+        if len(settle):
+            text += f"; the last change came at {settle.max():.0f} s at the latest"
+        parts.append(text)
+    return ["Greedy policies (a robot's best next circuit after each circuit it may have served, read from its "
+            "Q-table snapshots, counted from t = 0): " + "; ".join(parts) + ".", ""]
 
 
 def _robot_lines(d: Path) -> list[str]:
@@ -245,7 +268,88 @@ def _figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, results_di
         allocation_figure(pd.read_csv(d / "allocation.csv"), _predicted_segments(cfg, model_json), conv, event,
                           f"{name}: robots on the high-value circuit over time", fig_dir / f"allocation_{name}")
         lines.append(f"![robots on the high-value circuit, {name}](figures/allocation_{name}.png)")
+    lines += _q_figure(name, d, cfg, fig_dir)
     return [*lines, ""] if lines else []
+
+
+def final_high_circuit(cfg: dict) -> int:
+    """The circuit with the highest learning value at the end of the run (after any value change)."""
+    values = (cfg.get("tasks") or {}).get("values")
+    changes = (cfg.get("events") or {}).get("value_changes") or []
+    if changes:
+        values = sorted(changes, key=lambda c: float(c["time_s"]))[-1]["values"]
+    return int(max(range(len(values)), key=lambda i: float(values[i]))) if values else 0
+
+
+def _q_figure(name: str, d: Path, cfg: dict, fig_dir: Path) -> list[str]:
+    """The Q-tables of the first TAVC trial (trial 0, fixed before looking), robot by robot."""
+    path = d / "q_values.csv"
+    if not path.is_file():
+        return []
+    from tavc_cli.viz.figures import q_value_figure
+
+    q = pd.read_csv(path)
+    q = q[(q["controller"] == "tavc") & (q["trial"] == 0)]
+    if not len(q):
+        return []
+    robots = None
+    if (d / "robots.csv").is_file():
+        r = pd.read_csv(d / "robots.csv")
+        robots = r[(r["controller"] == "tavc") & (r["trial"] == 0)]
+    q_value_figure(q, robots, final_high_circuit(cfg), float(cfg.get("convergence_s") or 0.0),
+                   f"{name}: Q-values of TAVC trial 0, robot by robot", fig_dir / f"q_values_{name}")
+    return [f"![Q-values of trial 0, {name}](figures/q_values_{name}.png)"]
+
+
+def _value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
+    """The value-ratio sweep (`make value-ratio`), if it was run into results_dir/value_ratio:
+    its table (also written as value_ratio.csv there), a figure, and the model's prediction."""
+    root = results_dir / "value_ratio"
+    if not root.is_dir():
+        return []
+    from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
+    from tavc_cli.viz.figures import value_ratio_figure
+
+    points = ratio_points(root)
+    if not len(points):
+        return []
+    write_text_atomic(root / "value_ratio.csv", points.to_csv(index=False, float_format="%.4f"))
+    predicted = None
+    model_csv = model_json.parent / "model.csv" if model_json is not None else None
+    if model_csv is not None and model_csv.is_file():
+        n_robots = int(json.loads(model_json.read_text())["n_robots"])
+        fine = [round(1.0 + 0.01 * k, 2) for k in range(101)]
+        predicted = predicted_shares(model_csv, n_robots, fine)
+    value_ratio_figure(points, predicted, 1.1, "share of robots on the high-value circuit in the stable period",
+                       results_dir / "figures" / "value_ratio")
+    columns = list(dict.fromkeys(zip(points["reading"], points["horizon"], strict=True)))
+    lines = ["## Learning values and time", "",
+             "The chapter's learning values differ by 10 %. How far does the group move towards the high-value "
+             "circuit as the difference grows, at the chapter's trial length and at ten times it? "
+             "(`make value-ratio`: initial_distribution with w_low = 2000 and w_high = 2000 x ratio, TAVC only, "
+             "each reading and horizon on the same seeds; share of robots on the high-value circuit over the "
+             "stable period, mean ± std over trials; runs under `value_ratio/`, table in "
+             "`value_ratio/value_ratio.csv`.)", "",
+             "| ratio | model predicts | " + " | ".join(f"{r}, {h}" for r, h in columns) + " |",
+             "|---|---|" + "---|" * len(columns)]
+    for ratio in sorted(set(points["ratio"])):
+        pred = ""
+        if predicted is not None:
+            hit = predicted[(predicted["ratio"] - ratio).abs() < 1e-9]
+            pred = f"{hit['state'].iloc[0]} ({hit['share'].iloc[0]:.2f})" if len(hit) else ""
+        cells = []
+        for r, h in columns:
+            g = points[(points["reading"] == r) & (points["horizon"] == h) & ((points["ratio"] - ratio).abs() < 1e-9)]
+            cells.append(f"{g['mean'].iloc[0]:.2f} ± {_fmt(g['std'].iloc[0], '.2f')} (n = {g['n_trials'].iloc[0]}"
+                         + (f", {g['policy_changes_per_trial'].iloc[0]:.1f} policy changes per trial)"
+                            if pd.notna(g["policy_changes_per_trial"].iloc[0]) else ")") if len(g) else "")
+        lines.append(f"| {ratio:.2f} | {pred} | " + " | ".join(cells) + " |")
+    lines += ["", "![share on the high-value circuit against the value ratio](figures/value_ratio.png)", "",
+              "With epsilon-greedy selection the unit of t only rescales every reward, and with it the Q-values, "
+              "against the fixed initial range [-0.1, 0.1]: with t in seconds the initial values are negligible "
+              "beside the first reward, with t in milliseconds they are of its order. The two readings therefore "
+              "differ only in how strongly the initial table decides each robot's first preference.", ""]
+    return lines
 
 
 def build_report(results_dir: Path) -> dict:
@@ -309,10 +413,12 @@ def build_report(results_dir: Path) -> dict:
                   f"{_fmt(prov.get('wall_time_s'), '.0f')} s wall time for this invocation.", ""]
         if diffs:
             lines += ["Differs from the chapter: " + "; ".join(diffs) + ".", ""]
+    lines += _value_ratio_lines(results_dir, model_json)
     lines += ["## The same tests on the chapter's own tables", "",
               "Applied to the chapter's printed means, stds and trial counts (20 TAVC and 20 random trials "
-              "for Table 1.2, 20 and 5 for Table 1.3), the tests above say whether the chapter's own numbers "
-              "carry its claims:", ""]
+              "for Table 1.2, 20 and 5 for Table 1.3, 20 TAVC trials for Tables 1.4 and 1.5, which print no "
+              "random column; claim 8 is tested against Table 1.3's random, the only five-robot random run "
+              "printed), the tests above say whether the chapter's own numbers carry its claims:", ""]
     for c in chapter_checks():
         verdict = "holds" if c["holds"] else ("fails" if c["holds"] is False else "not testable")
         lines.append(f"- claim {c['claim_id']}, {c['test']}: t = {_fmt(c['statistic'], '.2f')}, "

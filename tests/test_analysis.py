@@ -399,3 +399,112 @@ def test_settle_time_by_hand():
     assert settle_time(centres, [3.0] * 6, 100.0, 300.0) == 0.0
     # stable mean (3 + 3 + 1) / 3 = 2.33, the last bin 1.33 below it
     assert math.isnan(settle_time(centres, [3.0, 3.0, 3.0, 3.0, 3.0, 1.0], 100.0, 300.0))
+
+
+def _q_snapshots(greedy_per_snapshot):
+    """Q snapshots (n_snap, n_robots, 2, 2) whose greedy action in each state is given:
+    greedy_per_snapshot[k][robot] = (best after circuit 0, best after circuit 1)."""
+    q = np.zeros((len(greedy_per_snapshot), len(greedy_per_snapshot[0]), 2, 2))
+    for k, robots in enumerate(greedy_per_snapshot):
+        for r, best in enumerate(robots):
+            for s, a in enumerate(best):
+                q[k, r, s, a] = 1.0
+    return q
+
+
+def test_policy_settling_by_hand():
+    from tavc_cli.analysis.qvalues import policy_settle_time
+
+    t = [0.0, 600.0, 1200.0, 1800.0, 2400.0]
+    # robot 1 changes its best action after circuit 1 between 600 and 1200 s; then nothing changes
+    q = _q_snapshots([[(0, 0), (1, 1)], [(0, 0), (1, 1)], [(0, 0), (1, 0)], [(0, 0), (1, 0)], [(0, 0), (1, 0)]])
+    assert policy_settle_time(t, q) == 1200.0
+    # only robot 0 counted: it never changed, so settled from the start
+    assert policy_settle_time(t, q, robots=np.array([0])) == 0.0
+    # a change between the last two snapshots: not settled
+    q_late = _q_snapshots([[(0, 0)], [(0, 0)], [(0, 0)], [(0, 0)], [(1, 0)]])
+    assert math.isnan(policy_settle_time(t, q_late))
+    # counted from an event at 1000 s: the snapshot at 600 s is the reference, the change shows at 1200 s
+    assert policy_settle_time(t, q, t0=1000.0) == pytest.approx(200.0)
+    # an event after the change: nothing changes from it on
+    assert policy_settle_time(t, q, t0=1500.0) == 0.0
+
+
+def test_q_value_table_and_policy_stats_of_a_record():
+    from tavc_cli.analysis.qvalues import q_value_table, trial_policy_stats
+
+    rec = _record(n_robots=2, groups=("a", "a"), speeds=(0.25, 0.25))
+    rec.q_t = np.array([0.0, 600.0, 1200.0])
+    rec.q = _q_snapshots([[(0, 0), (1, 1)], [(1, 0), (1, 1)], [(1, 1), (1, 1)]])
+    rec.meta["trial"] = 3
+    table = q_value_table([rec])
+    assert table.columns.tolist() == ["controller", "trial", "robot", "t_s", "q_0_0", "q_0_1", "q_1_0", "q_1_1"]
+    assert len(table) == 3 * 2 and set(table["trial"]) == {3}
+    # robot 0 at 600 s prefers circuit 1 after circuit 0, and circuit 0 after circuit 1
+    row = table[(table["robot"] == 0) & (table["t_s"] == 600.0)].iloc[0]
+    assert (row["q_0_1"], row["q_0_0"], row["q_1_0"], row["q_1_1"]) == (1.0, 0.0, 1.0, 0.0)
+    # robot 0 changed at 600 and at 1200 s: two changes, the last at the last snapshot -> not settled
+    settle, changes = trial_policy_stats(rec)
+    assert changes == 2 and math.isnan(settle)
+    # a learner without tables (random) has neither
+    rec.q = np.zeros(0)
+    assert all(math.isnan(x) for x in trial_policy_stats(rec))
+    assert q_value_table([rec]) is None
+
+
+def test_high_share_weights_each_state_by_its_robots_on_the_high_circuit():
+    import pandas as pd
+
+    from tavc_cli.analysis.value_ratio import high_share
+
+    # 50 % in 3:3 (half the robots high), 25 % in 6:0 (all), 25 % in 0:6 (none): 0.25 + 0.25 = 0.5;
+    # all the time in 4:2: 4/6
+    stats = pd.DataFrame({"pct_0:6": [25.0, 0.0], "pct_3:3": [50.0, 0.0], "pct_4:2": [0.0, 100.0],
+                          "pct_6:0": [25.0, 0.0]})
+    assert high_share(stats) == pytest.approx([0.5, 4 / 6])
+
+
+def test_model_prediction_against_the_value_ratio_by_hand(tmp_path):
+    import pandas as pd
+
+    from tavc_cli.analysis.value_ratio import predicted_shares
+
+    # two robots; alone on a circuit a task takes 100 s, two on one circuit 150 s each.
+    # In 1:1 the low robot earns 2000/100 = 20 per s; moving to the high circuit it would earn
+    # 2000 r / 150, better only for r > 1.5: below that 1:1 (half the robots high), above it 2:0.
+    inf = float("inf")
+    rows = [("1:0", 0, 0.01, 100.0), ("1:0", 1, 0.0, inf), ("0:1", 0, 0.0, inf), ("0:1", 1, 0.01, 100.0),
+            ("2:0", 0, 2 / 150, 150.0), ("2:0", 1, 0.0, inf), ("1:1", 0, 0.01, 100.0), ("1:1", 1, 0.01, 100.0),
+            ("0:2", 0, 0.0, inf), ("0:2", 1, 2 / 150, 150.0)]
+    pd.DataFrame(rows, columns=["split", "circuit", "c_per_s", "task_time_s"]).to_csv(tmp_path / "model.csv",
+                                                                                     index=False)
+    pred = predicted_shares(tmp_path / "model.csv", 2, [1.0, 1.4, 1.6, 2.0])
+    assert pred["share"].tolist() == [0.5, 0.5, 1.0, 1.0]
+    assert pred["state"].tolist() == ["1:1", "1:1", "2:0", "2:0"]
+
+
+def test_ratio_points_gather_a_sweep_from_its_run_folders(tmp_path):
+    import pandas as pd
+    import yaml
+
+    from tavc_cli.analysis.value_ratio import ratio_points
+
+    for sub, unit, values, duration, shares in (("paper/0", "ms", [2000, 2000], 18000.0, (0.0, 50.0)),
+                                                 ("paper/1", "ms", [4000, 2000], 18000.0, (50.0, 100.0)),
+                                                 ("long/0", "s", [3000, 2000], 180000.0, (100.0, 100.0))):
+        d = tmp_path / sub
+        d.mkdir(parents=True)
+        (d / "config.yaml").write_text(yaml.safe_dump({"tasks": {"values": values, "time_unit": unit},
+                                                       "duration_s": duration}))
+        # two robots; share of the period in 2:0 per trial (the rest in 0:2); a random trial to leave out
+        pd.DataFrame({"controller": ["tavc", "tavc", "random"], "trial": [0, 1, 0], "policy_changes": [1, 3, 0],
+                      "pct_0:2": [100 - shares[0], 100 - shares[1], 0.0], "pct_2:0": [*shares, 100.0]}
+                     ).to_csv(d / "trial_stats.csv", index=False)
+    points = ratio_points(tmp_path)
+    assert points[["reading", "horizon", "ratio"]].values.tolist() == [
+        ["t in ms (the default)", "5 h", 1.0, ], ["t in ms (the default)", "5 h", 2.0], ["t in s", "50 h", 1.5]]
+    # trials with 0 % and 50 % of the period in 2:0: mean share 0.25, std of (0, 0.5) = 0.3536
+    first = points.iloc[0]
+    assert first["mean"] == pytest.approx(0.25) and first["std"] == pytest.approx(math.sqrt(0.125))
+    assert first["n_trials"] == 2 and first["policy_changes_per_trial"] == 2.0
+    assert points.iloc[1]["mean"] == pytest.approx(0.75) and points.iloc[2]["mean"] == 1.0

@@ -155,3 +155,31 @@ def test_a_share_with_no_spread_still_counts_in_a_not_different_family():
     rnd["pct_0:6"] = 0.0
     row = C.claim_rows({"initial_distribution": rnd}, "initial_distribution").set_index("claim_id").loc[4]
     assert row["verdict"] == "not_reproduced" and "most different: 0:6" in row["detail"]
+
+
+def _by_test(checks, claim_id, contains):
+    [hit] = [c for c in checks if c["claim_id"] == claim_id and contains in c["test"]]
+    return hit
+
+
+def test_chapter_checks_apply_the_same_tests_to_the_chapter_tables():
+    checks = C.chapter_checks()
+    # claim 3 on Table 1.2: (44.5 - 33.7) / sqrt(6.0^2/20 + 2.2^2/20) = 10.8 / 1.4290 = 7.558
+    c3 = _by_test(checks, 3, "3:3")
+    assert c3["statistic"] == pytest.approx(10.8 / math.sqrt(36 / 20 + 4.84 / 20), rel=1e-9)
+    assert c3["holds"] is True
+    # claim 8, 3:2 of Table 1.5 (20 trials) above Table 1.3's random (5 trials):
+    # (48.7 - 32.9) / sqrt(6.1^2/20 + 2.3^2/5) = 15.8 / 1.7084 = 9.249
+    c8 = _by_test(checks, 8, "time in 3:2")
+    assert c8["statistic"] == pytest.approx(15.8 / math.sqrt(6.1 ** 2 / 20 + 2.3 ** 2 / 5), rel=1e-9)
+    assert c8["holds"] is True
+    # 2:3 is not below random in the chapter's own numbers: (30.3 - 31.0) / sqrt(5.2^2/20 + 2.2^2/5) = -0.46
+    c8_23 = _by_test(checks, 8, "time in 2:3")
+    assert c8_23["statistic"] == pytest.approx(-0.7 / math.sqrt(5.2 ** 2 / 20 + 2.2 ** 2 / 5), rel=1e-9)
+    assert c8_23["holds"] is False and c8_23["p_value"] > 0.1
+    # claim 7: Tables 1.4 and 1.3 differ by at most 1.1 points in any state: nothing differs after Holm
+    c7 = _by_test(checks, 7, "Table 1.4")
+    assert c7["holds"] is True and c7["p_value"] > 0.5
+    # one check per state of Table 1.5, plus claims 3, 4, 6 and 7
+    assert len([c for c in checks if c["claim_id"] == 8]) == 6
+    assert {c["claim_id"] for c in checks} == {3, 4, 6, 7, 8}

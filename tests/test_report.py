@@ -1,6 +1,8 @@
 """`tavc report`: REPORT.md and claims.csv from saved results only, the chapter's tables
 beside ours cell by cell."""
 
+import shutil
+
 import pandas as pd
 import pytest
 from typer.testing import CliRunner
@@ -75,6 +77,8 @@ def test_smoke_runs_of_the_four_experiments_through_report(tmp_path):
         # every trial's stable-period shares sum to 100 % (each written to 4 decimals)
         shares = stats[[c for c in stats.columns if c.startswith("pct_")]].sum(axis=1)
         assert ((shares - 100.0).abs() < 1e-3).all()
+    # a one-run value-ratio sweep, made from the initial_distribution run
+    shutil.copytree(tmp_path / "initial_distribution", tmp_path / "value_ratio" / "paper" / "0", dirs_exist_ok=True)
     result = runner.invoke(app, ["report", str(tmp_path)])
     assert result.exit_code == 0, result.output
     claims = pd.read_csv(tmp_path / "claims.csv")
@@ -84,3 +88,10 @@ def test_smoke_runs_of_the_four_experiments_through_report(tmp_path):
     for name in EXPERIMENTS:
         assert f"## {name}" in text
     assert "Table 1.3 beside ours" in text and "of 6 tested" in text
+    # Q-values of trial 0 for every TAVC run, and the sweep's table and figure
+    for name in EXPERIMENTS:
+        assert (tmp_path / "figures" / f"q_values_{name}.png").is_file()
+    assert "Greedy policies" in text
+    assert "## Learning values and time" in text and (tmp_path / "figures" / "value_ratio.png").is_file()
+    points = pd.read_csv(tmp_path / "value_ratio" / "value_ratio.csv")
+    assert points["ratio"].tolist() == [pytest.approx(1.1)] and points["n_trials"].tolist() == [2]

@@ -288,11 +288,11 @@ def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = N
 # --- the same tests on the chapter's own tables (from their means, stds and trial counts) -------
 
 # trials behind each of the chapter's state tables: (TAVC, random)
-CHAPTER_TRIALS = {"1.2": (20, 20), "1.3": (20, 5)}
+CHAPTER_TRIALS = {"1.2": (20, 20), "1.3": (20, 5), "1.4": (20, 0), "1.5": (20, 0)}
 
 
 def chapter_checks() -> list[dict]:
-    """The state-table tests of claims 3, 4 and 6, applied to the chapter's printed numbers:
+    """The state-table tests of claims 3, 4, 6, 7 and 8, applied to the chapter's printed numbers:
     does the chapter's own table pass the test tavc applies to ours?"""
     from tavc_cli.reference import chapter_table
 
@@ -317,4 +317,44 @@ def chapter_checks() -> list[dict]:
     part = holm_none_differ("Table 1.2: random against the theory row", tests)
     out.append({"claim_id": 4, "test": part.what, "statistic": part.statistic, "p_value": part.p_value,
                 "holds": part.holds})
+    out.append(_chapter_no_vacancy_check())
+    out += _chapter_value_change_checks()
+    return out
+
+
+def _table_welch(a: pd.Series, n_a: int, b: pd.Series, n_b: int, a_col: str, b_col: str,
+                 alternative: str) -> tuple[float, float]:
+    res = stats.ttest_ind_from_stats(a[f"{a_col}_mean_pct"], a[f"{a_col}_std_pct"], n_a,
+                                     b[f"{b_col}_mean_pct"], b[f"{b_col}_std_pct"], n_b,
+                                     equal_var=False, alternative=alternative)
+    return float(res.statistic), float(res.pvalue)
+
+
+def _chapter_no_vacancy_check() -> dict:
+    """Claim 7's distribution part on the chapter's tables: Table 1.4 against Table 1.3's TAVC rows."""
+    from tavc_cli.reference import chapter_table
+
+    nv, bd = chapter_table("1.4").set_index("state"), chapter_table("1.3").set_index("state")
+    n_nv, n_bd = CHAPTER_TRIALS["1.4"][0], CHAPTER_TRIALS["1.3"][0]
+    tests = [(st, (lambda st=st: _table_welch(nv.loc[st], n_nv, bd.loc[st], n_bd, "tavc", "tavc", "two-sided")))
+             for st in nv.index]
+    part = holm_none_differ("Table 1.4 against Table 1.3's TAVC distribution, Welch two-sided", tests)
+    return {"claim_id": 7, "test": part.what, "statistic": part.statistic, "p_value": part.p_value,
+            "holds": part.holds}
+
+
+def _chapter_value_change_checks() -> list[dict]:
+    """Claim 8's state parts on the chapter's tables. Table 1.5 prints no random column; the only
+    random run the chapter prints for five robots is Table 1.3's (5 trials), used here."""
+    from tavc_cli.reference import chapter_table
+
+    vc, rnd = chapter_table("1.5").set_index("state"), chapter_table("1.3").set_index("state")
+    n_vc, n_r = CHAPTER_TRIALS["1.5"][0], CHAPTER_TRIALS["1.3"][1]
+    out = []
+    for st in vc.index:
+        above = st == "3:2"
+        t, p = _table_welch(vc.loc[st], n_vc, rnd.loc[st], n_r, "tavc", "random", "greater" if above else "less")
+        out.append({"claim_id": 8, "test": f"Table 1.5 against Table 1.3's random: time in {st}, TAVC "
+                    f"{'above' if above else 'below'} random (Welch one-sided)",
+                    "statistic": t, "p_value": p, "holds": bool(p < ALPHA)})
     return out

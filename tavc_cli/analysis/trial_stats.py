@@ -6,7 +6,8 @@ period spent in each group state, and the score value delivered per second in th
 stable period, in the convergence period and, when the trial ran a warm-up before an
 event, in a window of the same length just before the event. `trial_stats.csv` keeps
 them, so `tavc report` can test claims from saved results without the trial records.
-It also keeps `settle_s`, when the trial's allocation settled (`settle_time`).
+It also keeps `settle_s`, when the trial's allocation settled (`settle_time`), and
+`policy_settle_s`, when its learners' greedy policies stopped changing (`analysis.qvalues`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.performance import value_rate
+from tavc_cli.analysis.qvalues import trial_policy_stats
 from tavc_cli.analysis.states import alive_at_end, all_states, group_order, high_circuit_series, time_shares
 from tavc_cli.experiments.records import TrialRecord
 
@@ -77,11 +79,12 @@ def trial_stats(records: Iterable[TrialRecord], cfg: Mapping) -> pd.DataFrame:
             "settle_s": settle_time(*high_circuit_series(rec, bin_s, 0.0, t_end), bin_s, t_conv)
             if scheme == "circuits" else math.nan,
         }
+        row["policy_settle_s"], row["policy_changes"] = trial_policy_stats(rec)
         for s in states:
             row[STATE_PREFIX + s] = shares.get(s, 0.0) if shares else math.nan
         rows.append(row)
     columns = ["controller", "trial", "value_rate_stable", "value_rate_convergence", "value_rate_before", "settle_s",
-               *(STATE_PREFIX + s for s in states)]
+               "policy_settle_s", "policy_changes", *(STATE_PREFIX + s for s in states)]
     return pd.DataFrame(rows, columns=columns)
 
 

@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.performance import performance_table
+from tavc_cli.analysis.qvalues import q_value_table
 from tavc_cli.analysis.robots import robot_table
 from tavc_cli.analysis.states import allocation_table, state_time_table
 from tavc_cli.analysis.trial_stats import trial_stats
@@ -220,6 +221,9 @@ def analyse(cfg: Mapping, records: list[TrialRecord]) -> dict[str, pd.DataFrame]
         tables["allocation"] = alloc
     if records and "choices" in records[0].tables:
         tables["robots"] = robot_table(records, t_from, t_to)
+    q_values = q_value_table(records)
+    if q_values is not None:
+        tables["q_values"] = q_values
     vacancy = vacancy_table(records)
     if len(vacancy):
         tables["vacancy"] = vacancy
@@ -266,7 +270,9 @@ def run_experiment(cfg, *, progress: bool = False) -> dict:
     records = load_records(out_dir, specs)
     tables = analyse(plain, records)
     for name, df in tables.items():
-        write_text_atomic(out_dir / f"{name}.csv", df.to_csv(index=False, float_format="%.4f"))
+        # Q-values span the reward's scale (about 0.05 per task with t in ms, 50 with t in s): significant digits
+        fmt = "%.6g" if name == "q_values" else "%.4f"
+        write_text_atomic(out_dir / f"{name}.csv", df.to_csv(index=False, float_format=fmt))
     from tavc_cli.analysis.comparison import experiment_comparison
 
     comparison = experiment_comparison(str(plain.get("experiment_name") or ""), tables["state_time"])

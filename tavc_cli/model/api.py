@@ -90,6 +90,18 @@ def switch_legs(arena: Mapping, speed_mps: float) -> list[dict]:
     return out
 
 
+def table_from_rows(rows: pd.DataFrame) -> core.CTable:
+    """The table back from `model.csv` (c_i and t_i per split and circuit; intervals, budgets
+    and arrivals left out): what predictions for other task values need."""
+    n_circuits = int(rows["circuit"].max()) + 1
+    table = core.CTable(n_circuits)
+    for split, g in rows.groupby("split", sort=False):
+        n = tuple(int(x) for x in str(split).split(":"))
+        g = g.sort_values("circuit")
+        table.cells[n] = tuple(core.Cell(c=float(r.c_per_s), t=float(r.task_time_s)) for r in g.itertuples())
+    return table
+
+
 def table_rows(table: core.CTable, values, time_unit_s: float) -> pd.DataFrame:
     """One row per split and circuit: c_i, t_i with intervals, reward, slot value, and where
     the completed tasks' time went (seconds per task in each activity)."""

@@ -7,7 +7,10 @@
   and a band of one standard deviation over trials, per controller, with the event (a
   breakdown or a value change at t = 0) and the end of the convergence period marked;
 - one the chapter lacks: robots on the high-value circuit over time, with the allocation
-  the model predicts before and after the event drawn over it.
+  the model predicts before and after the event drawn over it;
+- the learners' Q-values over time, robot by robot, for one trial;
+- the share of robots on the high-value circuit against the learning-value ratio, per
+  horizon and reading, with the model's prediction.
 """
 
 from __future__ import annotations
@@ -114,3 +117,80 @@ def allocation_figure(alloc: pd.DataFrame, predicted: Sequence[tuple[float, floa
                   label="the model's prediction" if k == 0 else None)
         ax.text(a / 1000.0, value + 0.05, label, fontsize=8)
     return _finish(fig, ax, title, out_stem)
+
+
+def q_value_figure(q: pd.DataFrame, robots: pd.DataFrame | None, high: int, convergence_s: float,
+                   title: str, out_stem: Path) -> list[Path]:
+    """One trial's Q-tables over time, a panel per robot: Q(last served, next) for every pair,
+    the action by colour (high-value circuit blue, low orange), the state by line style;
+    each panel titled with the robot's kind from `robots.csv` if given."""
+    states = sorted({int(c.split("_")[1]) for c in q.columns if c.startswith("q_")})
+    n_robots = int(q["robot"].max()) + 1
+    cols = min(3, n_robots)
+    rows_ = -(-n_robots // cols)
+    fig, axes = plt.subplots(rows_, cols, figsize=(3.6 * cols, 2.6 * rows_), sharex=True, sharey=True,
+                             squeeze=False)
+    name = {s: ("high" if s == high else "low") for s in states}
+    kinds = {}
+    if robots is not None:
+        kinds = {int(r.robot): (r.kind if r.kind != "stayer" else f"stayer on {name.get(int(r.circuit), r.circuit)}")
+                 for r in robots.itertuples()}
+    for robot in range(n_robots):
+        ax = axes[robot // cols][robot % cols]
+        g = q[q["robot"] == robot].sort_values("t_s")
+        t = g["t_s"].to_numpy(float) / 1000.0
+        for s in states:
+            for a in states:
+                ax.plot(t, g[f"q_{s}_{a}"], color="tab:blue" if a == high else "tab:orange",
+                        ls="-" if s == a else "--", lw=1.2,
+                        label=f"after {name[s]}, take {name[a]}" if robot == 0 else None)
+        if convergence_s > 0:
+            ax.axvline(convergence_s / 1000.0, color="0.5", ls=":", lw=1)
+        ax.set_title(f"robot {robot}" + (f": {kinds[robot]}" if robot in kinds else ""), fontsize=9)
+        ax.grid(alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (ks)")
+    for row in axes:
+        row[0].set_ylabel("Q")
+    for k in range(n_robots, rows_ * cols):
+        axes[k // cols][k % cols].set_visible(False)
+    fig.legend(loc="lower center", ncol=4, fontsize=8, frameon=False)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0.06, 1, 0.97))
+    return save_figure(fig, out_stem)
+
+
+def value_ratio_figure(points: pd.DataFrame, predicted: pd.DataFrame | None, chapter_ratio: float | None,
+                       title: str, out_stem: Path) -> list[Path]:
+    """Share of the stable period on the high-value circuit against w_high / w_low: one line per
+    (reading, horizon) with one std over trials as error bars, the model's predicted share as a
+    step line, and random choice's expected share (one half) as a grey line.
+
+    points: `reading,horizon,ratio,mean,std,n_trials`; predicted: `ratio,share`."""
+    fig, ax = plt.subplots(figsize=(9.0, 4.2))
+    styles = {"5 h": "-", "50 h": "--"}
+    markers = ["o", "s", "^", "D"]
+    readings = list(dict.fromkeys(points["reading"]))
+    horizons = list(dict.fromkeys(points["horizon"]))
+    for i, reading in enumerate(readings):
+        for j, horizon in enumerate(horizons):
+            g = points[(points["reading"] == reading) & (points["horizon"] == horizon)].sort_values("ratio")
+            if not len(g):
+                continue
+            ax.errorbar(g["ratio"] + 0.008 * (2 * i + j - 1.5), g["mean"], yerr=g["std"], capsize=3,
+                        ls=styles.get(horizon, ":"), marker=markers[i % len(markers)],
+                        color=f"C{2 * i + j}", label=f"{reading}, {horizon}")
+    if predicted is not None and len(predicted):
+        ax.step(predicted["ratio"], predicted["share"], where="mid", color="k", lw=2, ls=":",
+                label="the model's prediction")
+    ax.axhline(0.5, color="0.6", lw=1, label="random choice")
+    if chapter_ratio is not None:
+        ax.axvline(chapter_ratio, color="0.8", lw=6, zorder=0, label="the chapter's values (2200/2000)")
+    ax.set_xlabel("learning value ratio w_high / w_low")
+    ax.set_ylabel("share of robots on the high-value circuit")
+    ax.set_ylim(0.0, 1.0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save_figure(fig, out_stem)

@@ -1,0 +1,89 @@
+"""The learners' Q-tables over time, and when their greedy policies stop changing.
+
+A TAVC robot's table Q[s, a] has one row per state (the circuit it last served) and one
+column per action (the circuit it takes next). The trial records keep every robot's table
+on a grid (`sim.q_snapshot_every_s`) and once more at the end. `q_values.csv` keeps them
+in a wide form, one row per snapshot and robot (`q_<state>_<action>`), so figures can be
+drawn without the trial records.
+
+Policy settling (`policy_settle_s`): the greedy policy of a robot is its best action in every
+state. A trial's policies have settled at the first snapshot from which no live robot's greedy
+policy changes again; counted from t = 0 (an event, when the run has a warm-up), NaN when a
+policy still changed between the last two snapshots. The resolution is the snapshot period.
+A settling time of 0 means no greedy policy changed at all: the allocation is the one the
+initial tables (or the warm-up) gave. `policy_changes` counts the changes, robot by robot.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+import numpy as np
+import pandas as pd
+
+from tavc_cli.analysis.states import alive_at_end
+from tavc_cli.experiments.records import TrialRecord
+
+
+def q_columns(n_states: int, n_actions: int) -> list[str]:
+    return [f"q_{s}_{a}" for s in range(n_states) for a in range(n_actions)]
+
+
+def q_value_table(records: Iterable[TrialRecord]) -> pd.DataFrame | None:
+    """`controller,trial,robot,t_s,q_<s>_<a>...` for every record with Q snapshots; None if none has."""
+    frames = []
+    for rec in records:
+        q = np.asarray(rec.q)
+        if q.ndim != 4 or not len(q):
+            continue
+        n_snap, n_robots, n_s, n_a = q.shape
+        frame = pd.DataFrame(q.reshape(n_snap * n_robots, n_s * n_a), columns=q_columns(n_s, n_a))
+        frame.insert(0, "t_s", np.repeat(np.asarray(rec.q_t, float), n_robots))
+        frame.insert(0, "robot", np.tile(np.arange(n_robots), n_snap))
+        frame.insert(0, "trial", int(rec.meta["trial"]))
+        frame.insert(0, "controller", rec.meta["controller"])
+        frames.append(frame)
+    return pd.concat(frames, ignore_index=True) if frames else None
+
+
+def policy_changes(q_t, q) -> tuple[np.ndarray, np.ndarray]:
+    """(snapshot times, (n_snap, n_robots) bool: robot's greedy policy differs from the previous
+    snapshot's); the first snapshot has no change."""
+    q = np.asarray(q)
+    greedy = np.argmax(q, axis=3)  # (n_snap, n_robots, n_states)
+    changed = np.zeros(greedy.shape[:2], dtype=bool)
+    changed[1:] = (greedy[1:] != greedy[:-1]).any(axis=2)
+    return np.asarray(q_t, float), changed
+
+
+def policy_settle_time(q_t, q, robots: np.ndarray | None = None, t0: float = 0.0) -> float:
+    """Seconds from t0 to the first snapshot from which the greedy policies of `robots` (all if
+    None) never change again; NaN if they changed at the last snapshot or there are fewer than
+    two snapshots from t0 on (the last snapshot at or before t0 is the reference)."""
+    t, changed = policy_changes(q_t, q)
+    if robots is not None:
+        changed = changed[:, robots]
+    start = int(np.searchsorted(t, t0, side="right")) - 1  # the reference: last snapshot at or before t0
+    start = max(start, 0)
+    t, changed = t[start:], changed[start:].any(axis=1)
+    changed[0] = False
+    if len(t) < 2 or changed[-1]:
+        return math.nan
+    if not changed.any():
+        return max(float(t[0]) - t0, 0.0)
+    k = int(np.flatnonzero(changed)[-1])
+    return float(t[k]) - t0
+
+
+def trial_policy_stats(rec: TrialRecord, t0: float = 0.0) -> tuple[float, float]:
+    """(`policy_settle_s`, `policy_changes`) of one trial, over the robots alive at its end:
+    when their greedy policies stopped changing, and how many times one of them changed
+    (robot-snapshots) from t0 on; NaN for both without Q snapshots."""
+    q = np.asarray(rec.q)
+    if q.ndim != 4 or len(q) < 2:
+        return math.nan, math.nan
+    robots = np.flatnonzero(alive_at_end(rec))
+    t, changed = policy_changes(rec.q_t, q)
+    n_changes = float(changed[t > t0][:, robots].sum())
+    return policy_settle_time(rec.q_t, q, robots, t0), n_changes

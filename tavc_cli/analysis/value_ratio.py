@@ -1,0 +1,88 @@
+"""Where the learners go as the high circuit's learning value grows, and how fast.
+
+`make value-ratio` runs initial_distribution at several learning-value ratios
+w_high / w_low, at the chapter's 5 h and at ten times that, and under two readings of the
+unit of t in r = w / t. This module gathers those runs (any folder below a root that holds
+a finished run) into one table: per reading, horizon and ratio, the mean share of robots on
+the high-value circuit over the stable period, from `trial_stats.csv` (each state's share
+of the period weighted by the fraction of robots it puts on the high circuit). The model's
+prediction for the same ratios comes from a `model.csv` measured in the same world.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from tavc_cli.analysis.trial_stats import STATE_PREFIX
+
+POINT_COLUMNS = ["reading", "horizon", "ratio", "values", "mean", "std", "n_trials", "policy_changes_per_trial",
+                 "run"]
+READINGS = {"ms": "t in ms (the default)", "s": "t in s"}
+
+
+def high_share(stats: pd.DataFrame) -> np.ndarray:
+    """Per trial: the mean fraction of robots on the high-value circuit in the stable period."""
+    share = np.zeros(len(stats))
+    for col in (c for c in stats.columns if c.startswith(STATE_PREFIX)):
+        high, low = (int(x) for x in col[len(STATE_PREFIX):].split(":"))
+        share += stats[col].to_numpy(float) / 100.0 * high / (high + low)
+    return share
+
+
+def _runs(root: Path) -> list[Path]:
+    return sorted(p.parent for p in root.rglob("trial_stats.csv") if (p.parent / "config.yaml").is_file())
+
+
+def horizon_label(duration_s: float) -> str:
+    return f"{duration_s / 3600.0:g} h"
+
+
+def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
+    """One row per run below `root` with two circuits: `reading,horizon,ratio,values,mean,std,n_trials,...`."""
+    rows = []
+    for d in _runs(Path(root)):
+        cfg = yaml.safe_load((d / "config.yaml").read_text()) or {}
+        values = (cfg.get("tasks") or {}).get("values")
+        if not values or len(values) != 2:
+            continue
+        stats = pd.read_csv(d / "trial_stats.csv")
+        stats = stats[stats["controller"] == controller]
+        share = high_share(stats)
+        share = share[np.isfinite(share)]
+        if not len(share):
+            continue
+        unit = str((cfg.get("tasks") or {}).get("time_unit", "ms"))
+        changes = stats["policy_changes"].to_numpy(float) if "policy_changes" in stats else np.full(len(stats), np.nan)
+        rows.append({"reading": READINGS.get(unit, f"t in {unit}"), "horizon": horizon_label(float(cfg["duration_s"])),
+                     "ratio": max(values) / min(values), "values": "/".join(f"{float(v):g}" for v in values),
+                     "mean": float(share.mean()), "std": float(share.std(ddof=1)) if len(share) > 1 else math.nan,
+                     "n_trials": len(share),
+                     "policy_changes_per_trial": float(np.nanmean(changes)) if np.isfinite(changes).any() else math.nan,
+                     "run": str(d.relative_to(root))})
+    out = pd.DataFrame(rows, columns=POINT_COLUMNS)
+    # the default reading first, then shorter horizons first, then by ratio
+    key = [(r != READINGS["ms"], r, float(h.split()[0]), x) for r, h, x in zip(out["reading"], out["horizon"],
+                                                                           out["ratio"], strict=True)]
+    return out.iloc[sorted(range(len(out)), key=key.__getitem__)].reset_index(drop=True)
+
+
+def predicted_shares(model_csv: Path, n_robots: int, ratios: Sequence[float],
+                     low_value: float = 2000.0) -> pd.DataFrame:
+    """`ratio,share,state`: the model's predicted split (the individual equilibrium) of n_robots at
+    each ratio, as the share of robots on the high-value circuit (circuit 0 gets the high value)."""
+    from tavc_cli.model import core
+    from tavc_cli.model.api import table_from_rows
+
+    table = table_from_rows(pd.read_csv(model_csv, dtype={"split": str, "state": str}))
+    rows = []
+    for r in ratios:
+        values = [low_value * float(r), low_value]
+        n = core.predicted_split(table, n_robots, values)
+        rows.append({"ratio": float(r), "share": n[0] / n_robots, "state": core.state_label(n, values)})
+    return pd.DataFrame(rows)
