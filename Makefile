@@ -39,11 +39,13 @@ bench: venv ## Print simulator throughput as one JSON object
 reproduce-all: $(REPRODUCE) ## Run every experiment at paper scale, then write results/REPORT.md
 	$(BIN)/tavc report results
 
-value-ratio: venv ## Share of time on the high-value circuit against the value ratio, at 5 h and 50 h, t in ms and in s
+value-ratio: venv ## Share of time on the high-value circuit against the value ratio: 5 h and 50 h, t in ms and s; gamma 0 at 5 h
 	$(BIN)/tavc run -m experiment=initial_distribution scale=paper 'baselines=[]' tasks.time_unit=ms,s \
 		'tasks.values=$(VALUE_RATIOS)' output_dir=results/value_ratio/paper
 	$(BIN)/tavc run -m experiment=initial_distribution scale=long 'baselines=[]' tasks.time_unit=ms,s \
 		'tasks.values=$(VALUE_RATIOS)' output_dir=results/value_ratio/long
+	$(BIN)/tavc run -m experiment=initial_distribution scale=paper 'baselines=[]' learner.gamma=0 \
+		'tasks.values=$(VALUE_RATIOS)' output_dir=results/value_ratio/paper_gamma0
 
 $(REPRODUCE): reproduce-%: venv
 	$(BIN)/tavc run experiment=$* scale=paper

@@ -143,7 +143,7 @@ def test_claim_8_needs_every_other_state_below_random_and_performance_back():
 def test_claims_csv_columns_follow_the_contract():
     frame = C.claim_rows({})
     assert list(frame.columns) == ["claim_id", "claim", "verdict", "statistic", "p_value", "detail"]
-    assert frame["claim_id"].tolist() == [3, 4, 5, 6, 7, 8]
+    assert frame["claim_id"].tolist() == [3, 4, 5, 6, 7, 8, 9]
     assert set(frame["verdict"]) == {"inconclusive"}
     assert np.isnan(frame["statistic"]).all()
 
@@ -180,6 +180,48 @@ def test_chapter_checks_apply_the_same_tests_to_the_chapter_tables():
     # claim 7: Tables 1.4 and 1.3 differ by at most 1.1 points in any state: nothing differs after Holm
     c7 = _by_test(checks, 7, "Table 1.4")
     assert c7["holds"] is True and c7["p_value"] > 0.5
-    # one check per state of Table 1.5, plus claims 3, 4, 6 and 7
+    # one check per state of Table 1.5, plus claims 3, 4, 6, 7 and 9
     assert len([c for c in checks if c["claim_id"] == 8]) == 6
-    assert {c["claim_id"] for c in checks} == {3, 4, 6, 7, 8}
+    assert {c["claim_id"] for c in checks} == {3, 4, 6, 7, 8, 9}
+    # claim 9 on Table 1.6 (15 trials each): 3:0 at 2.7 +- 4.1 against 1.7 +- 0.6:
+    # t = 1.0 / sqrt(4.1^2/15 + 0.6^2/15) = 0.935, p about 0.18: not significant in the chapter's own numbers,
+    # while (2.7 - 1.7) / 1.7 = 0.588 is the largest relative increase (2:0 next, 1.9 / 5.1 = 0.373)
+    c9 = _by_test(checks, 9, "TAVC above random")
+    assert c9["statistic"] == pytest.approx(1.0 / math.sqrt((4.1 ** 2 + 0.6 ** 2) / 15), rel=1e-9)
+    assert c9["holds"] is False
+    c9_rel = _by_test(checks, 9, "relative increase")
+    assert c9_rel["statistic"] == pytest.approx(1.0 / 1.7) and c9_rel["holds"] is True
+
+
+STATES_FS = [f"{f}:{s}" for f in range(4) for s in range(4)]
+
+
+def _hetero(tavc_peak=30.0, gap_fast=0.05, gap_slow=0.02, tavc_rate=0.40):
+    theory = theory_pct(6, 2, "groups", [3, 3])
+    tavc = _trials("tavc", _peaked(STATES_FS, "3:0", tavc_peak), rate=tavc_rate)
+    tavc["q_gap_fast"] = gap_fast + 0.001 * np.arange(len(tavc))
+    tavc["q_gap_slow"] = gap_slow + 0.002 * (np.arange(len(tavc)) % 2)
+    rnd = _trials("random", theory, rate=0.35, jitter=0.0)  # random's means are the binomial row exactly
+    return {"heterogeneous": pd.concat([tavc, rnd])}
+
+
+def test_claim_9_reproduced_when_fast_robots_take_the_high_circuit():
+    runs = _hetero()
+    row = C.claim_rows(runs, "heterogeneous").iloc[0]
+    assert row["claim_id"] == 9 and row["verdict"] == "reproduced", row["detail"]
+    # 3:0 near 30 % against random's 1.5625 % (3 fast of 3 high, 0 slow of 3: 100 / 64): (mu - 1.5625) / 1.5625
+    s = runs["heterogeneous"]
+    mu = s.loc[s.controller == "tavc", "pct_3:0"].mean()
+    assert f"largest: 3:0, {(mu - 1.5625) / 1.5625:.3g}" in row["detail"]
+
+
+def test_claim_9_parts_fail_one_at_a_time():
+    # slow robots with the larger gap between high and low
+    row = C.claim_rows(_hetero(gap_fast=0.02, gap_slow=0.05), "heterogeneous").iloc[0]
+    assert row["verdict"] == "not_reproduced" and "fast robots above slow" in row["detail"]
+    # performance below random
+    assert C.claim_rows(_hetero(tavc_rate=0.30), "heterogeneous").iloc[0]["verdict"] == "not_reproduced"
+    # 3:0 at 4 % is above random (1.56 %) but the other states (96/15 = 6.4 % each) rise more
+    # relative to theirs where the binomial share is 1.56 % (0:0, 0:3, 3:3): not the largest increase
+    row = C.claim_rows(_hetero(tavc_peak=4.0), "heterogeneous").iloc[0]
+    assert row["verdict"] == "not_reproduced" and "largest: 3:0" not in row["detail"]

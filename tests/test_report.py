@@ -82,7 +82,7 @@ def test_smoke_runs_of_the_four_experiments_through_report(tmp_path):
     result = runner.invoke(app, ["report", str(tmp_path)])
     assert result.exit_code == 0, result.output
     claims = pd.read_csv(tmp_path / "claims.csv")
-    assert claims["claim_id"].tolist() == [3, 4, 5, 6, 7, 8]
+    assert claims["claim_id"].tolist() == [3, 4, 5, 6, 7, 8, 9]
     assert set(claims["verdict"]) <= {"reproduced", "not_reproduced", "inconclusive"}
     text = (tmp_path / "REPORT.md").read_text()
     for name in EXPERIMENTS:

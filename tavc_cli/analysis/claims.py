@@ -1,4 +1,4 @@
-"""The chapter's claims 3-8 as tests on per-trial numbers (`trial_stats.csv`).
+"""The chapter's claims 3-9 as tests on per-trial numbers (`trial_stats.csv`).
 
 Every test is the chapter's kind, a t-test at 90 % confidence (alpha = 0.10), written
 down here before any verdict was looked at and never tuned to one:
@@ -11,6 +11,9 @@ down here before any verdict was looked at and never tuned to one:
 - "not significantly different" over several states: two-sided tests, one per state,
   Holm-corrected so that the family's error rate is alpha; the claim holds if none rejects.
   A single "not different" comparison is one two-sided test.
+
+- "state X has the largest relative increase over random": the chapter compares means here,
+  with no test, and so does this (claim 9).
 
 A claim is `reproduced` when every one of its parts holds, `not_reproduced` when a part
 is decided against it, and `inconclusive` when no part fails but some part could not be
@@ -27,7 +30,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from tavc_cli.analysis.trial_stats import STATE_PREFIX, states_of
+from tavc_cli.analysis.trial_stats import Q_GAP_PREFIX, STATE_PREFIX, states_of
 
 ALPHA = 0.10
 CLAIMS = {
@@ -43,6 +46,10 @@ CLAIMS = {
     8: ("value_change", "After the values swap, 3:2 is significantly above random and every other state "
                         "significantly below; performance returns to a level not significantly different "
                         "from before the change."),
+    9: ("heterogeneous", "Fast robots end up on the high-value circuit: time in 3:0 (the chapter's text says "
+                         "0:3, its table 3:0) is significantly above random and has the largest relative "
+                         "increase; performance is above random; fast robots' Q(high) - Q(low) is larger "
+                         "than slow robots'."),
 }
 COLUMNS = ["claim_id", "claim", "verdict", "statistic", "p_value", "detail"]
 
@@ -60,6 +67,8 @@ class Part:
     def text(self) -> str:
         if self.holds is None:
             return f"{self.what}: not testable"
+        if not math.isfinite(self.p_value):  # a comparison of means, not a test
+            return f"{self.what}: {self.statistic:.4g} ({'holds' if self.holds else 'fails'})"
         return f"{self.what}: t = {self.statistic:.3f}, p = {self.p_value:.4g} ({'holds' if self.holds else 'fails'})"
 
 
@@ -256,8 +265,41 @@ def claim_8(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
     return parts
 
 
+def largest_relative_increase(tavc: pd.DataFrame, rnd: pd.DataFrame, state: str) -> Part:
+    """`state` has the largest (mu_TAVC - mu_R) / mu_R of all states (those random visited):
+    a comparison of means, as the chapter makes it, with no test; the statistic is state's value."""
+    rel = {}
+    for st in states_of(tavc):
+        mu_t, mu_r = np.nanmean(_share(tavc, st)), np.nanmean(_share(rnd, st))
+        if np.isfinite(mu_t) and np.isfinite(mu_r) and mu_r > 0:
+            rel[st] = (mu_t - mu_r) / mu_r
+    what = f"relative increase over random (mu_TAVC - mu_R) / mu_R largest in {state}"
+    if state not in rel:
+        return _missing(what)
+    top = max(rel, key=rel.get)
+    return Part(f"{what} (largest: {top}, {rel[top]:.3g})", rel[state], math.nan, top == state)
+
+
+def claim_9(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+    s = runs.get("heterogeneous")
+    if s is None:
+        return [_missing("heterogeneous not run")]
+    tavc, rnd = _ctrl(s, "tavc"), _ctrl(s, "random")
+    parts = [greater("time in 3:0 (every fast robot high, every slow one low), TAVC above random (%)",
+                     _share(tavc, "3:0"), _share(rnd, "3:0")),
+             largest_relative_increase(tavc, rnd, "3:0"),
+             greater("score per second, TAVC above random", tavc["value_rate_stable"], rnd["value_rate_stable"])]
+    gaps = [c for c in s.columns if c.startswith(Q_GAP_PREFIX)]  # fastest group first
+    if len(gaps) >= 2:
+        parts.append(paired_greater(f"final Q(high) - Q(low), {gaps[0][len(Q_GAP_PREFIX):]} robots above "
+                                    f"{gaps[-1][len(Q_GAP_PREFIX):]}", tavc[gaps[0]], tavc[gaps[-1]]))
+    else:
+        parts.append(_missing("final Q(high) - Q(low) by speed group: no Q gaps recorded"))
+    return parts
+
+
 TESTS: dict[int, Callable[[Mapping[str, pd.DataFrame]], list[Part]]] = {
-    3: claim_3, 4: claim_4, 5: claim_5, 6: claim_6, 7: claim_7, 8: claim_8,
+    3: claim_3, 4: claim_4, 5: claim_5, 6: claim_6, 7: claim_7, 8: claim_8, 9: claim_9,
 }
 
 
@@ -270,7 +312,7 @@ def verdict(parts: Sequence[Part]) -> str:
 
 
 def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None) -> pd.DataFrame:
-    """`claim_id,claim,verdict,statistic,p_value,detail` for claims 3-8 (those of one
+    """`claim_id,claim,verdict,statistic,p_value,detail` for claims 3-9 (those of one
     experiment if given). statistic and p_value are the first part's (the claim's headline
     comparison); `detail` lists every part."""
     rows = []
@@ -288,11 +330,11 @@ def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = N
 # --- the same tests on the chapter's own tables (from their means, stds and trial counts) -------
 
 # trials behind each of the chapter's state tables: (TAVC, random)
-CHAPTER_TRIALS = {"1.2": (20, 20), "1.3": (20, 5), "1.4": (20, 0), "1.5": (20, 0)}
+CHAPTER_TRIALS = {"1.2": (20, 20), "1.3": (20, 5), "1.4": (20, 0), "1.5": (20, 0), "1.6": (15, 15)}
 
 
 def chapter_checks() -> list[dict]:
-    """The state-table tests of claims 3, 4, 6, 7 and 8, applied to the chapter's printed numbers:
+    """The state-table tests of claims 3, 4, 6, 7, 8 and 9, applied to the chapter's printed numbers:
     does the chapter's own table pass the test tavc applies to ours?"""
     from tavc_cli.reference import chapter_table
 
@@ -319,7 +361,23 @@ def chapter_checks() -> list[dict]:
                 "holds": part.holds})
     out.append(_chapter_no_vacancy_check())
     out += _chapter_value_change_checks()
+    out += _chapter_heterogeneous_checks()
     return out
+
+
+def _chapter_heterogeneous_checks() -> list[dict]:
+    """Claim 9's state parts on Table 1.6: 3:0 above random, and its relative increase the largest."""
+    from tavc_cli.reference import chapter_table
+
+    t = chapter_table("1.6").set_index("state")
+    n_t, n_r = CHAPTER_TRIALS["1.6"]
+    stat, p = _table_welch(t.loc["3:0"], n_t, t.loc["3:0"], n_r, "tavc", "random", "greater")
+    rel = (t["tavc_mean_pct"] - t["random_mean_pct"]) / t["random_mean_pct"]
+    return [{"claim_id": 9, "test": "Table 1.6: time in 3:0, TAVC above random (Welch one-sided)",
+             "statistic": stat, "p_value": p, "holds": bool(p < ALPHA)},
+            {"claim_id": 9, "test": f"Table 1.6: relative increase over random largest in 3:0 (largest: "
+                                    f"{rel.idxmax()}, {rel.max():.3g}; a comparison of means)",
+             "statistic": float(rel["3:0"]), "p_value": math.nan, "holds": bool(rel.idxmax() == "3:0")}]
 
 
 def _table_welch(a: pd.Series, n_a: int, b: pd.Series, n_b: int, a_col: str, b_col: str,

@@ -87,3 +87,25 @@ def trial_policy_stats(rec: TrialRecord, t0: float = 0.0) -> tuple[float, float]
     t, changed = policy_changes(rec.q_t, q)
     n_changes = float(changed[t > t0][:, robots].sum())
     return policy_settle_time(rec.q_t, q, robots, t0), n_changes
+
+
+def final_values(rec: TrialRecord) -> np.ndarray:
+    """The learning values in force at the end of the trial (after any value change)."""
+    changes = np.asarray(rec.value_changes)
+    return changes[-1] if changes.ndim == 2 and len(changes) else np.asarray(rec.meta["values"], float)
+
+
+def q_gaps(rec: TrialRecord) -> dict[str, float]:
+    """Per group of robots: the mean over its robots alive at the end of Q(s, high) - Q(s, low),
+    averaged over states s, in the final tables (high/low: the circuits of the highest and lowest
+    value at the end); empty without Q snapshots or with fewer than two circuits."""
+    q = np.asarray(rec.q)
+    values = final_values(rec)
+    if q.ndim != 4 or not len(q) or len(values) < 2:
+        return {}
+    high, low = int(np.argmax(values)), int(np.argmin(values))
+    gap = (q[-1][:, :, high] - q[-1][:, :, low]).mean(axis=1)  # per robot
+    alive = alive_at_end(rec)
+    groups = np.asarray(rec.meta["groups"])
+    return {str(g): float(gap[(groups == g) & alive].mean()) for g in dict.fromkeys(rec.meta["groups"])
+            if ((groups == g) & alive).any()}

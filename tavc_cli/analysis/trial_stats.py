@@ -19,11 +19,13 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.performance import value_rate
-from tavc_cli.analysis.qvalues import trial_policy_stats
+from tavc_cli.analysis.qvalues import q_gaps, trial_policy_stats
 from tavc_cli.analysis.states import alive_at_end, all_states, group_order, high_circuit_series, time_shares
 from tavc_cli.experiments.records import TrialRecord
 
 STATE_PREFIX = "pct_"
+# per group of robots (heterogeneous teams): mean final Q(s, high) - Q(s, low) (`analysis.qvalues.q_gaps`)
+Q_GAP_PREFIX = "q_gap_"
 # a trial's allocation has settled from the first bin after which every bin's mean number of
 # robots on the high-value circuit stays within this many robots of its stable-period mean
 SETTLE_TOL = 0.5
@@ -62,12 +64,14 @@ def trial_stats(records: Iterable[TrialRecord], cfg: Mapping) -> pd.DataFrame:
     scheme = cfg["analysis"]["state"]
     bin_s = float(cfg["analysis"]["performance_bin_s"])
     states: list[str] = []
+    group_names: list[str] = []
     if records:
         first = records[0]
         alive = alive_at_end(first)
         groups = [g for g, a in zip(first.meta["groups"], alive, strict=True) if a]
         sizes = [groups.count(g) for g in group_order(first.meta["groups"], first.meta["speeds_mps"])]
         states = all_states(int(alive.sum()), int(first.meta["n_circuits"]), scheme, sizes)
+        group_names = group_order(first.meta["groups"], first.meta["speeds_mps"])
     rows = []
     for rec in records:
         shares = time_shares(rec, t_conv, t_end, scheme)
@@ -80,11 +84,16 @@ def trial_stats(records: Iterable[TrialRecord], cfg: Mapping) -> pd.DataFrame:
             if scheme == "circuits" else math.nan,
         }
         row["policy_settle_s"], row["policy_changes"] = trial_policy_stats(rec)
+        if len(group_names) > 1:
+            gaps = q_gaps(rec)
+            row.update({Q_GAP_PREFIX + g: gaps.get(g, math.nan) for g in group_names})
         for s in states:
             row[STATE_PREFIX + s] = shares.get(s, 0.0) if shares else math.nan
         rows.append(row)
     columns = ["controller", "trial", "value_rate_stable", "value_rate_convergence", "value_rate_before", "settle_s",
-               "policy_settle_s", "policy_changes", *(STATE_PREFIX + s for s in states)]
+               "policy_settle_s", "policy_changes",
+               *(Q_GAP_PREFIX + g for g in (group_names if len(group_names) > 1 else [])),
+               *(STATE_PREFIX + s for s in states)]
     return pd.DataFrame(rows, columns=columns)
 
 

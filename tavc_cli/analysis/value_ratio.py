@@ -1,10 +1,12 @@
 """Where the learners go as the high circuit's learning value grows, and how fast.
 
 `make value-ratio` runs initial_distribution at several learning-value ratios
-w_high / w_low, at the chapter's 5 h and at ten times that, and under two readings of the
-unit of t in r = w / t. This module gathers those runs (any folder below a root that holds
-a finished run) into one table: per reading, horizon and ratio, the mean share of robots on
-the high-value circuit over the stable period, from `trial_stats.csv` (each state's share
+w_high / w_low, at the chapter's 5 h and at ten times that, under two readings of the
+unit of t in r = w / t, and, as a diagnostic that is not the chapter's rule, with no
+discounting (gamma = 0: each Q-value a running mean of its task's reward). This module
+gathers those runs (any folder below a root that holds a finished run) into one table:
+per reading, horizon and ratio, the mean share of robots on the high-value circuit over
+the stable period, from `trial_stats.csv` (each state's share
 of the period weighted by the fraction of robots it puts on the high circuit). The model's
 prediction for the same ratios comes from a `model.csv` measured in the same world.
 """
@@ -24,6 +26,7 @@ from tavc_cli.analysis.trial_stats import STATE_PREFIX
 POINT_COLUMNS = ["reading", "horizon", "ratio", "values", "mean", "std", "n_trials", "policy_changes_per_trial",
                  "run"]
 READINGS = {"ms": "t in ms (the default)", "s": "t in s"}
+CHAPTER_GAMMA = 0.95
 
 
 def high_share(stats: pd.DataFrame) -> np.ndarray:
@@ -58,8 +61,12 @@ def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
         if not len(share):
             continue
         unit = str((cfg.get("tasks") or {}).get("time_unit", "ms"))
+        reading = READINGS.get(unit, f"t in {unit}")
+        gamma = float((cfg.get("learner") or {}).get("gamma", CHAPTER_GAMMA))
+        if gamma != CHAPTER_GAMMA:
+            reading += f", gamma {gamma:g} (diagnostic)"
         changes = stats["policy_changes"].to_numpy(float) if "policy_changes" in stats else np.full(len(stats), np.nan)
-        rows.append({"reading": READINGS.get(unit, f"t in {unit}"), "horizon": horizon_label(float(cfg["duration_s"])),
+        rows.append({"reading": reading, "horizon": horizon_label(float(cfg["duration_s"])),
                      "ratio": max(values) / min(values), "values": "/".join(f"{float(v):g}" for v in values),
                      "mean": float(share.mean()), "std": float(share.std(ddof=1)) if len(share) > 1 else math.nan,
                      "n_trials": len(share),
