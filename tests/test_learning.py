@@ -11,8 +11,8 @@ from tavc_cli.learning.policies import (
     StaticPolicy,
     TavcPolicy,
     even_allocation,
-    make_policy,
 )
+from tavc_cli.learning.registry import make_policy
 from tavc_cli.learning.qlearning import epsilon_greedy, q_update, softmax_choice, softmax_probs
 
 N_DRAWS = 20_000
@@ -211,3 +211,13 @@ def test_random_policy_is_uniform_over_circuits():
     policy = RandomPolicy(3, np.random.default_rng(10))
     counts = np.bincount([policy.choose(0, 0) for _ in range(N_DRAWS)], minlength=3)
     assert _chi2_pvalue(counts, [1 / 3] * 3) > 0.001
+
+
+def test_the_registry_keeps_every_learners_label_and_seed_code():
+    from tavc_cli.learning.registry import AVAILABLE, BASELINES, LEARNERS, SEED_CODES, controller_label
+
+    # the seed codes are part of every trial's seed: these values are what finished trials were run with
+    assert SEED_CODES == {"tavc": 0, "random": 1, "static": 2, "behaviour": 3}
+    assert controller_label("tavc_softmax") == controller_label("tavc_egreedy") == "tavc"
+    assert BASELINES == ("random", "static")
+    assert set(AVAILABLE) <= set(LEARNERS)

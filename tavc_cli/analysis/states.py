@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.series import bin_edges, over_trials
+from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TrialRecord
 
 
@@ -34,12 +35,12 @@ def _events(rec: TrialRecord):
     ev = []
     a = rec.table("arrivals")
     for t, robot, circuit in zip(a["t_s"], a["robot"], a["circuit"], strict=True):
-        ev.append((float(t), 1, (int(robot), int(circuit))))
+        ev.append((float(t), EventKind.ARRIVAL, (int(robot), int(circuit))))
     b = rec.table("breakdowns")
     for t, robot in zip(b["t_s"], b["robot"], strict=True):
-        ev.append((float(t), 0, int(robot)))
+        ev.append((float(t), EventKind.BREAKDOWN, int(robot)))
     for t, values in zip(rec.value_changes_t, rec.value_changes, strict=True):
-        ev.append((float(t), 2, tuple(float(v) for v in values)))
+        ev.append((float(t), EventKind.VALUE_CHANGE, tuple(float(v) for v in values)))
     ev.sort(key=lambda e: (e[0], e[1]))
     return ev
 
@@ -94,9 +95,9 @@ def _state_intervals(rec: TrialRecord, scheme: str) -> list[tuple[float, float, 
         if t > t_prev:
             out.append((t_prev, min(t, t_end), state))
             t_prev = t
-        if kind == 1:
+        if kind == EventKind.ARRIVAL:
             last[payload[0]] = payload[1]
-        elif kind == 0:
+        elif kind == EventKind.BREAKDOWN:
             alive[payload] = False
         else:
             values = list(payload)

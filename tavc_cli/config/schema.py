@@ -10,10 +10,7 @@ from typing import Any, List, Optional
 from omegaconf import MISSING
 
 SCHEMA_NAME = "tavc_schema"
-LEARNERS = ("random", "static", "tavc_egreedy", "tavc_softmax", "behaviour_softmax")
-AVAILABLE_LEARNERS = ("random", "static", "tavc_egreedy", "tavc_softmax")
 AVAILABLE_BACKENDS = ("local",)
-BASELINES = ("random", "static")
 BACKENDS = ("local", "ray", "dask")
 ANALYSIS_STATES = ("circuits", "groups")
 TARGET_KINDS = ("source", "sink")

@@ -9,16 +9,16 @@ from omegaconf import DictConfig, OmegaConf
 from tavc_cli.config.schema import (
     ANALYSIS_STATES,
     AVAILABLE_BACKENDS,
-    AVAILABLE_LEARNERS,
     BACKENDS,
-    BASELINES,
-    LEARNERS,
     MIN_DOCK_CLEARANCE_M,
     TARGET_KINDS,
     TIME_UNITS,
     WALL_TOLERANCE_M,
 )
 from tavc_cli.errors import TavcError
+from tavc_cli.learning.registry import AVAILABLE as AVAILABLE_LEARNERS
+from tavc_cli.learning.registry import BASELINES
+from tavc_cli.learning.registry import NAMES as LEARNERS
 
 
 def _fail(key: str, problem: str) -> NoReturn:

@@ -18,8 +18,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 from tavc_cli.experiments.spec import Breakdown, TrialSpec, ValueChange
+from tavc_cli.learning.registry import SEED_CODES, controller_label
 
-CONTROLLER_CODES = {"tavc": 0, "random": 1, "static": 2, "behaviour": 3}
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}  # unit of t in r = w / t, in seconds
 
 
@@ -34,14 +34,6 @@ class Batch:
     @property
     def sim_seconds(self) -> float:
         return sum(s.duration_s + s.warmup_s for s in self.specs)
-
-
-def controller_label(learner_name: str) -> str:
-    if learner_name.startswith("tavc"):
-        return "tavc"
-    if learner_name.startswith("behaviour"):
-        return "behaviour"
-    return learner_name
 
 
 def controllers(cfg: Mapping) -> list[tuple[str, dict, int]]:
@@ -97,7 +89,7 @@ def trial_specs(cfg: Mapping) -> list[TrialSpec]:
     seed = int(cfg["seed"])
     specs = []
     for label, policy, n_trials in controllers(cfg):
-        code = CONTROLLER_CODES.get(label, 9)
+        code = SEED_CODES[label]
         for j in range(n_trials):
             specs.append(replace(base, policy=policy, controller=label, trial=j, seed=(seed, code, j)))
     return specs

@@ -22,7 +22,9 @@ from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.records import TableBuilder, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
-from tavc_cli.learning.policies import TaskPolicy, make_policy
+from tavc_cli.experiments.events import EventKind
+from tavc_cli.learning.policies import TaskPolicy
+from tavc_cli.learning.registry import make_policy
 from tavc_cli.sim.arena import SOURCE, Arena
 from tavc_cli.sim.sensors import ray_angles
 from tavc_cli.sim.world import PhysicsWorld
@@ -75,7 +77,8 @@ class TrialState:
         self.last_circuit = np.full(n, -1, dtype=np.int64)
         self.alive = np.ones(n, dtype=bool)
         self.rows = TableBuilder()
-        events = [(b.time_s, 0, b) for b in spec.breakdowns] + [(v.time_s, 1, v) for v in spec.value_changes]
+        events = ([(b.time_s, EventKind.BREAKDOWN, b) for b in spec.breakdowns]
+                  + [(v.time_s, EventKind.VALUE_CHANGE, v) for v in spec.value_changes])
         self.events = sorted(events, key=lambda e: (e[0], e[1]))
         self.vc_t: list[float] = []
         self.vc: list[np.ndarray] = []
@@ -272,7 +275,7 @@ class BatchEngine:
     def _fire_events(self, tr: TrialState, t: float) -> None:
         while tr.events and tr.events[0][0] <= t:
             _, kind, ev = tr.events.pop(0)
-            if kind == 0:
+            if kind == EventKind.BREAKDOWN:
                 robot = ev.robot if ev.robot is not None else self._pick_robot(tr, ev.circuit)
                 if not tr.alive[robot]:
                     continue

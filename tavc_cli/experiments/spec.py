@@ -74,7 +74,8 @@ class TrialSpec:
         return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 
-_OUTCOME_CODE = ("sim", "behaviours", "learning", "experiments/engine.py", "experiments/spec.py")
+_OUTCOME_CODE = ("sim", "behaviours", "learning", "experiments/engine.py", "experiments/events.py",
+                 "experiments/spec.py")
 
 
 @cache

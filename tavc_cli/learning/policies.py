@@ -8,7 +8,7 @@ class the robot last serviced (section 1.5.3).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Protocol
 
 import numpy as np
@@ -95,24 +95,3 @@ def even_allocation(n_robots: int, n_circuits: int) -> list[int]:
     """Robots per circuit as even as possible, extra robots on the first circuits."""
     base, extra = divmod(n_robots, n_circuits)
     return [base + (1 if c < extra else 0) for c in range(n_circuits)]
-
-
-def make_policy(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    """Build the policy named by `spec['name']` (a learner config as a plain mapping)."""
-    name = spec["name"]
-    if name == "random":
-        return RandomPolicy(n_circuits, rng)
-    if name == "static":
-        counts = spec.get("allocation") or even_allocation(n_robots, n_circuits)
-        assignment = np.repeat(np.arange(n_circuits), counts)
-        return StaticPolicy(assignment, n_circuits)
-    if name in ("tavc_egreedy", "tavc_softmax"):
-        return TavcPolicy(
-            n_robots, n_circuits,
-            alpha=float(spec.get("alpha", 0.1)), gamma=float(spec.get("gamma", 0.95)),
-            selection="softmax" if name == "tavc_softmax" else "egreedy",
-            epsilon=float(spec.get("epsilon", 0.1)), tau=float(spec.get("tau", 0.005)),
-            q_init=(float(spec.get("q_init_low", -0.1)), float(spec.get("q_init_high", 0.1))),
-            rng=rng,
-        )
-    raise ValueError(f"no task policy named {name!r}")
