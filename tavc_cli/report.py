@@ -253,6 +253,8 @@ def _figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, results_di
     conv = float(cfg.get("convergence_s") or 0.0)
     event = float((cfg.get("sim") or {}).get("warmup_s", 0.0)) > 0
     lines = []
+    if ((cfg.get("analysis") or {}).get("state")) == "groups":
+        return _group_figures(name, d, cfg, state_time, fig_dir)
     if state_fig is not None:
         table = TABLES.get(name)
         state_figure(state_time, chapter_table(table) if table else None,
@@ -270,6 +272,43 @@ def _figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, results_di
         lines.append(f"![robots on the high-value circuit, {name}](figures/allocation_{name}.png)")
     lines += _q_figure(name, d, cfg, fig_dir)
     return [*lines, ""] if lines else []
+
+
+def _group_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, fig_dir: Path) -> list[str]:
+    """Fast and slow robots: the f:s grids (Figure 1.12's kind), TAVC against random (1.13's),
+    each speed group on the high-value circuit over time, and the Q-values of trial 0."""
+    from tavc_cli.reference import chapter_table
+    from tavc_cli.viz.figures import group_difference_figure, group_state_figure, specialisation_figure
+
+    table = TABLES.get(name)
+    chapter = chapter_table(table) if table else None
+    group_state_figure(state_time, chapter, f"{name}: % of the stable period in each state f:s (Figure 1.12's kind)",
+                       fig_dir / "fig_1_12")
+    group_difference_figure(state_time, chapter, f"{name}: TAVC against random (Figure 1.13's kind)",
+                            fig_dir / "fig_1_13")
+    lines = ["![Figure 1.12, tavc](figures/fig_1_12.png)", "![Figure 1.13, tavc](figures/fig_1_13.png)",
+             "![Figure 1.13, relative, tavc](figures/fig_1_13_relative.png)"]
+    if (d / "specialisation.csv").is_file():
+        specialisation_figure(pd.read_csv(d / "specialisation.csv"), float(cfg.get("convergence_s") or 0.0),
+                              f"{name}: each speed group's share on the high-value circuit",
+                              fig_dir / f"specialisation_{name}")
+        lines.append(f"![specialisation, {name}](figures/specialisation_{name}.png)")
+    lines += _q_figure(name, d, cfg, fig_dir)
+    return [*lines, ""]
+
+
+def _q_gap_lines(stats: pd.DataFrame) -> list[str]:
+    """Mean final Q(high) - Q(low) per speed group (heterogeneous teams)."""
+    from tavc_cli.analysis.trial_stats import Q_GAP_PREFIX
+
+    cols = [c for c in stats.columns if c.startswith(Q_GAP_PREFIX)]
+    tavc = stats[stats["controller"] == "tavc"]
+    if len(cols) < 2 or not len(tavc):
+        return []
+    parts = [f"{c[len(Q_GAP_PREFIX):]} robots {tavc[c].mean():.4g} ± {_fmt(tavc[c].std(ddof=1), '.2g')}"
+             for c in cols]
+    return ["Final Q(high) - Q(low), averaged over states and over each group's robots, mean ± std over TAVC "
+            "trials: " + "; ".join(parts) + ".", ""]
 
 
 def final_high_circuit(cfg: dict) -> int:
@@ -393,6 +432,7 @@ def build_report(results_dir: Path) -> dict:
         if name in runs:
             lines += [_performance(runs[name]), ""]
             lines += _settle_lines(runs[name], cfg)
+            lines += _q_gap_lines(runs[name])
         lines += _model_lines(d / "model" / "model.json", state_time)
         if (d / "model" / "model.json").is_file():
             lines.append("")

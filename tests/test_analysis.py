@@ -508,3 +508,21 @@ def test_ratio_points_gather_a_sweep_from_its_run_folders(tmp_path):
     assert first["mean"] == pytest.approx(0.25) and first["std"] == pytest.approx(math.sqrt(0.125))
     assert first["n_trials"] == 2 and first["policy_changes_per_trial"] == 2.0
     assert points.iloc[1]["mean"] == pytest.approx(0.75) and points.iloc[2]["mean"] == 1.0
+
+
+def test_specialisation_by_speed_group_by_hand():
+    from tavc_cli.analysis.states import specialisation_table
+
+    # robots 0 and 2 fast, 1 slow; circuit 0 is the high-value one (values 2, 1). At t = 0 robot 0 is
+    # on the high circuit, 1 and 2 on the low; at 50 s robot 2 moves to the high one.
+    # 50 s bins: fast share 1/2 then 2/2; slow share 0 then 0.
+    rec = _record([(0.0, 0, 0), (0.0, 1, 1), (0.0, 2, 1), (50.0, 2, 0)], duration_s=100.0)
+    table = specialisation_table([rec], 50.0, 0.0, 100.0)
+    fast = table[table["group"] == "fast"]
+    slow = table[table["group"] == "slow"]
+    assert fast["t_s"].tolist() == [25.0, 75.0]
+    assert fast["mean_share_high"].tolist() == [0.5, 1.0]
+    assert slow["mean_share_high"].tolist() == [0.0, 0.0]
+    # a robot moving mid-bin counts for the time it spent: one 100 s bin gives fast (0.5 * 50 + 1 * 50) / 100
+    assert specialisation_table([rec], 100.0, 0.0, 100.0).query("group == 'fast'")["mean_share_high"].tolist() == [
+        0.75]

@@ -95,3 +95,25 @@ def test_smoke_runs_of_the_four_experiments_through_report(tmp_path):
     assert "## Learning values and time" in text and (tmp_path / "figures" / "value_ratio.png").is_file()
     points = pd.read_csv(tmp_path / "value_ratio" / "value_ratio.csv")
     assert points["ratio"].tolist() == [pytest.approx(1.1)] and points["n_trials"].tolist() == [2]
+
+
+@pytest.mark.slow
+def test_smoke_run_of_the_heterogeneous_experiment_through_report(tmp_path):
+    result = runner.invoke(app, ["run", "experiment=heterogeneous", "scale=smoke", "trials=2",
+                                 f"output_dir={tmp_path / 'heterogeneous'}"])
+    assert result.exit_code == 0, result.output
+    stats = pd.read_csv(tmp_path / "heterogeneous" / "trial_stats.csv")
+    # 16 f:s states for 3 fast and 3 slow robots, and a Q gap per speed group, fast first
+    assert len([c for c in stats.columns if c.startswith("pct_")]) == 16
+    assert [c for c in stats.columns if c.startswith("q_gap_")] == ["q_gap_fast", "q_gap_slow"]
+    spec = pd.read_csv(tmp_path / "heterogeneous" / "specialisation.csv")
+    assert set(spec["group"]) == {"fast", "slow"} and set(spec["controller"]) == {"tavc", "random"}
+    assert spec["mean_share_high"].dropna().between(0.0, 1.0).all()
+    result = runner.invoke(app, ["report", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    claims = pd.read_csv(tmp_path / "claims.csv").set_index("claim_id")
+    assert claims.loc[9, "verdict"] in {"reproduced", "not_reproduced", "inconclusive"}
+    text = (tmp_path / "REPORT.md").read_text()
+    assert "of 1 tested" in text and "Table 1.6 beside ours" in text
+    for stem in ("fig_1_12", "fig_1_13", "fig_1_13_relative", "specialisation_heterogeneous"):
+        assert (tmp_path / "figures" / f"{stem}.png").is_file()

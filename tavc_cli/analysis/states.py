@@ -194,27 +194,69 @@ def state_time_table(records: Iterable[TrialRecord], t_from: float, t_to: float,
     return pd.DataFrame(rows)
 
 
-def high_circuit_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: float) -> tuple[np.ndarray, np.ndarray]:
-    """(bin centres, time-weighted mean number of robots whose last target was on the
-    high-value circuit, per bin) for one trial; NaN where the state is not yet defined.
-    The first number of a circuits-state label is that count (the high circuit first)."""
-    edges = bin_edges(t_from, t_to, bin_s)
-    weighted = np.zeros(len(edges) - 1)
-    covered = np.zeros(len(edges) - 1)
-    for a, b, s in state_intervals(rec, "circuits"):
+def _binned_mean(intervals, value, edges: np.ndarray) -> np.ndarray:
+    """(n_bins, n_values): the time-weighted mean of value(state) (a vector) over each bin of
+    `edges`, from (a, b, state) intervals; NaN where no state was defined in a bin."""
+    weighted, covered = None, np.zeros(len(edges) - 1)
+    for a, b, s in intervals:
         if s is None:
             continue
-        h = float(s.split(":")[0])
+        v = np.atleast_1d(np.asarray(value(s), dtype=float))
+        if weighted is None:
+            weighted = np.zeros((len(edges) - 1, len(v)))
         first = max(int(np.searchsorted(edges, a, side="right")) - 1, 0)
         last = min(int(np.searchsorted(edges, b, side="left")), len(edges) - 1)
         for k in range(first, last):
             lo, hi = max(a, edges[k]), min(b, edges[k + 1])
             if hi > lo:
-                weighted[k] += h * (hi - lo)
+                weighted[k] += v * (hi - lo)
                 covered[k] += hi - lo
+    if weighted is None:
+        return np.full((len(edges) - 1, 1), np.nan)
     with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.where(covered > 0, weighted / covered, np.nan)
-    return 0.5 * (edges[:-1] + edges[1:]), mean
+        return np.where(covered[:, None] > 0, weighted / covered[:, None], np.nan)
+
+
+def high_circuit_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: float) -> tuple[np.ndarray, np.ndarray]:
+    """(bin centres, time-weighted mean number of robots whose last target was on the
+    high-value circuit, per bin) for one trial; NaN where the state is not yet defined.
+    The first number of a circuits-state label is that count (the high circuit first)."""
+    edges = bin_edges(t_from, t_to, bin_s)
+    mean = _binned_mean(state_intervals(rec, "circuits"), lambda s: float(s.split(":")[0]), edges)
+    return 0.5 * (edges[:-1] + edges[1:]), mean[:, 0]
+
+
+def group_high_series(rec: TrialRecord, bin_s: float, t_from: float,
+                      t_to: float) -> tuple[np.ndarray, list[str], np.ndarray]:
+    """(bin centres, group names fastest first, (n_groups, n_bins) time-weighted share of each
+    group's live robots whose last target was on the high-value circuit) for one trial: the
+    numbers of a groups-state label divided by the groups' sizes at the end of the trial."""
+    order = group_order(rec.meta["groups"], rec.meta["speeds_mps"])
+    alive = alive_at_end(rec)
+    groups = np.asarray(rec.meta["groups"])
+    sizes = np.array([max(int(((groups == g) & alive).sum()), 1) for g in order], dtype=float)
+    edges = bin_edges(t_from, t_to, bin_s)
+    mean = _binned_mean(state_intervals(rec, "groups"),
+                        lambda s: np.array([float(x) for x in s.split(":")]) / sizes, edges)
+    return 0.5 * (edges[:-1] + edges[1:]), order, mean.T
+
+
+def specialisation_table(records: Iterable[TrialRecord], bin_s: float, t_from: float, t_to: float) -> pd.DataFrame:
+    """`t_s,controller,group,mean_share_high,std_share_high,n_trials`: per speed group, the share
+    of its robots on the high-value circuit over time."""
+    by_key: dict[tuple[str, str], list[np.ndarray]] = {}
+    centres = np.array([])
+    for rec in records:
+        centres, names, shares = group_high_series(rec, bin_s, t_from, t_to)
+        for g, series in zip(names, shares, strict=True):
+            by_key.setdefault((rec.meta["controller"], g), []).append(series)
+    frames = []
+    for (ctrl, g), runs in by_key.items():
+        f = over_trials({ctrl: runs}, centres, "mean_share_high", "std_share_high", std_of_one=np.nan)
+        f.insert(2, "group", g)
+        frames.append(f)
+    columns = ["t_s", "controller", "group", "mean_share_high", "std_share_high", "n_trials"]
+    return pd.concat(frames, ignore_index=True)[columns] if frames else pd.DataFrame(columns=columns)
 
 
 def allocation_table(records: Iterable[TrialRecord], bin_s: float, t_from: float, t_to: float) -> pd.DataFrame:

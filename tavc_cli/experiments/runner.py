@@ -29,7 +29,7 @@ import pandas as pd
 from tavc_cli.analysis.performance import performance_table
 from tavc_cli.analysis.qvalues import q_value_table
 from tavc_cli.analysis.robots import robot_table
-from tavc_cli.analysis.states import allocation_table, state_time_table
+from tavc_cli.analysis.states import allocation_table, specialisation_table, state_time_table
 from tavc_cli.analysis.trial_stats import trial_stats
 from tavc_cli.analysis.vacancy import vacancy_table
 from tavc_cli.errors import TavcError
@@ -219,6 +219,9 @@ def analyse(cfg: Mapping, records: list[TrialRecord]) -> dict[str, pd.DataFrame]
     tables = {"state_time": state, "performance": perf, "trial_stats": trial_stats(records, cfg)}
     if alloc is not None:
         tables["allocation"] = alloc
+    if scheme == "groups":
+        tables["specialisation"] = specialisation_table(records, float(cfg["analysis"]["performance_bin_s"]),
+                                                        -float(cfg["sim"]["warmup_s"]), t_to)
     if records and "choices" in records[0].tables:
         tables["robots"] = robot_table(records, t_from, t_to)
     q_values = q_value_table(records)
