@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from tavc_cli.analysis.claims import CLAIMS, chapter_checks, claim_rows
+from tavc_cli.analysis.claims import CLAIM_TABLES, CLAIMS, chapter_checks, claim_rows
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
@@ -391,6 +391,72 @@ def _value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     return lines
 
 
+def _run_lines(name: str, cfg: dict, prov: dict, claims: pd.DataFrame, runs: dict) -> list[str]:
+    """An experiment's claims table, the command and provenance of its run, and its settings
+    that differ from the chapter's."""
+    lines = []
+    own = claims[[CLAIMS[c][0] == name for c in claims["claim_id"]]]
+    if len(own) and name in runs:
+        lines += [*_claims_table(own), ""]
+    diffs = _differences(cfg)
+    command = prov.get("command_line") or ["tavc", "run", f"experiment={name}"]
+    if isinstance(command, list):
+        command = " ".join(["tavc", *command[1:]])
+    lines += [f"Run: `{command}`; root seed "
+              f"{prov.get('root_seed', cfg.get('seed'))}; tavc {prov.get('tavc_version', '?')} at "
+              f"{prov.get('git_commit') or 'no git commit'}; {len(prov.get('trials', []))} trials "
+              f"({prov.get('n_trials_reused', 0)} reused from an earlier run), "
+              f"{_fmt(prov.get('wall_time_s'), '.0f')} s wall time for this invocation.", ""]
+    if diffs:
+        lines += ["Differs from the chapter: " + "; ".join(diffs) + ".", ""]
+    return lines
+
+
+def _spatiotemporal_lines(name: str, d: Path, cfg: dict, results_dir: Path) -> list[str]:
+    """Section 1.4: Table 1.1 beside the chapter's, Figure 1.4's kind, the learned policies, the lanes."""
+    from tavc_cli.analysis.spatiotemporal import target_time_curve
+    from tavc_cli.reference import chapter_table
+    from tavc_cli.viz.figures import lane_figure, target_time_figure
+
+    ours = pd.read_csv(d / "table_1_1.csv")
+    chapter = chapter_table("1.1")
+    lines = ["Individual traversal time after n traversals (mean ± std over robots) and the group's target time "
+             "after m arrivals (mean ± std over trials), the chapter's Table 1.1 beside ours:", "",
+             "| n | chapter | ours (robots) | m | chapter | ours (trials) |", "|---|---|---|---|---|---|"]
+    for o, c in zip(ours.itertuples(), chapter.itertuples(), strict=True):
+        lines.append(f"| {o.n_traversals} | {c.mean_traversal_s:.1f} ± {c.std_traversal_s:.1f} | "
+                     f"{_fmt(o.mean_traversal_s)} ± {_fmt(o.std_traversal_s)} ({o.n_robots}) | {o.m_arrivals} | "
+                     f"{c.mean_target_s:.1f} ± {c.std_target_s:.1f} | {_fmt(o.mean_target_s)} ± "
+                     f"{_fmt(o.std_target_s)} ({o.n_trials}) |")
+    lines.append("")
+    fig_dir = results_dir / "figures"
+    if (d / "target_times.csv").is_file():
+        target_time_figure(target_time_curve(pd.read_csv(d / "target_times.csv")), chapter,
+                           f"{name}: the group's target time over arrivals (Figure 1.4's kind)", fig_dir / "fig_1_4")
+        lines += ["![Figure 1.4, tavc](figures/fig_1_4.png)", ""]
+    if (d / "policy.csv").is_file():
+        pol = pd.read_csv(d / "policy.csv")
+        shares = ", ".join(f"{c[len('share_'):]} {pol[c].mean():.2f}" for c in pol.columns if c.startswith("share_"))
+        rates = ", ".join(f"{c[len('stop_rate_'):]} {pol[c].mean():.2f}" for c in pol.columns
+                          if c.startswith("stop_rate_"))
+        lines += [f"Learned policies ({len(pol)} robots, final Q-tables): share of the 32 states whose best "
+                  f"behaviour is each behaviour: {shares}. Stop-rates (share of states with that marking in view, "
+                  f"and no yellow for red, green and front, whose best behaviour is stop): {rates}.", ""]
+    if (d / "lanes.csv").is_file():
+        lanes = pd.read_csv(d / "lanes.csv")
+        parts = [f"{w} {g['mean_left_m'].mean():+.3f} ± {_fmt(g['mean_left_m'].std(ddof=1), '.3f')} m"
+                 for w, g in lanes.groupby("window", sort=False)]
+        lines += ["Lanes: mean offset to the left of the direction of travel, robots driving along the source-sink "
+                  "axis away from its ends, per trial (mean ± std over trials): " + "; ".join(parts) + ".", ""]
+    if (d / "occupancy.csv").is_file():
+        arena = cfg["arena"]
+        xy = {t["name"]: (float(t["x"]), float(t["y"])) for t in arena["targets"]}
+        lane_figure(pd.read_csv(d / "occupancy.csv"), xy[arena["circuits"][0]["source"]],
+                    xy[arena["circuits"][0]["sink"]], f"{name}: where the robots drive", fig_dir / f"lanes_{name}")
+        lines += [f"![lanes, {name}](figures/lanes_{name}.png)", ""]
+    return lines
+
+
 def build_report(results_dir: Path) -> dict:
     """Write `claims.csv` and `REPORT.md` under results_dir; return what was found."""
     results_dir = Path(results_dir)
@@ -401,6 +467,8 @@ def build_report(results_dir: Path) -> dict:
         raise TavcError(f"RESULTS_DIR: no finished runs under {results_dir} (run `tavc run experiment=...` first)")
     runs = {name: pd.read_csv(d / "trial_stats.csv") for name, d in experiments.items()
             if (d / "trial_stats.csv").is_file()}
+    runs.update({f"{name}/{t}": pd.read_csv(d / f"{t}.csv") for name, d in experiments.items()
+                 for t in CLAIM_TABLES if (d / f"{t}.csv").is_file()})
     claims = claim_rows(runs)
     tested = claims[[CLAIMS[c][0] in runs for c in claims["claim_id"]]]
     n_ok = int((tested["verdict"] == "reproduced").sum())
@@ -425,6 +493,10 @@ def build_report(results_dir: Path) -> dict:
         state_time = pd.read_csv(d / "state_time.csv", dtype={"state": str})
         comparison = experiment_comparison(name, state_time)
         lines += [f"## {name} (section {cfg.get('section', '?')})", "", str(cfg.get("description", "")).strip(), ""]
+        if (d / "table_1_1.csv").is_file():
+            lines += _spatiotemporal_lines(name, d, cfg, results_dir)
+            lines += _run_lines(name, cfg, prov, claims, runs)
+            continue
         table = TABLES.get(name)
         lines.append("% of the stable period in each state, mean ± std over trials"
                      + (f"; the chapter's Table {table} beside ours:" if table else ":"))
@@ -439,20 +511,7 @@ def build_report(results_dir: Path) -> dict:
         lines += _figures(name, d, cfg, state_time, results_dir, model_json)
         lines += _robot_lines(d)
         lines += _vacancy_lines(d)
-        own = claims[[CLAIMS[c][0] == name for c in claims["claim_id"]]]
-        if len(own) and name in runs:
-            lines += [*_claims_table(own), ""]
-        diffs = _differences(cfg)
-        command = prov.get("command_line") or ["tavc", "run", f"experiment={name}"]
-        if isinstance(command, list):
-            command = " ".join(["tavc", *command[1:]])
-        lines += [f"Run: `{command}`; root seed "
-                  f"{prov.get('root_seed', cfg.get('seed'))}; tavc {prov.get('tavc_version', '?')} at "
-                  f"{prov.get('git_commit') or 'no git commit'}; {len(prov.get('trials', []))} trials "
-                  f"({prov.get('n_trials_reused', 0)} reused from an earlier run), "
-                  f"{_fmt(prov.get('wall_time_s'), '.0f')} s wall time for this invocation.", ""]
-        if diffs:
-            lines += ["Differs from the chapter: " + "; ".join(diffs) + ".", ""]
+        lines += _run_lines(name, cfg, prov, claims, runs)
     lines += _value_ratio_lines(results_dir, model_json)
     lines += ["## The same tests on the chapter's own tables", "",
               "Applied to the chapter's printed means, stds and trial counts (20 TAVC and 20 random trials "

@@ -166,6 +166,7 @@ class LearnerConfig:
     tau: float = 0.005
     q_init_low: float = -0.1
     q_init_high: float = 0.1
+    decision_period_s: float = 1.0
     allocation: Optional[List[int]] = None
 
 

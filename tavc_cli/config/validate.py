@@ -256,6 +256,7 @@ def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> No
     for name in ("alpha", "gamma", "epsilon"):
         _unit(f"learner.{name}", learner[name])
     _positive("learner.tau", learner.tau)
+    _positive("learner.decision_period_s", learner.decision_period_s)
     _check(
         learner.q_init_low <= learner.q_init_high,
         "learner.q_init_low",

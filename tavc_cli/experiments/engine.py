@@ -23,6 +23,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.records import TableBuilder, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.events import EventKind
+from tavc_cli.learning.behaviour import state_index
 from tavc_cli.learning.policies import TaskPolicy
 from tavc_cli.learning.registry import make_policy
 from tavc_cli.sim.arena import SOURCE, Arena
@@ -74,6 +75,10 @@ class TrialState:
         self.state = self.policy_rng.integers(arena.n_circuits, size=n)  # class "last serviced"
         self.task = np.full(n, -1, dtype=np.int64)
         self.task_start = np.zeros(n)
+        self.last_arrival = np.full(n, -spec.warmup_s)  # for behaviour learners' r = w / t per arrival
+        self.learns_behaviours = hasattr(self.policy, "decide")
+        self.decide_ticks = (max(1, int(round(self.policy.decision_period_s / spec.dt_s)))
+                             if self.learns_behaviours else 0)
         self.last_circuit = np.full(n, -1, dtype=np.int64)
         self.alive = np.ones(n, dtype=bool)
         self.rows = TableBuilder()
@@ -233,6 +238,9 @@ class BatchEngine:
         kind = int(self.kind_of[target])
         tr.rows.add("arrivals", t, i, target, circuit, kind)
         tr.last_circuit[i] = circuit
+        if tr.learns_behaviours:
+            tr.policy.arrived(i, float(tr.values[circuit]) / ((t - tr.last_arrival[i]) / tr.spec.time_unit_s))
+            tr.last_arrival[i] = t
         if kind == SOURCE:
             self.istate[g, nav.I_TARGET] = self.snk[circuit]
             return
@@ -244,6 +252,14 @@ class BatchEngine:
         tr.policy.learn(i, int(tr.state[i]), circuit, reward, circuit)
         tr.state[i] = circuit
         self._assign(tr, i, t)
+
+    def _decide_behaviours(self, tr: TrialState, t: float) -> None:
+        """Section 1.4's learners: every live robot reads its five bits and picks a behaviour."""
+        sl = slice(tr.lo, tr.hi)
+        states = state_index(self.istate[sl, nav.I_TVIS], tr.policy.random_bits(t), self.cam[sl, 0],
+                             self.cam[sl, 1], self.cam[sl, 2])
+        for i in np.flatnonzero(tr.alive):
+            self.istate[tr.lo + i, nav.I_FORCED] = tr.policy.decide(int(i), int(states[i]))
 
     def _act_before_tick(self, g: int) -> np.ndarray:
         """Robot g's activity seconds up to the start of this tick: the tick in which a robot
@@ -306,6 +322,9 @@ class BatchEngine:
                 for b, tr in enumerate(self.trials):
                     self._due(b, tr, t, next_q, next_pose)
                 next_due = min(min(next_q), min(next_pose), min(tr.next_event_time() for tr in self.trials))
+            for tr in self.trials:
+                if tr.learns_behaviours and self.tick % tr.decide_ticks == 0:
+                    self._decide_behaviours(tr, t)
             k = self.tick % _NOISE_BLOCK_TICKS
             if k == 0:
                 for tr in self.trials:

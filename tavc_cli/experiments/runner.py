@@ -227,19 +227,40 @@ def analyse(cfg: Mapping, records: list[TrialRecord]) -> dict[str, pd.DataFrame]
     q_values = q_value_table(records)
     if q_values is not None:
         tables["q_values"] = q_values
+    if any(rec.meta["controller"] == "behaviour" for rec in records):
+        tables.update(spatiotemporal_tables(cfg, records))
     vacancy = vacancy_table(records)
     if len(vacancy):
         tables["vacancy"] = vacancy
     return tables
 
 
-def experiment_claims(cfg: Mapping, stats: pd.DataFrame, out_dir: Path) -> pd.DataFrame:
+def spatiotemporal_tables(cfg: Mapping, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:
+    """Section 1.4's tables for the behaviour learners' trials: Table 1.1 and the samples behind
+    it, the learned policies, and the lanes (offsets and a heat map, first and last tenth)."""
+    from tavc_cli.analysis import spatiotemporal as st
+
+    mine = [rec for rec in records if rec.meta["controller"] == "behaviour"]
+    arena = cfg["arena"]
+    xy = {t["name"]: (float(t["x"]), float(t["y"])) for t in arena["targets"]}
+    source, sink = xy[arena["circuits"][0]["source"]], xy[arena["circuits"][0]["sink"]]
+    windows = st.lane_windows(float(cfg["duration_s"]))
+    traversals, targets = st.traversal_table(mine), st.target_time_table(mine)
+    return {"table_1_1": st.table_1_1_from(traversals, targets), "traversals": traversals,
+            "target_times": targets, "policy": st.policy_table(mine),
+            "lanes": st.lane_table(mine, source, sink, windows),
+            "occupancy": st.occupancy_table(mine, source, sink, float(arena["width_m"]), float(arena["height_m"]),
+                                            windows)}
+
+
+def experiment_claims(cfg: Mapping, tables: Mapping[str, pd.DataFrame], out_dir: Path) -> pd.DataFrame:
     """The chapter's claims about this experiment, tested on its trials (and, where a claim
     compares two experiments, on the other's `trial_stats.csv` beside this output if present)."""
-    from tavc_cli.analysis.claims import CLAIMS, claim_rows
+    from tavc_cli.analysis.claims import CLAIM_TABLES, CLAIMS, claim_rows
 
     name = str(cfg.get("experiment_name") or "")
-    runs = {name: stats}
+    runs = {name: tables["trial_stats"]}
+    runs.update({f"{name}/{t}": tables[t] for t in CLAIM_TABLES if t in tables})
     for other in {e for e, _ in CLAIMS.values()} - {name}:
         path = out_dir.parent / other / "trial_stats.csv"
         if path.is_file():
@@ -281,7 +302,7 @@ def run_experiment(cfg, *, progress: bool = False) -> dict:
     comparison = experiment_comparison(str(plain.get("experiment_name") or ""), tables["state_time"])
     if comparison is not None:
         write_text_atomic(out_dir / "comparison.csv", comparison.to_csv(index=False, float_format="%.4f"))
-    claims = experiment_claims(plain, tables["trial_stats"], out_dir)
+    claims = experiment_claims(plain, tables, out_dir)
     if len(claims):
         write_text_atomic(out_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
     write_text_atomic(out_dir / "provenance.json",

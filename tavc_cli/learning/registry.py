@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tavc_cli.learning.behaviour import BehaviourPolicy
 from tavc_cli.learning.policies import RandomPolicy, StaticPolicy, TaskPolicy, TavcPolicy, even_allocation
 
 Builder = Callable[[Mapping, int, int, np.random.Generator], TaskPolicy]
@@ -49,12 +50,21 @@ def _tavc(selection: str) -> Builder:
     return build
 
 
+def _behaviour(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+    return BehaviourPolicy(
+        n_robots, n_circuits, alpha=float(spec.get("alpha", 0.1)), gamma=float(spec.get("gamma", 0.95)),
+        tau=float(spec.get("tau", 0.005)),
+        q_init=(float(spec.get("q_init_low", -0.1)), float(spec.get("q_init_high", 0.1))),
+        decision_period_s=float(spec.get("decision_period_s", 1.0)), rng=rng,
+    )
+
+
 LEARNERS: dict[str, Learner] = {entry.name: entry for entry in (
     Learner("random", "random", 1, _random, baseline=True),
     Learner("static", "static", 2, _static, baseline=True),
     Learner("tavc_egreedy", "tavc", 0, _tavc("egreedy")),
     Learner("tavc_softmax", "tavc", 0, _tavc("softmax")),
-    Learner("behaviour_softmax", "behaviour", 3, None),
+    Learner("behaviour_softmax", "behaviour", 3, _behaviour),
 )}
 NAMES = tuple(LEARNERS)
 AVAILABLE = tuple(name for name, entry in LEARNERS.items() if entry.build is not None)

@@ -1,0 +1,96 @@
+"""Section 1.4: each robot learns which transport behaviour to use in what it senses.
+
+State: five bits (section 1.4.2), as an integer 0..31:
+
+- bit 0: the current target's bar-code is in the laser's view;
+- bit 1: a random bit, switched at random intervals (each on and each off interval drawn
+  uniformly from 1-30 s), so that a robot can express a behaviour for short spells
+  whatever else it senses;
+- bits 2, 3, 4: the red (left), green (right) and yellow (rear) markings seen on the
+  nearest robot in the camera's view.
+
+Actions: direct target approach, wall following, stop (obstacle avoidance stays under all
+of them). Every `decision_period_s` each robot reads its state, updates the value of its
+last choice with the rewards earned since (r = w / t at each target arrival, t the time
+since its previous arrival) and draws its next behaviour from a Boltzmann softmax over its
+Q-row at temperature tau, never decayed. The task level is trivial here: one circuit, or a
+uniformly random one if the arena has several.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tavc_cli.behaviours.layout import BEH_DIRECT, BEH_STOP, BEH_WALL
+from tavc_cli.learning.qlearning import q_update, softmax_choice
+
+ACTIONS = np.array([BEH_DIRECT, BEH_WALL, BEH_STOP], dtype=np.int64)
+ACTION_NAMES = ("direct", "wall", "stop")
+N_BITS = 5
+N_STATES = 2 ** N_BITS
+BIT_TARGET, BIT_RANDOM, BIT_RED, BIT_GREEN, BIT_YELLOW = range(N_BITS)
+RANDOM_INTERVAL_S = (1.0, 30.0)
+
+
+def state_index(target_visible, random_bit, red, green, yellow):
+    """The five bits as one integer (arrays or scalars)."""
+    return (np.asarray(target_visible, np.int64) << BIT_TARGET | np.asarray(random_bit, np.int64) << BIT_RANDOM
+            | np.asarray(red, np.int64) << BIT_RED | np.asarray(green, np.int64) << BIT_GREEN
+            | np.asarray(yellow, np.int64) << BIT_YELLOW)
+
+
+def state_bits(s: int) -> dict[str, int]:
+    """The named bits of state s."""
+    names = ("target", "random", "red", "green", "yellow")
+    return {name: (int(s) >> k) & 1 for k, name in enumerate(names)}
+
+
+class BehaviourPolicy:
+    """Independent Q-learners over (5-bit state, behaviour), Boltzmann softmax, one per robot."""
+
+    def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, gamma: float, tau: float,
+                 q_init: tuple[float, float], decision_period_s: float, rng: np.random.Generator) -> None:
+        self.n_states = n_circuits  # the task level's states: the circuit last served
+        self.n_circuits = n_circuits
+        self.alpha, self.gamma, self.tau = alpha, gamma, tau
+        self.decision_period_s = decision_period_s
+        self.rng = rng
+        self.q = rng.uniform(q_init[0], q_init[1], size=(n_robots, N_STATES, len(ACTIONS)))
+        self.last_state = np.full(n_robots, -1, dtype=np.int64)
+        self.last_action = np.full(n_robots, -1, dtype=np.int64)
+        self.reward = np.zeros(n_robots)  # earned since the last decision
+        self.random_bit = np.zeros(n_robots, dtype=np.int64)
+        self.random_until = rng.uniform(*RANDOM_INTERVAL_S, size=n_robots)
+
+    # --- the task level ------------------------------------------------------
+    def choose(self, robot: int, state: int) -> int:
+        return 0 if self.n_circuits == 1 else int(self.rng.integers(self.n_circuits))
+
+    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        return None
+
+    def q_tables(self) -> np.ndarray:
+        return self.q.copy()
+
+    # --- the behaviour level -------------------------------------------------
+    def arrived(self, robot: int, reward: float) -> None:
+        """A target arrival's reward, credited to the behaviour chosen last."""
+        self.reward[robot] += reward
+
+    def random_bits(self, t: float) -> np.ndarray:
+        """The random bit of every robot at time t (switching whenever an interval ends)."""
+        for robot in np.flatnonzero(self.random_until <= t):
+            while self.random_until[robot] <= t:
+                self.random_bit[robot] ^= 1
+                self.random_until[robot] += self.rng.uniform(*RANDOM_INTERVAL_S)
+        return self.random_bit
+
+    def decide(self, robot: int, state: int) -> int:
+        """Learn from the last choice, then choose a behaviour (a kernel BEH_* code) for `state`."""
+        if self.last_action[robot] >= 0:
+            q_update(self.q[robot], int(self.last_state[robot]), int(self.last_action[robot]),
+                     float(self.reward[robot]), state, self.alpha, self.gamma)
+        a = softmax_choice(self.q[robot, state], self.tau, self.rng)
+        self.last_state[robot], self.last_action[robot] = state, a
+        self.reward[robot] = 0.0
+        return int(ACTIONS[a])
