@@ -143,7 +143,7 @@ def test_claim_8_needs_every_other_state_below_random_and_performance_back():
 def test_claims_csv_columns_follow_the_contract():
     frame = C.claim_rows({})
     assert list(frame.columns) == ["claim_id", "claim", "verdict", "statistic", "p_value", "detail"]
-    assert frame["claim_id"].tolist() == [3, 4, 5, 6, 7, 8, 9]
+    assert frame["claim_id"].tolist() == [1, 2, 3, 4, 5, 6, 7, 8, 9]
     assert set(frame["verdict"]) == {"inconclusive"}
     assert np.isnan(frame["statistic"]).all()
 

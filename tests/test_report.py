@@ -82,7 +82,7 @@ def test_smoke_runs_of_the_four_experiments_through_report(tmp_path):
     result = runner.invoke(app, ["report", str(tmp_path)])
     assert result.exit_code == 0, result.output
     claims = pd.read_csv(tmp_path / "claims.csv")
-    assert claims["claim_id"].tolist() == [3, 4, 5, 6, 7, 8, 9]
+    assert claims["claim_id"].tolist() == [1, 2, 3, 4, 5, 6, 7, 8, 9]
     assert set(claims["verdict"]) <= {"reproduced", "not_reproduced", "inconclusive"}
     text = (tmp_path / "REPORT.md").read_text()
     for name in EXPERIMENTS:
@@ -116,4 +116,29 @@ def test_smoke_run_of_the_heterogeneous_experiment_through_report(tmp_path):
     text = (tmp_path / "REPORT.md").read_text()
     assert "of 1 tested" in text and "Table 1.6 beside ours" in text
     for stem in ("fig_1_12", "fig_1_13", "fig_1_13_relative", "specialisation_heterogeneous"):
+        assert (tmp_path / "figures" / f"{stem}.png").is_file()
+
+
+@pytest.mark.slow
+def test_smoke_run_of_the_spatiotemporal_experiment_through_report(tmp_path):
+    result = runner.invoke(app, ["run", "experiment=spatiotemporal", "scale=smoke", "trials=2",
+                                 f"output_dir={tmp_path / 'spatiotemporal'}"])
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "spatiotemporal"
+    table = pd.read_csv(out / "table_1_1.csv")
+    assert table["n_traversals"].tolist() == [0, 25, 50, 75, 100, 150, 200]
+    # five robots in each of two trials made a first traversal
+    assert table.loc[0, "n_robots"] == 10 and table.loc[0, "mean_traversal_s"] > 0
+    policy = pd.read_csv(out / "policy.csv")
+    assert len(policy) == 10
+    shares = policy[["share_direct", "share_wall", "share_stop"]].sum(axis=1)
+    assert (abs(shares - 1.0) < 1e-3).all()
+    assert set(pd.read_csv(out / "lanes.csv")["window"]) == {"early", "late"}
+    result = runner.invoke(app, ["report", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    claims = pd.read_csv(tmp_path / "claims.csv").set_index("claim_id")
+    assert {1, 2} <= set(claims.index)
+    text = (tmp_path / "REPORT.md").read_text()
+    assert "of 2 tested" in text and "Table 1.1 beside ours" in text
+    for stem in ("fig_1_4", "lanes_spatiotemporal"):
         assert (tmp_path / "figures" / f"{stem}.png").is_file()
