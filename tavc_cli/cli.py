@@ -274,7 +274,10 @@ def _print_summary(summary: dict[str, Any]) -> None:
         f"trials: {n_trials} ({n_reused} reused) in {summary['wall_time_s']:.1f} s wall time"
     )
     tables = summary.get("tables") or {}
-    if "state_time" in tables and len(tables["state_time"]):
+    if "table_1_1" in tables:  # one circuit: the group's state says nothing; Table 1.1 does
+        typer.echo("\ntraversal time after n traversals (over robots), target time after m arrivals (over trials)")
+        typer.echo(tables["table_1_1"].to_string(index=False, float_format=lambda x: f"{x:.1f}"))
+    elif "state_time" in tables and len(tables["state_time"]):
         from tavc_cli.analysis.summary import state_table_text
 
         typer.echo("\n% of the stable period in each state (mean +- std over trials)")
