@@ -275,7 +275,7 @@ def _figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, results_di
 
 
 def _group_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, fig_dir: Path) -> list[str]:
-    """Fast and slow robots: the f:s grids (Figure 1.12's kind), TAVC against random (1.13's),
+    """Fast and slow robots: the f:s grids (Figure 1.12's kind), TAVC against the theory row (1.13's),
     each speed group on the high-value circuit over time, and the Q-values of trial 0."""
     from tavc_cli.reference import chapter_table
     from tavc_cli.viz.figures import group_difference_figure, group_state_figure, specialisation_figure
@@ -284,7 +284,7 @@ def _group_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, fig_
     chapter = chapter_table(table) if table else None
     group_state_figure(state_time, chapter, f"{name}: % of the stable period in each state f:s (Figure 1.12's kind)",
                        fig_dir / "fig_1_12")
-    group_difference_figure(state_time, chapter, f"{name}: TAVC against random (Figure 1.13's kind)",
+    group_difference_figure(state_time, chapter, f"{name}: TAVC against the theory row (Figure 1.13's kind)",
                             fig_dir / "fig_1_13")
     lines = ["![Figure 1.12, tavc](figures/fig_1_12.png)", "![Figure 1.13, tavc](figures/fig_1_13.png)",
              "![Figure 1.13, relative, tavc](figures/fig_1_13_relative.png)"]
@@ -421,7 +421,10 @@ def _spatiotemporal_lines(name: str, d: Path, cfg: dict, results_dir: Path) -> l
     ours = pd.read_csv(d / "table_1_1.csv")
     chapter = chapter_table("1.1")
     lines = ["Individual traversal time after n traversals (mean ± std over robots) and the group's target time "
-             "after m arrivals (mean ± std over trials), the chapter's Table 1.1 beside ours:", "",
+             "after m arrivals (mean ± std over trials), the chapter's Table 1.1 beside ours. Both as the chapter "
+             "defines them: a traversal runs from a sink via the source back to a sink, a target time lies "
+             "between two arrivals at either a source or a sink. (The chapter's own last row, a target time a "
+             "fifth of the traversal time with five robots, fits one arrival per traversal rather than two.)", "",
              "| n | chapter | ours (robots) | m | chapter | ours (trials) |", "|---|---|---|---|---|---|"]
     for o, c in zip(ours.itertuples(), chapter.itertuples(), strict=True):
         lines.append(f"| {o.n_traversals} | {c.mean_traversal_s:.1f} ± {c.std_traversal_s:.1f} | "
@@ -484,8 +487,11 @@ def build_report(results_dir: Path) -> dict:
         verdict = r.verdict.replace("_", " ") if exp in runs else "not run"
         lines.append(f"| {r.claim_id} | {exp} | {verdict} | {_fmt(r.p_value, '.3g')} |")
     lines += ["", "Tests: t-tests at 90 % (alpha 0.10): Welch's one-sided for \"above\"/\"below\" between "
-              "controllers, paired one-sided for \"most frequent\" within the same trials, two-sided (Holm-"
-              "corrected over states) for \"not different\". The rules are in `tavc_cli/analysis/claims.py`.", ""]
+              "controllers or between early and late samples (section 1.4's traversal and target times), paired "
+              "one-sided for \"most frequent\" within the same trials or robots, one-sample tests against zero for "
+              "a share or an offset, two-sided (Holm-corrected over states) for \"not different\"; claim 9's "
+              "\"largest relative increase\" compares means without a test, as the chapter does. The rules are in "
+              "`tavc_cli/analysis/claims.py`.", ""]
     model_json = _find_model(experiments)
     for name, d in experiments.items():
         cfg = yaml.safe_load((d / "config.yaml").read_text()) or {}

@@ -526,3 +526,16 @@ def test_specialisation_by_speed_group_by_hand():
     # a robot moving mid-bin counts for the time it spent: one 100 s bin gives fast (0.5 * 50 + 1 * 50) / 100
     assert specialisation_table([rec], 100.0, 0.0, 100.0).query("group == 'fast'")["mean_share_high"].tolist() == [
         0.75]
+
+
+def test_specialisation_counts_live_robots_and_survives_a_trial_without_states():
+    from tavc_cli.analysis.states import specialisation_table
+
+    # both fast robots on the high circuit; fast robot 2 breaks down at 50 s: the share stays 1, not 2 or 1/2
+    rec = _record([(0.0, 0, 0), (0.0, 1, 1), (0.0, 2, 0)], breakdowns=[(50.0, 2)], duration_s=100.0)
+    fast = specialisation_table([rec], 50.0, 0.0, 100.0).query("group == 'fast'")
+    assert fast["mean_share_high"].tolist() == [1.0, 1.0]
+    # a trial in which nobody ever reached a target: no state, NaN shares, no error
+    silent = _record([], duration_s=100.0)
+    table = specialisation_table([silent], 50.0, 0.0, 100.0)
+    assert len(table) == 4 and table["mean_share_high"].isna().all()

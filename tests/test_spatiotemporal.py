@@ -30,23 +30,28 @@ def test_states_from_hand_placed_robots(monkeypatch):
     # one_circuit: source bar-code at (0, 3), sink at (8, 3); every robot first heads for the source.
     # 0 at (5, 3) facing the sink, robot 1 ahead of it facing the same way: 0 sees 1's rear (yellow: 16);
     # 1 at (6, 3) facing robot 3, which faces it at (7.2, 3): each sees the other's bow, red and green (12);
-    # 2 at (2, 3) facing the source 2 m away, nothing in front: the target's code in view (1).
+    # 2 at (2, 3) facing the source 2 m away, nothing in front: a bar-code in view (1); robots 0 and 1
+    # have the sink's code ahead but hidden by the robot in front of them.
     poses = np.array([[5.0, 3.0, 0.0], [6.0, 3.0, 0.0], [2.0, 3.0, math.pi], [7.2, 3.0, math.pi]])
     monkeypatch.setattr(engine, "start_poses", lambda arena, radii, rng: poses.copy())
     seen = {}
+    decide = BehaviourPolicy.decide
 
     def record(self, robot, state):
         seen.setdefault(robot, []).append(state)
+        decide(self, robot, state)
         return behaviour.ACTIONS[2]  # everyone stops, so nothing moves
 
     monkeypatch.setattr(BehaviourPolicy, "decide", record)
-    cfg = load_config(["experiment=spatiotemporal", "scale=paper", "team.n_robots=4", "trials=1", "duration_s=0.3",
+    cfg = load_config(["experiment=spatiotemporal", "scale=paper", "team.n_robots=4", "trials=1", "duration_s=0.5",
                        "learner.decision_period_s=0.1", "sim.pose_every_s=0"])
     engine.BatchEngine(trial_specs(to_container(cfg))).run()
-    # tick 0 decides before anything was sensed; tick 1 on what tick 0 sensed
+    # tick 0 decides before anything was sensed (state 0); tick 1 on what tick 0 sensed; then, with
+    # nothing moving and the random bits off for their first second, the states stay and nobody decides
+    assert all(states[0] == 0 and len(states) == 2 for states in seen.values())
     first = {robot: states[1] for robot, states in seen.items()}
     assert first[0] == 16 and first[1] == 12 and first[2] == 1
-    assert first[3] & ~1 == 12  # its code may be hidden behind robot 1; the markings are not
+    assert first[3] & ~1 == 12  # a code may be in view between the robots; the markings are certain
 
 
 def test_behaviour_learner_credits_arrivals_to_the_last_choice():
@@ -120,9 +125,19 @@ def test_policy_shares_and_stop_rates_by_hand():
             q[0, 0, s, 2] = 2.0  # ...but stop when a rear marking is in view and the target is too (8 of 16)
         if (b["red"] and not b["yellow"]) and not b["random"]:
             q[0, 0, s, 1] = 2.0  # wall following facing a red marking without the random bit (4 of 8)
-    [row] = st.policy_rows(_record([], n_robots=1, q=q))
+    # every state learned: the first snapshot all zeros, the last as set above
+    [row] = st.policy_rows(_record([], n_robots=1, q=np.concatenate([np.zeros_like(q), q])))
+    assert row["n_states"] == 32
     assert row["share_stop"] == 8 / 32 and row["share_wall"] == 4 / 32 and row["share_direct"] == 20 / 32
     assert row["stop_rate_yellow"] == 0.5 and row["stop_rate_red"] == 0.0 and row["stop_rate_green"] == 0.0
+    # only the 16 states without the random bit learned: of them 4 stop (yellow, target), 4 wall
+    # (red, no yellow, no random bit), 8 direct; of their 8 yellow states 4 stop
+    first = q.copy()
+    first[0, 0, [s for s in range(32) if not state_bits(s)["random"]]] = 0.0
+    [row] = st.policy_rows(_record([], n_robots=1, q=np.concatenate([first, q])))
+    assert row["n_states"] == 16
+    assert (row["share_stop"], row["share_wall"], row["share_direct"]) == (4 / 16, 4 / 16, 8 / 16)
+    assert row["stop_rate_yellow"] == 0.5
 
 
 def test_lane_offsets_are_left_of_the_direction_of_travel():

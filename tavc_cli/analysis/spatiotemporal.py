@@ -8,10 +8,11 @@
   of the group (any robot, source or sink), the first counted from the start; "after m
   arrivals" is interval m + 1, mean and std over trials. Figure 1.4 smooths it over a
   window of 10 arrivals.
-- Policies (`policy.csv`, from each robot's final Q-table): the share of the 32 states
-  whose best behaviour is each behaviour, and stop-rates: the share of states with a
-  marking condition whose best behaviour is stop (yellow: the rear marking seen; red, green:
-  that marking seen and no yellow; front: red or green and no yellow).
+- Policies (`policy.csv`, from each robot's final Q-table): over the states it learned in
+  (its Q-row changed during the run), the share whose best behaviour is each behaviour, and
+  stop-rates: the share of learned states with a marking condition whose best behaviour is
+  stop (yellow: the rear marking seen; red, green: that marking seen and no yellow; front:
+  red or green and no yellow).
 - Lanes (from pose frames, `sim.pose_every_s`): each robot's lateral offset from the
   source-sink axis while it drives along the axis, signed so that positive is left of its
   direction of travel, averaged per trial over a window early and late in the run. Two lanes
@@ -82,8 +83,8 @@ def target_time_curve(targets: pd.DataFrame, window: int = WINDOW) -> pd.DataFra
     return pd.DataFrame(rows, columns=["m_arrivals", "mean_target_s", "std_target_s", "n_trials"])
 
 
-def _rate(best: np.ndarray, states: list[int], action: int) -> float:
-    return float(np.mean(best[states] == action)) if states else math.nan
+def _rate(best: np.ndarray, states: np.ndarray, action: int) -> float:
+    return float(np.mean(best[states] == action)) if len(states) else math.nan
 
 
 STOP = ACTION_NAMES.index("stop")
@@ -97,16 +98,25 @@ CONDITIONS = {
 
 
 def policy_rows(rec: TrialRecord) -> list[dict]:
-    """One row per robot: share of states per best behaviour, and the stop-rates."""
+    """One row per robot: share of its learned states per best behaviour, and the stop-rates.
+
+    Only states the robot learned in count: those whose Q-row differs between the first and the
+    last snapshot (a choice made in a state updates its row at the next decision). Many of the 32
+    never occur (the camera shows red, green or yellow, hardly ever two at once), and an unvisited
+    state's best behaviour is only its initial random values."""
     q = np.asarray(rec.q)
     if q.ndim != 4 or not len(q) or q.shape[2] != N_STATES:
         return []
     best = np.argmax(q[-1], axis=2)  # (robots, states)
+    learned = (q[-1] != q[0]).any(axis=2)
     rows = []
     for robot in range(best.shape[0]):
-        row = {"controller": rec.meta["controller"], "trial": int(rec.meta["trial"]), "robot": robot}
-        row.update({f"share_{name}": float(np.mean(best[robot] == k)) for k, name in enumerate(ACTION_NAMES)})
-        row.update({f"stop_rate_{c}": _rate(best[robot], states, STOP) for c, states in CONDITIONS.items()})
+        seen = np.flatnonzero(learned[robot])
+        row = {"controller": rec.meta["controller"], "trial": int(rec.meta["trial"]), "robot": robot,
+               "n_states": len(seen)}
+        row.update({f"share_{name}": _rate(best[robot], seen, k) for k, name in enumerate(ACTION_NAMES)})
+        row.update({f"stop_rate_{c}": _rate(best[robot], np.intersect1d(states, seen), STOP)
+                    for c, states in CONDITIONS.items()})
         rows.append(row)
     return rows
 

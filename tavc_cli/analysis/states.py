@@ -194,16 +194,14 @@ def state_time_table(records: Iterable[TrialRecord], t_from: float, t_to: float,
     return pd.DataFrame(rows)
 
 
-def _binned_mean(intervals, value, edges: np.ndarray) -> np.ndarray:
-    """(n_bins, n_values): the time-weighted mean of value(state) (a vector) over each bin of
-    `edges`, from (a, b, state) intervals; NaN where no state was defined in a bin."""
-    weighted, covered = None, np.zeros(len(edges) - 1)
+def _binned_mean(intervals, value, edges: np.ndarray, n_values: int = 1) -> np.ndarray:
+    """(n_bins, n_values): the time-weighted mean of value(state, start) (a vector) over each bin
+    of `edges`, from (start, end, state) intervals; NaN where no state was defined in a bin."""
+    weighted, covered = np.zeros((len(edges) - 1, n_values)), np.zeros(len(edges) - 1)
     for a, b, s in intervals:
         if s is None:
             continue
-        v = np.atleast_1d(np.asarray(value(s), dtype=float))
-        if weighted is None:
-            weighted = np.zeros((len(edges) - 1, len(v)))
+        v = np.atleast_1d(np.asarray(value(s, a), dtype=float))
         first = max(int(np.searchsorted(edges, a, side="right")) - 1, 0)
         last = min(int(np.searchsorted(edges, b, side="left")), len(edges) - 1)
         for k in range(first, last):
@@ -211,8 +209,6 @@ def _binned_mean(intervals, value, edges: np.ndarray) -> np.ndarray:
             if hi > lo:
                 weighted[k] += v * (hi - lo)
                 covered[k] += hi - lo
-    if weighted is None:
-        return np.full((len(edges) - 1, 1), np.nan)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(covered[:, None] > 0, weighted / covered[:, None], np.nan)
 
@@ -222,7 +218,7 @@ def high_circuit_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: flo
     high-value circuit, per bin) for one trial; NaN where the state is not yet defined.
     The first number of a circuits-state label is that count (the high circuit first)."""
     edges = bin_edges(t_from, t_to, bin_s)
-    mean = _binned_mean(state_intervals(rec, "circuits"), lambda s: float(s.split(":")[0]), edges)
+    mean = _binned_mean(state_intervals(rec, "circuits"), lambda s, a: float(s.split(":")[0]), edges)
     return 0.5 * (edges[:-1] + edges[1:]), mean[:, 0]
 
 
@@ -230,14 +226,21 @@ def group_high_series(rec: TrialRecord, bin_s: float, t_from: float,
                       t_to: float) -> tuple[np.ndarray, list[str], np.ndarray]:
     """(bin centres, group names fastest first, (n_groups, n_bins) time-weighted share of each
     group's live robots whose last target was on the high-value circuit) for one trial: the
-    numbers of a groups-state label divided by the groups' sizes at the end of the trial."""
+    numbers of a groups-state label divided by the groups' live sizes at the time."""
     order = group_order(rec.meta["groups"], rec.meta["speeds_mps"])
-    alive = alive_at_end(rec)
     groups = np.asarray(rec.meta["groups"])
-    sizes = np.array([max(int(((groups == g) & alive).sum()), 1) for g in order], dtype=float)
+    b = rec.table("breakdowns")
+    broken_at = np.full(len(groups), np.inf)
+    broken_at[b["robot"].astype(int)] = b["t_s"]
+
+    def share(s: str, start: float) -> np.ndarray:
+        alive = broken_at > start
+        sizes = np.array([((groups == g) & alive).sum() for g in order], dtype=float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.array([float(x) for x in s.split(":")]) / sizes
+
     edges = bin_edges(t_from, t_to, bin_s)
-    mean = _binned_mean(state_intervals(rec, "groups"),
-                        lambda s: np.array([float(x) for x in s.split(":")]) / sizes, edges)
+    mean = _binned_mean(state_intervals(rec, "groups"), share, edges, len(order))
     return 0.5 * (edges[:-1] + edges[1:]), order, mean.T
 
 

@@ -166,7 +166,8 @@ class LearnerConfig:
     tau: float = 0.005
     q_init_low: float = -0.1
     q_init_high: float = 0.1
-    decision_period_s: float = 1.0
+    decision_period_s: float = 0.1
+    decide_on_change: bool = True
     allocation: Optional[List[int]] = None
 
 

@@ -27,6 +27,7 @@ from tavc_cli.learning.behaviour import state_index
 from tavc_cli.learning.policies import TaskPolicy
 from tavc_cli.learning.registry import make_policy
 from tavc_cli.sim.arena import SOURCE, Arena
+from tavc_cli.sim.sensors import HIT_TARGET
 from tavc_cli.sim.sensors import ray_angles
 from tavc_cli.sim.world import PhysicsWorld
 
@@ -254,11 +255,14 @@ class BatchEngine:
         self._assign(tr, i, t)
 
     def _decide_behaviours(self, tr: TrialState, t: float) -> None:
-        """Section 1.4's learners: every live robot reads its five bits and picks a behaviour."""
+        """Section 1.4's learners read their five bits (a bar-code in the laser's view, the random
+        bit, the nearest robot's markings) and pick a behaviour for each robot whose bits changed
+        since its last choice (or every time, with `decide_on_change` off)."""
         sl = slice(tr.lo, tr.hi)
-        states = state_index(self.istate[sl, nav.I_TVIS], tr.policy.random_bits(t), self.cam[sl, 0],
-                             self.cam[sl, 1], self.cam[sl, 2])
-        for i in np.flatnonzero(tr.alive):
+        states = state_index((self.kinds[sl] == HIT_TARGET).any(axis=1), tr.policy.random_bits(t),
+                             self.cam[sl, 0], self.cam[sl, 1], self.cam[sl, 2])
+        due = tr.alive & ((states != tr.policy.last_state) | ~tr.policy.decide_on_change)
+        for i in np.flatnonzero(due):
             self.istate[tr.lo + i, nav.I_FORCED] = tr.policy.decide(int(i), int(states[i]))
 
     def _act_before_tick(self, g: int) -> np.ndarray:

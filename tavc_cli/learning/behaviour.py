@@ -2,7 +2,7 @@
 
 State: five bits (section 1.4.2), as an integer 0..31:
 
-- bit 0: the current target's bar-code is in the laser's view;
+- bit 0: a bar-code (a source or a sink) is in the laser's view;
 - bit 1: a random bit, switched at random intervals (each on and each off interval drawn
   uniformly from 1-30 s), so that a robot can express a behaviour for short spells
   whatever else it senses;
@@ -10,10 +10,13 @@ State: five bits (section 1.4.2), as an integer 0..31:
   nearest robot in the camera's view.
 
 Actions: direct target approach, wall following, stop (obstacle avoidance stays under all
-of them). Every `decision_period_s` each robot reads its state, updates the value of its
-last choice with the rewards earned since (r = w / t at each target arrival, t the time
+of them). The learner maps states to behaviours: every `decision_period_s` each robot reads
+its state, and when it differs from the state of its last choice (`decide_on_change`; the
+random bit's switches make sure this happens at least every 30 s) it updates the value of
+that choice with the rewards earned since (r = w / t at each target arrival, t the time
 since its previous arrival) and draws its next behaviour from a Boltzmann softmax over its
-Q-row at temperature tau, never decayed. The task level is trivial here: one circuit, or a
+Q-row at temperature tau, never decayed. Deciding on changes, not on a clock, keeps gamma's
+horizon at a number of sensed situations rather than of seconds. The task level is trivial here: one circuit, or a
 uniformly random one if the arena has several.
 """
 
@@ -49,11 +52,13 @@ class BehaviourPolicy:
     """Independent Q-learners over (5-bit state, behaviour), Boltzmann softmax, one per robot."""
 
     def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, gamma: float, tau: float,
-                 q_init: tuple[float, float], decision_period_s: float, rng: np.random.Generator) -> None:
+                 q_init: tuple[float, float], decision_period_s: float, rng: np.random.Generator,
+                 decide_on_change: bool = True) -> None:
         self.n_states = n_circuits  # the task level's states: the circuit last served
         self.n_circuits = n_circuits
         self.alpha, self.gamma, self.tau = alpha, gamma, tau
         self.decision_period_s = decision_period_s
+        self.decide_on_change = decide_on_change
         self.rng = rng
         self.q = rng.uniform(q_init[0], q_init[1], size=(n_robots, N_STATES, len(ACTIONS)))
         self.last_state = np.full(n_robots, -1, dtype=np.int64)

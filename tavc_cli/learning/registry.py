@@ -55,7 +55,8 @@ def _behaviour(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Gen
         n_robots, n_circuits, alpha=float(spec.get("alpha", 0.1)), gamma=float(spec.get("gamma", 0.95)),
         tau=float(spec.get("tau", 0.005)),
         q_init=(float(spec.get("q_init_low", -0.1)), float(spec.get("q_init_high", 0.1))),
-        decision_period_s=float(spec.get("decision_period_s", 1.0)), rng=rng,
+        decision_period_s=float(spec.get("decision_period_s", 0.1)), rng=rng,
+        decide_on_change=bool(spec.get("decide_on_change", True)),
     )
 
 

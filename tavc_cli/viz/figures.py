@@ -12,8 +12,8 @@
 - the share of robots on the high-value circuit against the learning-value ratio, per
   horizon and reading, with the model's prediction;
 - for fast and slow robots (section 1.6): f:s state shares as grids (Figure 1.12), TAVC's
-  difference from random, absolute and relative (Figure 1.13), and each speed group's share
-  on the high-value circuit over time.
+  difference from the theory row, absolute and relative (Figure 1.13), and each speed
+  group's share on the high-value circuit over time.
 """
 
 from __future__ import annotations
@@ -255,20 +255,21 @@ def group_state_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, t
 
 def group_difference_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: str,
                             out_stem: Path) -> list[Path]:
-    """Figure 1.13's kind: TAVC's share minus random's per f:s state, and that difference over
-    random's share, ours and the chapter's (recomputed from its printed means)."""
+    """Figure 1.13's kind: TAVC's share minus the binomial theory row's per f:s state, and that
+    difference over the theory row's share (what every row of the chapter's Table 1.6 prints,
+    though its header names the random runs), ours and the chapter's from its means."""
     panels_abs, panels_rel = [], []
     means = state_time.pivot_table(index="state", columns="controller", values="mean_pct", sort=False)
     sources = []
-    if {"tavc", "random"} <= set(means.columns):
-        sources.append(("ours", list(means.index), means["tavc"].to_numpy(float), means["random"].to_numpy(float)))
-    if chapter is not None and {"tavc_mean_pct", "random_mean_pct"} <= set(chapter.columns):
+    if {"tavc", "theory"} <= set(means.columns):
+        sources.append(("ours", list(means.index), means["tavc"].to_numpy(float), means["theory"].to_numpy(float)))
+    if chapter is not None and {"tavc_mean_pct", "theory_pct"} <= set(chapter.columns):
         sources.append(("the chapter", list(chapter["state"]), chapter["tavc_mean_pct"].to_numpy(float),
-                        chapter["random_mean_pct"].to_numpy(float)))
-    for name, states, vc, r in sources:
-        panels_abs.append((f"TAVC - random (% points), {name}", _grid(states, vc - r)))
+                        chapter["theory_pct"].to_numpy(float)))
+    for name, states, vc, t in sources:
+        panels_abs.append((f"TAVC - theory (% points), {name}", _grid(states, vc - t)))
         with np.errstate(invalid="ignore", divide="ignore"):
-            panels_rel.append((f"(TAVC - random) / random, {name}", _grid(states, np.where(r > 0, (vc - r) / r,
+            panels_rel.append((f"(TAVC - theory) / theory, {name}", _grid(states, np.where(t > 0, (vc - t) / t,
                                                                                           np.nan))))
     stem = Path(out_stem)
     paths = _heat_panels(panels_abs, "coolwarm", True, ".1f", "% points", title + ": difference", stem)
