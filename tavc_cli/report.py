@@ -388,6 +388,12 @@ def _value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
               "against the fixed initial range [-0.1, 0.1]: with t in seconds the initial values are negligible "
               "beside the first reward, with t in milliseconds they are of its order. The two readings therefore "
               "differ only in how strongly the initial table decides each robot's first preference.", ""]
+    if points["reading"].str.contains("diagnostic").any():
+        lines += ["Rows marked diagnostic are not the chapter's rule: with gamma = 0 a Q-value is a running mean "
+                  "of its own task's reward and no longer bootstraps from the state the robot would switch to, so "
+                  "a robot compares the circuits' rewards directly. They show what the world and the reward "
+                  "would give learners that respond within the trial; the verdicts use the chapter's gamma = 0.95.",
+                  ""]
     return lines
 
 
