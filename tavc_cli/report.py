@@ -448,15 +448,26 @@ def _spatiotemporal_lines(name: str, d: Path, cfg: dict, results_dir: Path) -> l
         shares = ", ".join(f"{c[len('share_'):]} {pol[c].mean():.2f}" for c in pol.columns if c.startswith("share_"))
         rates = ", ".join(f"{c[len('stop_rate_'):]} {pol[c].mean():.2f}" for c in pol.columns
                           if c.startswith("stop_rate_"))
-        lines += [f"Learned policies ({len(pol)} robots, final Q-tables): share of the 32 states whose best "
-                  f"behaviour is each behaviour: {shares}. Stop-rates (share of states with that marking in view, "
-                  f"and no yellow for red, green and front, whose best behaviour is stop): {rates}.", ""]
+        learned = f", {pol['n_states'].mean():.1f} of the 32 states on average" if "n_states" in pol else ""
+        lines += [f"Learned policies ({len(pol)} robots, final Q-tables, over the states each robot learned in"
+                  f"{learned}): share whose best behaviour is each behaviour: {shares}. Stop-rates (share of those "
+                  f"states with that marking in view, and no yellow for red, green and front, whose best behaviour "
+                  f"is stop): {rates}.", ""]
     if (d / "lanes.csv").is_file():
         lanes = pd.read_csv(d / "lanes.csv")
         parts = [f"{w} {g['mean_left_m'].mean():+.3f} ± {_fmt(g['mean_left_m'].std(ddof=1), '.3f')} m"
                  for w, g in lanes.groupby("window", sort=False)]
-        lines += ["Lanes: mean offset to the left of the direction of travel, robots driving along the source-sink "
-                  "axis away from its ends, per trial (mean ± std over trials): " + "; ".join(parts) + ".", ""]
+        text = ("Lanes: mean offset to the left of the direction of travel, robots driving along the source-sink "
+                "axis away from its ends, per trial (mean ± std over trials): " + "; ".join(parts) + ".")
+        wide = lanes.pivot_table(index="trial", columns="window", values="mean_left_m")
+        if {"early", "late"} <= set(wide.columns) and len(wide.dropna()) >= 2:
+            from scipy import stats
+
+            both = wide.dropna()
+            res = stats.ttest_rel(both["late"], both["early"])
+            text += (f" Late against early, paired two-sided over {len(both)} trials (reported, not part of a "
+                     f"verdict): t = {res.statistic:.2f}, p = {res.pvalue:.3g}.")
+        lines += [text, ""]
     if (d / "occupancy.csv").is_file():
         arena = cfg["arena"]
         xy = {t["name"]: (float(t["x"]), float(t["y"])) for t in arena["targets"]}
