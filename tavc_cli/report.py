@@ -391,8 +391,9 @@ def _value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     if points["reading"].str.contains("diagnostic").any():
         lines += ["Rows marked diagnostic are not the chapter's rule: with gamma = 0 a Q-value is a running mean "
                   "of its own task's reward and no longer bootstraps from the state the robot would switch to, so "
-                  "a robot compares the circuits' rewards directly. They show what the world and the reward "
-                  "would give learners that respond within the trial; the verdicts use the chapter's gamma = 0.95.",
+                  "a robot compares running means of the circuits' rewards; its estimate for the circuit it does "
+                  "not serve still moves only on the exploratory choices. They separate the two brakes on "
+                  "learning; the verdicts use the chapter's gamma = 0.95.",
                   ""]
     return lines
 
