@@ -13,7 +13,7 @@ REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
 # Learning values [w_high, w_low] for the value-ratio sweep: ratios 1.0, 1.1 (the chapter's), 1.25 ... 2.0
 VALUE_RATIOS := [2000,2000],[2200,2000],[2500,2000],[3000,2000],[3500,2000],[4000,2000]
 
-.PHONY: help venv test test-fast bench reproduce-all value-ratio $(REPRODUCE) clean
+.PHONY: help venv test test-fast bench reproduce-all model value-ratio $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -36,8 +36,11 @@ test-fast: venv ## Run the tests not marked slow
 bench: venv ## Print simulator throughput as one JSON object
 	$(BIN)/tavc bench --json
 
-reproduce-all: $(REPRODUCE) ## Run every experiment at paper scale, then write results/REPORT.md
+reproduce-all: $(REPRODUCE) model ## Run every experiment and the model at paper scale, then write results/REPORT.md
 	$(BIN)/tavc report results
+
+model: venv ## Measure the vacancy-chain model in the chapter's world (results/initial_distribution/model/)
+	$(BIN)/tavc model experiment=initial_distribution scale=paper
 
 value-ratio: venv ## Share of time on the high-value circuit against the value ratio: 5 h and 50 h, t in ms and s; gamma 0 at 5 h
 	$(BIN)/tavc run -m experiment=initial_distribution scale=paper 'baselines=[]' tasks.time_unit=ms,s \
