@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 from tavc_cli.analysis import claims as C
+from tavc_cli.analysis.chapter_checks import chapter_checks
 from tavc_cli.analysis.states import theory_pct
 
 STATES6 = ["0:6", "1:5", "2:4", "3:3", "4:2", "5:1", "6:0"]
@@ -163,7 +164,7 @@ def _by_test(checks, claim_id, contains):
 
 
 def test_chapter_checks_apply_the_same_tests_to_the_chapter_tables():
-    checks = C.chapter_checks()
+    checks = chapter_checks()
     # claim 3 on Table 1.2: (44.5 - 33.7) / sqrt(6.0^2/20 + 2.2^2/20) = 10.8 / 1.4290 = 7.558
     c3 = _by_test(checks, 3, "3:3")
     assert c3["statistic"] == pytest.approx(10.8 / math.sqrt(36 / 20 + 4.84 / 20), rel=1e-9)

@@ -317,21 +317,14 @@ def claim_9(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
     return parts
 
 
-def _one_sample_greater(what: str, x, mu: float) -> Part:
+def one_sample(what: str, x, mu: float, alternative: str) -> Part:
+    """x's mean against mu: a one-sample t-test, `greater` (one-sided) or `two-sided`."""
     x = _clean(x)
     if not _testable(x):
         return Part(what, math.nan, math.nan, None)
-    t, p = stats.ttest_1samp(x, mu, alternative="greater")
-    return Part(f"{what} (mean {x.mean():.4g}, one-sample one-sided against {mu:g})", float(t), float(p),
-                bool(p < ALPHA))
-
-
-def _one_sample_differs(what: str, x, mu: float) -> Part:
-    x = _clean(x)
-    if not _testable(x):
-        return Part(what, math.nan, math.nan, None)
-    t, p = stats.ttest_1samp(x, mu)
-    return Part(f"{what} (mean {x.mean():.4g}, one-sample two-sided against {mu:g})", float(t), float(p),
+    t, p = stats.ttest_1samp(x, mu, alternative=alternative)
+    sides = "one-sided" if alternative != "two-sided" else "two-sided"
+    return Part(f"{what} (mean {x.mean():.4g}, one-sample {sides} against {mu:g})", float(t), float(p),
                 bool(p < ALPHA))
 
 
@@ -361,9 +354,9 @@ def claim_2(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
     return [paired_greater("robots' share of states whose best behaviour is direct approach, above wall following",
                            pol["share_direct"], pol["share_wall"]),
             paired_greater("direct approach above stop", pol["share_direct"], pol["share_stop"]),
-            _one_sample_greater("share of wall following", pol["share_wall"], 0.0),
-            _one_sample_differs("offset left of the direction of travel in the last tenth of the run, per trial (m)",
-                                late, 0.0),
+            one_sample("share of wall following", pol["share_wall"], 0.0, "greater"),
+            one_sample("offset left of the direction of travel in the last tenth of the run, per trial (m)",
+                       late, 0.0, "two-sided"),
             *(paired_greater(f"{c} stop-rate above the yellow stop-rate", pol[f"stop_rate_{c}"],
                              pol["stop_rate_yellow"]) for c in ("red", "green", "front"))]
 
@@ -396,94 +389,3 @@ def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = N
                      "statistic": parts[0].statistic, "p_value": parts[0].p_value,
                      "detail": "; ".join(p.text() for p in parts)})
     return pd.DataFrame(rows, columns=COLUMNS)
-
-
-# --- the same tests on the chapter's own tables (from their means, stds and trial counts) -------
-
-# trials behind each of the chapter's state tables: (TAVC, random)
-CHAPTER_TRIALS = {"1.2": (20, 20), "1.3": (20, 5), "1.4": (20, 0), "1.5": (20, 0), "1.6": (15, 15)}
-
-
-def chapter_checks() -> list[dict]:
-    """The state-table tests of claims 3, 4, 6, 7, 8 and 9, applied to the chapter's printed numbers:
-    does the chapter's own table pass the test tavc applies to ours?"""
-    from tavc_cli.reference import chapter_table
-
-    out = []
-    for cid, table_id, state in ((3, "1.2", "3:3"), (6, "1.3", "3:2")):
-        t = chapter_table(table_id).set_index("state")
-        n_t, n_r = CHAPTER_TRIALS[table_id]
-        res = stats.ttest_ind_from_stats(t.loc[state, "tavc_mean_pct"], t.loc[state, "tavc_std_pct"], n_t,
-                                         t.loc[state, "random_mean_pct"], t.loc[state, "random_std_pct"], n_r,
-                                         equal_var=False, alternative="greater")
-        out.append({"claim_id": cid, "test": f"Table {table_id}: time in {state}, TAVC above random (Welch one-sided)",
-                    "statistic": float(res.statistic), "p_value": float(res.pvalue),
-                    "holds": bool(res.pvalue < ALPHA)})
-    t = chapter_table("1.2").set_index("state")
-    n = CHAPTER_TRIALS["1.2"][1]
-    tests = []
-    for state, r in t.iterrows():
-        se = r["random_std_pct"] / math.sqrt(n)
-        tt = (r["random_mean_pct"] - r["theory_pct"]) / se if se > 0 else math.nan
-        p = float(2 * stats.t.sf(abs(tt), n - 1)) if math.isfinite(tt) else math.nan
-        tests.append((state, (lambda tt=tt, p=p: (tt, p))))
-    part = holm_none_differ("Table 1.2: random against the theory row", tests)
-    out.append({"claim_id": 4, "test": part.what, "statistic": part.statistic, "p_value": part.p_value,
-                "holds": part.holds})
-    out.append(_chapter_no_vacancy_check())
-    out += _chapter_value_change_checks()
-    out += _chapter_heterogeneous_checks()
-    return out
-
-
-def _chapter_heterogeneous_checks() -> list[dict]:
-    """Claim 9's state parts on Table 1.6: 3:0 above random, and its relative increase the largest."""
-    from tavc_cli.reference import chapter_table
-
-    t = chapter_table("1.6").set_index("state")
-    n_t, n_r = CHAPTER_TRIALS["1.6"]
-    stat, p = _table_welch(t.loc["3:0"], n_t, t.loc["3:0"], n_r, "tavc", "random", "greater")
-    rel = (t["tavc_mean_pct"] - t["theory_pct"]) / t["theory_pct"]
-    return [{"claim_id": 9, "test": "Table 1.6: time in 3:0, TAVC above random (Welch one-sided)",
-             "statistic": stat, "p_value": p, "holds": bool(p < ALPHA)},
-            {"claim_id": 9, "test": f"Table 1.6: relative increase over the theory row largest in 3:0 (largest: "
-                                    f"{rel.idxmax()}, {rel.max():.3g}; a comparison of means)",
-             "statistic": float(rel["3:0"]), "p_value": math.nan, "holds": bool(rel.idxmax() == "3:0")}]
-
-
-def _table_welch(a: pd.Series, n_a: int, b: pd.Series, n_b: int, a_col: str, b_col: str,
-                 alternative: str) -> tuple[float, float]:
-    res = stats.ttest_ind_from_stats(a[f"{a_col}_mean_pct"], a[f"{a_col}_std_pct"], n_a,
-                                     b[f"{b_col}_mean_pct"], b[f"{b_col}_std_pct"], n_b,
-                                     equal_var=False, alternative=alternative)
-    return float(res.statistic), float(res.pvalue)
-
-
-def _chapter_no_vacancy_check() -> dict:
-    """Claim 7's distribution part on the chapter's tables: Table 1.4 against Table 1.3's TAVC rows."""
-    from tavc_cli.reference import chapter_table
-
-    nv, bd = chapter_table("1.4").set_index("state"), chapter_table("1.3").set_index("state")
-    n_nv, n_bd = CHAPTER_TRIALS["1.4"][0], CHAPTER_TRIALS["1.3"][0]
-    tests = [(st, (lambda st=st: _table_welch(nv.loc[st], n_nv, bd.loc[st], n_bd, "tavc", "tavc", "two-sided")))
-             for st in nv.index]
-    part = holm_none_differ("Table 1.4 against Table 1.3's TAVC distribution, Welch two-sided", tests)
-    return {"claim_id": 7, "test": part.what, "statistic": part.statistic, "p_value": part.p_value,
-            "holds": part.holds}
-
-
-def _chapter_value_change_checks() -> list[dict]:
-    """Claim 8's state parts on the chapter's tables. Table 1.5 prints no random column; the only
-    random run the chapter prints for five robots is Table 1.3's (5 trials), used here."""
-    from tavc_cli.reference import chapter_table
-
-    vc, rnd = chapter_table("1.5").set_index("state"), chapter_table("1.3").set_index("state")
-    n_vc, n_r = CHAPTER_TRIALS["1.5"][0], CHAPTER_TRIALS["1.3"][1]
-    out = []
-    for st in vc.index:
-        above = st == "3:2"
-        t, p = _table_welch(vc.loc[st], n_vc, rnd.loc[st], n_r, "tavc", "random", "greater" if above else "less")
-        out.append({"claim_id": 8, "test": f"Table 1.5 against Table 1.3's random: time in {st}, TAVC "
-                    f"{'above' if above else 'below'} random (Welch one-sided)",
-                    "statistic": t, "p_value": p, "holds": bool(p < ALPHA)})
-    return out

@@ -125,28 +125,33 @@ def policy_table(records: Iterable[TrialRecord]) -> pd.DataFrame:
     return pd.DataFrame([r for rec in records for r in policy_rows(rec)])
 
 
+def _directed_frames(rec: TrialRecord, source_xy: Sequence[float], sink_xy: Sequence[float], t_from: float,
+                     t_to: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The pose frames in [t_from, t_to) seen along the source-sink axis: (poses, distance along
+    the axis from the source, offset to the left of source -> sink, live robots heading to the
+    sink, live robots heading to the source), each (frames, robots) but the poses."""
+    t = np.asarray(rec.pose_t, float)
+    sel = (t >= t_from) & (t < t_to)
+    n = int(rec.meta["n_robots"])  # no frames recorded (sim.pose_every_s = 0): empty arrays of the right shape
+    poses = np.asarray(rec.poses, float).reshape(len(t), n, 3)[sel]
+    alive = np.asarray(rec.pose_alive, bool).reshape(len(t), n)[sel]
+    p0, p1 = np.asarray(source_xy, float), np.asarray(sink_xy, float)
+    axis = (p1 - p0) / np.linalg.norm(p1 - p0)
+    rel = poses[..., :2] - p0
+    heading = np.cos(poses[..., 2]) * axis[0] + np.sin(poses[..., 2]) * axis[1]  # cos of angle to the axis
+    return (poses, rel @ axis, rel @ np.array([-axis[1], axis[0]]), alive & (heading >= math.cos(ALONG_AXIS_RAD)),
+            alive & (heading <= -math.cos(ALONG_AXIS_RAD)))
+
+
 def lane_offsets(rec: TrialRecord, source_xy: Sequence[float], sink_xy: Sequence[float],
                  t_from: float, t_to: float) -> np.ndarray:
     """Signed lateral offsets (m, positive left of the direction of travel) of robots driving
     along the source-sink axis and away from its ends, over pose frames in [t_from, t_to)."""
-    t = np.asarray(rec.pose_t, float)
-    if not len(t):
-        return np.zeros(0)
-    poses = np.asarray(rec.poses)[(t >= t_from) & (t < t_to)]
-    alive = np.asarray(rec.pose_alive, bool)[(t >= t_from) & (t < t_to)]
-    p0, p1 = np.asarray(source_xy, float), np.asarray(sink_xy, float)
-    axis = (p1 - p0) / np.linalg.norm(p1 - p0)
-    normal = np.array([-axis[1], axis[0]])  # left of source -> sink
-    rel = poses[..., :2] - p0
-    along = rel @ axis
-    lateral = rel @ normal
-    heading = np.cos(poses[..., 2]) * axis[0] + np.sin(poses[..., 2]) * axis[1]  # cos of angle to the axis
-    length = float(np.linalg.norm(p1 - p0))
+    _, along, lateral, to_sink, to_source = _directed_frames(rec, source_xy, sink_xy, t_from, t_to)
+    length = float(np.linalg.norm(np.asarray(sink_xy, float) - np.asarray(source_xy, float)))
     away = (along > END_MARGIN_M) & (along < length - END_MARGIN_M)
-    to_sink = alive & away & (heading >= math.cos(ALONG_AXIS_RAD))
-    to_source = alive & away & (heading <= -math.cos(ALONG_AXIS_RAD))
-    # left of the direction of travel: + normal heading to the sink, - normal heading to the source
-    return np.concatenate([lateral[to_sink], -lateral[to_source]])
+    # left of the direction of travel: + offset heading to the sink, - offset heading to the source
+    return np.concatenate([lateral[to_sink & away], -lateral[to_source & away]])
 
 
 def lane_table(records: Iterable[TrialRecord], source_xy, sink_xy, windows: dict[str, tuple[float, float]]
@@ -204,21 +209,12 @@ def occupancy_table(records: Iterable[TrialRecord], source_xy, sink_xy, width_m:
     """`window,direction,x_m,y_m,count`: pose frames per cell of robots driving along the axis,
     toward the sink or toward the source, summed over trials (the lane heat map)."""
     nx, ny = int(round(width_m / cell_m)), int(round(height_m / cell_m))
-    p0, p1 = np.asarray(source_xy, float), np.asarray(sink_xy, float)
-    axis = (p1 - p0) / np.linalg.norm(p1 - p0)
     counts = {(w, d): np.zeros((nx, ny), dtype=np.int64) for w in windows for d in ("to_sink", "to_source")}
     for rec in records:
-        t = np.asarray(rec.pose_t, float)
-        if not len(t):
-            continue
         for w, (a, b) in windows.items():
-            sel = (t >= a) & (t < b)
-            poses = np.asarray(rec.poses)[sel]
-            alive = np.asarray(rec.pose_alive, bool)[sel]
-            heading = np.cos(poses[..., 2]) * axis[0] + np.sin(poses[..., 2]) * axis[1]
-            for d, mask in (("to_sink", heading >= math.cos(ALONG_AXIS_RAD)),
-                            ("to_source", heading <= -math.cos(ALONG_AXIS_RAD))):
-                xy = poses[alive & mask][:, :2]
+            poses, _, _, to_sink, to_source = _directed_frames(rec, source_xy, sink_xy, a, b)
+            for d, mask in (("to_sink", to_sink), ("to_source", to_source)):
+                xy = poses[mask][:, :2]
                 ix = np.clip((xy[:, 0] / cell_m).astype(int), 0, nx - 1)
                 iy = np.clip((xy[:, 1] / cell_m).astype(int), 0, ny - 1)
                 np.add.at(counts[(w, d)], (ix, iy), 1)

@@ -1,8 +1,14 @@
 """The kernel's data layout: columns of the per-robot state and parameter arrays, the
-global parameter vector, the target table, the behaviour modes.
+global parameter vector (and how a robot config fills it), the target table, the
+behaviour modes.
 
 The compiled kernel works on plain arrays; these names say what each column holds.
 """
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
 
 # columns of the integer robot state
 (I_TRIAL, I_ALIVE, I_TARGET, I_MODE, I_SIDE, I_FORCED, I_ARRIVED, I_TVIS, I_LO, I_HI, I_TURN, I_LASTTGT,
@@ -26,7 +32,40 @@ T_X, T_Y, T_NX, T_NY, T_CODE, T_WALL = range(6)
 MODE_APPROACH, MODE_WALLFOLLOW, MODE_ESCAPE, MODE_DOCK, MODE_SERVICE, MODE_UNDOCK = range(6)
 BEH_AUTO, BEH_DIRECT, BEH_WALL, BEH_STOP = -1, 0, 1, 2
 
+def behaviour_params(robot: Mapping, barcode_width_m: float, dt_s: float) -> np.ndarray:
+    """The kernel's global sensor and behaviour parameters, from a robot config mapping."""
+    laser, cam, beh = robot["laser"], robot["camera"], robot["behaviour"]
+    gp = np.zeros(N_GPARAM)
+    gp[G_AVOID] = beh["avoid_dist_m"]
+    gp[G_STOP] = beh["stop_dist_m"]
+    gp[G_ARRIVE] = beh["arrive_dist_m"]
+    gp[G_WALLD] = beh["wall_dist_m"]
+    gp[G_VISMARGIN] = beh["visible_margin_m"]
+    gp[G_RELOC] = beh["relocalise_dist_m"]
+    gp[G_STALL_S] = beh["stall_s"]
+    gp[G_ESCAPE_S] = beh["escape_s"]
+    gp[G_PROGRESS_M] = beh["progress_m"]
+    gp[G_RANGE] = laser["range_m"]
+    gp[G_CAM_FOV_HALF] = math.radians(float(cam["fov_deg"])) / 2
+    gp[G_CAM_RANGE] = cam["range_m"]
+    gp[G_SIDE_SECTOR] = math.radians(float(cam["side_sector_deg"]))
+    gp[G_BARCODE_W] = barcode_width_m
+    gp[G_DT] = dt_s
+    dock = robot["dock"]
+    gp[G_DOCK_LAT] = dock["lateral_tol_m"]
+    gp[G_DOCK_HEAD] = math.radians(float(dock["heading_tol_deg"]))
+    gp[G_DOCK_APPROACH] = dock["approach_m"]
+    gp[G_DWELL] = dock["dwell_s"]
+    gp[G_BACKOUT] = dock["backout_m"]
+    gp[G_OCCUPIED] = dock["occupied_m"]
+    gp[G_HOLD] = dock["occupied_m"] + dock["hold_margin_m"]
+    gp[G_PATIENCE] = dock["patience_s"]
+    return gp
+
+
+
 __all__ = [
+    "behaviour_params",
     "BEH_AUTO",
     "BEH_DIRECT",
     "BEH_STOP",

@@ -4,7 +4,8 @@ Each trial has its own arena copy in a shared pymunk space, its own random
 streams and its own policy. The batch shares one physics step and one call of
 the compiled sensing and behaviour kernel per tick for every robot of every
 trial: Python runs per tick and per event (an arrival, a breakdown), never per
-robot per tick.
+robot per tick, except for section 1.4's behaviour learners, whose robots each choose a
+behaviour in Python when their sensed state changes.
 
 Per tick: read true poses -> sense and decide (kernel) -> drive -> step physics
 -> handle arrivals and scheduled events.
@@ -19,16 +20,16 @@ import numpy as np
 
 from tavc_cli.behaviours import navigation as nav
 from tavc_cli.behaviours.activities import N_ACT
+from tavc_cli.behaviours.layout import behaviour_params
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TableBuilder, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
-from tavc_cli.experiments.events import EventKind
 from tavc_cli.learning.behaviour import state_index
 from tavc_cli.learning.policies import TaskPolicy
 from tavc_cli.learning.registry import make_policy
 from tavc_cli.sim.arena import SOURCE, Arena
-from tavc_cli.sim.sensors import HIT_TARGET
-from tavc_cli.sim.sensors import ray_angles
+from tavc_cli.sim.sensors import HIT_TARGET, ray_angles
 from tavc_cli.sim.world import PhysicsWorld
 
 _NOISE_BLOCK_TICKS = 512
@@ -97,37 +98,6 @@ class TrialState:
 
     def next_event_time(self) -> float:
         return self.events[0][0] if self.events else math.inf
-
-
-def behaviour_params(robot: Mapping, barcode_width_m: float, dt_s: float) -> np.ndarray:
-    """The kernel's global sensor and behaviour parameters, from a robot config mapping."""
-    laser, cam, beh = robot["laser"], robot["camera"], robot["behaviour"]
-    gp = np.zeros(nav.N_GPARAM)
-    gp[nav.G_AVOID] = beh["avoid_dist_m"]
-    gp[nav.G_STOP] = beh["stop_dist_m"]
-    gp[nav.G_ARRIVE] = beh["arrive_dist_m"]
-    gp[nav.G_WALLD] = beh["wall_dist_m"]
-    gp[nav.G_VISMARGIN] = beh["visible_margin_m"]
-    gp[nav.G_RELOC] = beh["relocalise_dist_m"]
-    gp[nav.G_STALL_S] = beh["stall_s"]
-    gp[nav.G_ESCAPE_S] = beh["escape_s"]
-    gp[nav.G_PROGRESS_M] = beh["progress_m"]
-    gp[nav.G_RANGE] = laser["range_m"]
-    gp[nav.G_CAM_FOV_HALF] = math.radians(float(cam["fov_deg"])) / 2
-    gp[nav.G_CAM_RANGE] = cam["range_m"]
-    gp[nav.G_SIDE_SECTOR] = math.radians(float(cam["side_sector_deg"]))
-    gp[nav.G_BARCODE_W] = barcode_width_m
-    gp[nav.G_DT] = dt_s
-    dock = robot["dock"]
-    gp[nav.G_DOCK_LAT] = dock["lateral_tol_m"]
-    gp[nav.G_DOCK_HEAD] = math.radians(float(dock["heading_tol_deg"]))
-    gp[nav.G_DOCK_APPROACH] = dock["approach_m"]
-    gp[nav.G_DWELL] = dock["dwell_s"]
-    gp[nav.G_BACKOUT] = dock["backout_m"]
-    gp[nav.G_OCCUPIED] = dock["occupied_m"]
-    gp[nav.G_HOLD] = dock["occupied_m"] + dock["hold_margin_m"]
-    gp[nav.G_PATIENCE] = dock["patience_s"]
-    return gp
 
 
 class BatchEngine:

@@ -37,27 +37,24 @@ def _static(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Genera
     return StaticPolicy(np.repeat(np.arange(n_circuits), counts), n_circuits)
 
 
+def _q_learning(spec: Mapping) -> dict:
+    """The Q-learning parameters every learner of the chapter shares, with its defaults."""
+    return {"alpha": float(spec.get("alpha", 0.1)), "gamma": float(spec.get("gamma", 0.95)),
+            "tau": float(spec.get("tau", 0.005)),
+            "q_init": (float(spec.get("q_init_low", -0.1)), float(spec.get("q_init_high", 0.1)))}
+
+
 def _tavc(selection: str) -> Builder:
     def build(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-        return TavcPolicy(
-            n_robots, n_circuits,
-            alpha=float(spec.get("alpha", 0.1)), gamma=float(spec.get("gamma", 0.95)), selection=selection,
-            epsilon=float(spec.get("epsilon", 0.1)), tau=float(spec.get("tau", 0.005)),
-            q_init=(float(spec.get("q_init_low", -0.1)), float(spec.get("q_init_high", 0.1))),
-            rng=rng,
-        )
+        return TavcPolicy(n_robots, n_circuits, selection=selection, epsilon=float(spec.get("epsilon", 0.1)),
+                          rng=rng, **_q_learning(spec))
 
     return build
 
 
 def _behaviour(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    return BehaviourPolicy(
-        n_robots, n_circuits, alpha=float(spec.get("alpha", 0.1)), gamma=float(spec.get("gamma", 0.95)),
-        tau=float(spec.get("tau", 0.005)),
-        q_init=(float(spec.get("q_init_low", -0.1)), float(spec.get("q_init_high", 0.1))),
-        decision_period_s=float(spec.get("decision_period_s", 0.1)), rng=rng,
-        decide_on_change=bool(spec.get("decide_on_change", True)),
-    )
+    return BehaviourPolicy(n_robots, n_circuits, decision_period_s=float(spec.get("decision_period_s", 0.1)),
+                           decide_on_change=bool(spec.get("decide_on_change", True)), rng=rng, **_q_learning(spec))
 
 
 LEARNERS: dict[str, Learner] = {entry.name: entry for entry in (

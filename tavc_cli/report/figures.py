@@ -1,0 +1,125 @@
+"""An experiment's figures for REPORT.md, drawn from its saved tables under the results
+folder's `figures/`, with the markdown lines that show them."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.reference import TABLES
+
+
+def find_model(experiments: dict[str, Path]) -> Path | None:
+    """The model's output to draw predictions from: initial_distribution's, else any run's."""
+    folders = sorted(experiments.items(), key=lambda kv: kv[0] != "initial_distribution")
+    for _, d in folders:
+        if (d / "model" / "model.json").is_file():
+            return d / "model" / "model.json"
+    return None
+
+
+def predicted_segments(cfg: dict, model_json: Path | None) -> list[tuple[float, float, str, float]]:
+    """(from s, to s, label, robots on the high circuit) the model predicts between breakdowns."""
+    if model_json is None or len((cfg.get("arena") or {}).get("circuits", [])) != 2:
+        return []
+    by_size = json.loads(model_json.read_text()).get("by_team_size", {})
+    start, end = -float((cfg.get("sim") or {}).get("warmup_s", 0.0)), float(cfg["duration_s"])
+    times = sorted(float(b["time_s"]) for b in (cfg.get("events") or {}).get("breakdowns", []) or []
+                   if start < float(b["time_s"]) < end)
+    n = int(cfg["team"]["n_robots"]) - sum(
+        1 for b in (cfg.get("events") or {}).get("breakdowns", []) or [] if float(b["time_s"]) <= start)
+    out = []
+    for a, b in zip([start, *times], [*times, end], strict=True):
+        pred = by_size.get(str(n))
+        if pred is not None:
+            state = pred["predicted_state"]
+            out.append((a, b, f"{n} robots: {state}", float(state.split(":")[0])))
+        n -= 1
+    return out
+
+
+def experiment_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, results_dir: Path,
+             model_json: Path | None) -> list[str]:
+    """Draw this experiment's figures under results_dir/figures; markdown lines that show them."""
+    from tavc_cli.reference import chapter_table
+    from tavc_cli.viz.figures import FIGURES, allocation_figure, performance_figure, state_figure
+
+    fig_dir = results_dir / "figures"
+    state_fig, perf_fig = FIGURES.get(name, (None, None))
+    conv = float(cfg.get("convergence_s") or 0.0)
+    event = float((cfg.get("sim") or {}).get("warmup_s", 0.0)) > 0
+    lines = []
+    if ((cfg.get("analysis") or {}).get("state")) == "groups":
+        return group_figures(name, d, cfg, state_time, fig_dir)
+    if state_fig is not None:
+        table = TABLES.get(name)
+        state_figure(state_time, chapter_table(table) if table else None,
+                     f"{name}: % of the stable period in each state (the chapter's Figure {state_fig})",
+                     fig_dir / f"fig_{state_fig.replace('.', '_')}")
+        lines.append(f"![Figure {state_fig}, tavc](figures/fig_{state_fig.replace('.', '_')}.png)")
+    if perf_fig is not None and (d / "performance.csv").is_file():
+        performance_figure(pd.read_csv(d / "performance.csv"), conv, event,
+                           f"{name}: performance over time (the chapter's Figure {perf_fig})",
+                           fig_dir / f"fig_{perf_fig.replace('.', '_')}")
+        lines.append(f"![Figure {perf_fig}, tavc](figures/fig_{perf_fig.replace('.', '_')}.png)")
+    if (d / "allocation.csv").is_file():
+        allocation_figure(pd.read_csv(d / "allocation.csv"), predicted_segments(cfg, model_json), conv, event,
+                          f"{name}: robots on the high-value circuit over time", fig_dir / f"allocation_{name}")
+        lines.append(f"![robots on the high-value circuit, {name}](figures/allocation_{name}.png)")
+    lines += q_figure(name, d, cfg, fig_dir)
+    return [*lines, ""] if lines else []
+
+
+def group_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, fig_dir: Path) -> list[str]:
+    """Fast and slow robots: the f:s grids (Figure 1.12's kind), TAVC against the theory row (1.13's),
+    each speed group on the high-value circuit over time, and the Q-values of trial 0."""
+    from tavc_cli.reference import chapter_table
+    from tavc_cli.viz.figures import group_difference_figure, group_state_figure, specialisation_figure
+
+    table = TABLES.get(name)
+    chapter = chapter_table(table) if table else None
+    group_state_figure(state_time, chapter, f"{name}: % of the stable period in each state f:s (Figure 1.12's kind)",
+                       fig_dir / "fig_1_12")
+    group_difference_figure(state_time, chapter, f"{name}: TAVC against the theory row (Figure 1.13's kind)",
+                            fig_dir / "fig_1_13")
+    lines = ["![Figure 1.12, tavc](figures/fig_1_12.png)", "![Figure 1.13, tavc](figures/fig_1_13.png)",
+             "![Figure 1.13, relative, tavc](figures/fig_1_13_relative.png)"]
+    if (d / "specialisation.csv").is_file():
+        specialisation_figure(pd.read_csv(d / "specialisation.csv"), float(cfg.get("convergence_s") or 0.0),
+                              f"{name}: each speed group's share on the high-value circuit",
+                              fig_dir / f"specialisation_{name}")
+        lines.append(f"![specialisation, {name}](figures/specialisation_{name}.png)")
+    lines += q_figure(name, d, cfg, fig_dir)
+    return [*lines, ""]
+
+
+def final_high_circuit(cfg: dict) -> int:
+    """The circuit with the highest learning value at the end of the run (after any value change)."""
+    values = (cfg.get("tasks") or {}).get("values")
+    changes = (cfg.get("events") or {}).get("value_changes") or []
+    if changes:
+        values = sorted(changes, key=lambda c: float(c["time_s"]))[-1]["values"]
+    return int(max(range(len(values)), key=lambda i: float(values[i]))) if values else 0
+
+
+def q_figure(name: str, d: Path, cfg: dict, fig_dir: Path) -> list[str]:
+    """The Q-tables of the first TAVC trial (trial 0, fixed before looking), robot by robot."""
+    path = d / "q_values.csv"
+    if not path.is_file():
+        return []
+    from tavc_cli.viz.figures import q_value_figure
+
+    q = pd.read_csv(path)
+    q = q[(q["controller"] == "tavc") & (q["trial"] == 0)]
+    if not len(q):
+        return []
+    robots = None
+    if (d / "robots.csv").is_file():
+        r = pd.read_csv(d / "robots.csv")
+        robots = r[(r["controller"] == "tavc") & (r["trial"] == 0)]
+    q_value_figure(q, robots, final_high_circuit(cfg), float(cfg.get("convergence_s") or 0.0),
+                   f"{name}: Q-values of TAVC trial 0, robot by robot", fig_dir / f"q_values_{name}")
+    return [f"![Q-values of trial 0, {name}](figures/q_values_{name}.png)"]
+

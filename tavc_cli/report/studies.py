@@ -1,0 +1,130 @@
+"""The report's sections for the studies beside the chapter's state tables: section 1.4's
+traversal times, policies and lanes, and the value-ratio sweep (`make value-ratio`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.io import write_text_atomic
+from tavc_cli.report.text import fmt
+
+
+def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
+    """The value-ratio sweep (`make value-ratio`), if it was run into results_dir/value_ratio:
+    its table (also written as value_ratio.csv there), a figure, and the model's prediction."""
+    root = results_dir / "value_ratio"
+    if not root.is_dir():
+        return []
+    from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
+    from tavc_cli.viz.figures import value_ratio_figure
+
+    points = ratio_points(root)
+    if not len(points):
+        return []
+    write_text_atomic(root / "value_ratio.csv", points.to_csv(index=False, float_format="%.4f"))
+    predicted = None
+    model_csv = model_json.parent / "model.csv" if model_json is not None else None
+    if model_csv is not None and model_csv.is_file():
+        n_robots = int(json.loads(model_json.read_text())["n_robots"])
+        fine = [round(1.0 + 0.01 * k, 2) for k in range(101)]
+        predicted = predicted_shares(model_csv, n_robots, fine)
+    value_ratio_figure(points, predicted, 1.1, "share of robots on the high-value circuit in the stable period",
+                       results_dir / "figures" / "value_ratio")
+    columns = list(dict.fromkeys(zip(points["reading"], points["horizon"], strict=True)))
+    lines = ["## Learning values and time", "",
+             "The chapter's learning values differ by 10 %. How far does the group move towards the high-value "
+             "circuit as the difference grows, at the chapter's trial length and at ten times it? "
+             "(`make value-ratio`: initial_distribution with w_low = 2000 and w_high = 2000 x ratio, TAVC only, "
+             "each reading and horizon on the same seeds; share of robots on the high-value circuit over the "
+             "stable period, mean ± std over trials; runs under `value_ratio/`, table in "
+             "`value_ratio/value_ratio.csv`.)", "",
+             "| ratio | model predicts | " + " | ".join(f"{r}, {h}" for r, h in columns) + " |",
+             "|---|---|" + "---|" * len(columns)]
+    for ratio in sorted(set(points["ratio"])):
+        pred = ""
+        if predicted is not None:
+            hit = predicted[(predicted["ratio"] - ratio).abs() < 1e-9]
+            pred = f"{hit['state'].iloc[0]} ({hit['share'].iloc[0]:.2f})" if len(hit) else ""
+        cells = []
+        for r, h in columns:
+            g = points[(points["reading"] == r) & (points["horizon"] == h) & ((points["ratio"] - ratio).abs() < 1e-9)]
+            cells.append(f"{g['mean'].iloc[0]:.2f} ± {fmt(g['std'].iloc[0], '.2f')} (n = {g['n_trials'].iloc[0]}"
+                         + (f", {g['policy_changes_per_trial'].iloc[0]:.1f} policy changes per trial)"
+                            if pd.notna(g["policy_changes_per_trial"].iloc[0]) else ")") if len(g) else "")
+        lines.append(f"| {ratio:.2f} | {pred} | " + " | ".join(cells) + " |")
+    lines += ["", "![share on the high-value circuit against the value ratio](figures/value_ratio.png)", "",
+              "With epsilon-greedy selection the unit of t only rescales every reward, and with it the Q-values, "
+              "against the fixed initial range [-0.1, 0.1]: with t in seconds the initial values are negligible "
+              "beside the first reward, with t in milliseconds they are of its order. The two readings therefore "
+              "differ only in how strongly the initial table decides each robot's first preference.", ""]
+    if points["reading"].str.contains("diagnostic").any():
+        lines += ["Rows marked diagnostic are not the chapter's rule: with gamma = 0 a Q-value is a running mean "
+                  "of its own task's reward and no longer bootstraps from the state the robot would switch to, so "
+                  "a robot compares running means of the circuits' rewards; its estimate for the circuit it does "
+                  "not serve still moves only on the exploratory choices. They separate the two brakes on "
+                  "learning; the verdicts use the chapter's gamma = 0.95.",
+                  ""]
+    return lines
+
+
+def spatiotemporal_lines(name: str, d: Path, cfg: dict, results_dir: Path) -> list[str]:
+    """Section 1.4: Table 1.1 beside the chapter's, Figure 1.4's kind, the learned policies, the lanes."""
+    from tavc_cli.analysis.spatiotemporal import target_time_curve
+    from tavc_cli.reference import chapter_table
+    from tavc_cli.viz.figures import lane_figure, target_time_figure
+
+    ours = pd.read_csv(d / "table_1_1.csv")
+    chapter = chapter_table("1.1")
+    lines = ["Individual traversal time after n traversals (mean ± std over robots) and the group's target time "
+             "after m arrivals (mean ± std over trials), the chapter's Table 1.1 beside ours. Both as the chapter "
+             "defines them: a traversal runs from a sink via the source back to a sink, a target time lies "
+             "between two arrivals at either a source or a sink. (The chapter's own last row, a target time a "
+             "fifth of the traversal time with five robots, fits one arrival per traversal rather than two.)", "",
+             "| n | chapter | ours (robots) | m | chapter | ours (trials) |", "|---|---|---|---|---|---|"]
+    for o, c in zip(ours.itertuples(), chapter.itertuples(), strict=True):
+        lines.append(f"| {o.n_traversals} | {c.mean_traversal_s:.1f} ± {c.std_traversal_s:.1f} | "
+                     f"{fmt(o.mean_traversal_s)} ± {fmt(o.std_traversal_s)} ({o.n_robots}) | {o.m_arrivals} | "
+                     f"{c.mean_target_s:.1f} ± {c.std_target_s:.1f} | {fmt(o.mean_target_s)} ± "
+                     f"{fmt(o.std_target_s)} ({o.n_trials}) |")
+    lines.append("")
+    fig_dir = results_dir / "figures"
+    if (d / "target_times.csv").is_file():
+        target_time_figure(target_time_curve(pd.read_csv(d / "target_times.csv")), chapter,
+                           f"{name}: the group's target time over arrivals (Figure 1.4's kind)", fig_dir / "fig_1_4")
+        lines += ["![Figure 1.4, tavc](figures/fig_1_4.png)", ""]
+    if (d / "policy.csv").is_file():
+        pol = pd.read_csv(d / "policy.csv")
+        shares = ", ".join(f"{c[len('share_'):]} {pol[c].mean():.2f}" for c in pol.columns if c.startswith("share_"))
+        rates = ", ".join(f"{c[len('stop_rate_'):]} {pol[c].mean():.2f}" for c in pol.columns
+                          if c.startswith("stop_rate_"))
+        learned = f", {pol['n_states'].mean():.1f} of the 32 states on average" if "n_states" in pol else ""
+        lines += [f"Learned policies ({len(pol)} robots, final Q-tables, over the states each robot learned in"
+                  f"{learned}): share whose best behaviour is each behaviour: {shares}. Stop-rates (share of those "
+                  f"states with that marking in view, and no yellow for red, green and front, whose best behaviour "
+                  f"is stop): {rates}.", ""]
+    if (d / "lanes.csv").is_file():
+        lanes = pd.read_csv(d / "lanes.csv")
+        parts = [f"{w} {g['mean_left_m'].mean():+.3f} ± {fmt(g['mean_left_m'].std(ddof=1), '.3f')} m"
+                 for w, g in lanes.groupby("window", sort=False)]
+        text = ("Lanes: mean offset to the left of the direction of travel, robots driving along the source-sink "
+                "axis away from its ends, per trial (mean ± std over trials): " + "; ".join(parts) + ".")
+        wide = lanes.pivot_table(index="trial", columns="window", values="mean_left_m")
+        if {"early", "late"} <= set(wide.columns) and len(wide.dropna()) >= 2:
+            from scipy import stats
+
+            both = wide.dropna()
+            res = stats.ttest_rel(both["late"], both["early"])
+            text += (f" Late against early, paired two-sided over {len(both)} trials (reported, not part of a "
+                     f"verdict): t = {res.statistic:.2f}, p = {res.pvalue:.3g}.")
+        lines += [text, ""]
+    if (d / "occupancy.csv").is_file():
+        arena = cfg["arena"]
+        xy = {t["name"]: (float(t["x"]), float(t["y"])) for t in arena["targets"]}
+        lane_figure(pd.read_csv(d / "occupancy.csv"), xy[arena["circuits"][0]["source"]],
+                    xy[arena["circuits"][0]["sink"]], f"{name}: where the robots drive", fig_dir / f"lanes_{name}")
+        lines += [f"![lanes, {name}](figures/lanes_{name}.png)", ""]
+    return lines
+

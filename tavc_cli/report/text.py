@@ -1,0 +1,227 @@
+"""The prose of an experiment's section of REPORT.md: its state table beside the chapter's,
+performance, settling, greedy policies, robot classes, vacancy chains, the model's
+prediction, its claims, and the command, seeds and versions of its run."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.analysis.claims import CLAIMS
+
+KIND_WORDS = {"stayer": "stayers", "alternator": "alternators", "mixed": "mixed", "idle": "idle (broken down or stuck)"}
+CONTROLLER_NAMES = {"tavc": "TAVC", "random": "random", "static": "static", "theory": "theory"}
+
+
+def fmt(x, spec=".1f") -> str:
+    return "" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
+
+
+def state_table(state_time: pd.DataFrame, comparison: pd.DataFrame | None) -> list[str]:
+    """Markdown: per state, the chapter's number and ours for each controller it printed."""
+    ours = {(r.state, r.controller): r for r in state_time.itertuples()}
+    controllers = [c for c in dict.fromkeys(state_time["controller"])]
+    chapter = {}
+    if comparison is not None:
+        chapter = {(r.state, r.quantity): r.chapter for r in comparison.itertuples()}
+    head = ["state"]
+    for c in controllers:
+        name = CONTROLLER_NAMES.get(c, c)
+        key = "theory_pct" if c == "theory" else f"{c}_mean_pct"
+        if any(q == key for _, q in chapter):
+            head.append(f"{name}, chapter")
+        head.append(f"{name}, ours" if chapter else name)
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for state in dict.fromkeys(state_time["state"]):
+        cells = [state]
+        for c in controllers:
+            r = ours.get((state, c))
+            if c == "theory":
+                key = "theory_pct"
+                if any(q == key for _, q in chapter):
+                    cells.append(fmt(chapter.get((state, key))))
+                cells.append(fmt(r.mean_pct) if r is not None else "")
+                continue
+            mean_key, std_key = f"{c}_mean_pct", f"{c}_std_pct"
+            if any(q == mean_key for _, q in chapter):
+                m, s = chapter.get((state, mean_key)), chapter.get((state, std_key))
+                cells.append(f"{fmt(m)} ± {fmt(s)}" if m is not None and s is not None else fmt(m))
+            cells.append(f"{fmt(r.mean_pct)} ± {fmt(r.std_pct)}" if r is not None else "")
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def claims_table(claims: pd.DataFrame) -> list[str]:
+    lines = ["| claim | verdict | t | p | what was tested |", "|---|---|---|---|---|"]
+    for r in claims.itertuples():
+        detail = str(r.detail).replace("|", "/").replace("; ", "<br>")
+        lines.append(f"| {r.claim_id}: {r.claim} | **{r.verdict.replace('_', ' ')}** | {fmt(r.statistic, '.2f')} | "
+                     f"{fmt(r.p_value, '.3g')} | {detail} |")
+    return lines
+
+
+def performance(stats: pd.DataFrame) -> str:
+    parts = []
+    for ctrl, g in stats.groupby("controller", sort=False):
+        x = g["value_rate_stable"].dropna()
+        sd = x.std(ddof=1) if len(x) > 1 else math.nan
+        parts.append(f"{CONTROLLER_NAMES.get(ctrl, ctrl)} {x.mean():.4f} ± {fmt(sd, '.4f')} (n = {len(x)})")
+    return "score value delivered per second in the stable period: " + ", ".join(parts)
+
+
+def model_lines(model_json: Path, state_time: pd.DataFrame) -> list[str]:
+    if not model_json.is_file():
+        return []
+    m = json.loads(model_json.read_text())
+    tavc = state_time[state_time["controller"] == "tavc"]
+    top = tavc.sort_values("mean_pct", ascending=False).iloc[0] if len(tavc) else None
+    lines = [f"The model (`tavc model`, {m['measurement']['trials_per_split']} static trials per split) predicts "
+             f"**{m['predicted_state']}** for {m['n_robots']} robots"]
+    by = m.get("by_team_size", {})
+    others = [f"{v['predicted_state']} for {k}" for k, v in by.items() if int(k) != int(m["n_robots"])]
+    if others:
+        lines[0] += " and " + ", ".join(others)
+    lines[0] += "."
+    if top is not None:
+        lines.append(f"The learners' most frequent state in the stable period: {top['state']} "
+                     f"({top['mean_pct']:.1f} % of it).")
+    return [" ".join(lines)]
+
+
+def differences(cfg: dict) -> list[str]:
+    """Settings of this run that differ from the chapter's for the experiment."""
+    out = []
+    paper = cfg.get("paper") or {}
+    if paper.get("trials") is not None and cfg.get("trials") != paper.get("trials"):
+        out.append(f"trials {cfg.get('trials')} (the chapter: {paper['trials']})")
+    if paper.get("duration_s") is not None and float(cfg.get("duration_s", 0)) != float(paper["duration_s"]):
+        out.append(f"duration {float(cfg['duration_s']):g} s (the chapter: {float(paper['duration_s']):g} s)")
+    values = (cfg.get("tasks") or {}).get("values")
+    chapter_values = cfg.get("experiment_name") != "spatiotemporal"
+    if values is not None and chapter_values and [float(v) for v in values] != [2200.0, 2000.0]:
+        out.append(f"task values {values} (the chapter: [2200, 2000])")
+    return out
+
+
+def settle_lines(stats: pd.DataFrame, cfg: dict) -> list[str]:
+    """When the trials' allocations settled, beside the chapter's convergence period."""
+    if "settle_s" not in stats or not stats["settle_s"].notna().any():
+        return []
+    from tavc_cli.analysis.trial_stats import SETTLE_TOL
+
+    parts = []
+    for ctrl, g in stats.groupby("controller", sort=False):
+        x = g["settle_s"].to_numpy(float)
+        done = x[pd.notna(x)]
+        text = f"{CONTROLLER_NAMES.get(ctrl, ctrl)} settled in {len(done)} of {len(x)} trials"
+        if len(done):
+            text += f", median {pd.Series(done).median():.0f} s"
+        parts.append(text)
+    paper = (cfg.get("paper") or {}).get("convergence_s")
+    lines = [f"Settling (the first {float(cfg['analysis']['performance_bin_s']):g} s bin after which the mean number "
+            f"of robots on the high-value circuit stays within {SETTLE_TOL:g} of its stable-period mean, counted "
+            "from t = 0): " + "; ".join(parts)
+            + (f". The chapter took {float(paper):g} s as its convergence period." if paper else "."), ""]
+    return lines + policy_lines(stats)
+
+
+def policy_lines(stats: pd.DataFrame) -> list[str]:
+    """When the learners' greedy policies stopped changing, and how often they changed."""
+    if "policy_changes" not in stats or not stats["policy_changes"].notna().any():
+        return []
+    parts = []
+    for ctrl, g in stats.groupby("controller", sort=False):
+        changes = g["policy_changes"].dropna()
+        if not len(changes):
+            continue
+        settle = g["policy_settle_s"].dropna()
+        text = (f"{CONTROLLER_NAMES.get(ctrl, ctrl)}: in {int((changes == 0).sum())} of {len(changes)} trials no "
+                f"robot's greedy policy changed at all; {changes.sum():.0f} changes in all "
+                f"({changes.mean():.2f} per trial)")
+        if len(settle) < len(changes):
+            text += f"; still changing at the end in {len(changes) - len(settle)} trials"
+        if len(settle):
+            text += f"; the last change came at {settle.max():.0f} s at the latest"
+        parts.append(text)
+    return ["Greedy policies (a robot's best next circuit after each circuit it may have served, read from its "
+            "Q-table snapshots, counted from t = 0): " + "; ".join(parts) + ".", ""]
+
+
+def robot_lines(d: Path) -> list[str]:
+    """How many robots per trial stayed on one circuit, alternated, or mixed (`robots.csv`)."""
+    path = d / "robots.csv"
+    if not path.is_file():
+        return []
+    from tavc_cli.analysis.robots import ALTERNATOR_RATE, STAYER_SHARE, robot_summary
+
+    parts = []
+    for ctrl, kinds in robot_summary(pd.read_csv(path)).items():
+        parts.append(f"{CONTROLLER_NAMES.get(ctrl, ctrl)} " + ", ".join(
+            f"{v:.1f} {KIND_WORDS[k]}" for k, v in kinds.items() if v > 0))
+    return [f"Robots per trial in the stable period (stayer: {STAYER_SHARE:.0%} or more of its choices on one "
+            f"circuit; alternator: {ALTERNATOR_RATE:.0%} or more of its choices switch): " + "; ".join(parts) + ".", ""]
+
+
+def vacancy_lines(d: Path) -> list[str]:
+    """The vacancy chains of a run with an event: a summary per controller, TAVC's trials in a table."""
+    path = d / "vacancy.csv"
+    if not path.is_file():
+        return []
+    from tavc_cli.analysis.vacancy import SETTLE_TASKS, vacancy_summary
+
+    table = pd.read_csv(path)
+    lines = [f"Vacancy chains. The event leaves one circuit short: the broken robot's, or the one that became "
+             f"high-valued. A move counts once the robot serves its new circuit {SETTLE_TASKS} tasks running, and "
+             "the first such move onto the short circuit fills it; this does not check that the circuit's count is "
+             "restored, and random choices make such moves by chance (`vacancy.csv` has every trial):", ""]
+    lines += [f"- {text}" for text in (vacancy_summary(table, c) for c in dict.fromkeys(table["controller"])) if text]
+    tavc = table[table["controller"] == "tavc"]
+    if len(tavc):
+        lines += ["", "| trial | vacancy on circuit | filled by | from circuit | after (s) | moves before | chain |",
+                  "|---|---|---|---|---|---|---|"]
+        for r in tavc.itertuples():
+            filled = bool(r.filled)
+            chain = "" if pd.isna(r.chain) else r.chain
+            lines.append(f"| {r.trial} | {r.vacancy_circuit} | {r.filler if filled else '-'} | "
+                         f"{r.filler_from if filled else '-'} | {fmt(r.fill_delay_s, '.0f')} | "
+                         f"{r.moves_before_fill} | {chain} |")
+    return [*lines, ""]
+
+
+def q_gap_lines(stats: pd.DataFrame) -> list[str]:
+    """Mean final Q(high) - Q(low) per speed group (heterogeneous teams)."""
+    from tavc_cli.analysis.trial_stats import Q_GAP_PREFIX
+
+    cols = [c for c in stats.columns if c.startswith(Q_GAP_PREFIX)]
+    tavc = stats[stats["controller"] == "tavc"]
+    if len(cols) < 2 or not len(tavc):
+        return []
+    parts = [f"{c[len(Q_GAP_PREFIX):]} robots {tavc[c].mean():.4g} ± {fmt(tavc[c].std(ddof=1), '.2g')}"
+             for c in cols]
+    return ["Final Q(high) - Q(low), averaged over states and over each group's robots, mean ± std over TAVC "
+            "trials: " + "; ".join(parts) + ".", ""]
+
+
+def run_lines(name: str, cfg: dict, prov: dict, claims: pd.DataFrame, runs: dict) -> list[str]:
+    """An experiment's claims table, the command and provenance of its run, and its settings
+    that differ from the chapter's."""
+    lines = []
+    own = claims[[CLAIMS[c][0] == name for c in claims["claim_id"]]]
+    if len(own) and name in runs:
+        lines += [*claims_table(own), ""]
+    diffs = differences(cfg)
+    command = prov.get("command_line") or ["tavc", "run", f"experiment={name}"]
+    if isinstance(command, list):
+        command = " ".join(["tavc", *command[1:]])
+    lines += [f"Run: `{command}`; root seed "
+              f"{prov.get('root_seed', cfg.get('seed'))}; tavc {prov.get('tavc_version', '?')} at "
+              f"{prov.get('git_commit') or 'no git commit'}; {len(prov.get('trials', []))} trials "
+              f"({prov.get('n_trials_reused', 0)} reused from an earlier run), "
+              f"{fmt(prov.get('wall_time_s'), '.0f')} s wall time for this invocation.", ""]
+    if diffs:
+        lines += ["Differs from the chapter: " + "; ".join(diffs) + ".", ""]
+    return lines
+
