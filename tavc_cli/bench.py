@@ -47,7 +47,7 @@ def _physics_only(specs) -> float:
     engine = BatchEngine(specs)
     n_ticks = int(round(specs[0].duration_s / specs[0].dt_s))
     world = engine.world
-    cmd = np.column_stack([engine.fparam[:, 1], np.full(engine.n, 0.2)])
+    cmd = np.column_stack([engine.robots["top_speed_mps"], np.full(engine.n, 0.2)])
     world.poses()
     world.drive(cmd)
     start = time.perf_counter()

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from tavc_cli.behaviours import navigation as nav
+from tavc_cli.behaviours import layout
 from tavc_cli.config import load_config, to_container
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine
@@ -15,7 +15,7 @@ def _engine(behaviour: int, duration_s: float = 120.0) -> BatchEngine:
     cfg = to_container(load_config(["arena=one_circuit", "learner=static", "team.n_robots=1", "trials=1",
                                     f"duration_s={duration_s}", "convergence_s=0", "scale=paper"]))
     eng = BatchEngine(trial_specs(cfg))
-    eng.istate[:, nav.I_FORCED] = behaviour
+    eng.robots["forced"] = behaviour
     return eng
 
 
@@ -27,14 +27,14 @@ def _trace(eng: BatchEngine) -> np.ndarray:
 
 
 def test_stopping_freezes_the_robot():
-    poses, rec = _trace(_engine(nav.BEH_STOP))
+    poses, rec = _trace(_engine(layout.BEH_STOP))
     # 120 s standing still: the robot is where it started, to the millimetre
     assert np.abs(poses[:, :2] - poses[0, :2]).max() < 1e-3
     assert len(rec.table("arrivals")["t_s"]) == 0
 
 
 def test_wall_following_keeps_to_the_boundary_and_passes_targets():
-    poses, rec = _trace(_engine(nav.BEH_WALL, duration_s=400.0))
+    poses, rec = _trace(_engine(layout.BEH_WALL, duration_s=400.0))
     later = poses[len(poses) // 4:]  # after it has found a wall
     gap = np.minimum.reduce([later[:, 0], 8.0 - later[:, 0], later[:, 1], 6.0 - later[:, 1]])
     # it runs along the walls: its centre mostly within radius + 2 x wall distance of one
@@ -46,7 +46,7 @@ def test_wall_following_keeps_to_the_boundary_and_passes_targets():
 
 
 def test_direct_approach_drives_straight_at_the_target():
-    poses, rec = _trace(_engine(nav.BEH_DIRECT, duration_s=200.0))
+    poses, rec = _trace(_engine(layout.BEH_DIRECT, duration_s=200.0))
     arrivals = rec.table("arrivals")
     assert len(arrivals["t_s"]) >= 2  # source and then sink, at least
     # its first leg is nearly straight: path length within 25 % of the start-to-arrival distance

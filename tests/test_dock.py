@@ -35,7 +35,7 @@ def _arrival_poses(eng):
     seen = []
 
     def watch(e):
-        for g in np.flatnonzero(e.istate[:, 6]):  # I_ARRIVED of this tick
+        for g in np.flatnonzero(e.robots["arrived"]):  # arrivals of this tick
             seen.append((e.t - e.dt, int(g), e.pose[g].copy()))
 
     eng.on_tick = watch

@@ -12,8 +12,9 @@ import pymunk
 import pytest
 import yaml
 
+from tavc_cli.behaviours.layout import PARAMS, ROBOT, ArenaGeometry, build_arena, build_laser, empty_scan
 from tavc_cli.config import find_conf_dir
-from tavc_cli.sim.arena import arena_from_mapping
+from tavc_cli.sim.arena import N_OUTER_WALLS, arena_from_mapping
 from tavc_cli.sim.sensors import (
     HIT_NONE,
     HIT_ROBOT,
@@ -37,39 +38,36 @@ def one_circuit():
         return arena_from_mapping(yaml.safe_load(fh))
 
 
+def _robots(poses, alive=None, lo=0, hi=None):
+    """ROBOT records of robots at `poses`, rows lo..hi one trial."""
+    n = len(poses)
+    robots = np.zeros(n, dtype=ROBOT)
+    robots["radius_m"] = RADIUS_M
+    robots["alive"] = True if alive is None else np.asarray(alive, dtype=np.bool_)
+    robots["first"], robots["last"] = lo, n if hi is None else hi
+    return robots
+
+
+def _params(**values):
+    params = np.zeros((), dtype=PARAMS)
+    for key, value in values.items():
+        params[key] = value
+    return params[()]
+
+
 def _laser(arena, poses, ray_ang, *, r=0, lo=0, hi=None, alive=None, max_range=8.0, walls=None):
-    """Cast robot r's rays; returns (range, kind, id, points) of that robot."""
+    """Cast robot r's rays; returns (range, kind, id, points in the robot's frame) of that robot."""
     pose = np.asarray(poses, dtype=np.float64)
-    n = len(pose)
-    hi = n if hi is None else hi
-    alive = np.ones(n, dtype=np.bool_) if alive is None else np.asarray(alive, dtype=np.bool_)
     ray_ang = np.asarray(ray_ang, dtype=np.float64)
-    ray_cs = np.column_stack([np.cos(ray_ang), np.sin(ray_ang)])
-    nr = len(ray_ang)
-    out_range = np.zeros((n, nr))
-    out_kind = np.zeros((n, nr), dtype=np.int64)
-    out_id = np.zeros((n, nr), dtype=np.int64)
-    out_pts = np.zeros((n, nr, 2))
-    cast_laser(
-        r,
-        pose,
-        np.full(n, RADIUS_M),
-        alive,
-        lo,
-        hi,
-        ray_ang,
-        ray_cs,
-        max_range,
-        np.ascontiguousarray(arena.walls if walls is None else walls),
-        np.ascontiguousarray(arena.target_segments),
-        arena.target_wall,
-        arena.target_barcodes,
-        out_range,
-        out_kind,
-        out_id,
-        out_pts,
-    )
-    return out_range[r], out_kind[r], out_id[r], out_pts[r]
+    laser = build_laser(180.0, 1)._replace(angle_rad=ray_ang, cos=np.cos(ray_ang), sin=np.sin(ray_ang))
+    geometry = build_arena(arena)
+    if walls is not None:
+        geometry = geometry._replace(inner_walls=np.ascontiguousarray(np.asarray(walls)[N_OUTER_WALLS:]))
+    scan = empty_scan(len(pose), len(ray_ang))
+    params = _params(laser_range_m=max_range, arena_width_m=arena.width_m, arena_height_m=arena.height_m)
+    cast_laser(r, _robots(pose, alive, lo, hi), pose, laser, geometry, params, scan)
+    pts = scan.range_m[r][:, None] * np.column_stack([laser.cos, laser.sin])
+    return scan.range_m[r], scan.kind[r], scan.hit_id[r], pts
 
 
 # --- laser: hand geometry ----------------------------------------------------------------------
@@ -336,21 +334,12 @@ def _camera(poses, alive=None, walls=None, fov_deg=80.0, range_m=6.0, sector_deg
         if walls is None
         else np.asarray(walls, dtype=np.float64)
     )
-    out = np.zeros((n, 4), dtype=np.int64)
-    camera_nearest(
-        0,
-        pose,
-        np.full(n, RADIUS_M),
-        alive,
-        0,
-        n,
-        math.radians(fov_deg) / 2,
-        range_m,
-        walls,
-        4,
-        math.radians(sector_deg),
-        out,
-    )
+    geometry = ArenaGeometry(np.zeros(0), np.ascontiguousarray(walls[N_OUTER_WALLS:]))
+    params = _params(camera_on=True, camera_half_fov_rad=math.radians(fov_deg) / 2, camera_range_m=range_m,
+                     marking_sector_rad=math.radians(sector_deg))
+    scan = empty_scan(n, 1)
+    camera_nearest(0, _robots(pose, alive), pose, geometry, params, scan)
+    out = scan.camera
     return tuple(int(v) for v in out[0])
 
 
@@ -397,15 +386,17 @@ def _drive(truth_steps, sigmas, n_rows, seed=0):
     """
     rng = np.random.default_rng(seed)
     start = np.asarray(truth_steps[0], dtype=np.float64)
-    est = np.tile(start, (n_rows, 1))
-    prev = np.tile(start, (n_rows, 1))
-    pose = prev.copy()
+    robots = np.zeros(n_rows, dtype=ROBOT)
+    robots["odo_trans_per_sqrt_m"], robots["odo_rot_per_sqrt_m"], robots["odo_rot_per_sqrt_rad"] = sigmas
+    for i, name in enumerate(("x_m", "y_m", "heading_rad")):
+        robots[f"est_{name}"] = robots[f"prev_{name}"] = start[i]
+    pose = np.tile(start, (n_rows, 1))
     for step in truth_steps[1:]:
         pose[:] = step
         noise = rng.standard_normal((n_rows, 3))
         for r in range(n_rows):
-            odometry_update(r, prev, pose, est, noise, *sigmas)
-        prev[:] = pose
+            odometry_update(r, robots, pose, noise)
+    est = np.column_stack([robots["est_x_m"], robots["est_y_m"], robots["est_heading_rad"]])
     return pose[0], est
 
 

@@ -1,6 +1,6 @@
 """Serving a target at its dock spot: where the robot stands relative to the spot, whether
 another robot holds the spot, the aligned final approach, and the timed stand and back-out.
-Compiled with numba; everything works on one robot's rows of the arrays.
+Compiled with numba; everything works on one robot's row of the bundles of `behaviours.layout`.
 """
 
 from __future__ import annotations
@@ -11,27 +11,7 @@ import numpy as np
 from numba import njit
 
 from tavc_cli.behaviours.activities import ACT_DOCK
-from tavc_cli.behaviours.layout import (
-    F_RADIUS,
-    F_VMAX,
-    F_WMAX,
-    FS_BEST,
-    FS_STALL,
-    FS_TIMER,
-    G_BACKOUT,
-    G_DOCK_APPROACH,
-    G_DT,
-    G_STOP,
-    I_ACT,
-    I_MODE,
-    MODE_APPROACH,
-    MODE_SERVICE,
-    MODE_UNDOCK,
-    T_NX,
-    T_NY,
-    T_X,
-    T_Y,
-)
+from tavc_cli.behaviours.layout import MODE_APPROACH, MODE_SERVICE, MODE_UNDOCK
 from tavc_cli.behaviours.motion import free_distance
 from tavc_cli.sim.sensors import HIT_ROBOT, wrap_angle
 
@@ -57,18 +37,18 @@ def to_frame(px, py, th, gx, gy):
 
 
 @njit(cache=True, inline="always")
-def dock_frame(px, py, th, tinfo, tgt, standoff):
+def dock_frame(px, py, th, target, standoff):
     """Pose relative to target tgt's dock spot, the point `standoff` out from the bar-code
     along its wall's normal: (along the normal, positive into the arena; along the wall;
     heading error from facing the wall)."""
-    nx, ny = tinfo[tgt, T_NX], tinfo[tgt, T_NY]
-    dx = px - (tinfo[tgt, T_X] + nx * standoff)
-    dy = py - (tinfo[tgt, T_Y] + ny * standoff)
+    nx, ny = target.nx, target.ny
+    dx = px - (target.x_m + nx * standoff)
+    dy = py - (target.y_m + ny * standoff)
     return dx * nx + dy * ny, dy * nx - dx * ny, wrap_angle(th - math.atan2(-ny, -nx))
 
 
 @njit(cache=True)
-def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, ranges, kinds, ids, pts, radius):
+def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, scan, laser, nearest, radius):
     """Whether the laser shows another robot within `zone` of the dock spot, nearer to it than robot r.
 
     The rays that hit one robot form a blob; the shortest of them passes nearest its
@@ -79,21 +59,13 @@ def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, 
     of their position along the wall, which both see alike.
     """
     c, s = math.cos(th), math.sin(th)
-    n = pts.shape[1]
-    for j in range(n):
-        if kinds[r, j] != HIT_ROBOT:
-            continue
-        nearest = True
-        for k in range(n):
-            if kinds[r, k] == HIT_ROBOT and ids[r, k] == ids[r, j] and (
-                    ranges[r, k] < ranges[r, j] or (ranges[r, k] == ranges[r, j] and k < j)):
-                nearest = False
-                break
-        if not nearest:
+    ranges = scan.range_m
+    for j in range(ranges.shape[1]):
+        if not nearest[j]:
             continue
         rng = max(ranges[r, j], 1e-9)
-        hx = pts[r, j, 0] * (1.0 + radius / rng)
-        hy = pts[r, j, 1] * (1.0 + radius / rng)
+        hx = (ranges[r, j] * laser.cos[j]) * (1.0 + radius / rng)
+        hy = (ranges[r, j] * laser.sin[j]) * (1.0 + radius / rng)
         wx = px + c * hx - s * hy
         wy = py + s * hx + c * hy
         d = math.sqrt((wx - dock_x) ** 2 + (wy - dock_y) ** 2)
@@ -108,23 +80,43 @@ def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, 
 
 
 @njit(cache=True)
-def robot_in_front(r, ranges, kinds, ray_ang, radius):
+def nearest_rays(r, scan, out):
+    """out[j] = whether ray j of robot r is the shortest of the rays that hit the same robot
+    (the first of equals): one ray per robot in view, the one passing nearest its centre."""
+    kinds, ids, ranges = scan.kind, scan.hit_id, scan.range_m
+    n = ranges.shape[1]
+    for j in range(n):
+        out[j] = False
+        if kinds[r, j] != HIT_ROBOT:
+            continue
+        nearest = True
+        for k in range(n):
+            if kinds[r, k] == HIT_ROBOT and ids[r, k] == ids[r, j] and (
+                    ranges[r, k] < ranges[r, j] or (ranges[r, k] == ranges[r, j] and k < j)):
+                nearest = False
+                break
+        out[j] = nearest
+
+
+@njit(cache=True)
+def robot_in_front(r, scan, radius):
     """Whether a robot is within a give-way gap of robot r, anywhere in its laser's view."""
-    for j in range(ray_ang.shape[0]):
-        if kinds[r, j] == HIT_ROBOT and ranges[r, j] < radius + GIVEWAY_GAP_M:
+    for j in range(scan.range_m.shape[1]):
+        if scan.kind[r, j] == HIT_ROBOT and scan.range_m[r, j] < radius + GIVEWAY_GAP_M:
             return True
     return False
 
 
 @njit(cache=True)
-def dock_drive(r, along, lat, face, own_barcode, own_wall, kinds, ids, pts, fparam, gp, cmd):
+def dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, params, cmd):
     """The final approach: drive along the bar-code's normal up to the dock spot, facing the wall.
 
     The robot pursues a point on the normal a short look-ahead in front of it (this steers
     out its lateral offset as it closes in), slowing to a creep near the spot. The dock's
     own wall and bar-code are no obstacle here, other robots are.
     """
-    radius, vmax, wmax = fparam[r, F_RADIUS], fparam[r, F_VMAX], fparam[r, F_WMAX]
+    rob = robots[r]
+    radius, vmax, wmax = rob.radius_m, rob.top_speed_mps, rob.turn_rate_radps
     aim_along = max(along - DOCK_LOOKAHEAD_M, -0.05)
     # the aim point relative to the robot, in the dock frame (x along the normal, y along the wall)
     ax, ay = aim_along - along, -lat
@@ -135,29 +127,30 @@ def dock_drive(r, along, lat, face, own_barcode, own_wall, kinds, ids, pts, fpar
         cmd[r, 0] = 0.0
         cmd[r, 1] = wmax if err > 0 else -wmax
         return
-    ahead = free_distance(r, 0.0, radius, pts, kinds, ids, own_barcode, own_wall)
-    speed = vmax * min(1.0, max(DOCK_CREEP, (along + 0.05) / max(gp[G_DOCK_APPROACH], 1e-9)))
-    if ahead < gp[G_STOP]:
+    ahead = free_distance(r, 0.0, radius, scan, laser, own_barcode, own_wall)
+    speed = vmax * min(1.0, max(DOCK_CREEP, (along + 0.05) / max(params.dock_approach_m, 1e-9)))
+    if ahead < params.stop_dist_m:
         speed = 0.0  # another robot in the way
     cmd[r, 0] = speed * math.cos(err) ** 2
     cmd[r, 1] = min(wmax, max(-wmax, 2.5 * err))
 
 
 @njit(cache=True)
-def dock_phase(r, istate, fstate, fparam, gp, cmd):
+def dock_phase(r, robots, params, cmd):
     """Standing at the dock (loading or unloading), then backing straight out, both timed:
     whatever is behind, the robot leaves the spot after `dwell` plus the back-out time."""
-    fstate[r, FS_TIMER] -= gp[G_DT]
-    istate[r, I_ACT] = ACT_DOCK
+    rob = robots[r]
+    rob.timer_s -= params.dt_s
+    rob.activity = ACT_DOCK
     cmd[r, 1] = 0.0
-    if istate[r, I_MODE] == MODE_SERVICE:
+    if rob.mode == MODE_SERVICE:
         cmd[r, 0] = 0.0
-        if fstate[r, FS_TIMER] <= 0.0:
-            istate[r, I_MODE] = MODE_UNDOCK
-            fstate[r, FS_TIMER] = gp[G_BACKOUT] / (BACKOUT_SPEED * fparam[r, F_VMAX])
+        if rob.timer_s <= 0.0:
+            rob.mode = MODE_UNDOCK
+            rob.timer_s = params.backout_m / (BACKOUT_SPEED * rob.top_speed_mps)
     else:
-        cmd[r, 0] = -BACKOUT_SPEED * fparam[r, F_VMAX]
-        if fstate[r, FS_TIMER] <= 0.0:
-            istate[r, I_MODE] = MODE_APPROACH
-            fstate[r, FS_BEST] = np.inf
-            fstate[r, FS_STALL] = 0.0
+        cmd[r, 0] = -BACKOUT_SPEED * rob.top_speed_mps
+        if rob.timer_s <= 0.0:
+            rob.mode = MODE_APPROACH
+            rob.best_dist_m = np.inf
+            rob.stall_s = 0.0

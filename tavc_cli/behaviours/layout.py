@@ -1,136 +1,189 @@
-"""The kernel's data layout: columns of the per-robot state and parameter arrays, the
-global parameter vector (and how a robot config fills it), the target table, the
-behaviour modes.
+"""The kernel's data: what one control tick reads and writes, in four named bundles.
 
-The compiled kernel works on plain arrays; these names say what each column holds.
+The compiled kernel (`navigation.control_tick`) works on plain numpy data, so its
+inputs are laid out here once, with names and units:
+
+- `ROBOT`, a record per robot: which trial it belongs to, its own model (radius,
+  speeds, odometry noise), its dead-reckoned pose and the true pose of the last
+  tick, and its behaviour state (target, mode, timers);
+- `PARAMS`, one record of parameters every robot shares: the behaviours', the
+  sensors', the dock's and the arena's size;
+- `ArenaGeometry`: the targets (`TARGET` records: bar-code centre, inward normal, code,
+  the outer wall it hangs on, and the bar-code segment the laser reads) and the
+  interior walls (the outer rectangle is `PARAMS.arena_width_m` x `arena_height_m`);
+- `Laser`: the rays' directions relative to the heading;
+- `Scan`, what the sensors wrote this tick: per ray range, kind of hit and hit id;
+  per robot what the camera saw.
+
+`build_robots`, `build_params`, `build_arena`, `build_laser` and `empty_scan` fill
+them from the config and the arena.
 """
+
+from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import NamedTuple
 
 import numpy as np
 
-# columns of the integer robot state
-(I_TRIAL, I_ALIVE, I_TARGET, I_MODE, I_SIDE, I_FORCED, I_ARRIVED, I_TVIS, I_LO, I_HI, I_TURN, I_LASTTGT,
- I_ACT) = range(13)
-N_ISTATE = 13
-# columns of the per-robot float state: best distance to the goal so far, seconds
-# without progress, seconds of escape left, seconds left of the current dock phase
-FS_BEST, FS_STALL, FS_ESCAPE, FS_TIMER, FS_WAITED = range(5)
-N_FSTATE = 5
-# columns of the per-robot float parameters
-F_RADIUS, F_VMAX, F_WMAX, F_SIG_T, F_SIG_RM, F_SIG_RR = range(6)
-N_FPARAM = 6
-# global behaviour and sensor parameters
-(G_AVOID, G_STOP, G_ARRIVE, G_WALLD, G_VISMARGIN, G_RELOC, G_RANGE,
- G_CAM_FOV_HALF, G_CAM_RANGE, G_SIDE_SECTOR, G_BARCODE_W, G_STALL_S, G_ESCAPE_S, G_PROGRESS_M, G_DT,
- G_DOCK_LAT, G_DOCK_HEAD, G_DOCK_APPROACH, G_DWELL, G_BACKOUT, G_OCCUPIED, G_HOLD, G_PATIENCE) = range(23)
-N_GPARAM = 23
-# columns of the target table: bar-code centre x, y, inward normal x, y, bar-code id, outer wall index
-T_X, T_Y, T_NX, T_NY, T_CODE, T_WALL = range(6)
+from tavc_cli.sim.arena import N_OUTER_WALLS, Arena
+from tavc_cli.sim.sensors import ray_angles
+
+ROBOT = np.dtype([
+    # robots of one trial are rows first..last-1 of every per-robot array, and see only each other
+    ("trial", np.int64), ("first", np.int64), ("last", np.int64),
+    ("alive", np.bool_),
+    # the robot's own model
+    ("radius_m", np.float64), ("top_speed_mps", np.float64), ("turn_rate_radps", np.float64),
+    ("odo_trans_per_sqrt_m", np.float64),   # std of distance error per sqrt(m) travelled
+    ("odo_rot_per_sqrt_m", np.float64),     # std of heading error (rad) per sqrt(m) travelled
+    ("odo_rot_per_sqrt_rad", np.float64),   # std of heading error (rad) per sqrt(rad) turned
+    # where the robot believes it is (odometry), and where it truly was last tick
+    ("est_x_m", np.float64), ("est_y_m", np.float64), ("est_heading_rad", np.float64),
+    ("prev_x_m", np.float64), ("prev_y_m", np.float64), ("prev_heading_rad", np.float64),
+    # behaviour state: the target it heads for (-1: none) and the last one progress was tracked to
+    ("target", np.int64), ("last_target", np.int64),
+    ("mode", np.int64),          # MODE_*
+    ("forced", np.int64),        # BEH_*: a behaviour chosen from outside, or BEH_AUTO
+    ("side", np.int64),          # wall-following side: +1 left, -1 right, 0 not chosen
+    ("turn", np.int64),          # turn-in-place direction kept while boxed in or turning round
+    ("activity", np.int64),      # this tick's activity (behaviours.activities)
+    ("arrived", np.bool_),       # reached its target this tick
+    ("target_visible", np.bool_),  # the laser reads its target's bar-code this tick
+    ("best_dist_m", np.float64),  # nearest it has come to its goal since progress was last made
+    ("stall_s", np.float64),      # seconds without progress
+    ("escape_s", np.float64),     # seconds of escape left
+    ("timer_s", np.float64),      # seconds left of the current dock phase
+    ("waited_s", np.float64),     # seconds spent waiting near an occupied dock
+], align=True)
+
+PARAMS = np.dtype([
+    ("dt_s", np.float64),
+    ("arena_width_m", np.float64), ("arena_height_m", np.float64),
+    # behaviours
+    ("avoid_dist_m", np.float64), ("stop_dist_m", np.float64), ("arrive_dist_m", np.float64),
+    ("wall_dist_m", np.float64), ("visible_margin_m", np.float64), ("relocalise_dist_m", np.float64),
+    ("stall_s", np.float64), ("escape_s", np.float64), ("progress_m", np.float64),
+    # sensors
+    ("laser_range_m", np.float64), ("barcode_width_m", np.float64),
+    ("camera_on", np.bool_),     # whether anyone reads the camera (section 1.4's learners)
+    ("camera_half_fov_rad", np.float64), ("camera_range_m", np.float64), ("marking_sector_rad", np.float64),
+    # docking
+    ("dock_lateral_tol_m", np.float64), ("dock_heading_tol_rad", np.float64), ("dock_approach_m", np.float64),
+    ("dwell_s", np.float64), ("backout_m", np.float64), ("occupied_m", np.float64),
+    ("hold_m", np.float64), ("patience_s", np.float64),
+], align=True)
+
+TARGET = np.dtype([
+    ("x_m", np.float64), ("y_m", np.float64),    # bar-code centre, on its wall
+    ("nx", np.float64), ("ny", np.float64),      # the wall's inward unit normal
+    ("barcode", np.int64),
+    ("wall", np.int64),                          # outer wall: 0 bottom, 1 right, 2 top, 3 left
+    # the bar-code segment the laser reads, a hair in front of the wall
+    ("x1_m", np.float64), ("y1_m", np.float64), ("x2_m", np.float64), ("y2_m", np.float64),
+], align=True)
+
+
+class ArenaGeometry(NamedTuple):
+    """What the sensors and behaviours know of the arena besides its outer rectangle."""
+
+    targets: np.ndarray       # (n_targets,) TARGET
+    inner_walls: np.ndarray   # (n, 4) x1, y1, x2, y2 m; a laser hit on row w reports id N_OUTER_WALLS + w
+
+
+class Laser(NamedTuple):
+    """Ray directions relative to the heading, evenly spaced over the field of view."""
+
+    angle_rad: np.ndarray
+    cos: np.ndarray
+    sin: np.ndarray
+
+
+class Scan(NamedTuple):
+    """This tick's readings, one row per robot."""
+
+    range_m: np.ndarray   # (n, n_rays) distance to what the ray hit, or the laser's range
+    kind: np.ndarray      # (n, n_rays) HIT_* (sensors)
+    hit_id: np.ndarray    # (n, n_rays) bar-code, robot row or wall index of the hit; -1 for none
+    camera: np.ndarray    # (n, 4) red, green, yellow markings of the nearest robot seen, its row (-1: none)
+
 
 MODE_APPROACH, MODE_WALLFOLLOW, MODE_ESCAPE, MODE_DOCK, MODE_SERVICE, MODE_UNDOCK = range(6)
 BEH_AUTO, BEH_DIRECT, BEH_WALL, BEH_STOP = -1, 0, 1, 2
 
-def behaviour_params(robot: Mapping, barcode_width_m: float, dt_s: float) -> np.ndarray:
-    """The kernel's global sensor and behaviour parameters, from a robot config mapping."""
-    laser, cam, beh = robot["laser"], robot["camera"], robot["behaviour"]
-    gp = np.zeros(N_GPARAM)
-    gp[G_AVOID] = beh["avoid_dist_m"]
-    gp[G_STOP] = beh["stop_dist_m"]
-    gp[G_ARRIVE] = beh["arrive_dist_m"]
-    gp[G_WALLD] = beh["wall_dist_m"]
-    gp[G_VISMARGIN] = beh["visible_margin_m"]
-    gp[G_RELOC] = beh["relocalise_dist_m"]
-    gp[G_STALL_S] = beh["stall_s"]
-    gp[G_ESCAPE_S] = beh["escape_s"]
-    gp[G_PROGRESS_M] = beh["progress_m"]
-    gp[G_RANGE] = laser["range_m"]
-    gp[G_CAM_FOV_HALF] = math.radians(float(cam["fov_deg"])) / 2
-    gp[G_CAM_RANGE] = cam["range_m"]
-    gp[G_SIDE_SECTOR] = math.radians(float(cam["side_sector_deg"]))
-    gp[G_BARCODE_W] = barcode_width_m
-    gp[G_DT] = dt_s
-    dock = robot["dock"]
-    gp[G_DOCK_LAT] = dock["lateral_tol_m"]
-    gp[G_DOCK_HEAD] = math.radians(float(dock["heading_tol_deg"]))
-    gp[G_DOCK_APPROACH] = dock["approach_m"]
-    gp[G_DWELL] = dock["dwell_s"]
-    gp[G_BACKOUT] = dock["backout_m"]
-    gp[G_OCCUPIED] = dock["occupied_m"]
-    gp[G_HOLD] = dock["occupied_m"] + dock["hold_margin_m"]
-    gp[G_PATIENCE] = dock["patience_s"]
-    return gp
+
+def build_robots(robot: Mapping, speeds_mps: np.ndarray, trial_rows: list[tuple[int, int]],
+                 start_poses: np.ndarray) -> np.ndarray:
+    """ROBOT records for the robots of trials whose rows are `trial_rows` [(first, last), ...]."""
+    odo = robot["odometry"]
+    robots = np.zeros(len(start_poses), dtype=ROBOT)
+    robots["radius_m"] = robot["radius_m"]
+    robots["top_speed_mps"] = speeds_mps
+    robots["turn_rate_radps"] = robot["turn_rate_radps"]
+    robots["odo_trans_per_sqrt_m"] = odo["trans_noise_per_sqrt_m"]
+    robots["odo_rot_per_sqrt_m"] = odo["rot_noise_per_sqrt_m"]
+    robots["odo_rot_per_sqrt_rad"] = odo["rot_noise_per_sqrt_rad"]
+    for b, (first, last) in enumerate(trial_rows):
+        robots["trial"][first:last] = b
+        robots["first"][first:last] = first
+        robots["last"][first:last] = last
+    robots["alive"] = True
+    robots["forced"] = BEH_AUTO
+    robots["target"] = -1
+    robots["last_target"] = -1
+    robots["best_dist_m"] = np.inf
+    for i, name in enumerate(("x_m", "y_m", "heading_rad")):
+        robots[f"est_{name}"] = start_poses[:, i]  # robots start localised
+        robots[f"prev_{name}"] = start_poses[:, i]
+    return robots
 
 
+def build_params(robot: Mapping, arena: Arena, dt_s: float, camera_on: bool) -> np.void:
+    """The PARAMS record from a robot config mapping, the arena and the control period."""
+    laser, cam, beh, dock = robot["laser"], robot["camera"], robot["behaviour"], robot["dock"]
+    p = np.zeros((), dtype=PARAMS)
+    p["dt_s"] = dt_s
+    p["arena_width_m"], p["arena_height_m"] = arena.width_m, arena.height_m
+    for key in ("avoid_dist_m", "stop_dist_m", "arrive_dist_m", "wall_dist_m", "visible_margin_m",
+                "relocalise_dist_m", "stall_s", "escape_s", "progress_m"):
+        p[key] = beh[key]
+    p["laser_range_m"] = laser["range_m"]
+    p["barcode_width_m"] = arena.barcode_width_m
+    p["camera_on"] = camera_on
+    p["camera_half_fov_rad"] = math.radians(float(cam["fov_deg"])) / 2
+    p["camera_range_m"] = cam["range_m"]
+    p["marking_sector_rad"] = math.radians(float(cam["side_sector_deg"]))
+    p["dock_lateral_tol_m"] = dock["lateral_tol_m"]
+    p["dock_heading_tol_rad"] = math.radians(float(dock["heading_tol_deg"]))
+    p["dock_approach_m"] = dock["approach_m"]
+    p["dwell_s"] = dock["dwell_s"]
+    p["backout_m"] = dock["backout_m"]
+    p["occupied_m"] = dock["occupied_m"]
+    p["hold_m"] = dock["occupied_m"] + dock["hold_margin_m"]
+    p["patience_s"] = dock["patience_s"]
+    return p[()]
 
-__all__ = [
-    "behaviour_params",
-    "BEH_AUTO",
-    "BEH_DIRECT",
-    "BEH_STOP",
-    "BEH_WALL",
-    "FS_BEST",
-    "FS_ESCAPE",
-    "FS_STALL",
-    "FS_TIMER",
-    "FS_WAITED",
-    "F_RADIUS",
-    "F_SIG_RM",
-    "F_SIG_RR",
-    "F_SIG_T",
-    "F_VMAX",
-    "F_WMAX",
-    "G_ARRIVE",
-    "G_AVOID",
-    "G_BACKOUT",
-    "G_BARCODE_W",
-    "G_CAM_FOV_HALF",
-    "G_CAM_RANGE",
-    "G_DOCK_APPROACH",
-    "G_DOCK_HEAD",
-    "G_DOCK_LAT",
-    "G_DT",
-    "G_DWELL",
-    "G_ESCAPE_S",
-    "G_HOLD",
-    "G_OCCUPIED",
-    "G_PATIENCE",
-    "G_PROGRESS_M",
-    "G_RANGE",
-    "G_RELOC",
-    "G_SIDE_SECTOR",
-    "G_STALL_S",
-    "G_STOP",
-    "G_VISMARGIN",
-    "G_WALLD",
-    "I_ACT",
-    "I_ALIVE",
-    "I_ARRIVED",
-    "I_FORCED",
-    "I_HI",
-    "I_LASTTGT",
-    "I_LO",
-    "I_MODE",
-    "I_SIDE",
-    "I_TARGET",
-    "I_TRIAL",
-    "I_TURN",
-    "I_TVIS",
-    "MODE_APPROACH",
-    "MODE_DOCK",
-    "MODE_ESCAPE",
-    "MODE_SERVICE",
-    "MODE_UNDOCK",
-    "MODE_WALLFOLLOW",
-    "N_FPARAM",
-    "N_FSTATE",
-    "N_GPARAM",
-    "N_ISTATE",
-    "T_CODE",
-    "T_NX",
-    "T_NY",
-    "T_WALL",
-    "T_X",
-    "T_Y",
-]
+
+def build_arena(arena: Arena) -> ArenaGeometry:
+    """The kernel's view of an arena: target records and interior walls."""
+    targets = np.zeros(len(arena.targets), dtype=TARGET)
+    targets["x_m"], targets["y_m"] = arena.target_xy.T
+    targets["nx"], targets["ny"] = arena.target_normals.T
+    targets["barcode"] = arena.target_barcodes
+    targets["wall"] = arena.target_wall
+    seg = arena.target_segments
+    for i, name in enumerate(("x1_m", "y1_m", "x2_m", "y2_m")):
+        targets[name] = seg[:, i]
+    return ArenaGeometry(targets, np.ascontiguousarray(arena.walls[N_OUTER_WALLS:]))
+
+
+def build_laser(fov_deg: float, n_rays: int) -> Laser:
+    """Rays evenly over the field of view, with their cosines and sines."""
+    ang = ray_angles(fov_deg, n_rays)
+    return Laser(ang, np.cos(ang), np.sin(ang))
+
+
+def empty_scan(n_robots: int, n_rays: int) -> Scan:
+    return Scan(np.zeros((n_robots, n_rays)), np.zeros((n_robots, n_rays), dtype=np.int8),
+                np.full((n_robots, n_rays), -1, dtype=np.int32), np.zeros((n_robots, 4), dtype=np.int64))

@@ -14,13 +14,13 @@ Per tick: read true poses -> sense and decide (kernel) -> drive -> step physics
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from tavc_cli.behaviours import navigation as nav
 from tavc_cli.behaviours.activities import N_ACT
-from tavc_cli.behaviours.layout import behaviour_params
+from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan
+from tavc_cli.behaviours.navigation import compiled, control_tick
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TableBuilder, TrialRecord
@@ -29,7 +29,7 @@ from tavc_cli.learning.behaviour import state_index
 from tavc_cli.learning.policies import TaskPolicy
 from tavc_cli.learning.registry import make_policy
 from tavc_cli.sim.arena import SOURCE, Arena
-from tavc_cli.sim.sensors import HIT_TARGET, ray_angles
+from tavc_cli.sim.sensors import HIT_TARGET
 from tavc_cli.sim.world import PhysicsWorld
 
 _NOISE_BLOCK_TICKS = 512
@@ -125,29 +125,20 @@ class BatchEngine:
             float(robot["drive_force_n"]), float(robot["drive_torque_nm"]),
             first.dt_s, first.physics_substeps, first.solver_iterations,
         )
-        laser = robot["laser"]
-        self.ray_ang = ray_angles(float(laser["fov_deg"]), int(laser["n_rays"]))
-        self.ray_cs = np.column_stack([np.cos(self.ray_ang), np.sin(self.ray_ang)])
-        self.walls = np.ascontiguousarray(self.arena.walls)
-        self.tsegs = np.ascontiguousarray(self.arena.target_segments)
-        self.tinfo = np.column_stack([self.arena.target_xy, self.arena.target_normals,
-                                      self.arena.target_barcodes.astype(np.float64),
-                                      self.arena.target_wall.astype(np.float64)])
-        self.gp = behaviour_params(robot, self.arena.barcode_width_m, self.dt)
-        self._robot_arrays(robot)
-        self.est = self.pose.copy()  # robots start localised
-        self.prev_pose = self.pose.copy()
+        # the kernel's bundles (behaviours.layout): robots, shared parameters, arena, laser, scan
+        start = np.concatenate([tr.start for tr in self.trials])
+        self.robots = build_robots(robot, np.concatenate([tr.spec.speeds_mps for tr in self.trials]),
+                                   [(tr.lo, tr.hi) for tr in self.trials], start)
+        # the camera is read only by section 1.4's learners
+        self.params = build_params(robot, self.arena, self.dt,
+                                   camera_on=any(tr.learns_behaviours for tr in self.trials))
+        self.geometry = build_arena(self.arena)
+        self.laser = build_laser(float(robot["laser"]["fov_deg"]), int(robot["laser"]["n_rays"]))
+        self.scan = empty_scan(n, len(self.laser.angle_rad))
+        self.pose = start.copy()  # true poses, read from the physics every tick
         self.noise = np.zeros((_NOISE_BLOCK_TICKS, n, 3))
-        nr = len(self.ray_ang)
-        self.ranges = np.zeros((n, nr))
-        self.kinds = np.zeros((n, nr), dtype=np.int64)
-        self.ids = np.zeros((n, nr), dtype=np.int64)
-        self.pts = np.zeros((n, nr, 2))
-        self.barcodes = self.arena.target_barcodes
-        self.target_wall = self.arena.target_wall
-        self.cam = np.zeros((n, 4), dtype=np.int64)
         self.cmd = np.zeros((n, 2))
-        # seconds each robot spent in each activity (nav.ACTIVITIES), in all and at its task's start
+        # seconds each robot spent in each activity (activities.ACTIVITIES), in all and at its task's start
         self.act_s = np.zeros((n, N_ACT))
         self.act_at_task = np.zeros((n, N_ACT))
         self.tick_started = False
@@ -157,34 +148,11 @@ class BatchEngine:
         self.t0 = -first.warmup_s  # every trial of a batch starts its warm-up here
         self.tick = 0
         self.on_tick: Callable[[BatchEngine], None] | None = None
+        self._control_tick = compiled(control_tick, self.robots, self.pose, self.noise[0], self.params,
+                                      self.geometry, self.laser, self.scan, self.cmd, self.act_s)
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
                 self._assign(tr, i, self.t0)
-
-    def _robot_arrays(self, robot: Mapping) -> None:
-        """Per-robot parameters and state for the kernel, trial after trial."""
-        n, odo = self.n, robot["odometry"]
-        self.fparam = np.zeros((n, nav.N_FPARAM))
-        self.istate = np.zeros((n, nav.N_ISTATE), dtype=np.int64)
-        self.fstate = np.zeros((n, nav.N_FSTATE))
-        self.fstate[:, nav.FS_BEST] = np.inf
-        self.pose = np.zeros((n, 3))
-        for b, tr in enumerate(self.trials):
-            sl = slice(tr.lo, tr.hi)
-            self.fparam[sl, nav.F_RADIUS] = robot["radius_m"]
-            self.fparam[sl, nav.F_VMAX] = tr.spec.speeds_mps
-            self.fparam[sl, nav.F_WMAX] = robot["turn_rate_radps"]
-            self.fparam[sl, nav.F_SIG_T] = odo["trans_noise_per_sqrt_m"]
-            self.fparam[sl, nav.F_SIG_RM] = odo["rot_noise_per_sqrt_m"]
-            self.fparam[sl, nav.F_SIG_RR] = odo["rot_noise_per_sqrt_rad"]
-            self.istate[sl, nav.I_TRIAL] = b
-            self.istate[sl, nav.I_ALIVE] = 1
-            self.istate[sl, nav.I_LO] = tr.lo
-            self.istate[sl, nav.I_HI] = tr.hi
-            self.istate[sl, nav.I_FORCED] = nav.BEH_AUTO
-            self.istate[sl, nav.I_TARGET] = -1
-            self.istate[sl, nav.I_LASTTGT] = -1
-            self.pose[sl] = tr.start
 
     # --- time ---------------------------------------------------------------
     @property
@@ -200,11 +168,11 @@ class BatchEngine:
         tr.task_start[i] = t
         self.act_at_task[tr.lo + i] = self._act_before_tick(tr.lo + i)
         # the robot finishes what it is doing at the dock it leaves before heading off
-        self.istate[tr.lo + i, nav.I_TARGET] = self.src[circuit]
+        self.robots[tr.lo + i]["target"] = self.src[circuit]
 
     def _arrive(self, tr: TrialState, i: int, t: float) -> None:
         g = tr.lo + i
-        target = int(self.istate[g, nav.I_TARGET])
+        target = int(self.robots[g]["target"])
         circuit = int(tr.task[i])
         kind = int(self.kind_of[target])
         tr.rows.add("arrivals", t, i, target, circuit, kind)
@@ -213,7 +181,7 @@ class BatchEngine:
             tr.policy.arrived(i, float(tr.values[circuit]) / ((t - tr.last_arrival[i]) / tr.spec.time_unit_s))
             tr.last_arrival[i] = t
         if kind == SOURCE:
-            self.istate[g, nav.I_TARGET] = self.snk[circuit]
+            self.robots[g]["target"] = self.snk[circuit]
             return
         task_time = t - tr.task_start[i]
         value = float(tr.values[circuit])
@@ -229,18 +197,19 @@ class BatchEngine:
         bit, the nearest robot's markings) and pick a behaviour for each robot whose bits changed
         since its last choice (or every time, with `decide_on_change` off)."""
         sl = slice(tr.lo, tr.hi)
-        states = state_index((self.kinds[sl] == HIT_TARGET).any(axis=1), tr.policy.random_bits(t),
-                             self.cam[sl, 0], self.cam[sl, 1], self.cam[sl, 2])
+        cam = self.scan.camera[sl]
+        states = state_index((self.scan.kind[sl] == HIT_TARGET).any(axis=1), tr.policy.random_bits(t),
+                             cam[:, 0], cam[:, 1], cam[:, 2])
         due = tr.alive & ((states != tr.policy.last_state) | ~tr.policy.decide_on_change)
         for i in np.flatnonzero(due):
-            self.istate[tr.lo + i, nav.I_FORCED] = tr.policy.decide(int(i), int(states[i]))
+            self.robots[tr.lo + i]["forced"] = tr.policy.decide(int(i), int(states[i]))
 
     def _act_before_tick(self, g: int) -> np.ndarray:
         """Robot g's activity seconds up to the start of this tick: the tick in which a robot
         arrives is spent at the dock, on its next task (none yet before the first tick)."""
         spent = self.act_s[g].copy()
         if self.tick_started:
-            spent[self.istate[g, nav.I_ACT]] -= self.dt
+            spent[self.robots[g]["activity"]] -= self.dt
         return spent
 
     # --- scheduled events ---------------------------------------------------
@@ -271,7 +240,7 @@ class BatchEngine:
                     continue
                 tr.alive[robot] = False
                 self.world.remove(tr.lo + robot)
-                self.istate[tr.lo + robot, nav.I_ALIVE] = 0
+                self.robots[tr.lo + robot]["alive"] = False
                 tr.rows.add("breakdowns", t, robot)
             else:
                 tr.values = np.array(ev.values, dtype=np.float64)
@@ -304,19 +273,15 @@ class BatchEngine:
                 for tr in self.trials:
                     self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((_NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
             self.pose[:] = self.world.poses()
-            n_arrived = nav.control_tick(self.pose, self.prev_pose, self.est, self.noise[k], self.istate,
-                                         self.fstate, self.fparam,
-                                         self.gp, self.ray_ang, self.ray_cs, self.walls, 4, self.tsegs,
-                                         self.target_wall, self.tinfo, self.barcodes, self.ranges, self.kinds,
-                                         self.ids, self.pts, self.cam, self.cmd, self.act_s)
+            n_arrived = self._control_tick(self.robots, self.pose, self.noise[k], self.params, self.geometry,
+                                           self.laser, self.scan, self.cmd, self.act_s)
             self.tick_started = True
             if n_arrived:
-                for g in np.flatnonzero(self.istate[:, nav.I_ARRIVED]):
-                    tr = self.trials[self.istate[g, nav.I_TRIAL]]
+                for g in np.flatnonzero(self.robots["arrived"]):
+                    tr = self.trials[self.robots[g]["trial"]]
                     self._arrive(tr, int(g - tr.lo), t)
             self.world.drive(self.cmd)
             self.world.step()
-            self.prev_pose[:] = self.pose
             self.tick += 1
             if self.on_tick is not None:
                 self.on_tick(self)

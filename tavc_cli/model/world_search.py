@@ -47,7 +47,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.runner import execute, pending_batches
 from tavc_cli.io import write_text_atomic
 from tavc_cli.model import core
-from tavc_cli.model.api import json_safe, dock_spots
+from tavc_cli.model.api import dock_spots, json_safe
 from tavc_cli.model.measure import measurement_specs, table_from
 
 Point = dict[str, object]

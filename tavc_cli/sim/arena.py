@@ -16,6 +16,8 @@ import numpy as np
 
 SOURCE, SINK = 0, 1
 _BARCODE_INSET_M = 1e-3
+# the outer rectangle is always the first rows of `Arena.walls`: bottom, right, top, left
+N_OUTER_WALLS = 4
 
 
 @dataclass(frozen=True)
@@ -46,7 +48,7 @@ class Arena:
     name: str
     width_m: float
     height_m: float
-    walls: np.ndarray  # (n_walls, 4): x1, y1, x2, y2
+    walls: np.ndarray  # (n_walls, 4): x1, y1, x2, y2; the outer rectangle first (N_OUTER_WALLS rows)
     targets: tuple[Target, ...]
     circuits: tuple[Circuit, ...]
     barcode_width_m: float

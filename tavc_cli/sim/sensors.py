@@ -6,7 +6,8 @@ rays are intersected analytically with wall segments, bar-code segments and the
 other robots' discs (the same shapes the pymunk world collides).
 
 Laser: each ray returns its range and what it hit (`HIT_*`) with an id (the
-bar-code number for a target, the robot's index for a robot).
+bar-code number for a target, the robot's index for a robot). The kernels read
+and write the bundles of `behaviours.layout`.
 
 Camera: reports which colour markings of the nearest robot in its field of view
 can be seen: red on its left, green on its right, yellow at its rear, each seen
@@ -27,7 +28,12 @@ import math
 import numpy as np
 from numba import njit
 
+from tavc_cli.sim.arena import N_OUTER_WALLS
+
 HIT_NONE, HIT_WALL, HIT_ROBOT, HIT_TARGET = 0, 1, 2, 3
+# rays this much outside a bar-code's angular extent are not tested against it (rounding
+# errors are some ten orders of magnitude smaller)
+_WINDOW_MARGIN_RAD = 1e-6
 MARK_LEFT, MARK_RIGHT, MARK_REAR = 0, 1, 2  # red, green, yellow
 MARKING_ANGLES = np.array([math.pi / 2, -math.pi / 2, math.pi])
 
@@ -71,6 +77,21 @@ def ray_disc(px, py, dx, dy, cx, cy, r) -> float:
     return t0
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _exit_wall(px, py, dx, dy, width, height):
+    """Distance along the unit ray (p, d) from inside the width x height rectangle to its
+    boundary, and the side it leaves through (0 bottom, 1 right, 2 top, 3 left)."""
+    tx = (width - px if dx > 0.0 else -px) / dx
+    ty = (height - py if dy > 0.0 else -py) / dy
+    if abs(dx) <= 1e-12:
+        tx = np.inf
+    if abs(dy) <= 1e-12:
+        ty = np.inf
+    if tx < ty:
+        return tx, 1 if dx > 0.0 else 3
+    return ty, 2 if dy > 0.0 else 0
+
+
 @njit(cache=True, inline="always")
 def _ray_window(rel, half, a0, spacing, n, full_circle):
     """Indices k (to be taken mod n when full_circle) of rays within `half` of angle `rel`."""
@@ -84,86 +105,102 @@ def _ray_window(rel, half, a0, spacing, n, full_circle):
     return lo, hi
 
 
-@njit(cache=True)
-def cast_laser(
-    r, pose, radius, alive, lo, hi, ray_ang, ray_cs, max_range, walls, tsegs, target_wall, barcodes,
-    out_range, out_kind, out_id, out_pts,
-):
-    """Cast every ray of robot `r` (rows lo..hi of `pose` share its world).
+@njit(cache=True, error_model="numpy")
+def cast_laser(r, robots, pose, laser, arena, params, scan):
+    """Cast every ray of robot `r`; write range, kind of hit and hit id into row `r` of `scan`.
 
-    Rays are evenly spaced (`ray_ang`, with their cos and sin in `ray_cs`). Every
-    ray is tested against every wall; a bar-code (on outer wall `target_wall[k]`)
-    only by the rays that leave through that wall, and a robot only by the rays
-    inside its angular extent, which gives the same answer for less work.
-    Writes range, hit kind, hit id and the hit point in the robot's frame into
-    row `r` of the outputs.
+    For each ray, in this order, the nearest of: the outer wall it leaves through,
+    a bar-code on that wall, an interior wall, a robot of the same trial (ties keep
+    the first). Bar-codes and robots are tested only by the rays within their angular
+    extent, which gives the same answer for less work. Hit ids: the bar-code for a
+    target, the wall's row in `Arena.walls` for a wall, the robot's row for a robot,
+    -1 for nothing within range.
     """
-    n = ray_ang.shape[0]
-    a0 = ray_ang[0]
-    spacing = (ray_ang[n - 1] - a0) / (n - 1) if n > 1 else 1.0
-    full_circle = n > 1 and (ray_ang[n - 1] - a0 + spacing) >= 2.0 * math.pi - 1e-9
+    angle, ray_cos, ray_sin = laser.angle_rad, laser.cos, laser.sin
+    targets, inner = arena.targets, arena.inner_walls
+    out_range, out_kind, out_id = scan.range_m, scan.kind, scan.hit_id
+    n = angle.shape[0]
+    a0 = angle[0]
+    spacing = (angle[n - 1] - a0) / (n - 1) if n > 1 else 1.0
+    full_circle = n > 1 and (angle[n - 1] - a0 + spacing) >= 2.0 * math.pi - 1e-9
+    max_range = params.laser_range_m
+    width, height = params.arena_width_m, params.arena_height_m
     px, py, th = pose[r, 0], pose[r, 1], pose[r, 2]
     c, s = math.cos(th), math.sin(th)
-    half_fov = max(abs(ray_ang[0]), abs(ray_ang[n - 1]))
-    # rows 0-3 of `walls` are the outer rectangle (bottom, right, top, left, as the
-    # arena builds them): a ray from inside leaves it through exactly one side, found
-    # with two divisions; further rows are interior walls, tested in general
-    width, height = walls[0, 2], walls[1, 3]
+    half_fov = max(abs(angle[0]), abs(angle[n - 1]))
+    # 1. the outer rectangle: every ray leaves it through one side
     for j in range(n):
-        dx = c * ray_cs[j, 0] - s * ray_cs[j, 1]
-        dy = s * ray_cs[j, 0] + c * ray_cs[j, 1]
-        tx, wx = np.inf, -1
-        if dx > 1e-12:
-            tx, wx = (width - px) / dx, 1
-        elif dx < -1e-12:
-            tx, wx = -px / dx, 3
-        ty, wy = np.inf, -1
-        if dy > 1e-12:
-            ty, wy = (height - py) / dy, 2
-        elif dy < -1e-12:
-            ty, wy = -py / dy, 0
-        t, w = (tx, wx) if tx < ty else (ty, wy)
-        best, kind, ident = max_range, HIT_NONE, -1
-        if t < best:
-            best, kind, ident = t, HIT_WALL, w
-            # bar-codes hang on the outer walls, a hair in front of them: the ray
-            # reads one if it leaves the arena through that code's stretch of wall
-            for k in range(tsegs.shape[0]):
-                if target_wall[k] != w:
-                    continue
-                tk = ray_segment(px, py, dx, dy, tsegs[k, 0], tsegs[k, 1], tsegs[k, 2], tsegs[k, 3])
-                if tk < best:
-                    best, kind, ident = tk, HIT_TARGET, barcodes[k]
-        for w in range(4, walls.shape[0]):
-            t = ray_segment(px, py, dx, dy, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3])
-            if t < best:
-                best, kind, ident = t, HIT_WALL, w
-        out_range[r, j] = best
-        out_kind[r, j] = kind
-        out_id[r, j] = ident
-    for o in range(lo, hi):
-        if o == r or not alive[o]:
+        t, w = _exit_wall(px, py, c * ray_cos[j] - s * ray_sin[j], s * ray_cos[j] + c * ray_sin[j], width, height)
+        hit = t < max_range
+        out_range[r, j] = t if hit else max_range
+        out_kind[r, j] = HIT_WALL if hit else HIT_NONE
+        out_id[r, j] = w if hit else -1
+    # 2. bar-codes, a hair in front of the outer walls: a ray reads one if it leaves the
+    # arena within range through that code's stretch of wall. A code lies within half its
+    # width h of its centre, at distance d: only rays within asin(h / d) <= h / sqrt(d^2 - h^2)
+    # of the centre's bearing (and a hair more, against rounding) can reach it, and none if
+    # d - h is beyond the laser's range; the others are skipped.
+    for k in range(targets.shape[0]):
+        tgt = targets[k]
+        cx, cy = 0.5 * (tgt.x1_m + tgt.x2_m) - px, 0.5 * (tgt.y1_m + tgt.y2_m) - py
+        half_w = 0.5 * math.sqrt((tgt.x2_m - tgt.x1_m) ** 2 + (tgt.y2_m - tgt.y1_m) ** 2)
+        d2 = cx * cx + cy * cy
+        if math.sqrt(d2) - half_w > max_range:
             continue
-        ox, oy = pose[o, 0] - px, pose[o, 1] - py
-        d = math.sqrt(ox * ox + oy * oy)
-        if d - radius[o] > max_range or d <= radius[o]:
-            continue
-        if not full_circle and half_fov <= math.pi / 2 and ox * c + oy * s < -radius[o]:
+        if not full_circle and half_fov <= math.pi / 2 and cx * c + cy * s < -half_w:
             continue  # wholly behind a laser that sees no further back than its sides
-        rel = wrap_angle(math.atan2(oy, ox) - th)
-        jlo, jhi = _ray_window(rel, math.asin(radius[o] / d), a0, spacing, n, full_circle)
+        half = half_w / math.sqrt(d2 - half_w * half_w) if d2 > 4.0 * half_w * half_w else math.pi
+        rel = wrap_angle(math.atan2(cy, cx) - th)
+        jlo, jhi = _ray_window(rel, half + _WINDOW_MARGIN_RAD, a0, spacing, n, full_circle)
         for jj in range(jlo, jhi + 1):
             j = jj % n
-            dx = c * ray_cs[j, 0] - s * ray_cs[j, 1]
-            dy = s * ray_cs[j, 0] + c * ray_cs[j, 1]
-            t = ray_disc(px, py, dx, dy, pose[o, 0], pose[o, 1], radius[o])
+            kind = out_kind[r, j]
+            if kind == HIT_NONE or (kind == HIT_WALL and out_id[r, j] != tgt.wall):
+                continue
+            dx = c * ray_cos[j] - s * ray_sin[j]
+            dy = s * ray_cos[j] + c * ray_sin[j]
+            if kind == HIT_TARGET:  # read another code already: through which wall does it leave?
+                t, w = _exit_wall(px, py, dx, dy, width, height)
+                if w != tgt.wall:
+                    continue
+            tk = ray_segment(px, py, dx, dy, tgt.x1_m, tgt.y1_m, tgt.x2_m, tgt.y2_m)
+            if tk < out_range[r, j]:
+                out_range[r, j] = tk
+                out_kind[r, j] = HIT_TARGET
+                out_id[r, j] = tgt.barcode
+    # 3. interior walls, by every ray
+    if inner.shape[0] > 0:
+        for j in range(n):
+            dx = c * ray_cos[j] - s * ray_sin[j]
+            dy = s * ray_cos[j] + c * ray_sin[j]
+            for w in range(inner.shape[0]):
+                t = ray_segment(px, py, dx, dy, inner[w, 0], inner[w, 1], inner[w, 2], inner[w, 3])
+                if t < out_range[r, j]:
+                    out_range[r, j] = t
+                    out_kind[r, j] = HIT_WALL
+                    out_id[r, j] = N_OUTER_WALLS + w
+    # 4. the other robots of the trial, by the rays within their angular extent
+    for o in range(robots[r].first, robots[r].last):
+        if o == r or not robots[o].alive:
+            continue
+        radius = robots[o].radius_m
+        ox, oy = pose[o, 0] - px, pose[o, 1] - py
+        d = math.sqrt(ox * ox + oy * oy)
+        if d - radius > max_range or d <= radius:
+            continue
+        if not full_circle and half_fov <= math.pi / 2 and ox * c + oy * s < -radius:
+            continue  # wholly behind a laser that sees no further back than its sides
+        rel = wrap_angle(math.atan2(oy, ox) - th)
+        jlo, jhi = _ray_window(rel, math.asin(radius / d), a0, spacing, n, full_circle)
+        for jj in range(jlo, jhi + 1):
+            j = jj % n
+            dx = c * ray_cos[j] - s * ray_sin[j]
+            dy = s * ray_cos[j] + c * ray_sin[j]
+            t = ray_disc(px, py, dx, dy, pose[o, 0], pose[o, 1], radius)
             if t < out_range[r, j]:
                 out_range[r, j] = t
                 out_kind[r, j] = HIT_ROBOT
                 out_id[r, j] = o
-    for j in range(n):
-        out_pts[r, j, 0] = out_range[r, j] * ray_cs[j, 0]
-        out_pts[r, j, 1] = out_range[r, j] * ray_cs[j, 1]
 
 
 @njit(cache=True)
@@ -182,27 +219,28 @@ def markings_visible(obs_x, obs_y, ox, oy, oth, side_sector, out, k):
 
 
 @njit(cache=True)
-def camera_nearest(r, pose, radius, alive, lo, hi, fov_half, max_range, walls, n_outer, side_sector, out):
+def camera_nearest(r, robots, pose, arena, params, scan):
     """Nearest robot in robot r's camera view and its visible markings.
 
-    out[r] = (red, green, yellow, index of the seen robot or -1). Interior walls
-    (rows n_outer.. of `walls`) block the view; the outer walls cannot.
+    scan.camera[r] = (red, green, yellow, row of the seen robot or -1). Interior
+    walls block the view; the outer walls cannot.
     """
+    out, inner = scan.camera, arena.inner_walls
     px, py, th = pose[r, 0], pose[r, 1], pose[r, 2]
-    best, best_o = max_range, -1
-    for o in range(lo, hi):
-        if o == r or not alive[o]:
+    best, best_o = params.camera_range_m, -1
+    for o in range(robots[r].first, robots[r].last):
+        if o == r or not robots[o].alive:
             continue
         dx, dy = pose[o, 0] - px, pose[o, 1] - py
         d = math.sqrt(dx * dx + dy * dy)
         if d >= best or d == 0.0:
             continue
-        # inside the field of view iff the angle to the heading is at most fov_half
-        if (dx * math.cos(th) + dy * math.sin(th)) < d * math.cos(fov_half):
+        # inside the field of view iff the angle to the heading is at most its half
+        if (dx * math.cos(th) + dy * math.sin(th)) < d * math.cos(params.camera_half_fov_rad):
             continue
         blocked = False
-        for w in range(n_outer, walls.shape[0]):
-            t = ray_segment(px, py, dx / d, dy / d, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3])
+        for w in range(inner.shape[0]):
+            t = ray_segment(px, py, dx / d, dy / d, inner[w, 0], inner[w, 1], inner[w, 2], inner[w, 3])
             if t < d:
                 blocked = True
         if not blocked:
@@ -213,26 +251,29 @@ def camera_nearest(r, pose, radius, alive, lo, hi, fov_half, max_range, walls, n
         out[r, 1] = 0
         out[r, 2] = 0
     else:
-        markings_visible(px, py, pose[best_o, 0], pose[best_o, 1], pose[best_o, 2], side_sector, out, r)
+        markings_visible(px, py, pose[best_o, 0], pose[best_o, 1], pose[best_o, 2], params.marking_sector_rad,
+                         out, r)
 
 
 @njit(cache=True)
-def odometry_update(r, prev_pose, pose, est, noise, sigma_trans, sigma_rot_m, sigma_rot_rad):
-    """Advance robot r's dead-reckoned pose `est` by its measured motion since `prev_pose`.
-
-    `noise[r]` holds three standard normal draws for this tick.
+def odometry_update(r, robots, pose, noise):
+    """Advance robot r's dead-reckoned pose by its measured motion since last tick's true pose,
+    then remember this tick's true pose. `noise[r]` holds three standard normal draws.
     """
-    dth = wrap_angle(pose[r, 2] - prev_pose[r, 2])
-    mid = prev_pose[r, 2] + 0.5 * dth
+    rob = robots[r]
+    dth = wrap_angle(pose[r, 2] - rob.prev_heading_rad)
+    mid = rob.prev_heading_rad + 0.5 * dth
     # wheel encoders only measure motion along the heading
-    ds = (pose[r, 0] - prev_pose[r, 0]) * math.cos(mid) + (pose[r, 1] - prev_pose[r, 1]) * math.sin(mid)
+    ds = (pose[r, 0] - rob.prev_x_m) * math.cos(mid) + (pose[r, 1] - rob.prev_y_m) * math.sin(mid)
     ads, adth = abs(ds), abs(dth)
-    ds_m = ds + sigma_trans * math.sqrt(ads) * noise[r, 0]
-    dth_m = dth + sigma_rot_m * math.sqrt(ads) * noise[r, 1] + sigma_rot_rad * math.sqrt(adth) * noise[r, 2]
-    emid = est[r, 2] + 0.5 * dth_m
-    est[r, 0] += ds_m * math.cos(emid)
-    est[r, 1] += ds_m * math.sin(emid)
-    est[r, 2] = wrap_angle(est[r, 2] + dth_m)
+    ds_m = ds + rob.odo_trans_per_sqrt_m * math.sqrt(ads) * noise[r, 0]
+    dth_m = (dth + rob.odo_rot_per_sqrt_m * math.sqrt(ads) * noise[r, 1]
+             + rob.odo_rot_per_sqrt_rad * math.sqrt(adth) * noise[r, 2])
+    emid = rob.est_heading_rad + 0.5 * dth_m
+    rob.est_x_m += ds_m * math.cos(emid)
+    rob.est_y_m += ds_m * math.sin(emid)
+    rob.est_heading_rad = wrap_angle(rob.est_heading_rad + dth_m)
+    rob.prev_x_m, rob.prev_y_m, rob.prev_heading_rad = pose[r, 0], pose[r, 1], pose[r, 2]
 
 
 def ray_angles(fov_deg: float, n_rays: int) -> np.ndarray:
