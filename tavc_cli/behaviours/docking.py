@@ -80,22 +80,22 @@ def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, 
 
 
 @njit(cache=True)
-def nearest_rays(r, scan, out):
+def nearest_rays(r, first, last, scan, out):
     """out[j] = whether ray j of robot r is the shortest of the rays that hit the same robot
-    (the first of equals): one ray per robot in view, the one passing nearest its centre."""
+    (the first of equals): one ray per robot in view (rows first..last-1), the one passing
+    nearest its centre."""
     kinds, ids, ranges = scan.kind, scan.hit_id, scan.range_m
     n = ranges.shape[1]
+    best = np.full(last - first, -1, dtype=np.int64)
     for j in range(n):
         out[j] = False
-        if kinds[r, j] != HIT_ROBOT:
-            continue
-        nearest = True
-        for k in range(n):
-            if kinds[r, k] == HIT_ROBOT and ids[r, k] == ids[r, j] and (
-                    ranges[r, k] < ranges[r, j] or (ranges[r, k] == ranges[r, j] and k < j)):
-                nearest = False
-                break
-        out[j] = nearest
+        if kinds[r, j] == HIT_ROBOT:
+            o = ids[r, j] - first
+            if best[o] < 0 or ranges[r, j] < ranges[r, best[o]]:
+                best[o] = j
+    for o in range(last - first):
+        if best[o] >= 0:
+            out[best[o]] = True
 
 
 @njit(cache=True)
@@ -127,7 +127,7 @@ def dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, 
         cmd[r, 0] = 0.0
         cmd[r, 1] = wmax if err > 0 else -wmax
         return
-    ahead = free_distance(r, 0.0, radius, scan, laser, own_barcode, own_wall)
+    ahead = free_distance(r, 0.0, radius, scan, laser, own_barcode, own_wall, params.stop_dist_m)
     speed = vmax * min(1.0, max(DOCK_CREEP, (along + 0.05) / max(params.dock_approach_m, 1e-9)))
     if ahead < params.stop_dist_m:
         speed = 0.0  # another robot in the way

@@ -19,25 +19,54 @@ _CORRIDOR_MARGIN_M = 0.05
 
 
 @njit(cache=True)
-def free_distance(r, heading, radius, scan, laser, skip_barcode, skip_wall=-1):
-    """How far robot r can drive along `heading` (robot frame) before its disc,
-    widened by a small margin, touches a laser hit point (ignoring one bar-code, and
-    the outer wall `skip_wall` that a docking robot drives up to on purpose)."""
-    half = radius + _CORRIDOR_MARGIN_M
-    ux, uy = math.cos(heading), math.sin(heading)
+def near_points(r, reach, half, scan, laser, skip_barcode, skip_wall, xs, ys):
+    """Robot r's laser hit points (robot frame) that could stop its disc, widened to half-width
+    `half`, within `reach` metres along any heading: into xs, ys; returns how many.
+
+    A point at range rho >= reach + 3 half blocks no heading before reach + half (the
+    disc's gap to it is at least sqrt(rho^2 - half^2) - half), so it is left out; so are
+    one bar-code and one outer wall that a robot drives up to on purpose.
+    """
     kinds, ids, ranges = scan.kind, scan.hit_id, scan.range_m
-    best = np.inf
-    for i in range(ranges.shape[1]):  # branch-free: every point is computed, the blocking ones kept
+    limit = reach + 3.0 * half
+    m = 0
+    for i in range(ranges.shape[1]):
         kind, ident = kinds[r, i], ids[r, i]
-        skip = ((kind == HIT_TARGET) & (ident == skip_barcode)) | ((kind == HIT_WALL) & (ident == skip_wall))
-        px = ranges[r, i] * laser.cos[i]  # the hit point in the robot's frame
-        py = ranges[r, i] * laser.sin[i]
-        along = px * ux + py * uy
-        lateral = abs(px * uy - py * ux)
-        gap = along - math.sqrt(max(half * half - lateral * lateral, 0.0))
-        if (~skip) & (along > 0.0) & (lateral < half) & (gap < best):
-            best = gap
+        if ranges[r, i] >= limit or (kind == HIT_TARGET and ident == skip_barcode) or (
+                kind == HIT_WALL and ident == skip_wall):
+            continue
+        xs[m] = ranges[r, i] * laser.cos[i]
+        ys[m] = ranges[r, i] * laser.sin[i]
+        m += 1
+    return m
+
+
+@njit(cache=True)
+def free_along(heading, half, xs, ys, m):
+    """How far a disc of half-width `half` can travel along `heading` (robot frame) before it
+    touches one of the first m points: exact below the `reach` the points were gathered for,
+    and at least reach + half otherwise (inf when nothing is near)."""
+    ux, uy = math.cos(heading), math.sin(heading)
+    best = np.inf
+    for i in range(m):
+        along = xs[i] * ux + ys[i] * uy
+        lateral = abs(xs[i] * uy - ys[i] * ux)
+        if along > 0.0 and lateral < half:
+            best = min(best, along - math.sqrt(half * half - lateral * lateral))
     return best
+
+
+@njit(cache=True)
+def free_distance(r, heading, radius, scan, laser, skip_barcode, skip_wall, reach):
+    """How far robot r can drive along `heading` (robot frame) before its disc, widened by a
+    small margin, touches a laser hit point (ignoring one bar-code, and the outer wall
+    `skip_wall` that a docking robot drives up to on purpose): exact below `reach`,
+    at least `reach` beyond."""
+    half = radius + _CORRIDOR_MARGIN_M
+    n = scan.range_m.shape[1]
+    xs, ys = np.empty(n), np.empty(n)
+    m = near_points(r, reach, half, scan, laser, skip_barcode, skip_wall, xs, ys)
+    return free_along(heading, half, xs, ys, m)
 
 
 @njit(cache=True)
@@ -69,8 +98,12 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd):
     spacing = (ray_ang[n - 1] - ray_ang[0]) / max(n - 1, 1)
     # the robot only has to get to its goal point
     need = min(avoid, max(dist, stop))
+    # the free distances below only matter up to max(avoid, stop): beyond, the robot goes full speed
+    half = radius + _CORRIDOR_MARGIN_M
+    xs, ys = np.empty(n), np.empty(n)
+    m = near_points(r, max(avoid, stop), half, scan, laser, own_barcode, -1, xs, ys)
     heading = np.nan
-    free = free_distance(r, bearing, radius, scan, laser, own_barcode)
+    free = free_along(bearing, half, xs, ys, m)
     if free >= need:
         heading = bearing
     else:
@@ -80,7 +113,7 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd):
             j = j0 + off
             if j < 0 or j >= n:
                 continue
-            f = free_distance(r, ray_ang[j], radius, scan, laser, own_barcode)
+            f = free_along(ray_ang[j], half, xs, ys, m)
             if f >= need:
                 heading, free = ray_ang[j], f
                 break
@@ -99,7 +132,7 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd):
         rob.activity = ACT_AVOID
         return
     rob.turn = 0
-    ahead = free_distance(r, 0.0, radius, scan, laser, own_barcode)
+    ahead = free_along(0.0, half, xs, ys, m)
     slow = min(1.0, max(0.0, (min(ahead, free) - stop) / max(avoid - stop, 1e-9)))
     if heading != bearing or slow < 1.0:
         rob.activity = ACT_AVOID
@@ -113,7 +146,7 @@ def wall_follow(r, side, robots, scan, laser, params, cmd):
     rob = robots[r]
     radius, vmax, wmax = rob.radius_m, rob.top_speed_mps, rob.turn_rate_radps
     wall_d, stop = params.wall_dist_m, params.stop_dist_m
-    gap = free_distance(r, 0.0, radius, scan, laser, -999)
+    gap = free_distance(r, 0.0, radius, scan, laser, -999, -1, max(wall_d, stop))
     side_d = np.inf
     for j in range(laser.angle_rad.shape[0]):
         a = side * laser.angle_rad[j]

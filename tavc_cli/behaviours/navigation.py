@@ -128,24 +128,22 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd):
     near = dock_dist <= max(params.hold_m, funnel_m) + 0.5
     if not near:
         rob.waited_s = 0.0  # away from the dock: any wait there starts afresh
+    patient = rob.waited_s <= params.patience_s
+    in_line = dock_dist <= funnel_m or mode == MODE_DOCK
     occupied = False
-    if near:
-        nearest = np.empty(n, dtype=np.bool_)
-        nearest_rays(r, scan, nearest)
-        if rob.waited_s > params.patience_s:
+    if near or (patient and in_line):
+        nearest = np.empty(n, dtype=np.bool_)  # one ray per robot in view
+        nearest_rays(r, rob.first, rob.last, scan, nearest)
+        if near:
             # waited long: stop deferring to robots that are merely nearer, and yield only to one
             # at the spot or backing out of it (so a robot can't lose the race for a dock forever)
+            zone = params.occupied_m if patient else params.backout_m + radius
+            occupied = dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat, zone,
+                                     scan, laser, nearest, radius)
+        if not occupied and patient and in_line:
+            # two robots in the approach funnel at once would block each other: the one with priority goes
             occupied = dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat,
-                                     params.backout_m + radius, scan, laser, nearest, radius)
-        else:
-            occupied = dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat,
-                                     params.occupied_m, scan, laser, nearest, radius)
-    if not occupied and rob.waited_s <= params.patience_s and (dock_dist <= funnel_m or mode == MODE_DOCK):
-        # two robots in the approach funnel at once would block each other: the one with priority goes
-        nearest = np.empty(n, dtype=np.bool_)
-        nearest_rays(r, scan, nearest)
-        occupied = dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat,
-                                 max(params.occupied_m, funnel_m), scan, laser, nearest, radius)
+                                     max(params.occupied_m, funnel_m), scan, laser, nearest, radius)
 
     if mode == MODE_DOCK:
         if occupied or not in_funnel:
