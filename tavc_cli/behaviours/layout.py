@@ -82,6 +82,7 @@ TARGET = np.dtype([
     ("wall", np.int64),                          # outer wall: 0 bottom, 1 right, 2 top, 3 left
     # the bar-code segment the laser reads, a hair in front of the wall
     ("x1_m", np.float64), ("y1_m", np.float64), ("x2_m", np.float64), ("y2_m", np.float64),
+    ("half_width_m", np.float64),
 ], align=True)
 
 
@@ -175,6 +176,7 @@ def build_arena(arena: Arena) -> ArenaGeometry:
     seg = arena.target_segments
     for i, name in enumerate(("x1_m", "y1_m", "x2_m", "y2_m")):
         targets[name] = seg[:, i]
+    targets["half_width_m"] = 0.5 * np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
     return ArenaGeometry(targets, np.ascontiguousarray(arena.walls[N_OUTER_WALLS:]))
 
 
