@@ -80,13 +80,14 @@ def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, 
 
 
 @njit(cache=True)
-def nearest_rays(r, first, last, scan, out):
+def nearest_rays(r, first, last, scan, out, best):
     """out[j] = whether ray j of robot r is the shortest of the rays that hit the same robot
     (the first of equals): one ray per robot in view (rows first..last-1), the one passing
-    nearest its centre."""
+    nearest its centre. `best` is scratch of at least last - first rows."""
     kinds, ids, ranges = scan.kind, scan.hit_id, scan.range_m
     n = ranges.shape[1]
-    best = np.full(last - first, -1, dtype=np.int64)
+    for o in range(last - first):
+        best[o] = -1
     for j in range(n):
         out[j] = False
         if kinds[r, j] == HIT_ROBOT:
@@ -108,7 +109,7 @@ def robot_in_front(r, scan, radius):
 
 
 @njit(cache=True)
-def dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, params, cmd):
+def dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, params, cmd, work):
     """The final approach: drive along the bar-code's normal up to the dock spot, facing the wall.
 
     The robot pursues a point on the normal a short look-ahead in front of it (this steers
@@ -127,7 +128,7 @@ def dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, 
         cmd[r, 0] = 0.0
         cmd[r, 1] = wmax if err > 0 else -wmax
         return
-    ahead = free_distance(r, 0.0, radius, scan, laser, own_barcode, own_wall, params.stop_dist_m)
+    ahead = free_distance(r, 0.0, radius, scan, laser, own_barcode, own_wall, params.stop_dist_m, work)
     speed = vmax * min(1.0, max(DOCK_CREEP, (along + 0.05) / max(params.dock_approach_m, 1e-9)))
     if ahead < params.stop_dist_m:
         speed = 0.0  # another robot in the way

@@ -110,6 +110,15 @@ class Scan(NamedTuple):
     camera: np.ndarray    # (n, 4) red, green, yellow markings of the nearest robot seen, its row (-1: none)
 
 
+class Work(NamedTuple):
+    """Scratch space the behaviours reuse robot after robot within one tick."""
+
+    xs: np.ndarray        # (n_rays,) hit points that can block a path, robot frame
+    ys: np.ndarray
+    flags: np.ndarray     # (n_rays,) bool: the ray passing nearest each robot in view
+    rows: np.ndarray      # (n_robots,) int: that ray, per robot row
+
+
 MODE_APPROACH, MODE_WALLFOLLOW, MODE_ESCAPE, MODE_DOCK, MODE_SERVICE, MODE_UNDOCK = range(6)
 BEH_AUTO, BEH_DIRECT, BEH_WALL, BEH_STOP = -1, 0, 1, 2
 

@@ -57,20 +57,18 @@ def free_along(heading, half, xs, ys, m):
 
 
 @njit(cache=True)
-def free_distance(r, heading, radius, scan, laser, skip_barcode, skip_wall, reach):
+def free_distance(r, heading, radius, scan, laser, skip_barcode, skip_wall, reach, work):
     """How far robot r can drive along `heading` (robot frame) before its disc, widened by a
     small margin, touches a laser hit point (ignoring one bar-code, and the outer wall
     `skip_wall` that a docking robot drives up to on purpose): exact below `reach`,
     at least `reach` beyond."""
     half = radius + _CORRIDOR_MARGIN_M
-    n = scan.range_m.shape[1]
-    xs, ys = np.empty(n), np.empty(n)
-    m = near_points(r, reach, half, scan, laser, skip_barcode, skip_wall, xs, ys)
-    return free_along(heading, half, xs, ys, m)
+    m = near_points(r, reach, half, scan, laser, skip_barcode, skip_wall, work.xs, work.ys)
+    return free_along(heading, half, work.xs, work.ys, m)
 
 
 @njit(cache=True)
-def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd):
+def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, work):
     """Head for `bearing` (robot frame), detouring around whatever the laser sees.
 
     The heading taken is the free direction nearest the goal's: candidates are
@@ -100,7 +98,7 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd):
     need = min(avoid, max(dist, stop))
     # the free distances below only matter up to max(avoid, stop): beyond, the robot goes full speed
     half = radius + _CORRIDOR_MARGIN_M
-    xs, ys = np.empty(n), np.empty(n)
+    xs, ys = work.xs, work.ys
     m = near_points(r, max(avoid, stop), half, scan, laser, own_barcode, -1, xs, ys)
     heading = np.nan
     free = free_along(bearing, half, xs, ys, m)
@@ -141,12 +139,12 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd):
 
 
 @njit(cache=True)
-def wall_follow(r, side, robots, scan, laser, params, cmd):
+def wall_follow(r, side, robots, scan, laser, params, cmd, work):
     """Keep a wall at `wall_dist` on `side` (+1 left, -1 right) and move along it."""
     rob = robots[r]
     radius, vmax, wmax = rob.radius_m, rob.top_speed_mps, rob.turn_rate_radps
     wall_d, stop = params.wall_dist_m, params.stop_dist_m
-    gap = free_distance(r, 0.0, radius, scan, laser, -999, -1, max(wall_d, stop))
+    gap = free_distance(r, 0.0, radius, scan, laser, -999, -1, max(wall_d, stop), work)
     side_d = np.inf
     for j in range(laser.angle_rad.shape[0]):
         a = side * laser.angle_rad[j]

@@ -54,13 +54,14 @@ from tavc_cli.behaviours.layout import (
     MODE_SERVICE,
     MODE_UNDOCK,
     MODE_WALLFOLLOW,
+    Work,
 )
 from tavc_cli.behaviours.motion import should_see_target, steer_to, track_progress, wall_follow
 from tavc_cli.sim.sensors import HIT_TARGET, camera_nearest, cast_laser, odometry_update
 
 
 @njit(cache=True)
-def behave(r, robots, pose, params, arena, laser, scan, cmd):
+def behave(r, robots, pose, params, arena, laser, scan, cmd, work):
     """Choose robot r's wheel command for this tick and flag arrival at its target.
 
     A target is served at its dock spot: the robot comes to the bar-code's normal, drives
@@ -132,8 +133,8 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd):
     in_line = dock_dist <= funnel_m or mode == MODE_DOCK
     occupied = False
     if near or (patient and in_line):
-        nearest = np.empty(n, dtype=np.bool_)  # one ray per robot in view
-        nearest_rays(r, rob.first, rob.last, scan, nearest)
+        nearest = work.flags  # one ray per robot in view
+        nearest_rays(r, rob.first, rob.last, scan, nearest, work.rows)
         if near:
             # waited long: stop deferring to robots that are merely nearer, and yield only to one
             # at the spot or backing out of it (so a robot can't lose the race for a dock forever)
@@ -166,7 +167,7 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd):
                 rob.timer_s = params.backout_m / (BACKOUT_SPEED * vmax)
                 dock_phase(r, robots, params, cmd)
                 return
-            dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, params, cmd)
+            dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, params, cmd, work)
             rob.activity = ACT_DOCK
             return
 
@@ -184,7 +185,7 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd):
         rob.mode = MODE_DOCK
         rob.best_dist_m = np.inf
         rob.stall_s = 0.0
-        dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, params, cmd)
+        dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, params, cmd, work)
         rob.activity = ACT_DOCK
         return
 
@@ -195,7 +196,7 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd):
     if forced == BEH_AUTO:
         track_progress(r, dock_dist, bearing, robots, params)
         if rob.mode == MODE_ESCAPE:
-            wall_follow(r, rob.side, robots, scan, laser, params, cmd)
+            wall_follow(r, rob.side, robots, scan, laser, params, cmd, work)
             rob.activity = ACT_ESCAPE
             return
     if forced == BEH_WALL or (forced == BEH_AUTO and rob.mode == MODE_WALLFOLLOW):
@@ -210,7 +211,7 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd):
         if own_cnt > 0 and forced == BEH_AUTO:
             rob.mode = MODE_APPROACH  # the target came into view: approach it
         else:
-            wall_follow(r, rob.side, robots, scan, laser, params, cmd)
+            wall_follow(r, rob.side, robots, scan, laser, params, cmd, work)
             rob.activity = ACT_SEARCH
             return
     if own_cnt == 0 and forced == BEH_AUTO:
@@ -219,10 +220,10 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd):
             rob.mode = MODE_WALLFOLLOW
             # follow the wall on the side that leads round toward the expected target
             rob.side = -1 if tb > 0 else 1
-            wall_follow(r, rob.side, robots, scan, laser, params, cmd)
+            wall_follow(r, rob.side, robots, scan, laser, params, cmd, work)
             rob.activity = ACT_SEARCH
             return
-    steer_to(r, bearing, pre_dist, own_barcode, robots, scan, laser, params, cmd)
+    steer_to(r, bearing, pre_dist, own_barcode, robots, scan, laser, params, cmd, work)
 
 
 @njit(cache=True)
@@ -236,6 +237,9 @@ def control_tick(robots, pose, noise, params, arena, laser, scan, cmd, act_s):
     `act_s` (seconds per activity, this tick's added). Returns how many robots reached
     their target this tick (their `arrived` flag is set).
     """
+    n_rays = laser.angle_rad.shape[0]
+    work = Work(np.empty(n_rays), np.empty(n_rays), np.empty(n_rays, dtype=np.bool_),
+                np.empty(robots.shape[0], dtype=np.int64))
     n_arrived = 0
     for r in range(robots.shape[0]):
         rob = robots[r]
@@ -248,7 +252,7 @@ def control_tick(robots, pose, noise, params, arena, laser, scan, cmd, act_s):
         cast_laser(r, robots, pose, laser, arena, params, scan)
         if params.camera_on:
             camera_nearest(r, robots, pose, arena, params, scan)
-        behave(r, robots, pose, params, arena, laser, scan, cmd)
+        behave(r, robots, pose, params, arena, laser, scan, cmd, work)
         act_s[r, rob.activity] += params.dt_s
         n_arrived += rob.arrived
     return n_arrived
