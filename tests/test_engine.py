@@ -221,6 +221,20 @@ def test_a_trial_is_the_same_alone_or_batched_with_others():
     _assert_records_equal(alone, run_trials([specs[2], specs[0], specs[1]])[2])
 
 
+def test_a_broken_robot_is_shown_where_it_stopped_whatever_its_slot():
+    specs = _specs("arena=two_circuits", "team.n_robots=3", "trials=2", "duration_s=60", "sim.pose_every_s=5",
+                   "events.breakdowns=[{time_s:20.0,robot:0}]")
+    batched = run_trials(specs)
+    for slot, spec in enumerate(specs):
+        alone = run_trials([spec])[0]
+        _assert_records_equal(alone, batched[slot])
+        np.testing.assert_array_equal(alone.poses, batched[slot].poses)
+        # from the frame at the breakdown (t = 20 s) on, robot 0 stands still
+        at = int(np.flatnonzero(alone.pose_t == 20.0)[0])
+        assert np.all(alone.poses[at:, 0] == alone.poses[at, 0])
+        assert not np.array_equal(alone.poses[at - 1, 0], alone.poses[at, 0])  # it was moving until then
+
+
 def test_batch_rejects_trials_of_different_arenas():
     one = _specs("arena=one_circuit", "trials=1", "duration_s=10")[0]
     two = _specs("arena=two_circuits", "trials=1", "duration_s=10")[0]

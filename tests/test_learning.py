@@ -12,8 +12,8 @@ from tavc_cli.learning.policies import (
     TavcPolicy,
     even_allocation,
 )
-from tavc_cli.learning.registry import make_policy
 from tavc_cli.learning.qlearning import epsilon_greedy, q_update, softmax_choice, softmax_probs
+from tavc_cli.learning.registry import make_policy
 
 N_DRAWS = 20_000
 

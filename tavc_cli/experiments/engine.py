@@ -100,6 +100,19 @@ class TrialState:
         return self.events[0][0] if self.events else math.inf
 
 
+class _Schedule:
+    """When each trial next takes a Q-table snapshot or a pose frame, and when anything next
+    falls due in the batch (those, or a scheduled event)."""
+
+    def __init__(self, trials: Sequence[TrialState], t0: float) -> None:
+        self.next_q = [t0 if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in trials]
+        self.next_pose = [t0 if tr.spec.pose_every_s > 0 else math.inf for tr in trials]
+        self.next_due = -math.inf
+
+    def update(self, trials: Sequence[TrialState]) -> None:
+        self.next_due = min(min(self.next_q), min(self.next_pose), min(tr.next_event_time() for tr in trials))
+
+
 class BatchEngine:
     """Runs trials of one arena and robot model side by side, tick by tick."""
 
@@ -148,6 +161,7 @@ class BatchEngine:
         self.t0 = -first.warmup_s  # every trial of a batch starts its warm-up here
         self.tick = 0
         self.on_tick: Callable[[BatchEngine], None] | None = None
+        self._behaviour_trials = [tr for tr in self.trials if tr.learns_behaviours]
         self._control_tick = compiled(control_tick, self.robots, self.pose, self.noise[0], self.params,
                                       self.geometry, self.laser, self.scan, self.cmd, self.act_s)
         for tr in self.trials:
@@ -252,36 +266,27 @@ class BatchEngine:
 
     # --- the loop -----------------------------------------------------------
     def run(self, progress: Callable[[float], None] | None = None) -> list[TrialRecord]:
-        """Advance until every trial reaches its duration; return their records."""
+        """Advance until every trial reaches its duration; return their records.
+
+        Each tick, at time t (when it senses and decides): what falls due (scheduled
+        events, Q-table snapshots, pose frames); section 1.4's learners choose
+        behaviours; the kernel senses and decides for every robot; arrivals are
+        served (rewards, next tasks); the physics moves the robots one period on.
+        """
         t_end = max(s.spec.duration_s for s in self.trials)
         n_ticks = int(round((t_end - self.t0) / self.dt))
-        next_q = [self.t0 if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in self.trials]
-        next_pose = [self.t0 if tr.spec.pose_every_s > 0 else math.inf for tr in self.trials]
+        schedule = _Schedule(self.trials, self.t0)
         report_every = max(1, n_ticks // 200)
-        next_due = -math.inf
         while self.tick < n_ticks:
-            t = self.t  # the time at which this tick senses and decides
-            if t >= next_due:  # scheduled events, Q-table snapshots, pose frames
-                for b, tr in enumerate(self.trials):
-                    self._due(b, tr, t, next_q, next_pose)
-                next_due = min(min(next_q), min(next_pose), min(tr.next_event_time() for tr in self.trials))
-            for tr in self.trials:
-                if tr.learns_behaviours and self.tick % tr.decide_ticks == 0:
-                    self._decide_behaviours(tr, t)
-            k = self.tick % _NOISE_BLOCK_TICKS
-            if k == 0:
-                for tr in self.trials:
-                    self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((_NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
-            self.pose[:] = self.world.poses()
-            n_arrived = self._control_tick(self.robots, self.pose, self.noise[k], self.params, self.geometry,
-                                           self.laser, self.scan, self.cmd, self.act_s)
-            self.tick_started = True
+            t = self.t0 + self.tick * self.dt
+            if t >= schedule.next_due:
+                self._fall_due(t, schedule)
+            if self._behaviour_trials:
+                self._choose_behaviours(t)
+            n_arrived = self._sense_and_decide()
             if n_arrived:
-                for g in np.flatnonzero(self.robots["arrived"]):
-                    tr = self.trials[self.robots[g]["trial"]]
-                    self._arrive(tr, int(g - tr.lo), t)
-            self.world.drive(self.cmd)
-            self.world.step()
+                self._serve_arrivals(t)
+            self._move()
             self.tick += 1
             if self.on_tick is not None:
                 self.on_tick(self)
@@ -289,19 +294,54 @@ class BatchEngine:
                 progress(self.tick / n_ticks)
         return [self._record(tr) for tr in self.trials]
 
-    def _due(self, b: int, tr: TrialState, t: float, next_q: list[float], next_pose: list[float]) -> None:
-        """Scheduled events, Q-table snapshots and pose frames that fall due at time t."""
-        if tr.events and tr.events[0][0] <= t:
-            self._fire_events(tr, t)
-        if t >= next_q[b]:
-            self._snapshot_q(tr, t)
-            next_q[b] += tr.spec.q_snapshot_every_s  # on the schedule's own grid: no drift
-        if t >= next_pose[b]:
-            tr.pose_t.append(t)
-            tr.poses.append(self.world.poses()[tr.lo:tr.hi].copy())
-            tr.pose_alive.append(tr.alive.copy())
-            tr.pose_circuit.append(tr.task.copy())
-            next_pose[b] += tr.spec.pose_every_s
+    def _fall_due(self, t: float, schedule: _Schedule) -> None:
+        """Scheduled events, Q-table snapshots and pose frames that fall due at time t.
+
+        Pose frames show where the robots are at t, before its events (a robot that
+        breaks down at t is shown where it stopped).
+        """
+        poses = self.world.poses(out=self.pose.copy())
+        for b, tr in enumerate(self.trials):
+            if tr.events and tr.events[0][0] <= t:
+                self._fire_events(tr, t)
+            if t >= schedule.next_q[b]:
+                self._snapshot_q(tr, t)
+                schedule.next_q[b] += tr.spec.q_snapshot_every_s  # on the schedule's own grid: no drift
+            if t >= schedule.next_pose[b]:
+                tr.pose_t.append(t)
+                tr.poses.append(poses[tr.lo:tr.hi].copy())
+                tr.pose_alive.append(tr.alive.copy())
+                tr.pose_circuit.append(tr.task.copy())
+                schedule.next_pose[b] += tr.spec.pose_every_s
+        schedule.update(self.trials)
+
+    def _choose_behaviours(self, t: float) -> None:
+        for tr in self._behaviour_trials:
+            if self.tick % tr.decide_ticks == 0:
+                self._decide_behaviours(tr, t)
+
+    def _sense_and_decide(self) -> int:
+        """The compiled kernel, for every robot of every trial: odometry, laser, camera,
+        behaviours; leaves wheel commands in `cmd`. Returns how many robots arrived."""
+        k = self.tick % _NOISE_BLOCK_TICKS
+        if k == 0:  # each trial's odometry noise, drawn from its own stream a block at a time
+            for tr in self.trials:
+                self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((_NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
+        self.world.poses(out=self.pose)
+        n_arrived = self._control_tick(self.robots, self.pose, self.noise[k], self.params, self.geometry,
+                                       self.laser, self.scan, self.cmd, self.act_s)
+        self.tick_started = True
+        return n_arrived
+
+    def _serve_arrivals(self, t: float) -> None:
+        for g in np.flatnonzero(self.robots["arrived"]):
+            tr = self.trials[self.robots[g]["trial"]]
+            self._arrive(tr, int(g - tr.lo), t)
+
+    def _move(self) -> None:
+        """Wheel commands to the physics, and one control period of it."""
+        self.world.drive(self.cmd)
+        self.world.step()
 
     @staticmethod
     def _snapshot_q(tr: TrialState, t: float) -> None:

@@ -137,6 +137,7 @@ class PhysicsWorld:
         ids = np.frombuffer(self._read.int_buf(), dtype=np.uintp)
         row = {int(b): k for k, b in enumerate(ids)}
         self._live = np.flatnonzero(self.alive)
+        self._removed = np.flatnonzero(~self.alive)
         self._robot_rows = np.array([row[self._parts[i][0].id] for i in self._live], dtype=np.int64)
         self._control_rows = np.array([row[self._parts[i][2].id] for i in self._live], dtype=np.int64)
         self._n_bodies = len(ids)
@@ -150,14 +151,19 @@ class PhysicsWorld:
         pb.get_space_bodies(self.space, _FIELDS_READ, self._read)
         return np.frombuffer(self._read.float_buf(), dtype=np.float64).reshape(self._n_bodies, 6)
 
-    def poses(self) -> np.ndarray:
-        """(n_robots, 3) true x, y, heading of every robot.
+    def poses(self, out: np.ndarray | None = None) -> np.ndarray:
+        """(n_robots, 3) true x, y, heading of every robot, into `out` if given.
 
-        A removed robot keeps its last pose. The returned array is reused.
+        A removed robot stays where it was taken out. Without `out` the returned array
+        is reused.
         """
         self._state = self._read_state()
-        _gather_poses(self._state, self._robot_rows, self._live, self._poses)
-        return self._poses
+        if out is None:
+            out = self._poses
+        _gather_poses(self._state, self._robot_rows, self._live, out)
+        if out is not self._poses and self._removed.size:
+            out[self._removed] = self._poses[self._removed]
+        return out
 
     def drive(self, cmd: np.ndarray) -> None:
         """Set each live robot's commanded (forward speed, turn rate) for the next step."""
@@ -174,6 +180,7 @@ class PhysicsWorld:
         """Take a broken-down robot out of the world."""
         if not self.alive[robot]:
             return
+        self.poses()  # where it stops
         self.space.remove(*self._parts[robot])
         self.alive[robot] = False
         self._index_bodies()
