@@ -12,7 +12,7 @@ import pymunk
 import pytest
 import yaml
 
-from tavc_cli.behaviours.layout import PARAMS, ROBOT, ArenaGeometry, build_arena, build_laser, empty_scan
+from tavc_cli.behaviours.layout import PARAMS, ROBOT, ArenaGeometry, build_arena, empty_scan, laser_from_angles
 from tavc_cli.config import find_conf_dir
 from tavc_cli.sim.arena import N_OUTER_WALLS, arena_from_mapping
 from tavc_cli.sim.sensors import (
@@ -59,7 +59,7 @@ def _laser(arena, poses, ray_ang, *, r=0, lo=0, hi=None, alive=None, max_range=8
     """Cast robot r's rays; returns (range, kind, id, points in the robot's frame) of that robot."""
     pose = np.asarray(poses, dtype=np.float64)
     ray_ang = np.asarray(ray_ang, dtype=np.float64)
-    laser = build_laser(180.0, 1)._replace(angle_rad=ray_ang, cos=np.cos(ray_ang), sin=np.sin(ray_ang))
+    laser = laser_from_angles(ray_ang)
     geometry = build_arena(arena)
     if walls is not None:
         geometry = geometry._replace(inner_walls=np.ascontiguousarray(np.asarray(walls)[N_OUTER_WALLS:]))

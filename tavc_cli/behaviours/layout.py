@@ -99,6 +99,10 @@ class Laser(NamedTuple):
     angle_rad: np.ndarray
     cos: np.ndarray
     sin: np.ndarray
+    # the same directions as candidate headings for steering, with the C library's cos and sin
+    # (the kernel's own), so a heading's free distance is the same computed either way
+    heading_cos: np.ndarray
+    heading_sin: np.ndarray
 
 
 class Scan(NamedTuple):
@@ -191,8 +195,13 @@ def build_arena(arena: Arena) -> ArenaGeometry:
 
 def build_laser(fov_deg: float, n_rays: int) -> Laser:
     """Rays evenly over the field of view, with their cosines and sines."""
-    ang = ray_angles(fov_deg, n_rays)
-    return Laser(ang, np.cos(ang), np.sin(ang))
+    return laser_from_angles(ray_angles(fov_deg, n_rays))
+
+
+def laser_from_angles(angle_rad: np.ndarray) -> Laser:
+    ang = np.asarray(angle_rad, dtype=np.float64)
+    return Laser(ang, np.cos(ang), np.sin(ang), np.array([math.cos(a) for a in ang]),
+                 np.array([math.sin(a) for a in ang]))
 
 
 def empty_scan(n_robots: int, n_rays: int) -> Scan:

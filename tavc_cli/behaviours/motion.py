@@ -42,11 +42,10 @@ def near_points(r, reach, half, scan, laser, skip_barcode, skip_wall, xs, ys):
 
 
 @njit(cache=True)
-def free_along(heading, half, xs, ys, m):
-    """How far a disc of half-width `half` can travel along `heading` (robot frame) before it
-    touches one of the first m points: exact below the `reach` the points were gathered for,
-    and at least reach + half otherwise (inf when nothing is near)."""
-    ux, uy = math.cos(heading), math.sin(heading)
+def free_along(ux, uy, half, xs, ys, m):
+    """How far a disc of half-width `half` can travel along the heading (ux, uy) (robot frame)
+    before it touches one of the first m points: exact below the `reach` the points were
+    gathered for, and at least reach + half otherwise (inf when nothing is near)."""
     best = np.inf
     for i in range(m):
         along = xs[i] * ux + ys[i] * uy
@@ -64,7 +63,7 @@ def free_distance(r, heading, radius, scan, laser, skip_barcode, skip_wall, reac
     at least `reach` beyond."""
     half = radius + _CORRIDOR_MARGIN_M
     m = near_points(r, reach, half, scan, laser, skip_barcode, skip_wall, work.xs, work.ys)
-    return free_along(heading, half, work.xs, work.ys, m)
+    return free_along(math.cos(heading), math.sin(heading), half, work.xs, work.ys, m)
 
 
 @njit(cache=True)
@@ -101,7 +100,7 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, wo
     xs, ys = work.xs, work.ys
     m = near_points(r, max(avoid, stop), half, scan, laser, own_barcode, -1, xs, ys)
     heading = np.nan
-    free = free_along(bearing, half, xs, ys, m)
+    free = free_along(math.cos(bearing), math.sin(bearing), half, xs, ys, m)
     if free >= need:
         heading = bearing
     else:
@@ -111,7 +110,7 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, wo
             j = j0 + off
             if j < 0 or j >= n:
                 continue
-            f = free_along(ray_ang[j], half, xs, ys, m)
+            f = free_along(laser.heading_cos[j], laser.heading_sin[j], half, xs, ys, m)
             if f >= need:
                 heading, free = ray_ang[j], f
                 break
@@ -130,7 +129,7 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, wo
         rob.activity = ACT_AVOID
         return
     rob.turn = 0
-    ahead = free_along(0.0, half, xs, ys, m)
+    ahead = free_along(1.0, 0.0, half, xs, ys, m)  # cos 0, sin 0
     slow = min(1.0, max(0.0, (min(ahead, free) - stop) / max(avoid - stop, 1e-9)))
     if heading != bearing or slow < 1.0:
         rob.activity = ACT_AVOID
