@@ -3,11 +3,15 @@
 Measures, in one process (one core), the full robot loop (sensing, behaviours,
 learning, physics) on a batch of trials of a scenario, and the same pymunk space
 stepped with no robot logic at all; the ratio of the two says what the robot
-loop costs on top of the physics.
+loop costs on top of the physics. Then, unless told not to, how the figure
+scales: with robots in one arena (2, 6, 12, 24), and with processes (1, 2 and
+all cores, each running the same batch at once). With `against="enki"` it also
+runs the same scenario written for Enki, a C++ robot simulator (`bench/enki/`).
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import platform
 import statistics
@@ -56,9 +60,62 @@ def _physics_only(specs) -> float:
     return sum(s.duration_s for s in specs) / (time.perf_counter() - start)
 
 
+def _full_loop_best(specs, repeats: int) -> float:
+    return max(_full_loop(specs) for _ in range(repeats))
+
+
+def _robots_scaling(cfg_for, counts, duration_s: float, batch: int, repeats: int) -> list[dict]:
+    rows = []
+    for n in counts:
+        specs = trial_specs({**cfg_for(n), "trials": batch, "baselines": []})
+        _full_loop([replace(s, duration_s=min(duration_s, 10.0)) for s in specs])
+        rtf = _full_loop_best(specs, repeats)
+        rows.append({"n_robots": n, "sim_seconds_per_wall_second": round(rtf, 1),
+                     "robot_seconds_per_wall_second": round(rtf * n, 1)})
+    return rows
+
+
+def _worker(specs, barrier, out) -> None:
+    """One process of the core-scaling run: warm up, start with the others, time one batch."""
+    _full_loop([replace(s, duration_s=min(s.duration_s, 10.0)) for s in specs])
+    barrier.wait()
+    start = time.time()
+    engine = BatchEngine(specs)
+    engine.run()
+    out.put((sum(s.duration_s for s in specs), start, time.time()))
+
+
+def _cores_scaling(specs, counts) -> list[dict]:
+    """Processes running the same batch at once: their simulated seconds over the wall time
+    from the first start to the last end."""
+    ctx = multiprocessing.get_context("spawn")
+    rows = []
+    for k in counts:
+        barrier, out = ctx.Barrier(k), ctx.Queue()
+        procs = [ctx.Process(target=_worker, args=(specs, barrier, out)) for _ in range(k)]
+        for p in procs:
+            p.start()
+        results = [out.get() for _ in procs]
+        for p in procs:
+            p.join()
+        wall = max(r[2] for r in results) - min(r[1] for r in results)
+        total = sum(r[0] for r in results) / wall
+        rows.append({"processes": k, "sim_seconds_per_wall_second": round(total, 1),
+                     "per_process": round(total / k, 1)})
+    return rows
+
+
 def run_bench(*, scenario: str = "two_circuits", n_robots: int = 6, duration_s: float = 600.0,
-              repeats: int = 3, batch: int | None = None, n_rays: int | None = None) -> dict:
-    """Median real-time factors over `repeats` runs (after one warm-up run)."""
+              repeats: int = 3, batch: int | None = None, n_rays: int | None = None, scaling: bool = True,
+              against: str | None = None) -> dict:
+    """Median real-time factors over `repeats` runs (after one warm-up run); with `scaling`, the
+    best of `repeats` runs of half the duration per robot count and one run per process count."""
+    if against not in (None, "enki"):
+        raise TavcError(f"--against: the only reference simulator is 'enki', got {against!r}")
+    if against == "enki":
+        from tavc_cli.bench_enki import build_enki_bench
+
+        build_enki_bench()  # before anything is measured: says in one line what is missing
     if repeats < 1:
         raise TavcError(f"--repeats: must be >= 1, got {repeats}")
     if duration_s <= 0:
@@ -74,7 +131,7 @@ def run_bench(*, scenario: str = "two_circuits", n_robots: int = 6, duration_s: 
         full.append(_full_loop(specs))
         phys.append(_physics_only(specs))
     full_rtf, phys_rtf = statistics.median(full), statistics.median(phys)
-    return {
+    result = {
         "scenario": scenario,
         "n_robots": n_robots,
         "trials_per_batch": batch,
@@ -93,3 +150,18 @@ def run_bench(*, scenario: str = "two_circuits", n_robots: int = 6, duration_s: 
         "machine": {"python": platform.python_version(), "platform": platform.platform(),
                     "cpu_count": os.cpu_count()},
     }
+    if scaling:
+        short = duration_s / 2
+        result["scaling_robots"] = _robots_scaling(
+            lambda n: _config(scenario, n, short, n_rays), (2, 6, 12, 24), short, batch, repeats)
+        result["scaling_processes"] = _cores_scaling(specs, sorted({1, 2, os.cpu_count() or 1}))
+    if against == "enki":
+        from tavc_cli.bench_enki import run_enki
+
+        enki = run_enki(duration_s, repeats, n_robots)
+        one = _full_loop_best(specs[:1], repeats)
+        result["enki"] = enki
+        result["batch_1_sim_seconds_per_wall_second"] = round(one, 1)
+        result["ratio_to_enki"] = round(full_rtf / enki["sim_seconds_per_wall_second"], 3)
+        result["ratio_to_enki_batch_1"] = round(one / enki["sim_seconds_per_wall_second"], 3)
+    return result

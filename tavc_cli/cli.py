@@ -188,6 +188,13 @@ def bench(
         Optional[int],
         typer.Option("--n-rays", min=1, help="Laser rays (default: the configured world's).", show_default=False),
     ] = None,
+    scaling: Annotated[
+        bool, typer.Option(help="Also measure 2, 6, 12, 24 robots and 1, 2, all processes.")
+    ] = True,
+    against: Annotated[
+        Optional[str],
+        typer.Option(help="Run the same scenario in a reference simulator beside it: enki.", show_default=False),
+    ] = None,
 ) -> None:
     """Measure simulator throughput (simulated seconds per wall second, one core)."""
     with _user_errors():
@@ -199,6 +206,8 @@ def bench(
             repeats=repeats,
             batch=batch,
             n_rays=n_rays,
+            scaling=scaling,
+            against=against,
         )
 
 
@@ -323,13 +332,15 @@ def _bench(
     repeats: int,
     batch: Optional[int],
     n_rays: Optional[int] = None,
+    scaling: bool = True,
+    against: Optional[str] = None,
 ) -> None:
     """Run the benchmark and print its result as JSON or as aligned lines."""
     from tavc_cli.bench import run_bench
 
     result = run_bench(
         scenario=scenario, n_robots=n_robots, duration_s=duration_s, repeats=repeats, batch=batch,
-        n_rays=n_rays,
+        n_rays=n_rays, scaling=scaling, against=against,
     )
     if json_output:
         typer.echo(json.dumps(result))

@@ -1,6 +1,7 @@
 """`tavc animate` and `tavc bench` as a user calls them (a benchmark, not a timing test)."""
 
 import json
+import os
 
 from PIL import Image
 from typer.testing import CliRunner
@@ -29,7 +30,8 @@ def test_animate_rejects_a_non_gif_output_with_one_line(tmp_path):
 
 
 def test_bench_json_reports_the_contract_fields():
-    result = runner.invoke(app, ["bench", "--json", "--duration-s", "20", "--repeats", "1", "--batch", "2"])
+    result = runner.invoke(app, ["bench", "--json", "--duration-s", "20", "--repeats", "1", "--batch", "2",
+                                 "--no-scaling"])
     assert result.exit_code == 0, result.output
     data = json.loads(result.output)
     for key in ("scenario", "n_robots", "sim_seconds_per_wall_second", "physics_only_sim_seconds_per_wall_second",
@@ -40,3 +42,35 @@ def test_bench_json_reports_the_contract_fields():
     # the ratio is what its name says, computed from the two medians
     assert abs(data["overhead_ratio"] - data["physics_only_sim_seconds_per_wall_second"]
                / data["sim_seconds_per_wall_second"]) < 0.01
+
+
+def test_bench_scaling_covers_robot_counts_and_processes():
+    result = runner.invoke(app, ["bench", "--json", "--duration-s", "10", "--repeats", "1", "--batch", "1"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.output)
+    rows = data["scaling_robots"]
+    assert [r["n_robots"] for r in rows] == [2, 6, 12, 24]
+    # robot-seconds are simulated seconds times robots in the arena
+    for r in rows:
+        assert abs(r["robot_seconds_per_wall_second"] - r["sim_seconds_per_wall_second"] * r["n_robots"]) <= 0.1 * r[
+            "n_robots"]
+    procs = data["scaling_processes"]
+    assert [p["processes"] for p in procs] == sorted({1, 2, os.cpu_count() or 1})
+    for p in procs:
+        assert p["sim_seconds_per_wall_second"] > 0
+        assert abs(p["per_process"] * p["processes"] - p["sim_seconds_per_wall_second"]) <= 0.1 * p["processes"]
+
+
+def test_bench_against_an_unknown_simulator_is_one_line():
+    result = runner.invoke(app, ["bench", "--against", "webots"])
+    assert result.exit_code == 1
+    assert result.output.strip().count("\n") == 0 and "--against" in result.output
+
+
+def test_bench_against_enki_without_its_source_says_so_in_one_line(monkeypatch, tmp_path):
+    from tavc_cli import bench_enki
+
+    monkeypatch.setattr(bench_enki, "SOURCE", tmp_path / "missing.cpp")
+    result = runner.invoke(app, ["bench", "--against", "enki", "--duration-s", "5", "--repeats", "1"])
+    assert result.exit_code == 1
+    assert result.output.strip().count("\n") == 0 and "Enki" in result.output
