@@ -26,8 +26,8 @@ from collections.abc import Sequence
 import numpy as np
 import pymunk
 import pymunk.batch as pb
-from pymunk._chipmunk_cffi import ffi, lib
 from numba import njit
+from pymunk._chipmunk_cffi import ffi, lib
 
 from tavc_cli.sim.arena import Arena
 
