@@ -13,7 +13,7 @@ REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
 # Learning values [w_high, w_low] for the value-ratio sweep: ratios 1.0, 1.1 (the chapter's), 1.25 ... 2.0
 VALUE_RATIOS := [2000,2000],[2200,2000],[2500,2000],[3000,2000],[3500,2000],[4000,2000]
 
-.PHONY: help venv test test-fast bench reproduce-all model value-ratio $(REPRODUCE) clean
+.PHONY: help venv test test-fast bench verify-outcomes reproduce-all model value-ratio $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -35,6 +35,19 @@ test-fast: venv ## Run the tests not marked slow
 
 bench: venv ## Print simulator throughput as one JSON object
 	$(BIN)/tavc bench --json
+
+# Where verify-outcomes recomputes; the committed tables it must match byte for byte
+VERIFY_DIR ?= /tmp/tavc-verify
+VERIFY_RUN := state_time trial_stats performance allocation robots q_values claims comparison
+VERIFY_WORLD := search sensitivity
+
+verify-outcomes: venv ## Recompute initial_distribution and the world search at paper scale; tables must match the committed ones byte for byte
+	rm -rf $(VERIFY_DIR)
+	$(BIN)/tavc run experiment=initial_distribution scale=paper output_dir=$(VERIFY_DIR)/initial_distribution
+	$(BIN)/tavc calibrate scale=paper output_dir=$(VERIFY_DIR)/initial_distribution
+	@for f in $(VERIFY_RUN); do cmp results/initial_distribution/$$f.csv $(VERIFY_DIR)/initial_distribution/$$f.csv || exit 1; done
+	@for f in $(VERIFY_WORLD); do cmp results/calibration/world/$$f.csv $(VERIFY_DIR)/calibration/world/$$f.csv || exit 1; done
+	@echo "outcomes identical: $(words $(VERIFY_RUN)) tables of initial_distribution, $(words $(VERIFY_WORLD)) of the world search"
 
 reproduce-all: $(REPRODUCE) model ## Run every experiment and the model at paper scale, then write results/REPORT.md
 	$(BIN)/tavc report results
