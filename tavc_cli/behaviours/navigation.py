@@ -17,10 +17,12 @@ top of obstacle avoidance:
   the wall for a while, which frees it from dead ends;
 - stopping: stand still (a behaviour a learner may pick, section 1.4.2).
 
-`forced` selects a behaviour from outside (a learner choosing behaviours,
-section 1.4); `BEH_AUTO` lets the section 1.5.4 arbitration decide.
-Nothing here knows about pymunk: the kernel reads true poses (for sensing only),
-writes wheel commands (forward speed, turn rate) and event flags.
+A robot's `forced` field selects a behaviour from outside (a learner choosing
+behaviours, section 1.4); `BEH_AUTO` lets the section 1.5.4 arbitration decide.
+Nothing here knows about pymunk: `control_tick` reads true poses (for sensing only)
+and the bundles of `behaviours.layout` (robots, shared parameters, arena, laser),
+and writes the scan, the robots' state, wheel commands (forward speed, turn rate)
+and arrival flags.
 """
 
 from __future__ import annotations

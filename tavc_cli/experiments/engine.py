@@ -7,8 +7,10 @@ trial: Python runs per tick and per event (an arrival, a breakdown), never per
 robot per tick, except for section 1.4's behaviour learners, whose robots each choose a
 behaviour in Python when their sensed state changes.
 
-Per tick: read true poses -> sense and decide (kernel) -> drive -> step physics
--> handle arrivals and scheduled events.
+Per tick (`BatchEngine.run`): what falls due (events, snapshots, pose frames) ->
+behaviour choices of section 1.4's learners -> sense and decide (the kernel, over
+the bundles of `behaviours.layout`) -> serve arrivals (rewards, next tasks) -> move
+(wheel commands to the physics, one control period of it).
 """
 
 from __future__ import annotations
