@@ -54,3 +54,30 @@ def test_direct_approach_drives_straight_at_the_target():
     path = np.sum(np.hypot(*np.diff(poses[:first + 1, :2], axis=0).T))
     straight = math.dist(poses[0, :2], poses[first, :2])
     assert path <= 1.25 * straight + 1.0  # + 1 m for turning toward it first
+
+
+def test_free_distance_is_exact_below_its_reach():
+    """Points too far to matter within `reach` are skipped: below reach the answer is the one a
+    scan of every point gives, bit for bit, and at or beyond it so is the full answer."""
+    from tavc_cli.behaviours.layout import Work, empty_scan, laser_from_angles
+    from tavc_cli.behaviours.motion import free_distance
+    from tavc_cli.sim.sensors import HIT_NONE, HIT_ROBOT, HIT_WALL
+
+    rng = np.random.default_rng(3)
+    laser = laser_from_angles(np.linspace(-math.pi / 2, math.pi / 2, 61))
+    work = Work(np.empty(61), np.empty(61), np.empty(61, dtype=np.bool_), np.empty(1, dtype=np.int64))
+    below = 0
+    for _ in range(300):
+        scan = empty_scan(1, 61)
+        scan.range_m[0] = rng.uniform(0.25, 3.0, 61)
+        scan.kind[0] = rng.choice([HIT_NONE, HIT_WALL, HIT_ROBOT], 61)
+        heading = rng.uniform(-1.5, 1.5)
+        everything = free_distance(0, heading, 0.22, scan, laser, -999, -1, 1e9, work)
+        for reach in (0.25, 0.5, 0.7):
+            near = free_distance(0, heading, 0.22, scan, laser, -999, -1, reach, work)
+            if everything < reach:
+                assert near == everything
+                below += 1
+            else:
+                assert near >= reach
+    assert below > 50  # the exact branch was exercised

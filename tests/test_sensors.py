@@ -457,3 +457,17 @@ def test_sideways_shove_goes_unmeasured():
     # (and with |ds| = 0 no noise is added either)
     _, est = _drive([(2.0, 2.0, 0.0), (2.0, 3.0, 0.0)], (0.05, 0.05, 0.05), 10)
     np.testing.assert_array_equal(est, np.tile([2.0, 2.0, 0.0], (10, 1)))
+
+
+# --- the angular windows' arctangent -----------------------------------------------------------
+
+
+def test_fast_atan2_stays_well_inside_the_window_margin():
+    from tavc_cli.sim.sensors import _WINDOW_MARGIN_RAD, _fast_atan2
+
+    for (y, x), expected in {(0.0, 1.0): 0.0, (1.0, 0.0): math.pi / 2, (0.0, -1.0): math.pi,
+                             (-1.0, 0.0): -math.pi / 2, (1.0, 1.0): math.pi / 4}.items():
+        assert _fast_atan2(y, x) == pytest.approx(expected, abs=_WINDOW_MARGIN_RAD / 4)
+    ys, xs = np.random.default_rng(0).normal(size=(2, 20_000))
+    worst = max(abs(_fast_atan2(y, x) - math.atan2(y, x)) for y, x in zip(ys, xs, strict=True))
+    assert worst < _WINDOW_MARGIN_RAD / 4
