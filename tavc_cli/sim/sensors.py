@@ -112,10 +112,10 @@ def _fast_atan2(y, x):
 
 
 @njit(cache=True, inline="always")
-def _ray_window(rel, half, a0, spacing, n, full_circle):
+def _ray_window(rel, half, a0, inv_spacing, n, full_circle):
     """Indices k (to be taken mod n when full_circle) of rays within `half` of angle `rel`."""
-    lo = int(math.ceil((rel - half - a0) / spacing - 1e-9))
-    hi = int(math.floor((rel + half - a0) / spacing + 1e-9))
+    lo = int(math.ceil((rel - half - a0) * inv_spacing - 1e-9))
+    hi = int(math.floor((rel + half - a0) * inv_spacing + 1e-9))
     if not full_circle:
         lo = max(lo, 0)
         hi = min(hi, n - 1)
@@ -142,6 +142,7 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
     a0 = angle[0]
     spacing = (angle[n - 1] - a0) / (n - 1) if n > 1 else 1.0
     full_circle = n > 1 and (angle[n - 1] - a0 + spacing) >= 2.0 * math.pi - 1e-9
+    inv_spacing = 1.0 / spacing
     max_range = params.laser_range_m
     width, height = params.arena_width_m, params.arena_height_m
     px, py, th = pose[r, 0], pose[r, 1], pose[r, 2]
@@ -171,7 +172,7 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
             continue  # wholly behind a laser that sees no further back than its sides
         half = half_w / math.sqrt(d2 - half_w * half_w) if d2 > 4.0 * half_w * half_w else math.pi
         rel = _fast_atan2(cy * c - cx * s, ahead)
-        jlo, jhi = _ray_window(rel, half + _WINDOW_MARGIN_RAD, a0, spacing, n, full_circle)
+        jlo, jhi = _ray_window(rel, half + _WINDOW_MARGIN_RAD, a0, inv_spacing, n, full_circle)
         for jj in range(jlo, jhi + 1):
             j = jj % n
             kind = out_kind[r, j]
@@ -214,7 +215,7 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
         # within asin(radius / d) <= radius / sqrt(d^2 - radius^2) of its centre's bearing
         half = radius / math.sqrt(d * d - radius * radius)
         rel = _fast_atan2(oy * c - ox * s, ahead)
-        jlo, jhi = _ray_window(rel, half + _WINDOW_MARGIN_RAD, a0, spacing, n, full_circle)
+        jlo, jhi = _ray_window(rel, half + _WINDOW_MARGIN_RAD, a0, inv_spacing, n, full_circle)
         for jj in range(jlo, jhi + 1):
             j = jj % n
             dx = c * ray_cos[j] - s * ray_sin[j]
