@@ -48,7 +48,7 @@ def test_errors_are_one_line(tmp_path):
     (tmp_path / "config.yaml").write_text("seed: 0\n")
     res = api.load(tmp_path)
     with pytest.raises(TavcError, match="no table 'state_time'"):
-        res.state_time
+        _ = res.state_time
     with pytest.raises(TavcError, match="no trial records"):
         res.events("deliveries")
     with pytest.raises(TavcError, match="no kind 'crashes'"):
