@@ -184,8 +184,9 @@ def test_interior_wall_blocks_the_barcode(one_circuit):
 # --- laser: against pymunk's own segment queries ---------------------------------------------
 
 
-def _random_world(rng):
-    """An arena mapping with random size, targets and interior walls, and robot poses in it."""
+def _random_world(rng, code_m=0.6):
+    """An arena mapping with random size, targets (bar-codes `code_m` wide) and interior walls,
+    and robot poses in it."""
     width, height = rng.uniform(4.0, 12.0), rng.uniform(4.0, 10.0)
     targets = []
     for k, side in enumerate(rng.permutation(4)):  # one per wall, so no two overlap
@@ -210,7 +211,7 @@ def _random_world(rng):
         "name": "random",
         "width_m": width,
         "height_m": height,
-        "barcode_width_m": 0.6,
+        "barcode_width_m": code_m,
         "walls": walls,
         "targets": targets,
         "circuits": [{"name": "c", "source": "t0", "sink": "t1"}],
@@ -243,15 +244,38 @@ def _pymunk_space(arena, poses):
     return space, labels
 
 
-@pytest.mark.parametrize("fov_deg, n_rays", [(180.0, 31), (360.0, 72)])
-def test_laser_agrees_with_pymunk_segment_queries(fov_deg, n_rays):
+def _near_a_code(rng, arena, poses):
+    """The same robots, the first moved to within a metre of a random bar-code (clear of the others)."""
+    t = arena.targets[rng.integers(len(arena.targets))]
+    for _ in range(1000):
+        d, lateral = rng.uniform(0.25, 1.0), rng.uniform(-0.8, 0.8)
+        x = t.x + t.normal[0] * d - t.normal[1] * lateral
+        y = t.y + t.normal[1] * d + t.normal[0] * lateral
+        if (0.25 < x < arena.width_m - 0.25 and 0.25 < y < arena.height_m - 0.25
+                and all(math.hypot(x - p[0], y - p[1]) > 2 * RADIUS_M + 0.01 for p in poses[1:])):
+            poses = poses.copy()
+            poses[0] = (x, y, rng.uniform(-math.pi, math.pi))
+            return poses
+    return poses
+
+
+@pytest.mark.parametrize("fov_deg, n_rays, code_m", [
+    (180.0, 31, 0.6), (360.0, 72, 0.6),
+    # fans short of the full circle, whose windows must not wrap round at +-pi, and one whose
+    # span plus a ray's spacing passes 360 degrees without being a full circle
+    (270.0, 61, 0.6), (340.0, 69, 0.6), (358.0, 60, 0.6),
+    (180.0, 31, 2.5),  # bar-codes wider than a robot is near them
+])
+def test_laser_agrees_with_pymunk_segment_queries(fov_deg, n_rays, code_m):
     """The angular-window and exit-wall shortcuts must not change what a ray hits."""
     rng = np.random.default_rng(7)
     ray_ang = ray_angles(fov_deg, n_rays)
     max_range = 8.0
     n_checked = {HIT_NONE: 0, HIT_WALL: 0, HIT_ROBOT: 0, HIT_TARGET: 0}
-    for _ in range(25):
-        arena, poses = _random_world(rng)
+    for world in range(40):
+        arena, poses = _random_world(rng, code_m)
+        if world % 2:
+            poses = _near_a_code(rng, arena, poses)
         space, labels = _pymunk_space(arena, poses)
         for r in range(len(poses)):
             got_range, got_kind, got_id, _ = _laser(arena, poses, ray_ang, r=r, max_range=max_range)

@@ -38,7 +38,7 @@ def to_frame(px, py, th, gx, gy):
 
 @njit(cache=True, inline="always")
 def dock_frame(px, py, th, target, standoff):
-    """Pose relative to target tgt's dock spot, the point `standoff` out from the bar-code
+    """Pose relative to `target`'s dock spot (a TARGET record), the point `standoff` out from the bar-code
     along its wall's normal: (along the normal, positive into the arena; along the wall;
     heading error from facing the wall)."""
     nx, ny = target.nx, target.ny

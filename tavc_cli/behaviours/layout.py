@@ -1,4 +1,4 @@
-"""The kernel's data: what one control tick reads and writes, in four named bundles.
+"""The kernel's data: what one control tick reads and writes, in named bundles.
 
 The compiled kernel (`navigation.control_tick`) works on plain numpy data, so its
 inputs are laid out here once, with names and units:
@@ -64,7 +64,9 @@ PARAMS = np.dtype([
     # behaviours
     ("avoid_dist_m", np.float64), ("stop_dist_m", np.float64), ("arrive_dist_m", np.float64),
     ("wall_dist_m", np.float64), ("visible_margin_m", np.float64), ("relocalise_dist_m", np.float64),
-    ("stall_s", np.float64), ("escape_s", np.float64), ("progress_m", np.float64),
+    ("stall_limit_s", np.float64),     # this long without getting progress_m closer: escape ...
+    ("escape_duration_s", np.float64),  # ... by following the wall this long
+    ("progress_m", np.float64),
     # sensors
     ("laser_range_m", np.float64), ("barcode_width_m", np.float64),
     ("camera_on", np.bool_),     # whether anyone reads the camera (section 1.4's learners)
@@ -120,7 +122,7 @@ class Work(NamedTuple):
     xs: np.ndarray        # (n_rays,) hit points that can block a path, robot frame
     ys: np.ndarray
     flags: np.ndarray     # (n_rays,) bool: the ray passing nearest each robot in view
-    rows: np.ndarray      # (n_robots,) int: that ray, per robot row
+    rows: np.ndarray      # (n_robots,) int: that ray, per robot of the trial (row - first)
 
 
 MODE_APPROACH, MODE_WALLFOLLOW, MODE_ESCAPE, MODE_DOCK, MODE_SERVICE, MODE_UNDOCK = range(6)
@@ -160,8 +162,9 @@ def build_params(robot: Mapping, arena: Arena, dt_s: float, camera_on: bool) -> 
     p["dt_s"] = dt_s
     p["arena_width_m"], p["arena_height_m"] = arena.width_m, arena.height_m
     for key in ("avoid_dist_m", "stop_dist_m", "arrive_dist_m", "wall_dist_m", "visible_margin_m",
-                "relocalise_dist_m", "stall_s", "escape_s", "progress_m"):
+                "relocalise_dist_m", "progress_m"):
         p[key] = beh[key]
+    p["stall_limit_s"], p["escape_duration_s"] = beh["stall_s"], beh["escape_s"]
     p["laser_range_m"] = laser["range_m"]
     p["barcode_width_m"] = arena.barcode_width_m
     p["camera_on"] = camera_on
@@ -206,4 +209,4 @@ def laser_from_angles(angle_rad: np.ndarray) -> Laser:
 
 def empty_scan(n_robots: int, n_rays: int) -> Scan:
     return Scan(np.zeros((n_robots, n_rays)), np.zeros((n_robots, n_rays), dtype=np.int8),
-                np.full((n_robots, n_rays), -1, dtype=np.int32), np.zeros((n_robots, 4), dtype=np.int64))
+                np.full((n_robots, n_rays), -1, dtype=np.int32), np.tile(np.array([0, 0, 0, -1]), (n_robots, 1)))

@@ -44,8 +44,9 @@ def near_points(r, reach, half, scan, laser, skip_barcode, skip_wall, xs, ys):
 @njit(cache=True)
 def free_along(ux, uy, half, xs, ys, m):
     """How far a disc of half-width `half` can travel along the heading (ux, uy) (robot frame)
-    before it touches one of the first m points: exact below the `reach` the points were
-    gathered for, and at least reach + half otherwise (inf when nothing is near)."""
+    before it touches one of the first m points of xs, ys. With points from `near_points`:
+    exact below the reach they were gathered for, at least reach + half beyond it (inf when
+    nothing is near)."""
     best = np.inf
     for i in range(m):
         along = xs[i] * ux + ys[i] * uy
@@ -217,8 +218,8 @@ def track_progress(r, goal_dist, bearing, robots, params):
             rob.mode = MODE_APPROACH
             rob.best_dist_m = goal_dist
             rob.stall_s = 0.0
-    elif rob.stall_s > params.stall_s:
+    elif rob.stall_s > params.stall_limit_s:
         rob.mode = MODE_ESCAPE
         rob.side = -1 if bearing > 0 else 1
-        rob.escape_s = params.escape_s
+        rob.escape_s = params.escape_duration_s
         rob.stall_s = 0.0

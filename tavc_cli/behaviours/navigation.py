@@ -264,7 +264,8 @@ def compiled(kernel, *args):
     """The compiled specialisation of an njit `kernel` for these arguments' types.
 
     Calling it skips numba's per-call type dispatch, which for bundles of arrays costs
-    several microseconds a call. The arguments it is later called with must have
-    exactly these types (dtypes, dimensions and memory layout).
+    several microseconds a call; nothing is checked at call time, so the arguments it is
+    later called with must have exactly these types (dtypes, dimensions and C-contiguous
+    memory, as the engine's arrays, fixed at its construction, have).
     """
     return kernel.compile(tuple(numba.typeof(a) for a in args))

@@ -302,7 +302,7 @@ class BatchEngine:
         Pose frames show where the robots are at t, before its events (a robot that
         breaks down at t is shown where it stopped).
         """
-        poses = self.world.poses(out=self.pose.copy())
+        poses = self.world.poses(out=np.empty_like(self.pose))
         for b, tr in enumerate(self.trials):
             if tr.events and tr.events[0][0] <= t:
                 self._fire_events(tr, t)

@@ -113,14 +113,19 @@ def _fast_atan2(y, x):
 
 @njit(cache=True, inline="always")
 def _ray_window(rel, half, a0, inv_spacing, n, full_circle):
-    """Indices k (to be taken mod n when full_circle) of rays within `half` of angle `rel`."""
+    """Indices k (to be taken mod n when full_circle) of the rays within `half` of angle `rel`
+    (and a few more: never fewer). A fan of rays short of the full circle does not wrap round
+    at +-pi: a window that crosses it takes every ray."""
     lo = int(math.ceil((rel - half - a0) * inv_spacing - 1e-9))
     hi = int(math.floor((rel + half - a0) * inv_spacing + 1e-9))
-    if not full_circle:
+    if full_circle:
+        if hi - lo >= n:
+            lo, hi = 0, n - 1
+    elif rel - half < -math.pi or rel + half > math.pi:
+        lo, hi = 0, n - 1
+    else:
         lo = max(lo, 0)
         hi = min(hi, n - 1)
-    elif hi - lo >= n:
-        lo, hi = 0, n - 1
     return lo, hi
 
 
@@ -141,7 +146,7 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
     n = angle.shape[0]
     a0 = angle[0]
     spacing = (angle[n - 1] - a0) / (n - 1) if n > 1 else 1.0
-    full_circle = n > 1 and (angle[n - 1] - a0 + spacing) >= 2.0 * math.pi - 1e-9
+    full_circle = n > 1 and abs(n * spacing - 2.0 * math.pi) < 1e-9  # evenly round, as ray_angles makes it
     inv_spacing = 1.0 / spacing
     max_range = params.laser_range_m
     width, height = params.arena_width_m, params.arena_height_m
@@ -213,7 +218,7 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
         if not full_circle and half_fov <= math.pi / 2 and ahead < -radius:
             continue  # wholly behind a laser that sees no further back than its sides
         # within asin(radius / d) <= radius / sqrt(d^2 - radius^2) of its centre's bearing
-        half = radius / math.sqrt(d * d - radius * radius)
+        half = radius / math.sqrt(d * d - radius * radius) if d * d > 2.0 * radius * radius else math.pi
         rel = _fast_atan2(oy * c - ox * s, ahead)
         jlo, jhi = _ray_window(rel, half + _WINDOW_MARGIN_RAD, a0, inv_spacing, n, full_circle)
         for jj in range(jlo, jhi + 1):

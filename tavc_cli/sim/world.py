@@ -82,11 +82,11 @@ class _BodyIteration:
         self._buffer = buffer  # keeps the arrays alive
 
     def __call__(self) -> None:
-        n = self._array.num
+        filled = self._array.num  # a set leaves it as it found it
         self._array.num = 0  # a get appends from the start; a set reads from the start
         lib.cpSpaceEachBody(self._space, self._iterator, self._request)
         if self._is_set:
-            self._array.num = n
+            self._array.num = filled
 
 
 class PhysicsWorld:
@@ -181,6 +181,8 @@ class PhysicsWorld:
 
     def _read_state(self) -> np.ndarray:
         self._get()
+        if self._read._float_arr.num != self._rview.size:  # a body added behind the world's back
+            raise RuntimeError("the physics space holds bodies the world did not index")
         return self._rview
 
     def poses(self, out: np.ndarray | None = None) -> np.ndarray:
