@@ -51,6 +51,7 @@ ROBOT = np.dtype([
     ("activity", np.int64),      # this tick's activity (behaviours.activities)
     ("arrived", np.bool_),       # reached its target this tick
     ("target_visible", np.bool_),  # the laser reads its target's bar-code this tick
+    ("code_in_view", np.bool_),    # the laser reads some bar-code this tick
     ("best_dist_m", np.float64),  # nearest it has come to its goal since progress was last made
     ("stall_s", np.float64),      # seconds without progress
     ("escape_s", np.float64),     # seconds of escape left

@@ -91,6 +91,7 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd, work):
             own_min = min(own_min, ranges[r, j])
             own_cnt += 1
     rob.target_visible = own_cnt > 0
+    rob.code_in_view = near_min < np.inf
     rob.arrived = False
     if near_min <= params.relocalise_dist_m:
         # a bar-code close by gives range, bearing and orientation: localisation resets

@@ -27,11 +27,10 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TableBuilder, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
-from tavc_cli.learning.behaviour import state_index
+from tavc_cli.learning.behaviour import sensed_states
 from tavc_cli.learning.policies import TaskPolicy
 from tavc_cli.learning.registry import make_policy
 from tavc_cli.sim.arena import SOURCE, Arena
-from tavc_cli.sim.sensors import HIT_TARGET
 from tavc_cli.sim.world import PhysicsWorld
 
 _NOISE_BLOCK_TICKS = 512
@@ -164,6 +163,11 @@ class BatchEngine:
         self.tick = 0
         self.on_tick: Callable[[BatchEngine], None] | None = None
         self._behaviour_trials = [tr for tr in self.trials if tr.learns_behaviours]
+        if self._behaviour_trials:
+            self._states, self._due = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
+            tr = self._behaviour_trials[0]
+            self._sensed_states = compiled(sensed_states, self.robots, self.scan.camera, tr.lo, tr.hi,
+                                           tr.policy.random_bit, tr.policy.last_state, False, self._states, self._due)
         self._control_tick = compiled(control_tick, self.robots, self.pose, self.noise[0], self.params,
                                       self.geometry, self.laser, self.scan, self.cmd, self.act_s)
         for tr in self.trials:
@@ -212,13 +216,11 @@ class BatchEngine:
         """Section 1.4's learners read their five bits (a bar-code in the laser's view, the random
         bit, the nearest robot's markings) and pick a behaviour for each robot whose bits changed
         since its last choice (or every time, with `decide_on_change` off)."""
-        sl = slice(tr.lo, tr.hi)
-        cam = self.scan.camera[sl]
-        states = state_index((self.scan.kind[sl] == HIT_TARGET).any(axis=1), tr.policy.random_bits(t),
-                             cam[:, 0], cam[:, 1], cam[:, 2])
-        due = tr.alive & ((states != tr.policy.last_state) | ~tr.policy.decide_on_change)
-        for i in np.flatnonzero(due):
-            self.robots[tr.lo + i]["forced"] = tr.policy.decide(int(i), int(states[i]))
+        policy, states, due = tr.policy, self._states, self._due
+        m = self._sensed_states(self.robots, self.scan.camera, tr.lo, tr.hi, policy.random_bits(t),
+                                policy.last_state, not policy.decide_on_change, states, due)
+        for i in due[:m]:
+            self.robots[tr.lo + i]["forced"] = policy.decide(int(i), int(states[i]))
 
     def _act_before_tick(self, g: int) -> np.ndarray:
         """Robot g's activity seconds up to the start of this tick: the tick in which a robot

@@ -23,6 +23,7 @@ uniformly random one if the arena has several.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from tavc_cli.behaviours.layout import BEH_DIRECT, BEH_STOP, BEH_WALL
 from tavc_cli.learning.qlearning import q_update, softmax_choice
@@ -40,6 +41,23 @@ def state_index(target_visible, random_bit, red, green, yellow):
     return (np.asarray(target_visible, np.int64) << BIT_TARGET | np.asarray(random_bit, np.int64) << BIT_RANDOM
             | np.asarray(red, np.int64) << BIT_RED | np.asarray(green, np.int64) << BIT_GREEN
             | np.asarray(yellow, np.int64) << BIT_YELLOW)
+
+
+@njit(cache=True)
+def sensed_states(robots, camera, first, last, random_bit, last_state, every_time, states, due):
+    """The state of each robot of rows first..last-1 (as `state_index` makes it, from what the
+    kernel sensed last tick) into states[0:n]; the live robots whose state differs from that
+    of their last choice (all live ones if `every_time`) into due[0:m]. Returns m."""
+    m = 0
+    for i in range(last - first):
+        g = first + i
+        s = (np.int64(robots[g].code_in_view) << BIT_TARGET | random_bit[i] << BIT_RANDOM
+             | camera[g, 0] << BIT_RED | camera[g, 1] << BIT_GREEN | camera[g, 2] << BIT_YELLOW)
+        states[i] = s
+        if robots[g].alive and (s != last_state[i] or every_time):
+            due[m] = i
+            m += 1
+    return m
 
 
 def state_bits(s: int) -> dict[str, int]:
@@ -66,6 +84,7 @@ class BehaviourPolicy:
         self.reward = np.zeros(n_robots)  # earned since the last decision
         self.random_bit = np.zeros(n_robots, dtype=np.int64)
         self.random_until = rng.uniform(*RANDOM_INTERVAL_S, size=n_robots)
+        self._next_switch = float(self.random_until.min()) if n_robots else np.inf
 
     # --- the task level ------------------------------------------------------
     def choose(self, robot: int, state: int) -> int:
@@ -84,10 +103,13 @@ class BehaviourPolicy:
 
     def random_bits(self, t: float) -> np.ndarray:
         """The random bit of every robot at time t (switching whenever an interval ends)."""
+        if t < self._next_switch:
+            return self.random_bit
         for robot in np.flatnonzero(self.random_until <= t):
             while self.random_until[robot] <= t:
                 self.random_bit[robot] ^= 1
                 self.random_until[robot] += self.rng.uniform(*RANDOM_INTERVAL_S)
+        self._next_switch = float(self.random_until.min())
         return self.random_bit
 
     def decide(self, robot: int, state: int) -> int:
