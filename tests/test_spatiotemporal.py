@@ -13,8 +13,31 @@ from tavc_cli.experiments import engine
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.learning import behaviour
-from tavc_cli.learning.behaviour import BehaviourPolicy, state_bits, state_index
+from tavc_cli.learning.behaviour import BehaviourPolicy, sensed_states, state_bits, state_index
 from tavc_cli.sim.arena import SINK, SOURCE
+
+
+def test_sensed_states_are_the_five_bits_and_pick_the_changed_live_robots():
+    from tavc_cli.behaviours.layout import ROBOT
+
+    rng = np.random.default_rng(5)
+    robots = np.zeros(9, dtype=ROBOT)
+    robots["code_in_view"] = rng.integers(0, 2, 9).astype(bool)
+    robots["alive"] = True
+    robots["alive"][5] = False
+    camera = np.column_stack([rng.integers(0, 2, (9, 3)), np.full(9, -1)]).astype(np.int64)
+    random_bit = rng.integers(0, 2, 6).astype(np.int64)
+    first, last = 3, 9  # the trial's rows
+    expected = state_index(robots["code_in_view"][first:last], random_bit, camera[first:last, 0],
+                           camera[first:last, 1], camera[first:last, 2])
+    last_state = expected.copy()
+    last_state[[0, 2, 4]] += 1  # robots 0, 2, 4 of the trial sense something new; 2 (row 5) is broken
+    states, due = np.zeros(6, dtype=np.int64), np.zeros(6, dtype=np.int64)
+    m = sensed_states(robots, camera, first, last, random_bit, last_state, False, states, due)
+    np.testing.assert_array_equal(states, expected)
+    assert list(due[:m]) == [0, 4]
+    m = sensed_states(robots, camera, first, last, random_bit, last_state, True, states, due)
+    assert list(due[:m]) == [0, 1, 3, 4, 5]  # every live robot, deciding every time
 
 
 def test_state_index_packs_the_five_bits():
