@@ -13,7 +13,8 @@ inputs are laid out here once, with names and units:
   interior walls (the outer rectangle is `PARAMS.arena_width_m` x `arena_height_m`);
 - `Laser`: the rays' directions relative to the heading;
 - `Scan`, what the sensors wrote this tick: per ray range, kind of hit and hit id;
-  per robot what the camera saw.
+  per robot what the camera saw;
+- `Work`, scratch space the behaviours reuse within a tick.
 
 `build_robots`, `build_params`, `build_arena`, `build_laser` and `empty_scan` fill
 them from the config and the arena.
