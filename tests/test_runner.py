@@ -250,3 +250,39 @@ def test_batches_give_every_worker_a_share_of_a_small_run():
     assert [len(b.specs) for b in make_batches(specs, 8, workers=1)] == [8]
     # every trial is in exactly one batch, in order
     assert [s.trial for b in make_batches(specs, 8, workers=3) for s in b.specs] == list(range(8))
+
+
+# --- cluster executors ---------------------------------------------------------------------------
+
+@pytest.mark.slow
+@pytest.mark.parametrize("backend", ["dask", "ray"])
+def test_a_cluster_executor_writes_the_local_executors_tables(tmp_path, backend):
+    """A real Dask LocalCluster and a real local Ray instance: the same trials, the same tables."""
+    pytest.importorskip("distributed" if backend == "dask" else "ray")
+    from tavc_cli.config import load_config
+    from tavc_cli.experiments.runner import run_experiment
+
+    base = ["experiment=breakdown", "scale=smoke", "executor.n_jobs=2"]
+    run_experiment(load_config([*base, f"output_dir={tmp_path / 'local'}"]))
+    summary = run_experiment(load_config([*base, f"executor.backend={backend}", f"output_dir={tmp_path / backend}"]))
+    assert summary["n_trials"] == 6 and summary["n_reused"] == 0
+    for name in ("state_time", "trial_stats", "performance", "allocation", "claims"):
+        assert (tmp_path / "local" / f"{name}.csv").read_bytes() == (tmp_path / backend / f"{name}.csv").read_bytes()
+
+
+def test_a_missing_cluster_package_is_one_line(monkeypatch):
+    import builtins
+
+    from tavc_cli.errors import TavcError
+    from tavc_cli.experiments.executors import run_on_cluster
+
+    real_import = builtins.__import__
+
+    def no_dask(name, *args, **kwargs):
+        if name.startswith("distributed"):
+            raise ImportError(name)
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_dask)
+    with pytest.raises(TavcError, match=r"executor.backend=dask needs distributed: pip install 'tavc\[dask\]'"):
+        run_on_cluster("dask", [], lambda b, r: None, 1, None, lambda b: None)

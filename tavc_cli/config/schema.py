@@ -10,7 +10,7 @@ from typing import Any, List, Optional
 from omegaconf import MISSING
 
 SCHEMA_NAME = "tavc_schema"
-AVAILABLE_BACKENDS = ("local",)
+AVAILABLE_BACKENDS = ("local", "ray", "dask")
 BACKENDS = ("local", "ray", "dask")
 ANALYSIS_STATES = ("circuits", "groups")
 TARGET_KINDS = ("source", "sink")

@@ -158,6 +158,18 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None
         prog.close()
 
 
+def _execute_on_cluster(backend: str, pending: list[Batch], out_dir: Path, executor: Mapping, tty: bool) -> None:
+    """Run pending batches on a Dask or Ray cluster (`executors`); this process writes the files."""
+    from tavc_cli.experiments.executors import run_on_cluster, saver
+
+    prog = _Progress(pending, tty)
+    try:
+        run_on_cluster(backend, pending, saver(out_dir, trial_path), int(executor["n_jobs"]),
+                       executor.get("address"), lambda b: prog.update((b.controller, b.index), 1.0))
+    finally:
+        prog.close()
+
+
 def load_records(out_dir: Path, specs: list[TrialSpec]) -> list[TrialRecord]:
     return [TrialRecord.load(trial_path(out_dir, s.controller, s.trial)) for s in specs]
 
@@ -279,8 +291,6 @@ def run_experiment(cfg, *, progress: bool = False) -> dict:
     except OSError as exc:
         raise TavcError(f"output_dir: cannot create {out_dir}: {exc.strerror}") from None
     backend = plain["executor"]["backend"]
-    if backend != "local":
-        raise TavcError(f"executor.backend: '{backend}' is not available in this version; use 'local'")
     start = time.perf_counter()
     specs = trial_specs(plain)
     pending, n_reused = pending_batches(out_dir, specs, int(plain["executor"]["batch_size"]),
@@ -288,7 +298,10 @@ def run_experiment(cfg, *, progress: bool = False) -> dict:
     n_total = len(specs)
     if n_reused:
         print(f"reusing {n_reused} of {n_total} finished trials in {out_dir / 'trials'}", flush=True)
-    execute(pending, out_dir, int(plain["executor"]["n_jobs"]), progress)
+    if backend == "local":
+        execute(pending, out_dir, int(plain["executor"]["n_jobs"]), progress)
+    else:
+        _execute_on_cluster(backend, pending, out_dir, plain["executor"], progress)
     wall = time.perf_counter() - start
     write_text_atomic(out_dir / "config.yaml", to_yaml(cfg))
     records = load_records(out_dir, specs)
