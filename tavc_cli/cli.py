@@ -273,6 +273,24 @@ def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
         if multirun:
             typer.echo(f"job {index + 1}/{len(configs)}: {cfg.output_dir}")
         _print_summary(run_experiment(cfg, progress=progress))
+    if multirun and len(configs) > 1:
+        _write_sweep(config.swept_values(overrides), [Path(cfg.output_dir) for cfg in configs])
+
+
+def _write_sweep(values: list[dict[str, str]], folders: list[Path]) -> None:
+    """sweep.csv (and its figure) beside the jobs' folders: every job's states side by side."""
+    from tavc_cli.analysis.sweep import sweep_table
+    from tavc_cli.io import write_text_atomic
+    from tavc_cli.viz.sweep import sweep_figure
+
+    table = sweep_table(list(zip(values, folders, strict=True)))
+    if table.empty:
+        return
+    parent = folders[0].parent
+    write_text_atomic(parent / "sweep.csv", table.to_csv(index=False, float_format="%.4f"))
+    typer.echo(f"\nsweep: {parent / 'sweep.csv'}")
+    for path in sweep_figure(table, next(iter(values[0])), parent / "sweep"):
+        typer.echo(f"figure: {path}")
 
 
 def _print_summary(summary: dict[str, Any]) -> None:

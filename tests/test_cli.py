@@ -99,3 +99,23 @@ def test_bad_input_is_one_error_line_and_exit_1(args, key):
     assert key in lines[0]
     assert result.stderr.strip() == lines[0]
     assert "Traceback" not in result.output
+
+
+def test_a_sweep_writes_its_jobs_side_by_side(tmp_path):
+    import pandas as pd
+
+    out = tmp_path / "sweep"
+    result = CliRunner().invoke(app, ["run", "-m", "experiment=initial_distribution", "scale=smoke", "baselines=[]",
+                                      "learner.epsilon=0.05,0.3", f"output_dir={out}"])
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(out / "sweep.csv")
+    assert sorted(table["learner.epsilon"].unique()) == [0.05, 0.3]
+    for job, eps in ((0, 0.05), (1, 0.3)):
+        rows = table[(table["job"] == job) & (table["controller"] == "tavc")]
+        assert set(rows["learner.epsilon"]) == {eps}
+        # the job's own state table, row for row
+        own = pd.read_csv(out / f"{job}_learner.epsilon={eps}" / "state_time.csv")
+        own = own[own["controller"] == "tavc"]
+        assert list(rows["state"]) == list(own["state"])
+        assert list(rows["mean_pct"].round(4)) == list(own["mean_pct"].round(4))
+    assert (out / "sweep.png").is_file() and (out / "sweep.svg").is_file()

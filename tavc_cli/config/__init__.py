@@ -13,6 +13,7 @@ from tavc_cli.config.loading import (
     list_experiments,
     load_config,
     load_sweep,
+    swept_values,
     to_container,
     to_yaml,
 )
@@ -25,6 +26,7 @@ __all__ = [
     "list_experiments",
     "load_config",
     "load_sweep",
+    "swept_values",
     "to_container",
     "to_yaml",
 ]

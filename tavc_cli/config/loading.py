@@ -96,6 +96,18 @@ def expand_sweep(overrides: Sequence[str]) -> list[list[str]]:
     return [list(job) for job in itertools.product(*choices.values())]
 
 
+def swept_values(overrides: Sequence[str]) -> list[dict[str, str]]:
+    """Each job's value of every swept key (as written), in sweep order.
+
+    Raises:
+        TavcError: On bad override syntax or a sweep that is not a discrete list of values.
+    """
+    choices = _sweep_choices(overrides)
+    swept = [key for key, values in choices.items() if len(values) > 1]
+    return [{_override_key(c): c.split("=", 1)[1] for c in job if _override_key(c) in swept}
+            for job in itertools.product(*choices.values())]
+
+
 def load_sweep(overrides: Sequence[str]) -> list[DictConfig]:
     """Load, validate and resolve every job of a sweep before any of them runs.
 
