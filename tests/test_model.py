@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from tavc_cli.config import load_config
+from tavc_cli.experiments.store import Executor
 from tavc_cli.model import core
 from tavc_cli.model.api import run_model
 
@@ -220,7 +221,7 @@ def test_sensitivity_end_to_end_writes_task_times_per_world_and_a_figure(tmp_pat
                 for varied, point in [("chosen", {"robot.dock.dwell_s": 5.0}),
                                       ("robot.dock.dwell_s", {"robot.dock.dwell_s": 0.0})]]
     sens = run_sensitivity(variants, tmp_path, n_robots=3, trials=2, warmup_s=10.0, measure_s=300.0, confidence=0.9,
-                           n_jobs=1, batch_size=8, progress=False)
+                           executor=Executor(n_jobs=1, batch_size=8), progress=False)
     frame = sens["table"]
     # two worlds x two circuits x n = 1..3 robots on the circuit
     assert len(frame) == 2 * 2 * 3
@@ -229,7 +230,7 @@ def test_sensitivity_end_to_end_writes_task_times_per_world_and_a_figure(tmp_pat
     # each world's trials are the search's own: named by the grid point's id, and a rerun runs nothing
     assert [w["point"] for w in worlds] == [point_id(p) for _, p, _ in variants]
     again = run_sensitivity(variants, tmp_path, n_robots=3, trials=2, warmup_s=10.0, measure_s=300.0,
-                            confidence=0.9, n_jobs=1, batch_size=8, progress=False)
+                            confidence=0.9, executor=Executor(n_jobs=1, batch_size=8), progress=False)
     pd.testing.assert_frame_equal(again["table"], frame)
     # a task is two dock visits: standing 5 s at each makes it longer than standing not at all
     t3 = frame[(frame["circuit"] == 0) & (frame["n_on_circuit"] == 3)].set_index("world")["task_time_s"]

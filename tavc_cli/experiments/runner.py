@@ -1,13 +1,8 @@
-"""Run an experiment's trials: batches over processes, reuse of finished trials, outputs.
+"""Run an experiment: its trials through the results folder's `TrialStore` (finished ones
+reused, the rest run on the chosen executor), then `config.yaml`, `provenance.json` and the
+analysis tables (`state_time.csv`, `performance.csv`, ...), each written atomically.
 
-`run_experiment` is what `tavc run` calls. It
-1. skips every trial whose file already exists with a matching key (a digest of
-   everything that fixes its outcome, seed included);
-2. groups the rest into batches (see `build`) and runs them on the chosen
-   executor, each batch writing one file per trial atomically when it finishes
-   (a killed run loses at most the batches in flight);
-3. writes `config.yaml`, `provenance.json`, and the shared analysis tables
-   (`state_time.csv`, `performance.csv`), each atomically.
+`run_experiment` is what `tavc run` calls.
 """
 
 from __future__ import annotations
@@ -18,12 +13,10 @@ import platform
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Mapping
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from collections.abc import Mapping
 from importlib import metadata
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.performance import performance_table
@@ -33,145 +26,13 @@ from tavc_cli.analysis.states import allocation_table, specialisation_table, sta
 from tavc_cli.analysis.trial_stats import trial_stats
 from tavc_cli.analysis.vacancy import vacancy_table
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.build import Batch, make_batches, trial_specs
-from tavc_cli.experiments.engine import run_trials
+from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec, code_digest
+from tavc_cli.experiments.store import Executor, TrialStore, trial_path
 from tavc_cli.io import write_text_atomic
 
 _PACKAGES = ("numpy", "scipy", "pandas", "pymunk", "numba", "hydra-core", "omegaconf", "typer", "matplotlib")
-
-
-def trial_path(out_dir: Path, controller: str, trial: int) -> Path:
-    return out_dir / "trials" / f"{controller}_{trial:03d}.npz"
-
-
-def _stored_key(path: Path) -> str | None:
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            return json.loads(str(data["meta"])).get("key")
-    except Exception:  # missing, truncated or foreign: the trial is simply run again
-        return None
-
-
-def trial_done(out_dir: Path, spec: TrialSpec) -> bool:
-    """True if the trial's file exists and was made from this exact spec and seed."""
-    return _stored_key(trial_path(out_dir, spec.controller, spec.trial)) == spec.key()
-
-
-def pending_batches(out_dir: Path, specs: list[TrialSpec], batch_size: int,
-                    workers: int = 1) -> tuple[list[Batch], int]:
-    """Batches of the trials still to run, and how many finished trials are reused."""
-    todo = [s for s in specs if not trial_done(out_dir, s)]
-    return make_batches(todo, batch_size, workers), len(specs) - len(todo)
-
-
-def run_batch(batch: Batch, out_dir: str | Path, report: Callable[[float], None] | None = None) -> float:
-    """Simulate one batch and write its trial files; returns the wall time (s)."""
-    start = time.perf_counter()
-    records = run_trials(batch.specs, report)
-    for spec, rec in zip(batch.specs, records, strict=True):
-        rec.save(trial_path(Path(out_dir), spec.controller, spec.trial))
-    return time.perf_counter() - start
-
-
-class _QueueReporter:
-    """Progress callback for a worker process: sends (batch id, fraction) to the parent."""
-
-    def __init__(self, queue, key) -> None:
-        self.queue, self.key = queue, key
-
-    def __call__(self, frac: float) -> None:
-        self.queue.put((self.key, frac))
-
-
-class _Progress:
-    """A rich bar on a terminal, plain periodic lines otherwise, over the simulated seconds
-    of the batches; each batch reports the fraction of itself that is done."""
-
-    def __init__(self, batches: list[Batch], tty: bool) -> None:
-        self.weights = {(b.controller, b.index): b.sim_seconds for b in batches}
-        self.total = total_s = sum(self.weights.values())
-        self.done: dict = {}
-        self.start = time.perf_counter()
-        self.last_line = self.start
-        self.bar = None
-        if tty and total_s > 0:
-            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-            self.bar = Progress(TextColumn("simulating"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
-                                TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), transient=True)
-            self.task = self.bar.add_task("run", total=total_s)
-            self.bar.start()
-
-    def update(self, key, frac: float) -> None:
-        self.done[key] = frac * self.weights[key]
-        done = sum(self.done.values())
-        if self.bar is not None:
-            self.bar.update(self.task, completed=done)
-        elif time.perf_counter() - self.last_line > 10.0 and self.total > 0:
-            self.last_line = time.perf_counter()
-            elapsed = self.last_line - self.start
-            pct = 100.0 * done / self.total
-            eta = elapsed * (self.total - done) / done if done > 0 else float("nan")
-            print(f"  {pct:5.1f}% of {self.total:,.0f} simulated s, {elapsed:,.0f} s elapsed, eta {eta:,.0f} s",
-                  flush=True)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.stop()
-
-
-def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None:
-    """Run pending batches in this process (n_jobs 1 or a single batch) or a process pool."""
-    prog = _Progress(pending, tty)
-    try:
-        if n_jobs <= 1 or len(pending) <= 1:
-            for b in pending:
-                key = (b.controller, b.index)
-                run_batch(b, out_dir, lambda f, k=key: prog.update(k, f))
-            return
-        import multiprocessing as mp
-
-        ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
-        with ctx.Manager() as manager:
-            queue = manager.Queue()
-            pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=ctx)
-            try:
-                futures = {pool.submit(run_batch, b, str(out_dir), _QueueReporter(queue, (b.controller, b.index))): b
-                           for b in pending}
-                remaining = set(futures)
-                while remaining:
-                    finished, remaining = wait(remaining, timeout=0.5, return_when=FIRST_COMPLETED)
-                    while not queue.empty():
-                        key, frac = queue.get()
-                        prog.update(key, frac)
-                    for f in finished:
-                        f.result()  # re-raise a worker's error here
-                        b = futures[f]
-                        prog.update((b.controller, b.index), 1.0)
-            except BaseException:
-                pool.shutdown(wait=True, cancel_futures=True)  # don't start batches nobody will wait for
-                raise
-            pool.shutdown(wait=True)
-    finally:
-        prog.close()
-
-
-def _execute_on_cluster(backend: str, pending: list[Batch], out_dir: Path, executor: Mapping, tty: bool) -> None:
-    """Run pending batches on a Dask or Ray cluster (`executors`); this process writes the files."""
-    from tavc_cli.experiments.executors import run_on_cluster, saver
-
-    prog = _Progress(pending, tty)
-    try:
-        run_on_cluster(backend, pending, saver(out_dir, trial_path), int(executor["n_jobs"]),
-                       executor.get("address"), lambda b: prog.update((b.controller, b.index), 1.0))
-    finally:
-        prog.close()
-
-
-def load_records(out_dir: Path, specs: list[TrialSpec]) -> list[TrialRecord]:
-    return [TrialRecord.load(trial_path(out_dir, s.controller, s.trial)) for s in specs]
 
 
 def provenance(cfg: Mapping, specs: list[TrialSpec], wall_time_s: float, n_reused: int) -> dict:
@@ -290,21 +151,14 @@ def run_experiment(cfg, *, progress: bool = False) -> dict:
         (out_dir / "trials").mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise TavcError(f"output_dir: cannot create {out_dir}: {exc.strerror}") from None
-    backend = plain["executor"]["backend"]
     start = time.perf_counter()
     specs = trial_specs(plain)
-    pending, n_reused = pending_batches(out_dir, specs, int(plain["executor"]["batch_size"]),
-                                        int(plain["executor"]["n_jobs"]))
+    store = TrialStore(out_dir, Executor.from_mapping(plain["executor"]))
     n_total = len(specs)
-    if n_reused:
-        print(f"reusing {n_reused} of {n_total} finished trials in {out_dir / 'trials'}", flush=True)
-    if backend == "local":
-        execute(pending, out_dir, int(plain["executor"]["n_jobs"]), progress)
-    else:
-        _execute_on_cluster(backend, pending, out_dir, plain["executor"], progress)
+    n_reused = store.run(specs, progress, announce=True)
     wall = time.perf_counter() - start
     write_text_atomic(out_dir / "config.yaml", to_yaml(cfg))
-    records = load_records(out_dir, specs)
+    records = store.load(specs)
     tables = analyse(plain, records)
     for name, df in tables.items():
         # Q-values span the reward's scale (about 0.05 per task with t in ms, 50 with t in s): significant digits

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from tavc_cli import config
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.store import Executor
 from tavc_cli.model.report import search_text, sensitivity_text
 from tavc_cli.model.world_search import (
     grid_points,
@@ -41,7 +42,7 @@ def calibrate_world(overrides: Sequence[str], *, save: bool, progress: bool, ech
     measurement = dict(
         n_robots=int(base["team"]["n_robots"]), trials=trials, warmup_s=float(cal["warmup_s"]) * factor,
         measure_s=float(cal["measure_s"]) * factor, confidence=float(base["model"]["confidence"]),
-        n_jobs=int(base["executor"]["n_jobs"]), batch_size=int(base["executor"]["batch_size"]), progress=progress,
+        executor=Executor.from_mapping(base["executor"]), progress=progress,
     )
     search = run_search(points, out_dir, **measurement)
     echo(search_text(search))

@@ -22,8 +22,8 @@ from scipy import stats
 from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.experiments.build import base_spec
 from tavc_cli.experiments.records import TrialRecord
-from tavc_cli.experiments.runner import execute, pending_batches, trial_path
 from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.experiments.store import Executor, TrialStore
 from tavc_cli.model.core import Cell, CTable, Split, splits_up_to
 
 MODEL_CONTROLLER_CODE = 10
@@ -127,8 +127,8 @@ def measure(cfg: Mapping, out_dir: Path, *, n_max: int, trials: int, warmup_s: f
     table and how many trials were reused."""
     plan = measurement_specs(cfg, n_max, trials, warmup_s, measure_s, only)
     all_specs = [s for specs in plan.values() for s in specs]
-    pending, n_reused = pending_batches(out_dir, all_specs, int(cfg["executor"]["batch_size"]), n_jobs)
-    execute(pending, out_dir, n_jobs, progress)
+    executor = Executor.from_mapping({**cfg["executor"], "n_jobs": n_jobs})
+    n_reused = TrialStore(out_dir, executor).run(all_specs, progress)
     return table_from(plan, out_dir, len(cfg["arena"]["circuits"]), warmup_s, measure_s, confidence), n_reused
 
 
@@ -137,7 +137,7 @@ def table_from(plan: Mapping[Split, list[TrialSpec]], out_dir: Path, n_circuits:
     """The table of a measurement plan whose trials have all been run into `out_dir`."""
     table = CTable(n_circuits)
     for n, specs in plan.items():
-        records = [TrialRecord.load(trial_path(out_dir, s.controller, s.trial)) for s in specs]
+        records = TrialStore(out_dir, Executor()).load(specs)
         table.cells[n] = cells_for(records, n, warmup_s, measure_s, confidence)
         table.arrivals_per_h[n] = arrivals_per_hour(records, warmup_s, measure_s)
     return table

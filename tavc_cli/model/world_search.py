@@ -44,7 +44,7 @@ import yaml
 
 from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.runner import execute, pending_batches
+from tavc_cli.experiments.store import Executor, TrialStore
 from tavc_cli.io import write_text_atomic
 from tavc_cli.model import core
 from tavc_cli.model.api import dock_spots, json_safe
@@ -135,25 +135,22 @@ def choose(rows: list[dict], rays_key: str = "robot.laser.n_rays") -> tuple[int 
 
 
 def run_search(points: Sequence[tuple[Point, Mapping]], out_dir: Path, *, n_robots: int, trials: int,
-               warmup_s: float, measure_s: float, confidence: float, n_jobs: int, batch_size: int,
+               warmup_s: float, measure_s: float, confidence: float, executor: Executor,
                progress: bool) -> dict:
     """Measure every grid point (reusing finished trials), judge each, pick one; write
     `search.csv` and `search.json` under out_dir."""
     if n_robots < 3:
         raise TavcError("team.n_robots: the world search needs a team of at least 3 robots")
-    plans, pending, n_reused = [], [], 0
+    plans, specs = [], []
     for point, cfg in points:
         if len(cfg["arena"]["circuits"]) != 2:
             raise TavcError("arena: the world search checks the chapter's two-circuit constraints")
         values = [float(v) for v in cfg["tasks"]["values"]]
         plan = measurement_specs(cfg, n_robots, trials, warmup_s, measure_s,
                                  only=needed_splits(n_robots, values), prefix=point_id(point) + "_")
-        specs = [s for group in plan.values() for s in group]
-        todo, reused = pending_batches(out_dir, specs, batch_size, n_jobs)
+        specs += [s for group in plan.values() for s in group]
         plans.append(plan)
-        pending += todo
-        n_reused += reused
-    execute(pending, out_dir, n_jobs, progress)
+    n_reused = TrialStore(out_dir, executor).run(specs, progress)
     rows = []
     for (point, cfg), plan in zip(points, plans, strict=True):
         values = [float(v) for v in cfg["tasks"]["values"]]
@@ -248,21 +245,20 @@ def sensitivity_rows(table: core.CTable, n_robots: int, values: Sequence[float])
 
 
 def run_sensitivity(variants: Sequence[tuple[str, Point, Mapping]], out_dir: Path, *, n_robots: int, trials: int,
-                    warmup_s: float, measure_s: float, confidence: float, n_jobs: int, batch_size: int,
+                    warmup_s: float, measure_s: float, confidence: float, executor: Executor,
                     progress: bool) -> dict:
     """Measure every split of N and N-1 robots in each variant world (reusing the search's
     trials where they coincide) and say, per world, t_i(n) for n = 1..N, the crowding ratio
     and the allocations the model predicts with the chapter's values. Writes
     `sensitivity.csv` (t_i(n), one row per world, circuit and n) and `sensitivity.json`."""
-    plans, pending = [], []
+    plans, specs = [], []
     for _, point, cfg in variants:
         only = [(1, 0), *core.splits(n_robots, 2), *core.splits(n_robots - 1, 2)]
         plan = measurement_specs(cfg, n_robots, trials, warmup_s, measure_s, only=only,
                                  prefix=point_id(point) + "_")
-        todo, _ = pending_batches(out_dir, [s for group in plan.values() for s in group], batch_size, n_jobs)
+        specs += [s for group in plan.values() for s in group]
         plans.append(plan)
-        pending += todo
-    execute(pending, out_dir, n_jobs, progress)
+    TrialStore(out_dir, executor).run(specs, progress)
     worlds, rows = [], []
     for (varied, point, cfg), plan in zip(variants, plans, strict=True):
         values = [float(v) for v in cfg["tasks"]["values"]]
