@@ -57,6 +57,17 @@ def free_along(ux, uy, half, xs, ys, m):
 
 
 @njit(cache=True)
+def blocked_before(ux, uy, half, xs, ys, m, need):
+    """Whether `free_along` would be below `need`: stops at the first point that makes it so."""
+    for i in range(m):
+        along = xs[i] * ux + ys[i] * uy
+        lateral = abs(xs[i] * uy - ys[i] * ux)
+        if along > 0.0 and lateral < half and along - math.sqrt(half * half - lateral * lateral) < need:
+            return True
+    return False
+
+
+@njit(cache=True)
 def free_distance(r, heading, radius, scan, laser, skip_barcode, skip_wall, reach, work):
     """How far robot r can drive along `heading` (robot frame) before its disc, widened by a
     small margin, touches a laser hit point (ignoring one bar-code, and the outer wall
@@ -111,9 +122,9 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, wo
             j = j0 + off
             if j < 0 or j >= n:
                 continue
-            f = free_along(laser.heading_cos[j], laser.heading_sin[j], half, xs, ys, m)
-            if f >= need:
-                heading, free = ray_ang[j], f
+            ux, uy = laser.heading_cos[j], laser.heading_sin[j]
+            if not blocked_before(ux, uy, half, xs, ys, m, need):
+                heading, free = ray_ang[j], free_along(ux, uy, half, xs, ys, m)
                 break
     if np.isnan(heading):
         # boxed in: turn toward the more open side, and keep turning that way
