@@ -169,12 +169,12 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
         tgt = targets[k]
         cx, cy = 0.5 * (tgt.x1_m + tgt.x2_m) - px, 0.5 * (tgt.y1_m + tgt.y2_m) - py
         half_w = tgt.half_width_m
-        d2 = cx * cx + cy * cy
-        if math.sqrt(d2) - half_w > max_range:
-            continue
         ahead = cx * c + cy * s  # the centre in the robot's frame
         if not full_circle and half_fov <= math.pi / 2 and ahead < -half_w:
             continue  # wholly behind a laser that sees no further back than its sides
+        d2 = cx * cx + cy * cy
+        if d2 > (max_range + half_w + 1e-6) ** 2:
+            continue  # out of range
         half = half_w / math.sqrt(d2 - half_w * half_w) if d2 > 4.0 * half_w * half_w else math.pi
         rel = _fast_atan2(cy * c - cx * s, ahead)
         jlo, jhi = _ray_window(rel, half + _WINDOW_MARGIN_RAD, a0, inv_spacing, n, full_circle)
