@@ -49,9 +49,12 @@ verify-outcomes: venv ## Recompute initial_distribution and the world search at 
 	@for f in $(VERIFY_WORLD); do cmp results/calibration/world/$$f.csv $(VERIFY_DIR)/calibration/world/$$f.csv || exit 1; done
 	@echo "outcomes identical: $(words $(VERIFY_RUN)) tables of initial_distribution, $(words $(VERIFY_WORLD)) of the world search"
 
+# Experiments run two at a time, each on every core: one's idle tail is the other's work
+REPRODUCE_JOBS ?= 2
+
 reproduce-all: venv ## Run every experiment and the model at paper scale, then write results/REPORT.md; prints the wall time
 	@date +%s > $(VENV)/.reproduce-start
-	$(MAKE) --no-print-directory $(REPRODUCE) model
+	$(MAKE) -j$(REPRODUCE_JOBS) --output-sync=target --no-print-directory $(REPRODUCE) model
 	$(BIN)/tavc report results
 	@echo "reproduce-all: $$(( $$(date +%s) - $$(cat $(VENV)/.reproduce-start) )) s wall time"
 
