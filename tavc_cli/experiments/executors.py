@@ -1,6 +1,6 @@
 """Running batches of trials on a Dask or Ray cluster.
 
-The local executor (`runner.execute`) runs batches in a process pool whose workers
+The local executor (`store.execute`) runs batches in a process pool whose workers
 write their trial files themselves. A cluster's workers need not share the results
 folder, so here a batch's records travel back to this process, which writes each
 trial's file atomically as its batch finishes (a stopped run loses only the batches
