@@ -375,7 +375,7 @@ def _validate_executor(executor: DictConfig) -> None:
     """Backend and parallelism."""
     _one_of("executor.backend", executor.backend, BACKENDS)
     _check(executor.backend in AVAILABLE_BACKENDS, "executor.backend",
-           f"'{executor.backend}' is not available in this version; use 'local'")
+           f"'{executor.backend}' is not available in this version; use one of {', '.join(AVAILABLE_BACKENDS)}")
     _at_least("executor.n_jobs", executor.n_jobs, 1)
     _at_least("executor.batch_size", executor.batch_size, 1)
     _check(executor.batch_size <= 32, "executor.batch_size",
