@@ -41,6 +41,17 @@ def near_points(r, reach, half, scan, laser, skip_barcode, skip_wall, xs, ys):
     return m
 
 
+@njit(cache=True, inline="always")
+def _gap(x, y, ux, uy, half):
+    """How far a disc of half-width `half` travels along (ux, uy) before it touches the point
+    (x, y) (robot frame), or inf if it never does."""
+    along = x * ux + y * uy
+    lateral = abs(x * uy - y * ux)
+    if along > 0.0 and lateral < half:
+        return along - math.sqrt(half * half - lateral * lateral)
+    return np.inf
+
+
 @njit(cache=True)
 def free_along(ux, uy, half, xs, ys, m):
     """How far a disc of half-width `half` can travel along the heading (ux, uy) (robot frame)
@@ -49,10 +60,7 @@ def free_along(ux, uy, half, xs, ys, m):
     nothing is near)."""
     best = np.inf
     for i in range(m):
-        along = xs[i] * ux + ys[i] * uy
-        lateral = abs(xs[i] * uy - ys[i] * ux)
-        if along > 0.0 and lateral < half:
-            best = min(best, along - math.sqrt(half * half - lateral * lateral))
+        best = min(best, _gap(xs[i], ys[i], ux, uy, half))
     return best
 
 
@@ -60,9 +68,7 @@ def free_along(ux, uy, half, xs, ys, m):
 def blocked_before(ux, uy, half, xs, ys, m, need):
     """Whether `free_along` would be below `need`: stops at the first point that makes it so."""
     for i in range(m):
-        along = xs[i] * ux + ys[i] * uy
-        lateral = abs(xs[i] * uy - ys[i] * ux)
-        if along > 0.0 and lateral < half and along - math.sqrt(half * half - lateral * lateral) < need:
+        if _gap(xs[i], ys[i], ux, uy, half) < need:
             return True
     return False
 

@@ -16,7 +16,6 @@ alone, in any batch, on any worker.
 from __future__ import annotations
 
 from collections.abc import Callable
-from pathlib import Path
 
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch
@@ -98,11 +97,3 @@ def _run_ray(pending, save, n_jobs, address, done) -> None:
     finally:
         if started:
             ray.shutdown()
-
-
-def saver(out_dir: Path, trial_path: Callable[[Path, str, int], Path]) -> Callable[[Batch, list[TrialRecord]], None]:
-    """Writes a finished batch's trial files into out_dir, each atomically."""
-    def save(batch: Batch, records: list[TrialRecord]) -> None:
-        for spec, rec in zip(batch.specs, records, strict=True):
-            rec.save(trial_path(out_dir, spec.controller, spec.trial))
-    return save

@@ -106,10 +106,14 @@ def pending_batches(out_dir: Path, specs: list[TrialSpec], batch_size: int,
 def run_batch(batch: Batch, out_dir: str | Path, report: Callable[[float], None] | None = None) -> float:
     """Simulate one batch and write its trial files; returns the wall time (s)."""
     start = time.perf_counter()
-    records = run_trials(batch.specs, report)
+    save_batch(batch, run_trials(batch.specs, report), out_dir)
+    return time.perf_counter() - start
+
+
+def save_batch(batch: Batch, records: Sequence[TrialRecord], out_dir: str | Path) -> None:
+    """Write a finished batch's trial files into out_dir, each atomically."""
     for spec, rec in zip(batch.specs, records, strict=True):
         rec.save(trial_path(Path(out_dir), spec.controller, spec.trial))
-    return time.perf_counter() - start
 
 
 class _QueueReporter:
@@ -197,11 +201,11 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None
 
 def _execute_on_cluster(ex: Executor, pending: list[Batch], out_dir: Path, tty: bool) -> None:
     """Run pending batches on a Dask or Ray cluster (`executors`); this process writes the files."""
-    from tavc_cli.experiments.executors import run_on_cluster, saver
+    from tavc_cli.experiments.executors import run_on_cluster
 
     prog = _Progress(pending, tty)
     try:
-        run_on_cluster(ex.backend, pending, saver(out_dir, trial_path), ex.n_jobs, ex.address,
+        run_on_cluster(ex.backend, pending, lambda b, records: save_batch(b, records, out_dir), ex.n_jobs, ex.address,
                        lambda b: prog.update((b.controller, b.index), 1.0))
     finally:
         prog.close()
