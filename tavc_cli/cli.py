@@ -9,6 +9,7 @@ Modules that pull in the simulator are imported inside the commands that need th
 ``tavc config`` and ``tavc list`` start fast.
 """
 
+import functools
 import json
 import sys
 from collections.abc import Iterator, Sequence
@@ -265,16 +266,29 @@ def _print_experiments() -> None:
 
 
 def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
-    """Run one experiment, or every job of a sweep after validating them all."""
-    configs = config.load_sweep(overrides) if multirun else [config.load_config(overrides)]
+    """Run one experiment, or every job of a sweep (all validated first) through a Hydra launcher."""
+    if not multirun:
+        cfg = config.load_config(overrides)
+        from tavc_cli.experiments.runner import run_experiment
+
+        _print_summary(run_experiment(cfg, progress=progress))
+        return
+    from tavc_cli.config.launch import launch_sweep
+
+    done = launch_sweep(overrides, functools.partial(_sweep_job, progress=progress))
+    if len(done) > 1:
+        ours = [o for o in overrides if not config.is_hydra_override(o)]
+        _write_sweep(config.swept_values(ours), [Path(folder) for folder in done])
+
+
+def _sweep_job(cfg: Any, *, progress: bool) -> str:
+    """One job of a sweep, wherever the launcher runs it: run, print its summary, return its folder."""
     from tavc_cli.experiments.runner import run_experiment
 
-    for index, cfg in enumerate(configs):
-        if multirun:
-            typer.echo(f"job {index + 1}/{len(configs)}: {cfg.output_dir}")
-        _print_summary(run_experiment(cfg, progress=progress))
-    if multirun and len(configs) > 1:
-        _write_sweep(config.swept_values(overrides), [Path(cfg.output_dir) for cfg in configs])
+    typer.echo(f"job: {cfg.output_dir}")
+    summary = run_experiment(cfg, progress=progress)
+    _print_summary(summary)
+    return summary["output_dir"]
 
 
 def _write_sweep(values: list[dict[str, str]], folders: list[Path]) -> None:

@@ -86,6 +86,9 @@ def test_list_prints_one_line_per_experiment():
         (["run", "learner.epsilon=0.1,0.2"], "learner.epsilon"),
         (["run", "-m", "learner=tavc_egreedy", "learner.epsilon=0.1,1.5"], "learner.epsilon"),
         (["animate", "team.n_robots=0"], "team.n_robots"),
+        (["run", "-m", "scale=smoke", "learner.epsilon=0.1,0.2", "hydra/launcher=nope"], "hydra/launcher"),
+        (["run", "-m", "scale=smoke", "hydra/launcher=joblib", "hydra.launcher.n_jobs=two"], "hydra.launcher.n_jobs"),
+        (["run", "scale=smoke", "hydra/launcher=joblib"], "hydra/launcher"),
         (["config", "robot.dock.patience_s=-5"], "robot.dock.patience_s"),
         (["report", "/nonexistent/results"], "RESULTS_DIR"),
     ],
@@ -119,3 +122,29 @@ def test_a_sweep_writes_its_jobs_side_by_side(tmp_path):
         assert list(rows["state"]) == list(own["state"])
         assert list(rows["mean_pct"].round(4)) == list(own["mean_pct"].round(4))
     assert (out / "sweep.png").is_file() and (out / "sweep.svg").is_file()
+
+
+def test_sweep_jobs_run_through_hydras_joblib_launcher_with_the_basic_launchers_results(tmp_path):
+    """The launcher decides where jobs run, never what they compute."""
+    sweep = ["run", "-m", "experiment=initial_distribution", "scale=smoke", "learner.epsilon=0.05,0.3"]
+    basic = CliRunner().invoke(app, [*sweep, f"output_dir={tmp_path / 'basic'}"])
+    assert basic.exit_code == 0, basic.output
+    joblib = CliRunner().invoke(app, [*sweep, f"output_dir={tmp_path / 'joblib'}", "hydra/launcher=joblib",
+                                      "hydra.launcher.n_jobs=2"])
+    assert joblib.exit_code == 0, joblib.output
+    for job in ("0_learner.epsilon=0.05", "1_learner.epsilon=0.3"):
+        for table in ("state_time.csv", "performance.csv", "claims.csv"):
+            assert (tmp_path / "basic" / job / table).read_bytes() == (tmp_path / "joblib" / job / table).read_bytes()
+    # Hydra writes nothing of its own: no .hydra/ folder, no log file
+    assert sorted(p.name for p in (tmp_path / "joblib").iterdir()) == [
+        "0_learner.epsilon=0.05", "1_learner.epsilon=0.3", "sweep.csv", "sweep.png", "sweep.svg"]
+    assert not list((tmp_path / "joblib").rglob(".hydra")) and not list((tmp_path / "joblib").rglob("*.log"))
+
+
+def test_a_refused_launcher_writes_nothing(tmp_path):
+    out = tmp_path / "never"
+    result = runner.invoke(app, ["run", "-m", "scale=smoke", "learner.epsilon=0.1,0.2", "hydra/launcher=nope",
+                                 f"output_dir={out}"])
+    assert result.exit_code == 1
+    assert "basic" in result.output  # the message lists the launchers there are
+    assert not out.exists()

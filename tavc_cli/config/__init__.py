@@ -10,6 +10,7 @@ messages that name the offending key (``validate``), and with every derived valu
 from tavc_cli.config.loading import (
     expand_sweep,
     find_conf_dir,
+    is_hydra_override,
     list_experiments,
     load_config,
     load_sweep,
@@ -23,6 +24,7 @@ __all__ = [
     "TavcConfig",
     "expand_sweep",
     "find_conf_dir",
+    "is_hydra_override",
     "list_experiments",
     "load_config",
     "load_sweep",

@@ -1,10 +1,11 @@
 """Composing configs with Hydra's compose API, sweeps, and one-line error messages."""
 
+import contextlib
 import dataclasses
 import difflib
 import itertools
 import re
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any, Optional
 
@@ -67,6 +68,9 @@ def load_config(overrides: Sequence[str] = ()) -> DictConfig:
         TavcError: On an unknown key, option or override syntax, a wrong type, or a value out of
             range; the message is one line naming the key.
     """
+    for text in overrides:
+        if is_hydra_override(text):
+            raise TavcError(f"{_override_key(text)}: Hydra's own settings (its launcher) apply to sweeps; add -m")
     for override in _parse_overrides(overrides):
         if override.is_sweep_override():
             key = override.get_key_element()
@@ -74,6 +78,12 @@ def load_config(overrides: Sequence[str] = ()) -> DictConfig:
                 f"{key}: a sweep needs -m/--multirun (to set a list, write {key}=[a,b])"
             )
     return _load(overrides)
+
+
+def is_hydra_override(text: str) -> bool:
+    """Whether an override sets Hydra's own config (``hydra/launcher=...``, ``hydra.x=...``)."""
+    key = text.lstrip("~+").split("=", 1)[0].strip()
+    return key == "hydra" or key.startswith(("hydra.", "hydra/"))
 
 
 def expand_sweep(overrides: Sequence[str]) -> list[list[str]]:
@@ -124,19 +134,24 @@ def load_sweep(overrides: Sequence[str]) -> list[DictConfig]:
     Raises:
         TavcError: If any job's config is invalid; the message names the job.
     """
+    return [cfg for _, cfg in plan_sweep(overrides)]
+
+
+def plan_sweep(overrides: Sequence[str]) -> list[tuple[list[str], DictConfig]]:
+    """Every job of a sweep as (its plain overrides, its resolved config); see ``load_sweep``."""
     choices = _sweep_choices(overrides)
     swept = {key for key, values in choices.items() if len(values) > 1}
-    jobs = list(itertools.product(*choices.values()))
+    jobs = [list(job) for job in itertools.product(*choices.values())]
     width = len(str(len(jobs) - 1))
-    configs = []
+    plan = []
     for index, job in enumerate(jobs):
         label = _slug(choice for choice in job if _override_key(choice) in swept)
         job_dir = f"{index:0{width}d}_{label}" if label else f"{index:0{width}d}"
         try:
-            configs.append(_load(job, job_dir=job_dir))
+            plan.append((job, _load(job, job_dir=job_dir)))
         except TavcError as error:
             raise TavcError(f"job {index} ({' '.join(job)}): {error}") from None
-    return configs
+    return plan
 
 
 def list_experiments() -> list[dict]:
@@ -192,7 +207,16 @@ def to_container(cfg: DictConfig | dict) -> dict:
 
 def _load(overrides: Sequence[str], *, job_dir: Optional[str] = None) -> DictConfig:
     """Compose, check, resolve and freeze one config (no sweeps)."""
-    cfg = _compose(overrides)
+    return complete(_compose(overrides), job_dir=job_dir)
+
+
+def complete(cfg: DictConfig, *, job_dir: Optional[str] = None) -> DictConfig:
+    """Type, check, resolve and freeze a config Hydra composed (by ``_compose`` or a launcher).
+
+    Raises:
+        TavcError: On a key the schema lacks, a wrong type or a value out of range.
+    """
+    cfg = _typed(cfg)
     try:
         check_no_missing(cfg)
         validate_scaling(cfg)
@@ -205,18 +229,27 @@ def _load(overrides: Sequence[str], *, job_dir: Optional[str] = None) -> DictCon
 
 
 def _compose(overrides: Sequence[str]) -> DictConfig:
-    """Compose ``config.yaml`` with overrides and return it typed against ``TavcConfig``.
+    """Compose ``config.yaml`` with overrides (untyped: ``complete`` types it).
 
     Only the compose API is used, never ``@hydra.main``: Hydra's own error reporting (and its
     ``HYDRA_FULL_ERROR`` traceback switch) is never involved, and every failure surfaces here
     as an exception that becomes one ``TavcError`` line.
     """
+    with hydra_errors(overrides), initialize_conf():
+        return compose(config_name="config", overrides=list(overrides))
+
+
+def initialize_conf():
+    """Hydra initialised on ``conf/`` with the schema registered (a context manager)."""
     ConfigStore.instance().store(name=SCHEMA_NAME, node=TavcConfig)
+    return initialize_config_dir(config_dir=str(find_conf_dir()), version_base="1.3", job_name="tavc")
+
+
+@contextlib.contextmanager
+def hydra_errors(overrides: Sequence[str]) -> Iterator[None]:
+    """Turn what composing with ``overrides`` may raise into one ``TavcError`` line."""
     try:
-        with initialize_config_dir(
-            config_dir=str(find_conf_dir()), version_base="1.3", job_name="tavc"
-        ):
-            cfg = compose(config_name="config", overrides=list(overrides))
+        yield
     except MissingConfigException as error:
         raise TavcError(_missing_option_message(error)) from None
     except HydraException as error:
@@ -231,7 +264,6 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
         raise TavcError(
             f"cannot apply overrides {' '.join(overrides)} (is a parent key null?): {error}"
         ) from None
-    return _typed(cfg)
 
 
 def _typed(cfg: DictConfig) -> DictConfig:

@@ -1,0 +1,93 @@
+"""A sweep's jobs run through a Hydra launcher.
+
+``tavc run -m`` expands and validates every job first (``loading.load_sweep``), so a bad job
+stops the sweep before anything is written. The jobs then go to the launcher that
+``hydra/launcher=`` names: ``basic`` (one after another, in this process) by default, or any
+installed launcher plugin such as ``joblib`` (``pip install hydra-joblib-launcher``: jobs in
+parallel processes). Each job gets the folder the validated config chose, passed to Hydra as
+``hydra.sweep.dir`` and ``hydra.sweep.subdir``; Hydra composes the job's config, and the task
+types, checks and resolves it exactly as ``tavc run`` does for a single run.
+
+Overrides of Hydra's own config (``hydra/launcher=joblib``, ``hydra.launcher.n_jobs=2``) go to
+the launcher; every other override is the experiment's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from hydra._internal.callbacks import Callbacks
+from hydra.core.global_hydra import GlobalHydra
+from hydra.core.hydra_config import HydraConfig
+from hydra.core.plugins import Plugins
+from hydra.types import HydraContext, RunMode
+from omegaconf import DictConfig
+
+from tavc_cli.config.loading import complete, hydra_errors, initialize_conf, is_hydra_override, plan_sweep
+from tavc_cli.errors import TavcError
+
+# Hydra writes nothing of its own into a job's folder (config.yaml and provenance.json are
+# tavc's record), changes no directory and leaves logging alone.
+_QUIET = ("hydra/job_logging=none", "hydra/hydra_logging=none", "hydra.output_subdir=null", "hydra.job.chdir=false")
+
+
+def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any]) -> list[Any]:
+    """Validate every job of a sweep, then run ``task`` on each job's resolved config through
+    the Hydra launcher the overrides choose.
+
+    Args:
+        overrides: The command line's overrides, sweeps (``a=1,2``) and Hydra's included.
+        task: Called once per job with its read-only, resolved config; must be picklable for
+            launchers that run jobs in other processes.
+
+    Returns:
+        What ``task`` returned for each job, in sweep order.
+
+    Raises:
+        TavcError: If a job's config is invalid (before any job runs), the launcher is unknown,
+            or a job failed (after the others have run).
+    """
+    ours = [o for o in overrides if not is_hydra_override(o)]
+    theirs = [o for o in overrides if is_hydra_override(o)]
+    plan = plan_sweep(ours)
+    folders = [Path(cfg.output_dir) for _, cfg in plan]
+    common = _common_parent(folders)
+    jobs = [[*job, f"hydra.sweep.dir={_quoted(str(folder.parent))}", f"hydra.sweep.subdir={_quoted(folder.name)}"]
+            for (job, _), folder in zip(plan, folders, strict=True)]
+    with hydra_errors(theirs), initialize_conf():
+        hydra = GlobalHydra.instance().hydra
+        assert hydra is not None
+        master = hydra.compose_config("config", overrides=[*_QUIET, *theirs, f"hydra.sweep.dir={_quoted(common)}"],
+                                      run_mode=RunMode.MULTIRUN)
+        launcher = Plugins.instance().instantiate_launcher(
+            hydra_context=HydraContext(config_loader=hydra.config_loader, callbacks=Callbacks(master)),
+            task_function=_Job(task), config=master)
+        returns = launcher.launch(jobs, initial_job_idx=0)
+    return [r.return_value for r in returns]  # a failed job's exception is raised here
+
+
+class _Job:
+    """Hydra's task function: type, check and resolve the job's config, then run the task."""
+
+    def __init__(self, task: Callable[[DictConfig], Any]):
+        self.task = task
+
+    def __call__(self, cfg: DictConfig) -> Any:
+        hydra = HydraConfig.get()
+        resolved = complete(cfg, job_dir=str(hydra.sweep.subdir))
+        if Path(resolved.output_dir).resolve() != Path(hydra.runtime.output_dir).resolve():
+            raise TavcError(f"job {hydra.job.num}: Hydra's folder {hydra.runtime.output_dir} is not the job's "
+                            f"output_dir {resolved.output_dir}")
+        return self.task(resolved)
+
+
+def _common_parent(folders: Sequence[Path]) -> str:
+    parents = {str(folder.parent) for folder in folders}
+    return parents.pop() if len(parents) == 1 else "."
+
+
+def _quoted(text: str) -> str:
+    """A value the override grammar takes literally (paths hold ``=`` and ``,``)."""
+    return "'" + text.replace("\\", "\\\\").replace("'", "\\'") + "'"
