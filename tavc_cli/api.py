@@ -97,11 +97,10 @@ def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, 
         progress: Show a progress bar.
     """
     from tavc_cli import config
-    from tavc_cli.experiments.runner import run_experiment
+    from tavc_cli.pipeline import run_experiment
 
     overrides = list(overrides)
     if output_dir is not None:
         overrides.append(f"output_dir={Path(output_dir)}")
-    cfg = config.load_config(overrides)
-    summary = run_experiment(cfg, progress=progress)
+    summary = run_experiment(config.settings(config.load_config(overrides)), progress=progress)
     return Results(summary["output_dir"])

@@ -16,6 +16,7 @@ import os
 import platform
 import statistics
 import time
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -23,15 +24,20 @@ import numpy as np
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine
+from tavc_cli.settings import TavcConfig
+
+SettingsFor = Callable[[int, float], TavcConfig]  # (robots, duration_s) -> the benchmark's settings
 
 
-def _config(scenario: str, n_robots: int, duration_s: float, n_rays: int | None) -> dict:
-    from tavc_cli.config import load_config, to_container
-
+def bench_overrides(scenario: str, n_robots: int, duration_s: float, n_rays: int | None) -> list[str]:
+    """The config the benchmark runs: `scenario`'s arena, TAVC learners, no snapshots."""
     rays = [f"robot.laser.n_rays={n_rays}"] if n_rays else []
-    return to_container(load_config([f"arena={scenario}", "learner=tavc_egreedy", f"team.n_robots={n_robots}",
-                                     f"duration_s={duration_s}", "convergence_s=0", "sim.q_snapshot_every_s=0",
-                                     *rays]))
+    return [f"arena={scenario}", "learner=tavc_egreedy", f"team.n_robots={n_robots}", f"duration_s={duration_s}",
+            "convergence_s=0", "sim.q_snapshot_every_s=0", *rays]
+
+
+def _batch_specs(settings: TavcConfig, batch: int):
+    return trial_specs(replace(settings, trials=batch, baselines=[]))
 
 
 def _full_loop(specs) -> float:
@@ -64,10 +70,10 @@ def _full_loop_best(specs, repeats: int) -> float:
     return max(_full_loop(specs) for _ in range(repeats))
 
 
-def _robots_scaling(cfg_for, counts, duration_s: float, batch: int, repeats: int) -> list[dict]:
+def _robots_scaling(settings_for: SettingsFor, counts, duration_s: float, batch: int, repeats: int) -> list[dict]:
     rows = []
     for n in counts:
-        specs = trial_specs({**cfg_for(n), "trials": batch, "baselines": []})
+        specs = _batch_specs(settings_for(n, duration_s), batch)
         _full_loop([replace(s, duration_s=min(duration_s, 10.0)) for s in specs])
         rtf = _full_loop_best(specs, repeats)
         rows.append({"n_robots": n, "sim_seconds_per_wall_second": round(rtf, 1),
@@ -105,11 +111,13 @@ def _cores_scaling(specs, counts) -> list[dict]:
     return rows
 
 
-def run_bench(*, scenario: str = "two_circuits", n_robots: int = 6, duration_s: float = 600.0,
+def run_bench(settings_for: SettingsFor, *, scenario: str = "two_circuits", n_robots: int = 6,
+              duration_s: float = 600.0,
               repeats: int = 3, batch: int | None = None, n_rays: int | None = None, scaling: bool = True,
               against: str | None = None) -> dict:
     """Median real-time factors over `repeats` runs (after one warm-up run); with `scaling`, the
-    best of `repeats` runs of half the duration per robot count and one run per process count."""
+    best of `repeats` runs of half the duration per robot count and one run per process count.
+    `settings_for(n_robots, duration_s)` gives the settings of `bench_overrides` for that team."""
     if against not in (None, "enki"):
         raise TavcError(f"--against: the only reference simulator is 'enki', got {against!r}")
     if against == "enki":
@@ -120,11 +128,11 @@ def run_bench(*, scenario: str = "two_circuits", n_robots: int = 6, duration_s: 
         raise TavcError(f"--repeats: must be >= 1, got {repeats}")
     if duration_s <= 0:
         raise TavcError(f"--duration-s: must be > 0, got {duration_s}")
-    cfg = _config(scenario, n_robots, duration_s, n_rays)
-    batch = int(batch or cfg["executor"]["batch_size"])
+    settings = settings_for(n_robots, duration_s)
+    batch = int(batch or settings.executor.batch_size)
     if batch < 1:
         raise TavcError(f"--batch: must be >= 1, got {batch}")
-    specs = trial_specs({**cfg, "trials": batch, "baselines": []})
+    specs = _batch_specs(settings, batch)
     _full_loop([replace(s, duration_s=min(duration_s, 30.0)) for s in specs])  # load compiled kernels
     full, phys = [], []
     for _ in range(repeats):
@@ -137,9 +145,9 @@ def run_bench(*, scenario: str = "two_circuits", n_robots: int = 6, duration_s: 
         "trials_per_batch": batch,
         "duration_s": duration_s,
         "repeats": repeats,
-        "laser_rays": int(cfg["robot"]["laser"]["n_rays"]),
-        "dt_s": float(cfg["sim"]["dt_s"]),
-        "physics_substeps": int(cfg["sim"]["physics_substeps"]),
+        "laser_rays": int(settings.robot.laser.n_rays),
+        "dt_s": float(settings.sim.dt_s),
+        "physics_substeps": int(settings.sim.physics_substeps),
         "sim_seconds_per_wall_second": round(full_rtf, 1),
         "physics_only_sim_seconds_per_wall_second": round(phys_rtf, 1),
         "overhead_ratio": round(phys_rtf / full_rtf, 3),
@@ -152,8 +160,7 @@ def run_bench(*, scenario: str = "two_circuits", n_robots: int = 6, duration_s: 
     }
     if scaling:
         short = duration_s / 2
-        result["scaling_robots"] = _robots_scaling(
-            lambda n: _config(scenario, n, short, n_rays), (2, 6, 12, 24), short, batch, repeats)
+        result["scaling_robots"] = _robots_scaling(settings_for, (2, 6, 12, 24), short, batch, repeats)
         result["scaling_processes"] = _cores_scaling(specs, sorted({1, 2, os.cpu_count() or 1}))
     if against == "enki":
         from tavc_cli.bench_enki import run_enki

@@ -268,10 +268,10 @@ def _print_experiments() -> None:
 def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
     """Run one experiment, or every job of a sweep (all validated first) through a Hydra launcher."""
     if not multirun:
-        cfg = config.load_config(overrides)
-        from tavc_cli.experiments.runner import run_experiment
+        settings = config.settings(config.load_config(overrides))
+        from tavc_cli.pipeline import run_experiment
 
-        _print_summary(run_experiment(cfg, progress=progress))
+        _print_summary(run_experiment(settings, progress=progress))
         return
     from tavc_cli.config.launch import launch_sweep
 
@@ -283,10 +283,10 @@ def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
 
 def _sweep_job(cfg: Any, *, progress: bool) -> str:
     """One job of a sweep, wherever the launcher runs it: run, print its summary, return its folder."""
-    from tavc_cli.experiments.runner import run_experiment
+    from tavc_cli.pipeline import run_experiment
 
     typer.echo(f"job: {cfg.output_dir}")
-    summary = run_experiment(cfg, progress=progress)
+    summary = run_experiment(config.settings(cfg), progress=progress)
     _print_summary(summary)
     return summary["output_dir"]
 
@@ -337,11 +337,11 @@ def _print_summary(summary: dict[str, Any]) -> None:
 
 def _model(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
     """Measure, predict and calibrate; print the model's summary."""
-    cfg = config.load_config(overrides)
+    settings = config.settings(config.load_config(overrides))
     from tavc_cli.model.api import run_model, save_calibration
     from tavc_cli.model.report import model_text
 
-    result = run_model(cfg, progress=progress)
+    result = run_model(settings, progress=progress)
     typer.echo(model_text(result))
     if save:
         path = save_calibration(result, config.find_conf_dir() / "tasks")
@@ -351,8 +351,16 @@ def _model(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
 def _calibrate(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
     """Search the docking world, print the table and the sensitivity, optionally save the choice."""
     from tavc_cli.model.calibrate import calibrate_world
+    from tavc_cli.model.world_search import grid_points, point_overrides
 
-    calibrate_world(overrides, save=save, progress=progress, echo=typer.echo)
+    if not any(o.split("=", 1)[0].lstrip("+~") == "experiment" for o in overrides):
+        overrides = ["experiment=initial_distribution", *overrides]  # six robots, the chapter's values
+    base = config.settings(config.load_config(overrides))
+    if not base.calibration.grid:
+        raise TavcError("calibration.grid: empty; nothing to search")
+    points = [(p, config.settings(config.load_config([*overrides, *point_overrides(p)])))
+              for p in grid_points(base.calibration.grid)]
+    calibrate_world(base, points, config.find_conf_dir() / "world", save=save, progress=progress, echo=typer.echo)
 
 
 def _bench(
@@ -368,9 +376,13 @@ def _bench(
     against: Optional[str] = None,
 ) -> None:
     """Run the benchmark and print its result as JSON or as aligned lines."""
-    from tavc_cli.bench import run_bench
+    from tavc_cli.bench import bench_overrides, run_bench
+
+    def settings_for(n: int, duration: float) -> Any:
+        return config.settings(config.load_config(bench_overrides(scenario, n, duration, n_rays)))
 
     result = run_bench(
+        settings_for,
         scenario=scenario, n_robots=n_robots, duration_s=duration_s, repeats=repeats, batch=batch,
         n_rays=n_rays, scaling=scaling, against=against,
     )
@@ -387,10 +399,10 @@ def _animate(
     *, overrides: Sequence[str], out: Optional[Path], duration_s: float, fps: int, mp4: bool
 ) -> None:
     """Render a run and print the files written."""
-    cfg = config.load_config(overrides)
+    settings = config.settings(config.load_config(overrides))
     from tavc_cli.viz.animate import animate_run
 
-    paths = animate_run(cfg, out=out, duration_s=duration_s, fps=fps, mp4=mp4)
+    paths = animate_run(settings, out=out, duration_s=duration_s, fps=fps, mp4=mp4)
     for path in paths:
         typer.echo(str(path))
 

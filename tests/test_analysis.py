@@ -485,17 +485,19 @@ def test_model_prediction_against_the_value_ratio_by_hand(tmp_path):
 
 def test_ratio_points_gather_a_sweep_from_its_run_folders(tmp_path):
     import pandas as pd
-    import yaml
 
     from tavc_cli.analysis.value_ratio import ratio_points
+    from tavc_cli.config import load_config, settings
+    from tavc_cli.settings import to_yaml
 
     for sub, unit, values, duration, shares in (("paper/0", "ms", [2000, 2000], 18000.0, (0.0, 50.0)),
                                                  ("paper/1", "ms", [4000, 2000], 18000.0, (50.0, 100.0)),
                                                  ("long/0", "s", [3000, 2000], 180000.0, (100.0, 100.0))):
         d = tmp_path / sub
         d.mkdir(parents=True)
-        (d / "config.yaml").write_text(yaml.safe_dump({"tasks": {"values": values, "time_unit": unit},
-                                                       "duration_s": duration}))
+        run = load_config(["experiment=initial_distribution", f"tasks.values={values}", f"tasks.time_unit={unit}",
+                           f"duration_s={duration}"])
+        (d / "config.yaml").write_text(to_yaml(settings(run)))
         # two robots; share of the period in 2:0 per trial (the rest in 0:2); a random trial to leave out
         pd.DataFrame({"controller": ["tavc", "tavc", "random"], "trial": [0, 1, 0], "policy_changes": [1, 3, 0],
                       "pct_0:2": [100 - shares[0], 100 - shares[1], 0.0], "pct_2:0": [*shares, 100.0]}

@@ -6,13 +6,13 @@ import math
 import numpy as np
 
 from tavc_cli.behaviours import layout
-from tavc_cli.config import load_config, to_container
+from tavc_cli.config import load_config, settings
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine
 
 
 def _engine(behaviour: int, duration_s: float = 120.0) -> BatchEngine:
-    cfg = to_container(load_config(["arena=one_circuit", "learner=static", "team.n_robots=1", "trials=1",
+    cfg = settings(load_config(["arena=one_circuit", "learner=static", "team.n_robots=1", "trials=1",
                                     f"duration_s={duration_s}", "convergence_s=0", "scale=paper"]))
     eng = BatchEngine(trial_specs(cfg))
     eng.robots["forced"] = behaviour

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tavc_cli.behaviours.activities import ACTIVITIES
-from tavc_cli.config import load_config, to_container
+from tavc_cli.config import load_config, settings
 from tavc_cli.experiments import engine
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine, run_trials
@@ -18,7 +18,7 @@ RADIUS_M, READ_M, LATERAL_TOL_M, HEADING_TOL = 0.22, 0.30, 0.10, math.radians(20
 
 def _specs(*overrides):
     """Specs in a pinned dock world (the hand-computed geometry below is for it)."""
-    cfg = to_container(load_config(["scale=paper", "convergence_s=0", "learner=static",
+    cfg = settings(load_config(["scale=paper", "convergence_s=0", "learner=static",
                                     "sim.q_snapshot_every_s=0", "robot.behaviour.arrive_dist_m=0.30",
                                     "robot.dock.dwell_s=0", "robot.dock.occupied_m=0.6", *overrides]))
     return trial_specs(cfg)

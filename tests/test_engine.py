@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from tavc_cli.config import load_config, to_container
+from tavc_cli.config import load_config, settings
 from tavc_cli.experiments import engine
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine, run_trials
@@ -26,7 +26,7 @@ def _specs(*overrides):
     read at 0.30 m, 31 rays): the hand-computed bounds below are for it.
     """
     cfg = load_config(["scale=paper", "convergence_s=0", *LOW_CROWDING_WORLD, *overrides])
-    return trial_specs(to_container(cfg))
+    return trial_specs(settings(cfg))
 
 
 def _assert_records_equal(a, b):

@@ -14,6 +14,7 @@ from tavc_cli.learning.policies import (
 )
 from tavc_cli.learning.qlearning import epsilon_greedy, q_update, softmax_choice, softmax_probs
 from tavc_cli.learning.registry import make_policy
+from tavc_cli.settings import LearnerConfig
 
 N_DRAWS = 20_000
 
@@ -187,24 +188,24 @@ def test_even_allocation_by_hand():
 
 def test_make_policy_static_splits_evenly_or_as_told():
     rng = np.random.default_rng(8)
-    even = make_policy({"name": "static", "allocation": None}, 5, 2, rng)
+    even = make_policy(LearnerConfig(name="static"), 5, 2, rng)
     assert [even.choose(i, 0) for i in range(5)] == [0, 0, 0, 1, 1]
-    told = make_policy({"name": "static", "allocation": [1, 4]}, 5, 2, rng)
+    told = make_policy(LearnerConfig(name="static", allocation=[1, 4]), 5, 2, rng)
     assert [told.choose(i, 0) for i in range(5)] == [0, 1, 1, 1, 1]
 
 
 def test_make_policy_builds_each_learner():
     rng = np.random.default_rng(9)
-    assert isinstance(make_policy({"name": "random"}, 3, 2, rng), RandomPolicy)
+    assert isinstance(make_policy(LearnerConfig(name="random"), 3, 2, rng), RandomPolicy)
     soft = make_policy(
-        {"name": "tavc_softmax", "tau": 0.01, "q_init_low": 0.0, "q_init_high": 0.5}, 3, 2, rng
+        LearnerConfig(name="tavc_softmax", tau=0.01, q_init_low=0.0, q_init_high=0.5), 3, 2, rng
     )
     assert isinstance(soft, TavcPolicy) and soft.selection == "softmax" and soft.tau == 0.01
     assert np.all((soft.q >= 0.0) & (soft.q <= 0.5))
-    greedy = make_policy({"name": "tavc_egreedy", "epsilon": 0.2}, 3, 2, rng)
+    greedy = make_policy(LearnerConfig(name="tavc_egreedy", epsilon=0.2), 3, 2, rng)
     assert greedy.selection == "egreedy" and greedy.epsilon == 0.2
     with pytest.raises(ValueError, match="no task policy"):
-        make_policy({"name": "nope"}, 3, 2, rng)
+        make_policy(LearnerConfig(name="nope"), 3, 2, rng)
 
 
 def test_random_policy_is_uniform_over_circuits():

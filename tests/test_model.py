@@ -6,7 +6,7 @@ import math
 import pandas as pd
 import pytest
 
-from tavc_cli.config import load_config
+from tavc_cli.config import load_config, settings
 from tavc_cli.experiments.store import Executor
 from tavc_cli.model import core
 from tavc_cli.model.api import run_model
@@ -109,8 +109,8 @@ def test_calibration_reports_infeasible_targets():
 
 
 def test_model_smoke_measurement_end_to_end(tmp_path):
-    cfg = load_config(["arena=two_circuits", "team.n_robots=3", "scale=smoke", f"output_dir={tmp_path}",
-                       "model.trials_per_split=2", "model.measure_s=3000", "tasks.values=[2200,2000]"])
+    cfg = settings(load_config(["arena=two_circuits", "team.n_robots=3", "scale=smoke", f"output_dir={tmp_path}",
+                                "model.trials_per_split=2", "model.measure_s=3000", "tasks.values=[2200,2000]"]))
     result = run_model(cfg)
     model_json = json.loads((tmp_path / "model" / "model.json").read_text())
     assert model_json["n_robots"] == 3
@@ -200,8 +200,9 @@ def test_world_search_measures_the_splits_the_constraints_need():
 
 def test_sensitivity_varies_one_setting_of_the_chosen_world_at_a_time():
     from tavc_cli.model.world_search import one_axis_variants
+    from tavc_cli.settings import GridAxis
 
-    axes = [{"key": "a", "values": [1, 2]}, {"key": "b", "values": [0.0, 5.0, 10.0]}]
+    axes = [GridAxis(key="a", values=[1, 2]), GridAxis(key="b", values=[0.0, 5.0, 10.0])]
     assert one_axis_variants(axes, {"a": 2, "b": 5.0}) == [
         ("chosen", {"a": 2, "b": 5.0}), ("a", {"a": 1, "b": 5.0}),
         ("b", {"a": 2, "b": 0.0}), ("b", {"a": 2, "b": 10.0}),
@@ -210,14 +211,13 @@ def test_sensitivity_varies_one_setting_of_the_chosen_world_at_a_time():
 
 @pytest.mark.slow
 def test_sensitivity_end_to_end_writes_task_times_per_world_and_a_figure(tmp_path):
-    from tavc_cli.config import to_container
     from tavc_cli.model.report import sensitivity_text
     from tavc_cli.model.world_search import point_id, run_sensitivity
     from tavc_cli.viz.sensitivity import task_time_figure
 
     base = ["arena=two_circuits", "team.n_robots=3", "scale=smoke", f"output_dir={tmp_path}", "learner=static",
             "tasks.values=[2200,2000]"]
-    variants = [(varied, point, to_container(load_config([*base, f"robot.dock.dwell_s={point['robot.dock.dwell_s']}"])))
+    variants = [(varied, point, settings(load_config([*base, f"robot.dock.dwell_s={point['robot.dock.dwell_s']}"])))
                 for varied, point in [("chosen", {"robot.dock.dwell_s": 5.0}),
                                       ("robot.dock.dwell_s", {"robot.dock.dwell_s": 0.0})]]
     sens = run_sensitivity(variants, tmp_path, n_robots=3, trials=2, warmup_s=10.0, measure_s=300.0, confidence=0.9,

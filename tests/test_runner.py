@@ -9,9 +9,10 @@ from typer.testing import CliRunner
 
 from tavc_cli.analysis.states import state_intervals, theory_pct
 from tavc_cli.cli import app
-from tavc_cli.config import load_config
+from tavc_cli.config import load_config, settings
 from tavc_cli.experiments.records import TrialRecord, records_differ
-from tavc_cli.experiments.runner import run_experiment, trial_path
+from tavc_cli.experiments.store import trial_path
+from tavc_cli.pipeline import run_experiment
 
 SMOKE = [
     "scale=smoke",
@@ -30,7 +31,7 @@ LOW_CROWDING_WORLD = ["robot.behaviour.arrive_dist_m=0.30", "robot.dock.dwell_s=
                       "robot.laser.n_rays=31"]
 
 def _run(out_dir, *extra):
-    return run_experiment(load_config([*SMOKE, f"output_dir={out_dir}", *extra]))
+    return run_experiment(settings(load_config([*SMOKE, f"output_dir={out_dir}", *extra])))
 
 
 def _tmp_files(out_dir):
@@ -204,7 +205,7 @@ def test_random_allocation_matches_the_binomial_model(tmp_path):
     world crowded circuits are slow, which holds random robots longer in unbalanced splits
     they then leave, and 3:3 rises to about 37 %.
     """
-    cfg = load_config(
+    cfg = settings(load_config(
         [
             *LOW_CROWDING_WORLD,
             "scale=paper",
@@ -217,7 +218,7 @@ def test_random_allocation_matches_the_binomial_model(tmp_path):
             "executor.batch_size=4",
             f"output_dir={tmp_path}",
         ]
-    )
+    ))
     summary = run_experiment(cfg)
     # every trial has a defined state over the whole window (each robot keeps reaching targets);
     # otherwise a trial would add 0 % to every state and bias the means
@@ -238,10 +239,9 @@ def test_random_allocation_matches_the_binomial_model(tmp_path):
 
 
 def test_batches_give_every_worker_a_share_of_a_small_run():
-    from tavc_cli.config import to_container
     from tavc_cli.experiments.build import make_batches, trial_specs
 
-    specs = trial_specs(to_container(load_config([*SMOKE, "trials=8", "baselines=[]"])))
+    specs = trial_specs(settings(load_config([*SMOKE, "trials=8", "baselines=[]"])))
     assert len(specs) == 8
     # 8 trials on 2 workers: two batches of 4, not one of 8 on a single core
     assert [len(b.specs) for b in make_batches(specs, 8, workers=2)] == [4, 4]
@@ -259,12 +259,13 @@ def test_batches_give_every_worker_a_share_of_a_small_run():
 def test_a_cluster_executor_writes_the_local_executors_tables(tmp_path, backend):
     """A real Dask LocalCluster and a real local Ray instance: the same trials, the same tables."""
     pytest.importorskip("distributed" if backend == "dask" else "ray")
-    from tavc_cli.config import load_config
-    from tavc_cli.experiments.runner import run_experiment
+    from tavc_cli.config import load_config, settings
+    from tavc_cli.pipeline import run_experiment
 
     base = ["experiment=breakdown", "scale=smoke", "executor.n_jobs=2"]
-    run_experiment(load_config([*base, f"output_dir={tmp_path / 'local'}"]))
-    summary = run_experiment(load_config([*base, f"executor.backend={backend}", f"output_dir={tmp_path / backend}"]))
+    run_experiment(settings(load_config([*base, f"output_dir={tmp_path / 'local'}"])))
+    cluster = [*base, f"executor.backend={backend}", f"output_dir={tmp_path / backend}"]
+    summary = run_experiment(settings(load_config(cluster)))
     assert summary["n_trials"] == 6 and summary["n_reused"] == 0
     for name in ("state_time", "trial_stats", "performance", "allocation", "claims"):
         assert (tmp_path / "local" / f"{name}.csv").read_bytes() == (tmp_path / backend / f"{name}.csv").read_bytes()

@@ -14,7 +14,8 @@ import yaml
 
 from tavc_cli.behaviours.layout import PARAMS, ROBOT, ArenaGeometry, build_arena, empty_scan, laser_from_angles
 from tavc_cli.config import find_conf_dir
-from tavc_cli.sim.arena import N_OUTER_WALLS, arena_from_mapping
+from tavc_cli.settings import ArenaConfig, from_mapping
+from tavc_cli.sim.arena import N_OUTER_WALLS, arena_from_config
 from tavc_cli.sim.sensors import (
     HIT_NONE,
     HIT_ROBOT,
@@ -28,14 +29,14 @@ from tavc_cli.sim.sensors import (
 )
 
 RADIUS_M = 0.22
-BOTTOM, RIGHT, TOP, LEFT = 0, 1, 2, 3  # outer wall indices as arena_from_mapping builds them
+BOTTOM, RIGHT, TOP, LEFT = 0, 1, 2, 3  # outer wall indices as arena_from_config builds them
 
 
 @pytest.fixture(scope="module")
 def one_circuit():
     """The 8 x 6 m arena: source (bar-code 1) at (0, 3), sink (bar-code 2) at (8, 3)."""
     with open(find_conf_dir() / "arena" / "one_circuit.yaml") as fh:
-        return arena_from_mapping(yaml.safe_load(fh))
+        return arena_from_config(from_mapping(ArenaConfig, yaml.safe_load(fh)))
 
 
 def _robots(poses, alive=None, lo=0, hi=None):
@@ -198,20 +199,20 @@ def _random_world(rng, code_m=0.6):
                 "name": f"t{k}",
                 "kind": "source" if k % 2 == 0 else "sink",
                 "barcode": 10 + k,
-                "x": x,
-                "y": y,
+                "x": float(x),
+                "y": float(y),
             }
         )
     walls = []
     for _ in range(rng.integers(0, 3)):
         x1, x2 = rng.uniform(0.5, width - 0.5, 2)
         y1, y2 = rng.uniform(0.5, height - 0.5, 2)
-        walls.append([x1, y1, x2, y2])
+        walls.append([float(x1), float(y1), float(x2), float(y2)])
     spec = {
         "name": "random",
-        "width_m": width,
-        "height_m": height,
-        "barcode_width_m": code_m,
+        "width_m": float(width),
+        "height_m": float(height),
+        "barcode_width_m": float(code_m),
         "walls": walls,
         "targets": targets,
         "circuits": [{"name": "c", "source": "t0", "sink": "t1"}],
@@ -221,7 +222,7 @@ def _random_world(rng, code_m=0.6):
         x, y = rng.uniform(0.3, width - 0.3), rng.uniform(0.3, height - 0.3)
         if all(math.hypot(x - p[0], y - p[1]) > 2 * RADIUS_M + 0.01 for p in poses):
             poses.append((x, y, rng.uniform(-math.pi, math.pi)))
-    return arena_from_mapping(spec), np.array(poses)
+    return arena_from_config(from_mapping(ArenaConfig, spec)), np.array(poses)
 
 
 def _pymunk_space(arena, poses):

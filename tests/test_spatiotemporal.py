@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from tavc_cli.analysis import spatiotemporal as st
-from tavc_cli.config import load_config, to_container
+from tavc_cli.config import load_config, settings
 from tavc_cli.experiments import engine
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
@@ -68,7 +68,7 @@ def test_states_from_hand_placed_robots(monkeypatch):
     monkeypatch.setattr(BehaviourPolicy, "decide", record)
     cfg = load_config(["experiment=spatiotemporal", "scale=paper", "team.n_robots=4", "trials=1", "duration_s=0.5",
                        "learner.decision_period_s=0.1", "sim.pose_every_s=0"])
-    engine.BatchEngine(trial_specs(to_container(cfg))).run()
+    engine.BatchEngine(trial_specs(settings(cfg))).run()
     # tick 0 decides before anything was sensed (state 0); tick 1 on what tick 0 sensed; then, with
     # nothing moving and the random bits off for their first second, the states stay and nobody decides
     assert all(states[0] == 0 and len(states) == 2 for states in seen.values())

@@ -7,7 +7,8 @@ import pytest
 import yaml
 
 from tavc_cli.config import find_conf_dir
-from tavc_cli.sim.arena import arena_from_mapping
+from tavc_cli.settings import ArenaConfig, from_mapping
+from tavc_cli.sim.arena import arena_from_config
 from tavc_cli.sim.world import COLLISION_SLOP_M, PhysicsWorld
 
 DT_S = 0.1  # the configured control period (conf/config.yaml sim.dt_s)
@@ -17,7 +18,7 @@ DT_S = 0.1  # the configured control period (conf/config.yaml sim.dt_s)
 def arena():
     """one_circuit: an 8 x 6 m box."""
     with open(find_conf_dir() / "arena" / "one_circuit.yaml") as fh:
-        return arena_from_mapping(yaml.safe_load(fh))
+        return arena_from_config(from_mapping(ArenaConfig, yaml.safe_load(fh)))
 
 
 @pytest.fixture(scope="module")

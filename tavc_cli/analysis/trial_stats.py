@@ -13,7 +13,7 @@ It also keeps `settle_s`, when the trial's allocation settled (`settle_time`), a
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 
 import numpy as np
 import pandas as pd
@@ -22,6 +22,7 @@ from tavc_cli.analysis.performance import value_rate
 from tavc_cli.analysis.qvalues import q_gaps, trial_policy_stats
 from tavc_cli.analysis.states import alive_at_end, all_states, group_order, high_circuit_series, time_shares
 from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.settings import TavcConfig
 
 STATE_PREFIX = "pct_"
 # per group of robots (heterogeneous teams): mean final Q(s, high) - Q(s, low) (`analysis.qvalues.q_gaps`)
@@ -47,7 +48,7 @@ def settle_time(centres, series, bin_s: float, t_conv: float) -> float:
     return max(float(centres[k] - bin_s / 2), 0.0)
 
 
-def trial_stats(records: Iterable[TrialRecord], cfg: Mapping) -> pd.DataFrame:
+def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame:
     """`controller,trial,value_rate_stable,value_rate_convergence,value_rate_before,pct_<state>...`.
 
     Stable period: [convergence_s, duration_s); convergence period: [0, convergence_s);
@@ -57,12 +58,12 @@ def trial_stats(records: Iterable[TrialRecord], cfg: Mapping) -> pd.DataFrame:
     never defined in it has NaN in every state column.
     """
     records = list(records)
-    t_conv, t_end = float(cfg["convergence_s"]), float(cfg["duration_s"])
-    warm = float(cfg["sim"]["warmup_s"])
-    before_s = cfg["analysis"].get("before_s")
+    t_conv, t_end = float(cfg.convergence_s), float(cfg.duration_s)
+    warm = float(cfg.sim.warmup_s)
+    before_s = cfg.analysis.before_s
     before = min(warm, float(before_s) if before_s is not None else t_end - t_conv)
-    scheme = cfg["analysis"]["state"]
-    bin_s = float(cfg["analysis"]["performance_bin_s"])
+    scheme = cfg.analysis.state
+    bin_s = float(cfg.analysis.performance_bin_s)
     states: list[str] = []
     group_names: list[str] = []
     if records:

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import yaml
 
 from tavc_cli.analysis.trial_stats import STATE_PREFIX
+from tavc_cli.settings import from_yaml
 
 POINT_COLUMNS = ["reading", "horizon", "ratio", "values", "mean", "std", "n_trials", "policy_changes_per_trial",
                  "run"]
@@ -50,8 +50,8 @@ def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
     """One row per run below `root` with two circuits: `reading,horizon,ratio,values,mean,std,n_trials,...`."""
     rows = []
     for d in _runs(Path(root)):
-        cfg = yaml.safe_load((d / "config.yaml").read_text()) or {}
-        values = (cfg.get("tasks") or {}).get("values")
+        cfg = from_yaml(d / "config.yaml")
+        values = cfg.tasks.values
         if not values or len(values) != 2:
             continue
         stats = pd.read_csv(d / "trial_stats.csv")
@@ -60,13 +60,13 @@ def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
         share = share[np.isfinite(share)]
         if not len(share):
             continue
-        unit = str((cfg.get("tasks") or {}).get("time_unit", "ms"))
+        unit = str(cfg.tasks.time_unit)
         reading = READINGS.get(unit, f"t in {unit}")
-        gamma = float((cfg.get("learner") or {}).get("gamma", CHAPTER_GAMMA))
+        gamma = float(cfg.learner.gamma)
         if gamma != CHAPTER_GAMMA:
             reading += f", gamma {gamma:g} (diagnostic)"
         changes = stats["policy_changes"].to_numpy(float) if "policy_changes" in stats else np.full(len(stats), np.nan)
-        rows.append({"reading": reading, "horizon": horizon_label(float(cfg["duration_s"])),
+        rows.append({"reading": reading, "horizon": horizon_label(float(cfg.duration_s)),
                      "ratio": max(values) / min(values), "values": "/".join(f"{float(v):g}" for v in values),
                      "mean": float(share.mean()), "std": float(share.std(ddof=1)) if len(share) > 1 else math.nan,
                      "n_trials": len(share),

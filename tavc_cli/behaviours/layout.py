@@ -23,11 +23,11 @@ them from the config and the arena.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from typing import NamedTuple
 
 import numpy as np
 
+from tavc_cli.settings import RobotConfig
 from tavc_cli.sim.arena import N_OUTER_WALLS, Arena
 from tavc_cli.sim.sensors import ray_angles
 
@@ -131,17 +131,17 @@ MODE_APPROACH, MODE_WALLFOLLOW, MODE_ESCAPE, MODE_DOCK, MODE_SERVICE, MODE_UNDOC
 BEH_AUTO, BEH_DIRECT, BEH_WALL, BEH_STOP = -1, 0, 1, 2
 
 
-def build_robots(robot: Mapping, speeds_mps: np.ndarray, trial_rows: list[tuple[int, int]],
+def build_robots(robot: RobotConfig, speeds_mps: np.ndarray, trial_rows: list[tuple[int, int]],
                  start_poses: np.ndarray) -> np.ndarray:
     """ROBOT records for the robots of trials whose rows are `trial_rows` [(first, last), ...]."""
-    odo = robot["odometry"]
+    odo = robot.odometry
     robots = np.zeros(len(start_poses), dtype=ROBOT)
-    robots["radius_m"] = robot["radius_m"]
+    robots["radius_m"] = robot.radius_m
     robots["top_speed_mps"] = speeds_mps
-    robots["turn_rate_radps"] = robot["turn_rate_radps"]
-    robots["odo_trans_per_sqrt_m"] = odo["trans_noise_per_sqrt_m"]
-    robots["odo_rot_per_sqrt_m"] = odo["rot_noise_per_sqrt_m"]
-    robots["odo_rot_per_sqrt_rad"] = odo["rot_noise_per_sqrt_rad"]
+    robots["turn_rate_radps"] = robot.turn_rate_radps
+    robots["odo_trans_per_sqrt_m"] = odo.trans_noise_per_sqrt_m
+    robots["odo_rot_per_sqrt_m"] = odo.rot_noise_per_sqrt_m
+    robots["odo_rot_per_sqrt_rad"] = odo.rot_noise_per_sqrt_rad
     for b, (first, last) in enumerate(trial_rows):
         robots["trial"][first:last] = b
         robots["first"][first:last] = first
@@ -157,30 +157,30 @@ def build_robots(robot: Mapping, speeds_mps: np.ndarray, trial_rows: list[tuple[
     return robots
 
 
-def build_params(robot: Mapping, arena: Arena, dt_s: float, camera_on: bool) -> np.void:
-    """The PARAMS record from a robot config mapping, the arena and the control period."""
-    laser, cam, beh, dock = robot["laser"], robot["camera"], robot["behaviour"], robot["dock"]
+def build_params(robot: RobotConfig, arena: Arena, dt_s: float, camera_on: bool) -> np.void:
+    """The PARAMS record from the robot's settings, the arena and the control period."""
+    laser, cam, beh, dock = robot.laser, robot.camera, robot.behaviour, robot.dock
     p = np.zeros((), dtype=PARAMS)
     p["dt_s"] = dt_s
     p["arena_width_m"], p["arena_height_m"] = arena.width_m, arena.height_m
     for key in ("avoid_dist_m", "stop_dist_m", "arrive_dist_m", "wall_dist_m", "visible_margin_m",
                 "relocalise_dist_m", "progress_m"):
-        p[key] = beh[key]
-    p["stall_limit_s"], p["escape_duration_s"] = beh["stall_s"], beh["escape_s"]
-    p["laser_range_m"] = laser["range_m"]
+        p[key] = getattr(beh, key)
+    p["stall_limit_s"], p["escape_duration_s"] = beh.stall_s, beh.escape_s
+    p["laser_range_m"] = laser.range_m
     p["barcode_width_m"] = arena.barcode_width_m
     p["camera_on"] = camera_on
-    p["camera_half_fov_rad"] = math.radians(float(cam["fov_deg"])) / 2
-    p["camera_range_m"] = cam["range_m"]
-    p["marking_sector_rad"] = math.radians(float(cam["side_sector_deg"]))
-    p["dock_lateral_tol_m"] = dock["lateral_tol_m"]
-    p["dock_heading_tol_rad"] = math.radians(float(dock["heading_tol_deg"]))
-    p["dock_approach_m"] = dock["approach_m"]
-    p["dwell_s"] = dock["dwell_s"]
-    p["backout_m"] = dock["backout_m"]
-    p["occupied_m"] = dock["occupied_m"]
-    p["hold_m"] = dock["occupied_m"] + dock["hold_margin_m"]
-    p["patience_s"] = dock["patience_s"]
+    p["camera_half_fov_rad"] = math.radians(float(cam.fov_deg)) / 2
+    p["camera_range_m"] = cam.range_m
+    p["marking_sector_rad"] = math.radians(float(cam.side_sector_deg))
+    p["dock_lateral_tol_m"] = dock.lateral_tol_m
+    p["dock_heading_tol_rad"] = math.radians(float(dock.heading_tol_deg))
+    p["dock_approach_m"] = dock.approach_m
+    p["dwell_s"] = dock.dwell_s
+    p["backout_m"] = dock.backout_m
+    p["occupied_m"] = dock.occupied_m
+    p["hold_m"] = dock.occupied_m + dock.hold_margin_m
+    p["patience_s"] = dock.patience_s
     return p[()]
 
 

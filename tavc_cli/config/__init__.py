@@ -1,10 +1,12 @@
-"""Configuration: schemas, composition, validation and resolution.
+"""Configuration: composition, validation, resolution and sweeps.
 
-This package is the only place that imports Hydra or OmegaConf. Everything else receives the
-``DictConfig`` that ``load_config`` returns: composed from ``conf/`` with Hydra's override
-grammar, type-checked against the dataclass schemas (``schema``), validated with one-line
-messages that name the offending key (``validate``), and with every derived value filled in
-(``resolve``), so no ``null`` is left for the simulator to interpret.
+This package is the only place that imports Hydra, and only the front doors (``cli.py``,
+``api.py``) import it. ``load_config`` composes ``conf/`` with Hydra's override grammar,
+type-checks it against the dataclass schemas of ``tavc_cli.settings``, validates it with
+one-line messages that name the offending key (``validate``) and fills in every derived value
+(``resolve``), so no ``null`` is left for the simulator to interpret. ``settings`` turns the
+result into the typed ``TavcConfig`` the library takes. ``launch`` runs a sweep's jobs through
+a Hydra launcher.
 """
 
 from tavc_cli.config.loading import (
@@ -14,6 +16,7 @@ from tavc_cli.config.loading import (
     list_experiments,
     load_config,
     load_sweep,
+    settings,
     swept_values,
     to_container,
     to_yaml,
@@ -28,6 +31,7 @@ __all__ = [
     "list_experiments",
     "load_config",
     "load_sweep",
+    "settings",
     "swept_values",
     "to_container",
     "to_yaml",

@@ -185,6 +185,15 @@ def to_yaml(cfg: DictConfig | dict) -> str:
     return OmegaConf.to_yaml(cfg, resolve=True)
 
 
+def settings(cfg: DictConfig) -> TavcConfig:
+    """The library's view of a config from ``load_config``: typed dataclasses, no OmegaConf.
+
+    Returns:
+        A ``TavcConfig`` whose groups are the ``tavc_cli.settings`` dataclasses.
+    """
+    return OmegaConf.to_object(cfg)
+
+
 def to_container(cfg: DictConfig | dict) -> dict:
     """Convert a config to plain, picklable Python dicts and lists.
 

@@ -1,4 +1,4 @@
-"""Turn a resolved config (as a plain mapping) into the trials an experiment needs.
+"""Turn an experiment's settings into the trials it needs.
 
 Controllers: the configured `learner` (labelled `tavc` for the TAVC learners,
 else by its name) and every entry of `baselines`. Each controller runs its own
@@ -14,11 +14,11 @@ results, and neither does the number of processes.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 from tavc_cli.experiments.spec import Breakdown, TrialSpec, ValueChange
 from tavc_cli.learning.registry import SEED_CODES, controller_label
+from tavc_cli.settings import LearnerConfig, TavcConfig
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}  # unit of t in r = w / t, in seconds
 
@@ -36,57 +36,47 @@ class Batch:
         return sum(s.duration_s + s.warmup_s for s in self.specs)
 
 
-def controllers(cfg: Mapping) -> list[tuple[str, dict, int]]:
-    """(label, learner spec, number of trials) for the learner and each baseline."""
-    main = dict(cfg["learner"])
-    out = [(controller_label(main["name"]), main, int(cfg["trials"]))]
-    n_base = int(cfg.get("baseline_trials") or cfg["trials"])
-    for name in cfg.get("baselines") or []:
+def controllers(cfg: TavcConfig) -> list[tuple[str, LearnerConfig, int]]:
+    """(label, learner settings, number of trials) for the learner and each baseline."""
+    out = [(controller_label(cfg.learner.name), cfg.learner, int(cfg.trials))]
+    n_base = int(cfg.baseline_trials or cfg.trials)
+    for name in cfg.baselines or []:
         if any(label == name for label, _, _ in out):
             continue
-        spec = {"name": name}
-        if name == "static":
-            spec["allocation"] = cfg.get("static_allocation")
-        out.append((name, spec, n_base))
+        allocation = cfg.static_allocation if name == "static" else None
+        out.append((name, LearnerConfig(name=name, allocation=allocation), n_base))
     return out
 
 
-def base_spec(cfg: Mapping) -> TrialSpec:
+def base_spec(cfg: TavcConfig) -> TrialSpec:
     """The spec every trial of this config shares, before controller, index and seed."""
-    team = cfg["team"]
-    members = team["members"]
-    sim = cfg["sim"]
-    tasks = cfg["tasks"]
-    events = cfg["events"]
+    sim, tasks, events = cfg.sim, cfg.tasks, cfg.events
     return TrialSpec(
-        arena=cfg["arena"],
-        robot=cfg["robot"],
-        speeds_mps=tuple(float(m["speed_mps"]) for m in members),
-        groups=tuple(str(m["group"]) for m in members),
-        policy={},
-        values=tuple(float(v) for v in tasks["values"]),
-        score_values=tuple(float(v) for v in tasks["score_values"]),
-        time_unit_s=TIME_UNITS_S[tasks["time_unit"]],
-        duration_s=float(cfg["duration_s"]),
-        warmup_s=float(sim["warmup_s"]),
-        dt_s=float(sim["dt_s"]),
-        physics_substeps=int(sim["physics_substeps"]),
-        solver_iterations=int(sim["solver_iterations"]),
-        breakdowns=tuple(
-            Breakdown(float(b["time_s"]), b.get("robot"), b.get("circuit")) for b in events["breakdowns"]
-        ),
-        value_changes=tuple(
-            ValueChange(float(v["time_s"]), tuple(float(x) for x in v["values"])) for v in events["value_changes"]
-        ),
-        q_snapshot_every_s=float(sim["q_snapshot_every_s"]),
-        pose_every_s=float(sim["pose_every_s"]),
+        arena=cfg.arena,
+        robot=cfg.robot,
+        speeds_mps=tuple(float(m.speed_mps) for m in cfg.team.members),
+        groups=tuple(str(m.group) for m in cfg.team.members),
+        policy=cfg.learner,
+        values=tuple(float(v) for v in tasks.values),
+        score_values=tuple(float(v) for v in tasks.score_values),
+        time_unit_s=TIME_UNITS_S[tasks.time_unit],
+        duration_s=float(cfg.duration_s),
+        warmup_s=float(sim.warmup_s),
+        dt_s=float(sim.dt_s),
+        physics_substeps=int(sim.physics_substeps),
+        solver_iterations=int(sim.solver_iterations),
+        breakdowns=tuple(Breakdown(float(b.time_s), b.robot, b.circuit) for b in events.breakdowns),
+        value_changes=tuple(ValueChange(float(v.time_s), tuple(float(x) for x in v.values))
+                            for v in events.value_changes),
+        q_snapshot_every_s=float(sim.q_snapshot_every_s),
+        pose_every_s=float(sim.pose_every_s),
     )
 
 
-def trial_specs(cfg: Mapping) -> list[TrialSpec]:
+def trial_specs(cfg: TavcConfig) -> list[TrialSpec]:
     """Every trial of every controller, in a fixed order."""
     base = base_spec(cfg)
-    seed = int(cfg["seed"])
+    seed = int(cfg.seed)
     specs = []
     for label, policy, n_trials in controllers(cfg):
         code = SEED_CODES[label]

@@ -69,7 +69,7 @@ class TrialState:
         self.noise_rng = np.random.default_rng(noise_ss)
         self.event_rng = np.random.default_rng(event_ss)
         self.policy_rng = np.random.default_rng(policy_ss)
-        radius = float(spec.robot["radius_m"])
+        radius = float(spec.robot.radius_m)
         n = spec.n_robots
         self.start = start_poses(arena, np.full(n, radius), np.random.default_rng(start_ss))
         self.policy: TaskPolicy = make_policy(spec.policy, n, arena.n_circuits, self.policy_rng)
@@ -135,8 +135,8 @@ class BatchEngine:
         n = lo
         self.n = n
         self.world = PhysicsWorld(
-            self.arena, [tr.start for tr in self.trials], float(robot["radius_m"]), float(robot["mass_kg"]),
-            float(robot["drive_force_n"]), float(robot["drive_torque_nm"]),
+            self.arena, [tr.start for tr in self.trials], float(robot.radius_m), float(robot.mass_kg),
+            float(robot.drive_force_n), float(robot.drive_torque_nm),
             first.dt_s, first.physics_substeps, first.solver_iterations,
         )
         # the kernel's bundles (behaviours.layout): robots, shared parameters, arena, laser, scan
@@ -147,7 +147,7 @@ class BatchEngine:
         self.params = build_params(robot, self.arena, self.dt,
                                    camera_on=any(tr.learns_behaviours for tr in self.trials))
         self.geometry = build_arena(self.arena)
-        self.laser = build_laser(float(robot["laser"]["fov_deg"]), int(robot["laser"]["n_rays"]))
+        self.laser = build_laser(float(robot.laser.fov_deg), int(robot.laser.n_rays))
         self.scan = empty_scan(n, len(self.laser.angle_rad))
         self.pose = start.copy()  # true poses, read from the physics every tick
         self.noise = np.zeros((_NOISE_BLOCK_TICKS, n, 3))
@@ -367,7 +367,7 @@ class BatchEngine:
                 "speeds_mps": list(spec.speeds_mps), "values": list(spec.values),
                 "score_values": list(spec.score_values), "duration_s": spec.duration_s,
                 "warmup_s": spec.warmup_s, "dt_s": spec.dt_s, "arena": self.arena.name,
-                "policy": spec.policy.get("name"),
+                "policy": spec.policy.name,
                 "start_poses": tr.start.tolist(),
             },
             tables=tr.rows.build(),

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tavc_cli.sim.arena import Arena, arena_from_mapping
+from tavc_cli.settings import ArenaConfig, LearnerConfig, RobotConfig
+from tavc_cli.sim.arena import Arena, arena_from_config
 
 
 @dataclass(frozen=True)
@@ -39,11 +40,11 @@ class ValueChange:
 class TrialSpec:
     """Everything that determines one trial, given its seed."""
 
-    arena: Mapping
-    robot: Mapping
+    arena: ArenaConfig
+    robot: RobotConfig
     speeds_mps: tuple[float, ...]
     groups: tuple[str, ...]
-    policy: Mapping
+    policy: LearnerConfig
     values: tuple[float, ...]
     score_values: tuple[float, ...]
     time_unit_s: float
@@ -65,7 +66,7 @@ class TrialSpec:
         return len(self.speeds_mps)
 
     def build_arena(self) -> Arena:
-        return arena_from_mapping(self.arena)
+        return arena_from_config(self.arena)
 
     def key(self) -> str:
         """A digest of everything that fixes the trial's outcome, the simulator's own code

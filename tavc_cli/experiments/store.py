@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 import sys
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +27,7 @@ from tavc_cli.experiments.build import Batch, make_batches
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.settings import ExecutorConfig
 
 
 @dataclass(frozen=True)
@@ -41,10 +42,9 @@ class Executor:
     address: str | None = None
 
     @classmethod
-    def from_mapping(cls, executor: Mapping) -> Executor:
-        """From the config's resolved `executor` section."""
-        return cls(str(executor["backend"]), int(executor["n_jobs"]), int(executor["batch_size"]),
-                   executor.get("address"))
+    def from_config(cls, executor: ExecutorConfig) -> Executor:
+        """From the resolved `executor` settings."""
+        return cls(str(executor.backend), int(executor.n_jobs), int(executor.batch_size), executor.address)
 
 
 class TrialStore:

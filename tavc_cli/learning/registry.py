@@ -15,6 +15,7 @@ import numpy as np
 
 from tavc_cli.learning.behaviour import BehaviourPolicy
 from tavc_cli.learning.policies import RandomPolicy, StaticPolicy, TaskPolicy, TavcPolicy, even_allocation
+from tavc_cli.settings import LearnerConfig
 
 Builder = Callable[[Mapping, int, int, np.random.Generator], TaskPolicy]
 
@@ -28,33 +29,32 @@ class Learner:
     baseline: bool = False  # may run beside the main learner (`baselines: [...]`)
 
 
-def _random(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+def _random(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
     return RandomPolicy(n_circuits, rng)
 
 
-def _static(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    counts = spec.get("allocation") or even_allocation(n_robots, n_circuits)
+def _static(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+    counts = spec.allocation or even_allocation(n_robots, n_circuits)
     return StaticPolicy(np.repeat(np.arange(n_circuits), counts), n_circuits)
 
 
-def _q_learning(spec: Mapping) -> dict:
-    """The Q-learning parameters every learner of the chapter shares, with its defaults."""
-    return {"alpha": float(spec.get("alpha", 0.1)), "gamma": float(spec.get("gamma", 0.95)),
-            "tau": float(spec.get("tau", 0.005)),
-            "q_init": (float(spec.get("q_init_low", -0.1)), float(spec.get("q_init_high", 0.1)))}
+def _q_learning(spec: LearnerConfig) -> dict:
+    """The Q-learning parameters every learner of the chapter shares."""
+    return {"alpha": float(spec.alpha), "gamma": float(spec.gamma), "tau": float(spec.tau),
+            "q_init": (float(spec.q_init_low), float(spec.q_init_high))}
 
 
 def _tavc(selection: str) -> Builder:
-    def build(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-        return TavcPolicy(n_robots, n_circuits, selection=selection, epsilon=float(spec.get("epsilon", 0.1)),
+    def build(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+        return TavcPolicy(n_robots, n_circuits, selection=selection, epsilon=float(spec.epsilon),
                           rng=rng, **_q_learning(spec))
 
     return build
 
 
-def _behaviour(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    return BehaviourPolicy(n_robots, n_circuits, decision_period_s=float(spec.get("decision_period_s", 0.1)),
-                           decide_on_change=bool(spec.get("decide_on_change", True)), rng=rng, **_q_learning(spec))
+def _behaviour(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+    return BehaviourPolicy(n_robots, n_circuits, decision_period_s=float(spec.decision_period_s),
+                           decide_on_change=bool(spec.decide_on_change), rng=rng, **_q_learning(spec))
 
 
 LEARNERS: dict[str, Learner] = {entry.name: entry for entry in (
@@ -75,9 +75,9 @@ def controller_label(name: str) -> str:
     return LEARNERS[name].label
 
 
-def make_policy(spec: Mapping, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    """Build the policy named by `spec['name']` (a learner config as a plain mapping)."""
-    entry = LEARNERS.get(spec["name"])
+def make_policy(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+    """Build the policy named by `spec.name` with its settings."""
+    entry = LEARNERS.get(spec.name)
     if entry is None or entry.build is None:
-        raise ValueError(f"no task policy named {spec['name']!r}")
+        raise ValueError(f"no task policy named {spec.name!r}")
     return entry.build(spec, n_robots, n_circuits, rng)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -17,17 +16,18 @@ from tavc_cli.io import write_text_atomic
 from tavc_cli.model import core
 from tavc_cli.model.measure import measure
 from tavc_cli.reference import chapter_world
-from tavc_cli.sim.arena import arena_from_mapping
+from tavc_cli.settings import ArenaConfig, TavcConfig
+from tavc_cli.sim.arena import arena_from_config
 
 
-def _scaled_measurement(cfg: Mapping) -> tuple[int, float, float]:
+def _scaled_measurement(cfg: TavcConfig) -> tuple[int, float, float]:
     """Trials per split and times, shrunk by the chosen scale like every other run."""
-    m, scale = cfg["model"], cfg["scale"]
-    trials = int(m["trials_per_split"])
-    if scale.get("trials"):
-        trials = max(2, min(trials, int(scale["trials"])))
-    factor = float(scale["time_factor"])
-    return trials, float(m["warmup_s"]) * factor, float(m["measure_s"]) * factor
+    m, scale = cfg.model, cfg.scale
+    trials = int(m.trials_per_split)
+    if scale.trials:
+        trials = max(2, min(trials, int(scale.trials)))
+    factor = float(scale.time_factor)
+    return trials, float(m.warmup_s) * factor, float(m.measure_s) * factor
 
 
 def team_sizes(n_robots: int, values) -> tuple[int, int]:
@@ -67,7 +67,7 @@ def constraints(table: core.CTable, n_robots: int, values) -> dict:
             "1.4": core.constraint_1_4(table, n_vac, values, m_vac, high)}
 
 
-def switch_legs(arena: Mapping, speed_mps: float) -> list[dict]:
+def switch_legs(arena: ArenaConfig, speed_mps: float) -> list[dict]:
     """How much shorter (straight-line) the empty leg is when a robot switches circuit.
 
     The model's t_i(n) are measured on robots that never switch, but the learners'
@@ -76,15 +76,15 @@ def switch_legs(arena: Mapping, speed_mps: float) -> list[dict]:
     shorter than the leg back to the old source, switching is rewarded for geometry
     alone, which the static model does not see.
     """
-    pos = {t["name"]: (float(t["x"]), float(t["y"])) for t in arena["targets"]}
-    circuits = arena["circuits"]
+    pos = {t.name: (float(t.x), float(t.y)) for t in arena.targets}
+    circuits = arena.circuits
     out = []
     for i, ci in enumerate(circuits):
         for j, cj in enumerate(circuits):
             if i == j:
                 continue
-            stay = math.dist(pos[ci["sink"]], pos[ci["source"]])
-            switch = math.dist(pos[ci["sink"]], pos[cj["source"]])
+            stay = math.dist(pos[ci.sink], pos[ci.source])
+            switch = math.dist(pos[ci.sink], pos[cj.source])
             out.append({"from": i, "to": j, "stay_leg_m": stay, "switch_leg_m": switch,
                         "switch_saves_s": (stay - switch) / speed_mps})
     return out
@@ -122,13 +122,13 @@ def table_rows(table: core.CTable, values, time_unit_s: float) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def dock_spots(arena: Mapping, reading_m: float) -> dict[str, tuple[float, float]]:
+def dock_spots(arena: ArenaConfig, reading_m: float) -> dict[str, tuple[float, float]]:
     """Where each target's dock spot is: `reading_m` out from its bar-code along the wall's normal."""
-    built = arena_from_mapping(arena)
+    built = arena_from_config(arena)
     return {t.name: (t.x + t.normal[0] * reading_m, t.y + t.normal[1] * reading_m) for t in built.targets}
 
 
-def world_facts(table: core.CTable, cfg: Mapping, n_robots: int, values) -> dict:
+def world_facts(table: core.CTable, cfg: TavcConfig, n_robots: int, values) -> dict:
     """What static allocations show of the world, beside what the chapter says of its own.
 
     - a robot alone: its time per leg (target to target) against the straight line between
@@ -139,14 +139,14 @@ def world_facts(table: core.CTable, cfg: Mapping, n_robots: int, values) -> dict
     - per number of robots on a circuit (the rest of the team on the other): where a
       completed task's time went.
     """
-    speed = float(cfg["robot"]["speed_mps"])
-    spots = dock_spots(cfg["arena"], float(cfg["robot"]["behaviour"]["arrive_dist_m"]))
+    speed = float(cfg.robot.speed_mps)
+    spots = dock_spots(cfg.arena, float(cfg.robot.behaviour.arrive_dist_m))
     k = table.n_circuits
     lone = []
-    for c, circ in enumerate(cfg["arena"]["circuits"]):
+    for c, circ in enumerate(cfg.arena.circuits):
         alone = tuple(1 if j == c else 0 for j in range(k))
         if alone in table.cells:
-            straight = math.dist(spots[circ["source"]], spots[circ["sink"]]) / speed
+            straight = math.dist(spots[circ.source], spots[circ.sink]) / speed
             leg = table.t(alone, c) / 2
             lone.append({"circuit": c, "leg_s": leg, "straight_line_leg_s": straight, "ratio": leg / straight})
     intended = core.intended_split(n_robots, values)
@@ -188,35 +188,32 @@ def time_budget(table: core.CTable, n_robots: int) -> list[dict]:
     return sorted(rows, key=lambda r: (r["n_on_circuit"], r["circuit"]))
 
 
-def run_model(cfg, *, progress: bool = False) -> dict:
+def run_model(cfg: TavcConfig, *, progress: bool = False) -> dict:
     """Measure c_i(n), t_i(n) for all splits up to the team size, then predict and calibrate."""
-    from tavc_cli.config import to_container
-
-    plain = to_container(cfg)
-    k = len(plain["arena"]["circuits"])
+    k = len(cfg.arena.circuits)
     if k < 2:
         raise TavcError("arena: the TAVC model needs at least two circuits to allocate robots between")
-    n_robots = int(plain["model"]["max_robots"] or plain["team"]["n_robots"])
-    values = [float(v) for v in plain["tasks"]["values"]]
-    time_unit_s = TIME_UNITS_S[plain["tasks"]["time_unit"]]
-    trials, warmup_s, measure_s = _scaled_measurement(plain)
-    out_dir = Path(plain["output_dir"]) / "model"
-    table, n_reused = measure(plain, out_dir, n_max=n_robots, trials=trials, warmup_s=warmup_s,
-                              measure_s=measure_s, confidence=float(plain["model"]["confidence"]),
-                              n_jobs=int(plain["executor"]["n_jobs"]), progress=progress)
+    n_robots = int(cfg.model.max_robots or cfg.team.n_robots)
+    values = [float(v) for v in cfg.tasks.values]
+    time_unit_s = TIME_UNITS_S[cfg.tasks.time_unit]
+    trials, warmup_s, measure_s = _scaled_measurement(cfg)
+    out_dir = Path(cfg.output_dir) / "model"
+    table, n_reused = measure(cfg, out_dir, n_max=n_robots, trials=trials, warmup_s=warmup_s,
+                              measure_s=measure_s, confidence=float(cfg.model.confidence),
+                              n_jobs=int(cfg.executor.n_jobs), progress=progress)
     n, n_vac = team_sizes(n_robots, values)
     result = {
-        "arena": plain["arena"]["name"], "n_robots": n_robots, "n_circuits": k,
-        "values": values, "time_unit": plain["tasks"]["time_unit"],
+        "arena": cfg.arena.name, "n_robots": n_robots, "n_circuits": k,
+        "values": values, "time_unit": cfg.tasks.time_unit,
         "high_circuit": int(np.argmax(values)),
         **predictions(table, n, values),
         "by_team_size": {str(m): predictions(table, m, values) for m in sorted({n, n_vac})},
         "constraints": constraints(table, n, values),
-        "switch_legs": switch_legs(plain["arena"], float(plain["robot"]["speed_mps"])),
-        "world": world_facts(table, plain, n, values),
+        "switch_legs": switch_legs(cfg.arena, float(cfg.robot.speed_mps)),
+        "world": world_facts(table, cfg, n, values),
         "measurement": {"trials_per_split": trials, "warmup_s": warmup_s, "measure_s": measure_s,
-                        "confidence": float(plain["model"]["confidence"]), "n_trials_reused": n_reused,
-                        "robot_speed_mps": float(plain["robot"]["speed_mps"])},
+                        "confidence": float(cfg.model.confidence), "n_trials_reused": n_reused,
+                        "robot_speed_mps": float(cfg.robot.speed_mps)},
     }
     if k == 2:
         targets = [(m, core.intended_split(m, [2.0, 1.0])) for m in sorted({n, n_vac}, reverse=True)]

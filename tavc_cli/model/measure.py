@@ -25,6 +25,7 @@ from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.store import Executor, TrialStore
 from tavc_cli.model.core import Cell, CTable, Split, splits_up_to
+from tavc_cli.settings import LearnerConfig, TavcConfig
 
 MODEL_CONTROLLER_CODE = 10
 
@@ -33,7 +34,7 @@ def split_name(n: Split) -> str:
     return "split_" + "_".join(str(v) for v in n)
 
 
-def measurement_specs(cfg: Mapping, n_max: int, trials: int, warmup_s: float, measure_s: float,
+def measurement_specs(cfg: TavcConfig, n_max: int, trials: int, warmup_s: float, measure_s: float,
                       only: Iterable[Split] | None = None, prefix: str = "") -> dict[Split, list[TrialSpec]]:
     """Per split (every split of up to n_max robots, or those in `only`), `trials`
     static-allocation trials of warm-up plus measurement, named `prefix` + the split.
@@ -42,8 +43,8 @@ def measurement_specs(cfg: Mapping, n_max: int, trials: int, warmup_s: float, me
     that measurements are reused whatever values the model is then applied with.
     """
     base = base_spec(cfg)
-    speed = float(cfg["robot"]["speed_mps"])
-    k = len(cfg["arena"]["circuits"])
+    speed = float(cfg.robot.speed_mps)
+    k = len(cfg.arena.circuits)
     wanted = None if only is None else set(only)
     out = {}
     for n in splits_up_to(n_max, k):
@@ -52,8 +53,8 @@ def measurement_specs(cfg: Mapping, n_max: int, trials: int, warmup_s: float, me
         m = sum(n)
         out[n] = [
             replace(base, speeds_mps=(speed,) * m, groups=("all",) * m, values=(1.0,) * k, score_values=(1.0,) * k,
-                    policy={"name": "static", "allocation": list(n)}, controller=prefix + split_name(n), trial=j,
-                    seed=(int(cfg["seed"]), MODEL_CONTROLLER_CODE, *n, j), duration_s=warmup_s + measure_s,
+                    policy=LearnerConfig(name="static", allocation=list(n)), controller=prefix + split_name(n), trial=j,
+                    seed=(int(cfg.seed), MODEL_CONTROLLER_CODE, *n, j), duration_s=warmup_s + measure_s,
                     warmup_s=0.0, breakdowns=(), value_changes=(), q_snapshot_every_s=0.0, pose_every_s=0.0)
             for j in range(trials)
         ]
@@ -120,16 +121,16 @@ def arrivals_per_hour(records: list[TrialRecord], warmup_s: float, measure_s: fl
     return float(np.mean(counts)) * 3600.0 / measure_s
 
 
-def measure(cfg: Mapping, out_dir: Path, *, n_max: int, trials: int, warmup_s: float, measure_s: float,
+def measure(cfg: TavcConfig, out_dir: Path, *, n_max: int, trials: int, warmup_s: float, measure_s: float,
             confidence: float, n_jobs: int, progress: bool,
             only: Iterable[Split] | None = None) -> tuple[CTable, int]:
     """Run (or reuse) every split's trials (or only the splits in `only`); return the
     table and how many trials were reused."""
     plan = measurement_specs(cfg, n_max, trials, warmup_s, measure_s, only)
     all_specs = [s for specs in plan.values() for s in specs]
-    executor = Executor.from_mapping({**cfg["executor"], "n_jobs": n_jobs})
+    executor = replace(Executor.from_config(cfg.executor), n_jobs=n_jobs)
     n_reused = TrialStore(out_dir, executor).run(all_specs, progress)
-    return table_from(plan, out_dir, len(cfg["arena"]["circuits"]), warmup_s, measure_s, confidence), n_reused
+    return table_from(plan, out_dir, len(cfg.arena.circuits), warmup_s, measure_s, confidence), n_reused
 
 
 def table_from(plan: Mapping[Split, list[TrialSpec]], out_dir: Path, n_circuits: int, warmup_s: float,

@@ -35,7 +35,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from itertools import product
 from pathlib import Path
 
@@ -49,14 +49,15 @@ from tavc_cli.io import write_text_atomic
 from tavc_cli.model import core
 from tavc_cli.model.api import dock_spots, json_safe
 from tavc_cli.model.measure import measurement_specs, table_from
+from tavc_cli.settings import GridAxis, TavcConfig
 
 Point = dict[str, object]
 
 
-def grid_points(axes: Sequence[Mapping]) -> list[Point]:
+def grid_points(axes: Sequence[GridAxis]) -> list[Point]:
     """Every combination of the axes' values ({key, values} each), in grid order."""
-    keys = [str(a["key"]) for a in axes]
-    return [dict(zip(keys, combo, strict=True)) for combo in product(*[list(a["values"]) for a in axes])]
+    keys = [str(a.key) for a in axes]
+    return [dict(zip(keys, combo, strict=True)) for combo in product(*[list(a.values) for a in axes])]
 
 
 def point_id(point: Point) -> str:
@@ -81,7 +82,7 @@ def needed_splits(n_robots: int, values: Sequence[float]) -> list[core.Split]:
     return sorted(out, key=lambda s: (sum(s), s))
 
 
-def judge(table: core.CTable, cfg: Mapping, n_robots: int, values: Sequence[float]) -> dict:
+def judge(table: core.CTable, cfg: TavcConfig, n_robots: int, values: Sequence[float]) -> dict:
     """What one grid point's measurements say: the world facts and every admission test."""
     n6, n5 = core.intended_split(n_robots, values), core.intended_split(n_robots - 1, values)
     high = max(range(2), key=lambda i: values[i])
@@ -95,10 +96,10 @@ def judge(table: core.CTable, cfg: Mapping, n_robots: int, values: Sequence[floa
     c14 = core.constraint_1_4(table, n_robots - 1, values, max(n5), high)
     crowd6 = core.pair_split(n_robots, high, m + 1)
     crowd5 = core.add_robot(core.add_robot(n5, low, -1), high)
-    speed = float(cfg["robot"]["speed_mps"])
-    spots = dock_spots(cfg["arena"], float(cfg["robot"]["behaviour"]["arrive_dist_m"]))
-    circ = cfg["arena"]["circuits"][0]
-    straight = math.dist(spots[circ["source"]], spots[circ["sink"]]) / speed
+    speed = float(cfg.robot.speed_mps)
+    spots = dock_spots(cfg.arena, float(cfg.robot.behaviour.arrive_dist_m))
+    circ = cfg.arena.circuits[0]
+    straight = math.dist(spots[circ.source], spots[circ.sink]) / speed
     lone_leg = table.t((1, 0), 0) / 2
     budget4 = table.cells[crowd6][high].budget
     row = {
@@ -134,7 +135,7 @@ def choose(rows: list[dict], rays_key: str = "robot.laser.n_rays") -> tuple[int 
     return None, False
 
 
-def run_search(points: Sequence[tuple[Point, Mapping]], out_dir: Path, *, n_robots: int, trials: int,
+def run_search(points: Sequence[tuple[Point, TavcConfig]], out_dir: Path, *, n_robots: int, trials: int,
                warmup_s: float, measure_s: float, confidence: float, executor: Executor,
                progress: bool) -> dict:
     """Measure every grid point (reusing finished trials), judge each, pick one; write
@@ -143,9 +144,9 @@ def run_search(points: Sequence[tuple[Point, Mapping]], out_dir: Path, *, n_robo
         raise TavcError("team.n_robots: the world search needs a team of at least 3 robots")
     plans, specs = [], []
     for point, cfg in points:
-        if len(cfg["arena"]["circuits"]) != 2:
+        if len(cfg.arena.circuits) != 2:
             raise TavcError("arena: the world search checks the chapter's two-circuit constraints")
-        values = [float(v) for v in cfg["tasks"]["values"]]
+        values = [float(v) for v in cfg.tasks.values]
         plan = measurement_specs(cfg, n_robots, trials, warmup_s, measure_s,
                                  only=needed_splits(n_robots, values), prefix=point_id(point) + "_")
         specs += [s for group in plan.values() for s in group]
@@ -153,7 +154,7 @@ def run_search(points: Sequence[tuple[Point, Mapping]], out_dir: Path, *, n_robo
     n_reused = TrialStore(out_dir, executor).run(specs, progress)
     rows = []
     for (point, cfg), plan in zip(points, plans, strict=True):
-        values = [float(v) for v in cfg["tasks"]["values"]]
+        values = [float(v) for v in cfg.tasks.values]
         table = table_from(plan, out_dir, 2, warmup_s, measure_s, confidence)
         rows.append({"point": point_id(point), **point, **judge(table, cfg, n_robots, values)})
     chosen, robust = choose(rows)
@@ -164,7 +165,7 @@ def run_search(points: Sequence[tuple[Point, Mapping]], out_dir: Path, *, n_robo
         "n_points": len(rows), "n_trials_reused": n_reused,
         "measurement": {"trials_per_split": trials, "warmup_s": warmup_s, "measure_s": measure_s,
                         "confidence": confidence, "n_robots": n_robots},
-        "values": [float(v) for v in points[0][1]["tasks"]["values"]] if points else [],
+        "values": [float(v) for v in points[0][1].tasks.values] if points else [],
         "chosen": rows[chosen] if chosen is not None else None,
         "chosen_overrides": point_overrides(points[chosen][0]) if chosen is not None else [],
         "robust": robust,
@@ -218,13 +219,13 @@ def save_world(search: dict, world_dir: Path, grid_keys: Sequence[str]) -> Path:
     return path
 
 
-def one_axis_variants(axes: Sequence[Mapping], chosen: Point) -> list[tuple[str, Point]]:
+def one_axis_variants(axes: Sequence[GridAxis], chosen: Point) -> list[tuple[str, Point]]:
     """The chosen point, then every point that differs from it on one grid axis only:
     (the key varied, or "chosen"; the point)."""
     out: list[tuple[str, Point]] = [("chosen", dict(chosen))]
     for axis in axes:
-        key = str(axis["key"])
-        out += [(key, {**chosen, key: v}) for v in axis["values"] if v != chosen[key]]
+        key = str(axis.key)
+        out += [(key, {**chosen, key: v}) for v in axis.values if v != chosen[key]]
     return out
 
 
@@ -244,7 +245,7 @@ def sensitivity_rows(table: core.CTable, n_robots: int, values: Sequence[float])
     return rows
 
 
-def run_sensitivity(variants: Sequence[tuple[str, Point, Mapping]], out_dir: Path, *, n_robots: int, trials: int,
+def run_sensitivity(variants: Sequence[tuple[str, Point, TavcConfig]], out_dir: Path, *, n_robots: int, trials: int,
                     warmup_s: float, measure_s: float, confidence: float, executor: Executor,
                     progress: bool) -> dict:
     """Measure every split of N and N-1 robots in each variant world (reusing the search's
@@ -261,7 +262,7 @@ def run_sensitivity(variants: Sequence[tuple[str, Point, Mapping]], out_dir: Pat
     TrialStore(out_dir, executor).run(specs, progress)
     worlds, rows = [], []
     for (varied, point, cfg), plan in zip(variants, plans, strict=True):
-        values = [float(v) for v in cfg["tasks"]["values"]]
+        values = [float(v) for v in cfg.tasks.values]
         table = table_from(plan, out_dir, 2, warmup_s, measure_s, confidence)
         value = point.get(varied)
         shown = format(value, "g") if isinstance(value, (int, float)) else str(value)

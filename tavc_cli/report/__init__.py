@@ -16,7 +16,6 @@ import math
 from pathlib import Path
 
 import pandas as pd
-import yaml
 
 from tavc_cli.analysis.chapter_checks import chapter_checks
 from tavc_cli.analysis.claims import CLAIM_TABLES, CLAIMS, claim_rows
@@ -37,6 +36,7 @@ from tavc_cli.report.text import (
     state_table,
     vacancy_lines,
 )
+from tavc_cli.settings import from_yaml
 
 ORDER = ["spatiotemporal", "initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change",
          "heterogeneous"]
@@ -47,8 +47,7 @@ def _experiments(results_dir: Path) -> dict[str, Path]:
     found = {}
     for d in sorted(p for p in results_dir.iterdir() if p.is_dir()):
         if (d / "state_time.csv").is_file() and (d / "config.yaml").is_file():
-            cfg = yaml.safe_load((d / "config.yaml").read_text()) or {}
-            found.setdefault(str(cfg.get("experiment_name") or d.name), d)
+            found.setdefault(str(from_yaml(d / "config.yaml").experiment_name or d.name), d)
     return dict(sorted(found.items(), key=lambda kv: (ORDER.index(kv[0]) if kv[0] in ORDER else 99, kv[0])))
 
 
@@ -86,11 +85,11 @@ def build_report(results_dir: Path) -> dict:
               "`tavc_cli/analysis/claims.py`.", ""]
     model_json = find_model(experiments)
     for name, d in experiments.items():
-        cfg = yaml.safe_load((d / "config.yaml").read_text()) or {}
+        cfg = from_yaml(d / "config.yaml")
         prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
         state_time = pd.read_csv(d / "state_time.csv", dtype={"state": str})
         comparison = experiment_comparison(name, state_time)
-        lines += [f"## {name} (section {cfg.get('section', '?')})", "", str(cfg.get("description", "")).strip(), ""]
+        lines += [f"## {name} (section {cfg.section or '?'})", "", str(cfg.description or "").strip(), ""]
         if (d / "table_1_1.csv").is_file():
             lines += spatiotemporal_lines(name, d, cfg, results_dir)
             lines += run_lines(name, cfg, prov, claims, runs)

@@ -9,6 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.reference import TABLES
+from tavc_cli.settings import TavcConfig
 
 
 def find_model(experiments: dict[str, Path]) -> Path | None:
@@ -20,16 +21,15 @@ def find_model(experiments: dict[str, Path]) -> Path | None:
     return None
 
 
-def predicted_segments(cfg: dict, model_json: Path | None) -> list[tuple[float, float, str, float]]:
+def predicted_segments(cfg: TavcConfig, model_json: Path | None) -> list[tuple[float, float, str, float]]:
     """(from s, to s, label, robots on the high circuit) the model predicts between breakdowns."""
-    if model_json is None or len((cfg.get("arena") or {}).get("circuits", [])) != 2:
+    if model_json is None or len(cfg.arena.circuits) != 2:
         return []
     by_size = json.loads(model_json.read_text()).get("by_team_size", {})
-    start, end = -float((cfg.get("sim") or {}).get("warmup_s", 0.0)), float(cfg["duration_s"])
-    times = sorted(float(b["time_s"]) for b in (cfg.get("events") or {}).get("breakdowns", []) or []
-                   if start < float(b["time_s"]) < end)
-    n = int(cfg["team"]["n_robots"]) - sum(
-        1 for b in (cfg.get("events") or {}).get("breakdowns", []) or [] if float(b["time_s"]) <= start)
+    start, end = -float(cfg.sim.warmup_s), float(cfg.duration_s)
+    times = sorted(float(b.time_s) for b in cfg.events.breakdowns
+                   if start < float(b.time_s) < end)
+    n = int(cfg.team.n_robots) - sum(1 for b in cfg.events.breakdowns if float(b.time_s) <= start)
     out = []
     for a, b in zip([start, *times], [*times, end], strict=True):
         pred = by_size.get(str(n))
@@ -40,7 +40,7 @@ def predicted_segments(cfg: dict, model_json: Path | None) -> list[tuple[float, 
     return out
 
 
-def experiment_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, results_dir: Path,
+def experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame, results_dir: Path,
              model_json: Path | None) -> list[str]:
     """Draw this experiment's figures under results_dir/figures; markdown lines that show them."""
     from tavc_cli.reference import chapter_table
@@ -48,10 +48,10 @@ def experiment_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, 
 
     fig_dir = results_dir / "figures"
     state_fig, perf_fig = FIGURES.get(name, (None, None))
-    conv = float(cfg.get("convergence_s") or 0.0)
-    event = float((cfg.get("sim") or {}).get("warmup_s", 0.0)) > 0
+    conv = float(cfg.convergence_s or 0.0)
+    event = float(cfg.sim.warmup_s) > 0
     lines = []
-    if ((cfg.get("analysis") or {}).get("state")) == "groups":
+    if cfg.analysis.state == "groups":
         return group_figures(name, d, cfg, state_time, fig_dir)
     if state_fig is not None:
         table = TABLES.get(name)
@@ -72,7 +72,7 @@ def experiment_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, 
     return [*lines, ""] if lines else []
 
 
-def group_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, fig_dir: Path) -> list[str]:
+def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame, fig_dir: Path) -> list[str]:
     """Fast and slow robots: the f:s grids (Figure 1.12's kind), TAVC against the theory row (1.13's),
     each speed group on the high-value circuit over time, and the Q-values of trial 0."""
     from tavc_cli.reference import chapter_table
@@ -87,7 +87,7 @@ def group_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, fig_d
     lines = ["![Figure 1.12, tavc](figures/fig_1_12.png)", "![Figure 1.13, tavc](figures/fig_1_13.png)",
              "![Figure 1.13, relative, tavc](figures/fig_1_13_relative.png)"]
     if (d / "specialisation.csv").is_file():
-        specialisation_figure(pd.read_csv(d / "specialisation.csv"), float(cfg.get("convergence_s") or 0.0),
+        specialisation_figure(pd.read_csv(d / "specialisation.csv"), float(cfg.convergence_s or 0.0),
                               f"{name}: each speed group's share on the high-value circuit",
                               fig_dir / f"specialisation_{name}")
         lines.append(f"![specialisation, {name}](figures/specialisation_{name}.png)")
@@ -95,16 +95,16 @@ def group_figures(name: str, d: Path, cfg: dict, state_time: pd.DataFrame, fig_d
     return [*lines, ""]
 
 
-def final_high_circuit(cfg: dict) -> int:
+def final_high_circuit(cfg: TavcConfig) -> int:
     """The circuit with the highest learning value at the end of the run (after any value change)."""
-    values = (cfg.get("tasks") or {}).get("values")
-    changes = (cfg.get("events") or {}).get("value_changes") or []
+    values = cfg.tasks.values
+    changes = cfg.events.value_changes
     if changes:
-        values = sorted(changes, key=lambda c: float(c["time_s"]))[-1]["values"]
+        values = sorted(changes, key=lambda c: float(c.time_s))[-1].values
     return int(max(range(len(values)), key=lambda i: float(values[i]))) if values else 0
 
 
-def q_figure(name: str, d: Path, cfg: dict, fig_dir: Path) -> list[str]:
+def q_figure(name: str, d: Path, cfg: TavcConfig, fig_dir: Path) -> list[str]:
     """The Q-tables of the first TAVC trial (trial 0, fixed before looking), robot by robot."""
     path = d / "q_values.csv"
     if not path.is_file():
@@ -119,7 +119,7 @@ def q_figure(name: str, d: Path, cfg: dict, fig_dir: Path) -> list[str]:
     if (d / "robots.csv").is_file():
         r = pd.read_csv(d / "robots.csv")
         robots = r[(r["controller"] == "tavc") & (r["trial"] == 0)]
-    q_value_figure(q, robots, final_high_circuit(cfg), float(cfg.get("convergence_s") or 0.0),
+    q_value_figure(q, robots, final_high_circuit(cfg), float(cfg.convergence_s or 0.0),
                    f"{name}: Q-values of TAVC trial 0, robot by robot", fig_dir / f"q_values_{name}")
     return [f"![Q-values of trial 0, {name}](figures/q_values_{name}.png)"]
 

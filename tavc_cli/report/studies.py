@@ -10,6 +10,7 @@ import pandas as pd
 
 from tavc_cli.io import write_text_atomic
 from tavc_cli.report.text import fmt
+from tavc_cli.settings import TavcConfig
 
 
 def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
@@ -70,7 +71,7 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     return lines
 
 
-def spatiotemporal_lines(name: str, d: Path, cfg: dict, results_dir: Path) -> list[str]:
+def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path) -> list[str]:
     """Section 1.4: Table 1.1 beside the chapter's, Figure 1.4's kind, the learned policies, the lanes."""
     from tavc_cli.analysis.spatiotemporal import target_time_curve
     from tavc_cli.reference import chapter_table
@@ -121,10 +122,10 @@ def spatiotemporal_lines(name: str, d: Path, cfg: dict, results_dir: Path) -> li
                      f"verdict): t = {res.statistic:.2f}, p = {res.pvalue:.3g}.")
         lines += [text, ""]
     if (d / "occupancy.csv").is_file():
-        arena = cfg["arena"]
-        xy = {t["name"]: (float(t["x"]), float(t["y"])) for t in arena["targets"]}
-        lane_figure(pd.read_csv(d / "occupancy.csv"), xy[arena["circuits"][0]["source"]],
-                    xy[arena["circuits"][0]["sink"]], f"{name}: where the robots drive", fig_dir / f"lanes_{name}")
+        arena = cfg.arena
+        xy = {t.name: (float(t.x), float(t.y)) for t in arena.targets}
+        lane_figure(pd.read_csv(d / "occupancy.csv"), xy[arena.circuits[0].source],
+                    xy[arena.circuits[0].sink], f"{name}: where the robots drive", fig_dir / f"lanes_{name}")
         lines += [f"![lanes, {name}](figures/lanes_{name}.png)", ""]
     return lines
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.claims import CLAIMS
+from tavc_cli.settings import TavcConfig
 
 KIND_WORDS = {"stayer": "stayers", "alternator": "alternators", "mixed": "mixed", "idle": "idle (broken down or stuck)"}
 CONTROLLER_NAMES = {"tavc": "TAVC", "random": "random", "static": "static", "theory": "theory"}
@@ -91,22 +92,22 @@ def model_lines(model_json: Path, state_time: pd.DataFrame) -> list[str]:
     return [" ".join(lines)]
 
 
-def differences(cfg: dict) -> list[str]:
+def differences(cfg: TavcConfig) -> list[str]:
     """Settings of this run that differ from the chapter's for the experiment."""
     out = []
-    paper = cfg.get("paper") or {}
-    if paper.get("trials") is not None and cfg.get("trials") != paper.get("trials"):
-        out.append(f"trials {cfg.get('trials')} (the chapter: {paper['trials']})")
-    if paper.get("duration_s") is not None and float(cfg.get("duration_s", 0)) != float(paper["duration_s"]):
-        out.append(f"duration {float(cfg['duration_s']):g} s (the chapter: {float(paper['duration_s']):g} s)")
-    values = (cfg.get("tasks") or {}).get("values")
-    chapter_values = cfg.get("experiment_name") != "spatiotemporal"
+    paper = cfg.paper
+    if paper.trials is not None and cfg.trials != paper.trials:
+        out.append(f"trials {cfg.trials} (the chapter: {paper.trials})")
+    if paper.duration_s is not None and float(cfg.duration_s or 0) != float(paper.duration_s):
+        out.append(f"duration {float(cfg.duration_s):g} s (the chapter: {float(paper.duration_s):g} s)")
+    values = cfg.tasks.values
+    chapter_values = cfg.experiment_name != "spatiotemporal"
     if values is not None and chapter_values and [float(v) for v in values] != [2200.0, 2000.0]:
         out.append(f"task values {values} (the chapter: [2200, 2000])")
     return out
 
 
-def settle_lines(stats: pd.DataFrame, cfg: dict) -> list[str]:
+def settle_lines(stats: pd.DataFrame, cfg: TavcConfig) -> list[str]:
     """When the trials' allocations settled, beside the chapter's convergence period."""
     if "settle_s" not in stats or not stats["settle_s"].notna().any():
         return []
@@ -120,8 +121,8 @@ def settle_lines(stats: pd.DataFrame, cfg: dict) -> list[str]:
         if len(done):
             text += f", median {pd.Series(done).median():.0f} s"
         parts.append(text)
-    paper = (cfg.get("paper") or {}).get("convergence_s")
-    lines = [f"Settling (the first {float(cfg['analysis']['performance_bin_s']):g} s bin after which the mean number "
+    paper = cfg.paper.convergence_s
+    lines = [f"Settling (the first {float(cfg.analysis.performance_bin_s):g} s bin after which the mean number "
             f"of robots on the high-value circuit stays within {SETTLE_TOL:g} of its stable-period mean, counted "
             "from t = 0): " + "; ".join(parts)
             + (f". The chapter took {float(paper):g} s as its convergence period." if paper else "."), ""]
@@ -205,7 +206,7 @@ def q_gap_lines(stats: pd.DataFrame) -> list[str]:
             "trials: " + "; ".join(parts) + ".", ""]
 
 
-def run_lines(name: str, cfg: dict, prov: dict, claims: pd.DataFrame, runs: dict) -> list[str]:
+def run_lines(name: str, cfg: TavcConfig, prov: dict, claims: pd.DataFrame, runs: dict) -> list[str]:
     """An experiment's claims table, the command and provenance of its run, and its settings
     that differ from the chapter's."""
     lines = []
@@ -217,7 +218,7 @@ def run_lines(name: str, cfg: dict, prov: dict, claims: pd.DataFrame, runs: dict
     if isinstance(command, list):
         command = " ".join(["tavc", *command[1:]])
     lines += [f"Run: `{command}`; root seed "
-              f"{prov.get('root_seed', cfg.get('seed'))}; tavc {prov.get('tavc_version', '?')} at "
+              f"{prov.get('root_seed', cfg.seed)}; tavc {prov.get('tavc_version', '?')} at "
               f"{prov.get('git_commit') or 'no git commit'}; {len(prov.get('trials', []))} trials "
               f"({prov.get('n_trials_reused', 0)} reused from an earlier run), "
               f"{fmt(prov.get('wall_time_s'), '.0f')} s wall time for this invocation.", ""]

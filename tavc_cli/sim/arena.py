@@ -9,10 +9,11 @@ inward normal of the wall it hangs on.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+
+from tavc_cli.settings import ArenaConfig
 
 SOURCE, SINK = 0, 1
 _BARCODE_INSET_M = 1e-3
@@ -105,37 +106,34 @@ def _boundary_normal(x: float, y: float, width: float, height: float) -> tuple[f
     return min(dists, key=dists.get)
 
 
-def arena_from_mapping(spec: Mapping) -> Arena:
-    """Build an Arena from the `arena` config section (a plain mapping).
+def arena_from_config(spec: ArenaConfig) -> Arena:
+    """Build an Arena from its settings (an `ArenaConfig`, or the config layer's node of it).
 
     Bar-codes hang on the outer walls; each target's facing is the inward normal of
     the wall nearest to it. Validation of the numbers is the config layer's job.
     """
-    width, height = float(spec["width_m"]), float(spec["height_m"])
+    width, height = float(spec.width_m), float(spec.height_m)
     outer = [(0, 0, width, 0), (width, 0, width, height), (width, height, 0, height), (0, height, 0, 0)]
-    extra = [tuple(float(v) for v in w) for w in (spec.get("walls") or [])]
+    extra = [tuple(float(v) for v in w) for w in (spec.walls or [])]
     targets = tuple(
         Target(
-            name=str(t["name"]),
-            kind=SOURCE if t["kind"] == "source" else SINK,
-            barcode=int(t["barcode"]),
-            x=float(t["x"]),
-            y=float(t["y"]),
-            normal=_boundary_normal(float(t["x"]), float(t["y"]), width, height),
+            name=str(t.name),
+            kind=SOURCE if t.kind == "source" else SINK,
+            barcode=int(t.barcode),
+            x=float(t.x),
+            y=float(t.y),
+            normal=_boundary_normal(float(t.x), float(t.y), width, height),
         )
-        for t in spec["targets"]
+        for t in spec.targets
     )
     index = {t.name: i for i, t in enumerate(targets)}
-    circuits = tuple(
-        Circuit(name=str(c["name"]), source=index[c["source"]], sink=index[c["sink"]])
-        for c in spec["circuits"]
-    )
+    circuits = tuple(Circuit(name=str(c.name), source=index[c.source], sink=index[c.sink]) for c in spec.circuits)
     return Arena(
-        name=str(spec["name"]),
+        name=str(spec.name),
         width_m=width,
         height_m=height,
         walls=np.array(outer + extra, dtype=np.float64),
         targets=targets,
         circuits=circuits,
-        barcode_width_m=float(spec.get("barcode_width_m", 0.6)),
+        barcode_width_m=float(spec.barcode_width_m),
     )

@@ -25,20 +25,21 @@ from tavc_cli.errors import TavcError  # noqa: E402
 from tavc_cli.experiments.build import trial_specs  # noqa: E402
 from tavc_cli.experiments.engine import run_trials  # noqa: E402
 from tavc_cli.experiments.records import TrialRecord  # noqa: E402
-from tavc_cli.sim.arena import SOURCE, Arena, arena_from_mapping  # noqa: E402
+from tavc_cli.settings import TavcConfig  # noqa: E402
+from tavc_cli.sim.arena import SOURCE, Arena, arena_from_config  # noqa: E402
 
 CIRCUIT_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2"]
 MARKINGS = [(90.0, "#d62728"), (-90.0, "#2ca02c"), (180.0, "#e6c619")]  # left red, right green, rear yellow
 _MARK_HALF_DEG = 35.0
 
 
-def simulate_for_pictures(cfg: dict, duration_s: float, frame_every_s: float) -> tuple[TrialRecord, Arena]:
+def simulate_for_pictures(cfg: TavcConfig, duration_s: float, frame_every_s: float) -> tuple[TrialRecord, Arena]:
     """Run the config's first trial for `duration_s` (no warm-up) with a pose trace."""
     spec = trial_specs(cfg)[0]
     spec = replace(spec, duration_s=duration_s, warmup_s=0.0, pose_every_s=frame_every_s,
                    breakdowns=tuple(b for b in spec.breakdowns if b.time_s < duration_s),
                    value_changes=tuple(v for v in spec.value_changes if v.time_s < duration_s))
-    return run_trials([spec])[0], arena_from_mapping(spec.arena)
+    return run_trials([spec])[0], arena_from_config(spec.arena)
 
 
 def _draw_arena(ax, arena: Arena) -> None:
@@ -124,22 +125,19 @@ def animate_record(rec: TrialRecord, arena: Arena, radius: float, path: Path, fp
     return written
 
 
-def animate_run(cfg, *, out: Path | None = None, duration_s: float = 300.0, fps: int = 10,
+def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float = 300.0, fps: int = 10,
                 mp4: bool = True, frame_every_s: float = 1.0) -> list[Path]:
     """Simulate the config's first trial and write animation.gif (+ .mp4) and trajectories.png."""
-    from tavc_cli.config import to_container
-
-    plain = to_container(cfg)
     if duration_s <= 0:
         raise TavcError(f"--duration-s: must be > 0, got {duration_s}")
     if fps < 1:
         raise TavcError(f"--fps: must be >= 1, got {fps}")
-    out = Path(out) if out is not None else Path(plain["output_dir"]) / "animation.gif"
+    out = Path(out) if out is not None else Path(cfg.output_dir) / "animation.gif"
     if out.suffix.lower() != ".gif":
         raise TavcError(f"--out: the animation is written as a .gif, got '{out.name}'")
     out.parent.mkdir(parents=True, exist_ok=True)
-    rec, arena = simulate_for_pictures(plain, duration_s, frame_every_s)
-    radius = float(plain["robot"]["radius_m"])
+    rec, arena = simulate_for_pictures(cfg, duration_s, frame_every_s)
+    radius = float(cfg.robot.radius_m)
     written = animate_record(rec, arena, radius, out, fps, mp4=mp4)
     written.append(trajectory_plot(rec, arena, out.with_name("trajectories.png")))
     return written

@@ -1,0 +1,98 @@
+"""An experiment's tables and claims, from its saved trial records: what `tavc run` writes
+after the trials (`state_time.csv`, `performance.csv`, ..., `comparison.csv`, `claims.csv`)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.analysis.performance import performance_table
+from tavc_cli.analysis.qvalues import q_value_table
+from tavc_cli.analysis.robots import robot_table
+from tavc_cli.analysis.states import allocation_table, specialisation_table, state_time_table
+from tavc_cli.analysis.trial_stats import trial_stats
+from tavc_cli.analysis.vacancy import vacancy_table
+from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.io import write_text_atomic
+from tavc_cli.settings import TavcConfig
+
+
+def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord]) -> tuple[dict[str, pd.DataFrame],
+                                                                                       pd.DataFrame]:
+    """Compute and write (atomically) every table, the comparison with the chapter and the
+    claims; return the tables and the claims."""
+    tables = analyse(cfg, records)
+    for name, df in tables.items():
+        # Q-values span the reward's scale (about 0.05 per task with t in ms, 50 with t in s): significant digits
+        fmt = "%.6g" if name == "q_values" else "%.4f"
+        write_text_atomic(out_dir / f"{name}.csv", df.to_csv(index=False, float_format=fmt))
+    from tavc_cli.analysis.comparison import experiment_comparison
+
+    comparison = experiment_comparison(str(cfg.experiment_name or ""), tables["state_time"])
+    if comparison is not None:
+        write_text_atomic(out_dir / "comparison.csv", comparison.to_csv(index=False, float_format="%.4f"))
+    claims = experiment_claims(cfg, tables, out_dir)
+    if len(claims):
+        write_text_atomic(out_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
+    return tables, claims
+
+
+def analyse(cfg: TavcConfig, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:
+    """The tables every experiment shares, from saved records only."""
+    t_from, t_to = float(cfg.convergence_s), float(cfg.duration_s)
+    scheme = cfg.analysis.state
+    bin_s, start = float(cfg.analysis.performance_bin_s), -float(cfg.sim.warmup_s)
+    state = state_time_table(records, t_from, t_to, scheme)
+    perf = performance_table(records, bin_s, start, t_to)
+    alloc = allocation_table(records, bin_s, start, t_to) if scheme == "circuits" else None
+    tables = {"state_time": state, "performance": perf, "trial_stats": trial_stats(records, cfg)}
+    if alloc is not None:
+        tables["allocation"] = alloc
+    if scheme == "groups":
+        tables["specialisation"] = specialisation_table(records, bin_s, start, t_to)
+    if records and "choices" in records[0].tables:
+        tables["robots"] = robot_table(records, t_from, t_to)
+    q_values = q_value_table(records)
+    if q_values is not None:
+        tables["q_values"] = q_values
+    if any(rec.meta["controller"] == "behaviour" for rec in records):
+        tables.update(spatiotemporal_tables(cfg, records))
+    vacancy = vacancy_table(records)
+    if len(vacancy):
+        tables["vacancy"] = vacancy
+    return tables
+
+
+def spatiotemporal_tables(cfg: TavcConfig, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:
+    """Section 1.4's tables for the behaviour learners' trials: Table 1.1 and the samples behind
+    it, the learned policies, and the lanes (offsets and a heat map, first and last tenth)."""
+    from tavc_cli.analysis import spatiotemporal as st
+
+    mine = [rec for rec in records if rec.meta["controller"] == "behaviour"]
+    arena = cfg.arena
+    xy = {t.name: (float(t.x), float(t.y)) for t in arena.targets}
+    source, sink = xy[arena.circuits[0].source], xy[arena.circuits[0].sink]
+    windows = st.lane_windows(float(cfg.duration_s))
+    traversals, targets = st.traversal_table(mine), st.target_time_table(mine)
+    return {"table_1_1": st.table_1_1_from(traversals, targets), "traversals": traversals,
+            "target_times": targets, "policy": st.policy_table(mine),
+            "lanes": st.lane_table(mine, source, sink, windows),
+            "occupancy": st.occupancy_table(mine, source, sink, float(arena.width_m), float(arena.height_m),
+                                            windows)}
+
+
+def experiment_claims(cfg: TavcConfig, tables: Mapping[str, pd.DataFrame], out_dir: Path) -> pd.DataFrame:
+    """The chapter's claims about this experiment, tested on its trials (and, where a claim
+    compares two experiments, on the other's `trial_stats.csv` beside this output if present)."""
+    from tavc_cli.analysis.claims import CLAIM_TABLES, CLAIMS, claim_rows
+
+    name = str(cfg.experiment_name or "")
+    runs = {name: tables["trial_stats"]}
+    runs.update({f"{name}/{t}": tables[t] for t in CLAIM_TABLES if t in tables})
+    for other in {e for e, _ in CLAIMS.values()} - {name}:
+        path = out_dir.parent / other / "trial_stats.csv"
+        if path.is_file():
+            runs[other] = pd.read_csv(path)
+    return claim_rows(runs, only_experiment=name)

@@ -1,0 +1,338 @@
+"""The settings every command runs on: one typed dataclass per config group.
+
+The config package composes and validates them with Hydra (registered in its ConfigStore,
+they make a misspelled key or a value of the wrong type fail at compose time) and hands the
+result to the library as a `TavcConfig`; everything below the CLI reads attributes of these
+dataclasses, never a DictConfig or nested dicts. `from_yaml` reads a results folder's
+``config.yaml`` back into them.
+"""
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, List, Optional
+
+from omegaconf import MISSING, OmegaConf
+
+SCHEMA_NAME = "tavc_schema"
+AVAILABLE_BACKENDS = ("local", "ray", "dask")
+BACKENDS = ("local", "ray", "dask")
+ANALYSIS_STATES = ("circuits", "groups")
+TARGET_KINDS = ("source", "sink")
+TIME_UNITS = ("s", "ms")
+# A target must sit on a wall (bar-codes are mounted on walls); this is how close counts as on.
+WALL_TOLERANCE_M = 1e-6
+# A docked robot's front must stay at least this far from the wall.
+MIN_DOCK_CLEARANCE_M = 0.03
+
+
+# --------------------------------------------------------------------------------------------
+# Schemas. Defaults mirror conf/; the YAML files are what users read and edit. The arena has no
+# defaults: an arena is data and must come from conf/arena/.
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class TargetConfig:
+    """A source or sink: a bar-code on a wall, at ``(x, y)`` metres from the lower-left corner."""
+
+    name: str = MISSING
+    kind: str = MISSING
+    barcode: int = MISSING
+    x: float = MISSING
+    y: float = MISSING
+
+
+@dataclass
+class CircuitConfig:
+    """A task class: carry from the target named ``source`` to the target named ``sink``."""
+
+    name: str = MISSING
+    source: str = MISSING
+    sink: str = MISSING
+
+
+@dataclass
+class ArenaConfig:
+    """A rectangular arena with its targets and circuits.
+
+    ``walls`` lists interior wall segments, each ``[x1, y1, x2, y2]`` in metres (the outer
+    walls come from ``width_m`` and ``height_m``).
+    """
+
+    name: str = MISSING
+    width_m: float = MISSING
+    height_m: float = MISSING
+    barcode_width_m: float = 0.6
+    # Any, not List[float]: OmegaConf 2.3 rejects ints in nested typed lists ([1, 1, 3, 1]).
+    walls: List[Any] = field(default_factory=list)
+    targets: List[TargetConfig] = MISSING
+    circuits: List[CircuitConfig] = MISSING
+
+
+@dataclass
+class LaserConfig:
+    """Laser range finder (also reads bar-codes)."""
+
+    fov_deg: float = 180.0
+    n_rays: int = 31
+    range_m: float = 8.0
+
+
+@dataclass
+class CameraConfig:
+    """Colour camera that sees the markings on the nearest robot in view."""
+
+    fov_deg: float = 80.0
+    range_m: float = 6.0
+    side_sector_deg: float = 112.5
+
+
+@dataclass
+class OdometryConfig:
+    """Odometry noise; errors grow with the square root of distance travelled or turned."""
+
+    trans_noise_per_sqrt_m: float = 0.03
+    rot_noise_per_sqrt_m: float = 0.03
+    rot_noise_per_sqrt_rad: float = 0.03
+
+
+@dataclass
+class BehaviourConfig:
+    """Distances used by the transport sub-behaviours."""
+
+    avoid_dist_m: float = 0.7
+    stop_dist_m: float = 0.25
+    arrive_dist_m: float = 0.30
+    wall_dist_m: float = 0.5
+    visible_margin_m: float = 0.5
+    relocalise_dist_m: float = 2.0
+    stall_s: float = 20.0
+    progress_m: float = 0.3
+    escape_s: float = 15.0
+
+
+@dataclass
+class DockConfig:
+    """How a robot serves a source or sink: at the dock spot in front of the bar-code."""
+
+    lateral_tol_m: float = 0.1
+    heading_tol_deg: float = 20.0
+    approach_m: float = 0.8
+    dwell_s: float = 0.0
+    backout_m: float = 0.4
+    occupied_m: float = 0.6
+    hold_margin_m: float = 0.6
+    patience_s: float = 90.0
+
+
+@dataclass
+class RobotConfig:
+    """A differential-drive disc robot with its sensors."""
+
+    name: str = "pioneer2dx"
+    radius_m: float = 0.22
+    mass_kg: float = 15.0
+    speed_mps: float = 0.25
+    turn_rate_radps: float = 1.2
+    drive_force_n: float = 60.0
+    drive_torque_nm: float = 10.0
+    laser: LaserConfig = field(default_factory=LaserConfig)
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    odometry: OdometryConfig = field(default_factory=OdometryConfig)
+    behaviour: BehaviourConfig = field(default_factory=BehaviourConfig)
+    dock: DockConfig = field(default_factory=DockConfig)
+
+
+@dataclass
+class MemberConfig:
+    """One robot of a heterogeneous team."""
+
+    speed_mps: float = MISSING
+    group: str = "all"
+
+
+@dataclass
+class TeamConfig:
+    """The team: ``n_robots`` copies of ``robot``, or an explicit list of members."""
+
+    n_robots: int = 6
+    members: Optional[List[MemberConfig]] = None
+
+
+@dataclass
+class LearnerConfig:
+    """Every learner's parameters in one schema; each learner reads the fields it needs."""
+
+    name: str = "random"
+    alpha: float = 0.1
+    gamma: float = 0.95
+    epsilon: float = 0.1
+    tau: float = 0.005
+    q_init_low: float = -0.1
+    q_init_high: float = 0.1
+    decision_period_s: float = 0.1
+    decide_on_change: bool = True
+    allocation: Optional[List[int]] = None
+
+
+@dataclass
+class ScaleConfig:
+    """How much of the chapter's trials and simulated time to run."""
+
+    name: str = "paper"
+    trials: Optional[int] = None
+    time_factor: float = 1.0
+
+
+@dataclass
+class ExecutorConfig:
+    """Where trials run."""
+
+    backend: str = "local"
+    n_jobs: Optional[int] = None
+    batch_size: int = 8
+    address: Optional[str] = None
+
+
+@dataclass
+class PaperConfig:
+    """The chapter-scale trial count and durations of an experiment."""
+
+    trials: int = 20
+    duration_s: float = 3600.0
+    convergence_s: float = 900.0
+    baseline_trials: Optional[int] = None
+
+
+@dataclass
+class TasksConfig:
+    """Task values per circuit.
+
+    On a ``DictConfig`` read ``tasks["values"]``: ``tasks.values`` is the dict method.
+    """
+
+    values: Optional[List[float]] = None
+    score_values: Optional[List[float]] = None
+    time_unit: str = "ms"
+
+
+@dataclass
+class BreakdownConfig:
+    """A robot removed at ``time_s``: a given robot, one on a circuit, or a random one."""
+
+    time_s: float = MISSING
+    robot: Optional[int] = None
+    # null, "high", "low" or a circuit index; a string so that all four fit one type.
+    circuit: Optional[str] = None
+
+
+@dataclass
+class ValueChangeConfig:
+    """New learning values for every circuit from ``time_s`` on (read ``change["values"]``)."""
+
+    time_s: float = MISSING
+    values: List[float] = MISSING
+
+
+@dataclass
+class EventsConfig:
+    """Scheduled events; times are relative to the start of the record (warm-up is negative)."""
+
+    breakdowns: List[BreakdownConfig] = field(default_factory=list)
+    value_changes: List[ValueChangeConfig] = field(default_factory=list)
+
+
+@dataclass
+class SimConfig:
+    """Simulator timing."""
+
+    dt_s: float = 0.1
+    physics_substeps: int = 1
+    solver_iterations: int = 10
+    q_snapshot_every_s: float = 600.0
+    pose_every_s: float = 0.0
+    warmup_s: float = 0.0
+
+
+@dataclass
+class AnalysisConfig:
+    """How records are summarised."""
+
+    state: str = "circuits"
+    performance_bin_s: float = 600.0
+    before_s: Optional[float] = None
+
+
+@dataclass
+class ModelConfig:
+    """How `tavc model` measures task-processing frequencies (times scale with `scale`)."""
+
+    trials_per_split: int = 12
+    warmup_s: float = 300.0
+    measure_s: float = 3000.0
+    confidence: float = 0.9
+    max_robots: Optional[int] = None
+
+
+@dataclass
+class GridAxis:
+    """One axis of the world search: a config key and the values it takes."""
+
+    key: str = MISSING
+    values: List[Any] = MISSING
+
+
+@dataclass
+class CalibrationConfig:
+    """How `tavc calibrate` searches the reconstructed world (times scale with `scale`)."""
+
+    trials_per_split: int = 6
+    warmup_s: float = 300.0
+    measure_s: float = 3000.0
+    grid: List[GridAxis] = field(default_factory=list)
+
+
+@dataclass
+class TavcConfig:
+    """The whole configuration, as composed from conf/config.yaml."""
+
+    arena: ArenaConfig = field(default_factory=ArenaConfig)
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    team: TeamConfig = field(default_factory=TeamConfig)
+    learner: LearnerConfig = field(default_factory=LearnerConfig)
+    scale: ScaleConfig = field(default_factory=ScaleConfig)
+    executor: ExecutorConfig = field(default_factory=ExecutorConfig)
+    experiment_name: str = "default"
+    section: str = ""
+    description: str = ""
+    seed: int = 0
+    trials: Optional[int] = None
+    baseline_trials: Optional[int] = None
+    duration_s: Optional[float] = None
+    convergence_s: Optional[float] = None
+    output_dir: Optional[str] = None
+    paper: PaperConfig = field(default_factory=PaperConfig)
+    baselines: List[str] = field(default_factory=list)
+    static_allocation: Optional[List[int]] = None
+    tasks: TasksConfig = field(default_factory=TasksConfig)
+    events: EventsConfig = field(default_factory=EventsConfig)
+    sim: SimConfig = field(default_factory=SimConfig)
+    analysis: AnalysisConfig = field(default_factory=AnalysisConfig)
+    model: ModelConfig = field(default_factory=ModelConfig)
+    calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
+
+
+def to_yaml(settings: TavcConfig) -> str:
+    """The settings as the YAML ``config.yaml`` holds."""
+    return OmegaConf.to_yaml(OmegaConf.structured(settings))
+
+
+def from_yaml(path: Path) -> TavcConfig:
+    """A results folder's ``config.yaml`` read back as typed settings."""
+    return from_mapping(TavcConfig, OmegaConf.load(path))
+
+
+def from_mapping(cls: type, data: Any) -> Any:
+    """An instance of the settings dataclass ``cls`` from plain data (a dict, as YAML gives it),
+    checked against its fields' types."""
+    return OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(cls), data))
