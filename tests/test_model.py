@@ -239,3 +239,16 @@ def test_sensitivity_end_to_end_writes_task_times_per_world_and_a_figure(tmp_pat
     assert "chosen" in text and "dwell_s=0" in text and "3->" in text
     paths = task_time_figure(tmp_path / "sensitivity.csv", tmp_path / "sensitivity.json", tmp_path / "task_times")
     assert [p.suffix for p in paths] == [".png", ".svg"] and all(p.stat().st_size > 0 for p in paths)
+
+
+def test_a_circuit_that_delivered_nothing_is_left_for_one_that_pays():
+    # a measurement too short for circuit 1 to finish a task with two robots on it: t infinite
+    table = table_from({(2, 0): ((0.1, 20.0), (0.0, INF)), (1, 1): ((0.08, 12.5), (0.05, 20.0)),
+                        (0, 2): ((0.0, INF), (0.0, INF))})
+    values = [1.0, 1.0]
+    # out of 1:1: from circuit 0 (1/12.5 per s) to 0:2, which pays nothing (-100 %); from circuit 1
+    # (1/20 per s) to 2:0, which pays 1/20 too (no gain)
+    assert core.deviation_gains(table, (1, 1), values) == [(0, 1, -1.0), (1, 0, 0.0)]
+    # out of 0:2, where nothing is delivered: 1:1 pays, an infinite gain; never a division by zero
+    assert core.deviation_gains(table, (0, 2), values) == [(1, 0, INF)]
+    assert not core.is_equilibrium(table, (0, 2), values)

@@ -119,7 +119,10 @@ def slot_fill(table: CTable, n_robots: int, values: Sequence[float]) -> Split:
 
 
 def deviation_gains(table: CTable, n: Split, values: Sequence[float]) -> list[tuple[int, int, float]]:
-    """(from, to, relative gain in own reward) for every single-robot move out of split n."""
+    """(from, to, relative gain in own reward) for every single-robot move out of split n.
+
+    A circuit that delivered nothing in the measurement (t infinite) pays nothing: leaving it
+    for one that pays is an infinite gain, for another that pays nothing no gain."""
     out = []
     for i in range(table.n_circuits):
         if n[i] == 0:
@@ -130,7 +133,9 @@ def deviation_gains(table: CTable, n: Split, values: Sequence[float]) -> list[tu
                 continue
             m = add_robot(add_robot(n, i, -1), j)
             if table.has(m) and m[j] > 0:
-                out.append((i, j, reward_rate(table, m, j, values) / here - 1.0))
+                there = reward_rate(table, m, j, values)
+                gain = there / here - 1.0 if here > 0 else (math.inf if there > 0 else 0.0)
+                out.append((i, j, gain))
     return out
 
 
