@@ -5,7 +5,10 @@ Rules:
 - ``trials``: ``min(scale.trials, paper.trials)``, or ``paper.trials`` when the scale sets none.
 - ``baseline_trials``: ``paper.baseline_trials`` capped by ``scale.trials`` like ``trials``;
   when the paper gives none, the same as ``trials``.
-- ``duration_s``, ``convergence_s``: the paper's value times ``scale.time_factor``.
+- ``duration_s``, ``convergence_s``: the paper's value times ``scale.time_factor``. When the user
+  sets ``duration_s`` but not ``convergence_s``, the stable period keeps the paper's share of
+  the run: ``convergence_s = duration_s * (paper.convergence_s / paper.duration_s)`` (what
+  ``scale`` gives too, since it multiplies both by the same factor).
 - ``sim.warmup_s`` and every event time (``events.breakdowns[*].time_s``,
   ``events.value_changes[*].time_s``) are ALWAYS multiplied by ``scale.time_factor``, also when
   set on the command line, so that an experiment keeps its shape at every scale.
@@ -34,10 +37,13 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
         cfg.baseline_trials = (
             cfg.trials if paper_baseline is None else _capped(paper_baseline, cfg.scale.trials)
         )
-    if cfg.duration_s is None:
+    user_duration = cfg.duration_s is not None
+    if not user_duration:
         cfg.duration_s = cfg.paper.duration_s * factor
     if cfg.convergence_s is None:
-        cfg.convergence_s = cfg.paper.convergence_s * factor
+        # a duration set by hand keeps the paper's converging share; else scale both alike
+        share = cfg.paper.convergence_s / cfg.paper.duration_s
+        cfg.convergence_s = cfg.duration_s * share if user_duration else cfg.paper.convergence_s * factor
     # Warm-up and event times scale with the experiment, even when set by hand, so that a
     # quick run keeps the paper run's shape (a breakdown a third of the way in stays there).
     cfg.sim.warmup_s = cfg.sim.warmup_s * factor

@@ -20,6 +20,19 @@ from tavc_cli.learning.registry import AVAILABLE as AVAILABLE_LEARNERS
 from tavc_cli.learning.registry import BASELINES
 from tavc_cli.learning.registry import NAMES as LEARNERS
 
+# How ``experiments.engine.start_poses`` places a team: each centre drawn uniformly at least
+# START_WALL_MARGIN_M from every wall, more than two radii plus START_GAP_M from the others,
+# with up to START_TRIES draws per robot (mirrored here: importing the engine loads numba).
+START_WALL_MARGIN_M = 0.6
+START_GAP_M = 0.3
+START_TRIES = 10_000
+# A team is accepted if, with all but one robot placed, a draw still succeeds with at least
+# this chance, whatever the others' positions: the last robot then fails all START_TRIES draws
+# with a chance below (1 - START_MIN_CHANCE) ** START_TRIES, about 1e-44.
+START_MIN_CHANCE = 0.01
+# The laser needs a ray ahead and one to either side: to read codes, avoid robots, follow walls.
+MIN_LASER_RAYS = 3
+
 
 def _fail(key: str, problem: str) -> NoReturn:
     raise TavcError(f"{key}: {problem}")
@@ -36,6 +49,10 @@ def _positive(key: str, value: float) -> None:
 
 def _at_least(key: str, value: float, low: float) -> None:
     _check(math.isfinite(value) and value >= low, key, f"must be >= {low}, got {value!r}")
+
+
+def _finite(key: str, value: float) -> None:
+    _check(math.isfinite(value), key, f"must be a finite number, got {value!r}")
 
 
 def _unit(key: str, value: float) -> None:
@@ -82,6 +99,8 @@ def validate_scaling(cfg: DictConfig) -> None:
     if paper.baseline_trials is not None:
         _at_least("paper.baseline_trials", paper.baseline_trials, 1)
     _positive("paper.duration_s", paper.duration_s)
+    # before resolution scales it, so that the message shows the value the user wrote
+    _at_least("sim.warmup_s", cfg.sim.warmup_s, 0)
     _check(
         0 <= paper.convergence_s < paper.duration_s,
         "paper.convergence_s",
@@ -93,6 +112,7 @@ def validate(cfg: DictConfig) -> None:
     """Validate a resolved config."""
     _validate_arena(cfg.arena)
     _validate_robot(cfg.robot)
+    _validate_docks(cfg.arena, cfg.robot)
     _validate_team(cfg.team)
     n_circuits, n_robots = len(cfg.arena.circuits), cfg.team.n_robots
     _validate_learner(cfg.learner, n_circuits, n_robots)
@@ -102,6 +122,7 @@ def validate(cfg: DictConfig) -> None:
     _validate_tasks(cfg.tasks, n_circuits)
     _validate_events(cfg, n_circuits)
     _validate_sim(cfg.sim)
+    _validate_control_period(cfg)
     _validate_executor(cfg.executor)
     _one_of("analysis.state", cfg.analysis.state, ANALYSIS_STATES)
     _positive("analysis.performance_bin_s", cfg.analysis.performance_bin_s)
@@ -109,6 +130,7 @@ def validate(cfg: DictConfig) -> None:
         _positive("analysis.before_s", cfg.analysis.before_s)
     _validate_model(cfg.model)
     _validate_calibration(cfg.calibration)
+    _validate_start(cfg)  # last: beyond what always fits, it builds the trials to place their teams
 
 
 def _validate_model(model: DictConfig) -> None:
@@ -135,8 +157,12 @@ def _validate_calibration(cal: DictConfig) -> None:
 
 def _validate_arena(arena: DictConfig) -> None:
     """Walls, targets on walls, circuits between existing sources and sinks."""
-    _positive("arena.width_m", arena.width_m)
-    _positive("arena.height_m", arena.height_m)
+    for name in ("width_m", "height_m"):
+        _positive(f"arena.{name}", arena[name])
+        low = 2 * START_WALL_MARGIN_M
+        _check(arena[name] >= low, f"arena.{name}",
+               f"must be at least {low:g} m (robots start at least {START_WALL_MARGIN_M:g} m from every wall), "
+               f"got {arena[name]:g}")
     _positive("arena.barcode_width_m", arena.barcode_width_m)
     for index, wall in enumerate(arena.walls):
         _validate_wall(f"arena.walls[{index}]", wall, arena)
@@ -206,7 +232,12 @@ def _validate_robot(robot: DictConfig) -> None:
     )
     for name in body:
         _positive(f"robot.{name}", robot[name])
-    _at_least("robot.laser.n_rays", robot.laser.n_rays, 1)
+    _check(robot.radius_m < START_WALL_MARGIN_M, "robot.radius_m",
+           f"must be less than {START_WALL_MARGIN_M:g} m (robots start with their centres "
+           f"{START_WALL_MARGIN_M:g} m from the walls), got {robot.radius_m:g}")
+    _check(robot.laser.n_rays >= MIN_LASER_RAYS, "robot.laser.n_rays",
+           f"must be >= {MIN_LASER_RAYS} (a ray ahead to read bar-codes and rays to the sides to avoid robots "
+           f"and follow walls), got {robot.laser.n_rays!r}")
     _angle("robot.laser.fov_deg", robot.laser.fov_deg, 360.0)
     _positive("robot.laser.range_m", robot.laser.range_m)
     _angle("robot.camera.fov_deg", robot.camera.fov_deg, 360.0)
@@ -233,6 +264,74 @@ def _validate_robot(robot: DictConfig) -> None:
         _positive(f"robot.dock.{name}", dock[name])
     _at_least("robot.dock.dwell_s", dock.dwell_s, 0)
     _angle("robot.dock.heading_tol_deg", dock.heading_tol_deg, 90.0)
+    # from the start of the final approach the robot must read its code to line up on it
+    reach = robot.behaviour.arrive_dist_m + dock.approach_m
+    _check(robot.laser.range_m >= reach, "robot.laser.range_m",
+           f"must reach the start of the final approach, robot.behaviour.arrive_dist_m + robot.dock.approach_m "
+           f"= {reach:g} m, got {robot.laser.range_m:g}")
+
+
+def _validate_docks(arena: DictConfig, robot: DictConfig) -> None:
+    """Each bar-code fits on its wall with room for a docked robot, and none overlap."""
+    half = arena.barcode_width_m / 2
+    body = robot.radius_m + MIN_DOCK_CLEARANCE_M
+    need = max(half, body)
+    placed: dict[str, list[tuple[float, int]]] = {}
+    for index, target in enumerate(arena.targets):
+        key, where = f"arena.targets[{index}]", f"target ({target.x!r}, {target.y!r})"
+        wall, along, length = _wall_of(target.x, target.y, arena)
+        gap = min(along, length - along)
+        _check(gap >= need - WALL_TOLERANCE_M, key,
+               f"{where} lies {gap:g} m from a corner; it needs {need:g} m for its bar-code "
+               f"(arena.barcode_width_m / 2 = {half:g}) and a robot docked in front of it "
+               f"(robot.radius_m + {MIN_DOCK_CLEARANCE_M:g} = {body:g})")
+        for other_along, other in placed.get(wall, []):
+            _check(abs(along - other_along) >= arena.barcode_width_m - WALL_TOLERANCE_M, key,
+                   f"{where}'s bar-code overlaps that of arena.targets[{other}] on the {wall} wall: their centres "
+                   f"must be at least arena.barcode_width_m = {arena.barcode_width_m:g} m apart, "
+                   f"got {abs(along - other_along):g}")
+        placed.setdefault(wall, []).append((along, index))
+
+
+def _wall_of(x: float, y: float, arena: DictConfig) -> tuple[str, float, float]:
+    """The outer wall nearest (x, y) as ``sim.arena`` picks it, the position along it, its length."""
+    width, height = arena.width_m, arena.height_m
+    walls = {"left": (x, y, height), "right": (width - x, y, height), "bottom": (y, x, width),
+             "top": (height - y, x, width)}
+    name = min(walls, key=lambda wall: walls[wall][0])
+    _, along, length = walls[name]
+    return name, along, length
+
+
+def _validate_start(cfg: DictConfig) -> None:
+    """Every trial's team can be placed where robots start: at random, apart, clear of the walls.
+
+    Robots are placed one by one, each drawn uniformly in the start area (the arena less
+    START_WALL_MARGIN_M all round) and kept if its centre is more than ``d = 2 radius +
+    START_GAP_M`` from every placed one. With ``k`` placed, at most ``k pi d^2`` of the area is
+    excluded, so a team with ``(n - 1) pi d^2 <= (1 - START_MIN_CHANCE) * area`` always fits. A
+    larger team is placed here as the engine will place it, trial by trial, from each trial's seed.
+    """
+    arena, robot, n_robots = cfg.arena, cfg.robot, cfg.team.n_robots
+    spacing = 2 * robot.radius_m + START_GAP_M
+    area = (arena.width_m - 2 * START_WALL_MARGIN_M) * (arena.height_m - 2 * START_WALL_MARGIN_M)
+    always = 1 + math.floor((1 - START_MIN_CHANCE) * area / (math.pi * spacing**2))
+    if n_robots <= always:
+        return
+    # imported here: the engine loads numba, which `tavc config` need not wait for
+    from tavc_cli.experiments.build import trial_specs
+    from tavc_cli.experiments.engine import TrialState
+
+    specs = trial_specs(OmegaConf.to_object(cfg))
+    model = specs[0].build_arena()
+    for spec in specs:
+        try:
+            TrialState(spec, model, 0)
+        except TavcError:
+            _fail("team.n_robots",
+                  f"cannot place {n_robots} robots of robot.radius_m = {robot.radius_m:g} at random "
+                  f"{START_GAP_M:g} m apart and {START_WALL_MARGIN_M:g} m from the walls of {_arena_size(arena)} "
+                  f"(trial {spec.trial} of {spec.controller}, seed {cfg.seed}); {always} always fit")
 
 
 def _validate_team(team: DictConfig) -> None:
@@ -257,6 +356,13 @@ def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> No
         _unit(f"learner.{name}", learner[name])
     _positive("learner.tau", learner.tau)
     _positive("learner.decision_period_s", learner.decision_period_s)
+    _finite("learner.q_init_low", learner.q_init_low)
+    _finite("learner.q_init_high", learner.q_init_high)
+    _check(
+        math.isfinite(learner.q_init_high - learner.q_init_low),
+        "learner.q_init_high",
+        f"the range [{learner.q_init_low!r}, {learner.q_init_high!r}] is too wide to draw initial Q-values from",
+    )
     _check(
         learner.q_init_low <= learner.q_init_high,
         "learner.q_init_low",
@@ -317,16 +423,36 @@ def _validate_events(cfg: DictConfig, n_circuits: int) -> None:
         "events.breakdowns",
         f"{len(breakdowns)} breakdowns would leave none of the {n_robots} robots running",
     )
-    for index, breakdown in enumerate(breakdowns):
-        key = f"events.breakdowns[{index}]"
-        _validate_event_time(f"{key}.time_s", breakdown.time_s, cfg)
-        _validate_breakdown_target(key, breakdown, n_robots, n_circuits)
-    robots = [breakdown.robot for breakdown in breakdowns if breakdown.robot is not None]
-    _unique("events.breakdowns", robots, "robot")
     for index, change in enumerate(cfg.events.value_changes):
         key = f"events.value_changes[{index}]"
         _validate_event_time(f"{key}.time_s", change.time_s, cfg)
         _per_circuit(f"{key}.values", change["values"], n_circuits, "value")
+        for position, value in enumerate(change["values"]):
+            _finite(f"{key}.values[{position}]", value)
+    for index, breakdown in enumerate(breakdowns):
+        key = f"events.breakdowns[{index}]"
+        _validate_event_time(f"{key}.time_s", breakdown.time_s, cfg)
+        _validate_breakdown_target(key, breakdown, n_robots, n_circuits)
+        if breakdown.circuit in ("high", "low"):
+            _validate_extreme_circuit(f"{key}.circuit", breakdown, cfg)
+    robots = [breakdown.robot for breakdown in breakdowns if breakdown.robot is not None]
+    _unique("events.breakdowns", robots, "robot")
+
+
+def _validate_extreme_circuit(key: str, breakdown: DictConfig, cfg: DictConfig) -> None:
+    """``high`` and ``low`` name one circuit under the values in force when the robot breaks down.
+
+    A breakdown comes before a value change at the same instant (``experiments.events``).
+    """
+    values, since = list(cfg.tasks["values"]), None
+    for change in sorted(cfg.events.value_changes, key=lambda change: change.time_s):
+        if change.time_s < breakdown.time_s:
+            values, since = list(change["values"]), change.time_s
+    extreme = max(values) if breakdown.circuit == "high" else min(values)
+    source = "tasks.values" if since is None else f"the values from the value change at {since:g} s"
+    _check(values.count(extreme) == 1, key,
+           f"{breakdown.circuit!r} names no single circuit: {source} tie at {extreme:g} ({values}); "
+           "give a circuit index")
 
 
 def _validate_event_time(key: str, time_s: float, cfg: DictConfig) -> None:
@@ -369,6 +495,19 @@ def _validate_sim(sim: DictConfig) -> None:
     _at_least("sim.q_snapshot_every_s", sim.q_snapshot_every_s, 0)
     _at_least("sim.pose_every_s", sim.pose_every_s, 0)
     _at_least("sim.warmup_s", sim.warmup_s, 0)
+
+
+def _validate_control_period(cfg: DictConfig) -> None:
+    """A trial lasts at least one control period, in which no robot outruns its docking tolerance."""
+    dt_s = cfg.sim.dt_s
+    top_mps = max(member.speed_mps for member in cfg.team.members)
+    tolerance_m = cfg.robot.dock.lateral_tol_m
+    _check(top_mps * dt_s <= tolerance_m, "sim.dt_s",
+           f"must be at most robot.dock.lateral_tol_m / top speed = {tolerance_m:g} m / {top_mps:g} m/s "
+           f"= {tolerance_m / top_mps:g} s (no robot may move further than its docking tolerance in one "
+           f"control period), got {dt_s:g}")
+    _check(cfg.duration_s >= dt_s, "duration_s",
+           f"must be at least one control period (sim.dt_s = {dt_s:g} s), got {cfg.duration_s:g}")
 
 
 def _validate_executor(executor: DictConfig) -> None:

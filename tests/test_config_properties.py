@@ -1,0 +1,341 @@
+"""Every bad input is refused before anything is written; every accepted config runs.
+
+Property-based (hypothesis) over the config space, plus one example per refusal rule.
+"""
+
+import math
+import re
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, event, given, settings
+from hypothesis import strategies as st
+from typer.testing import CliRunner
+
+from tavc_cli import api
+from tavc_cli.cli import app
+from tavc_cli.config import load_config
+from tavc_cli.config import validate as rules
+from tavc_cli.errors import TavcError
+from tavc_cli.learning.registry import controller_label
+
+runner = CliRunner()
+# one line `error: <key>: <rule>`, the key a dotted path with optional [index] parts
+ERROR_LINE = re.compile(r"^error: [A-Za-z_][\w.\[\]=]*: \S.*$")
+TOP_KEYS = {"arena", "robot", "team", "learner", "scale", "executor", "experiment_name", "seed", "trials",
+            "baseline_trials", "duration_s", "convergence_s", "output_dir", "paper", "baselines",
+            "static_allocation", "tasks", "events", "sim", "analysis", "model", "calibration"}
+# every run is as short as the config space allows: one trial of each controller, one process
+FIXED = ["scale=smoke", "trials=1", "baseline_trials=1", "executor.n_jobs=1"]
+
+
+# ------------------------------------------------------------------------------- strategies
+
+
+def _num(value: float) -> str:
+    """A float as Hydra's override grammar reads it."""
+    return repr(float(value))
+
+
+def _list(values) -> str:
+    return "[" + ",".join(str(v) for v in values) + "]"
+
+
+@st.composite
+def _pick(draw, good, bad, bad_percent: int):
+    """``good``, or ``bad`` with the given chance (shrinks toward good)."""
+    return draw(bad) if draw(st.integers(0, 99)) < bad_percent else draw(good)
+
+
+@st.composite
+def _split(draw, total: int, parts: int) -> list[int]:
+    """``parts`` non-negative counts summing to ``total``."""
+    cuts = sorted(draw(st.lists(st.integers(0, total), min_size=parts - 1, max_size=parts - 1)))
+    return [b - a for a, b in zip([0, *cuts], [*cuts, total], strict=True)]
+
+
+_BAD_UNIT = st.one_of(st.floats(-2, -0.01), st.floats(1.01, 5), st.just(math.nan))
+
+
+@st.composite
+def configs(draw, bad_percent: int) -> list[str]:
+    """Overrides over arenas, teams, learners, task values, events and sensors, each key bad
+    with ``bad_percent`` % chance (bad types, ranges, lengths, sums, times, geometry)."""
+    bad = bad_percent
+
+    def pick(good, wrong, percent: int = bad):
+        return draw(_pick(good, wrong, percent))
+
+    arena = draw(st.sampled_from(["one_circuit", "two_circuits"]))
+    n_circuits = 1 if arena == "one_circuit" else 2
+    n_robots = pick(st.integers(1, 8), st.sampled_from([0, -1, 60]))
+    duration_s = pick(st.floats(20, 40), st.sampled_from([0.0, -5.0, 0.05, math.nan]))
+    # an unknown learner fails at composition, before any other check: rarer, so as not to hide them
+    learner = pick(st.sampled_from(["random", "static", "tavc_egreedy", "tavc_softmax", "behaviour_softmax"]),
+                   st.just("greedy"), bad // 3)
+    out = [*FIXED, f"arena={arena}", f"team.n_robots={n_robots}", f"duration_s={_num(duration_s)}",
+           f"learner={learner}"]
+    for name in ("epsilon", "alpha", "gamma"):
+        out.append(f"learner.{name}={_num(pick(st.floats(0, 1), _BAD_UNIT))}")
+    team = max(n_robots, 0)
+    if learner == "static" and draw(st.booleans()):
+        good = _split(team, n_circuits)
+        wrong = st.one_of(_split(team + 1, n_circuits), _split(team, n_circuits + 1), st.just([-1] * n_circuits))
+        out.append(f"learner.allocation={_list(pick(good, wrong))}")
+    if draw(st.booleans()):
+        out.append("baselines=[static]")
+        if draw(st.booleans()):
+            wrong = st.one_of(_split(team + 2, n_circuits), _split(team, n_circuits + 1))
+            out.append(f"static_allocation={_list(pick(_split(team, n_circuits), wrong))}")
+    else:
+        out.append("baselines=[]")
+    if draw(st.booleans()):
+        values = st.lists(st.floats(1, 3000), min_size=n_circuits, max_size=n_circuits)
+        wrong = st.one_of(st.lists(st.floats(1, 3000), min_size=n_circuits + 1, max_size=n_circuits + 1),
+                          st.lists(st.sampled_from([math.nan, math.inf]), min_size=n_circuits, max_size=n_circuits))
+        out.append(f"tasks.values={_list(_num(v) for v in pick(values, wrong))}")
+    if draw(st.booleans()):
+        out.append("team=heterogeneous")  # its members, unless a list of our own follows
+        if draw(st.booleans()):
+            speed = pick(st.floats(0.1, 0.5), st.sampled_from([0.0, -0.1, 5.0]))
+            size = pick(st.just(team), st.sampled_from([team + 1, max(team - 1, 0)]))
+            members = [f"{{speed_mps:{_num(speed)},group:g{i % 2}}}" for i in range(size)]
+            out.append(f"team.members={_list(members)}")
+    # event times are scaled by scale.time_factor (0.02 at smoke): user seconds are 50 of these
+    horizon = 50 * (duration_s if math.isfinite(duration_s) and duration_s > 0 else 20.0)
+    breakdowns = []
+    for _ in range(draw(st.integers(0, 2))):
+        time_s = pick(st.floats(0, 0.95 * horizon), st.sampled_from([-100.0, 2 * horizon, math.nan]))
+        target = pick(st.one_of(st.just("robot:null"), st.integers(0, max(team - 1, 0)).map(lambda r: f"robot:{r}"),
+                                st.sampled_from(["circuit:high", "circuit:low"]),
+                                st.integers(0, n_circuits - 1).map(lambda c: f"circuit:'{c}'")),
+                      st.sampled_from([f"robot:{team}", f"circuit:'{n_circuits}'", "circuit:middle"]))
+        breakdowns.append(f"{{time_s:{_num(time_s)},{target}}}")
+    if breakdowns:
+        out.append(f"events.breakdowns={_list(breakdowns)}")
+    if draw(st.booleans()):
+        out.append(f"robot.laser.n_rays={pick(st.integers(3, 64), st.integers(-1, 2))}")
+    if draw(st.booleans()):
+        out.append(f"robot.speed_mps={_num(pick(st.floats(0.05, 1.0), st.sampled_from([0.0, -0.1, 2.0])))}")
+    if draw(st.booleans()):
+        out.append(f"sim.dt_s={_num(pick(st.sampled_from([0.05, 0.1, 0.2]), st.sampled_from([0.0, -0.1, 1000.0])))}")
+    if draw(st.booleans()):
+        out.append(f"executor.batch_size={pick(st.integers(1, 32), st.sampled_from([0, 33]))}")
+    return out
+
+
+# ------------------------------------------------------------------------------- properties
+
+
+def _refusal(overrides: list[str]) -> TavcError | None:
+    try:
+        load_config(overrides)
+    except TavcError as error:
+        return error
+    return None
+
+
+@pytest.mark.slow
+@settings(max_examples=15, deadline=None, database=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(overrides=configs(bad_percent=0))
+def test_every_accepted_config_runs_a_short_trial(overrides, tmp_path_factory):
+    out = tmp_path_factory.mktemp("accepted") / "out"
+    try:
+        results = api.run(overrides, output_dir=out)
+    except TavcError as error:
+        assert not out.exists(), f"refused after writing into {out}"
+        event(f"refused: {str(error).split(':')[0]}")
+        assume(False)  # refused up front: property B's business
+    cfg = load_config(overrides)
+    records = results.records()
+    # one trial per controller; a baseline that is the learner itself runs once
+    assert sorted(r.meta["controller"] for r in records) == sorted({controller_label(cfg.learner.name),
+                                                                   *cfg.baselines})
+    for record in records:
+        assert record.meta["n_robots"] == cfg.team.n_robots
+        deliveries = record.table("deliveries")
+        assert np.all((deliveries["t_s"] >= -cfg.sim.warmup_s) & (deliveries["t_s"] < cfg.duration_s))
+        assert np.all(np.isfinite(deliveries["reward"]))
+        assert len(record.table("breakdowns")["t_s"]) <= len(cfg.events.breakdowns)
+    assert (out / "state_time.csv").is_file() and (out / "config.yaml").is_file()
+
+
+@settings(max_examples=30, deadline=None, database=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(overrides=configs(bad_percent=15))
+def test_every_refused_config_is_one_line_and_writes_nothing(overrides, tmp_path_factory):
+    error = _refusal(overrides)
+    assume(error is not None)
+    event(f"refused: {str(error).split(':')[0]}")
+    out = tmp_path_factory.mktemp("refused") / "out"
+    result = runner.invoke(app, ["run", *overrides, f"output_dir={out}"])
+    assert result.exit_code == 1, result.output
+    assert "Traceback" not in result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert lines == [f"error: {error}"]
+    assert ERROR_LINE.match(lines[0]), lines[0]
+    key = lines[0].removeprefix("error: ").split(": ")[0]
+    assert re.split(r"[.\[=]", key)[0] in TOP_KEYS, lines[0]
+    assert not out.exists()
+
+
+# --------------------------------------------------------------------------- each rule, once
+
+# By hand, for the rows below: the default world (conf/world/calibrated.yaml) has a 0.22 m
+# radius robot at 0.25 m/s, arrive_dist_m 0.45, approach_m 0.8 and lateral_tol_m 0.1; bar-codes
+# are 0.6 m wide; smoke scales times by 0.02.
+REFUSED = [
+    (["learner=tavc_egreedy", "learner.q_init_high=inf"], "learner.q_init_high: must be a finite number, got inf"),
+    (["learner.q_init_low=-1e308", "learner.q_init_high=1e308"],
+     "learner.q_init_high: the range [-1e+308, 1e+308] is too wide to draw initial Q-values from"),
+    # the warm-up is checked as written (before smoke's 0.02 would make it -0.1)
+    (["sim.warmup_s=-5"], "sim.warmup_s: must be >= 0, got -5.0"),
+    (["arena.width_m=1"],
+     "arena.width_m: must be at least 1.2 m (robots start at least 0.6 m from every wall), got 1"),
+    (["arena=one_circuit", "arena.height_m=1", "arena.targets.0.y=0.5", "arena.targets.1.y=0.5"],
+     "arena.height_m: must be at least 1.2 m (robots start at least 0.6 m from every wall), got 1"),
+    (["robot.radius_m=0.65", "robot.behaviour.arrive_dist_m=0.7"],
+     "robot.radius_m: must be less than 0.6 m (robots start with their centres 0.6 m from the walls), got 0.65"),
+    (["robot.laser.n_rays=2"],
+     "robot.laser.n_rays: must be >= 3 (a ray ahead to read bar-codes and rays to the sides to avoid robots "
+     "and follow walls), got 2"),
+    # 0.45 + 0.8 = 1.25 m
+    (["robot.laser.range_m=1"],
+     "robot.laser.range_m: must reach the start of the final approach, robot.behaviour.arrive_dist_m + "
+     "robot.dock.approach_m = 1.25 m, got 1"),
+    # max(0.6 / 2, 0.22 + 0.03) = 0.3 m from either end of the wall
+    (["arena.targets.0.x=0", "arena.targets.0.y=0"],
+     "arena.targets[0]: target (0.0, 0.0) lies 0 m from a corner; it needs 0.3 m for its bar-code "
+     "(arena.barcode_width_m / 2 = 0.3) and a robot docked in front of it (robot.radius_m + 0.03 = 0.25)"),
+    (["arena=one_circuit", "arena.targets.1.y=5.9"],
+     "arena.targets[1]: target (8.0, 5.9) lies 0.1 m from a corner; it needs 0.3 m for its bar-code "
+     "(arena.barcode_width_m / 2 = 0.3) and a robot docked in front of it (robot.radius_m + 0.03 = 0.25)"),
+    (["arena.targets.1.x=4.2"],
+     "arena.targets[1]: target (4.2, 8.0)'s bar-code overlaps that of arena.targets[0] on the top wall: their "
+     "centres must be at least arena.barcode_width_m = 0.6 m apart, got 0.2"),
+    # 80 discs 0.74 m across cover 80 * pi * 0.37^2 = 34.4 m^2 of the (8 - 1.2 + 0.74) x (6 - 1.2 + 0.74)
+    # = 41.8 m^2 their centres may reach: far beyond random packing (about 0.55 of it), so trial 0 fails;
+    # start area (8 - 1.2) x (6 - 1.2) = 32.64 m^2, d = 2 * 0.22 + 0.3 = 0.74 m, pi d^2 = 1.7203 m^2:
+    # 1 + floor(0.99 * 32.64 / 1.7203) = 1 + floor(18.78) = 19 always fit
+    (["arena=one_circuit", "team.n_robots=80"],
+     "team.n_robots: cannot place 80 robots of robot.radius_m = 0.22 at random 0.3 m apart and 0.6 m from the "
+     "walls of the 8 x 6 m arena (trial 0 of random, seed 0); 19 always fit"),
+    # 0.1 m / 2 m/s = 0.05 s
+    (["robot.speed_mps=2"],
+     "sim.dt_s: must be at most robot.dock.lateral_tol_m / top speed = 0.1 m / 2 m/s = 0.05 s (no robot may "
+     "move further than its docking tolerance in one control period), got 0.1"),
+    # the fast members (0.3 m/s) set the limit: 0.1 / 0.3 = 0.333333 s
+    (["experiment=heterogeneous", "sim.dt_s=0.4"],
+     "sim.dt_s: must be at most robot.dock.lateral_tol_m / top speed = 0.1 m / 0.3 m/s = 0.333333 s (no robot "
+     "may move further than its docking tolerance in one control period), got 0.4"),
+    (["duration_s=0.05"], "duration_s: must be at least one control period (sim.dt_s = 0.1 s), got 0.05"),
+    (["events.value_changes=[{time_s:10,values:[nan,1]}]"],
+     "events.value_changes[0].values[0]: must be a finite number, got nan"),
+    (["events.value_changes=[{time_s:10,values:[1,inf]}]"],
+     "events.value_changes[0].values[1]: must be a finite number, got inf"),
+    (["experiment=breakdown", "tasks.values=[2000,2000]"],
+     "events.breakdowns[0].circuit: 'high' names no single circuit: tasks.values tie at 2000 ([2000.0, 2000.0]); "
+     "give a circuit index"),
+    (["experiment=breakdown_no_vacancy", "tasks.values=[2000,2000]"],
+     "events.breakdowns[0].circuit: 'low' names no single circuit: tasks.values tie at 2000 ([2000.0, 2000.0]); "
+     "give a circuit index"),
+    # the values changed at 5 * 0.02 = 0.1 s tie when the robot breaks down at 10 * 0.02 = 0.2 s
+    (["tasks.values=[1,2]", "events.value_changes=[{time_s:5,values:[3,3]}]",
+      "events.breakdowns=[{time_s:10,circuit:high}]"],
+     "events.breakdowns[0].circuit: 'high' names no single circuit: the values from the value change at 0.1 s "
+     "tie at 3 ([3.0, 3.0]); give a circuit index"),
+    # refusals that held before, now also shown to write nothing
+    (["events.breakdowns=[{time_s:10,robot:6}]"],
+     "events.breakdowns[0].robot: must be a robot index in [0, 6), got 6"),
+    (["events.breakdowns=[{time_s:10,circuit:'2'}]"],
+     "events.breakdowns[0].circuit: must be null, high, low or a circuit index in [0, 2), got '2'"),
+    (["experiment=breakdown", "events.breakdowns.0.time_s=30000"],
+     "events.breakdowns[0].time_s: 600 s (after scaling) is outside the simulated time "
+     "[-sim.warmup_s = -360, duration_s = 540)"),
+    (["learner=static", "learner.allocation=[4,1]"], "learner.allocation: must sum to team.n_robots (6), got 5"),
+    (["baselines=[static]", "static_allocation=[6]"],
+     "static_allocation: needs one robot count per circuit (2), got 1"),
+    (["tasks.values=[1,2,3]"], "tasks.values: needs one value per circuit (2), got 3"),
+    (["executor.batch_size=33"],
+     "executor.batch_size: must be at most 32 (one collision-filter bit per trial), got 33"),
+]
+
+
+@pytest.mark.parametrize(("overrides", "message"), REFUSED, ids=[" ".join(o) for o, _ in REFUSED])
+def test_a_bad_input_is_refused_in_one_line_before_anything_is_written(overrides, message, tmp_path):
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["run", "scale=smoke", *overrides, f"output_dir={out}"])
+    assert result.exit_code == 1, result.output
+    assert result.stderr.strip() == f"error: {message}"
+    assert result.stdout == ""
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        # 1 + floor(0.99 * 10.8 * 6.8 / 1.7203) = 43 robots always fit the 12 x 8 m arena; 60 are placed
+        # trial by trial (at its seeds), as is the benchmark's largest team on one circuit
+        ["team.n_robots=43"],
+        ["team.n_robots=60"],
+        ["arena=one_circuit", "team.n_robots=24"],
+        ["arena=one_circuit", "arena.targets.1.y=5.7"],  # 0.3 m from the corner: just fits
+        ["arena.targets.1.x=4.6"],  # bar-codes edge to edge (0.6 m apart, up to rounding)
+        ["robot.laser.n_rays=3", "robot.laser.range_m=1.25"],
+        ["robot.speed_mps=1", "sim.dt_s=0.1"],  # 0.1 m per control period: the tolerance itself
+        # a breakdown at the instant of a value change comes first, under the old values
+        ["tasks.values=[1,2]", "events.value_changes=[{time_s:5,values:[3,3]}]",
+         "events.breakdowns=[{time_s:5,circuit:high}]"],
+        ["arena=one_circuit", "events.breakdowns=[{time_s:0,circuit:high}]"],  # one circuit: no tie
+    ],
+)
+def test_inputs_at_the_limits_are_accepted(overrides):
+    load_config(["scale=smoke", *overrides])
+
+
+@pytest.mark.parametrize(("width_m", "height_m", "always"), [(12.0, 8.0, 43), (8.0, 6.0, 19)])
+def test_a_team_that_always_fits_is_placed_at_every_seed(width_m, height_m, always):
+    from tavc_cli.experiments.engine import start_poses
+
+    arena = SimpleNamespace(width_m=width_m, height_m=height_m)
+    for seed in range(20):
+        assert len(start_poses(arena, np.full(always, 0.22), np.random.default_rng(seed))) == always
+
+
+def test_the_start_rules_mirror_the_engine():
+    from tavc_cli.experiments import engine
+
+    assert rules.START_WALL_MARGIN_M == engine._START_WALL_MARGIN_M
+
+
+# ----------------------------------------------------------------- convergence follows duration
+
+
+@pytest.mark.parametrize(
+    ("overrides", "duration_s", "convergence_s"),
+    [
+        # paper 4500 of 18000 s converging: a quarter of any duration
+        (["experiment=initial_distribution", "duration_s=60"], 60.0, 15.0),
+        # paper 9000 of 27000 s: a third, whatever the scale
+        (["experiment=breakdown", "duration_s=90"], 90.0, 30.0),
+        (["experiment=breakdown", "scale=smoke", "duration_s=90"], 90.0, 30.0),
+        # paper 3000 of 18000 s: a sixth
+        (["experiment=value_change", "duration_s=600"], 600.0, 100.0),
+        (["experiment=spatiotemporal", "duration_s=100"], 100.0, 0.0),
+        # an explicit convergence_s is kept
+        (["experiment=initial_distribution", "duration_s=60", "convergence_s=5"], 60.0, 5.0),
+        # neither set: both scale (18000 and 4500 times smoke's 0.02)
+        (["experiment=initial_distribution", "scale=smoke"], 360.0, 90.0),
+    ],
+)
+def test_convergence_keeps_the_papers_share_of_a_duration_set_by_hand(overrides, duration_s, convergence_s):
+    cfg = load_config(overrides)
+    assert (cfg.duration_s, cfg.convergence_s) == (pytest.approx(duration_s), pytest.approx(convergence_s))
+
+
+def test_a_shortened_initial_distribution_is_shown_with_its_convergence():
+    result = runner.invoke(app, ["config", "experiment=initial_distribution", "duration_s=60"])
+    assert result.exit_code == 0, result.output
+    assert "\nduration_s: 60.0\n" in result.stdout and "\nconvergence_s: 15.0\n" in result.stdout
