@@ -1,5 +1,6 @@
 """Validation: each check raises one ``TavcError("<key>: <problem>")`` line."""
 
+import importlib.util
 import math
 from collections.abc import Sequence
 from typing import Any, NoReturn
@@ -22,16 +23,17 @@ from tavc_cli.learning.registry import NAMES as LEARNERS
 
 # How ``experiments.engine.start_poses`` places a team: each centre drawn uniformly at least
 # START_WALL_MARGIN_M from every wall, more than two radii plus START_GAP_M from the others,
-# with up to START_TRIES draws per robot (mirrored here: importing the engine loads numba).
+# with up to 10 000 draws per robot (mirrored here: importing the engine loads numba).
 START_WALL_MARGIN_M = 0.6
 START_GAP_M = 0.3
-START_TRIES = 10_000
-# A team is accepted if, with all but one robot placed, a draw still succeeds with at least
-# this chance, whatever the others' positions: the last robot then fails all START_TRIES draws
-# with a chance below (1 - START_MIN_CHANCE) ** START_TRIES, about 1e-44.
+# A team always fits if, with all but one robot placed, a draw still succeeds with at least this
+# chance wherever the others stand: a robot then fails all its draws with a chance below
+# 0.99 ** 10 000, about 1e-44. A larger team is placed by the engine's own code to check it.
 START_MIN_CHANCE = 0.01
 # The laser needs a ray ahead and one to either side: to read codes, avoid robots, follow walls.
 MIN_LASER_RAYS = 3
+# The module each cluster backend needs (its extra is the backend's name), as ``experiments.executors``.
+BACKEND_MODULES = {"dask": "distributed", "ray": "ray"}
 
 
 def _fail(key: str, problem: str) -> NoReturn:
@@ -498,7 +500,7 @@ def _validate_sim(sim: DictConfig) -> None:
 
 
 def _validate_control_period(cfg: DictConfig) -> None:
-    """A trial lasts at least one control period, in which no robot outruns its docking tolerance."""
+    """Trials and performance bins span a control period, in which no robot outruns its dock."""
     dt_s = cfg.sim.dt_s
     top_mps = max(member.speed_mps for member in cfg.team.members)
     tolerance_m = cfg.robot.dock.lateral_tol_m
@@ -506,8 +508,8 @@ def _validate_control_period(cfg: DictConfig) -> None:
            f"must be at most robot.dock.lateral_tol_m / top speed = {tolerance_m:g} m / {top_mps:g} m/s "
            f"= {tolerance_m / top_mps:g} s (no robot may move further than its docking tolerance in one "
            f"control period), got {dt_s:g}")
-    _check(cfg.duration_s >= dt_s, "duration_s",
-           f"must be at least one control period (sim.dt_s = {dt_s:g} s), got {cfg.duration_s:g}")
+    for key, value in (("duration_s", cfg.duration_s), ("analysis.performance_bin_s", cfg.analysis.performance_bin_s)):
+        _check(value >= dt_s, key, f"must be at least one control period (sim.dt_s = {dt_s:g} s), got {value:g}")
 
 
 def _validate_executor(executor: DictConfig) -> None:
@@ -515,6 +517,9 @@ def _validate_executor(executor: DictConfig) -> None:
     _one_of("executor.backend", executor.backend, BACKENDS)
     _check(executor.backend in AVAILABLE_BACKENDS, "executor.backend",
            f"'{executor.backend}' is not available in this version; use one of {', '.join(AVAILABLE_BACKENDS)}")
+    module = BACKEND_MODULES.get(executor.backend)
+    _check(module is None or importlib.util.find_spec(module) is not None, "executor.backend",
+           f"'{executor.backend}' needs {module}, which is not installed: pip install 'tavc[{executor.backend}]'")
     _at_least("executor.n_jobs", executor.n_jobs, 1)
     _at_least("executor.batch_size", executor.batch_size, 1)
     _check(executor.batch_size <= 32, "executor.batch_size",
