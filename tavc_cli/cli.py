@@ -309,30 +309,9 @@ def _write_sweep(values: list[dict[str, str]], folders: list[Path]) -> None:
 
 def _print_summary(summary: dict[str, Any]) -> None:
     """Print where results went, how many trials ran, and the state and performance summary."""
-    n_trials, n_reused = summary["n_trials"], summary["n_reused"]
-    typer.echo(f"results: {summary['output_dir']}")
-    typer.echo(
-        f"trials: {n_trials} ({n_reused} reused) in {summary['wall_time_s']:.1f} s wall time"
-    )
-    tables = summary.get("tables") or {}
-    if "table_1_1" in tables:  # one circuit: the group's state says nothing; Table 1.1 does
-        typer.echo("\ntraversal time after n traversals (over robots), target time after m arrivals (over trials)")
-        typer.echo(tables["table_1_1"].to_string(index=False, float_format=lambda x: f"{x:.1f}"))
-    elif "state_time" in tables and len(tables["state_time"]):
-        from tavc_cli.analysis.summary import state_table_text
+    from tavc_cli.analysis.summary import run_summary_text
 
-        typer.echo("\n% of the stable period in each state (mean +- std over trials)")
-        typer.echo(state_table_text(tables["state_time"]))
-    if "performance" in tables and len(tables["performance"]):
-        perf = tables["performance"].groupby("controller", sort=False)["mean"].mean()
-        typer.echo("\nscore value delivered per second, whole run: "
-                   + ", ".join(f"{c} {v:.4f}" for c, v in perf.items()))
-    claims = summary.get("claims")
-    if claims is not None and len(claims):
-        from tavc_cli.analysis.summary import claims_text
-
-        typer.echo("\nthe chapter's claims about this experiment (t-tests at 90 %; claims.csv has every part)")
-        typer.echo(claims_text(claims))
+    typer.echo(run_summary_text(summary))
 
 
 def _model(*, overrides: Sequence[str], save: bool, progress: bool) -> None:

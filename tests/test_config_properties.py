@@ -16,7 +16,6 @@ from typer.testing import CliRunner
 from tavc_cli import api
 from tavc_cli.cli import app
 from tavc_cli.config import load_config
-from tavc_cli.config import validate as rules
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.registry import controller_label
 
@@ -316,12 +315,6 @@ def test_a_cluster_backend_whose_module_is_missing_is_refused_up_front(monkeypat
     assert result.stderr.strip() == ("error: executor.backend: 'dask' needs distributed, which is not installed: "
                                      "pip install 'tavc[dask]'")
     assert not out.exists()
-
-
-def test_the_start_rules_mirror_the_engine():
-    from tavc_cli.experiments import engine
-
-    assert rules.START_WALL_MARGIN_M == engine._START_WALL_MARGIN_M
 
 
 # ----------------------------------------------------------------- convergence follows duration

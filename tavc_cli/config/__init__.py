@@ -21,7 +21,7 @@ from tavc_cli.config.loading import (
     to_container,
     to_yaml,
 )
-from tavc_cli.config.schema import TavcConfig
+from tavc_cli.settings import TavcConfig
 
 __all__ = [
     "TavcConfig",

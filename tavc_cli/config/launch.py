@@ -25,7 +25,8 @@ from hydra.core.plugins import Plugins
 from hydra.types import HydraContext, RunMode
 from omegaconf import DictConfig
 
-from tavc_cli.config.loading import complete, hydra_errors, initialize_conf, is_hydra_override, plan_sweep
+from tavc_cli.config.loading import complete, initialize_conf, is_hydra_override, plan_sweep
+from tavc_cli.config.messages import hydra_errors
 from tavc_cli.errors import TavcError
 
 # Hydra writes nothing of its own into a job's folder (config.yaml and provenance.json are

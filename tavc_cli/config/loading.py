@@ -1,31 +1,25 @@
-"""Composing configs with Hydra's compose API, sweeps, and one-line error messages."""
+"""Composing configs with Hydra's compose API, and expanding sweeps (`messages` turns failures into one line)."""
 
-import contextlib
-import dataclasses
-import difflib
 import itertools
 import re
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Optional
 
-import yaml
 from hydra import compose, initialize_config_dir
 from hydra.core.config_store import ConfigStore
 from hydra.core.override_parser.overrides_parser import OverridesParser
-from hydra.errors import HydraException, MissingConfigException, OverrideParseException
+from hydra.errors import HydraException, OverrideParseException
 from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import (
-    ConfigAttributeError,
-    ConfigKeyError,
     OmegaConfBaseException,
-    ValidationError,
 )
 
+from tavc_cli.config.messages import hydra_detail, hydra_errors, omegaconf_message
 from tavc_cli.config.resolve import resolve
-from tavc_cli.config.schema import SCHEMA_NAME, TavcConfig
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
+from tavc_cli.settings import SCHEMA_NAME, TavcConfig
 
 # --------------------------------------------------------------------------------------------
 # Public API
@@ -210,7 +204,7 @@ def to_container(cfg: DictConfig | dict) -> dict:
 
 
 # --------------------------------------------------------------------------------------------
-# Composition and Hydra/OmegaConf error translation
+# Composition (what it raises becomes one line in `messages`)
 # --------------------------------------------------------------------------------------------
 
 
@@ -232,7 +226,7 @@ def complete(cfg: DictConfig, *, job_dir: Optional[str] = None) -> DictConfig:
         resolve(cfg, job_dir=job_dir)
         validate(cfg)
     except OmegaConfBaseException as error:
-        raise TavcError(_omegaconf_message(error)) from None
+        raise TavcError(omegaconf_message(error)) from None
     OmegaConf.set_readonly(cfg, True)
     return cfg
 
@@ -254,27 +248,6 @@ def initialize_conf():
     return initialize_config_dir(config_dir=str(find_conf_dir()), version_base="1.3", job_name="tavc")
 
 
-@contextlib.contextmanager
-def hydra_errors(overrides: Sequence[str]) -> Iterator[None]:
-    """Turn what composing with ``overrides`` may raise into one ``TavcError`` line."""
-    try:
-        yield
-    except MissingConfigException as error:
-        raise TavcError(_missing_option_message(error)) from None
-    except HydraException as error:
-        raise TavcError(_hydra_message(error)) from None
-    except OmegaConfBaseException as error:
-        raise TavcError(_omegaconf_message(error)) from None
-    except yaml.YAMLError as error:
-        raise TavcError(_yaml_message(error)) from None
-    except AssertionError as error:
-        # Hydra asserts instead of raising when an override walks through a null node
-        # (``team.members.0.speed_mps=1`` while ``team.members`` is null).
-        raise TavcError(
-            f"cannot apply overrides {' '.join(overrides)} (is a parent key null?): {error}"
-        ) from None
-
-
 def _typed(cfg: DictConfig) -> DictConfig:
     """Resolve interpolations and re-type the config, rejecting keys the schema lacks.
 
@@ -285,7 +258,7 @@ def _typed(cfg: DictConfig) -> DictConfig:
         OmegaConf.resolve(cfg)
         return OmegaConf.merge(OmegaConf.structured(TavcConfig), OmegaConf.to_container(cfg))
     except OmegaConfBaseException as error:
-        raise TavcError(_omegaconf_message(error)) from None
+        raise TavcError(omegaconf_message(error)) from None
 
 
 def _parse_overrides(overrides: Sequence[str]) -> list:
@@ -297,7 +270,7 @@ def _parse_overrides(overrides: Sequence[str]) -> list:
             parsed.extend(parser.parse_overrides([text]))
         except OverrideParseException as error:
             raise TavcError(
-                f"{_override_key(text)}: cannot parse override {text!r} ({_hydra_detail(error)})"
+                f"{_override_key(text)}: cannot parse override {text!r} ({hydra_detail(error)})"
             ) from None
     return parsed
 
@@ -332,90 +305,3 @@ def _slug(choices: Any) -> str:
     return re.sub(r"[^A-Za-z0-9._=,+-]", "_", text)[:80]
 
 
-def _hydra_detail(error: Exception) -> str:
-    """The informative lines of a Hydra error, without its boilerplate, as one line."""
-    lines = []
-    for line in str(error).splitlines():
-        line = line.strip()
-        if not line or line.startswith(("See https://", "Error parsing override")):
-            continue
-        lines.append(line.split(" expecting {")[0])
-    return "; ".join(lines) or type(error).__name__
-
-
-def _yaml_message(error: yaml.YAMLError) -> str:
-    """``conf/arena/x.yaml:3: invalid YAML (expected ',' or ']' ...)``."""
-    mark = getattr(error, "problem_mark", None)
-    where = f"{mark.name}:{mark.line + 1}" if mark is not None else "config"
-    problem = getattr(error, "problem", None) or type(error).__name__
-    return f"{where}: invalid YAML ({problem})"
-
-
-def _missing_option_message(error: MissingConfigException) -> str:
-    """``arena=nope: no such option; choose one of one_circuit, two_circuits``."""
-    missing = error.missing_cfg_file or ""
-    if "/" not in missing:
-        return f"config: {_hydra_detail(error).split(';')[0]}"
-    group, option = missing.rsplit("/", 1)
-    if error.options:
-        return f"{group}={option}: no such option; choose one of {', '.join(error.options)}"
-    return f"{group}={option}: could not load {missing!r}"
-
-
-def _hydra_message(error: HydraException) -> str:
-    """A composition error, reported against the override or config file that caused it."""
-    text = str(error)
-    in_file = re.match(r"In '([^']+)': \w+ raised while composing config:\n(.*)", text)
-    if in_file:
-        # A config file itself is wrong (e.g. a key the schema lacks); name the key and file.
-        full_key = re.search(r"full_key: (\S+)", text)
-        key = full_key.group(1) if full_key else "config"
-        return f"{key}: {_validation_detail(in_file.group(2))} (in conf/{in_file.group(1)}.yaml)"
-    match = re.search(r"override '?([^'=\s]+)", text)
-    context = match.group(1) if match else None
-    if isinstance(error.__cause__, OmegaConfBaseException):
-        return _omegaconf_message(error.__cause__, context=context)
-    detail = text.splitlines()[0] if text else type(error).__name__
-    return f"{context}: {detail}" if context else detail
-
-
-def _omegaconf_message(error: OmegaConfBaseException, context: Optional[str] = None) -> str:
-    """One line naming the key for an OmegaConf key or type error.
-
-    Args:
-        error: The OmegaConf exception.
-        context: The override key being applied, if known. An element of a list literal (a
-            breakdown dict, say) reports its key without the path, so the override names it.
-    """
-    full_key = getattr(error, "full_key", None) or ""
-    nested = bool(context) and not full_key.startswith(context.split(".")[0])
-    where = context if nested or not full_key else full_key
-    if isinstance(error, (ConfigKeyError, ConfigAttributeError)):
-        unknown = f"unknown key {error.key!r}" if nested else "unknown key"
-        return f"{where}: {unknown}{_key_hint(error)}"
-    if isinstance(error, ValidationError):
-        return f"{where}: {_validation_detail(str(error))}"
-    detail = str(error).splitlines()[0] if str(error) else type(error).__name__
-    return f"{where or 'config'}: {detail}"
-
-
-def _key_hint(error: OmegaConfBaseException) -> str:
-    """Suggest the closest valid key, or list the valid keys."""
-    object_type = getattr(error, "object_type", None)
-    if not dataclasses.is_dataclass(object_type):
-        return ""
-    names = [item.name for item in dataclasses.fields(object_type)]
-    close = difflib.get_close_matches(str(error.key), names, n=1)
-    return f" (did you mean {close[0]!r}?)" if close else f"; valid keys: {', '.join(names)}"
-
-
-def _validation_detail(text: str) -> str:
-    """Rephrase OmegaConf's type errors as ``expected an integer, got 'abc'``."""
-    first = text.strip().splitlines()[0] if text.strip() else "invalid value"
-    match = re.match(r"Value '(.*)' of type '\w+' could not be converted to (\w+)", first)
-    if match:
-        kinds = {"Integer": "an integer", "Float": "a number", "Boolean": "true or false"}
-        return f"expected {kinds.get(match.group(2), match.group(2))}, got {match.group(1)!r}"
-    if "is not Optional" in first:
-        return "must not be null"
-    return first

@@ -24,7 +24,7 @@ from typing import Optional
 
 from omegaconf import DictConfig
 
-from tavc_cli.config.schema import MemberConfig
+from tavc_cli.settings import MemberConfig
 
 
 def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:

@@ -30,11 +30,10 @@ from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.learning.behaviour import sensed_states
 from tavc_cli.learning.policies import TaskPolicy
 from tavc_cli.learning.registry import make_policy
-from tavc_cli.sim.arena import SOURCE, Arena
+from tavc_cli.sim.arena import SOURCE, START_GAP_M, START_WALL_MARGIN_M, Arena
 from tavc_cli.sim.world import PhysicsWorld
 
 _NOISE_BLOCK_TICKS = 512
-_START_WALL_MARGIN_M = 0.6
 
 
 def seed_sequence(seed: Sequence[int]) -> np.random.SeedSequence:
@@ -47,9 +46,9 @@ def start_poses(arena: Arena, radii: np.ndarray, rng: np.random.Generator) -> np
     poses = np.zeros((len(radii), 3))
     for i, r in enumerate(radii):
         for _ in range(10_000):
-            x = rng.uniform(_START_WALL_MARGIN_M, arena.width_m - _START_WALL_MARGIN_M)
-            y = rng.uniform(_START_WALL_MARGIN_M, arena.height_m - _START_WALL_MARGIN_M)
-            if all(math.hypot(x - poses[k, 0], y - poses[k, 1]) > r + radii[k] + 0.3 for k in range(i)):
+            x = rng.uniform(START_WALL_MARGIN_M, arena.width_m - START_WALL_MARGIN_M)
+            y = rng.uniform(START_WALL_MARGIN_M, arena.height_m - START_WALL_MARGIN_M)
+            if all(math.hypot(x - poses[k, 0], y - poses[k, 1]) > r + radii[k] + START_GAP_M for k in range(i)):
                 break
         else:
             raise TavcError(f"team.n_robots: cannot place {len(radii)} robots of radius {r:g} m apart "

@@ -1,10 +1,10 @@
 """Arenas as data: a rectangle of walls, bar-coded targets mounted on them, circuits.
 
-An arena knows nothing of robots or physics. It turns the plain mapping that the
-config holds into the arrays the sensing kernels and the physics world need:
-wall segments, target bar-code segments (set a millimetre in front of their wall
-so a laser ray meets the bar-code before the wall behind it) and, per target, the
-inward normal of the wall it hangs on.
+An arena knows nothing of robots or physics. It turns the arena's settings into the
+arrays the sensing kernels and the physics world need: wall segments, target bar-code
+segments (set a millimetre in front of their wall so a laser ray meets the bar-code before
+the wall behind it) and, per target, the inward normal of the wall it hangs on. It also
+holds where robots may start.
 """
 
 from __future__ import annotations
@@ -19,6 +19,12 @@ SOURCE, SINK = 0, 1
 _BARCODE_INSET_M = 1e-3
 # the outer rectangle is always the first rows of `Arena.walls`: bottom, right, top, left
 N_OUTER_WALLS = 4
+_INWARD_NORMALS = {"left": (1.0, 0.0), "right": (-1.0, 0.0), "bottom": (0.0, 1.0), "top": (0.0, -1.0)}
+# Where a team starts: each centre at random at least START_WALL_MARGIN_M from every wall and
+# more than two radii plus START_GAP_M from every other robot (the engine places them; the config
+# layer checks a team can be placed).
+START_WALL_MARGIN_M = 0.6
+START_GAP_M = 0.3
 
 
 @dataclass(frozen=True)
@@ -100,10 +106,14 @@ class Arena:
 
 
 
-def _boundary_normal(x: float, y: float, width: float, height: float) -> tuple[float, float]:
-    """Inward normal of the outer wall nearest to (x, y)."""
-    dists = {(1.0, 0.0): x, (-1.0, 0.0): width - x, (0.0, 1.0): y, (0.0, -1.0): height - y}
-    return min(dists, key=dists.get)
+def nearest_wall(x: float, y: float, width: float, height: float) -> tuple[str, tuple[float, float], float, float]:
+    """The outer wall nearest to (x, y): its name, inward normal, the position along it and its
+    length (ties go to the first of left, right, bottom, top)."""
+    walls = {"left": (x, y, height), "right": (width - x, y, height), "bottom": (y, x, width),
+             "top": (height - y, x, width)}
+    name = min(walls, key=lambda wall: walls[wall][0])
+    _, along, length = walls[name]
+    return name, _INWARD_NORMALS[name], along, length
 
 
 def arena_from_config(spec: ArenaConfig) -> Arena:
@@ -122,7 +132,7 @@ def arena_from_config(spec: ArenaConfig) -> Arena:
             barcode=int(t.barcode),
             x=float(t.x),
             y=float(t.y),
-            normal=_boundary_normal(float(t.x), float(t.y), width, height),
+            normal=nearest_wall(float(t.x), float(t.y), width, height)[1],
         )
         for t in spec.targets
     )

@@ -1,0 +1,130 @@
+"""Validation of where things are: the arena, its walls and targets, room to dock at each
+bar-code, and room for the team where it starts (``sim.arena`` holds the start rules)."""
+
+import math
+from collections.abc import Sequence
+
+from omegaconf import DictConfig, OmegaConf
+
+from tavc_cli.config.checks import at_least, check, fail, one_of, plain, positive, unique
+from tavc_cli.errors import TavcError
+from tavc_cli.settings import MIN_DOCK_CLEARANCE_M, TARGET_KINDS, WALL_TOLERANCE_M
+from tavc_cli.sim.arena import START_GAP_M, START_WALL_MARGIN_M, nearest_wall
+
+# A team always fits if, with all but one robot placed, a draw still succeeds with at least this
+# chance wherever the others stand: a robot then fails all its draws with a chance below
+# 0.99 ** 10 000, about 1e-44. A larger team is placed by the engine's own code to check it.
+START_MIN_CHANCE = 0.01
+
+
+def validate_arena(arena: DictConfig) -> None:
+    """Walls, targets on walls, circuits between existing sources and sinks."""
+    for name in ("width_m", "height_m"):
+        positive(f"arena.{name}", arena[name])
+        low = 2 * START_WALL_MARGIN_M
+        check(arena[name] >= low, f"arena.{name}",
+              f"must be at least {low:g} m (robots start at least {START_WALL_MARGIN_M:g} m from every wall), "
+              f"got {arena[name]:g}")
+    positive("arena.barcode_width_m", arena.barcode_width_m)
+    for index, wall in enumerate(arena.walls):
+        _validate_wall(f"arena.walls[{index}]", wall, arena)
+    for index, target in enumerate(arena.targets):
+        _validate_target(f"arena.targets[{index}]", target, arena)
+    unique("arena.targets", [target.name for target in arena.targets], "name")
+    unique("arena.targets", [target.barcode for target in arena.targets], "barcode")
+    check(len(arena.circuits) >= 1, "arena.circuits", "needs at least one circuit")
+    unique("arena.circuits", [circuit.name for circuit in arena.circuits], "name")
+    kinds = {target.name: target.kind for target in arena.targets}
+    for index, circuit in enumerate(arena.circuits):
+        for end in ("source", "sink"):
+            key, name = f"arena.circuits[{index}].{end}", circuit[end]
+            check(name in kinds, key, f"no target named {name!r} in arena.targets")
+            check(kinds[name] == end, key, f"target {name!r} is a {kinds[name]}, not a {end}")
+
+
+def _arena_size(arena: DictConfig) -> str:
+    return f"the {arena.width_m:g} x {arena.height_m:g} m arena"
+
+
+def _validate_target(key: str, target: DictConfig, arena: DictConfig) -> None:
+    """A target lies on one of the four walls: its bar-code is mounted there."""
+    one_of(f"{key}.kind", target.kind, TARGET_KINDS)
+    at_least(f"{key}.barcode", target.barcode, 0)
+    x, y, width, height = target.x, target.y, arena.width_m, arena.height_m
+    where = f"target ({x!r}, {y!r})"
+    for axis, value, size in (("x", x, width), ("y", y, height)):
+        inside = -WALL_TOLERANCE_M <= value <= size + WALL_TOLERANCE_M
+        check(inside, f"{key}.{axis}", f"{where} lies outside {_arena_size(arena)}")
+    gap_m = min(abs(x), abs(x - width), abs(y), abs(y - height))
+    check(
+        gap_m <= WALL_TOLERANCE_M,
+        key,
+        f"{where} is not on a wall of {_arena_size(arena)} (bar-codes are mounted on walls)",
+    )
+
+
+def _validate_wall(key: str, wall: Sequence[float], arena: DictConfig) -> None:
+    """An interior wall ``[x1, y1, x2, y2]`` lies inside the arena and has a length."""
+    shape_ok = OmegaConf.is_list(wall) and len(wall) == 4
+    numbers_ok = shape_ok and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in wall
+    )
+    check(numbers_ok, key, f"a wall is [x1, y1, x2, y2] in metres, got {plain(wall)!r}")
+    sizes = (arena.width_m, arena.height_m) * 2
+    for index, (value, size) in enumerate(zip(wall, sizes, strict=True)):
+        problem = f"{value!r} lies outside {_arena_size(arena)}"
+        check(0 <= value <= size, f"{key}[{index}]", problem)
+    check(tuple(wall[:2]) != tuple(wall[2:]), key, "a wall needs two distinct end points")
+
+
+def validate_docks(arena: DictConfig, robot: DictConfig) -> None:
+    """Each bar-code fits on its wall with room for a docked robot, and none overlap."""
+    half = arena.barcode_width_m / 2
+    body = robot.radius_m + MIN_DOCK_CLEARANCE_M
+    need = max(half, body)
+    placed: dict[str, list[tuple[float, int]]] = {}
+    for index, target in enumerate(arena.targets):
+        key, where = f"arena.targets[{index}]", f"target ({target.x!r}, {target.y!r})"
+        wall, _, along, length = nearest_wall(target.x, target.y, arena.width_m, arena.height_m)
+        gap = min(along, length - along)
+        check(gap >= need - WALL_TOLERANCE_M, key,
+              f"{where} lies {gap:g} m from a corner; it needs {need:g} m for its bar-code "
+              f"(arena.barcode_width_m / 2 = {half:g}) and a robot docked in front of it "
+              f"(robot.radius_m + {MIN_DOCK_CLEARANCE_M:g} = {body:g})")
+        for other_along, other in placed.get(wall, []):
+            check(abs(along - other_along) >= arena.barcode_width_m - WALL_TOLERANCE_M, key,
+                  f"{where}'s bar-code overlaps that of arena.targets[{other}] on the {wall} wall: their centres "
+                  f"must be at least arena.barcode_width_m = {arena.barcode_width_m:g} m apart, "
+                  f"got {abs(along - other_along):g}")
+        placed.setdefault(wall, []).append((along, index))
+
+
+def validate_start(cfg: DictConfig) -> None:
+    """Every trial's team can be placed where robots start: at random, apart, clear of the walls.
+
+    Robots are placed one by one, each drawn uniformly in the start area (the arena less
+    START_WALL_MARGIN_M all round) and kept if its centre is more than ``d = 2 radius +
+    START_GAP_M`` from every placed one. With ``k`` placed, at most ``k pi d^2`` of the area is
+    excluded, so a team with ``(n - 1) pi d^2 <= (1 - START_MIN_CHANCE) * area`` always fits. A
+    larger team is placed here as the engine will place it, trial by trial, from each trial's seed.
+    """
+    arena, robot, n_robots = cfg.arena, cfg.robot, cfg.team.n_robots
+    spacing = 2 * robot.radius_m + START_GAP_M
+    area = (arena.width_m - 2 * START_WALL_MARGIN_M) * (arena.height_m - 2 * START_WALL_MARGIN_M)
+    always = 1 + math.floor((1 - START_MIN_CHANCE) * area / (math.pi * spacing**2))
+    if n_robots <= always:
+        return
+    # imported here: the engine loads numba, which `tavc config` need not wait for
+    from tavc_cli.experiments.build import trial_specs
+    from tavc_cli.experiments.engine import TrialState
+
+    specs = trial_specs(OmegaConf.to_object(cfg))
+    model = specs[0].build_arena()
+    for spec in specs:
+        try:
+            TrialState(spec, model, 0)
+        except TavcError:
+            fail("team.n_robots",
+                 f"cannot place {n_robots} robots of robot.radius_m = {robot.radius_m:g} at random "
+                 f"{START_GAP_M:g} m apart and {START_WALL_MARGIN_M:g} m from the walls of {_arena_size(arena)} "
+                 f"(trial {spec.trial} of {spec.controller}, seed {cfg.seed}); {always} always fit")
