@@ -391,6 +391,8 @@ def _report(results_dir: Path) -> None:
     from tavc_cli.report import build_report
 
     result = build_report(results_dir)
+    for folder in result["unfinished"]:
+        typer.echo(f"left out {folder}: its run did not finish (no provenance.json); run it again to complete it")
     typer.echo(f"claims reproduced: {result['n_reproduced']} of {result['n_tested']} tested "
                f"({', '.join(result['experiments'])})")
     typer.echo(result["report"])

@@ -1,12 +1,17 @@
-"""Atomic file writes: a reader never sees a half-written result."""
+"""Atomic file writes (a reader never sees a half-written result) and one run per folder."""
 
 from __future__ import annotations
 
 import os
+import socket
+import sys
 import tempfile
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+
+from tavc_cli.errors import TavcError
 
 
 def _umask() -> int:
@@ -47,3 +52,55 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
 
 def write_text_atomic(path: Path, text: str) -> None:
     write_bytes_atomic(path, text.encode())
+
+
+LOCK_NAME = ".tavc.lock"
+
+
+@contextmanager
+def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
+    """Create `folder` and hold it for this process alone until the block ends.
+
+    The claim is an advisory lock (``flock``) on ``<folder>/.tavc.lock``: a second run on the
+    same folder stops at once with a line naming the run that holds it, instead of
+    interleaving its writes. The operating system drops the lock when the process exits
+    however it ends (kill -9 included), so a crashed run never leaves the folder claimed; the
+    file itself is removed on a normal exit. Temporary files a killed run left half-written
+    (`atomic_path`) in the folder or its `trials/` are removed once the folder is held. `what`
+    names the setting behind the folder.
+    """
+    import fcntl
+
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise TavcError(f"{what}: cannot create {folder}: {exc.strerror}") from None
+    lock_path = folder / LOCK_NAME
+    while True:
+        fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o666 & ~_umask())
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 4096).decode(errors="replace").strip()
+            os.close(fd)
+            raise TavcError(f"{what}: {folder} is in use by another tavc run ({holder or 'unknown'}); "
+                            "wait for it to finish or choose another folder") from None
+        # the file may have been removed by the run that held it just before we locked it
+        try:
+            same = os.stat(lock_path).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)
+    try:
+        os.ftruncate(fd, 0)
+        started = time.strftime("%Y-%m-%d %H:%M:%S")
+        os.write(fd, f"pid {os.getpid()} on {socket.gethostname()}, since {started}: {' '.join(sys.argv)}\n".encode())
+        for stale in [*folder.glob(".*.tmp"), *folder.glob("trials/.*.tmp")]:
+            stale.unlink(missing_ok=True)  # half-written by a run that was killed: nobody else writes here now
+        yield folder
+    finally:
+        lock_path.unlink(missing_ok=True)  # before the unlock: a waiting run then finds a fresh file
+        os.close(fd)

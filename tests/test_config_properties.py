@@ -113,6 +113,16 @@ def configs(draw, bad_percent: int) -> list[str]:
         breakdowns.append(f"{{time_s:{_num(time_s)},{target}}}")
     if breakdowns:
         out.append(f"events.breakdowns={_list(breakdowns)}")
+    if draw(st.integers(0, 3)) == 0:  # interior walls: inside the arena, or outside it / of no length
+        width, height = (8.0, 6.0) if arena == "one_circuit" else (12.0, 8.0)
+        walls = []
+        for _ in range(draw(st.integers(1, 2))):
+            x1, x2 = draw(st.floats(0, width)), draw(st.floats(0, width))
+            y1, y2 = draw(st.floats(0, height)), draw(st.floats(0, height))
+            wall = pick(st.just([x1, y1, x2, y2]), st.sampled_from([[x1, y1, x1, y1], [x1, -1.0, x2, y2],
+                                                                    [x1, y1, width + 1.0, y2]]))
+            walls.append(_list(_num(v) for v in wall))
+        out.append(f"arena.walls={_list(walls)}")
     if draw(st.booleans()):
         out.append(f"robot.laser.n_rays={pick(st.integers(3, 64), st.integers(-1, 2))}")
     if draw(st.booleans()):
@@ -248,10 +258,29 @@ REFUSED = [
     (["experiment=breakdown", "events.breakdowns.0.time_s=30000"],
      "events.breakdowns[0].time_s: 600 s (after scaling) is outside the simulated time "
      "[-sim.warmup_s = -360, duration_s = 540)"),
+    # at smoke scale (x 0.02) the last control period of 0.1 s starts at 540 - 0.1 = 539.9 s
+    (["experiment=breakdown", "events.breakdowns.0.time_s=26999.5"],
+     "events.breakdowns[0].time_s: 539.99 s (after scaling) falls after the last control period starts "
+     "(t = 539.9 s, sim.dt_s = 0.1 s), so it would never happen"),
     (["learner=static", "learner.allocation=[4,1]"], "learner.allocation: must sum to team.n_robots (6), got 5"),
     (["baselines=[static]", "static_allocation=[6]"],
      "static_allocation: needs one robot count per circuit (2), got 1"),
     (["tasks.values=[1,2,3]"], "tasks.values: needs one value per circuit (2), got 3"),
+    # interior walls (the arena is 12 x 8 m, sink2's bar-code at (4, 0), robots 0.22 m in radius):
+    # a wall across the arena, or one leaving a 0.4 m gap (< 2 x 0.22), cuts it in two ...
+    (["arena=two_circuits", "arena.walls=[[6,0,6,8]]"],
+     "arena.walls: the walls split the area where robots start into 2 parts that a robot of robot.radius_m = 0.22 "
+     "cannot pass between"),
+    (["arena=two_circuits", "arena.walls=[[6,0,6,7.6]]"],
+     "arena.walls: the walls split the area where robots start into 2 parts that a robot of robot.radius_m = 0.22 "
+     "cannot pass between"),
+    # ... a box around sink2 closes it off, a wall through its dock leaves no room to dock
+    (["arena=two_circuits", "arena.walls=[[0,1.2,5,1.2],[5,1.2,5,0]]"],
+     "arena.targets[2]: target 'sink2' cannot be reached by a robot of robot.radius_m = 0.22 from where robots "
+     "start: arena.walls close it off or leave no room to dock in front of it"),
+    (["arena=two_circuits", "arena.walls=[[4,0,4,2]]"],
+     "arena.targets[2]: target 'sink2' cannot be reached by a robot of robot.radius_m = 0.22 from where robots "
+     "start: arena.walls close it off or leave no room to dock in front of it"),
     (["executor.batch_size=33"],
      "executor.batch_size: must be at most 32 (one collision-filter bit per trial), got 33"),
     (["executor.n_jobs=0"], "executor.n_jobs: must be >= 1, got 0"),
@@ -288,6 +317,9 @@ def test_a_bad_input_is_refused_in_one_line_before_anything_is_written(overrides
         ["tasks.values=[1,2]", "events.value_changes=[{time_s:5,values:[3,3]}]",
          "events.breakdowns=[{time_s:5,circuit:high}]"],
         ["arena=one_circuit", "events.breakdowns=[{time_s:0,circuit:high}]"],  # one circuit: no tie
+        # interior walls that leave a way round: a 1 m gap (> 2 x 0.22 m), a 1.2 m corridor to the sinks
+        ["arena=two_circuits", "arena.walls=[[6,0,6,7]]"],
+        ["arena=two_circuits", "arena.walls=[[0,1.2,10,1.2]]"],
     ],
 )
 def test_inputs_at_the_limits_are_accepted(overrides):
@@ -298,9 +330,20 @@ def test_inputs_at_the_limits_are_accepted(overrides):
 def test_a_team_that_always_fits_is_placed_at_every_seed(width_m, height_m, always):
     from tavc_cli.experiments.engine import start_poses
 
-    arena = SimpleNamespace(width_m=width_m, height_m=height_m)
+    arena = SimpleNamespace(width_m=width_m, height_m=height_m, walls=np.zeros((4, 4)))  # the outer ones only
     for seed in range(20):
         assert len(start_poses(arena, np.full(always, 0.22), np.random.default_rng(seed))) == always
+
+
+def test_robots_start_clear_of_interior_walls():
+    from tavc_cli.experiments.engine import start_poses
+    from tavc_cli.sim.arena import START_WALL_MARGIN_M, arena_from_config, wall_distance
+
+    cfg = load_config(["scale=smoke", "arena=two_circuits", "arena.walls=[[6,0,6,7],[0,4,4,4]]"])
+    arena = arena_from_config(cfg.arena)
+    for seed in range(20):
+        poses = start_poses(arena, np.full(12, 0.22), np.random.default_rng(seed))
+        assert wall_distance(arena.walls[4:], poses[:, 0], poses[:, 1]).min() >= START_WALL_MARGIN_M
 
 
 def test_a_cluster_backend_whose_module_is_missing_is_refused_up_front(monkeypatch, tmp_path):

@@ -286,4 +286,4 @@ def test_a_missing_cluster_package_is_one_line(monkeypatch):
 
     monkeypatch.setattr(builtins, "__import__", no_dask)
     with pytest.raises(TavcError, match=r"executor.backend=dask needs distributed: pip install 'tavc\[dask\]'"):
-        run_on_cluster("dask", [], lambda b, r: None, 1, None, lambda b: None)
+        run_on_cluster("dask", [], lambda b, r: None, 1, None)

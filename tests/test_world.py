@@ -133,3 +133,14 @@ def test_poses_are_in_each_trials_own_arena_frame(arena, robot):
     assert end[3, 0] == pytest.approx(r, abs=COLLISION_SLOP_M + 1e-6)
     # identical starts in different slots give the same trajectory
     np.testing.assert_allclose(trace[:, 0], trace[:, 1], atol=1e-9)
+
+
+def test_wall_distance_by_hand():
+    from tavc_cli.sim.arena import wall_distance
+
+    walls = np.array([[6.0, 0.0, 6.0, 7.0], [0.0, 4.0, 4.0, 4.0]])
+    x = np.array([6.0, 5.0, 2.0, 7.0, 0.0])
+    y = np.array([7.5, 3.0, 5.0, 7.0 + 1.0, 4.0])
+    # past the end (0.5), beside the first (1.0), above the second (1.0), off the end at 45 degrees (sqrt 2), on it
+    np.testing.assert_allclose(wall_distance(walls, x, y), [0.5, 1.0, 1.0, np.sqrt(2.0), 0.0])
+    assert np.isinf(wall_distance(np.zeros((0, 4)), np.array(1.0), np.array(1.0)))

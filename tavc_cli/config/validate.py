@@ -18,7 +18,7 @@ from tavc_cli.config.checks import (
     unique,
     unit,
 )
-from tavc_cli.config.validate_world import validate_arena, validate_docks, validate_start
+from tavc_cli.config.validate_world import validate_arena, validate_docks, validate_reachable, validate_start
 from tavc_cli.learning.registry import AVAILABLE as AVAILABLE_LEARNERS
 from tavc_cli.learning.registry import BASELINES
 from tavc_cli.learning.registry import NAMES as LEARNERS
@@ -68,6 +68,7 @@ def validate(cfg: DictConfig) -> None:
     validate_arena(cfg.arena)
     _validate_robot(cfg.robot)
     validate_docks(cfg.arena, cfg.robot)
+    validate_reachable(cfg.arena, cfg.robot)
     _validate_team(cfg.team)
     n_circuits, n_robots = len(cfg.arena.circuits), cfg.team.n_robots
     _validate_learner(cfg.learner, n_circuits, n_robots)
@@ -75,8 +76,8 @@ def validate(cfg: DictConfig) -> None:
     if cfg.static_allocation is not None:
         _validate_allocation("static_allocation", cfg.static_allocation, n_circuits, n_robots)
     _validate_tasks(cfg.tasks, n_circuits)
-    _validate_events(cfg, n_circuits)
     _validate_sim(cfg.sim)
+    _validate_events(cfg, n_circuits)  # after sim: events fall due on its control periods
     _validate_control_period(cfg)
     _validate_executor(cfg.executor)
     one_of("analysis.state", cfg.analysis.state, ANALYSIS_STATES)
@@ -283,7 +284,9 @@ def _validate_extreme_circuit(key: str, breakdown: DictConfig, cfg: DictConfig) 
 
 
 def _validate_event_time(key: str, time_s: float, cfg: DictConfig) -> None:
-    """Events happen between the start of the warm-up (negative time) and the end of a trial."""
+    """Events happen between the start of the warm-up (negative time) and the end of a trial;
+    one falls due at the first control period that starts at or after it, so one after the
+    last period's start would never happen."""
     start_s = 0.0 - cfg.sim.warmup_s  # not -warmup_s: that prints "-0" when there is none
     check(
         start_s <= time_s < cfg.duration_s,
@@ -291,6 +294,11 @@ def _validate_event_time(key: str, time_s: float, cfg: DictConfig) -> None:
         f"{time_s:g} s (after scaling) is outside the simulated time "
         f"[-sim.warmup_s = {start_s:g}, duration_s = {cfg.duration_s:g})",
     )
+    dt_s = cfg.sim.dt_s
+    last_s = start_s + (round((cfg.duration_s - start_s) / dt_s) - 1) * dt_s  # as the engine counts its ticks
+    check(time_s <= last_s, key,
+          f"{time_s:g} s (after scaling) falls after the last control period starts (t = {last_s:g} s, "
+          f"sim.dt_s = {dt_s:g} s), so it would never happen")
 
 
 def _validate_breakdown_target(

@@ -1,20 +1,33 @@
 """Validation of where things are: the arena, its walls and targets, room to dock at each
-bar-code, and room for the team where it starts (``sim.arena`` holds the start rules)."""
+bar-code, every target within reach, and room for the team where it starts (``sim.arena``
+holds the start rules)."""
 
 import math
 from collections.abc import Sequence
 
+import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from tavc_cli.config.checks import at_least, check, fail, one_of, plain, positive, unique
 from tavc_cli.errors import TavcError
 from tavc_cli.settings import MIN_DOCK_CLEARANCE_M, TARGET_KINDS, WALL_TOLERANCE_M
-from tavc_cli.sim.arena import START_GAP_M, START_WALL_MARGIN_M, nearest_wall
+from tavc_cli.sim.arena import (
+    N_OUTER_WALLS,
+    START_GAP_M,
+    START_WALL_MARGIN_M,
+    arena_from_config,
+    nearest_wall,
+    wall_distance,
+)
 
 # A team always fits if, with all but one robot placed, a draw still succeeds with at least this
 # chance wherever the others stand: a robot then fails all its draws with a chance below
 # 0.99 ** 10 000, about 1e-44. A larger team is placed by the engine's own code to check it.
 START_MIN_CHANCE = 0.01
+# The reach check's grid: cells of at most this side (and a quarter of the robot's radius), and
+# no more than this many cells (a very large arena gets coarser cells).
+REACH_CELL_M = 0.02
+REACH_MAX_CELLS = 2_000_000
 
 
 def validate_arena(arena: DictConfig) -> None:
@@ -99,6 +112,46 @@ def validate_docks(arena: DictConfig, robot: DictConfig) -> None:
         placed.setdefault(wall, []).append((along, index))
 
 
+def validate_reachable(arena: DictConfig, robot: DictConfig) -> None:
+    """With interior walls, a robot can get from where robots start to every target.
+
+    The robot's centre moves in the free space: points more than a radius from every wall. On
+    a grid of cells (``REACH_CELL_M``), that space must hold the whole start area (the
+    arena less START_WALL_MARGIN_M from every wall) in one connected piece, and the spot in
+    front of each bar-code where a docked robot's centre sits must lie in that piece. Without
+    interior walls the arena is an open rectangle and nothing is checked.
+    """
+    if not arena.walls:
+        return
+    model = arena_from_config(arena)
+    width, height, radius = model.width_m, model.height_m, float(robot.radius_m)
+    cell = max(min(REACH_CELL_M, radius / 4), math.sqrt(width * height / REACH_MAX_CELLS))
+    xs, ys = np.arange(cell / 2, width, cell), np.arange(cell / 2, height, cell)
+    x, y = np.meshgrid(xs, ys)
+    free = wall_distance(model.walls, x, y) > radius
+    from scipy import ndimage
+
+    pieces, _ = ndimage.label(free)
+    margin = START_WALL_MARGIN_M
+    start = ((x >= margin) & (x <= width - margin) & (y >= margin) & (y <= height - margin)
+             & (wall_distance(model.walls[N_OUTER_WALLS:], x, y) >= margin))
+    where = np.unique(pieces[start & free])
+    where = where[where > 0]
+    who = f"a robot of robot.radius_m = {radius:g}"
+    check(len(where) > 0, "arena.walls", f"the walls leave no room for {who} to start "
+          f"({margin:g} m from every wall)")
+    check(len(where) == 1, "arena.walls", f"the walls split the area where robots start into {len(where)} "
+          f"parts that {who} cannot pass between")
+    for index, target in enumerate(model.targets):
+        reach = radius + MIN_DOCK_CLEARANCE_M
+        px, py = target.x + target.normal[0] * reach, target.y + target.normal[1] * reach
+        i = min(int(py / cell), len(ys) - 1)
+        j = min(int(px / cell), len(xs) - 1)
+        check(pieces[i, j] == where[0], f"arena.targets[{index}]",
+              f"target {target.name!r} cannot be reached by {who} from where robots start: "
+              "arena.walls close it off or leave no room to dock in front of it")
+
+
 def validate_start(cfg: DictConfig) -> None:
     """Every trial's team can be placed where robots start: at random, apart, clear of the walls.
 
@@ -106,13 +159,14 @@ def validate_start(cfg: DictConfig) -> None:
     START_WALL_MARGIN_M all round) and kept if its centre is more than ``d = 2 radius +
     START_GAP_M`` from every placed one. With ``k`` placed, at most ``k pi d^2`` of the area is
     excluded, so a team with ``(n - 1) pi d^2 <= (1 - START_MIN_CHANCE) * area`` always fits. A
-    larger team is placed here as the engine will place it, trial by trial, from each trial's seed.
+    larger team, or any team in an arena with interior walls, is placed here as the engine will
+    place it, trial by trial, from each trial's seed.
     """
     arena, robot, n_robots = cfg.arena, cfg.robot, cfg.team.n_robots
     spacing = 2 * robot.radius_m + START_GAP_M
     area = (arena.width_m - 2 * START_WALL_MARGIN_M) * (arena.height_m - 2 * START_WALL_MARGIN_M)
     always = 1 + math.floor((1 - START_MIN_CHANCE) * area / (math.pi * spacing**2))
-    if n_robots <= always:
+    if n_robots <= always and not arena.walls:  # interior walls take start area the bound does not count
         return
     # imported here: the engine loads numba, which `tavc config` need not wait for
     from tavc_cli.experiments.build import trial_specs

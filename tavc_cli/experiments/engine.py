@@ -30,10 +30,19 @@ from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.learning.behaviour import sensed_states
 from tavc_cli.learning.policies import TaskPolicy
 from tavc_cli.learning.registry import make_policy
-from tavc_cli.sim.arena import SOURCE, START_GAP_M, START_WALL_MARGIN_M, Arena
+from tavc_cli.sim.arena import SOURCE, START_GAP_M, START_WALL_MARGIN_M, Arena, clear_to_start
 from tavc_cli.sim.world import PhysicsWorld
 
-_NOISE_BLOCK_TICKS = 512
+_NOISE_BLOCK_TICKS = 512  # also how often (in ticks) every robot's pose is checked
+
+
+class TrialFault(Exception):
+    """A trial of a batch went wrong in a way that is its own (a non-finite pose, a robot
+    outside the walls): `index` is its place in the batch, the message says what and when."""
+
+    def __init__(self, index: int, message: str) -> None:
+        super().__init__(message)
+        self.index = index
 
 
 def seed_sequence(seed: Sequence[int]) -> np.random.SeedSequence:
@@ -42,13 +51,14 @@ def seed_sequence(seed: Sequence[int]) -> np.random.SeedSequence:
 
 
 def start_poses(arena: Arena, radii: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Random non-overlapping start poses, clear of the walls, random headings."""
+    """Random non-overlapping start poses, clear of the walls (interior ones too), random headings."""
     poses = np.zeros((len(radii), 3))
     for i, r in enumerate(radii):
         for _ in range(10_000):
             x = rng.uniform(START_WALL_MARGIN_M, arena.width_m - START_WALL_MARGIN_M)
             y = rng.uniform(START_WALL_MARGIN_M, arena.height_m - START_WALL_MARGIN_M)
-            if all(math.hypot(x - poses[k, 0], y - poses[k, 1]) > r + radii[k] + START_GAP_M for k in range(i)):
+            if all(math.hypot(x - poses[k, 0], y - poses[k, 1]) > r + radii[k] + START_GAP_M for k in range(i)) \
+                    and clear_to_start(arena, x, y):
                 break
         else:
             raise TavcError(f"team.n_robots: cannot place {len(radii)} robots of radius {r:g} m apart "
@@ -276,7 +286,7 @@ class BatchEngine:
         behaviours; the kernel senses and decides for every robot; arrivals are
         served (rewards, next tasks); the physics moves the robots one period on.
         """
-        t_end = max(s.spec.duration_s for s in self.trials)
+        t_end = max(tr.spec.duration_s for tr in self.trials)
         n_ticks = int(round((t_end - self.t0) / self.dt))
         schedule = _Schedule(self.trials, self.t0)
         report_every = max(1, n_ticks // 200)
@@ -295,6 +305,7 @@ class BatchEngine:
                 self.on_tick(self)
             if progress is not None and self.tick % report_every == 0:
                 progress(self.tick / n_ticks)
+        self._check_poses(self.world.poses(out=self.pose), self.t)
         return [self._record(tr) for tr in self.trials]
 
     def _fall_due(self, t: float, schedule: _Schedule) -> None:
@@ -331,10 +342,32 @@ class BatchEngine:
             for tr in self.trials:
                 self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((_NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
         self.world.poses(out=self.pose)
+        if k == 0:
+            self._check_poses(self.pose, self.t)
         n_arrived = self._control_tick(self.robots, self.pose, self.noise[k], self.params, self.geometry,
                                        self.laser, self.scan, self.cmd, self.act_s)
         self.tick_started = True
         return n_arrived
+
+    def _check_poses(self, pose: np.ndarray, t: float) -> None:
+        """Raise `TrialFault` for the first trial with a robot whose pose is not a number or
+        lies outside the arena's outer walls (by more than its radius): the physics has failed
+        for that trial, and nothing it records from here on would mean anything. A lost pose
+        stays lost, so a check every few hundred ticks finds it."""
+        margin = float(self.trials[0].spec.robot.radius_m)
+        x, y = pose[:, 0], pose[:, 1]
+        with np.errstate(invalid="ignore"):
+            bad = ~(np.isfinite(pose).all(axis=1) & (x >= -margin) & (x <= self.arena.width_m + margin)
+                    & (y >= -margin) & (y <= self.arena.height_m + margin))
+        bad &= self.robots["alive"]
+        if not bad.any():
+            return
+        g = int(np.flatnonzero(bad)[0])
+        b = int(self.robots[g]["trial"])
+        i = g - self.trials[b].lo
+        where = ("has no valid pose" if not np.isfinite(pose[g]).all()
+                 else f"is outside the walls at ({x[g]:.2f}, {y[g]:.2f}) m")
+        raise TrialFault(b, f"robot {i} {where} at t = {t:.1f} s")
 
     def _serve_arrivals(self, t: float) -> None:
         for g in np.flatnonzero(self.robots["arrived"]):

@@ -15,17 +15,38 @@ alone, in any batch, on any worker.
 
 from __future__ import annotations
 
+import socket
 from collections.abc import Callable
+from urllib.parse import urlsplit
 
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch
-from tavc_cli.experiments.engine import run_trials
-from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.experiments.store import BatchResult, simulate_contained
 
 
-def simulate_batch(batch: Batch) -> list[TrialRecord]:
-    """One batch's records (what a cluster worker runs)."""
-    return run_trials(batch.specs)
+def probe(backend: str, address: str | None, timeout_s: float = 5.0) -> None:
+    """Stop with one line if `address` names a host and port nobody answers on; called before
+    a run writes anything. (``auto`` and other addresses without a port are left to the backend.)"""
+    if not address:
+        return
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        raise TavcError(f"executor.address: {address!r} is not a host:port address") from None
+    if not host or port is None:
+        return
+    try:
+        socket.create_connection((host, port), timeout=timeout_s).close()
+    except OSError as exc:
+        name = "Dask scheduler" if backend == "dask" else "Ray cluster"
+        raise TavcError(f"executor.address: cannot reach the {name} at {address}: "
+                        f"{exc.strerror or exc or 'no answer'}") from None
+
+
+def simulate_batch(batch: Batch) -> BatchResult:
+    """One batch's finished records and failed trials (what a cluster worker runs)."""
+    return simulate_contained(batch.specs)
 
 
 def _need(module: str, backend: str) -> None:
@@ -35,20 +56,20 @@ def _need(module: str, backend: str) -> None:
         raise TavcError(f"executor.backend={backend} needs {module}: pip install 'tavc[{backend}]'") from None
 
 
-def run_on_cluster(backend: str, pending: list[Batch], save: Callable[[Batch, list[TrialRecord]], None],
-                   n_jobs: int, address: str | None, done: Callable[[Batch], None]) -> None:
-    """Run `pending` on the backend's cluster; `save` each batch's records as it finishes."""
+def run_on_cluster(backend: str, pending: list[Batch], save: Callable[[Batch, BatchResult], None],
+                   n_jobs: int, address: str | None) -> None:
+    """Run `pending` on the backend's cluster; `save` each batch's result as it finishes."""
     if backend == "dask":
         _need("distributed", backend)
-        _run_dask(pending, save, n_jobs, address, done)
+        _run_dask(pending, save, n_jobs, address)
     elif backend == "ray":
         _need("ray", backend)
-        _run_ray(pending, save, n_jobs, address, done)
+        _run_ray(pending, save, n_jobs, address)
     else:
         raise TavcError(f"executor.backend: no cluster executor {backend!r}")
 
 
-def _run_dask(pending, save, n_jobs, address, done) -> None:
+def _run_dask(pending, save, n_jobs, address) -> None:
     from distributed import Client, LocalCluster, as_completed
 
     cluster = None
@@ -65,14 +86,13 @@ def _run_dask(pending, save, n_jobs, address, done) -> None:
         for future in as_completed(futures):
             batch = futures[future]
             save(batch, future.result())
-            done(batch)
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
 
 
-def _run_ray(pending, save, n_jobs, address, done) -> None:
+def _run_ray(pending, save, n_jobs, address) -> None:
     import ray
 
     started = False
@@ -93,7 +113,6 @@ def _run_ray(pending, save, n_jobs, address, done) -> None:
             ready, left = ray.wait(left, num_returns=1)
             batch = refs[ready[0]]
             save(batch, ray.get(ready[0]))
-            done(batch)
     finally:
         if started:
             ray.shutdown()

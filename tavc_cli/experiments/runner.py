@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
-from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec, code_digest
@@ -84,12 +83,10 @@ class Run:
 
 
 def run_experiment_trials(cfg: TavcConfig, *, progress: bool = False) -> Run:
-    """Run (or reuse) every trial of the experiment into its `output_dir` and write `config.yaml`."""
+    """Run (or reuse) every trial of the experiment into its `output_dir` and write `config.yaml`.
+    The caller holds the folder (`io.claim_folder`)."""
     out_dir = Path(cfg.output_dir)
-    try:
-        (out_dir / "trials").mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise TavcError(f"output_dir: cannot create {out_dir}: {exc.strerror}") from None
+    (out_dir / "provenance.json").unlink(missing_ok=True)  # the folder is no finished run until it is back
     start = time.perf_counter()
     specs = trial_specs(cfg)
     store = TrialStore(out_dir, Executor.from_config(cfg.executor))

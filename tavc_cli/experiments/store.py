@@ -8,7 +8,11 @@ Given trial specs it
    (`Executor`: a local process pool, or a Dask or Ray cluster, `executors`), each
    trial's file written atomically as its batch finishes (a stopped run loses at most
    the batches in flight);
-3. reports progress over the simulated seconds.
+3. reports progress over the simulated seconds;
+4. contains failures: a trial that goes wrong (a pose that is not a number, a robot outside
+   the walls, an exception in its simulation) is named with its seed and left out, every
+   other trial finishes and is kept, and the run then stops with one line naming it
+   (`failures.log` in the folder holds the details). Rerunning computes only what is missing.
 """
 
 from __future__ import annotations
@@ -16,18 +20,24 @@ from __future__ import annotations
 import json
 import sys
 import time
+import traceback
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, make_batches
-from tavc_cli.experiments.engine import run_trials
+from tavc_cli.experiments.engine import TrialFault, run_trials
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.io import write_text_atomic
 from tavc_cli.settings import ExecutorConfig
+
+FAILURES_LOG = "failures.log"
 
 
 @dataclass(frozen=True)
@@ -45,6 +55,14 @@ class Executor:
     def from_config(cls, executor: ExecutorConfig) -> Executor:
         """From the resolved `executor` settings."""
         return cls(str(executor.backend), int(executor.n_jobs), int(executor.batch_size), executor.address)
+
+    def check(self) -> None:
+        """Stop with one line, before anything is written, if the cluster at `address` does not
+        answer."""
+        if self.backend != "local":
+            from tavc_cli.experiments.executors import probe
+
+            probe(self.backend, self.address)
 
 
 class TrialStore:
@@ -69,10 +87,26 @@ class TrialStore:
         if announce and n_reused:
             print(f"reusing {n_reused} of {len(specs)} finished trials in {self.folder / 'trials'}", flush=True)
         if ex.backend == "local":
-            execute(pending, self.folder, ex.n_jobs, progress)
+            failures = execute(pending, self.folder, ex.n_jobs, progress)
         else:
-            _execute_on_cluster(ex, pending, self.folder, progress)
+            failures = _execute_on_cluster(ex, pending, self.folder, progress)
+        self._settle(failures, len(specs))
         return n_reused
+
+    def _settle(self, failures: list[TrialFailure], n_specs: int) -> None:
+        """Record the failed trials in `failures.log` and stop with one line naming the first;
+        with none, remove the log an earlier run may have left."""
+        log = self.folder / FAILURES_LOG
+        if not failures:
+            log.unlink(missing_ok=True)
+            return
+        write_text_atomic(log, "\n\n".join(f.report() for f in failures) + "\n")
+        first = failures[0]
+        what = f"trial {first.name} (seed {list(first.seed)}) failed"
+        if len(failures) > 1:
+            what = f"{len(failures)} trials failed, the first {first.name} (seed {list(first.seed)})"
+        raise TavcError(f"{what}: {first.message}; the other {n_specs - len(failures)} trials are kept in "
+                        f"{self.folder / 'trials'} and a rerun computes only the missing ones (details: {log})")
 
     def load(self, specs: Sequence[TrialSpec]) -> list[TrialRecord]:
         """The records of trials that are done."""
@@ -103,17 +137,75 @@ def pending_batches(out_dir: Path, specs: list[TrialSpec], batch_size: int,
     return make_batches(todo, batch_size, workers), len(specs) - len(todo)
 
 
-def run_batch(batch: Batch, out_dir: str | Path, report: Callable[[float], None] | None = None) -> float:
-    """Simulate one batch and write its trial files; returns the wall time (s)."""
+@dataclass(frozen=True)
+class TrialFailure:
+    """A trial that stopped with an error: which one, its seed, what went wrong and, for an
+    exception, its traceback."""
+
+    controller: str
+    trial: int
+    seed: tuple[int, ...]
+    message: str
+    detail: str = ""
+
+    @classmethod
+    def of(cls, spec: TrialSpec, message: str, detail: str = "") -> TrialFailure:
+        return cls(spec.controller, spec.trial, tuple(spec.seed), " ".join(message.split()), detail)
+
+    @property
+    def name(self) -> str:
+        return f"{self.controller}_{self.trial:03d}"
+
+    def report(self) -> str:
+        """The failure as it goes into `failures.log`."""
+        return f"trial {self.name} (seed {list(self.seed)}): {self.message}" + (
+            f"\n{self.detail.rstrip()}" if self.detail else "")
+
+
+BatchResult = tuple[list[tuple[TrialSpec, TrialRecord]], list[TrialFailure]]
+
+
+def simulate_contained(specs: Sequence[TrialSpec], report: Callable[[float], None] | None = None) -> BatchResult:
+    """Run trials side by side; a trial that fails is named and left out, the others finish.
+
+    A fault the engine pins on one trial (`TrialFault`) drops that trial and the others run
+    again without it; any other exception runs each trial alone to find the ones at fault.
+    The others' records are those of an uneventful run: a trial computes the same alone as
+    in any batch.
+    """
+    try:
+        return list(zip(specs, run_trials(specs, report), strict=True)), []
+    except TrialFault as fault:
+        failures = [TrialFailure.of(specs[fault.index], str(fault))]
+        groups = [[s for k, s in enumerate(specs) if k != fault.index]]
+    except Exception as exc:
+        if len(specs) == 1:
+            return [], [TrialFailure.of(specs[0], f"{type(exc).__name__}: {exc}", traceback.format_exc())]
+        failures, groups = [], [[s] for s in specs]
+    done: list[tuple[TrialSpec, TrialRecord]] = []
+    for group in groups:
+        if group:
+            ok, failed = simulate_contained(group)
+            done += ok
+            failures += failed
+    return done, failures
+
+
+def run_batch(batch: Batch, out_dir: str | Path,
+              report: Callable[[float], None] | None = None) -> tuple[float, list[TrialFailure]]:
+    """Simulate one batch and write the files of its trials that finished; returns the wall
+    time (s) and the trials that failed."""
     start = time.perf_counter()
-    save_batch(batch, run_trials(batch.specs, report), out_dir)
-    return time.perf_counter() - start
+    failures = save_result(simulate_contained(batch.specs, report), out_dir)
+    return time.perf_counter() - start, failures
 
 
-def save_batch(batch: Batch, records: Sequence[TrialRecord], out_dir: str | Path) -> None:
-    """Write a finished batch's trial files into out_dir, each atomically."""
-    for spec, rec in zip(batch.specs, records, strict=True):
+def save_result(result: BatchResult, out_dir: str | Path) -> list[TrialFailure]:
+    """Write a batch's finished trial files into out_dir, each atomically; return its failures."""
+    done, failures = result
+    for spec, rec in done:
         rec.save(trial_path(Path(out_dir), spec.controller, spec.trial))
+    return failures
 
 
 class _QueueReporter:
@@ -163,15 +255,17 @@ class _Progress:
             self.bar.stop()
 
 
-def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None:
-    """Run pending batches in this process (n_jobs 1 or a single batch) or a process pool."""
+def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> list[TrialFailure]:
+    """Run pending batches in this process (n_jobs 1 or a single batch) or a process pool;
+    return the trials that failed."""
     prog = _Progress(pending, tty)
+    failures: list[TrialFailure] = []
     try:
         if n_jobs <= 1 or len(pending) <= 1:
             for b in pending:
                 key = (b.controller, b.index)
-                run_batch(b, out_dir, lambda f, k=key: prog.update(k, f))
-            return
+                failures += run_batch(b, out_dir, lambda f, k=key: prog.update(k, f))[1]
+            return failures
         import multiprocessing as mp
 
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
@@ -188,24 +282,46 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> None
                         key, frac = queue.get()
                         prog.update(key, frac)
                     for f in finished:
-                        f.result()  # re-raise a worker's error here
                         b = futures[f]
+                        try:
+                            failures += f.result()[1]  # a worker's own error (not a trial's) is re-raised
+                        except BrokenProcessPool:
+                            raise TavcError(
+                                f"a worker process died while running trials {_names(b)} (out of memory, or a "
+                                "crash in compiled code); the trials finished before are kept in "
+                                f"{out_dir / 'trials'} and a rerun computes only the missing ones") from None
                         prog.update((b.controller, b.index), 1.0)
             except BaseException:
                 pool.shutdown(wait=True, cancel_futures=True)  # don't start batches nobody will wait for
                 raise
             pool.shutdown(wait=True)
+        return failures
     finally:
         prog.close()
 
 
-def _execute_on_cluster(ex: Executor, pending: list[Batch], out_dir: Path, tty: bool) -> None:
-    """Run pending batches on a Dask or Ray cluster (`executors`); this process writes the files."""
+def _names(batch: Batch) -> str:
+    first, last = batch.specs[0], batch.specs[-1]
+    return f"{first.controller}_{first.trial:03d}" + (f" to {last.controller}_{last.trial:03d}"
+                                                     if len(batch.specs) > 1 else "")
+
+
+def _execute_on_cluster(ex: Executor, pending: list[Batch], out_dir: Path, tty: bool) -> list[TrialFailure]:
+    """Run pending batches on a Dask or Ray cluster (`executors`); this process writes the files.
+    Returns the trials that failed."""
     from tavc_cli.experiments.executors import run_on_cluster
 
+    if not pending:
+        return []
     prog = _Progress(pending, tty)
+    failures: list[TrialFailure] = []
+
+    def save(batch: Batch, result: BatchResult) -> None:
+        failures.extend(save_result(result, out_dir))
+        prog.update((batch.controller, batch.index), 1.0)
+
     try:
-        run_on_cluster(ex.backend, pending, lambda b, records: save_batch(b, records, out_dir), ex.n_jobs, ex.address,
-                       lambda b: prog.update((b.controller, b.index), 1.0))
+        run_on_cluster(ex.backend, pending, save, ex.n_jobs, ex.address)
     finally:
         prog.close()
+    return failures

@@ -12,7 +12,8 @@ import pandas as pd
 from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import TIME_UNITS_S
-from tavc_cli.io import write_text_atomic
+from tavc_cli.experiments.store import Executor
+from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.model import core
 from tavc_cli.model.measure import measure
 from tavc_cli.reference import chapter_world
@@ -195,9 +196,16 @@ def run_model(cfg: TavcConfig, *, progress: bool = False) -> dict:
         raise TavcError("arena: the TAVC model needs at least two circuits to allocate robots between")
     n_robots = int(cfg.model.max_robots or cfg.team.n_robots)
     values = [float(v) for v in cfg.tasks.values]
+    out_dir = Path(cfg.output_dir) / "model"
+    Executor.from_config(cfg.executor).check()
+    with claim_folder(out_dir):
+        return _measure_and_predict(cfg, out_dir, n_robots, values, progress)
+
+
+def _measure_and_predict(cfg: TavcConfig, out_dir: Path, n_robots: int, values: list[float], progress: bool) -> dict:
+    k = len(cfg.arena.circuits)
     time_unit_s = TIME_UNITS_S[cfg.tasks.time_unit]
     trials, warmup_s, measure_s = _scaled_measurement(cfg)
-    out_dir = Path(cfg.output_dir) / "model"
     table, n_reused = measure(cfg, out_dir, n_max=n_robots, trials=trials, warmup_s=warmup_s,
                               measure_s=measure_s, confidence=float(cfg.model.confidence),
                               n_jobs=int(cfg.executor.n_jobs), progress=progress)

@@ -9,6 +9,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from tavc_cli.experiments.store import Executor
+from tavc_cli.io import claim_folder
 from tavc_cli.model.report import search_text, sensitivity_text
 from tavc_cli.model.world_search import Point, one_axis_variants, point_id, run_search, run_sensitivity, save_world
 from tavc_cli.settings import TavcConfig
@@ -19,9 +20,6 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
     """Run the search over `points` (each grid point with its settings; `base` holds the
     search's own settings) and the sensitivity step, printing through `echo` as each finishes.
     With `save`, the chosen world is recorded in `world_dir` (conf/world/)."""
-    from tavc_cli.viz.sensitivity import sensitivity_figure, task_time_figure
-
-    axes = base.calibration.grid
     cal, factor = base.calibration, float(base.scale.time_factor)
     trials = int(cal.trials_per_split)
     if base.scale.trials:
@@ -32,6 +30,16 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
         measure_s=float(cal.measure_s) * factor, confidence=float(base.model.confidence),
         executor=Executor.from_config(base.executor), progress=progress,
     )
+    measurement["executor"].check()
+    with claim_folder(out_dir):
+        _search_and_measure(base, points, out_dir, world_dir, measurement, save=save, echo=echo)
+
+
+def _search_and_measure(base: TavcConfig, points, out_dir: Path, world_dir: Path, measurement: dict, *, save: bool,
+                        echo: Callable[[str], None]) -> None:
+    from tavc_cli.viz.sensitivity import sensitivity_figure, task_time_figure
+
+    axes = base.calibration.grid
     search = run_search(points, out_dir, **measurement)
     echo(search_text(search))
     if save:

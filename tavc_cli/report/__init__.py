@@ -42,13 +42,19 @@ ORDER = ["spatiotemporal", "initial_distribution", "breakdown", "breakdown_no_va
          "heterogeneous"]
 
 
-def _experiments(results_dir: Path) -> dict[str, Path]:
-    """experiment name -> its folder, for every folder holding a finished run."""
-    found = {}
+def _experiments(results_dir: Path) -> tuple[dict[str, Path], list[Path]]:
+    """experiment name -> its folder, for every folder holding a finished run (its
+    `provenance.json`, written last, is there); and the folders of runs that did not finish."""
+    found, unfinished = {}, []
     for d in sorted(p for p in results_dir.iterdir() if p.is_dir()):
-        if (d / "state_time.csv").is_file() and (d / "config.yaml").is_file():
+        if not ((d / "state_time.csv").is_file() or (d / "trials").is_dir()):
+            continue
+        if (d / "state_time.csv").is_file() and (d / "config.yaml").is_file() and (d / "provenance.json").is_file():
             found.setdefault(str(from_yaml(d / "config.yaml").experiment_name or d.name), d)
-    return dict(sorted(found.items(), key=lambda kv: (ORDER.index(kv[0]) if kv[0] in ORDER else 99, kv[0])))
+        else:
+            unfinished.append(d)
+    ordered = dict(sorted(found.items(), key=lambda kv: (ORDER.index(kv[0]) if kv[0] in ORDER else 99, kv[0])))
+    return ordered, unfinished
 
 
 def build_report(results_dir: Path) -> dict:
@@ -56,7 +62,7 @@ def build_report(results_dir: Path) -> dict:
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise TavcError(f"RESULTS_DIR: {results_dir} is not a directory")
-    experiments = _experiments(results_dir)
+    experiments, unfinished = _experiments(results_dir)
     if not experiments:
         raise TavcError(f"RESULTS_DIR: no finished runs under {results_dir} (run `tavc run experiment=...` first)")
     runs = {name: pd.read_csv(d / "trial_stats.csv") for name, d in experiments.items()
@@ -141,5 +147,5 @@ def build_report(results_dir: Path) -> dict:
     write_text_atomic(results_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
     write_text_atomic(results_dir / "REPORT.md", "\n".join(lines))
     return {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
-            "n_reproduced": n_ok, "n_tested": len(tested)}
+            "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished]}
 

@@ -116,6 +116,25 @@ def nearest_wall(x: float, y: float, width: float, height: float) -> tuple[str, 
     return name, _INWARD_NORMALS[name], along, length
 
 
+def wall_distance(walls: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Distance from each point (x, y: arrays of one shape) to the nearest of `walls` (rows
+    x1, y1, x2, y2); infinite with no walls."""
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    best = np.full(np.broadcast(x, y).shape, np.inf)
+    for x1, y1, x2, y2 in np.asarray(walls, dtype=np.float64).reshape(-1, 4):
+        dx, dy = x2 - x1, y2 - y1
+        u = np.clip(((x - x1) * dx + (y - y1) * dy) / (dx * dx + dy * dy), 0.0, 1.0)
+        np.minimum(best, np.hypot(x - (x1 + u * dx), y - (y1 + u * dy)), out=best)
+    return best
+
+
+def clear_to_start(arena: Arena, x: float, y: float) -> bool:
+    """Whether a robot may start centred at (x, y) as far as interior walls go: at least
+    START_WALL_MARGIN_M from each (the start area already keeps that from the outer walls)."""
+    inner = arena.walls[N_OUTER_WALLS:]
+    return len(inner) == 0 or float(wall_distance(inner, np.array(x), np.array(y))) >= START_WALL_MARGIN_M
+
+
 def arena_from_config(spec: ArenaConfig) -> Arena:
     """Build an Arena from its settings (an `ArenaConfig`, or the config layer's node of it).
 

@@ -1,0 +1,224 @@
+"""When things go wrong: a trial that fails is contained, two runs never share a folder, an
+unreachable cluster is refused before anything is written, a killed run resumes to the same
+tables."""
+
+import math
+import os
+import random
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from typer.testing import CliRunner
+
+from tavc_cli.cli import app
+from tavc_cli.config import load_config, settings
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments import engine
+from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.store import FAILURES_LOG, trial_path
+from tavc_cli.io import LOCK_NAME, claim_folder
+from tavc_cli.pipeline import run_experiment
+
+SMOKE = ["scale=smoke", "duration_s=120", "convergence_s=20", "arena=two_circuits", "learner=random",
+         "executor.n_jobs=1"]
+
+
+def _cfg(out_dir, *extra):
+    return settings(load_config([*SMOKE, f"output_dir={out_dir}", *extra]))
+
+
+def _cli(out_dir, *extra):
+    return CliRunner().invoke(app, ["run", *SMOKE, f"output_dir={out_dir}", *extra])
+
+
+def _files(folder):
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file())
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """An uneventful run of 4 trials: what every recovered run must reproduce."""
+    out = tmp_path_factory.mktemp("reference")
+    run_experiment(_cfg(out, "trials=4"))
+    return out
+
+
+def _fault_on_tick(monkeypatch, trial: int, tick: int, fault) -> None:
+    """Make `fault(engine, global robot index)` happen to robot 0 of `trial` at `tick`, in this
+    process and in worker processes forked from it."""
+    real_init = engine.BatchEngine.__init__
+
+    def init(self, specs):
+        real_init(self, specs)
+        targets = [tr.lo for tr in self.trials if tr.spec.trial == trial]
+
+        def on_tick(eng):
+            if eng.tick == tick:
+                for g in targets:
+                    fault(eng, g)
+
+        self.on_tick = on_tick
+
+    monkeypatch.setattr(engine.BatchEngine, "__init__", init)
+
+
+def _nan_pose(eng, g):
+    eng.world._parts[g][0].position = (math.nan, math.nan)
+
+
+def _teleport(eng, g):
+    eng.world._parts[g][0].position = (-5.0, -5.0)
+
+
+def _assert_recovers(out, reference, n_reused):
+    """The rerun computes only the missing trials and writes the uneventful run's tables."""
+    summary = run_experiment(_cfg(out, "trials=4"))
+    assert summary["n_reused"] == n_reused
+    tables = sorted(p.name for p in reference.glob("*.csv"))
+    assert {"state_time.csv", "performance.csv"} <= set(tables)
+    for name in tables:
+        assert (out / name).read_bytes() == (reference / name).read_bytes(), name
+    assert not (out / FAILURES_LOG).exists()
+    for j in range(4):
+        assert trial_path(out, "random", j).read_bytes() == trial_path(reference, "random", j).read_bytes()
+
+
+# --- failures inside a trial ------------------------------------------------------------------
+
+@pytest.mark.parametrize("n_jobs", [1, 2])
+def test_a_pose_that_is_not_a_number_stops_only_its_trial(tmp_path, monkeypatch, reference, n_jobs):
+    seed = next(s.seed for s in trial_specs(_cfg(tmp_path, "trials=4")) if s.trial == 1)
+    _fault_on_tick(monkeypatch, trial=1, tick=40, fault=_nan_pose)
+    result = _cli(tmp_path, "trials=4", "executor.batch_size=2", f"executor.n_jobs={n_jobs}")
+    assert result.exit_code == 1
+    line = result.output.strip().splitlines()[-1]
+    assert line.startswith(f"error: trial random_001 (seed {list(seed)}) failed: robot 0 has no valid pose at t = ")
+    assert f"the other 3 trials are kept in {tmp_path / 'trials'}" in line
+    # the other trials are kept, nothing of the run's analysis is written
+    assert _files(tmp_path) == [FAILURES_LOG, *[f"trials/random_{j:03d}.npz" for j in (0, 2, 3)]]
+    assert "random_001" in (tmp_path / FAILURES_LOG).read_text()
+    monkeypatch.undo()
+    _assert_recovers(tmp_path, reference, n_reused=3)
+
+
+def test_a_robot_outside_the_walls_stops_its_trial(tmp_path, monkeypatch, reference):
+    _fault_on_tick(monkeypatch, trial=3, tick=10, fault=_teleport)
+    result = _cli(tmp_path, "trials=4", "executor.batch_size=4")
+    assert result.exit_code == 1
+    assert "trial random_003 (seed" in result.output
+    assert re.search(r"failed: robot 0 is outside the walls at \(-?[\d.]+, -[\d.]+\) m at t = [\d.]+ s;", result.output)
+    monkeypatch.undo()
+    _assert_recovers(tmp_path, reference, n_reused=3)
+
+
+def test_an_exception_inside_a_trial_is_named_and_the_others_finish(tmp_path, monkeypatch, reference):
+    real_arrive = engine.BatchEngine._arrive
+
+    def arrive(self, tr, i, t):
+        if tr.spec.trial in (0, 2):
+            raise ZeroDivisionError("a made-up fault in the simulation")
+        real_arrive(self, tr, i, t)
+
+    monkeypatch.setattr(engine.BatchEngine, "_arrive", arrive)
+    result = _cli(tmp_path, "trials=4", "executor.batch_size=4")
+    assert result.exit_code == 1
+    assert len(result.output.strip().splitlines()) == 1
+    assert result.output.startswith("error: 2 trials failed, the first random_000 (seed ")
+    assert "ZeroDivisionError: a made-up fault in the simulation; the other 2 trials are kept" in result.output
+    log = (tmp_path / FAILURES_LOG).read_text()
+    assert "trial random_002" in log and "Traceback" in log  # the details are kept for a bug report
+    assert _files(tmp_path) == [FAILURES_LOG, "trials/random_001.npz", "trials/random_003.npz"]
+    monkeypatch.undo()
+    _assert_recovers(tmp_path, reference, n_reused=2)
+
+
+# --- one run per folder -----------------------------------------------------------------------
+
+_HOLD = """
+import sys, time
+from pathlib import Path
+from tavc_cli.io import claim_folder
+with claim_folder(Path(sys.argv[1])):
+    print("held", flush=True)
+    time.sleep(120)
+"""
+
+
+def test_a_second_run_on_a_folder_in_use_stops_and_writes_nothing(tmp_path):
+    holder = subprocess.Popen([sys.executable, "-c", _HOLD, str(tmp_path)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        result = _cli(tmp_path, "trials=2")
+        assert result.exit_code == 1
+        assert result.output.strip() == result.output.strip().splitlines()[0]
+        assert f"error: output_dir: {tmp_path} is in use by another tavc run (pid {holder.pid} on " in result.output
+        assert "wait for it to finish or choose another folder" in result.output
+        assert _files(tmp_path) == [LOCK_NAME]
+    finally:
+        holder.send_signal(signal.SIGKILL)  # a crash: the lock goes with the process
+        holder.wait()
+    result = _cli(tmp_path, "trials=2")
+    assert result.exit_code == 0, result.output
+    assert not (tmp_path / LOCK_NAME).exists()  # released on a normal exit
+
+
+def test_the_folder_is_released_after_a_refused_or_failed_run(tmp_path, monkeypatch):
+    monkeypatch.setattr(engine.BatchEngine, "_arrive", lambda *a: (_ for _ in ()).throw(RuntimeError("boom")))
+    with pytest.raises(TavcError, match="failed: RuntimeError: boom"):
+        run_experiment(_cfg(tmp_path, "trials=1"))
+    assert not (tmp_path / LOCK_NAME).exists()
+    with claim_folder(tmp_path):  # free again
+        with pytest.raises(TavcError, match="in use by another tavc run"):
+            with claim_folder(tmp_path):
+                pass
+
+
+# --- clusters that do not answer ----------------------------------------------------------------
+
+@pytest.mark.parametrize("backend", ["dask", "ray"])
+def test_an_unreachable_cluster_is_refused_before_anything_is_written(tmp_path, backend):
+    pytest.importorskip("distributed" if backend == "dask" else "ray")
+    import socket
+
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    out = tmp_path / "out"
+    result = _cli(out, "trials=2", f"executor.backend={backend}", f"executor.address=tcp://127.0.0.1:{port}")
+    assert result.exit_code == 1
+    assert result.output.startswith("error: executor.address: cannot reach the ")
+    assert f"at tcp://127.0.0.1:{port}" in result.output
+    assert not out.exists()
+
+
+# --- a run killed at any moment ------------------------------------------------------------------
+
+@pytest.mark.slow
+@pytest.mark.parametrize("moment_seed", [1, 5, 2])
+def test_a_run_killed_with_sigkill_resumes_to_the_same_tables(tmp_path, moment_seed):
+    """kill -9 at a random moment of the run (starting, simulating or writing): the rerun
+    reuses what was finished and writes tables byte-identical to an uninterrupted run's."""
+    args = [*SMOKE, "trials=6", "executor.batch_size=1", "executor.n_jobs=2", "duration_s=1500",
+            "convergence_s=300"]
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    run = [sys.executable, "-m", "tavc_cli", "run", *args]
+    start = time.perf_counter()
+    subprocess.run([*run, f"output_dir={whole}"], check=True, capture_output=True)
+    moment = random.Random(moment_seed).uniform(0.05, 0.95) * (time.perf_counter() - start)
+    proc = subprocess.Popen([*run, f"output_dir={killed}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    time.sleep(moment)
+    os.killpg(proc.pid, signal.SIGKILL)  # the run and its worker processes
+    proc.wait()
+    subprocess.run([*run, f"output_dir={killed}"], check=True, capture_output=True)
+    assert [p.name for p in killed.rglob(".*.tmp")] == []  # what the kill left half-written is gone
+    tables = sorted(p.name for p in whole.glob("*.csv"))
+    assert {"state_time.csv", "performance.csv"} <= set(tables)
+    for name in tables:
+        assert (killed / name).read_bytes() == (whole / name).read_bytes(), name
+    for j in range(6):
+        assert trial_path(killed, "random", j).read_bytes() == trial_path(whole, "random", j).read_bytes()
