@@ -254,21 +254,35 @@ def test_batches_give_every_worker_a_share_of_a_small_run():
 
 # --- cluster executors ---------------------------------------------------------------------------
 
-@pytest.mark.slow
-@pytest.mark.parametrize("backend", ["dask", "ray"])
-def test_a_cluster_executor_writes_the_local_executors_tables(tmp_path, backend):
-    """A real Dask LocalCluster and a real local Ray instance: the same trials, the same tables."""
-    pytest.importorskip("distributed" if backend == "dask" else "ray")
-    from tavc_cli.config import load_config, settings
-    from tavc_cli.pipeline import run_experiment
+DETERMINISM_BASE = ["experiment=breakdown", "scale=smoke"]
+# every table of a breakdown run, claims included (random trials, static and learning controllers, an event)
+DETERMINISM_TABLES = ("state_time", "performance", "claims", "trial_stats", "allocation", "vacancy", "q_values",
+                      "robots", "comparison")
 
-    base = ["experiment=breakdown", "scale=smoke", "executor.n_jobs=2"]
-    run_experiment(settings(load_config([*base, f"output_dir={tmp_path / 'local'}"])))
-    cluster = [*base, f"executor.backend={backend}", f"output_dir={tmp_path / backend}"]
-    summary = run_experiment(settings(load_config(cluster)))
+
+@pytest.fixture(scope="module")
+def one_process(tmp_path_factory):
+    """The breakdown experiment in one process: what every other executor must write."""
+    out = tmp_path_factory.mktemp("one_process")
+    run_experiment(settings(load_config([*DETERMINISM_BASE, "executor.n_jobs=1", f"output_dir={out}"])))
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("executor", [["executor.n_jobs=2"], ["executor.n_jobs=2", "executor.batch_size=1"],
+                                      ["executor.backend=dask", "executor.n_jobs=2"],
+                                      ["executor.backend=ray", "executor.n_jobs=2"]],
+                         ids=["local-2", "local-2-unbatched", "dask", "ray"])
+def test_every_executor_writes_the_tables_of_one_process(tmp_path, one_process, executor):
+    """Two local workers, a real Dask LocalCluster and a real local Ray instance: the same seed,
+    the same tables, byte for byte."""
+    backend = next((o.split("=")[1] for o in executor if o.startswith("executor.backend=")), "local")
+    if backend != "local":
+        pytest.importorskip("distributed" if backend == "dask" else "ray")
+    summary = run_experiment(settings(load_config([*DETERMINISM_BASE, *executor, f"output_dir={tmp_path}"])))
     assert summary["n_trials"] == 6 and summary["n_reused"] == 0
-    for name in ("state_time", "trial_stats", "performance", "allocation", "claims"):
-        assert (tmp_path / "local" / f"{name}.csv").read_bytes() == (tmp_path / backend / f"{name}.csv").read_bytes()
+    for name in DETERMINISM_TABLES:
+        assert (one_process / f"{name}.csv").read_bytes() == (tmp_path / f"{name}.csv").read_bytes(), name
 
 
 def test_a_missing_cluster_package_is_one_line(monkeypatch):
