@@ -252,7 +252,7 @@ def test_batches_give_every_worker_a_share_of_a_small_run():
     assert [s.trial for b in make_batches(specs, 8, workers=3) for s in b.specs] == list(range(8))
 
 
-# --- cluster executors ---------------------------------------------------------------------------
+# --- one seed, the same tables on any executor --------------------------------------------------
 
 DETERMINISM_BASE = ["experiment=breakdown", "scale=smoke"]
 # every table of a breakdown run, claims included (random trials, static and learning controllers, an event)
