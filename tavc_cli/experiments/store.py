@@ -100,6 +100,7 @@ class TrialStore:
         if not failures:
             log.unlink(missing_ok=True)
             return
+        failures = sorted(failures, key=lambda f: (f.controller, f.trial))  # not the order batches finished in
         write_text_atomic(log, "\n\n".join(f.report() for f in failures) + "\n")
         first = failures[0]
         what = f"trial {first.name} (seed {list(first.seed)}) failed"
