@@ -20,7 +20,7 @@ from typing import Annotated, Any, Optional
 import typer
 
 from tavc_cli import __version__, config
-from tavc_cli.errors import TavcError
+from tavc_cli.errors import TavcError, Terminated, sigterm_raises
 
 app = typer.Typer(
     name="tavc",
@@ -52,15 +52,17 @@ ProgressFlag = Annotated[
 
 @contextmanager
 def _user_errors() -> Iterator[None]:
-    """Turn a ``TavcError`` into one line and exit 1, and Ctrl-C into exit 130."""
+    """Turn a ``TavcError`` into one line and exit 1, Ctrl-C into exit 130, SIGTERM into 143."""
     try:
-        yield
+        with sigterm_raises():
+            yield
     except TavcError as error:
         typer.echo(f"error: {error}", err=True)
         raise typer.Exit(code=1) from None
-    except KeyboardInterrupt:
-        typer.echo("error: interrupted", err=True)
-        raise typer.Exit(code=130) from None
+    except KeyboardInterrupt as stop:
+        terminated = isinstance(stop, Terminated)
+        typer.echo(f"error: {'terminated' if terminated else 'interrupted'}", err=True)
+        raise typer.Exit(code=143 if terminated else 130) from None
 
 
 def _show_version(value: bool) -> None:

@@ -55,6 +55,22 @@ def write_text_atomic(path: Path, text: str) -> None:
 
 
 LOCK_NAME = ".tavc.lock"
+_HELD: set[int] = set()  # descriptors of the folders this process holds
+
+
+def _forget_held() -> None:
+    """In a forked child (a worker of the process pool): close the copies of the lock
+    descriptors, so that only the run that took a folder holds it, and a worker outliving
+    a killed run never keeps the folder locked."""
+    for fd in list(_HELD):
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+    _HELD.clear()
+
+
+os.register_at_fork(after_in_child=_forget_held)
 
 
 @contextmanager
@@ -78,7 +94,10 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
         raise TavcError(f"{what}: cannot create {folder}: {exc.strerror}") from None
     lock_path = folder / LOCK_NAME
     while True:
-        fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o666 & ~_umask())
+        try:
+            fd = os.open(lock_path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666 & ~_umask())
+        except OSError as exc:
+            raise TavcError(f"{what}: cannot take {lock_path}: {exc.strerror}") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -94,6 +113,7 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
         if same:
             break
         os.close(fd)
+    _HELD.add(fd)
     try:
         os.ftruncate(fd, 0)
         started = time.strftime("%Y-%m-%d %H:%M:%S")
@@ -103,4 +123,5 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
         yield folder
     finally:
         lock_path.unlink(missing_ok=True)  # before the unlock: a waiting run then finds a fresh file
+        _HELD.discard(fd)
         os.close(fd)

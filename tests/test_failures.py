@@ -222,3 +222,85 @@ def test_a_run_killed_with_sigkill_resumes_to_the_same_tables(tmp_path, moment_s
         assert (killed / name).read_bytes() == (whole / name).read_bytes(), name
     for j in range(6):
         assert trial_path(killed, "random", j).read_bytes() == trial_path(whole, "random", j).read_bytes()
+
+
+def _long_run(out_dir):
+    """A run of two worker processes that lasts well beyond the test's patience."""
+    return subprocess.Popen([sys.executable, "-m", "tavc_cli", "run", *SMOKE, "trials=4", "executor.batch_size=1",
+                             "executor.n_jobs=2", "duration_s=40000", "convergence_s=100", f"output_dir={out_dir}"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for_workers(proc, n: int = 2, timeout_s: float = 60.0) -> list[int]:
+    """The pids of the run's worker processes, once `n` of them simulate."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        children = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+        if len(children) >= n + 1:  # the pool's workers and the progress queue's server
+            return [int(c) for c in children]
+        time.sleep(0.2)
+    raise AssertionError("the run started no workers")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with open(f"/proc/{pid}/stat") as fh:  # a zombie has finished
+        return fh.read().split(")")[-1].split()[0] != "Z"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="process checks read /proc")
+def test_sigterm_stops_the_run_and_its_workers_and_frees_the_folder(tmp_path):
+    proc = _long_run(tmp_path)
+    children = _wait_for_workers(proc)
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=30) == 143
+    assert proc.stderr.read().strip() == "error: terminated"
+    deadline = time.monotonic() + 10
+    while any(_alive(c) for c in children) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(c) for c in children)
+    assert not (tmp_path / LOCK_NAME).exists()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="process checks read /proc")
+def test_a_run_killed_alone_leaves_no_worker_holding_its_folder(tmp_path):
+    proc = _long_run(tmp_path)
+    children = _wait_for_workers(proc)
+    proc.send_signal(signal.SIGKILL)  # the run only, not its process group: its workers are orphaned
+    proc.wait()
+    deadline = time.monotonic() + 10
+    while any(_alive(c) for c in children) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(c) for c in children)  # they die with the run
+    with claim_folder(tmp_path):  # and none of them held the folder
+        pass
+
+
+_HOLD_AND_FORK = """
+import os, sys, time
+from pathlib import Path
+from tavc_cli.io import claim_folder
+with claim_folder(Path(sys.argv[1])):
+    if os.fork() == 0:  # a child outliving the run, as an orphaned worker would
+        time.sleep(60)
+        os._exit(0)
+    print("held", flush=True)
+    time.sleep(60)
+"""
+
+
+def test_a_forked_child_does_not_inherit_the_folder(tmp_path):
+    holder = subprocess.Popen([sys.executable, "-c", _HOLD_AND_FORK, str(tmp_path)], stdout=subprocess.PIPE,
+                              text=True, start_new_session=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        holder.send_signal(signal.SIGKILL)  # the holder dies without cleaning up; its child lives on
+        holder.wait()
+        assert (tmp_path / LOCK_NAME).exists()
+        with claim_folder(tmp_path):
+            pass
+    finally:
+        os.killpg(holder.pid, signal.SIGKILL)

@@ -270,9 +270,14 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> list
         import multiprocessing as mp
 
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
-        with ctx.Manager() as manager:
+        from multiprocessing.managers import SyncManager
+
+        manager = SyncManager(ctx=ctx)
+        manager.start(_worker_start)  # the progress queue's server process: gone with the run too
+        with manager:
             queue = manager.Queue()
-            pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=ctx)
+            pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=ctx,
+                                       initializer=_worker_start)
             try:
                 futures = {pool.submit(run_batch, b, str(out_dir), _QueueReporter(queue, (b.controller, b.index))): b
                            for b in pending}
@@ -293,12 +298,32 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> list
                                 f"{out_dir / 'trials'} and a rerun computes only the missing ones") from None
                         prog.update((b.controller, b.index), 1.0)
             except BaseException:
-                pool.shutdown(wait=True, cancel_futures=True)  # don't start batches nobody will wait for
+                # stop the workers' batches (on Ctrl-C they stop themselves; on SIGTERM or an error
+                # here only this process would), and start none that nobody will wait for
+                for worker in list(getattr(pool, "_processes", {}).values()):
+                    worker.terminate()
+                pool.shutdown(wait=True, cancel_futures=True)
                 raise
             pool.shutdown(wait=True)
         return failures
     finally:
         prog.close()
+
+
+def _worker_start() -> None:
+    """A pool worker dies on SIGTERM (the run's own handler, inherited through fork, would
+    only stop its current batch) and, on Linux, when the run that started it dies, even by
+    kill -9: no orphan goes on computing."""
+    import signal
+
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
 
 
 def _names(batch: Batch) -> str:
