@@ -227,3 +227,12 @@ def test_claim_9_parts_fail_one_at_a_time():
     # relative to theirs where the binomial share is 1.56 % (0:0, 0:3, 3:3): not the largest increase
     row = C.claim_rows(_hetero(tavc_peak=4.0), "heterogeneous").iloc[0]
     assert row["verdict"] == "not_reproduced" and "largest: 3:0" not in row["detail"]
+
+
+def test_claim_9_is_not_tested_on_a_team_of_three_speed_groups():
+    # a member given a group of its own: states are f:m:s, which the claim (3:0) does not speak of
+    runs = _hetero()
+    s = runs["heterogeneous"].rename(columns=lambda c: c.replace("pct_3:0", "pct_2:0:1"))
+    row = C.claim_rows({"heterogeneous": s}, "heterogeneous").iloc[0]
+    assert row["verdict"] == "inconclusive"
+    assert "compares two speed groups, this team has 2, 3" in row["detail"]

@@ -266,6 +266,18 @@ REFUSED = [
     (["baselines=[static]", "static_allocation=[6]"],
      "static_allocation: needs one robot count per circuit (2), got 1"),
     (["tasks.values=[1,2,3]"], "tasks.values: needs one value per circuit (2), got 3"),
+    # a learning value is positive (the reward is value / time), a score value not negative
+    (["tasks.values=[0,2000]"], "tasks.values[0]: must be > 0 (the reward is the value over the task time), got 0.0"),
+    (["events.value_changes=[{time_s:10,values:[2000,-1]}]"],
+     "events.value_changes[0].values[1]: must be > 0 (the reward is the value over the task time), got -1.0"),
+    (["tasks.score_values=[-1,1]"], "tasks.score_values[0]: must be >= 0, got -1.0"),
+    # config groups take an option's name; a list element needs a list
+    (["robot=null"], "robot: a config group takes the name of one of its options, got null"),
+    (["scale=123"], "scale: a config group takes the name of one of its options, got 123"),
+    (["=5"], "=5: an override needs a key (key=value)"),
+    (["team.members.0.speed_mps=0.3"],
+     "team.members.0.speed_mps: team.members is null in this config, so it has no element 0; "
+     "give the whole list (team.members=[...])"),
     # interior walls (the arena is 12 x 8 m, sink2's bar-code at (4, 0), robots 0.22 m in radius):
     # a wall across the arena, or one leaving a 0.4 m gap (< 2 x 0.22), cuts it in two ...
     (["arena=two_circuits", "arena.walls=[[6,0,6,8]]"],

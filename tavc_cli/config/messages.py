@@ -35,9 +35,45 @@ def hydra_errors(overrides: Sequence[str]) -> Iterator[None]:
     except AssertionError as error:
         # Hydra asserts instead of raising when an override walks through a null node
         # (``team.members.0.speed_mps=1`` while ``team.members`` is null).
-        raise TavcError(
-            f"cannot apply overrides {' '.join(overrides)} (is a parent key null?): {error}"
-        ) from None
+        raise TavcError(_null_parent_message(overrides, error)) from None
+    except ValueError as error:
+        # a config group given null or a number (``robot=null``, ``scale=123``)
+        if "Config group override must be" not in str(error):
+            raise
+        raise TavcError(_group_value_message(overrides)) from None
+
+
+def _null_parent_message(overrides: Sequence[str], error: AssertionError) -> str:
+    """``team.members.0.speed_mps: team.members is null here; give the whole list ...``."""
+    for override in overrides:
+        key = override.split("=", 1)[0].lstrip("+~")
+        parts = key.split(".")
+        index = next((i for i, part in enumerate(parts) if part.isdigit()), None)
+        if index:
+            parent = ".".join(parts[:index])
+            return (f"{key}: {parent} is null in this config, so it has no element {parts[index]}; "
+                    f"give the whole list ({parent}=[...])")
+    return f"cannot apply overrides {' '.join(overrides)} (is a parent key null?): {error}"
+
+
+def _group_value_message(overrides: Sequence[str]) -> str:
+    """``robot: a config group takes the name of one of its options, got null``."""
+    for override in overrides:
+        key, _, value = override.partition("=")
+        key = key.lstrip("+~")
+        if not key:
+            return f"{override}: an override needs a key (key=value)"
+        if "." not in key and "/" not in key and (value in ("null", "") or _is_number(value)):
+            return f"{key}: a config group takes the name of one of its options, got {value or 'nothing'}"
+    return f"a config group takes the name of one of its options: {' '.join(overrides)}"
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def hydra_detail(error: Exception) -> str:

@@ -239,7 +239,17 @@ def _validate_tasks(tasks: DictConfig, n_circuits: int) -> None:
         for index, value in enumerate(tasks[name]):
             problem = f"must be a finite number, got {value!r}"
             check(math.isfinite(value), f"{key}[{index}]", problem)
+            if name == "values":
+                _learning_value(f"{key}[{index}]", value)
+            else:
+                at_least(f"{key}[{index}]", value, 0)
     one_of("tasks.time_unit", tasks.time_unit, TIME_UNITS)
+
+
+def _learning_value(key: str, value: float) -> None:
+    """A circuit's learning value w is positive: the reward is w over the task's time, and the
+    model compares circuits by their ratios."""
+    check(value > 0, key, f"must be > 0 (the reward is the value over the task time), got {value!r}")
 
 
 def _validate_events(cfg: DictConfig, n_circuits: int) -> None:
@@ -257,6 +267,7 @@ def _validate_events(cfg: DictConfig, n_circuits: int) -> None:
         per_circuit(f"{key}.values", change["values"], n_circuits, "value")
         for position, value in enumerate(change["values"]):
             finite(f"{key}.values[{position}]", value)
+            _learning_value(f"{key}.values[{position}]", value)
     for index, breakdown in enumerate(breakdowns):
         key = f"events.breakdowns[{index}]"
         _validate_event_time(f"{key}.time_s", breakdown.time_s, cfg)
