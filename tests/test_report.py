@@ -156,3 +156,42 @@ def test_a_run_that_did_not_finish_is_left_out_and_named(tmp_path):
     found, unfinished = _experiments(tmp_path)
     assert found == {}
     assert unfinished == [failed, tmp_path / "killed"]
+
+
+@pytest.fixture(scope="module")
+def one_run(tmp_path_factory):
+    """A results folder holding one finished breakdown run."""
+    results = tmp_path_factory.mktemp("results")
+    result = runner.invoke(app, ["run", "experiment=breakdown", "scale=smoke", "trials=2", "baseline_trials=2",
+                                 f"output_dir={results / 'breakdown'}"])
+    assert result.exit_code == 0, result.output
+    return results
+
+
+@pytest.mark.parametrize(("name", "damage"), [
+    ("allocation.csv", b't_s,controller\n"0.0,tavc\n'),   # an unterminated quote
+    ("trial_stats.csv", b"\xff\xfe\x00garbage\x81"),       # not text
+    ("config.yaml", b"seed: [1, 2\n"),                     # not YAML
+    ("config.yaml", b"seed: banana\n"),                    # YAML of the wrong type
+    ("provenance.json", b"nope"),
+])
+def test_a_damaged_file_is_one_line_and_the_report_writes_nothing(one_run, tmp_path, name, damage):
+    results = tmp_path / "results"
+    shutil.copytree(one_run, results)
+    (results / "breakdown" / name).write_bytes(damage)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {results / 'breakdown' / name}: cannot be read (")
+    assert sorted(p.name for p in results.iterdir()) == ["breakdown"]  # no REPORT.md, claims.csv or figures
+
+
+def test_a_report_path_taken_by_a_folder_is_one_line(one_run, tmp_path):
+    results = tmp_path / "results"
+    shutil.copytree(one_run, results)
+    (results / "REPORT.md").mkdir()
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 1
+    assert result.output.strip() == (f"error: RESULTS_DIR: {results / 'REPORT.md'} is a directory; "
+                                     "the report writes a file there")
+    assert sorted(p.name for p in results.iterdir()) == ["REPORT.md", "breakdown"]

@@ -50,11 +50,35 @@ def _experiments(results_dir: Path) -> tuple[dict[str, Path], list[Path]]:
         if not ((d / "state_time.csv").is_file() or (d / "trials").is_dir()):
             continue
         if (d / "state_time.csv").is_file() and (d / "config.yaml").is_file() and (d / "provenance.json").is_file():
-            found.setdefault(str(from_yaml(d / "config.yaml").experiment_name or d.name), d)
+            found.setdefault(str(_read(d / "config.yaml", from_yaml).experiment_name or d.name), d)
         else:
             unfinished.append(d)
     ordered = dict(sorted(found.items(), key=lambda kv: (ORDER.index(kv[0]) if kv[0] in ORDER else 99, kv[0])))
     return ordered, unfinished
+
+
+def _check_readable(results_dir: Path, experiments: dict[str, Path]) -> None:
+    """Read every file the report reads, and check where it writes, before writing anything:
+    a damaged file is one line naming it, not a half-built report."""
+    for name in ("REPORT.md", "claims.csv"):
+        if (results_dir / name).is_dir():
+            raise TavcError(f"RESULTS_DIR: {results_dir / name} is a directory; the report writes a file there")
+    for d in experiments.values():
+        reads = [(d / "config.yaml", from_yaml), (d / "provenance.json", lambda p: json.loads(p.read_text()))]
+        reads += [(p, lambda p: pd.read_csv(p, low_memory=False)) for p in sorted(d.glob("*.csv"))]
+        if (d / "model" / "model.json").is_file():
+            reads.append((d / "model" / "model.json", lambda p: json.loads(p.read_text())))
+        for path, read in reads:
+            _read(path, read)
+
+
+def _read(path: Path, read):
+    """`read(path)`, with any failure to parse the file as one line naming it."""
+    try:
+        return read(path)
+    except Exception as exc:  # any library's parse error: the file is damaged, whatever the library
+        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise TavcError(f"{path}: cannot be read ({detail}); rerun its experiment to rewrite it") from None
 
 
 def build_report(results_dir: Path) -> dict:
@@ -63,6 +87,7 @@ def build_report(results_dir: Path) -> dict:
     if not results_dir.is_dir():
         raise TavcError(f"RESULTS_DIR: {results_dir} is not a directory")
     experiments, unfinished = _experiments(results_dir)
+    _check_readable(results_dir, experiments)
     if not experiments:
         raise TavcError(f"RESULTS_DIR: no finished runs under {results_dir} (run `tavc run experiment=...` first)")
     runs = {name: pd.read_csv(d / "trial_stats.csv") for name, d in experiments.items()
