@@ -11,6 +11,7 @@ runs the same scenario written for Enki, a C++ robot simulator (`bench/enki/`).
 
 from __future__ import annotations
 
+import math
 import multiprocessing
 import os
 import platform
@@ -25,6 +26,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine
 from tavc_cli.settings import TavcConfig
+from tavc_cli.sim.world import MAX_SLOTS
 
 SettingsFor = Callable[[int, float], TavcConfig]  # (robots, duration_s) -> the benchmark's settings
 
@@ -126,12 +128,12 @@ def run_bench(settings_for: SettingsFor, *, scenario: str = "two_circuits", n_ro
         build_enki_bench()  # before anything is measured: says in one line what is missing
     if repeats < 1:
         raise TavcError(f"--repeats: must be >= 1, got {repeats}")
-    if duration_s <= 0:
-        raise TavcError(f"--duration-s: must be > 0, got {duration_s}")
+    if not 0 < duration_s < math.inf:
+        raise TavcError(f"--duration-s: must be a finite number > 0, got {duration_s}")
     settings = settings_for(n_robots, duration_s)
     batch = int(batch or settings.executor.batch_size)
-    if batch < 1:
-        raise TavcError(f"--batch: must be >= 1, got {batch}")
+    if not 1 <= batch <= MAX_SLOTS:
+        raise TavcError(f"--batch: must be in [1, {MAX_SLOTS}] (one collision-filter bit per trial), got {batch}")
     specs = _batch_specs(settings, batch)
     _full_loop([replace(s, duration_s=min(duration_s, 30.0)) for s in specs])  # load compiled kernels
     full, phys = [], []

@@ -176,7 +176,7 @@ def bench(
     scenario: Annotated[str, typer.Option(help="Arena to simulate.")] = "two_circuits",
     n_robots: Annotated[int, typer.Option("--n-robots", min=1, help="Robots in the arena.")] = 6,
     duration_s: Annotated[
-        float, typer.Option("--duration-s", min=0.0, help="Simulated seconds per repeat.")
+        float, typer.Option("--duration-s", help="Simulated seconds per repeat.")
     ] = 600.0,
     repeats: Annotated[int, typer.Option(min=1, help="Timed repeats; the best counts.")] = 3,
     batch: Annotated[
@@ -224,7 +224,7 @@ def animate(
         ),
     ] = None,
     duration_s: Annotated[
-        float, typer.Option("--duration-s", min=0.0, help="Simulated seconds to render.")
+        float, typer.Option("--duration-s", help="Simulated seconds to render.")
     ] = 300.0,
     fps: Annotated[int, typer.Option(min=1, help="Frames per second of the animation.")] = 10,
     mp4: Annotated[

@@ -148,3 +148,36 @@ def test_a_refused_launcher_writes_nothing(tmp_path):
     assert result.exit_code == 1
     assert "basic" in result.output  # the message lists the launchers there are
     assert not out.exists()
+
+
+@pytest.mark.parametrize(("args", "line"), [
+    (["bench", "--batch", "0"], "error: Invalid value for '--batch': Input should be greater than or equal to 1"),
+    (["nosuch"], "error: No such command 'nosuch'."),
+    (["run", "--cfg", "job"], "error: No such option: --cfg"),
+    (["list", "foo"], "error: Got unexpected extra argument(s) (foo)"),
+])
+def test_a_usage_mistake_is_one_line_and_exit_2(args, line):
+    """What the option parser refuses is one line too, in the installed command as in python -m."""
+    result = subprocess.run([sys.executable, "-m", "tavc_cli", *args], capture_output=True, text=True)
+    assert result.returncode == 2
+    assert result.stderr.strip() == f"{line} (tavc --help)"
+    assert result.stdout == ""
+
+
+@pytest.mark.parametrize(("args", "line"), [
+    (["--duration-s", "nan"], "--duration-s: must be in [2, 36000] s (two frames to 36,000, a frame every 1 s), got nan"),
+    (["--duration-s", "0.01"],
+     "--duration-s: must be in [2, 36000] s (two frames to 36,000, a frame every 1 s), got 0.01"),
+])
+def test_animate_refuses_what_it_cannot_draw_before_simulating(tmp_path, args, line):
+    result = runner.invoke(app, ["animate", "scale=smoke", f"output_dir={tmp_path / 'out'}", *args])
+    assert result.exit_code == 1
+    assert result.output.strip() == f"error: {line}"
+    assert not (tmp_path / "out").exists()
+
+
+def test_animate_refuses_an_output_it_cannot_write_before_simulating(tmp_path):
+    (tmp_path / "afile").write_text("")
+    result = runner.invoke(app, ["animate", "scale=smoke", "--out", str(tmp_path / "afile" / "x.gif")])
+    assert result.exit_code == 1
+    assert result.output.startswith(f"error: --out: cannot write into {tmp_path / 'afile'}: ")

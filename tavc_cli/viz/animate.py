@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import math
 import shutil
+import sys
+import tempfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -125,17 +127,29 @@ def animate_record(rec: TrialRecord, arena: Arena, radius: float, path: Path, fp
     return written
 
 
+MAX_FRAMES = 36_000  # ten simulated hours at a frame a second
+
+
 def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float = 300.0, fps: int = 10,
                 mp4: bool = True, frame_every_s: float = 1.0) -> list[Path]:
     """Simulate the config's first trial and write animation.gif (+ .mp4) and trajectories.png."""
-    if duration_s <= 0:
-        raise TavcError(f"--duration-s: must be > 0, got {duration_s}")
+    shortest, longest = 2 * frame_every_s, MAX_FRAMES * frame_every_s
+    if not shortest <= duration_s <= longest:  # NaN too
+        raise TavcError(f"--duration-s: must be in [{shortest:g}, {longest:g}] s (two frames to {MAX_FRAMES:,}, "
+                        f"a frame every {frame_every_s:g} s), got {duration_s}")
     if fps < 1:
         raise TavcError(f"--fps: must be >= 1, got {fps}")
     out = Path(out) if out is not None else Path(cfg.output_dir) / "animation.gif"
     if out.suffix.lower() != ".gif":
         raise TavcError(f"--out: the animation is written as a .gif, got '{out.name}'")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    try:  # before simulating: a place that cannot be written is found now, not after the run
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out.parent):
+            pass
+    except OSError as exc:
+        raise TavcError(f"--out: cannot write into {out.parent}: {exc.strerror}") from None
+    if mp4 and not shutil.which("ffmpeg"):
+        print("note: ffmpeg not found, so no MP4 is written (the GIF is)", file=sys.stderr)
     rec, arena = simulate_for_pictures(cfg, duration_s, frame_every_s)
     radius = float(cfg.robot.radius_m)
     written = animate_record(rec, arena, radius, out, fps, mp4=mp4)
