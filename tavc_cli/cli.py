@@ -270,17 +270,14 @@ def _print_experiments() -> None:
 def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
     """Run one experiment, or every job of a sweep (all validated first) through a Hydra launcher."""
     if not multirun:
-        settings = config.settings(config.load_config(overrides))
         from tavc_cli.pipeline import run_experiment
 
-        _print_summary(run_experiment(settings, progress=progress))
-        return
+        return _print_summary(run_experiment(config.settings(config.load_config(overrides)), progress=progress))
     from tavc_cli.config.launch import launch_sweep
 
-    done = launch_sweep(overrides, functools.partial(_sweep_job, progress=progress))
-    if len(done) > 1:
-        ours = [o for o in overrides if not config.is_hydra_override(o)]
-        _write_sweep(config.swept_values(ours), [Path(folder) for folder in done])
+    ours = [o for o in overrides if not config.is_hydra_override(o)]
+    launch_sweep(overrides, functools.partial(_sweep_job, progress=progress),
+                 lambda done: _write_sweep(config.swept_values(ours), [Path(f) for f in done]))
 
 
 def _sweep_job(cfg: Any, *, progress: bool) -> str:
@@ -294,13 +291,14 @@ def _sweep_job(cfg: Any, *, progress: bool) -> str:
 
 
 def _write_sweep(values: list[dict[str, str]], folders: list[Path]) -> None:
-    """sweep.csv (and its figure) beside the jobs' folders: every job's states side by side."""
+    """sweep.csv (and its figure) beside the jobs' folders: every job's states side by side
+    (none for a single job)."""
     from tavc_cli.analysis.sweep import sweep_table
     from tavc_cli.io import write_text_atomic
     from tavc_cli.viz.sweep import sweep_figure
 
-    table = sweep_table(list(zip(values, folders, strict=True)))
-    if table.empty:
+    table = sweep_table(list(zip(values, folders, strict=True))) if len(folders) > 1 else None
+    if table is None or table.empty:
         return
     parent = folders[0].parent
     write_text_atomic(parent / "sweep.csv", table.to_csv(index=False, float_format="%.4f"))

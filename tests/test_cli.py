@@ -165,7 +165,8 @@ def test_a_usage_mistake_is_one_line_and_exit_2(args, line):
 
 
 @pytest.mark.parametrize(("args", "line"), [
-    (["--duration-s", "nan"], "--duration-s: must be in [2, 36000] s (two frames to 36,000, a frame every 1 s), got nan"),
+    (["--duration-s", "nan"],
+     "--duration-s: must be in [2, 36000] s (two frames to 36,000, a frame every 1 s), got nan"),
     (["--duration-s", "0.01"],
      "--duration-s: must be in [2, 36000] s (two frames to 36,000, a frame every 1 s), got 0.01"),
 ])
@@ -181,3 +182,18 @@ def test_animate_refuses_an_output_it_cannot_write_before_simulating(tmp_path):
     result = runner.invoke(app, ["animate", "scale=smoke", "--out", str(tmp_path / "afile" / "x.gif")])
     assert result.exit_code == 1
     assert result.output.startswith(f"error: --out: cannot write into {tmp_path / 'afile'}: ")
+
+
+def test_a_sweep_holds_its_folder_and_an_empty_sweep_is_refused(tmp_path):
+    from tavc_cli.io import LOCK_NAME, claim_folder
+
+    sweep = ["run", "-m", "scale=smoke", "trials=1", "baselines=[]", "seed=1,2", f"output_dir={tmp_path}"]
+    with claim_folder(tmp_path):  # another run holds the folder the jobs' folders would go in
+        result = runner.invoke(app, sweep)
+    assert result.exit_code == 1
+    assert result.output.startswith(f"error: output_dir: {tmp_path} is in use by another tavc run (")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    result = runner.invoke(app, ["run", "-m", "scale=smoke", "seed=range(5,1)", f"output_dir={tmp_path}"])
+    assert result.exit_code == 1
+    assert result.output.strip() == "error: seed: the sweep gives it no values, so there is no job to run"
+    assert not (tmp_path / LOCK_NAME).exists()

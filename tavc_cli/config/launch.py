@@ -15,6 +15,7 @@ the launcher; every other override is the experiment's.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -28,13 +29,15 @@ from omegaconf import DictConfig
 from tavc_cli.config.loading import complete, initialize_conf, is_hydra_override, plan_sweep
 from tavc_cli.config.messages import hydra_errors
 from tavc_cli.errors import TavcError
+from tavc_cli.io import claim_folder
 
 # Hydra writes nothing of its own into a job's folder (config.yaml and provenance.json are
 # tavc's record), changes no directory and leaves logging alone.
 _QUIET = ("hydra/job_logging=none", "hydra/hydra_logging=none", "hydra.output_subdir=null", "hydra.job.chdir=false")
 
 
-def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any]) -> list[Any]:
+def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any],
+                 finish: Callable[[list[Any]], None] | None = None) -> list[Any]:
     """Validate every job of a sweep, then run ``task`` on each job's resolved config through
     the Hydra launcher the overrides choose.
 
@@ -42,6 +45,9 @@ def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any]) ->
         overrides: The command line's overrides, sweeps (``a=1,2``) and Hydra's included.
         task: Called once per job with its read-only, resolved config; must be picklable for
             launchers that run jobs in other processes.
+        finish: Called with what the tasks returned, while the sweep's folder is still held
+            (a sweep of several jobs holds the folder its jobs' folders are in, as a run holds
+            its own: two sweeps never write one folder at once).
 
     Returns:
         What ``task`` returned for each job, in sweep order.
@@ -57,7 +63,8 @@ def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any]) ->
     common = _common_parent(folders)
     jobs = [[*job, f"hydra.sweep.dir={_quoted(str(folder.parent))}", f"hydra.sweep.subdir={_quoted(folder.name)}"]
             for (job, _), folder in zip(plan, folders, strict=True)]
-    with hydra_errors(theirs), initialize_conf():
+    held = claim_folder(Path(common)) if len(plan) > 1 and common != "." else nullcontext()
+    with held, hydra_errors(theirs), initialize_conf():
         hydra = GlobalHydra.instance().hydra
         assert hydra is not None
         master = hydra.compose_config("config", overrides=[*_QUIET, *theirs, f"hydra.sweep.dir={_quoted(common)}"],
@@ -66,7 +73,10 @@ def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any]) ->
             hydra_context=HydraContext(config_loader=hydra.config_loader, callbacks=Callbacks(master)),
             task_function=_Job(task), config=master)
         returns = launcher.launch(jobs, initial_job_idx=0)
-    return [r.return_value for r in returns]  # a failed job's exception is raised here
+        done = [r.return_value for r in returns]  # a failed job's exception is raised here
+        if finish is not None:
+            finish(done)
+    return done
 
 
 class _Job:

@@ -134,6 +134,9 @@ def load_sweep(overrides: Sequence[str]) -> list[DictConfig]:
 def plan_sweep(overrides: Sequence[str]) -> list[tuple[list[str], DictConfig]]:
     """Every job of a sweep as (its plain overrides, its resolved config); see ``load_sweep``."""
     choices = _sweep_choices(overrides)
+    empty = [key for key, values in choices.items() if not values]
+    if empty:
+        raise TavcError(f"{empty[0]}: the sweep gives it no values, so there is no job to run")
     swept = {key for key, values in choices.items() if len(values) > 1}
     jobs = [list(job) for job in itertools.product(*choices.values())]
     width = len(str(len(jobs) - 1))
