@@ -347,6 +347,11 @@ def test_a_team_that_always_fits_is_placed_at_every_seed(width_m, height_m, alwa
         assert len(start_poses(arena, np.full(always, 0.22), np.random.default_rng(seed))) == always
 
 
+def test_the_root_of_the_file_system_is_no_output_dir():
+    with pytest.raises(TavcError, match="^output_dir: / is the root of the file system; give the results a folder"):
+        load_config(["scale=smoke", "output_dir=/"])
+
+
 def test_robots_start_clear_of_interior_walls():
     from tavc_cli.experiments.engine import start_poses
     from tavc_cli.sim.arena import START_WALL_MARGIN_M, arena_from_config, wall_distance

@@ -3,6 +3,7 @@
 import importlib.util
 import math
 from collections.abc import Sequence
+from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
@@ -229,6 +230,8 @@ def _validate_run(cfg: DictConfig) -> None:
         one_of(f"baselines[{index}]", baseline, BASELINES)
     unique("baselines", list(cfg.baselines), "controller")
     check(bool(cfg.output_dir), "output_dir", "must not be empty")
+    check(Path(cfg.output_dir).resolve() != Path(Path(cfg.output_dir).resolve().anchor), "output_dir",
+          f"{cfg.output_dir} is the root of the file system; give the results a folder of their own")
 
 
 def _validate_tasks(tasks: DictConfig, n_circuits: int) -> None:
