@@ -14,6 +14,7 @@ import time
 import pytest
 from typer.testing import CliRunner
 
+from tavc_cli.analysis.experiment import TABLE_NAMES
 from tavc_cli.cli import app
 from tavc_cli.config import load_config, settings
 from tavc_cli.errors import TavcError
@@ -304,3 +305,13 @@ def test_a_forked_child_does_not_inherit_the_folder(tmp_path):
             pass
     finally:
         os.killpg(holder.pid, signal.SIGKILL)
+
+
+def test_a_folder_reused_for_another_experiment_keeps_none_of_its_tables(tmp_path):
+    run_experiment(settings(load_config(["experiment=breakdown", "scale=smoke", f"output_dir={tmp_path}"])))
+    assert (tmp_path / "vacancy.csv").is_file() and (tmp_path / "claims.csv").is_file()
+    assert {p.stem for p in tmp_path.glob("*.csv")} <= set(TABLE_NAMES)  # the list knows every table
+    (tmp_path / "my_notes.csv").write_text("mine\n")
+    run_experiment(_cfg(tmp_path, "trials=2"))  # random robots, no event: no vacancies, no claims
+    assert not (tmp_path / "vacancy.csv").exists() and not (tmp_path / "claims.csv").exists()
+    assert (tmp_path / "state_time.csv").is_file() and (tmp_path / "my_notes.csv").read_text() == "mine\n"

@@ -18,11 +18,17 @@ from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import write_text_atomic
 from tavc_cli.settings import TavcConfig
 
+# Every table an experiment may write (which ones depends on its controllers and events)
+TABLE_NAMES = ("state_time", "performance", "trial_stats", "allocation", "specialisation", "robots", "q_values",
+               "vacancy", "table_1_1", "traversals", "target_times", "policy", "lanes", "occupancy", "comparison",
+               "claims")
+
 
 def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord]) -> tuple[dict[str, pd.DataFrame],
                                                                                        pd.DataFrame]:
     """Compute and write (atomically) every table, the comparison with the chapter and the
-    claims; return the tables and the claims."""
+    claims, and remove the tables of an earlier run in the folder that this one does not
+    write (another experiment's, or one without the event); return the tables and the claims."""
     tables = analyse(cfg, records)
     for name, df in tables.items():
         # Q-values span the reward's scale (about 0.05 per task with t in ms, 50 with t in s): significant digits
@@ -36,6 +42,9 @@ def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord]) -
     claims = experiment_claims(cfg, tables, out_dir)
     if len(claims):
         write_text_atomic(out_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
+    written = {*tables, *(["comparison"] if comparison is not None else []), *(["claims"] if len(claims) else [])}
+    for name in set(TABLE_NAMES) - written:
+        (out_dir / f"{name}.csv").unlink(missing_ok=True)
     return tables, claims
 
 
