@@ -271,6 +271,11 @@ REFUSED = [
     (["events.value_changes=[{time_s:10,values:[2000,-1]}]"],
      "events.value_changes[0].values[1]: must be > 0 (the reward is the value over the task time), got -1.0"),
     (["tasks.score_values=[-1,1]"], "tasks.score_values[0]: must be >= 0, got -1.0"),
+    # packed hexagonally, discs of 2 x 0.22 + 0.3 = 0.74 m round centres in the 10.8 x 6.8 m start area fill
+    # at most 2 (10.8 + 0.74)(6.8 + 0.74) / (sqrt 3 x 0.74^2) = 183.5 of the arena: refused at once
+    (["team.n_robots=100000"], "team.n_robots: 100000 robots of robot.radius_m = 0.22 cannot start 0.3 m apart in "
+     "the 12 x 8 m arena: at most 183 would fit even packed as closely as discs can be"),
+    (["duration_s=inf"], "duration_s: must be a finite number > 0, got inf"),
     # config groups take an option's name; a list element needs a list
     (["robot=null"], "robot: a config group takes the name of one of its options, got null"),
     (["scale=123"], "scale: a config group takes the name of one of its options, got 123"),

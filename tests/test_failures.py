@@ -315,3 +315,12 @@ def test_a_folder_reused_for_another_experiment_keeps_none_of_its_tables(tmp_pat
     run_experiment(_cfg(tmp_path, "trials=2"))  # random robots, no event: no vacancies, no claims
     assert not (tmp_path / "vacancy.csv").exists() and not (tmp_path / "claims.csv").exists()
     assert (tmp_path / "state_time.csv").is_file() and (tmp_path / "my_notes.csv").read_text() == "mine\n"
+
+
+def test_a_damaged_trial_file_is_run_again_and_said_so(tmp_path, reference, capsys):
+    run_experiment(_cfg(tmp_path, "trials=4"))
+    trial_path(tmp_path, "random", 2).write_bytes(b"not a trial record")
+    capsys.readouterr()
+    run_experiment(_cfg(tmp_path, "trials=4"))
+    assert "running again 1 trials whose files could not be read (random_002.npz)" in capsys.readouterr().out
+    assert trial_path(tmp_path, "random", 2).read_bytes() == trial_path(reference, "random", 2).read_bytes()

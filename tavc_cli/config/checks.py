@@ -20,11 +20,13 @@ def check(ok: bool, key: str, problem: str) -> None:
 
 
 def positive(key: str, value: float) -> None:
-    check(math.isfinite(value) and value > 0, key, f"must be > 0, got {value!r}")
+    check(math.isfinite(value) and value > 0, key,
+          f"must be {'a finite number ' if math.isinf(value) else ''}> 0, got {value!r}")
 
 
 def at_least(key: str, value: float, low: float) -> None:
-    check(math.isfinite(value) and value >= low, key, f"must be >= {low}, got {value!r}")
+    check(math.isfinite(value) and value >= low, key,
+          f"must be {'a finite number ' if math.isinf(value) else ''}>= {low}, got {value!r}")
 
 
 def finite(key: str, value: float) -> None:

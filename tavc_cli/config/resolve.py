@@ -18,6 +18,7 @@ Rules:
 - ``executor.n_jobs``: ``os.cpu_count()``.
 """
 
+import math
 import os
 from pathlib import Path
 from typing import Optional
@@ -25,6 +26,7 @@ from typing import Optional
 from omegaconf import DictConfig
 
 from tavc_cli.settings import MemberConfig
+from tavc_cli.sim.arena import most_robots
 
 
 def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
@@ -51,7 +53,8 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
         event.time_s = event.time_s * factor
     base_dir = cfg.output_dir if cfg.output_dir is not None else f"results/{cfg.experiment_name}"
     cfg.output_dir = str(Path(base_dir) / job_dir) if job_dir else base_dir
-    if cfg.team.members is None and cfg.team.n_robots >= 1:
+    # (a team that could never start is left for validation to refuse: expanding it could take minutes)
+    if cfg.team.members is None and 1 <= cfg.team.n_robots <= _most_robots(cfg):
         speed_mps = cfg.robot.speed_mps
         cfg.team.members = [MemberConfig(speed_mps=speed_mps) for _ in range(cfg.team.n_robots)]
     # ``values`` is read by subscript: on a DictConfig, ``.values`` is the dict method.
@@ -61,6 +64,15 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
         cfg.tasks.score_values = list(cfg.tasks["values"])
     if cfg.executor.n_jobs is None:
         cfg.executor.n_jobs = os.cpu_count() or 1
+
+
+def _most_robots(cfg: DictConfig) -> float:
+    """`sim.arena.most_robots` for the config's arena and robot, or no limit while those are not
+    numbers yet (validation says so)."""
+    try:
+        return most_robots(float(cfg.arena.width_m), float(cfg.arena.height_m), float(cfg.robot.radius_m))
+    except (TypeError, ValueError, OverflowError, ZeroDivisionError):
+        return math.inf
 
 
 def _capped(count: int, cap: Optional[int]) -> int:

@@ -30,7 +30,7 @@ from tavc_cli.settings import (
     MIN_DOCK_CLEARANCE_M,
     TIME_UNITS,
 )
-from tavc_cli.sim.arena import START_WALL_MARGIN_M
+from tavc_cli.sim.arena import START_GAP_M, START_WALL_MARGIN_M, most_robots
 
 # The laser needs a ray ahead and one to either side: to read codes, avoid robots, follow walls.
 MIN_LASER_RAYS = 3
@@ -70,7 +70,7 @@ def validate(cfg: DictConfig) -> None:
     _validate_robot(cfg.robot)
     validate_docks(cfg.arena, cfg.robot)
     validate_reachable(cfg.arena, cfg.robot)
-    _validate_team(cfg.team)
+    _validate_team(cfg.team, cfg.arena, cfg.robot)
     n_circuits, n_robots = len(cfg.arena.circuits), cfg.team.n_robots
     _validate_learner(cfg.learner, n_circuits, n_robots)
     _validate_run(cfg)
@@ -163,9 +163,14 @@ def _validate_robot(robot: DictConfig) -> None:
           f"= {reach:g} m, got {robot.laser.range_m:g}")
 
 
-def _validate_team(team: DictConfig) -> None:
-    """Team size, and members matching it."""
+def _validate_team(team: DictConfig, arena: DictConfig, robot: DictConfig) -> None:
+    """Team size (one that could ever start in the arena), and members matching it."""
     at_least("team.n_robots", team.n_robots, 1)
+    most = most_robots(arena.width_m, arena.height_m, robot.radius_m)
+    check(team.n_robots <= most, "team.n_robots",
+          f"{team.n_robots} robots of robot.radius_m = {robot.radius_m:g} cannot start {START_GAP_M:g} m apart in "
+          f"the {arena.width_m:g} x {arena.height_m:g} m arena: at most {most} would fit even packed as closely "
+          "as discs can be")
     check(
         len(team.members) == team.n_robots,
         "team.n_robots",

@@ -86,6 +86,11 @@ class TrialStore:
         pending, n_reused = pending_batches(self.folder, list(specs), ex.batch_size, ex.n_jobs)
         if announce and n_reused:
             print(f"reusing {n_reused} of {len(specs)} finished trials in {self.folder / 'trials'}", flush=True)
+        damaged = [self.path(s).name for b in pending for s in b.specs
+                   if announce and self.path(s).exists() and _stored_key(self.path(s)) is None]
+        if damaged:
+            print(f"running again {len(damaged)} trials whose files could not be read ({', '.join(damaged[:3])}"
+                  f"{', ...' if len(damaged) > 3 else ''})", flush=True)
         if ex.backend == "local":
             failures = execute(pending, self.folder, ex.n_jobs, progress)
         else:

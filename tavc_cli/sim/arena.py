@@ -9,6 +9,7 @@ holds where robots may start.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,6 +26,16 @@ _INWARD_NORMALS = {"left": (1.0, 0.0), "right": (-1.0, 0.0), "bottom": (0.0, 1.0
 # layer checks a team can be placed).
 START_WALL_MARGIN_M = 0.6
 START_GAP_M = 0.3
+
+
+def most_robots(width_m: float, height_m: float, radius_m: float) -> int:
+    """More robots than this can never start in the arena: their centres, each more than
+    ``d = 2 radius + START_GAP_M`` from the others, lie in the start area, so discs of diameter
+    d around them lie in that area grown by d / 2 all round, and no packing of equal discs is
+    denser than the hexagonal one (pi / (2 sqrt 3)): n <= 2 area / (sqrt 3 d^2)."""
+    spacing = 2 * radius_m + START_GAP_M
+    grown = (width_m - 2 * START_WALL_MARGIN_M + spacing) * (height_m - 2 * START_WALL_MARGIN_M + spacing)
+    return math.floor(2 * max(grown, 0.0) / (math.sqrt(3) * spacing**2))
 
 
 @dataclass(frozen=True)
