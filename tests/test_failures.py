@@ -324,3 +324,13 @@ def test_a_damaged_trial_file_is_run_again_and_said_so(tmp_path, reference, caps
     run_experiment(_cfg(tmp_path, "trials=4"))
     assert "running again 1 trials whose files could not be read (random_002.npz)" in capsys.readouterr().out
     assert trial_path(tmp_path, "random", 2).read_bytes() == trial_path(reference, "random", 2).read_bytes()
+
+
+def test_something_in_the_way_of_the_trial_records_is_one_line(tmp_path):
+    (tmp_path / "trials").write_text("")
+    with pytest.raises(TavcError, match=r"trials: a file stands where tavc writes its trial records; move it away$"):
+        run_experiment(_cfg(tmp_path, "trials=1"))
+    (tmp_path / "trials").unlink()
+    trial_path(tmp_path, "random", 0).mkdir(parents=True)
+    with pytest.raises(TavcError, match=r"random_000.npz: a folder stands where tavc writes its trial records"):
+        run_experiment(_cfg(tmp_path, "trials=1"))

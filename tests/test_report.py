@@ -195,3 +195,10 @@ def test_a_report_path_taken_by_a_folder_is_one_line(one_run, tmp_path):
     assert result.output.strip() == (f"error: RESULTS_DIR: {results / 'REPORT.md'} is a directory; "
                                      "the report writes a file there")
     assert sorted(p.name for p in results.iterdir()) == ["REPORT.md", "breakdown"]
+
+
+def test_a_run_folder_given_for_the_results_folder_says_which_to_give(one_run):
+    result = runner.invoke(app, ["report", str(one_run / "breakdown")])
+    assert result.exit_code == 1
+    assert result.output.strip() == (f"error: RESULTS_DIR: {one_run / 'breakdown'} is one run's folder; give the "
+                                     f"folder that holds the runs ({one_run})")

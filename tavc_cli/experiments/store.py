@@ -83,6 +83,12 @@ class TrialStore:
     def run(self, specs: Sequence[TrialSpec], progress: bool = False, announce: bool = False) -> int:
         """Run every trial of `specs` that is not done; return how many were reused."""
         ex = self.executor
+        trials = self.folder / "trials"
+        in_the_way = [trials] if trials.exists() and not trials.is_dir() else [
+            self.path(s) for s in specs if self.path(s).is_dir()]
+        if in_the_way:
+            raise TavcError(f"{in_the_way[0]}: a {'file' if in_the_way[0] == trials else 'folder'} stands where "
+                            "tavc writes its trial records; move it away")
         pending, n_reused = pending_batches(self.folder, list(specs), ex.batch_size, ex.n_jobs)
         if announce and n_reused:
             print(f"reusing {n_reused} of {len(specs)} finished trials in {self.folder / 'trials'}", flush=True)

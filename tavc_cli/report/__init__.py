@@ -88,6 +88,9 @@ def build_report(results_dir: Path) -> dict:
         raise TavcError(f"RESULTS_DIR: {results_dir} is not a directory")
     experiments, unfinished = _experiments(results_dir)
     _check_readable(results_dir, experiments)
+    if not experiments and (results_dir / "state_time.csv").is_file():
+        raise TavcError(f"RESULTS_DIR: {results_dir} is one run's folder; give the folder that holds the runs "
+                        f"({results_dir.parent})")
     if not experiments:
         raise TavcError(f"RESULTS_DIR: no finished runs under {results_dir} (run `tavc run experiment=...` first)")
     runs = {name: pd.read_csv(d / "trial_stats.csv") for name, d in experiments.items()
