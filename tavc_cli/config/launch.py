@@ -63,8 +63,7 @@ def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any],
     common = _common_parent(folders)
     jobs = [[*job, f"hydra.sweep.dir={_quoted(str(folder.parent))}", f"hydra.sweep.subdir={_quoted(folder.name)}"]
             for (job, _), folder in zip(plan, folders, strict=True)]
-    held = claim_folder(Path(common)) if len(plan) > 1 and common != "." else nullcontext()
-    with held, hydra_errors(theirs), initialize_conf():
+    with hydra_errors(theirs), initialize_conf():
         hydra = GlobalHydra.instance().hydra
         assert hydra is not None
         master = hydra.compose_config("config", overrides=[*_QUIET, *theirs, f"hydra.sweep.dir={_quoted(common)}"],
@@ -72,10 +71,12 @@ def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any],
         launcher = Plugins.instance().instantiate_launcher(
             hydra_context=HydraContext(config_loader=hydra.config_loader, callbacks=Callbacks(master)),
             task_function=_Job(task), config=master)
-        returns = launcher.launch(jobs, initial_job_idx=0)
-        done = [r.return_value for r in returns]  # a failed job's exception is raised here
-        if finish is not None:
-            finish(done)
+        # held once the launcher is known good: a refused launcher writes nothing
+        with claim_folder(Path(common)) if len(plan) > 1 and common != "." else nullcontext():
+            returns = launcher.launch(jobs, initial_job_idx=0)
+            done = [r.return_value for r in returns]  # a failed job's exception is raised here
+            if finish is not None:
+                finish(done)
     return done
 
 
