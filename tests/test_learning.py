@@ -113,6 +113,33 @@ def test_softmax_choice_follows_its_probabilities():
     assert _chi2_pvalue(counts, softmax_probs(row, 0.5)) > 0.001
 
 
+class _Draw:
+    """A generator whose uniform draw is fixed."""
+
+    def __init__(self, u: float) -> None:
+        self.u = u
+
+    def random(self) -> float:
+        return self.u
+
+
+@pytest.mark.parametrize(("u", "action"), [(0.0, 0), (0.2499, 0), (0.2501, 1), (0.9999, 1)])
+def test_softmax_choice_by_hand(u, action):
+    # Q = [0, tau ln 3]: probabilities 1/4 and 3/4, cumulative 0.25 and 1
+    tau = 0.5
+    assert softmax_choice(np.array([0.0, tau * np.log(3.0)]), tau, _Draw(u)) == action
+
+
+def test_softmax_choice_is_numpys_search_over_the_cumulative_probabilities():
+    """The plain-Python draw picks exactly what searching numpy's cumulative sum would."""
+    g = np.random.default_rng(1)
+    for _ in range(20_000):
+        row = g.normal(0.0, g.choice([0.01, 1.0, 100.0]), int(g.integers(2, 6)))
+        tau, u = float(g.choice([0.01, 0.1, 1.0, 10.0])), float(g.random())
+        expected = min(int(np.searchsorted(np.cumsum(softmax_probs(row, tau)), u, side="right")), len(row) - 1)
+        assert softmax_choice(row, tau, _Draw(u)) == expected
+
+
 def test_softmax_choice_never_picks_an_impossible_action():
     rng = np.random.default_rng(5)
     row = np.array([1.0, 0.0])  # p = (1, exp(-200)) at tau 0.005
