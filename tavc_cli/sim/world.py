@@ -113,6 +113,7 @@ class PhysicsWorld:
         iterations: int = 10,
     ) -> None:
         self.space = pymunk.Space()
+        self._cp_space = self.space._space
         self.space.iterations = iterations
         self.space.collision_slop = COLLISION_SLOP_M
         self.space.gravity = (0.0, 0.0)
@@ -206,8 +207,22 @@ class PhysicsWorld:
         self._set()
 
     def step(self) -> None:
-        for _ in range(self.substeps):
-            self.space.step(self.h)
+        """One control period of physics (`substeps` Chipmunk steps).
+
+        pymunk's `Space.step` wraps Chipmunk's step in book-keeping this world never needs
+        once its bodies are in: mass checks of newly added bodies, objects added or removed
+        from callbacks, post-step callbacks (it has none). While there is nothing of the kind
+        pending, the step goes to Chipmunk directly, the very same call; otherwise through pymunk.
+        """
+        space = self.space
+        if space._bodies_to_check or space._add_later or space._remove_later or space._post_step_callbacks \
+                or space.threaded:
+            for _ in range(self.substeps):
+                space.step(self.h)
+        else:
+            space._removed_shapes.clear()  # as pymunk's step does: removed shapes need no keeping now
+            for _ in range(self.substeps):
+                lib.cpSpaceStep(self._cp_space, self.h)
         self._state = None
 
     def remove(self, robot: int) -> None:
