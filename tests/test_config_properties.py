@@ -345,7 +345,7 @@ def test_inputs_at_the_limits_are_accepted(overrides):
 
 @pytest.mark.parametrize(("width_m", "height_m", "always"), [(12.0, 8.0, 43), (8.0, 6.0, 19)])
 def test_a_team_that_always_fits_is_placed_at_every_seed(width_m, height_m, always):
-    from tavc_cli.experiments.engine import start_poses
+    from tavc_cli.experiments.trial import start_poses
 
     arena = SimpleNamespace(width_m=width_m, height_m=height_m, walls=np.zeros((4, 4)))  # the outer ones only
     for seed in range(20):
@@ -358,7 +358,7 @@ def test_the_root_of_the_file_system_is_no_output_dir():
 
 
 def test_robots_start_clear_of_interior_walls():
-    from tavc_cli.experiments.engine import start_poses
+    from tavc_cli.experiments.trial import start_poses
     from tavc_cli.sim.arena import START_WALL_MARGIN_M, arena_from_config, wall_distance
 
     cfg = load_config(["scale=smoke", "arena=two_circuits", "arena.walls=[[6,0,6,7],[0,4,4,4]]"])

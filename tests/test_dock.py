@@ -8,11 +8,11 @@ import pytest
 
 from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.config import load_config, settings
-from tavc_cli.experiments import engine
+from tavc_cli.experiments import trial
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine, run_trials
 
-ORIGINAL_START_POSES = engine.start_poses
+ORIGINAL_START_POSES = trial.start_poses
 RADIUS_M, READ_M, LATERAL_TOL_M, HEADING_TOL = 0.22, 0.30, 0.10, math.radians(20.0)
 
 
@@ -27,7 +27,7 @@ def _specs(*overrides):
 def _with_starts(monkeypatch, poses):
     """Give the trials of the next batch these start poses, one (n_robots, 3) array each."""
     queue = [np.asarray(p, dtype=float) for p in poses]
-    monkeypatch.setattr(engine, "start_poses", lambda arena, radii, rng: queue.pop(0))
+    monkeypatch.setattr(trial, "start_poses", lambda arena, radii, rng: queue.pop(0))
 
 
 def _arrival_poses(eng):
@@ -145,7 +145,7 @@ def test_a_crowd_on_one_circuit_keeps_flowing(monkeypatch, world):
     not a prediction: 700 s is about fifteen lone legs, far beyond any fair turn in a queue
     of six, yet a jam at the start can still take a robot several minutes to get through.
     """
-    monkeypatch.setattr(engine, "start_poses", ORIGINAL_START_POSES)
+    monkeypatch.setattr(trial, "start_poses", ORIGINAL_START_POSES)
     (rec,) = run_trials(_specs("arena=one_circuit", "team.n_robots=6", "trials=1", "duration_s=1800", *world))
     a = rec.table("arrivals")
     for i in range(6):

@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from tavc_cli.config import load_config, settings
-from tavc_cli.experiments import engine
+from tavc_cli.experiments import trial
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine, run_trials
 from tavc_cli.experiments.records import records_differ
@@ -266,7 +266,7 @@ def test_robot_starting_beside_its_targets_wall_reaches_it(monkeypatch):
         "trials=1",
     )[0]
     monkeypatch.setattr(
-        engine, "start_poses", lambda arena, radii, rng: np.array([[8.66, 7.29, 0.48]])
+        trial, "start_poses", lambda arena, radii, rng: np.array([[8.66, 7.29, 0.48]])
     )
     rec = run_trials([spec])[0]
     a = rec.table("arrivals")

@@ -9,7 +9,7 @@ import pytest
 
 from tavc_cli.analysis import spatiotemporal as st
 from tavc_cli.config import load_config, settings
-from tavc_cli.experiments import engine
+from tavc_cli.experiments import engine, trial
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.learning import behaviour
@@ -56,7 +56,7 @@ def test_states_from_hand_placed_robots(monkeypatch):
     # 2 at (2, 3) facing the source 2 m away, nothing in front: a bar-code in view (1); robots 0 and 1
     # have the sink's code ahead but hidden by the robot in front of them.
     poses = np.array([[5.0, 3.0, 0.0], [6.0, 3.0, 0.0], [2.0, 3.0, math.pi], [7.2, 3.0, math.pi]])
-    monkeypatch.setattr(engine, "start_poses", lambda arena, radii, rng: poses.copy())
+    monkeypatch.setattr(trial, "start_poses", lambda arena, radii, rng: poses.copy())
     seen = {}
     decide = BehaviourPolicy.decide
 

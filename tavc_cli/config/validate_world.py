@@ -170,7 +170,7 @@ def validate_start(cfg: DictConfig) -> None:
         return
     # imported here: the engine loads numba, which `tavc config` need not wait for
     from tavc_cli.experiments.build import trial_specs
-    from tavc_cli.experiments.engine import TrialState
+    from tavc_cli.experiments.trial import TrialState
 
     specs = trial_specs(OmegaConf.to_object(cfg))
     model = specs[0].build_arena()

@@ -23,91 +23,15 @@ import numpy as np
 from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan
 from tavc_cli.behaviours.navigation import compiled, control_tick
-from tavc_cli.errors import TavcError
 from tavc_cli.experiments.events import EventKind
-from tavc_cli.experiments.records import TableBuilder, TrialRecord
+from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.experiments.trial import TrialFault, TrialState
 from tavc_cli.learning.behaviour import sensed_states
-from tavc_cli.learning.policies import TaskPolicy
-from tavc_cli.learning.registry import make_policy
-from tavc_cli.sim.arena import SOURCE, START_GAP_M, START_WALL_MARGIN_M, Arena, clear_to_start
+from tavc_cli.sim.arena import SOURCE
 from tavc_cli.sim.world import PhysicsWorld
 
 _NOISE_BLOCK_TICKS = 512  # also how often (in ticks) every robot's pose is checked
-
-
-class TrialFault(Exception):
-    """A trial of a batch went wrong in a way that is its own (a non-finite pose, a robot
-    outside the walls): `index` is its place in the batch, the message says what and when."""
-
-    def __init__(self, index: int, message: str) -> None:
-        super().__init__(message)
-        self.index = index
-
-
-def seed_sequence(seed: Sequence[int]) -> np.random.SeedSequence:
-    """Rebuild a trial's SeedSequence from its recorded (entropy, *spawn_key)."""
-    return np.random.SeedSequence(entropy=int(seed[0]), spawn_key=tuple(int(s) for s in seed[1:]))
-
-
-def start_poses(arena: Arena, radii: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Random non-overlapping start poses, clear of the walls (interior ones too), random headings."""
-    poses = np.zeros((len(radii), 3))
-    for i, r in enumerate(radii):
-        for _ in range(10_000):
-            x = rng.uniform(START_WALL_MARGIN_M, arena.width_m - START_WALL_MARGIN_M)
-            y = rng.uniform(START_WALL_MARGIN_M, arena.height_m - START_WALL_MARGIN_M)
-            if all(math.hypot(x - poses[k, 0], y - poses[k, 1]) > r + radii[k] + START_GAP_M for k in range(i)) \
-                    and clear_to_start(arena, x, y):
-                break
-        else:
-            raise TavcError(f"team.n_robots: cannot place {len(radii)} robots of radius {r:g} m apart "
-                            f"in the {arena.width_m:g} x {arena.height_m:g} m arena")
-        poses[i] = (x, y, rng.uniform(-math.pi, math.pi))
-    return poses
-
-
-class TrialState:
-    """Book-keeping of one trial inside a batch: tasks, policy, events, records."""
-
-    def __init__(self, spec: TrialSpec, arena: Arena, lo: int) -> None:
-        self.spec = spec
-        self.lo, self.hi = lo, lo + spec.n_robots
-        ss = seed_sequence(spec.seed)
-        start_ss, noise_ss, policy_ss, event_ss = ss.spawn(4)
-        self.noise_rng = np.random.default_rng(noise_ss)
-        self.event_rng = np.random.default_rng(event_ss)
-        self.policy_rng = np.random.default_rng(policy_ss)
-        radius = float(spec.robot.radius_m)
-        n = spec.n_robots
-        self.start = start_poses(arena, np.full(n, radius), np.random.default_rng(start_ss))
-        self.policy: TaskPolicy = make_policy(spec.policy, n, arena.n_circuits, self.policy_rng)
-        self.values = np.array(spec.values, dtype=np.float64)
-        self.scores = np.array(spec.score_values, dtype=np.float64)
-        self.state = self.policy_rng.integers(arena.n_circuits, size=n)  # class "last serviced"
-        self.task = np.full(n, -1, dtype=np.int64)
-        self.task_start = np.zeros(n)
-        self.last_arrival = np.full(n, -spec.warmup_s)  # for behaviour learners' r = w / t per arrival
-        self.learns_behaviours = hasattr(self.policy, "decide")
-        self.decide_ticks = (max(1, int(round(self.policy.decision_period_s / spec.dt_s)))
-                             if self.learns_behaviours else 0)
-        self.last_circuit = np.full(n, -1, dtype=np.int64)
-        self.alive = np.ones(n, dtype=bool)
-        self.rows = TableBuilder()
-        events = ([(b.time_s, EventKind.BREAKDOWN, b) for b in spec.breakdowns]
-                  + [(v.time_s, EventKind.VALUE_CHANGE, v) for v in spec.value_changes])
-        self.events = sorted(events, key=lambda e: (e[0], e[1]))
-        self.vc_t: list[float] = []
-        self.vc: list[np.ndarray] = []
-        self.q_t: list[float] = []
-        self.q: list[np.ndarray] = []
-        self.pose_t: list[float] = []
-        self.poses: list[np.ndarray] = []
-        self.pose_alive: list[np.ndarray] = []
-        self.pose_circuit: list[np.ndarray] = []
-
-    def next_event_time(self) -> float:
-        return self.events[0][0] if self.events else math.inf
 
 
 class _Schedule:

@@ -31,9 +31,10 @@ import numpy as np
 
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, make_batches
-from tavc_cli.experiments.engine import TrialFault, run_trials
+from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.experiments.trial import TrialFault
 from tavc_cli.io import write_text_atomic
 from tavc_cli.settings import ExecutorConfig
 
@@ -89,12 +90,10 @@ class TrialStore:
         if in_the_way:
             raise TavcError(f"{in_the_way[0]}: a {'file' if in_the_way[0] == trials else 'folder'} stands where "
                             "tavc writes its trial records; move it away")
-        pending, n_reused = pending_batches(self.folder, list(specs), ex.batch_size, ex.n_jobs)
+        pending, n_reused, damaged = pending_batches(self.folder, list(specs), ex.batch_size, ex.n_jobs)
         if announce and n_reused:
             print(f"reusing {n_reused} of {len(specs)} finished trials in {self.folder / 'trials'}", flush=True)
-        damaged = [self.path(s).name for b in pending for s in b.specs
-                   if announce and self.path(s).exists() and _stored_key(self.path(s)) is None]
-        if damaged:
+        if announce and damaged:
             print(f"running again {len(damaged)} trials whose files could not be read ({', '.join(damaged[:3])}"
                   f"{', ...' if len(damaged) > 3 else ''})", flush=True)
         if ex.backend == "local":
@@ -143,10 +142,19 @@ def trial_done(out_dir: Path, spec: TrialSpec) -> bool:
 
 
 def pending_batches(out_dir: Path, specs: list[TrialSpec], batch_size: int,
-                    workers: int = 1) -> tuple[list[Batch], int]:
-    """Batches of the trials still to run, and how many finished trials are reused."""
-    todo = [s for s in specs if not trial_done(out_dir, s)]
-    return make_batches(todo, batch_size, workers), len(specs) - len(todo)
+                    workers: int = 1) -> tuple[list[Batch], int, list[str]]:
+    """Batches of the trials still to run, how many finished trials are reused, and the names
+    of the files among those to run that are there but could not be read (each file read once)."""
+    todo, damaged = [], []
+    for spec in specs:
+        path = trial_path(out_dir, spec.controller, spec.trial)
+        key = _stored_key(path)
+        if key == spec.key():
+            continue
+        todo.append(spec)
+        if key is None and path.exists():
+            damaged.append(path.name)
+    return make_batches(todo, batch_size, workers), len(specs) - len(todo), damaged
 
 
 @dataclass(frozen=True)
