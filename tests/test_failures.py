@@ -285,9 +285,12 @@ import os, sys, time
 from pathlib import Path
 from tavc_cli.io import claim_folder
 with claim_folder(Path(sys.argv[1])):
+    ready_r, ready_w = os.pipe()
     if os.fork() == 0:  # a child outliving the run, as an orphaned worker would
+        os.write(ready_w, b"x")  # the fork hooks have run by the time the child's own code does
         time.sleep(60)
         os._exit(0)
+    os.read(ready_r, 1)  # the child has been scheduled at least once
     print("held", flush=True)
     time.sleep(60)
 """
