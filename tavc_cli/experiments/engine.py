@@ -19,6 +19,7 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
+from numba import njit
 
 from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan
@@ -29,9 +30,23 @@ from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.trial import TrialFault, TrialState
 from tavc_cli.learning.behaviour import sensed_states
 from tavc_cli.sim.arena import SOURCE
-from tavc_cli.sim.world import PhysicsWorld
+from tavc_cli.sim.world import PhysicsWorld, read_poses, write_commands
 
 _NOISE_BLOCK_TICKS = 512  # also how often (in ticks) every robot's pose is checked
+
+
+@njit(cache=True)
+def _sense_decide_command(io, pose, robots, noise, params, arena, laser, scan, cmd, act_s):
+    """The compiled part of a tick, in one call: the true poses from the physics state just read
+    (`io`, the world's side), the control kernel for every robot, and the wheel commands
+    into the velocities the world writes next. Returns how many robots arrived.
+
+    `params` is the PARAMS record as an array of one (passing a bare record costs every
+    call a description of its whole dtype, the bulk of the call's cost)."""
+    read_poses(io, pose)
+    n_arrived = control_tick(robots, pose, noise, params[0], arena, laser, scan, cmd, act_s)
+    write_commands(io, cmd)
+    return n_arrived
 
 
 class _Schedule:
@@ -101,8 +116,9 @@ class BatchEngine:
             tr = self._behaviour_trials[0]
             self._sensed_states = compiled(sensed_states, self.robots, self.scan.camera, tr.lo, tr.hi,
                                            tr.policy.random_bit, tr.policy.last_state, False, self._states, self._due)
-        self._control_tick = compiled(control_tick, self.robots, self.pose, self.noise[0], self.params,
-                                      self.geometry, self.laser, self.scan, self.cmd, self.act_s)
+        self._params = np.array([self.params], dtype=self.params.dtype)
+        self._kernel = compiled(_sense_decide_command, self.world.io, self.pose, self.robots, self.noise[0],
+                                self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s)
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
                 self._assign(tr, i, self.t0)
@@ -259,17 +275,19 @@ class BatchEngine:
                 self._decide_behaviours(tr, t)
 
     def _sense_and_decide(self) -> int:
-        """The compiled kernel, for every robot of every trial: odometry, laser, camera,
-        behaviours; leaves wheel commands in `cmd`. Returns how many robots arrived."""
+        """Read the physics, then the compiled kernel for every robot of every trial: odometry,
+        laser, camera, behaviours; leaves the wheel commands ready for the world to write.
+        Returns how many robots arrived."""
         k = self.tick % _NOISE_BLOCK_TICKS
+        world = self.world
         if k == 0:  # each trial's odometry noise, drawn from its own stream a block at a time
             for tr in self.trials:
                 self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((_NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
-        self.world.poses(out=self.pose)
-        if k == 0:
-            self._check_poses(self.pose, self.t)
-        n_arrived = self._control_tick(self.robots, self.pose, self.noise[k], self.params, self.geometry,
-                                       self.laser, self.scan, self.cmd, self.act_s)
+            self._check_poses(world.poses(out=self.pose), self.t)
+        else:
+            world.read()
+        n_arrived = self._kernel(world.io, self.pose, self.robots, self.noise[k], self._params, self.geometry,
+                                 self.laser, self.scan, self.cmd, self.act_s)
         self.tick_started = True
         return n_arrived
 
@@ -299,8 +317,8 @@ class BatchEngine:
             self._arrive(tr, int(g - tr.lo), t)
 
     def _move(self) -> None:
-        """Wheel commands to the physics, and one control period of it."""
-        self.world.drive(self.cmd)
+        """The wheel commands the kernel left to the physics, and one control period of it."""
+        self.world.write()
         self.world.step()
 
     @staticmethod

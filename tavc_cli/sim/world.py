@@ -22,6 +22,7 @@ Poses are read and velocities written for all bodies at once with `pymunk.batch`
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 import pymunk
@@ -40,25 +41,40 @@ ROBOT_FRICTION = 0.3
 MAX_SLOTS = 32
 
 
+class BodyIO(NamedTuple):
+    """The world's side of a tick, for compiled code: where each live robot's bodies sit in the
+    batch buffers, the state last read and the velocities to write. Valid until a robot is
+    removed (`PhysicsWorld.io` is then rebuilt)."""
+
+    state: np.ndarray         # (n_bodies, 6) x m, y m, angle rad, vx, vy m/s, omega rad/s, as last read
+    velocities: np.ndarray    # (n_bodies, 3) vx, vy m/s, omega rad/s, set on every body by a write
+    robot_rows: np.ndarray    # (n_live,) row of each live robot's disc
+    control_rows: np.ndarray  # (n_live,) row of its kinematic control body
+    live: np.ndarray          # (n_live,) the live robots' numbers
+
+
 @njit(cache=True)
-def _gather_poses(state, robot_rows, live, out):
-    for k in range(live.shape[0]):
-        i, row = live[k], robot_rows[k]
+def read_poses(io, out):
+    """out[i] = (x, y, heading) of each live robot i, from the state last read; other rows untouched."""
+    for k in range(io.live.shape[0]):
+        i, row = io.live[k], io.robot_rows[k]
         for c in range(3):
-            out[i, c] = state[row, c]
+            out[i, c] = io.state[row, c]
 
 
 @njit(cache=True)
-def _scatter_commands(state, robot_rows, control_rows, live, cmd, out):
-    """Every body keeps its velocity, but each control body carries its robot's command."""
+def write_commands(io, cmd):
+    """Every body keeps its velocity, but each control body carries its robot's command
+    cmd[i] = (forward m/s, turn rad/s), turned into the frame of the robot's heading."""
+    state, out = io.state, io.velocities
     for b in range(state.shape[0]):
         out[b, 0] = state[b, 3]
         out[b, 1] = state[b, 4]
         out[b, 2] = state[b, 5]
-    for k in range(live.shape[0]):
-        i = live[k]
-        th = state[robot_rows[k], 2]
-        row = control_rows[k]
+    for k in range(io.live.shape[0]):
+        i = io.live[k]
+        th = state[io.robot_rows[k], 2]
+        row = io.control_rows[k]
         out[row, 0] = cmd[i, 0] * np.cos(th)
         out[row, 1] = cmd[i, 0] * np.sin(th)
         out[row, 2] = cmd[i, 1]
@@ -154,7 +170,6 @@ class PhysicsWorld:
         self._read = pb.Buffer()
         self._write = pb.Buffer()
         self._poses = poses.copy()
-        self._state: np.ndarray | None = None
         self._index_bodies()
 
     def _index_bodies(self) -> None:
@@ -163,28 +178,37 @@ class PhysicsWorld:
         pb.get_space_bodies(self.space, pb.BodyFields.BODY_ID, self._read)
         ids = np.frombuffer(self._read.int_buf(), dtype=np.uintp)
         row = {int(b): k for k, b in enumerate(ids)}
-        self._live = np.flatnonzero(self.alive)
+        live = np.flatnonzero(self.alive)
         self._removed = np.flatnonzero(~self.alive)
-        self._robot_rows = np.array([row[self._parts[i][0].id] for i in self._live], dtype=np.int64)
-        self._control_rows = np.array([row[self._parts[i][2].id] for i in self._live], dtype=np.int64)
-        self._n_bodies = len(ids)
-        self._wbuf = np.zeros(3 * self._n_bodies)
-        self._wview = self._wbuf.reshape(self._n_bodies, 3)
-        self._write.set_float_buf(self._wbuf)
+        n_bodies = len(ids)
+        wbuf = np.zeros(3 * n_bodies)
+        self._write.set_float_buf(wbuf)
         # the state is read straight into this array: one spare row, so that pymunk's array
         # never fills up and never reallocates memory it does not own
-        self._rbuf = np.zeros(6 * (self._n_bodies + 1))
-        self._rview = self._rbuf[:6 * self._n_bodies].reshape(self._n_bodies, 6)
+        self._rbuf = np.zeros(6 * (n_bodies + 1))
         self._read.set_float_buf(self._rbuf)
+        self.io = BodyIO(
+            state=self._rbuf[:6 * n_bodies].reshape(n_bodies, 6),
+            velocities=wbuf.reshape(n_bodies, 3),
+            robot_rows=np.array([row[self._parts[i][0].id] for i in live], dtype=np.int64),
+            control_rows=np.array([row[self._parts[i][2].id] for i in live], dtype=np.int64),
+            live=live,
+        )
         self._get = _BodyIteration(self.space, _FIELDS_READ, self._read, "pmSpaceBodyGetIteratorFuncBatched")
         self._set = _BodyIteration(self.space, _FIELDS_WRITE, self._write, "pmSpaceBodySetIteratorFuncBatched")
-        self._state = None
+        self._fresh = False
 
-    def _read_state(self) -> np.ndarray:
+    def read(self) -> None:
+        """Read every body's state into `io.state` (for compiled code that then calls
+        `read_poses` and `write_commands`; `write` and `step` follow)."""
         self._get()
-        if self._read._float_arr.num != self._rview.size:  # a body added behind the world's back
+        if self._read._float_arr.num != self.io.state.size:  # a body added behind the world's back
             raise RuntimeError("the physics space holds bodies the world did not index")
-        return self._rview
+        self._fresh = True
+
+    def write(self) -> None:
+        """Set every body's velocity from `io.velocities` (filled by `write_commands`)."""
+        self._set()
 
     def poses(self, out: np.ndarray | None = None) -> np.ndarray:
         """(n_robots, 3) true x, y, heading of every robot, into `out` if given.
@@ -192,19 +216,20 @@ class PhysicsWorld:
         A removed robot stays where it was taken out. Without `out` the returned array
         is reused.
         """
-        self._state = self._read_state()
+        self.read()
         if out is None:
             out = self._poses
-        _gather_poses(self._state, self._robot_rows, self._live, out)
+        read_poses(self.io, out)
         if out is not self._poses and self._removed.size:
             out[self._removed] = self._poses[self._removed]
         return out
 
     def drive(self, cmd: np.ndarray) -> None:
         """Set each live robot's commanded (forward speed, turn rate) for the next step."""
-        state = self._state if self._state is not None else self._read_state()
-        _scatter_commands(state, self._robot_rows, self._control_rows, self._live, cmd, self._wview)
-        self._set()
+        if not self._fresh:
+            self.read()
+        write_commands(self.io, cmd)
+        self.write()
 
     def step(self) -> None:
         """One control period of physics (`substeps` Chipmunk steps).
@@ -223,7 +248,7 @@ class PhysicsWorld:
             space._removed_shapes.clear()  # as pymunk's step does: removed shapes need no keeping now
             for _ in range(self.substeps):
                 lib.cpSpaceStep(self._cp_space, self.h)
-        self._state = None
+        self._fresh = False
 
     def remove(self, robot: int) -> None:
         """Take a broken-down robot out of the world."""
