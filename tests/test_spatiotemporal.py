@@ -26,18 +26,21 @@ def test_sensed_states_are_the_five_bits_and_pick_the_changed_live_robots():
     robots["alive"] = True
     robots["alive"][5] = False
     camera = np.column_stack([rng.integers(0, 2, (9, 3)), np.full(9, -1)]).astype(np.int64)
-    random_bit = rng.integers(0, 2, 6).astype(np.int64)
-    first, last = 3, 9  # the trial's rows
-    expected = state_index(robots["code_in_view"][first:last], random_bit, camera[first:last, 0],
-                           camera[first:last, 1], camera[first:last, 2])
+    random_bit = rng.integers(0, 2, 9).astype(np.int64)
+    deciding = np.zeros(9, dtype=bool)
+    deciding[3:9] = True  # one trial's rows; rows 0-2 belong to a trial that does not learn behaviours
+    expected = state_index(robots["code_in_view"], random_bit, camera[:, 0], camera[:, 1], camera[:, 2])
     last_state = expected.copy()
-    last_state[[0, 2, 4]] += 1  # robots 0, 2, 4 of the trial sense something new; 2 (row 5) is broken
-    states, due = np.zeros(6, dtype=np.int64), np.zeros(6, dtype=np.int64)
-    m = sensed_states(robots, camera, first, last, random_bit, last_state, False, states, due)
-    np.testing.assert_array_equal(states, expected)
-    assert list(due[:m]) == [0, 4]
-    m = sensed_states(robots, camera, first, last, random_bit, last_state, True, states, due)
-    assert list(due[:m]) == [0, 1, 3, 4, 5]  # every live robot, deciding every time
+    last_state[[0, 3, 5, 7]] += 1  # rows 3, 5, 7 sense something new (and row 0, not deciding); 5 is broken
+    states, due = np.full(9, -7, dtype=np.int64), np.zeros(9, dtype=np.int64)
+    every_time = np.zeros(9, dtype=bool)
+    m = sensed_states(robots, camera, deciding, random_bit, last_state, every_time, states, due)
+    np.testing.assert_array_equal(states[3:], expected[3:])
+    assert list(states[:3]) == [-7, -7, -7]  # rows not deciding are left alone
+    assert list(due[:m]) == [3, 7]
+    every_time[3:9] = True
+    m = sensed_states(robots, camera, deciding, random_bit, last_state, every_time, states, due)
+    assert list(due[:m]) == [3, 4, 6, 7, 8]  # every live robot, deciding every time
 
 
 def test_state_index_packs_the_five_bits():

@@ -28,7 +28,7 @@ from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.trial import TrialFault, TrialState
-from tavc_cli.learning.behaviour import sensed_states
+from tavc_cli.learning.behaviour import BatchDecisions
 from tavc_cli.sim.arena import SOURCE
 from tavc_cli.sim.world import PhysicsWorld, read_poses, write_commands
 
@@ -110,12 +110,8 @@ class BatchEngine:
         self.t0 = -first.warmup_s  # every trial of a batch starts its warm-up here
         self.tick = 0
         self.on_tick: Callable[[BatchEngine], None] | None = None
-        self._behaviour_trials = [tr for tr in self.trials if tr.learns_behaviours]
-        if self._behaviour_trials:
-            self._states, self._due = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
-            tr = self._behaviour_trials[0]
-            self._sensed_states = compiled(sensed_states, self.robots, self.scan.camera, tr.lo, tr.hi,
-                                           tr.policy.random_bit, tr.policy.last_state, False, self._states, self._due)
+        learners = [(tr.lo, tr.hi, tr.policy, tr.decide_ticks) for tr in self.trials if tr.learns_behaviours]
+        self._decisions = BatchDecisions(self.robots, self.scan.camera, learners) if learners else None
         self._params = np.array([self.params], dtype=self.params.dtype)
         self._kernel = compiled(_sense_decide_command, self.world.io, self.pose, self.robots, self.noise[0],
                                 self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s)
@@ -160,16 +156,6 @@ class BatchEngine:
         tr.policy.learn(i, int(tr.state[i]), circuit, reward, circuit)
         tr.state[i] = circuit
         self._assign(tr, i, t)
-
-    def _decide_behaviours(self, tr: TrialState, t: float) -> None:
-        """Section 1.4's learners read their five bits (a bar-code in the laser's view, the random
-        bit, the nearest robot's markings) and pick a behaviour for each robot whose bits changed
-        since its last choice (or every time, with `decide_on_change` off)."""
-        policy, states, due = tr.policy, self._states, self._due
-        m = self._sensed_states(self.robots, self.scan.camera, tr.lo, tr.hi, policy.random_bits(t),
-                                policy.last_state, not policy.decide_on_change, states, due)
-        for i in due[:m]:
-            self.robots[tr.lo + i]["forced"] = policy.decide(int(i), int(states[i]))
 
     def _act_before_tick(self, g: int) -> np.ndarray:
         """Robot g's activity seconds up to the start of this tick: the tick in which a robot
@@ -234,8 +220,10 @@ class BatchEngine:
             t = self.t0 + self.tick * self.dt
             if t >= schedule.next_due:
                 self._fall_due(t, schedule)
-            if self._behaviour_trials:
-                self._choose_behaviours(t)
+            if self._decisions is not None:
+                # section 1.4's learners read their five bits (a bar-code in the laser's view, the
+                # random bit, the nearest robot's markings) and pick a behaviour where they changed
+                self._decisions.decide(self.tick, t)
             n_arrived = self._sense_and_decide()
             if n_arrived:
                 self._serve_arrivals(t)
@@ -268,11 +256,6 @@ class BatchEngine:
                 tr.pose_circuit.append(tr.task.copy())
                 schedule.next_pose[b] += tr.spec.pose_every_s
         schedule.update(self.trials)
-
-    def _choose_behaviours(self, t: float) -> None:
-        for tr in self._behaviour_trials:
-            if self.tick % tr.decide_ticks == 0:
-                self._decide_behaviours(tr, t)
 
     def _sense_and_decide(self) -> int:
         """Read the physics, then the compiled kernel for every robot of every trial: odometry,

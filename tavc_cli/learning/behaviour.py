@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 
 from tavc_cli.behaviours.layout import BEH_DIRECT, BEH_STOP, BEH_WALL
+from tavc_cli.behaviours.navigation import compiled
 from tavc_cli.learning.qlearning import q_update, softmax_choice
 
 ACTIONS = np.array([BEH_DIRECT, BEH_WALL, BEH_STOP], dtype=np.int64)
@@ -44,18 +45,20 @@ def state_index(target_visible, random_bit, red, green, yellow):
 
 
 @njit(cache=True)
-def sensed_states(robots, camera, first, last, random_bit, last_state, every_time, states, due):
-    """The state of each robot of rows first..last-1 (as `state_index` makes it, from what the
-    kernel sensed last tick) into states[0:n]; the live robots whose state differs from that
-    of their last choice (all live ones if `every_time`) into due[0:m]. Returns m."""
+def sensed_states(robots, camera, deciding, random_bit, last_state, every_time, states, due):
+    """For every robot row g with deciding[g]: its state (as `state_index` makes it, from what
+    the kernel sensed last tick) into states[g]; the live ones whose state differs from that of
+    their last choice (all live ones where every_time[g]) into due[0:m]. Returns m. The other
+    arrays are indexed by row too."""
     m = 0
-    for i in range(last - first):
-        g = first + i
-        s = (np.int64(robots[g].code_in_view) << BIT_TARGET | random_bit[i] << BIT_RANDOM
+    for g in range(robots.shape[0]):
+        if not deciding[g]:
+            continue
+        s = (np.int64(robots[g].code_in_view) << BIT_TARGET | random_bit[g] << BIT_RANDOM
              | camera[g, 0] << BIT_RED | camera[g, 1] << BIT_GREEN | camera[g, 2] << BIT_YELLOW)
-        states[i] = s
-        if robots[g].alive and (s != last_state[i] or every_time):
-            due[m] = i
+        states[g] = s
+        if robots[g].alive and (s != last_state[g] or every_time[g]):
+            due[m] = g
             m += 1
     return m
 
@@ -112,6 +115,13 @@ class BehaviourPolicy:
         self._next_switch = float(self.random_until.min())
         return self.random_bit
 
+    def keep_in(self, random_bit: np.ndarray, last_state: np.ndarray) -> None:
+        """Hold the random bits and the states of the last choices in these arrays from now on
+        (a batch's rows of this trial, so that one compiled pass reads every trial's)."""
+        random_bit[:] = self.random_bit
+        last_state[:] = self.last_state
+        self.random_bit, self.last_state = random_bit, last_state
+
     def decide(self, robot: int, state: int) -> int:
         """Learn from the last choice, then choose a behaviour (a kernel BEH_* code) for `state`."""
         if self.last_action[robot] >= 0:
@@ -121,3 +131,46 @@ class BehaviourPolicy:
         self.last_state[robot], self.last_action[robot] = state, a
         self.reward[robot] = 0.0
         return int(ACTIONS[a])
+
+
+class BatchDecisions:
+    """The behaviour learners of a batch's trials, deciding together each tick: one compiled
+    pass over every robot row finds the robots whose five bits changed since their last choice,
+    then each of those chooses in Python (its own policy, its own random stream)."""
+
+    def __init__(self, robots: np.ndarray, camera: np.ndarray, trials) -> None:
+        """`trials`: (first row, end row, BehaviourPolicy, decide every so many ticks) of each
+        learning trial of the batch."""
+        n = robots.shape[0]
+        self.robots, self.camera = robots, camera
+        self.random_bit = np.zeros(n, dtype=np.int64)
+        self.last_state = np.full(n, -1, dtype=np.int64)
+        self.every_time = np.zeros(n, dtype=np.bool_)
+        self.states, self.due = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
+        self.groups: dict[int, np.ndarray] = {}  # decide_ticks -> rows deciding on those ticks
+        self.policy_of: list[tuple[BehaviourPolicy, int] | None] = [None] * n
+        self.trials = list(trials)
+        for lo, hi, policy, ticks in self.trials:
+            policy.keep_in(self.random_bit[lo:hi], self.last_state[lo:hi])
+            self.every_time[lo:hi] = not policy.decide_on_change
+            self.groups.setdefault(ticks, np.zeros(n, dtype=np.bool_))[lo:hi] = True
+            for g in range(lo, hi):
+                self.policy_of[g] = (policy, lo)
+        self._pass = compiled(sensed_states, robots, camera, np.zeros(n, dtype=np.bool_), self.random_bit,
+                              self.last_state, self.every_time, self.states, self.due)
+
+    def decide(self, tick: int, t: float) -> None:
+        """Every learner due at this tick reads its bits and, where they changed, picks a
+        behaviour (the robot's `forced` field)."""
+        for ticks, deciding in self.groups.items():
+            if tick % ticks:
+                continue
+            for _, _, policy, its_ticks in self.trials:
+                if its_ticks == ticks:
+                    policy.random_bits(t)  # switches its bits in place
+            m = self._pass(self.robots, self.camera, deciding, self.random_bit, self.last_state, self.every_time,
+                           self.states, self.due)
+            states, forced = self.states, self.robots["forced"]
+            for g in self.due[:m].tolist():
+                policy, lo = self.policy_of[g]
+                forced[g] = policy.decide(g - lo, int(states[g]))
