@@ -108,11 +108,12 @@ class BehaviourPolicy:
         """The random bit of every robot at time t (switching whenever an interval ends)."""
         if t < self._next_switch:
             return self.random_bit
-        for robot in np.flatnonzero(self.random_until <= t):
-            while self.random_until[robot] <= t:
+        until = self.random_until
+        for robot in np.flatnonzero(until <= t).tolist():
+            while until[robot] <= t:
                 self.random_bit[robot] ^= 1
-                self.random_until[robot] += self.rng.uniform(*RANDOM_INTERVAL_S)
-        self._next_switch = float(self.random_until.min())
+                until[robot] += self.rng.uniform(*RANDOM_INTERVAL_S)
+        self._next_switch = min(until.tolist())
         return self.random_bit
 
     def keep_in(self, random_bit: np.ndarray, last_state: np.ndarray) -> None:
@@ -147,13 +148,16 @@ class BatchDecisions:
         self.last_state = np.full(n, -1, dtype=np.int64)
         self.every_time = np.zeros(n, dtype=np.bool_)
         self.states, self.due = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
-        self.groups: dict[int, np.ndarray] = {}  # decide_ticks -> rows deciding on those ticks
+        self.forced = robots["forced"]  # a view: the choices go straight to the kernel's robots
+        # decide_ticks -> (rows deciding on those ticks, their policies)
+        self.groups: dict[int, tuple[np.ndarray, list[BehaviourPolicy]]] = {}
         self.policy_of: list[tuple[BehaviourPolicy, int] | None] = [None] * n
-        self.trials = list(trials)
-        for lo, hi, policy, ticks in self.trials:
+        for lo, hi, policy, ticks in trials:
             policy.keep_in(self.random_bit[lo:hi], self.last_state[lo:hi])
             self.every_time[lo:hi] = not policy.decide_on_change
-            self.groups.setdefault(ticks, np.zeros(n, dtype=np.bool_))[lo:hi] = True
+            rows, policies = self.groups.setdefault(ticks, (np.zeros(n, dtype=np.bool_), []))
+            rows[lo:hi] = True
+            policies.append(policy)
             for g in range(lo, hi):
                 self.policy_of[g] = (policy, lo)
         self._pass = compiled(sensed_states, robots, camera, np.zeros(n, dtype=np.bool_), self.random_bit,
@@ -162,15 +166,16 @@ class BatchDecisions:
     def decide(self, tick: int, t: float) -> None:
         """Every learner due at this tick reads its bits and, where they changed, picks a
         behaviour (the robot's `forced` field)."""
-        for ticks, deciding in self.groups.items():
+        for ticks, (deciding, policies) in self.groups.items():
             if tick % ticks:
                 continue
-            for _, _, policy, its_ticks in self.trials:
-                if its_ticks == ticks:
-                    policy.random_bits(t)  # switches its bits in place
+            for policy in policies:
+                policy.random_bits(t)  # switches its bits in place
             m = self._pass(self.robots, self.camera, deciding, self.random_bit, self.last_state, self.every_time,
                            self.states, self.due)
-            states, forced = self.states, self.robots["forced"]
+            if not m:
+                continue
+            states = self.states.tolist()
             for g in self.due[:m].tolist():
                 policy, lo = self.policy_of[g]
-                forced[g] = policy.decide(g - lo, int(states[g]))
+                self.forced[g] = policy.decide(g - lo, states[g])
