@@ -39,9 +39,24 @@ def test_bench_json_reports_the_contract_fields():
         assert key in data
     assert data["scenario"] == "two_circuits" and data["n_robots"] == 6
     assert data["sim_seconds_per_wall_second"] > 0
-    # the ratio is what its name says, computed from the two medians
+    # the ratio is what its name says: physics-only over full loop, here of the one pair of runs
     assert abs(data["overhead_ratio"] - data["physics_only_sim_seconds_per_wall_second"]
                / data["sim_seconds_per_wall_second"]) < 0.01
+
+
+def test_bench_overhead_is_the_median_of_back_to_back_pairs(monkeypatch):
+    from tavc_cli import bench, config
+
+    # warm-up, then three pairs: full loop 100, 50, 90 and physics only 200, 150, 171 simulated s per wall s.
+    # Pair by pair the physics is 2.0, 3.0 and 1.9 times faster: median 2.0 (the medians' ratio would say 1.9)
+    full, phys = iter([1.0, 100.0, 50.0, 90.0]), iter([200.0, 150.0, 171.0])
+    monkeypatch.setattr(bench, "_full_loop", lambda specs: next(full))
+    monkeypatch.setattr(bench, "_physics_only", lambda specs: next(phys))
+    result = bench.run_bench(lambda n, d: config.settings(config.load_config(bench.bench_overrides("two_circuits", n, d,
+                                                                                                   None))),
+                             duration_s=10.0, repeats=3, batch=2, scaling=False)
+    assert result["sim_seconds_per_wall_second"] == 90.0 and result["physics_only_sim_seconds_per_wall_second"] == 171.0
+    assert result["overhead_ratio"] == 2.0
 
 
 def test_bench_scaling_covers_robot_counts_and_processes():
