@@ -19,34 +19,30 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from numba import njit
 
 from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan
-from tavc_cli.behaviours.navigation import compiled, control_tick
+from tavc_cli.behaviours.navigation import compiled
 from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.experiments.tick import (
+    NOISE_BLOCK_TICKS,
+    RUN_ARRIVED,
+    RUN_DUE,
+    RUN_LOST_BODIES,
+    run_ticks,
+    sense_decide_command,
+)
 from tavc_cli.experiments.trial import TrialFault, TrialState
 from tavc_cli.learning.behaviour import BatchDecisions
 from tavc_cli.sim.arena import SOURCE
-from tavc_cli.sim.world import PhysicsWorld, read_poses, write_commands
-
-_NOISE_BLOCK_TICKS = 512  # also how often (in ticks) every robot's pose is checked
+from tavc_cli.sim.world import CP_EACH_BODY, CP_STEP, PhysicsWorld
 
 
-@njit(cache=True)
-def _sense_decide_command(io, pose, robots, noise, params, arena, laser, scan, cmd, act_s):
-    """The compiled part of a tick, in one call: the true poses from the physics state just read
-    (`io`, the world's side), the control kernel for every robot, and the wheel commands
-    into the velocities the world writes next. Returns how many robots arrived.
-
-    `params` is the PARAMS record as an array of one (passing a bare record costs every
-    call a description of its whole dtype, the bulk of the call's cost)."""
-    read_poses(io, pose)
-    n_arrived = control_tick(robots, pose, noise, params[0], arena, laser, scan, cmd, act_s)
-    write_commands(io, cmd)
-    return n_arrived
+def _next_multiple(tick: int, every: int) -> int:
+    """The first multiple of `every` after `tick`."""
+    return (tick // every + 1) * every
 
 
 class _Schedule:
@@ -98,7 +94,7 @@ class BatchEngine:
         self.laser = build_laser(float(robot.laser.fov_deg), int(robot.laser.n_rays))
         self.scan = empty_scan(n, len(self.laser.angle_rad))
         self.pose = start.copy()  # true poses, read from the physics every tick
-        self.noise = np.zeros((_NOISE_BLOCK_TICKS, n, 3))
+        self.noise = np.zeros((NOISE_BLOCK_TICKS, n, 3))
         self.cmd = np.zeros((n, 2))
         # seconds each robot spent in each activity (activities.ACTIVITIES), in all and at its task's start
         self.act_s = np.zeros((n, N_ACT))
@@ -113,8 +109,11 @@ class BatchEngine:
         learners = [(tr.lo, tr.hi, tr.policy, tr.decide_ticks) for tr in self.trials if tr.learns_behaviours]
         self._decisions = BatchDecisions(self.robots, self.scan.camera, learners) if learners else None
         self._params = np.array([self.params], dtype=self.params.dtype)
-        self._kernel = compiled(_sense_decide_command, self.world.io, self.pose, self.robots, self.noise[0],
+        self._kernel = compiled(sense_decide_command, self.world.io, self.pose, self.robots, self.noise[0],
                                 self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s)
+        self._run = compiled(run_ticks, self.world.space_io, CP_EACH_BODY, CP_STEP, self.world.io, self.pose,
+                             self.robots, self.noise, self._params, self.geometry, self.laser, self.scan, self.cmd,
+                             self.act_s, 0, 0, 0.0, 0.0, 0.0, False)
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
                 self._assign(tr, i, self.t0)
@@ -216,6 +215,9 @@ class BatchEngine:
         n_ticks = int(round((t_end - self.t0) / self.dt))
         schedule = _Schedule(self.trials, self.t0)
         report_every = max(1, n_ticks // 200)
+        # runs of ticks in compiled code wherever nothing in between needs Python (not with
+        # section 1.4's learners, who choose every tick, nor with a hook watching every tick)
+        runs = self._decisions is None and self.on_tick is None
         while self.tick < n_ticks:
             t = self.t0 + self.tick * self.dt
             if t >= schedule.next_due:
@@ -224,17 +226,44 @@ class BatchEngine:
                 # section 1.4's learners read their five bits (a bar-code in the laser's view, the
                 # random bit, the nearest robot's markings) and pick a behaviour where they changed
                 self._decisions.decide(self.tick, t)
-            n_arrived = self._sense_and_decide()
-            if n_arrived:
-                self._serve_arrivals(t)
-            self._move()
-            self.tick += 1
+            if runs and self.tick % NOISE_BLOCK_TICKS and self.world.hand_over():
+                # up to the next block of noise (drawn in Python) or progress report, at the latest
+                stop = min(n_ticks, _next_multiple(self.tick, NOISE_BLOCK_TICKS),
+                           _next_multiple(self.tick, report_every) if progress is not None else n_ticks)
+                self._run_compiled(stop, schedule.next_due)
+            else:
+                n_arrived = self._sense_and_decide()
+                if n_arrived:
+                    self._serve_arrivals(t)
+                self._move()
+                self.tick += 1
             if self.on_tick is not None:
                 self.on_tick(self)
             if progress is not None and self.tick % report_every == 0:
                 progress(self.tick / n_ticks)
         self._check_poses(self.world.poses(out=self.pose), self.t)
         return [self._record(tr) for tr in self.trials]
+
+    def _run_compiled(self, stop: int, next_due: float) -> None:
+        """The ticks up to `stop` (or to the first at which something falls due) in compiled code
+        (`tick.run_ticks`), Python serving only the arrivals: the same work, in the same order,
+        as the loop of `run` does it tick by tick."""
+        world, check_first = self.world, False  # `run` has seen to what is due at the first tick
+        while self.tick < stop:
+            done, why = self._run(world.space_io, CP_EACH_BODY, CP_STEP, world.io, self.pose, self.robots, self.noise,
+                                  self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s,
+                                  self.tick, stop, self.t0, self.dt, next_due, check_first)
+            self.tick += done
+            self.tick_started = True
+            if why == RUN_ARRIVED:  # this tick's kernel ran: its arrivals, then its move
+                self._serve_arrivals(self.t)
+                self._move()
+                self.tick += 1
+                check_first = True
+            elif why == RUN_DUE:
+                return
+            elif why == RUN_LOST_BODIES:
+                raise RuntimeError("the physics space holds bodies the world did not index")
 
     def _fall_due(self, t: float, schedule: _Schedule) -> None:
         """Scheduled events, Q-table snapshots and pose frames that fall due at time t.
@@ -261,11 +290,11 @@ class BatchEngine:
         """Read the physics, then the compiled kernel for every robot of every trial: odometry,
         laser, camera, behaviours; leaves the wheel commands ready for the world to write.
         Returns how many robots arrived."""
-        k = self.tick % _NOISE_BLOCK_TICKS
+        k = self.tick % NOISE_BLOCK_TICKS
         world = self.world
         if k == 0:  # each trial's odometry noise, drawn from its own stream a block at a time
             for tr in self.trials:
-                self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((_NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
+                self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
             self._check_poses(world.poses(out=self.pose), self.t)
         else:
             world.read()

@@ -21,6 +21,7 @@ Poses are read and velocities written for all bodies at once with `pymunk.batch`
 
 from __future__ import annotations
 
+import ctypes
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -78,6 +79,56 @@ def write_commands(io, cmd):
         out[row, 0] = cmd[i, 0] * np.cos(th)
         out[row, 1] = cmd[i, 0] * np.sin(th)
         out[row, 2] = cmd[i, 1]
+
+
+def _address(cdata) -> int:
+    return int(ffi.cast("uintptr_t", cdata))
+
+
+# Chipmunk's entry points as ctypes functions, for compiled code that reads, writes and steps
+# the space itself: numba calls a ctypes function handed to it as an argument through its
+# address (pointers are passed as integers of their width)
+CP_EACH_BODY = ctypes.CFUNCTYPE(None, ctypes.c_size_t, ctypes.c_size_t, ctypes.c_size_t)(
+    _address(ffi.addressof(lib, "cpSpaceEachBody")))
+CP_STEP = ctypes.CFUNCTYPE(None, ctypes.c_size_t, ctypes.c_double)(_address(ffi.addressof(lib, "cpSpaceStep")))
+
+
+class SpaceIO(NamedTuple):
+    """The Chipmunk space as compiled code drives it (`read_bodies`, `write_and_step`, with
+    `CP_EACH_BODY` and `CP_STEP`): the addresses of the space, of pymunk.batch's get and set
+    iterators and of their requests, the headers of the two batch arrays, and the step.
+    Valid while the world's `BodyIO` is."""
+
+    space: int
+    get_iterator: int
+    set_iterator: int
+    read_request: int
+    write_request: int
+    read_header: np.ndarray   # int32 (num, max) of the read array: a get appends from num
+    write_header: np.ndarray  # int32 (num, max) of the write array: a set reads num numbers
+    h_s: float                # one Chipmunk step
+    substeps: int             # Chipmunk steps per control period
+
+
+@njit(cache=True)
+def read_bodies(sio, each_body):
+    """Every body's state into the read array (`BodyIO.state`), as `PhysicsWorld.read` does it;
+    returns how many numbers came (6 a body)."""
+    sio.read_header[0] = 0
+    each_body(sio.space, sio.get_iterator, sio.read_request)
+    return sio.read_header[0]
+
+
+@njit(cache=True)
+def write_and_step(sio, each_body, step):
+    """Every body's velocity from `BodyIO.velocities`, then one control period of physics: as
+    `PhysicsWorld.write` and `PhysicsWorld.step` do it while pymunk has nothing pending."""
+    filled = sio.write_header[0]
+    sio.write_header[0] = 0
+    each_body(sio.space, sio.set_iterator, sio.write_request)
+    sio.write_header[0] = filled
+    for _ in range(sio.substeps):
+        step(sio.space, sio.h_s)
 
 
 class _BodyIteration:
@@ -196,6 +247,14 @@ class PhysicsWorld:
         )
         self._get = _BodyIteration(self.space, _FIELDS_READ, self._read, "pmSpaceBodyGetIteratorFuncBatched")
         self._set = _BodyIteration(self.space, _FIELDS_WRITE, self._write, "pmSpaceBodySetIteratorFuncBatched")
+        self.space_io = SpaceIO(
+            space=_address(self._cp_space),
+            get_iterator=_address(self._get._iterator), set_iterator=_address(self._set._iterator),
+            read_request=_address(self._get._request), write_request=_address(self._set._request),
+            read_header=np.frombuffer(ffi.buffer(self._read._float_arr, 8), dtype=np.int32),
+            write_header=np.frombuffer(ffi.buffer(self._write._float_arr, 8), dtype=np.int32),
+            h_s=float(self.h), substeps=int(self.substeps),
+        )
         self._fresh = False
 
     def read(self) -> None:
@@ -230,6 +289,18 @@ class PhysicsWorld:
             self.read()
         write_commands(self.io, cmd)
         self.write()
+
+    def hand_over(self) -> bool:
+        """Whether compiled code may drive the space through `space_io` from here until it
+        returns (nothing pending that pymunk's own step must see to: see `step`). The state
+        it leaves counts as stale."""
+        space = self.space
+        if space._bodies_to_check or space._add_later or space._remove_later or space._post_step_callbacks \
+                or space.threaded:
+            return False
+        space._removed_shapes.clear()  # as pymunk's step does: removed shapes need no keeping now
+        self._fresh = False
+        return True
 
     def step(self) -> None:
         """One control period of physics (`substeps` Chipmunk steps).

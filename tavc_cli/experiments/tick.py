@@ -1,0 +1,66 @@
+"""The compiled part of the engine's tick, and runs of whole ticks in compiled code.
+
+`sense_decide_command` is one tick's compiled work: the true poses from the physics
+state just read, the control kernel (`behaviours.navigation.control_tick`) for every
+robot of every trial, the wheel commands into the velocities the world writes next.
+
+`run_ticks` goes further: between the moments Python is needed (an arrival to serve, an
+event, snapshot or pose frame due, a new block of odometry noise, a progress report) it
+reads, decides, writes and steps the physics tick after tick without returning, calling
+Chipmunk through the world's `SpaceIO`. Each tick does exactly what the Python loop
+would do, in the same order, so the numbers are the same either way (checked by the tests).
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from tavc_cli.behaviours.navigation import control_tick
+from tavc_cli.sim.world import read_bodies, read_poses, write_and_step, write_commands
+
+NOISE_BLOCK_TICKS = 512  # odometry noise is drawn a block of ticks at a time; poses are checked as often
+
+# why `run_ticks` stopped
+RUN_DONE = 0         # it reached the tick it was told to stop at
+RUN_ARRIVED = 1      # robots arrived in the tick it stopped in: their arrivals, then the move, are Python's
+RUN_DUE = 2          # something falls due at the tick it stopped at (nothing of that tick done)
+RUN_LOST_BODIES = 3  # the space holds bodies the world did not index
+
+
+@njit(cache=True)
+def sense_decide_command(io, pose, robots, noise, params, arena, laser, scan, cmd, act_s):
+    """The compiled part of a tick, in one call: the true poses from the physics state just read
+    (`io`, the world's side), the control kernel for every robot, and the wheel commands
+    into the velocities the world writes next. Returns how many robots arrived.
+
+    `params` is the PARAMS record as an array of one (passing a bare record costs every
+    call a description of its whole dtype, the bulk of the call's cost)."""
+    read_poses(io, pose)
+    n_arrived = control_tick(robots, pose, noise, params[0], arena, laser, scan, cmd, act_s)
+    write_commands(io, cmd)
+    return n_arrived
+
+
+@njit(cache=True)
+def run_ticks(sio, each_body, step, io, pose, robots, noise, params, arena, laser, scan, cmd, act_s,
+              tick, stop, t0_s, dt_s, next_due_s, check_first):
+    """Whole ticks from `tick` up to `stop` (exclusive), each as the engine's Python loop does
+    it: read the bodies, `sense_decide_command`, write the velocities, step. Stops early
+    before a tick at whose time t0 + tick dt something is due (the first tick is checked only
+    if `check_first`), in a tick in which robots arrived (its kernel done, its move not), or
+    if the space's bodies are not the world's. `noise` is the block of odometry draws, row
+    tick % NOISE_BLOCK_TICKS for each tick. Returns (ticks completed, RUN_*)."""
+    n_numbers = io.state.size
+    done = 0
+    while tick + done < stop:
+        k = tick + done
+        if (done > 0 or check_first) and t0_s + k * dt_s >= next_due_s:
+            return done, RUN_DUE
+        if read_bodies(sio, each_body) != n_numbers:
+            return done, RUN_LOST_BODIES
+        if sense_decide_command(io, pose, robots, noise[k % NOISE_BLOCK_TICKS], params, arena, laser, scan,
+                                cmd, act_s):
+            return done, RUN_ARRIVED
+        write_and_step(sio, each_body, step)
+        done += 1
+    return done, RUN_DONE
