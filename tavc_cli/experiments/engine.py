@@ -3,9 +3,10 @@
 Each trial has its own arena copy in a shared pymunk space, its own random
 streams and its own policy. The batch shares one physics step and one call of
 the compiled sensing and behaviour kernel per tick for every robot of every
-trial: Python runs per tick and per event (an arrival, a breakdown), never per
-robot per tick, except for section 1.4's behaviour learners, whose robots each choose a
-behaviour in Python when their sensed state changes.
+trial. Python runs per event (an arrival, a breakdown, a snapshot), never per robot
+per tick: between events whole ticks run in compiled code (`tick.run_ticks`), except
+with section 1.4's behaviour learners, whose robots choose a behaviour in Python when
+their sensed state changes, so that their batches go tick by tick.
 
 Per tick (`BatchEngine.run`): what falls due (events, snapshots, pose frames) ->
 behaviour choices of section 1.4's learners -> sense and decide (the kernel, over
