@@ -86,7 +86,7 @@ class TrialStore:
         ex = self.executor
         trials = self.folder / "trials"
         in_the_way = [trials] if trials.exists() and not trials.is_dir() else [
-            self.path(s) for s in specs if self.path(s).is_dir()]
+            p for p in map(self.path, specs) if p.is_dir()]
         if in_the_way:
             raise TavcError(f"{in_the_way[0]}: a {'file' if in_the_way[0] == trials else 'folder'} stands where "
                             "tavc writes its trial records; move it away")

@@ -61,7 +61,7 @@ def softmax_choice(q_row: np.ndarray, tau: float, rng: np.random.Generator) -> i
     u = rng.random()
     cumulative, chosen = 0.0, 0
     for k, v in enumerate(e):
-        cumulative = v / total if k == 0 else cumulative + v / total
+        cumulative += v / total  # 0.0 + x is x exactly: the first sum is numpy's first element
         if cumulative <= u:
             chosen = k + 1
     return min(chosen, len(q) - 1)

@@ -290,15 +290,23 @@ class PhysicsWorld:
         write_commands(self.io, cmd)
         self.write()
 
-    def hand_over(self) -> bool:
-        """Whether compiled code may drive the space through `space_io` from here until it
-        returns (nothing pending that pymunk's own step must see to: see `step`). The state
-        it leaves counts as stale."""
+    def _straight_to_chipmunk(self) -> bool:
+        """Whether a step may go to Chipmunk directly, without pymunk's book-keeping (see `step`):
+        nothing of the kind pending. If so, drop what pymunk's step would drop first (removed
+        shapes need no keeping now)."""
         space = self.space
         if space._bodies_to_check or space._add_later or space._remove_later or space._post_step_callbacks \
                 or space.threaded:
             return False
-        space._removed_shapes.clear()  # as pymunk's step does: removed shapes need no keeping now
+        space._removed_shapes.clear()
+        return True
+
+    def hand_over(self) -> bool:
+        """Whether compiled code may drive the space through `space_io` from here until it
+        returns (nothing pending that pymunk's own step must see to: see `step`). The state
+        it leaves counts as stale."""
+        if not self._straight_to_chipmunk():
+            return False
         self._fresh = False
         return True
 
@@ -310,15 +318,12 @@ class PhysicsWorld:
         from callbacks, post-step callbacks (it has none). While there is nothing of the kind
         pending, the step goes to Chipmunk directly, the very same call; otherwise through pymunk.
         """
-        space = self.space
-        if space._bodies_to_check or space._add_later or space._remove_later or space._post_step_callbacks \
-                or space.threaded:
-            for _ in range(self.substeps):
-                space.step(self.h)
-        else:
-            space._removed_shapes.clear()  # as pymunk's step does: removed shapes need no keeping now
+        if self._straight_to_chipmunk():
             for _ in range(self.substeps):
                 lib.cpSpaceStep(self._cp_space, self.h)
+        else:
+            for _ in range(self.substeps):
+                self.space.step(self.h)
         self._fresh = False
 
     def remove(self, robot: int) -> None:
