@@ -298,8 +298,7 @@ REFUSED = [
     (["arena=two_circuits", "arena.walls=[[4,0,4,2]]"],
      "arena.targets[2]: target 'sink2' cannot be reached by a robot of robot.radius_m = 0.22 from where robots "
      "start: arena.walls close it off or leave no room to dock in front of it"),
-    (["executor.batch_size=33"],
-     "executor.batch_size: must be at most 32 (one collision-filter bit per trial), got 33"),
+    (["executor.batch_size=0"], "executor.batch_size: must be >= 1, got 0"),
     (["executor.n_jobs=0"], "executor.n_jobs: must be >= 1, got 0"),
     (["sim.dt_s=0"], "sim.dt_s: must be > 0, got 0.0"),
     (["team.members=[{speed_mps:0.3}]"], "team.n_robots: 6 does not match the 1 robots listed in team.members"),

@@ -374,5 +374,3 @@ def _validate_executor(executor: DictConfig) -> None:
           f"'{executor.backend}' needs {module}, which is not installed: pip install 'tavc[{executor.backend}]'")
     at_least("executor.n_jobs", executor.n_jobs, 1)
     at_least("executor.batch_size", executor.batch_size, 1)
-    check(executor.batch_size <= 32, "executor.batch_size",
-          f"must be at most 32 (one collision-filter bit per trial), got {executor.batch_size}")

@@ -1,4 +1,4 @@
-"""The physical world: one pymunk space holding the walls and robots of a batch of trials.
+"""The physical world: a batch of trials, each in its own pymunk space.
 
 Robots are discs with a mass. Each is driven, as in pymunk's `tank.py` example,
 through a kinematic control body joined to it by a pivot joint and a gear joint
@@ -8,17 +8,14 @@ pushing into another or a wall is therefore stopped by contact forces instead of
 being teleported through it, and the sideways pull of the pivot joint plays the
 part of the wheels' lateral grip.
 
-Several trials share one space, so one `step` call advances them all (the
-per-call cost is paid once per batch, not once per trial). Every trial lies at the
-same coordinates, in its own copy of the walls, and collision filters keep trials
-apart: a shape of slot k collides only with shapes of slot k. Over the hundreds of
-seconds the tests run, a trial computes exactly what it computes alone, whatever its
-batch and slot. Over tens of thousands of seconds it need not: Chipmunk may solve one
-trial's contacts in an order that depends on the other trials' shapes in the shared
-spatial index, and the trial then departs (a spatiotemporal trial did at about 4,250 s).
-A space holds at most `MAX_SLOTS` trials, one filter bit each.
-
-Poses are read and velocities written for all bodies at once with `pymunk.batch`.
+Every trial of a batch has a space of its own, with its own walls, so a trial computes
+exactly what it computes alone, whatever its batch, its slot in it and however long it
+runs: nothing of another trial is in its spatial index or its solver. (When trials
+shared one space, kept apart by collision filters, Chipmunk's order of solving one
+trial's contacts came to depend on the other trials' shapes, and a long trial departed
+from itself alone.) One batched call still serves them all: poses are read and
+velocities written for every body of every space at once, through pymunk.batch's
+iterators into one buffer, and compiled code steps the spaces one after another.
 """
 
 from __future__ import annotations
@@ -41,7 +38,6 @@ _FIELDS_WRITE = pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
 COLLISION_SLOP_M = 0.002
 WALL_FRICTION = 0.3
 ROBOT_FRICTION = 0.3
-MAX_SLOTS = 32
 
 
 class BodyIO(NamedTuple):
@@ -96,12 +92,12 @@ CP_STEP = ctypes.CFUNCTYPE(None, ctypes.c_size_t, ctypes.c_double)(_address(ffi.
 
 
 class SpaceIO(NamedTuple):
-    """The Chipmunk space as compiled code drives it (`read_bodies`, `write_and_step`, with
-    `CP_EACH_BODY` and `CP_STEP`): the addresses of the space, of pymunk.batch's get and set
+    """The Chipmunk spaces as compiled code drives them (`read_bodies`, `write_and_step`, with
+    `CP_EACH_BODY` and `CP_STEP`): the addresses of the spaces, of pymunk.batch's get and set
     iterators and of their requests, the headers of the two batch arrays, and the step.
     Valid while the world's `BodyIO` is."""
 
-    space: int
+    spaces: np.ndarray        # uint64 address of each trial's cpSpace, in slot order
     get_iterator: int
     set_iterator: int
     read_request: int
@@ -114,10 +110,11 @@ class SpaceIO(NamedTuple):
 
 @njit(cache=True)
 def read_bodies(sio, each_body):
-    """Every body's state into the read array (`BodyIO.state`), as `PhysicsWorld.read` does it;
-    returns how many numbers came (6 a body)."""
+    """Every body's state into the read array (`BodyIO.state`), space after space, as
+    `PhysicsWorld.read` does it; returns how many numbers came (6 a body)."""
     sio.read_header[0] = 0
-    each_body(sio.space, sio.get_iterator, sio.read_request)
+    for space in sio.spaces:
+        each_body(space, sio.get_iterator, sio.read_request)
     return sio.read_header[0]
 
 
@@ -127,10 +124,12 @@ def write_and_step(sio, each_body, step):
     `PhysicsWorld.write` and `PhysicsWorld.step` do it while pymunk has nothing pending."""
     filled = sio.write_header[0]
     sio.write_header[0] = 0
-    each_body(sio.space, sio.set_iterator, sio.write_request)
+    for space in sio.spaces:
+        each_body(space, sio.set_iterator, sio.write_request)
     sio.write_header[0] = filled
-    for _ in range(sio.substeps):
-        step(sio.space, sio.h_s)
+    for space in sio.spaces:
+        for _ in range(sio.substeps):
+            step(space, sio.h_s)
 
 
 class _BodyIteration:
@@ -139,35 +138,41 @@ class _BodyIteration:
     of the time of a tick went there). Uses pymunk.batch's C iterators and its Buffer's
     array (pymunk 7)."""
 
-    def __init__(self, space: pymunk.Space, fields: pb.BodyFields, buffer: pb.Buffer, iterator: str) -> None:
+    def __init__(self, spaces: Sequence[pymunk.Space], fields: pb.BodyFields, buffer: pb.Buffer,
+                 iterator: str) -> None:
         self._is_set = "Set" in iterator
         self._request = ffi.new("pmBatchedData *")
         self._request.fields = fields.value
         self._request.floatArray = buffer._float_arr
         self._request.intArray = buffer._int_arr
         self._array = buffer._float_arr
-        self._space = space._space
+        self._spaces = [space._space for space in spaces]
         self._iterator = ffi.addressof(lib, iterator)
         self._buffer = buffer  # keeps the arrays alive
 
     def __call__(self) -> None:
         filled = self._array.num  # a set leaves it as it found it
-        self._array.num = 0  # a get appends from the start; a set reads from the start
-        lib.cpSpaceEachBody(self._space, self._iterator, self._request)
+        self._array.num = 0  # a get appends from the start; a set reads from the start, on and on
+        for space in self._spaces:
+            lib.cpSpaceEachBody(space, self._iterator, self._request)
         if self._is_set:
             self._array.num = filled
 
 
 class PhysicsWorld:
-    """A pymunk space with one walled arena per trial slot and a driven disc per robot.
+    """One pymunk space per trial slot, each a walled arena with a driven disc per robot.
 
-    Robots are numbered 0..n-1 across all slots; `slot_of[i]` says whose arena robot
+    Robots are numbered 0..n-1 across all slots; `slot_of[i]` says whose space robot
     i lives in.
     """
 
     @staticmethod
-    def _filter(slot: int) -> pymunk.ShapeFilter:
-        return pymunk.ShapeFilter(categories=1 << slot, mask=1 << slot)
+    def _space(iterations: int) -> pymunk.Space:
+        space = pymunk.Space()
+        space.iterations = iterations
+        space.collision_slop = COLLISION_SLOP_M
+        space.gravity = (0.0, 0.0)
+        return space
 
     def __init__(
         self,
@@ -181,24 +186,17 @@ class PhysicsWorld:
         substeps: int = 1,
         iterations: int = 10,
     ) -> None:
-        self.space = pymunk.Space()
-        self._cp_space = self.space._space
-        self.space.iterations = iterations
-        self.space.collision_slop = COLLISION_SLOP_M
-        self.space.gravity = (0.0, 0.0)
+        self.spaces = [self._space(iterations) for _ in start_poses]
         self.h = dt_s / substeps
         self.substeps = substeps
-        if len(start_poses) > MAX_SLOTS:
-            raise ValueError(f"a physics space holds at most {MAX_SLOTS} trials, got {len(start_poses)}")
         slots = [np.full(len(p), k, dtype=np.int64) for k, p in enumerate(start_poses)]
         self.slot_of = np.concatenate(slots) if slots else np.zeros(0, dtype=np.int64)
         self.n_robots = len(self.slot_of)
-        for k in range(len(start_poses)):
+        for space in self.spaces:
             for x1, y1, x2, y2 in arena.walls:
-                seg = pymunk.Segment(self.space.static_body, (x1, y1), (x2, y2), 0.0)
+                seg = pymunk.Segment(space.static_body, (x1, y1), (x2, y2), 0.0)
                 seg.friction = WALL_FRICTION
-                seg.filter = self._filter(k)
-                self.space.add(seg)
+                space.add(seg)
         poses = np.concatenate([np.asarray(p, dtype=np.float64) for p in start_poses])
         moment = pymunk.moment_for_circle(mass_kg, 0, radius_m)
         self._parts: list[tuple] = []
@@ -208,7 +206,6 @@ class PhysicsWorld:
             body.angle = float(th)
             shape = pymunk.Circle(body, radius_m)
             shape.friction = ROBOT_FRICTION
-            shape.filter = self._filter(int(slot))
             control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
             control.position = body.position
             pivot = pymunk.PivotJoint(control, body, (0, 0), (0, 0))
@@ -217,7 +214,7 @@ class PhysicsWorld:
             gear = pymunk.GearJoint(control, body, 0.0, 1.0)
             gear.max_bias = 0.0
             gear.max_force = drive_torque_nm
-            self.space.add(body, shape, control, pivot, gear)
+            self.spaces[slot].add(body, shape, control, pivot, gear)
             self._parts.append((body, shape, control, pivot, gear))
         self.alive = np.ones(self.n_robots, dtype=bool)
         self._read = pb.Buffer()
@@ -228,7 +225,8 @@ class PhysicsWorld:
     def _index_bodies(self) -> None:
         """Map batch-buffer rows to robots (pymunk reorders bodies on removal)."""
         self._read.clear()
-        pb.get_space_bodies(self.space, pb.BodyFields.BODY_ID, self._read)
+        for space in self.spaces:  # appended space after space, as every read and write goes
+            pb.get_space_bodies(space, pb.BodyFields.BODY_ID, self._read)
         ids = np.frombuffer(self._read.int_buf(), dtype=np.uintp)
         row = {int(b): k for k, b in enumerate(ids)}
         live = np.flatnonzero(self.alive)
@@ -247,10 +245,10 @@ class PhysicsWorld:
             control_rows=np.array([row[self._parts[i][2].id] for i in live], dtype=np.int64),
             live=live,
         )
-        self._get = _BodyIteration(self.space, _FIELDS_READ, self._read, "pmSpaceBodyGetIteratorFuncBatched")
-        self._set = _BodyIteration(self.space, _FIELDS_WRITE, self._write, "pmSpaceBodySetIteratorFuncBatched")
+        self._get = _BodyIteration(self.spaces, _FIELDS_READ, self._read, "pmSpaceBodyGetIteratorFuncBatched")
+        self._set = _BodyIteration(self.spaces, _FIELDS_WRITE, self._write, "pmSpaceBodySetIteratorFuncBatched")
         self.space_io = SpaceIO(
-            space=_address(self._cp_space),
+            spaces=np.array([_address(space._space) for space in self.spaces], dtype=np.uint64),
             get_iterator=_address(self._get._iterator), set_iterator=_address(self._set._iterator),
             read_request=_address(self._get._request), write_request=_address(self._set._request),
             read_header=np.frombuffer(ffi.buffer(self._read._float_arr, 8), dtype=np.int32),
@@ -296,11 +294,12 @@ class PhysicsWorld:
         """Whether a step may go to Chipmunk directly, without pymunk's book-keeping (see `step`):
         nothing of the kind pending. If so, drop what pymunk's step would drop first (removed
         shapes need no keeping now)."""
-        space = self.space
-        if space._bodies_to_check or space._add_later or space._remove_later or space._post_step_callbacks \
-                or space.threaded:
-            return False
-        space._removed_shapes.clear()
+        for space in self.spaces:
+            if space._bodies_to_check or space._add_later or space._remove_later or space._post_step_callbacks \
+                    or space.threaded:
+                return False
+        for space in self.spaces:
+            space._removed_shapes.clear()
         return True
 
     def hand_over(self) -> bool:
@@ -321,11 +320,13 @@ class PhysicsWorld:
         pending, the step goes to Chipmunk directly, the very same call; otherwise through pymunk.
         """
         if self._straight_to_chipmunk():
-            for _ in range(self.substeps):
-                lib.cpSpaceStep(self._cp_space, self.h)
+            for space in self.spaces:
+                for _ in range(self.substeps):
+                    lib.cpSpaceStep(space._space, self.h)
         else:
-            for _ in range(self.substeps):
-                self.space.step(self.h)
+            for space in self.spaces:
+                for _ in range(self.substeps):
+                    space.step(self.h)
         self._fresh = False
 
     def remove(self, robot: int) -> None:
@@ -333,6 +334,6 @@ class PhysicsWorld:
         if not self.alive[robot]:
             return
         self.poses()  # where it stops
-        self.space.remove(*self._parts[robot])
+        self.spaces[self.slot_of[robot]].remove(*self._parts[robot])
         self.alive[robot] = False
         self._index_bodies()
