@@ -152,7 +152,7 @@ class _BodyIteration:
 
     def __call__(self) -> None:
         filled = self._array.num  # a set leaves it as it found it
-        self._array.num = 0  # a get appends from the start; a set reads from the start, on and on
+        self._array.num = 0  # a get appends from the start, a set reads from it: space after space
         for space in self._spaces:
             lib.cpSpaceEachBody(space, self._iterator, self._request)
         if self._is_set:
