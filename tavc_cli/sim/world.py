@@ -132,6 +132,16 @@ def write_and_step(sio, each_body, step):
             step(space, sio.h_s)
 
 
+@njit(cache=True)
+def step_only(sio, step, n_ticks):
+    """`n_ticks` control periods of physics and nothing else, every body keeping its velocity
+    (to measure what the physics alone costs)."""
+    for _ in range(n_ticks):
+        for space in sio.spaces:
+            for _ in range(sio.substeps):
+                step(space, sio.h_s)
+
+
 class _BodyIteration:
     """One batched get or set of every body's fields, as `pymunk.batch.get_space_bodies` and
     `set_space_bodies` do it, with the request built once instead of on every call (a tenth
