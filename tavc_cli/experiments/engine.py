@@ -4,9 +4,10 @@ Each trial has its own pymunk space, its own random streams and its own policy,
 so it computes the same alone or in any batch. The batch shares one batched read
 and write of the physics and one call of the compiled sensing and behaviour kernel
 per tick for every robot of every trial. Python runs per event (an arrival, a
-breakdown, a snapshot), never per robot per tick: between events whole ticks run in compiled code (`tick.run_ticks`), except
-with section 1.4's behaviour learners, whose robots choose a behaviour in Python when
-their sensed state changes, so that their batches go tick by tick.
+breakdown, a snapshot), never per robot per tick: between events whole ticks run in
+compiled code (`tick.run_ticks`), except with section 1.4's behaviour learners, whose
+robots choose a behaviour in Python when their sensed state changes, so that their
+batches go tick by tick.
 
 Per tick (`BatchEngine.run`): what falls due (events, snapshots, pose frames) ->
 behaviour choices of section 1.4's learners -> sense and decide (the kernel, over
