@@ -8,9 +8,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 EXPERIMENTS := initial_distribution breakdown breakdown_no_vacancy value_change heterogeneous spatiotemporal
 REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
-# Longest first, so that the last one to finish is a short one (spatiotemporal's five trials
-# split 3 + 2 over two cores and would otherwise end on one)
-QUICK := $(addprefix quick-,spatiotemporal heterogeneous value_change breakdown breakdown_no_vacancy initial_distribution)
+QUICK := $(addprefix quick-,$(EXPERIMENTS))
 
 .DEFAULT_GOAL := help
 # Learning values [w_high, w_low] for the value-ratio sweep: ratios 1.0, 1.1 (the chapter's), 1.25 ... 2.0
