@@ -119,6 +119,16 @@ def read_bodies(sio, each_body):
 
 
 @njit(cache=True)
+def step_only(sio, step, n_ticks):
+    """`n_ticks` control periods of physics and nothing else, every body keeping its velocity
+    (alone, it measures what the physics costs)."""
+    for _ in range(n_ticks):
+        for space in sio.spaces:
+            for _ in range(sio.substeps):
+                step(space, sio.h_s)
+
+
+@njit(cache=True)
 def write_and_step(sio, each_body, step):
     """Every body's velocity from `BodyIO.velocities`, then one control period of physics: as
     `PhysicsWorld.write` and `PhysicsWorld.step` do it while pymunk has nothing pending."""
@@ -127,19 +137,7 @@ def write_and_step(sio, each_body, step):
     for space in sio.spaces:
         each_body(space, sio.set_iterator, sio.write_request)
     sio.write_header[0] = filled
-    for space in sio.spaces:
-        for _ in range(sio.substeps):
-            step(space, sio.h_s)
-
-
-@njit(cache=True)
-def step_only(sio, step, n_ticks):
-    """`n_ticks` control periods of physics and nothing else, every body keeping its velocity
-    (to measure what the physics alone costs)."""
-    for _ in range(n_ticks):
-        for space in sio.spaces:
-            for _ in range(sio.substeps):
-                step(space, sio.h_s)
+    step_only(sio, step, 1)
 
 
 class _BodyIteration:
@@ -329,13 +327,12 @@ class PhysicsWorld:
         from callbacks, post-step callbacks (it has none). While there is nothing of the kind
         pending, the step goes to Chipmunk directly, the very same call; otherwise through pymunk.
         """
-        if self._straight_to_chipmunk():
-            for space in self.spaces:
-                for _ in range(self.substeps):
+        straight = self._straight_to_chipmunk()
+        for space in self.spaces:
+            for _ in range(self.substeps):
+                if straight:
                     lib.cpSpaceStep(space._space, self.h)
-        else:
-            for space in self.spaces:
-                for _ in range(self.substeps):
+                else:
                     space.step(self.h)
         self._fresh = False
 
