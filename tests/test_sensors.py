@@ -26,6 +26,7 @@ from tavc_cli.sim.sensors import (
     markings_visible,
     odometry_update,
     ray_angles,
+    wrap_angle,
 )
 
 RADIUS_M = 0.22
@@ -496,3 +497,20 @@ def test_fast_atan2_stays_well_inside_the_window_margin():
     ys, xs = np.random.default_rng(0).normal(size=(2, 20_000))
     worst = max(abs(_fast_atan2(y, x) - math.atan2(y, x)) for y, x in zip(ys, xs, strict=True))
     assert worst < _WINDOW_MARGIN_RAD / 4
+
+
+def test_wrap_angle_is_the_remainder_formula_to_the_last_bit():
+    """The wrap skips the remainder for angles already in range; it must give, bit for bit,
+    what (a + pi) % 2 pi - pi gives, on both sides of every boundary and far outside."""
+    rng = np.random.default_rng(3)
+    edges = [0.0, -0.0, math.pi, -math.pi, 2 * math.pi, -2 * math.pi, 3 * math.pi, 1e-300, -1e-300]
+    near = [np.nextafter(e, d) for e in edges for d in (-np.inf, np.inf)]
+    angles = np.concatenate([edges, near, rng.uniform(-4 * math.pi, 4 * math.pi, 20000),
+                             rng.uniform(-1e6, 1e6, 1000), [np.inf, -np.inf, np.nan]])
+    for a in angles.tolist():
+        expected = (a + math.pi) % (2.0 * math.pi) - math.pi  # Python's float remainder
+        got = wrap_angle(a)
+        same = np.array([got]).tobytes() == np.array([expected]).tobytes()
+        assert same or (math.isnan(got) and math.isnan(expected)), a
+        if math.isfinite(a):
+            assert -math.pi <= got <= math.pi  # pi itself where x just below 2 pi rounds up, as before

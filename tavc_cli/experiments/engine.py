@@ -250,18 +250,16 @@ class BatchEngine:
         """The ticks up to `stop` (or to the first at which something falls due) in compiled code
         (`tick.run_ticks`), Python serving only the arrivals: the same work, in the same order,
         as the loop of `run` does it tick by tick."""
-        world, check_first = self.world, False  # `run` has seen to what is due at the first tick
+        world, move_first = self.world, False  # `run` has seen to what is due at the first tick
         while self.tick < stop:
             done, why = self._run(world.space_io, CP_EACH_BODY, CP_STEP, world.io, self.pose, self.robots, self.noise,
                                   self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s,
-                                  self.tick, stop, self.t0, self.dt, next_due, check_first)
+                                  self.tick, stop, self.t0, self.dt, next_due, move_first)
             self.tick += done
             self.tick_started = True
-            if why == RUN_ARRIVED:  # this tick's kernel ran: its arrivals, then its move
+            move_first = why == RUN_ARRIVED
+            if move_first:  # this tick's kernel ran: its arrivals here, its move back in compiled code
                 self._serve_arrivals(self.t)
-                self._move()
-                self.tick += 1
-                check_first = True
             elif why == RUN_DUE:
                 return
             elif why == RUN_LOST_BODIES:

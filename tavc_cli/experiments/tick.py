@@ -43,18 +43,23 @@ def sense_decide_command(io, pose, robots, noise, params, arena, laser, scan, cm
 
 @njit(cache=True)
 def run_ticks(sio, each_body, step, io, pose, robots, noise, params, arena, laser, scan, cmd, act_s,
-              tick, stop, t0_s, dt_s, next_due_s, check_first):
+              tick, stop, t0_s, dt_s, next_due_s, move_first):
     """Whole ticks from `tick` up to `stop` (exclusive), each as the engine's Python loop does
     it: read the bodies, `sense_decide_command`, write the velocities, step. Stops early
-    before a tick at whose time t0 + tick dt something is due (the first tick is checked only
-    if `check_first`), in a tick in which robots arrived (its kernel done, its move not), or
+    before a tick at whose time t0 + tick dt something is due (all but the first: the caller
+    has seen to that one), in a tick in which robots arrived (its kernel done, its move not), or
     if the space's bodies are not the world's. `noise` is the block of odometry draws, row
-    tick % NOISE_BLOCK_TICKS for each tick. Returns (ticks completed, RUN_*)."""
+    tick % NOISE_BLOCK_TICKS for each tick. With `move_first`, tick `tick` is one whose
+    kernel has run and whose arrivals Python has served: its move comes first, then the ticks
+    after it (the next one checked for what is due). Returns (ticks completed, RUN_*)."""
     n_numbers = io.state.size
     done = 0
+    if move_first:
+        write_and_step(sio, each_body, step)
+        done = 1
     while tick + done < stop:
         k = tick + done
-        if (done > 0 or check_first) and t0_s + k * dt_s >= next_due_s:
+        if done > 0 and t0_s + k * dt_s >= next_due_s:
             return done, RUN_DUE
         if read_bodies(sio, each_body) != n_numbers:
             return done, RUN_LOST_BODIES

@@ -41,8 +41,16 @@ MARKING_ANGLES = np.array([math.pi / 2, -math.pi / 2, math.pi])
 
 @njit(cache=True, inline="always")
 def wrap_angle(a: float) -> float:
-    """Wrap an angle to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
+    """Wrap an angle to [-pi, pi): (a + pi) mod 2 pi, less pi.
+
+    Most angles need no wrapping, and for 0 <= x < 2 pi the remainder x mod 2 pi is x itself
+    (floating-point remainders are exact), so those skip the remainder's library call and
+    division; the result is the same number either way.
+    """
+    x = a + math.pi
+    if 0.0 <= x < 2.0 * math.pi:
+        return x - math.pi
+    return x % (2.0 * math.pi) - math.pi
 
 
 @njit(cache=True, inline="always")
