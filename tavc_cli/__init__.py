@@ -1,3 +1,58 @@
 """tavc: a reproduction of task allocation through vacancy chains in multi-robot transportation."""
 
+import hashlib
+import os
+import shutil
+import sys
+from pathlib import Path
+
 __version__ = "0.1.0"
+
+# The packages whose source compiled (numba) code is made from: the kernels themselves and
+# the modules whose constants and record layouts they freeze in when compiled.
+COMPILED_SOURCES = ("sim", "behaviours", "learning", "experiments")
+
+
+def compiled_code_digest(root: Path) -> str:
+    """Digest of every source file under `root`'s `COMPILED_SOURCES` packages."""
+    h = hashlib.sha256()
+    for part in COMPILED_SOURCES:
+        for f in sorted((root / part).rglob("*.py")):
+            h.update(f.relative_to(root).as_posix().encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def compiled_code_cache(root: Path, home: Path) -> Path:
+    """The folder under `home` for the compiled kernels of the source under `root`, named by
+    `compiled_code_digest`; the folders of other versions of the source are removed."""
+    where = home / compiled_code_digest(root)
+    if home.is_dir():
+        for old in home.iterdir():
+            if old != where:
+                shutil.rmtree(old, ignore_errors=True)
+    return where
+
+
+def _use_compiled_code_cache() -> None:
+    """Point numba's cache of compiled kernels at `compiled_code_cache`.
+
+    numba checks a cached function against its own file only. A kernel that inlined a
+    function, or froze a constant, from another file would otherwise be loaded from the
+    cache unchanged after that file changed, and run the old code. With one folder per
+    version of the source, any change compiles everything afresh. A NUMBA_CACHE_DIR set
+    by the user is left alone.
+    """
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    root = Path(__file__).resolve().parent
+    home = root / "__pycache__" / "numba"
+    if not os.access(root, os.W_OK):  # an installed, read-only copy
+        home = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tavc" / "numba"
+    where = str(compiled_code_cache(root, home))
+    os.environ["NUMBA_CACHE_DIR"] = where
+    if "numba.core.config" in sys.modules:  # numba came first and has read its settings already
+        sys.modules["numba.core.config"].CACHE_DIR = where
+
+
+_use_compiled_code_cache()

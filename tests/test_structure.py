@@ -1,6 +1,8 @@
 """The layering the code promises: Hydra stays at the front doors, analysis above the runner."""
 
 import ast
+import os
+import shutil
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "tavc_cli"
@@ -35,3 +37,50 @@ def test_nothing_below_the_front_doors_imports_the_config_package_or_hydra():
 def test_the_runner_does_not_analyse():
     names = _imports(PACKAGE / "experiments" / "runner.py")
     assert not any(n.startswith("tavc_cli.analysis") for n in names)
+
+
+def test_compiled_kernels_are_cached_per_version_of_their_source(tmp_path):
+    """numba's own cache would keep a kernel compiled against an older copy of a function it
+    inlined from another file; tavc keeps one cache folder per version of the compiled source."""
+    import tavc_cli
+    from tavc_cli import compiled_code_cache, compiled_code_digest
+
+    here = Path(tavc_cli.__file__).resolve().parent
+    assert os.environ["NUMBA_CACHE_DIR"].endswith(compiled_code_digest(here))
+    root = tmp_path / "src"
+    for part in ("sim", "report"):
+        shutil.copytree(here / part, root / part, ignore=shutil.ignore_patterns("__pycache__"))
+    home = tmp_path / "cache"
+    first = compiled_code_cache(root, home)
+    first.mkdir(parents=True)
+    (root / "report" / "text.py").write_text("# a file no kernel is made from\n")
+    assert compiled_code_cache(root, home) == first and first.is_dir()
+    sensors = root / "sim" / "sensors.py"
+    sensors.write_text(sensors.read_text() + "\n# changed\n")
+    second = compiled_code_cache(root, home)
+    assert second != first
+    assert not first.exists()  # the old version's kernels are gone
+
+
+def test_the_trial_key_covers_every_module_a_trial_runs():
+    """A stored trial is reused while its key is unchanged, and the key digests the source
+    that decides outcomes: every tavc module the engine reaches (through its imports, within
+    the packages trials run in) must be in that digest."""
+    from tavc_cli.experiments.spec import _OUTCOME_CODE
+
+    root = Path(__file__).resolve().parent.parent / "tavc_cli"
+    covered = {p for p in _OUTCOME_CODE if p.endswith(".py")}
+    dirs = [p for p in _OUTCOME_CODE if not p.endswith(".py")]
+    seen, todo = set(), ["experiments/engine.py"]
+    while todo:
+        rel = todo.pop()
+        if rel in seen:
+            continue
+        seen.add(rel)
+        for node in ast.walk(ast.parse((root / rel).read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("tavc_cli."):
+                path = node.module.removeprefix("tavc_cli.").replace(".", "/") + ".py"
+                if path.split("/")[0] in ("experiments", "sim", "behaviours", "learning"):
+                    todo.append(path)
+    missing = sorted(p for p in seen if p not in covered and not any(p.startswith(d + "/") for d in dirs))
+    assert not missing, f"modules a trial runs but its key does not digest: {missing}"

@@ -76,7 +76,7 @@ class TrialSpec:
 
 
 _OUTCOME_CODE = ("sim", "behaviours", "learning", "experiments/engine.py", "experiments/events.py",
-                 "experiments/spec.py")
+                 "experiments/spec.py", "experiments/tick.py", "experiments/trial.py", "experiments/records.py")
 
 
 @cache
