@@ -7,6 +7,7 @@ import pytest
 from scipy import stats
 
 from tavc_cli.config import load_config, settings
+from tavc_cli.experiments import engine as engine_module
 from tavc_cli.experiments import trial
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine, run_trials
@@ -221,11 +222,15 @@ def test_a_trial_is_the_same_alone_or_batched_with_others():
     _assert_records_equal(alone, run_trials([specs[2], specs[0], specs[1]])[2])
 
 
-def test_runs_of_compiled_ticks_compute_what_the_tick_by_tick_loop_does():
-    # Between arrivals, events and snapshots the engine runs whole ticks in compiled code; a hook
-    # on every tick forces the loop through Python tick by tick. Breakdowns, a value change,
-    # Q-table snapshots, pose frames and a progress report all fall inside the 600 s, and
-    # several blocks of odometry noise (512 ticks each) pass.
+@pytest.mark.parametrize("log_rows", [256, 1])
+def test_runs_of_compiled_ticks_compute_what_the_tick_by_tick_loop_does(log_rows, monkeypatch):
+    # Between deliveries, events and snapshots the engine runs whole ticks in compiled code,
+    # serving arrivals at sources there too; a hook on every tick forces the loop through Python
+    # tick by tick. Breakdowns, a value change, Q-table snapshots, pose frames and a progress
+    # report all fall inside the 600 s, and several blocks of odometry noise (512 ticks each)
+    # pass. With a log of one row, compiled code must leave to Python any arrival at a source
+    # it has no room to log.
+    monkeypatch.setattr(engine_module, "_SOURCE_LOG_ROWS", log_rows)
     specs = _specs("arena=two_circuits", "learner=tavc_egreedy", "team.n_robots=5", "trials=2", "duration_s=600",
                    "sim.q_snapshot_every_s=70", "sim.pose_every_s=45",
                    "events.breakdowns=[{time_s:150.0,robot:1},{time_s:333.3,circuit:high}]",

@@ -33,6 +33,7 @@ from tavc_cli.experiments.tick import (
     RUN_ARRIVED,
     RUN_DUE,
     RUN_LOST_BODIES,
+    SourceArrivals,
     run_ticks,
     sense_decide_command,
 )
@@ -40,6 +41,8 @@ from tavc_cli.experiments.trial import TrialFault, TrialState
 from tavc_cli.learning.behaviour import BatchDecisions
 from tavc_cli.sim.arena import SOURCE
 from tavc_cli.sim.world import CP_EACH_BODY, CP_STEP, PhysicsWorld
+
+_SOURCE_LOG_ROWS = 256  # arrivals at sources compiled code may serve before Python takes them in
 
 
 def _next_multiple(tick: int, every: int) -> int:
@@ -102,9 +105,16 @@ class BatchEngine:
         self.act_s = np.zeros((n, N_ACT))
         self.act_at_task = np.zeros((n, N_ACT))
         self.tick_started = False
-        self.src = np.array([c.source for c in self.arena.circuits])
-        self.snk = np.array([c.sink for c in self.arena.circuits])
-        self.kind_of = np.array([t.kind for t in self.arena.targets])
+        self.src = np.array([c.source for c in self.arena.circuits], dtype=np.int64)
+        self.snk = np.array([c.sink for c in self.arena.circuits], dtype=np.int64)
+        self.kind_of = np.array([t.kind for t in self.arena.targets], dtype=np.int64)
+        # every trial's circuit per robot, in two arrays of the batch that compiled code reads too
+        task, last_circuit = np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64)
+        for tr in self.trials:
+            tr.task, tr.last_circuit = task[tr.lo:tr.hi], last_circuit[tr.lo:tr.hi]
+        self._arrivals = SourceArrivals(task, last_circuit, self.kind_of, self.snk,
+                                        np.zeros((_SOURCE_LOG_ROWS, 4), dtype=np.int64), np.zeros(1, dtype=np.int64))
+        self._trial_of = self.robots["trial"].tolist()
         self.t0 = -first.warmup_s  # every trial of a batch starts its warm-up here
         self.tick = 0
         self.on_tick: Callable[[BatchEngine], None] | None = None
@@ -115,7 +125,7 @@ class BatchEngine:
                                 self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s)
         self._run = compiled(run_ticks, self.world.space_io, CP_EACH_BODY, CP_STEP, self.world.io, self.pose,
                              self.robots, self.noise, self._params, self.geometry, self.laser, self.scan, self.cmd,
-                             self.act_s, 0, 0, 0.0, 0.0, 0.0, False)
+                             self.act_s, self._arrivals, 0, 0, 0.0, 0.0, 0.0, False)
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
                 self._assign(tr, i, self.t0)
@@ -254,7 +264,8 @@ class BatchEngine:
         while self.tick < stop:
             done, why = self._run(world.space_io, CP_EACH_BODY, CP_STEP, world.io, self.pose, self.robots, self.noise,
                                   self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s,
-                                  self.tick, stop, self.t0, self.dt, next_due, move_first)
+                                  self._arrivals, self.tick, stop, self.t0, self.dt, next_due, move_first)
+            self._log_source_arrivals()
             self.tick += done
             self.tick_started = True
             move_first = why == RUN_ARRIVED
@@ -264,6 +275,15 @@ class BatchEngine:
                 return
             elif why == RUN_LOST_BODIES:
                 raise RuntimeError("the physics space holds bodies the world did not index")
+
+    def _log_source_arrivals(self) -> None:
+        """The arrivals at sources that compiled code served (`tick.send_on_from_sources`), into
+        their trials' tables as `_arrive` puts them."""
+        logged = self._arrivals.logged
+        for tick, g, target, circuit in self._arrivals.log[:logged[0]].tolist():
+            tr = self.trials[self._trial_of[g]]
+            tr.rows.add("arrivals", self.t0 + tick * self.dt, g - tr.lo, target, circuit, SOURCE)
+        logged[0] = 0
 
     def _fall_due(self, t: float, schedule: _Schedule) -> None:
         """Scheduled events, Q-table snapshots and pose frames that fall due at time t.
@@ -324,9 +344,9 @@ class BatchEngine:
         raise TrialFault(b, f"robot {i} {where} at t = {t:.1f} s")
 
     def _serve_arrivals(self, t: float) -> None:
-        for g in np.flatnonzero(self.robots["arrived"]):
-            tr = self.trials[self.robots[g]["trial"]]
-            self._arrive(tr, int(g - tr.lo), t)
+        for g in np.flatnonzero(self.robots["arrived"]).tolist():
+            tr = self.trials[self._trial_of[g]]
+            self._arrive(tr, g - tr.lo, t)
 
     def _move(self) -> None:
         """The wheel commands the kernel left to the physics, and one control period of it."""
