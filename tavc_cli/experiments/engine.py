@@ -3,9 +3,10 @@
 Each trial has its own pymunk space, its own random streams and its own policy,
 so it computes the same alone or in any batch. The batch shares one batched read
 and write of the physics and one call of the compiled sensing and behaviour kernel
-per tick for every robot of every trial. Python runs per event (an arrival, a
+per tick for every robot of every trial. Python runs per event (a delivery, a
 breakdown, a snapshot), never per robot per tick: between events whole ticks run in
-compiled code (`tick.run_ticks`), except with section 1.4's behaviour learners, whose
+compiled code (`tick.run_ticks`, which also sends robots on from their sources),
+except with section 1.4's behaviour learners, whose
 robots choose a behaviour in Python when their sensed state changes, so that their
 batches go tick by tick.
 
@@ -258,8 +259,9 @@ class BatchEngine:
 
     def _run_compiled(self, stop: int, next_due: float) -> None:
         """The ticks up to `stop` (or to the first at which something falls due) in compiled code
-        (`tick.run_ticks`), Python serving only the arrivals: the same work, in the same order,
-        as the loop of `run` does it tick by tick."""
+        (`tick.run_ticks`), Python serving only the ticks with a delivery (arrivals at sources
+        are served in compiled code and logged for the tables): the same work, in the same
+        order, as the loop of `run` does it tick by tick."""
         world, move_first = self.world, False  # `run` has seen to what is due at the first tick
         while self.tick < stop:
             done, why = self._run(world.space_io, CP_EACH_BODY, CP_STEP, world.io, self.pose, self.robots, self.noise,
