@@ -4,6 +4,7 @@ import hashlib
 import os
 import shutil
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 __version__ = "0.1.0"
@@ -13,14 +14,21 @@ __version__ = "0.1.0"
 COMPILED_SOURCES = ("sim", "behaviours", "learning", "experiments")
 
 
-def compiled_code_digest(root: Path) -> str:
-    """Digest of every source file under `root`'s `COMPILED_SOURCES` packages."""
+def source_digest(root: Path, parts: Sequence[str]) -> str:
+    """Digest of the source files `parts` under `root` (a part not ending in .py is a package
+    folder and stands for every .py file in it), their paths relative to `root` included."""
     h = hashlib.sha256()
-    for part in COMPILED_SOURCES:
-        for f in sorted((root / part).rglob("*.py")):
+    for part in parts:
+        path = root / part
+        for f in [path] if path.suffix == ".py" else sorted(path.rglob("*.py")):
             h.update(f.relative_to(root).as_posix().encode())
             h.update(f.read_bytes())
     return h.hexdigest()[:16]
+
+
+def compiled_code_digest(root: Path) -> str:
+    """Digest of every source file under `root`'s `COMPILED_SOURCES` packages."""
+    return source_digest(root, COMPILED_SOURCES)
 
 
 def compiled_code_cache(root: Path, home: Path) -> Path:

@@ -6,9 +6,8 @@ and write of the physics and one call of the compiled sensing and behaviour kern
 per tick for every robot of every trial. Python runs per event (a delivery, a
 breakdown, a snapshot), never per robot per tick: between events whole ticks run in
 compiled code (`tick.run_ticks`, which also sends robots on from their sources),
-except with section 1.4's behaviour learners, whose
-robots choose a behaviour in Python when their sensed state changes, so that their
-batches go tick by tick.
+except with section 1.4's behaviour learners, whose robots choose a behaviour in
+Python when their sensed state changes, so that their batches go tick by tick.
 
 Per tick (`BatchEngine.run`): what falls due (events, snapshots, pose frames) ->
 behaviour choices of section 1.4's learners -> sense and decide (the kernel, over

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tavc_cli import source_digest
 from tavc_cli.settings import ArenaConfig, LearnerConfig, RobotConfig
 from tavc_cli.sim.arena import Arena, arena_from_config
 
@@ -82,14 +83,7 @@ _OUTCOME_CODE = ("sim", "behaviours", "learning", "experiments/engine.py", "expe
 @cache
 def code_digest() -> str:
     """Digest of the source files that decide a trial's outcome."""
-    root = Path(__file__).resolve().parent.parent
-    h = hashlib.sha256()
-    for part in _OUTCOME_CODE:
-        path = root / part
-        for f in sorted(path.rglob("*.py")) if path.is_dir() else [path]:
-            h.update(f.relative_to(root).as_posix().encode())
-            h.update(f.read_bytes())
-    return h.hexdigest()[:16]
+    return source_digest(Path(__file__).resolve().parent.parent, _OUTCOME_CODE)
 
 
 def _jsonable(obj):
