@@ -86,6 +86,25 @@ def test_greedy_ties_are_broken_at_random():
     assert _chi2_pvalue(counts[[0, 2, 3]], [1 / 3] * 3) > 0.001
 
 
+def test_epsilon_greedy_is_numpys_argmax_with_random_ties():
+    """The plain-Python choice takes exactly the action, and the draws, of numpy's formulation."""
+
+    def numpys(q_row, epsilon, rng):
+        if rng.random() < epsilon:
+            return int(rng.integers(len(q_row)))
+        best = np.flatnonzero(q_row == q_row.max())
+        return int(best[0]) if len(best) == 1 else int(rng.choice(best))
+
+    g = np.random.default_rng(7)
+    ours, theirs = np.random.default_rng(8), np.random.default_rng(8)
+    for _ in range(20_000):
+        # coarse values, so that ties among the greedy actions are common
+        row = g.integers(-2, 3, int(g.integers(1, 6))) * float(g.choice([0.5, 1.0, 1e-300]))
+        epsilon = float(g.choice([0.0, 0.1, 1.0]))
+        assert epsilon_greedy(row, epsilon, ours) == numpys(row, epsilon, theirs)
+    assert ours.random() == theirs.random()  # both drew the same numbers all along
+
+
 # --- softmax -------------------------------------------------------------------------------------
 
 

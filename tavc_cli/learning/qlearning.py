@@ -29,12 +29,16 @@ def epsilon_greedy(q_row: np.ndarray, epsilon: float, rng: np.random.Generator) 
     """The greedy action, or with probability epsilon a uniformly random one.
 
     Ties among greedy actions are broken at random so that no action is favoured
-    by its position in the table.
+    by its position in the table. The handful of actions a row holds are compared in plain
+    Python: the same actions and draws as numpy's `flatnonzero(q == q.max())`, at a fraction
+    of its cost on tiny arrays.
     """
     if rng.random() < epsilon:
         return int(rng.integers(len(q_row)))
-    best = np.flatnonzero(q_row == q_row.max())
-    return int(best[0]) if len(best) == 1 else int(rng.choice(best))
+    q = q_row.tolist()
+    top = max(q)
+    best = [k for k, v in enumerate(q) if v == top]
+    return best[0] if len(best) == 1 else int(rng.choice(best))
 
 
 def softmax_probs(q_row: np.ndarray, tau: float) -> np.ndarray:
