@@ -8,11 +8,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from tavc_cli.behaviours.activities import ACT_DOCK
 from tavc_cli.behaviours.layout import MODE_APPROACH, MODE_SERVICE, MODE_UNDOCK
 from tavc_cli.behaviours.motion import free_distance
+from tavc_cli.sim.kernel import kernel
 from tavc_cli.sim.sensors import HIT_ROBOT, wrap_angle
 
 # the final approach runs along the code's normal toward a point this far ahead of the robot
@@ -29,14 +29,14 @@ GIVEWAY_GAP_M = 0.35
 READ_TOL_M = 0.02
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def to_frame(px, py, th, gx, gy):
     """Bearing (robot frame) and distance from pose (px, py, th) to the point (gx, gy)."""
     dx, dy = gx - px, gy - py
     return wrap_angle(math.atan2(dy, dx) - th), math.sqrt(dx * dx + dy * dy)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def dock_frame(px, py, th, target, standoff):
     """Pose relative to `target`'s dock spot (a TARGET record), the point `standoff` out from the bar-code
     along its wall's normal: (along the normal, positive into the arena; along the wall;
@@ -47,7 +47,7 @@ def dock_frame(px, py, th, target, standoff):
     return dx * nx + dy * ny, dy * nx - dx * ny, wrap_angle(th - math.atan2(-ny, -nx))
 
 
-@njit(cache=True)
+@kernel
 def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, scan, laser, nearest, radius):
     """Whether the laser shows another robot within `zone` of the dock spot, nearer to it than robot r.
 
@@ -79,7 +79,7 @@ def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, 
     return False
 
 
-@njit(cache=True)
+@kernel
 def nearest_rays(r, first, last, scan, out, best):
     """out[j] = whether ray j of robot r is the shortest of the rays that hit the same robot
     (the first of equals): one ray per robot in view (rows first..last-1), the one passing
@@ -99,7 +99,7 @@ def nearest_rays(r, first, last, scan, out, best):
             out[best[o]] = True
 
 
-@njit(cache=True)
+@kernel
 def robot_in_front(r, scan, radius):
     """Whether a robot is within a give-way gap of robot r, anywhere in its laser's view."""
     for j in range(scan.range_m.shape[1]):
@@ -108,7 +108,7 @@ def robot_in_front(r, scan, radius):
     return False
 
 
-@njit(cache=True)
+@kernel
 def dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, params, cmd, work):
     """The final approach: drive along the bar-code's normal up to the dock spot, facing the wall.
 
@@ -136,7 +136,7 @@ def dock_drive(r, along, lat, face, own_barcode, own_wall, robots, scan, laser, 
     cmd[r, 1] = min(wmax, max(-wmax, 2.5 * err))
 
 
-@njit(cache=True)
+@kernel
 def dock_phase(r, robots, params, cmd):
     """Standing at the dock (loading or unloading), then backing straight out, both timed:
     whatever is behind, the robot leaves the spot after `dwell` plus the back-out time."""

@@ -14,7 +14,8 @@ inputs are laid out here once, with names and units:
 - `Laser`: the rays' directions relative to the heading;
 - `Scan`, what the sensors wrote this tick: per ray range, kind of hit and hit id;
   per robot what the camera saw;
-- `Work`, scratch space the behaviours reuse within a tick.
+- `Work`, scratch space the behaviours reuse robot after robot (the kernels allocate
+  nothing: see `sim.kernel`).
 
 `build_robots`, `build_params`, `build_arena`, `build_laser` and `empty_scan` fill
 them from the config and the arena.
@@ -119,7 +120,8 @@ class Scan(NamedTuple):
 
 
 class Work(NamedTuple):
-    """Scratch space the behaviours reuse robot after robot within one tick."""
+    """Scratch space the behaviours reuse robot after robot, tick after tick: nothing in it
+    outlives one robot's turn."""
 
     xs: np.ndarray        # (n_rays,) hit points that can block a path, robot frame
     ys: np.ndarray
@@ -212,3 +214,9 @@ def laser_from_angles(angle_rad: np.ndarray) -> Laser:
 def empty_scan(n_robots: int, n_rays: int) -> Scan:
     return Scan(np.zeros((n_robots, n_rays)), np.zeros((n_robots, n_rays), dtype=np.int8),
                 np.full((n_robots, n_rays), -1, dtype=np.int32), np.tile(np.array([0, 0, 0, -1]), (n_robots, 1)))
+
+
+def empty_work(n_robots: int, n_rays: int) -> Work:
+    """Scratch space for a batch of `n_robots` robots with `n_rays` rays each."""
+    return Work(np.zeros(n_rays), np.zeros(n_rays), np.zeros(n_rays, dtype=np.bool_),
+                np.zeros(n_robots, dtype=np.int64))

@@ -9,16 +9,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from tavc_cli.behaviours.activities import ACT_AVOID, ACT_DRIVE
 from tavc_cli.behaviours.layout import MODE_APPROACH, MODE_ESCAPE
+from tavc_cli.sim.kernel import kernel
 from tavc_cli.sim.sensors import HIT_ROBOT, HIT_TARGET, HIT_WALL, wrap_angle
 
 _CORRIDOR_MARGIN_M = 0.05
 
 
-@njit(cache=True)
+@kernel
 def near_points(r, reach, half, scan, laser, skip_barcode, skip_wall, xs, ys):
     """Robot r's laser hit points (robot frame) that could stop its disc, widened to half-width
     `half`, within `reach` metres along any heading: into xs, ys; returns how many.
@@ -41,7 +41,7 @@ def near_points(r, reach, half, scan, laser, skip_barcode, skip_wall, xs, ys):
     return m
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _gap(x, y, ux, uy, half):
     """How far a disc of half-width `half` travels along (ux, uy) before it touches the point
     (x, y) (robot frame), or inf if it never does."""
@@ -52,7 +52,7 @@ def _gap(x, y, ux, uy, half):
     return np.inf
 
 
-@njit(cache=True)
+@kernel
 def free_along(ux, uy, half, xs, ys, m):
     """How far a disc of half-width `half` can travel along the heading (ux, uy) (robot frame)
     before it touches one of the first m points of xs, ys. With points from `near_points`:
@@ -64,7 +64,7 @@ def free_along(ux, uy, half, xs, ys, m):
     return best
 
 
-@njit(cache=True)
+@kernel
 def blocked_before(ux, uy, half, xs, ys, m, need):
     """Whether `free_along` would be below `need`: stops at the first point that makes it so."""
     for i in range(m):
@@ -73,7 +73,7 @@ def blocked_before(ux, uy, half, xs, ys, m, need):
     return False
 
 
-@njit(cache=True)
+@kernel
 def free_distance(r, heading, radius, scan, laser, skip_barcode, skip_wall, reach, work):
     """How far robot r can drive along `heading` (robot frame) before its disc, widened by a
     small margin, touches a laser hit point (ignoring one bar-code, and the outer wall
@@ -84,7 +84,7 @@ def free_distance(r, heading, radius, scan, laser, skip_barcode, skip_wall, reac
     return free_along(math.cos(heading), math.sin(heading), half, work.xs, work.ys, m)
 
 
-@njit(cache=True)
+@kernel
 def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, work):
     """Head for `bearing` (robot frame), detouring around whatever the laser sees.
 
@@ -155,7 +155,7 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, wo
     cmd[r, 1] = min(wmax, max(-wmax, 2.0 * heading))
 
 
-@njit(cache=True)
+@kernel
 def wall_follow(r, side, robots, scan, laser, params, cmd, work):
     """Keep a wall at `wall_dist` on `side` (+1 left, -1 right) and move along it."""
     rob = robots[r]
@@ -180,7 +180,7 @@ def wall_follow(r, side, robots, scan, laser, params, cmd, work):
         cmd[r, 1] = min(wmax, max(-wmax, side * 2.0 * (side_d - wall_d)))
 
 
-@njit(cache=True)
+@kernel
 def should_see_target(r, robots, target, scan, laser, params):
     """Whether the estimated pose says the target's bar-code must be in the laser's view.
 
@@ -210,7 +210,7 @@ def should_see_target(r, robots, target, scan, laser, params):
     return True
 
 
-@njit(cache=True)
+@kernel
 def track_progress(r, goal_dist, bearing, robots, params):
     """Escape from dead ends: after `stall` seconds without getting `progress` metres
     closer to the goal, follow the wall (on the side toward the goal) for `escape`

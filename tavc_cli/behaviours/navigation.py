@@ -31,7 +31,6 @@ import math
 
 import numba
 import numpy as np
-from numba import njit
 
 from tavc_cli.behaviours.activities import ACT_DOCK, ACT_ESCAPE, ACT_IDLE, ACT_SEARCH, ACT_WAIT
 from tavc_cli.behaviours.docking import (
@@ -56,13 +55,13 @@ from tavc_cli.behaviours.layout import (
     MODE_SERVICE,
     MODE_UNDOCK,
     MODE_WALLFOLLOW,
-    Work,
 )
 from tavc_cli.behaviours.motion import should_see_target, steer_to, track_progress, wall_follow
+from tavc_cli.sim.kernel import kernel
 from tavc_cli.sim.sensors import HIT_TARGET, camera_nearest, cast_laser, odometry_update
 
 
-@njit(cache=True)
+@kernel
 def behave(r, robots, pose, params, arena, laser, scan, cmd, work):
     """Choose robot r's wheel command for this tick and flag arrival at its target.
 
@@ -229,20 +228,18 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd, work):
     steer_to(r, bearing, pre_dist, own_barcode, robots, scan, laser, params, cmd, work)
 
 
-@njit(cache=True)
-def control_tick(robots, pose, noise, params, arena, laser, scan, cmd, act_s):
+@kernel
+def control_tick(robots, pose, noise, params, arena, laser, scan, cmd, act_s, work):
     """One control tick for every live robot of every trial in a batch.
 
     Reads the true poses `pose` (n, 3: x m, y m, heading rad, for sensing only) and
     this tick's odometry noise (n, 3 standard normal draws); for each live robot:
     odometry, laser, camera (when anyone reads it), behaviour. Writes the scan, the
     wheel commands `cmd` (n, 2: forward m/s, turn rad/s), the robots' state and
-    `act_s` (seconds per activity, this tick's added). Returns how many robots reached
-    their target this tick (their `arrived` flag is set).
+    `act_s` (seconds per activity, this tick's added), using `work` (a `layout.Work` for
+    the batch) as scratch. Returns how many robots reached their target this tick (their
+    `arrived` flag is set).
     """
-    n_rays = laser.angle_rad.shape[0]
-    work = Work(np.empty(n_rays), np.empty(n_rays), np.empty(n_rays, dtype=np.bool_),
-                np.empty(robots.shape[0], dtype=np.int64))
     n_arrived = 0
     for r in range(robots.shape[0]):
         rob = robots[r]

@@ -23,7 +23,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from tavc_cli.behaviours.activities import N_ACT
-from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan
+from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan, empty_work
 from tavc_cli.behaviours.navigation import compiled
 from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TrialRecord
@@ -98,6 +98,7 @@ class BatchEngine:
         self.geometry = build_arena(self.arena)
         self.laser = build_laser(float(robot.laser.fov_deg), int(robot.laser.n_rays))
         self.scan = empty_scan(n, len(self.laser.angle_rad))
+        self.work = empty_work(n, len(self.laser.angle_rad))
         self.pose = start.copy()  # true poses, read from the physics every tick
         self.noise = np.zeros((NOISE_BLOCK_TICKS, n, 3))
         self.cmd = np.zeros((n, 2))
@@ -124,10 +125,10 @@ class BatchEngine:
         self._decisions = BatchDecisions(self.robots, self.scan.camera, learners) if learners else None
         self._params = np.array([self.params], dtype=self.params.dtype)
         self._kernel = compiled(sense_decide_command, self.world.io, self.pose, self.robots, self.noise[0],
-                                self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s)
+                                self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s, self.work)
         self._run = compiled(run_ticks, self.world.space_io, CP_EACH_BODY, CP_STEP, self.world.io, self.pose,
                              self.robots, self.noise, self._params, self.geometry, self.laser, self.scan, self.cmd,
-                             self.act_s, self._arrivals, 0, 0, 0.0, 0.0, 0.0, False)
+                             self.act_s, self.work, self._arrivals, 0, 0, 0.0, 0.0, 0.0, False)
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
                 self._assign(tr, i, self.t0)
@@ -267,7 +268,7 @@ class BatchEngine:
         while self.tick < stop:
             done, why = self._run(world.space_io, CP_EACH_BODY, CP_STEP, world.io, self.pose, self.robots, self.noise,
                                   self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s,
-                                  self._arrivals, self.tick, stop, self.t0, self.dt, next_due, move_first)
+                                  self.work, self._arrivals, self.tick, stop, self.t0, self.dt, next_due, move_first)
             self._log_source_arrivals()
             self.tick += done
             self.tick_started = True
@@ -322,7 +323,7 @@ class BatchEngine:
         else:
             world.read()
         n_arrived = self._kernel(world.io, self.pose, self.robots, self.noise[k], self._params, self.geometry,
-                                 self.laser, self.scan, self.cmd, self.act_s)
+                                 self.laser, self.scan, self.cmd, self.act_s, self.work)
         self.tick_started = True
         return n_arrived
 

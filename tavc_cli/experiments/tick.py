@@ -16,10 +16,10 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from tavc_cli.behaviours.navigation import control_tick
 from tavc_cli.sim.arena import SOURCE
+from tavc_cli.sim.kernel import kernel
 from tavc_cli.sim.world import read_bodies, read_poses, write_and_step, write_commands
 
 NOISE_BLOCK_TICKS = 512  # odometry noise is drawn a block of ticks at a time; poses are checked as often
@@ -44,7 +44,7 @@ class SourceArrivals(NamedTuple):
     logged: np.ndarray        # (1,) int64: rows of `log` in use
 
 
-@njit(cache=True)
+@kernel
 def send_on_from_sources(robots, arrivals, tick):
     """If every robot that arrived in `tick` did so at a source, and the log has room for them:
     log each arrival, note its circuit as the robot's last, send the robot on to that circuit's
@@ -73,8 +73,8 @@ def send_on_from_sources(robots, arrivals, tick):
     return True
 
 
-@njit(cache=True)
-def sense_decide_command(io, pose, robots, noise, params, arena, laser, scan, cmd, act_s):
+@kernel
+def sense_decide_command(io, pose, robots, noise, params, arena, laser, scan, cmd, act_s, work):
     """The compiled part of a tick, in one call: the true poses from the physics state just read
     (`io`, the world's side), the control kernel for every robot, and the wheel commands
     into the velocities the world writes next. Returns how many robots arrived.
@@ -82,13 +82,13 @@ def sense_decide_command(io, pose, robots, noise, params, arena, laser, scan, cm
     `params` is the PARAMS record as an array of one (passing a bare record costs every
     call a description of its whole dtype, the bulk of the call's cost)."""
     read_poses(io, pose)
-    n_arrived = control_tick(robots, pose, noise, params[0], arena, laser, scan, cmd, act_s)
+    n_arrived = control_tick(robots, pose, noise, params[0], arena, laser, scan, cmd, act_s, work)
     write_commands(io, cmd)
     return n_arrived
 
 
-@njit(cache=True)
-def run_ticks(sio, each_body, step, io, pose, robots, noise, params, arena, laser, scan, cmd, act_s,
+@kernel
+def run_ticks(sio, each_body, step, io, pose, robots, noise, params, arena, laser, scan, cmd, act_s, work,
               arrivals, tick, stop, t0_s, dt_s, next_due_s, move_first):
     """Whole ticks from `tick` up to `stop` (exclusive), each as the engine's Python loop does
     it: read the bodies, `sense_decide_command`, serve the arrivals, write the velocities,
@@ -112,7 +112,7 @@ def run_ticks(sio, each_body, step, io, pose, robots, noise, params, arena, lase
         if read_bodies(sio, each_body) != n_numbers:
             return done, RUN_LOST_BODIES
         if sense_decide_command(io, pose, robots, noise[k % NOISE_BLOCK_TICKS], params, arena, laser, scan,
-                                cmd, act_s) and not send_on_from_sources(robots, arrivals, k):
+                                cmd, act_s, work) and not send_on_from_sources(robots, arrivals, k):
             return done, RUN_ARRIVED
         write_and_step(sio, each_body, step)
         done += 1

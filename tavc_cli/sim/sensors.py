@@ -26,9 +26,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from tavc_cli.sim.arena import N_OUTER_WALLS
+from tavc_cli.sim.kernel import kernel
 
 HIT_NONE, HIT_WALL, HIT_ROBOT, HIT_TARGET = 0, 1, 2, 3
 # rays this much outside an object's angular extent (as `_fast_atan2` bounds it) are not
@@ -39,7 +39,7 @@ MARK_LEFT, MARK_RIGHT, MARK_REAR = 0, 1, 2  # red, green, yellow
 MARKING_ANGLES = np.array([math.pi / 2, -math.pi / 2, math.pi])
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def wrap_angle(a: float) -> float:
     """Wrap an angle to [-pi, pi): (a + pi) mod 2 pi, less pi.
 
@@ -53,7 +53,7 @@ def wrap_angle(a: float) -> float:
     return x % (2.0 * math.pi) - math.pi
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def ray_segment(px, py, dx, dy, x1, y1, x2, y2) -> float:
     """Distance along the unit ray (p, d) to segment (x1,y1)-(x2,y2), or inf."""
     sx, sy = x2 - x1, y2 - y1
@@ -71,7 +71,7 @@ def ray_segment(px, py, dx, dy, x1, y1, x2, y2) -> float:
     return np.inf
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def ray_disc(px, py, dx, dy, cx, cy, r) -> float:
     """Distance along the unit ray (p, d) to the disc (c, r), or inf (ray starts outside)."""
     ox, oy = cx - px, cy - py
@@ -86,7 +86,7 @@ def ray_disc(px, py, dx, dy, cx, cy, r) -> float:
     return t0
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@kernel(inline="always", error_model="numpy")
 def _exit_wall(px, py, dx, dy, width, height):
     """Distance along the unit ray (p, d) from inside the width x height rectangle to its
     boundary, and the side it leaves through (0 bottom, 1 right, 2 top, 3 left)."""
@@ -101,7 +101,7 @@ def _exit_wall(px, py, dx, dy, width, height):
     return ty, 2 if dy > 0.0 else 0
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _fast_atan2(y, x):
     """atan2 to within 2e-6 rad (an odd polynomial for atan on [-1, 1]), for choosing which
     rays to test, never for a reading."""
@@ -119,7 +119,7 @@ def _fast_atan2(y, x):
     return -a if y < 0.0 else a
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _ray_window(rel, half, a0, inv_spacing, n, full_circle):
     """Indices k (to be taken mod n when full_circle) of the rays within `half` of angle `rel`
     (and a few more: never fewer). A fan of rays short of the full circle does not wrap round
@@ -137,7 +137,14 @@ def _ray_window(rel, half, a0, inv_spacing, n, full_circle):
     return lo, hi
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(inline="always")
+def _ray_index(jj, n):
+    """Ray jj of a window, as a ray of the fan of n: jj mod n (round a full circle), without the
+    integer division, one of the slowest instructions, for the indices already within the fan."""
+    return jj if 0 <= jj < n else jj % n
+
+
+@kernel(error_model="numpy")
 def cast_laser(r, robots, pose, laser, arena, params, scan):
     """Cast every ray of robot `r`; write range, kind of hit and hit id into row `r` of `scan`.
 
@@ -187,7 +194,7 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
         rel = _fast_atan2(cy * c - cx * s, ahead)
         jlo, jhi = _ray_window(rel, half + _WINDOW_MARGIN_RAD, a0, inv_spacing, n, full_circle)
         for jj in range(jlo, jhi + 1):
-            j = jj % n
+            j = _ray_index(jj, n)
             kind = out_kind[r, j]
             if kind == HIT_NONE or (kind == HIT_WALL and out_id[r, j] != tgt.wall):
                 continue
@@ -230,7 +237,7 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
         rel = _fast_atan2(oy * c - ox * s, ahead)
         jlo, jhi = _ray_window(rel, half + _WINDOW_MARGIN_RAD, a0, inv_spacing, n, full_circle)
         for jj in range(jlo, jhi + 1):
-            j = jj % n
+            j = _ray_index(jj, n)
             dx = c * ray_cos[j] - s * ray_sin[j]
             dy = s * ray_cos[j] + c * ray_sin[j]
             t = ray_disc(px, py, dx, dy, pose[o, 0], pose[o, 1], radius)
@@ -240,7 +247,7 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
                 out_id[r, j] = o
 
 
-@njit(cache=True)
+@kernel
 def markings_visible(obs_x, obs_y, ox, oy, oth, side_sector, out, k):
     """Set out[k, 0..2] to whether the observed robot's red (left), green (right) and
     yellow (rear) markings can be seen from the observer's position.
@@ -255,7 +262,7 @@ def markings_visible(obs_x, obs_y, ox, oy, oth, side_sector, out, k):
     out[k, 2] = 1 if abs(beta) >= side_sector else 0
 
 
-@njit(cache=True)
+@kernel
 def camera_nearest(r, robots, pose, arena, params, scan):
     """Nearest robot in robot r's camera view and its visible markings.
 
@@ -292,7 +299,7 @@ def camera_nearest(r, robots, pose, arena, params, scan):
                          out, r)
 
 
-@njit(cache=True)
+@kernel
 def odometry_update(r, robots, pose, noise):
     """Advance robot r's dead-reckoned pose by its measured motion since last tick's true pose,
     then remember this tick's true pose. `noise[r]` holds three standard normal draws.

@@ -27,10 +27,10 @@ from typing import NamedTuple
 import numpy as np
 import pymunk
 import pymunk.batch as pb
-from numba import njit
 from pymunk._chipmunk_cffi import ffi, lib
 
 from tavc_cli.sim.arena import Arena
+from tavc_cli.sim.kernel import kernel
 
 _FIELDS_READ = pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
 _FIELDS_WRITE = pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
@@ -52,7 +52,7 @@ class BodyIO(NamedTuple):
     live: np.ndarray          # (n_live,) the live robots' numbers
 
 
-@njit(cache=True)
+@kernel
 def read_poses(io, out):
     """out[i] = (x, y, heading) of each live robot i, from the state last read; other rows untouched."""
     for k in range(io.live.shape[0]):
@@ -61,7 +61,7 @@ def read_poses(io, out):
             out[i, c] = io.state[row, c]
 
 
-@njit(cache=True)
+@kernel
 def write_commands(io, cmd):
     """Every body keeps its velocity, but each control body carries its robot's command
     cmd[i] = (forward m/s, turn rad/s), turned into the frame of the robot's heading."""
@@ -108,7 +108,7 @@ class SpaceIO(NamedTuple):
     substeps: int             # Chipmunk steps per control period
 
 
-@njit(cache=True)
+@kernel
 def read_bodies(sio, each_body):
     """Every body's state into the read array (`BodyIO.state`), space after space, as
     `PhysicsWorld.read` does it; returns how many numbers came (6 a body)."""
@@ -118,7 +118,7 @@ def read_bodies(sio, each_body):
     return sio.read_header[0]
 
 
-@njit(cache=True)
+@kernel
 def step_only(sio, step, n_ticks):
     """`n_ticks` control periods of physics and nothing else, every body keeping its velocity
     (alone, it measures what the physics costs)."""
@@ -128,7 +128,7 @@ def step_only(sio, step, n_ticks):
                 step(space, sio.h_s)
 
 
-@njit(cache=True)
+@kernel
 def write_and_step(sio, each_body, step):
     """Every body's velocity from `BodyIO.velocities`, then one control period of physics: as
     `PhysicsWorld.write` and `PhysicsWorld.step` do it while pymunk has nothing pending."""
