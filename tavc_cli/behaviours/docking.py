@@ -44,7 +44,7 @@ def dock_frame(px, py, th, target, standoff):
     nx, ny = target.nx, target.ny
     dx = px - (target.x_m + nx * standoff)
     dy = py - (target.y_m + ny * standoff)
-    return dx * nx + dy * ny, dy * nx - dx * ny, wrap_angle(th - math.atan2(-ny, -nx))
+    return dx * nx + dy * ny, dy * nx - dx * ny, wrap_angle(th - target.facing_rad)
 
 
 @kernel

@@ -88,6 +88,7 @@ TARGET = np.dtype([
     # the bar-code segment the laser reads, a hair in front of the wall
     ("x1_m", np.float64), ("y1_m", np.float64), ("x2_m", np.float64), ("y2_m", np.float64),
     ("half_width_m", np.float64),
+    ("facing_rad", np.float64),                  # heading of a robot squarely facing the wall: atan2(-ny, -nx)
 ], align=True)
 
 
@@ -108,6 +109,11 @@ class Laser(NamedTuple):
     # (the kernel's own), so a heading's free distance is the same computed either way
     heading_cos: np.ndarray
     heading_sin: np.ndarray
+    # the fan as the laser's angular windows need it (`sensors.cast_laser`)
+    spacing_rad: float      # between neighbouring rays (1 for a single ray)
+    inv_spacing: float      # rays per radian
+    half_fov_rad: float     # the largest ray angle either side of the heading
+    full_circle: bool       # the rays go evenly round the whole circle
 
 
 class Scan(NamedTuple):
@@ -197,6 +203,8 @@ def build_arena(arena: Arena) -> ArenaGeometry:
     for i, name in enumerate(("x1_m", "y1_m", "x2_m", "y2_m")):
         targets[name] = seg[:, i]
     targets["half_width_m"] = 0.5 * np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
+    # Python's math.atan2 is the C library's, as the kernels' is: the same number to the last bit
+    targets["facing_rad"] = [math.atan2(-t["ny"], -t["nx"]) for t in targets]
     return ArenaGeometry(targets, np.ascontiguousarray(arena.walls[N_OUTER_WALLS:]))
 
 
@@ -207,8 +215,12 @@ def build_laser(fov_deg: float, n_rays: int) -> Laser:
 
 def laser_from_angles(angle_rad: np.ndarray) -> Laser:
     ang = np.asarray(angle_rad, dtype=np.float64)
+    n = len(ang)
+    spacing = float(ang[n - 1] - ang[0]) / (n - 1) if n > 1 else 1.0
     return Laser(ang, np.cos(ang), np.sin(ang), np.array([math.cos(a) for a in ang]),
-                 np.array([math.sin(a) for a in ang]))
+                 np.array([math.sin(a) for a in ang]), spacing, 1.0 / spacing,
+                 float(max(abs(ang[0]), abs(ang[n - 1]))),
+                 n > 1 and abs(n * spacing - 2.0 * math.pi) < 1e-9)  # evenly round, as ray_angles makes it
 
 
 def empty_scan(n_robots: int, n_rays: int) -> Scan:

@@ -216,15 +216,14 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd, work):
             wall_follow(r, rob.side, robots, scan, laser, params, cmd, work)
             rob.activity = ACT_SEARCH
             return
-    if own_cnt == 0 and forced == BEH_AUTO:
+    if own_cnt == 0 and forced == BEH_AUTO and should_see_target(r, robots, target, scan, laser, params):
         tb, _ = to_frame(rob.est_x_m, rob.est_y_m, rob.est_heading_rad, target.x_m, target.y_m)
-        if should_see_target(r, robots, target, scan, laser, params):
-            rob.mode = MODE_WALLFOLLOW
-            # follow the wall on the side that leads round toward the expected target
-            rob.side = -1 if tb > 0 else 1
-            wall_follow(r, rob.side, robots, scan, laser, params, cmd, work)
-            rob.activity = ACT_SEARCH
-            return
+        rob.mode = MODE_WALLFOLLOW
+        # follow the wall on the side that leads round toward the expected target
+        rob.side = -1 if tb > 0 else 1
+        wall_follow(r, rob.side, robots, scan, laser, params, cmd, work)
+        rob.activity = ACT_SEARCH
+        return
     steer_to(r, bearing, pre_dist, own_barcode, robots, scan, laser, params, cmd, work)
 
 

@@ -160,14 +160,11 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
     out_range, out_kind, out_id = scan.range_m, scan.kind, scan.hit_id
     n = angle.shape[0]
     a0 = angle[0]
-    spacing = (angle[n - 1] - a0) / (n - 1) if n > 1 else 1.0
-    full_circle = n > 1 and abs(n * spacing - 2.0 * math.pi) < 1e-9  # evenly round, as ray_angles makes it
-    inv_spacing = 1.0 / spacing
+    full_circle, inv_spacing, half_fov = laser.full_circle, laser.inv_spacing, laser.half_fov_rad
     max_range = params.laser_range_m
     width, height = params.arena_width_m, params.arena_height_m
     px, py, th = pose[r, 0], pose[r, 1], pose[r, 2]
     c, s = math.cos(th), math.sin(th)
-    half_fov = max(abs(angle[0]), abs(angle[n - 1]))
     # 1. the outer rectangle: every ray leaves it through one side
     for j in range(n):
         t, w = _exit_wall(px, py, c * ray_cos[j] - s * ray_sin[j], s * ray_cos[j] + c * ray_sin[j], width, height)
