@@ -503,7 +503,8 @@ def test_wrap_angle_is_the_remainder_formula_to_the_last_bit():
     """The wrap skips the remainder for angles already in range; it must give, bit for bit,
     what (a + pi) % 2 pi - pi gives, on both sides of every boundary and far outside."""
     rng = np.random.default_rng(3)
-    edges = [0.0, -0.0, math.pi, -math.pi, 2 * math.pi, -2 * math.pi, 3 * math.pi, 1e-300, -1e-300]
+    edges = [0.0, -0.0, math.pi, -math.pi, 2 * math.pi, -2 * math.pi, 3 * math.pi, -3 * math.pi, 5 * math.pi,
+             1e-300, -1e-300]
     near = [np.nextafter(e, d) for e in edges for d in (-np.inf, np.inf)]
     angles = np.concatenate([edges, near, rng.uniform(-4 * math.pi, 4 * math.pi, 20000),
                              rng.uniform(-1e6, 1e6, 1000), [np.inf, -np.inf, np.nan]])

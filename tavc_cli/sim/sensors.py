@@ -45,12 +45,20 @@ def wrap_angle(a: float) -> float:
 
     Most angles need no wrapping, and for 0 <= x < 2 pi the remainder x mod 2 pi is x itself
     (floating-point remainders are exact), so those skip the remainder's library call and
-    division; the result is the same number either way.
+    division. So do x one turn either side, the sum of a heading that has turned a while and a
+    bearing: for 2 pi <= x < 4 pi the remainder is x - 2 pi, which is exact (the operands are
+    within a factor two), and for -2 pi <= x < 0 Python's remainder is x + 2 pi, rounded as it
+    rounds it. The result is the same number either way.
     """
     x = a + math.pi
-    if 0.0 <= x < 2.0 * math.pi:
+    turn = 2.0 * math.pi
+    if 0.0 <= x < turn:
         return x - math.pi
-    return x % (2.0 * math.pi) - math.pi
+    if turn <= x < 2.0 * turn:
+        return (x - turn) - math.pi
+    if -turn <= x < 0.0:
+        return (x + turn) - math.pi
+    return x % turn - math.pi
 
 
 @kernel(inline="always")
