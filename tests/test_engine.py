@@ -1,6 +1,5 @@
 """The transport loop (tavc_cli.experiments.engine): tasks, interference, events, seeding."""
 
-import gc
 import math
 
 import numpy as np
@@ -221,21 +220,6 @@ def test_a_trial_is_the_same_alone_or_batched_with_others():
     alone = run_trials([specs[1]])[0]
     _assert_records_equal(alone, run_trials(specs)[1])
     _assert_records_equal(alone, run_trials([specs[2], specs[0], specs[1]])[2])
-
-
-@pytest.mark.parametrize("enabled", [True, False])
-def test_a_run_pauses_the_cycle_collector_and_leaves_it_as_it_was(enabled):
-    engine = BatchEngine(_random_specs(3, 1))
-    seen = []
-    engine.on_tick = lambda _: seen.append(gc.isenabled())
-    was = gc.isenabled()
-    try:
-        (gc.enable if enabled else gc.disable)()
-        engine.run()
-        assert gc.isenabled() is enabled
-    finally:
-        (gc.enable if was else gc.disable)()
-    assert len(seen) == 3000 and not any(seen)
 
 
 @pytest.mark.parametrize("log_rows", [256, 1])

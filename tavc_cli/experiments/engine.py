@@ -17,10 +17,8 @@ the bundles of `behaviours.layout`) -> serve arrivals (rewards, next tasks) -> m
 
 from __future__ import annotations
 
-import gc
 import math
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -45,21 +43,6 @@ from tavc_cli.sim.arena import SOURCE
 from tavc_cli.sim.world import CP_EACH_BODY, CP_STEP, PhysicsWorld
 
 _SOURCE_LOG_ROWS = 256  # arrivals at sources compiled code may serve before Python takes them in
-
-
-@contextmanager
-def _cyclic_gc_paused() -> Iterator[None]:
-    """Python's cycle collector off for a run: the records a run appends to (lists of tuples of
-    numbers) hold no cycles, yet their growth kept triggering full collections, each walking
-    every object of the process, a fortieth of a run's time. Reference counting still frees
-    everything; the collector resumes as it was."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
 
 
 def _next_multiple(tick: int, every: int) -> int:
@@ -243,10 +226,6 @@ class BatchEngine:
         behaviours; the kernel senses and decides for every robot; arrivals are
         served (rewards, next tasks); the physics moves the robots one period on.
         """
-        with _cyclic_gc_paused():
-            return self._advance(progress)
-
-    def _advance(self, progress: Callable[[float], None] | None) -> list[TrialRecord]:
         t_end = max(tr.spec.duration_s for tr in self.trials)
         n_ticks = int(round((t_end - self.t0) / self.dt))
         schedule = _Schedule(self.trials, self.t0)
