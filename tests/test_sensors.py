@@ -112,6 +112,17 @@ def test_rays_turn_with_the_robot(one_circuit):
     assert rng[RAY_M90] == pytest.approx(5.999, abs=1e-12)
 
 
+def test_the_scan_keeps_the_frame_it_was_cast_in(one_circuit):
+    # the wheel commands are turned into the world frame with these very numbers
+    heading = 37.3  # a robot that has turned six times round
+    laser = laser_from_angles(ray_angles(180.0, 5))
+    pose = np.array([(2.0, 3.0, heading)])
+    scan = empty_scan(1, 5)
+    params = _params(laser_range_m=8.0, arena_width_m=one_circuit.width_m, arena_height_m=one_circuit.height_m)
+    cast_laser(0, _robots(pose, None, 0, None), pose, laser, build_arena(one_circuit), params, scan)
+    assert scan.heading_cs[0].tolist() == [math.cos(heading), math.sin(heading)]
+
+
 @pytest.mark.parametrize(
     ("aim_y", "expected_kind", "expected_id"),
     [

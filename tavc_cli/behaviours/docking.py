@@ -48,8 +48,9 @@ def dock_frame(px, py, th, target, standoff):
 
 
 @kernel
-def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, scan, laser, nearest, radius):
-    """Whether the laser shows another robot within `zone` of the dock spot, nearer to it than robot r.
+def dock_occupied(r, px, py, c, s, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, scan, laser, nearest, radius):
+    """Whether the laser shows another robot within `zone` of the dock spot, nearer to it than robot r,
+    seen from the pose (px, py) with heading cosine and sine (c, s).
 
     The rays that hit one robot form a blob; the shortest of them passes nearest its
     centre, which lies about a radius further along that ray (a glancing ray would put
@@ -58,7 +59,6 @@ def dock_occupied(r, px, py, th, dock_x, dock_y, nx, ny, my_dist, my_lat, zone, 
     other in a ring. Two robots about equally near (within the margin) go in the order
     of their position along the wall, which both see alike.
     """
-    c, s = math.cos(th), math.sin(th)
     ranges = scan.range_m
     for j in range(ranges.shape[1]):
         if not nearest[j]:

@@ -123,6 +123,7 @@ class Scan(NamedTuple):
     kind: np.ndarray      # (n, n_rays) HIT_* (sensors)
     hit_id: np.ndarray    # (n, n_rays) bar-code, robot row or wall index of the hit; -1 for none
     camera: np.ndarray    # (n, 4) red, green, yellow markings of the nearest robot seen, its row (-1: none)
+    heading_cs: np.ndarray  # (n, 2) cos and sin of the heading the laser was cast at (the scan's frame)
 
 
 class Work(NamedTuple):
@@ -225,7 +226,8 @@ def laser_from_angles(angle_rad: np.ndarray) -> Laser:
 
 def empty_scan(n_robots: int, n_rays: int) -> Scan:
     return Scan(np.zeros((n_robots, n_rays)), np.zeros((n_robots, n_rays), dtype=np.int8),
-                np.full((n_robots, n_rays), -1, dtype=np.int32), np.tile(np.array([0, 0, 0, -1]), (n_robots, 1)))
+                np.full((n_robots, n_rays), -1, dtype=np.int32), np.tile(np.array([0, 0, 0, -1]), (n_robots, 1)),
+                np.zeros((n_robots, 2)))
 
 
 def empty_work(n_robots: int, n_rays: int) -> Work:

@@ -137,15 +137,20 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd, work):
     if near or (patient and in_line):
         nearest = work.flags  # one ray per robot in view
         nearest_rays(r, rob.first, rob.last, scan, nearest, work.rows)
+        # the frame of the pose judged from: while the code is read, the true one the laser was cast at
+        if own_cnt > 0:
+            gcos, gsin = scan.heading_cs[r, 0], scan.heading_cs[r, 1]
+        else:
+            gcos, gsin = math.cos(gth), math.sin(gth)
         if near:
             # waited long: stop deferring to robots that are merely nearer, and yield only to one
             # at the spot or backing out of it (so a robot can't lose the race for a dock forever)
             zone = params.occupied_m if patient else params.backout_m + radius
-            occupied = dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat, zone,
+            occupied = dock_occupied(r, gx, gy, gcos, gsin, dock_x, dock_y, nx, ny, dock_dist, lat, zone,
                                      scan, laser, nearest, radius)
         if not occupied and patient and in_line:
             # two robots in the approach funnel at once would block each other: the one with priority goes
-            occupied = dock_occupied(r, gx, gy, gth, dock_x, dock_y, nx, ny, dock_dist, lat,
+            occupied = dock_occupied(r, gx, gy, gcos, gsin, dock_x, dock_y, nx, ny, dock_dist, lat,
                                      max(params.occupied_m, funnel_m), scan, laser, nearest, radius)
 
     if mode == MODE_DOCK:

@@ -83,7 +83,7 @@ def sense_decide_command(io, pose, robots, noise, params, arena, laser, scan, cm
     call a description of its whole dtype, the bulk of the call's cost)."""
     read_poses(io, pose)
     n_arrived = control_tick(robots, pose, noise, params[0], arena, laser, scan, cmd, act_s, work)
-    write_commands(io, cmd)
+    write_commands(io, cmd, scan.heading_cs)  # cos and sin of the headings, as the laser left them
     return n_arrived
 
 

@@ -173,6 +173,7 @@ def cast_laser(r, robots, pose, laser, arena, params, scan):
     width, height = params.arena_width_m, params.arena_height_m
     px, py, th = pose[r, 0], pose[r, 1], pose[r, 2]
     c, s = math.cos(th), math.sin(th)
+    scan.heading_cs[r, 0], scan.heading_cs[r, 1] = c, s  # for whoever needs the robot's frame this tick
     # 1. the outer rectangle: every ray leaves it through one side
     for j in range(n):
         t, w = _exit_wall(px, py, c * ray_cos[j] - s * ray_sin[j], s * ray_cos[j] + c * ray_sin[j], width, height)

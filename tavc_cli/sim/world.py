@@ -21,6 +21,7 @@ iterators into one buffer, and compiled code steps the spaces one after another.
 from __future__ import annotations
 
 import ctypes
+import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -62,9 +63,20 @@ def read_poses(io, out):
 
 
 @kernel
-def write_commands(io, cmd):
+def heading_frames(io, out):
+    """out[i] = (cos, sin) of each live robot i's heading, from the state last read (as the
+    laser's kernel leaves them in `Scan.heading_cs`); other rows untouched."""
+    for k in range(io.live.shape[0]):
+        th = io.state[io.robot_rows[k], 2]
+        out[io.live[k], 0] = math.cos(th)
+        out[io.live[k], 1] = math.sin(th)
+
+
+@kernel
+def write_commands(io, cmd, heading_cs):
     """Every body keeps its velocity, but each control body carries its robot's command
-    cmd[i] = (forward m/s, turn rad/s), turned into the frame of the robot's heading."""
+    cmd[i] = (forward m/s, turn rad/s), turned into the frame of the robot's heading, whose
+    cosine and sine are heading_cs[i] (for the heading last read: see `heading_frames`)."""
     state, out = io.state, io.velocities
     for b in range(state.shape[0]):
         out[b, 0] = state[b, 3]
@@ -72,10 +84,9 @@ def write_commands(io, cmd):
         out[b, 2] = state[b, 5]
     for k in range(io.live.shape[0]):
         i = io.live[k]
-        th = state[io.robot_rows[k], 2]
         row = io.control_rows[k]
-        out[row, 0] = cmd[i, 0] * np.cos(th)
-        out[row, 1] = cmd[i, 0] * np.sin(th)
+        out[row, 0] = cmd[i, 0] * heading_cs[i, 0]
+        out[row, 1] = cmd[i, 0] * heading_cs[i, 1]
         out[row, 2] = cmd[i, 1]
 
 
@@ -232,6 +243,7 @@ class PhysicsWorld:
         self._read = pb.Buffer()
         self._write = pb.Buffer()
         self._poses = poses.copy()
+        self._heading_cs = np.zeros((self.n_robots, 2))
         self._index_bodies()
 
     def _index_bodies(self) -> None:
@@ -299,7 +311,8 @@ class PhysicsWorld:
         """Set each live robot's commanded (forward speed, turn rate) for the next step."""
         if not self._fresh:
             self.read()
-        write_commands(self.io, cmd)
+        heading_frames(self.io, self._heading_cs)
+        write_commands(self.io, cmd, self._heading_cs)
         self.write()
 
     def _straight_to_chipmunk(self) -> bool:
