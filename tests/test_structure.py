@@ -66,6 +66,7 @@ def test_the_trial_key_covers_every_module_a_trial_runs():
     """A stored trial is reused while its key is unchanged, and the key digests the source
     that decides outcomes: every tavc module the engine reaches (through its imports, within
     the packages trials run in) must be in that digest."""
+    from tavc_cli import COMPILED_SOURCES
     from tavc_cli.experiments.spec import _OUTCOME_CODE
 
     root = Path(__file__).resolve().parent.parent / "tavc_cli"
@@ -80,7 +81,7 @@ def test_the_trial_key_covers_every_module_a_trial_runs():
         for node in ast.walk(ast.parse((root / rel).read_text())):
             if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("tavc_cli."):
                 path = node.module.removeprefix("tavc_cli.").replace(".", "/") + ".py"
-                if path.split("/")[0] in ("experiments", "sim", "behaviours", "learning"):
+                if path.split("/")[0] in COMPILED_SOURCES:
                     todo.append(path)
     missing = sorted(p for p in seen if p not in covered and not any(p.startswith(d + "/") for d in dirs))
     assert not missing, f"modules a trial runs but its key does not digest: {missing}"

@@ -110,8 +110,7 @@ class Laser(NamedTuple):
     heading_cos: np.ndarray
     heading_sin: np.ndarray
     # the fan as the laser's angular windows need it (`sensors.cast_laser`)
-    spacing_rad: float      # between neighbouring rays (1 for a single ray)
-    inv_spacing: float      # rays per radian
+    inv_spacing: float      # rays per radian (1 for a single ray)
     half_fov_rad: float     # the largest ray angle either side of the heading
     full_circle: bool       # the rays go evenly round the whole circle
 
@@ -219,7 +218,7 @@ def laser_from_angles(angle_rad: np.ndarray) -> Laser:
     n = len(ang)
     spacing = float(ang[n - 1] - ang[0]) / (n - 1) if n > 1 else 1.0
     return Laser(ang, np.cos(ang), np.sin(ang), np.array([math.cos(a) for a in ang]),
-                 np.array([math.sin(a) for a in ang]), spacing, 1.0 / spacing,
+                 np.array([math.sin(a) for a in ang]), 1.0 / spacing,
                  float(max(abs(ang[0]), abs(ang[n - 1]))),
                  n > 1 and abs(n * spacing - 2.0 * math.pi) < 1e-9)  # evenly round, as ray_angles makes it
 

@@ -154,7 +154,7 @@ class BatchEngine:
         target = int(self._target[g])
         circuit = int(tr.task[i])
         kind = int(self.kind_of[target])
-        tr.rows.add("arrivals", t, i, target, circuit, kind)
+        self._log_arrival(tr, t, i, target, circuit, kind)
         tr.last_circuit[i] = circuit
         if tr.learns_behaviours:
             tr.policy.arrived(i, float(tr.values[circuit]) / ((t - tr.last_arrival[i]) / tr.spec.time_unit_s))
@@ -286,8 +286,13 @@ class BatchEngine:
         logged = self._arrivals.logged
         for tick, g, target, circuit in self._arrivals.log[:logged[0]].tolist():
             tr = self.trials[self._trial_of[g]]
-            tr.rows.add("arrivals", self.t0 + tick * self.dt, g - tr.lo, target, circuit, SOURCE)
+            self._log_arrival(tr, self.t0 + tick * self.dt, g - tr.lo, target, circuit, SOURCE)
         logged[0] = 0
+
+    @staticmethod
+    def _log_arrival(tr: TrialState, t: float, i: int, target: int, circuit: int, kind: int) -> None:
+        """Robot i of trial tr reached `target` (a SOURCE or SINK of `circuit`) at time t."""
+        tr.rows.add("arrivals", t, i, target, circuit, kind)
 
     def _fall_due(self, t: float, schedule: _Schedule) -> None:
         """Scheduled events, Q-table snapshots and pose frames that fall due at time t.
