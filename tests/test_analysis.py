@@ -541,3 +541,45 @@ def test_specialisation_counts_live_robots_and_survives_a_trial_without_states()
     silent = _record([], duration_s=100.0)
     table = specialisation_table([silent], 50.0, 0.0, 100.0)
     assert len(table) == 4 and table["mean_share_high"].isna().all()
+
+
+def test_specialisation_share_follows_a_breakdown_that_leaves_the_state_unchanged():
+    from tavc_cli.analysis.states import specialisation_table
+
+    # fast robot 0 on the high circuit, fast robot 2 on the low one; robot 2 breaks down at 50 s.
+    # The state stays "1:0" (one fast robot on the high circuit), but the fast group shrinks
+    # from two to one: its share goes from 1/2 to 1/1.
+    rec = _record([(0.0, 0, 0), (0.0, 1, 1), (0.0, 2, 1)], breakdowns=[(50.0, 2)], duration_s=100.0)
+    fast = specialisation_table([rec], 50.0, 0.0, 100.0).query("group == 'fast'")
+    assert fast["mean_share_high"].tolist() == [0.5, 1.0]
+
+
+def test_binned_means_are_a_plain_loops_bit_for_bit():
+    from tavc_cli.analysis.states import _binned_mean
+
+    rng = np.random.default_rng(3)
+    cuts = np.sort(np.concatenate([rng.uniform(-50.0, 1050.0, 400), np.arange(0.0, 1001.0, 100.0)[::3]]))
+    states = [None, "0:3", "1:2", "2:1", "3:0"]
+    intervals = [(a, b, states[rng.integers(len(states))]) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+    intervals += [(-40.0, 990.0, "2:1")]  # one interval over every bin
+    edges = np.arange(0.0, 1001.0, 100.0)
+
+    def value(s, start):
+        return np.array([float(x) for x in s.split(":")]) * (1.0 + start / 7.0)
+
+    weighted, covered = np.zeros((len(edges) - 1, 2)), np.zeros(len(edges) - 1)
+    for a, b, s in intervals:
+        if s is None:
+            continue
+        first = max(int(np.searchsorted(edges, a, side="right")) - 1, 0)
+        last = min(int(np.searchsorted(edges, b, side="left")), len(edges) - 1)
+        for k in range(first, last):
+            lo, hi = max(a, edges[k]), min(b, edges[k + 1])
+            if hi > lo:
+                weighted[k] += value(s, a) * (hi - lo)
+                covered[k] += hi - lo
+    expected = weighted / covered[:, None]
+    got = _binned_mean(intervals, value, edges, 2)
+    assert got.tobytes() == expected.tobytes()
+    # nothing defined anywhere: NaN in every bin
+    assert np.isnan(_binned_mean([(0.0, 1000.0, None)], value, edges, 2)).all()

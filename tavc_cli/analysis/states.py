@@ -61,13 +61,7 @@ def split_label(counts: Sequence[int], values: Sequence[float]) -> str:
 def state_label(last: np.ndarray, alive: np.ndarray, values: Sequence[float], scheme: str,
                 groups: Sequence[str] = (), order: Sequence[str] = ()) -> str | None:
     """The state string for robots' last circuits, or None while one has none yet."""
-    live = np.flatnonzero(alive)
-    if len(live) == 0 or np.any(last[live] < 0):
-        return None
-    if scheme == "groups":
-        high = int(np.argsort(-np.asarray(values), kind="stable")[0])
-        return ":".join(str(sum(1 for i in live if groups[i] == g and last[i] == high)) for g in order)
-    return split_label(np.bincount(last[live], minlength=len(values)), values)
+    return _label([int(c) for c in last], [bool(a) for a in alive], _rank(values), scheme, groups, order)
 
 
 def state_intervals(rec: TrialRecord, scheme: str = "circuits") -> list[tuple[float, float, str | None]]:
@@ -84,9 +78,9 @@ def _state_intervals(rec: TrialRecord, scheme: str) -> list[tuple[float, float, 
     n = int(meta["n_robots"])
     groups = meta["groups"]
     order = group_order(groups, meta["speeds_mps"])
-    last = np.full(n, -1, dtype=np.int64)
-    alive = np.ones(n, dtype=bool)
-    values = list(meta["values"])
+    last = [-1] * n
+    alive = [True] * n
+    rank = _rank(meta["values"])
     t_prev = -float(meta.get("warmup_s", 0.0))
     t_end = float(meta["duration_s"])
     state = None
@@ -100,11 +94,32 @@ def _state_intervals(rec: TrialRecord, scheme: str) -> list[tuple[float, float, 
         elif kind == EventKind.BREAKDOWN:
             alive[payload] = False
         else:
-            values = list(payload)
-        state = state_label(last, alive, values, scheme, groups, order)
+            rank = _rank(payload)
+        state = _label(last, alive, rank, scheme, groups, order)
     if t_end > t_prev:
         out.append((t_prev, t_end, state))
     return [(a, b, s) for a, b, s in out if b > a]
+
+
+def _rank(values: Sequence[float]) -> list[int]:
+    """Circuits by value, most valuable first, ties in index order (as `split_label`)."""
+    return [int(c) for c in np.argsort(-np.asarray(values, dtype=np.float64), kind="stable")]
+
+
+def _label(last: list[int], alive: list[bool], rank: list[int], scheme: str, groups: Sequence[str],
+           order: Sequence[str]) -> str | None:
+    """`state_label` on plain lists, with the circuits' ranking given: the interval loop
+    labels the state after every arrival."""
+    live = [i for i, a in enumerate(alive) if a]
+    if not live or any(last[i] < 0 for i in live):
+        return None
+    if scheme == "groups":
+        high = rank[0]
+        return ":".join(str(sum(1 for i in live if groups[i] == g and last[i] == high)) for g in order)
+    counts = [0] * len(rank)
+    for i in live:
+        counts[last[i]] += 1
+    return ":".join(str(counts[c]) for c in rank)
 
 
 def time_shares(rec: TrialRecord, t_from: float, t_to: float, scheme: str = "circuits") -> dict[str, float]:
@@ -196,19 +211,31 @@ def state_time_table(records: Iterable[TrialRecord], t_from: float, t_to: float,
 
 def _binned_mean(intervals, value, edges: np.ndarray, n_values: int = 1) -> np.ndarray:
     """(n_bins, n_values): the time-weighted mean of value(state, start) (a vector) over each bin
-    of `edges`, from (start, end, state) intervals; NaN where no state was defined in a bin."""
-    weighted, covered = np.zeros((len(edges) - 1, n_values)), np.zeros(len(edges) - 1)
-    for a, b, s in intervals:
-        if s is None:
-            continue
-        v = np.atleast_1d(np.asarray(value(s, a), dtype=float))
-        first = max(int(np.searchsorted(edges, a, side="right")) - 1, 0)
-        last = min(int(np.searchsorted(edges, b, side="left")), len(edges) - 1)
-        for k in range(first, last):
-            lo, hi = max(a, edges[k]), min(b, edges[k + 1])
-            if hi > lo:
-                weighted[k] += v * (hi - lo)
-                covered[k] += hi - lo
+    of `edges`, from (start, end, state) intervals; NaN where no state was defined in a bin.
+
+    Each interval's piece in each bin it overlaps is added in the intervals' order, bins
+    ascending within one (`np.add.at` adds in index order), so the sums are those of a
+    plain loop over intervals and bins."""
+    n_bins = len(edges) - 1
+    weighted, covered = np.zeros((n_bins, n_values)), np.zeros(n_bins)
+    kept = [(a, b, s) for a, b, s in intervals if s is not None]
+    if not kept or n_bins <= 0:
+        return np.full((max(n_bins, 0), n_values), np.nan)
+    a = np.array([iv[0] for iv in kept], dtype=float)
+    b = np.array([iv[1] for iv in kept], dtype=float)
+    v = np.array([np.atleast_1d(np.asarray(value(s, start), dtype=float)) for start, _, s in kept]).reshape(
+        len(kept), -1)
+    first = np.maximum(np.searchsorted(edges, a, side="right") - 1, 0)
+    last = np.minimum(np.searchsorted(edges, b, side="left"), n_bins)
+    count = np.maximum(last - first, 0)
+    which = np.repeat(np.arange(len(kept)), count)  # interval of each (interval, bin) piece
+    k = first[which] + (np.arange(len(which)) - np.repeat(np.cumsum(count) - count, count))
+    lo, hi = np.maximum(a[which], edges[k]), np.minimum(b[which], edges[k + 1])
+    piece = hi > lo
+    which, k, width = which[piece], k[piece], (hi - lo)[piece]
+    for j in range(n_values):
+        np.add.at(weighted[:, j], k, v[which, j] * width)
+    np.add.at(covered, k, width)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(covered[:, None] > 0, weighted / covered[:, None], np.nan)
 
@@ -233,11 +260,18 @@ def group_high_series(rec: TrialRecord, bin_s: float, t_from: float,
     broken_at = np.full(len(groups), np.inf)
     broken_at[b["robot"].astype(int)] = b["t_s"]
 
+    broken_sorted = np.sort(broken_at)
+    known: dict[tuple[str, int], np.ndarray] = {}
+
     def share(s: str, start: float) -> np.ndarray:
-        alive = broken_at > start
-        sizes = np.array([((groups == g) & alive).sum() for g in order], dtype=float)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.array([float(x) for x in s.split(":")]) / sizes
+        # who is alive at `start` is fixed by how many breakdowns came before it
+        key = (s, int(np.searchsorted(broken_sorted, start, side="right")))
+        if key not in known:
+            alive = broken_at > start
+            sizes = np.array([((groups == g) & alive).sum() for g in order], dtype=float)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                known[key] = np.array([float(x) for x in s.split(":")]) / sizes
+        return known[key]
 
     edges = bin_edges(t_from, t_to, bin_s)
     mean = _binned_mean(state_intervals(rec, "groups"), share, edges, len(order))

@@ -24,7 +24,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +34,7 @@ from tavc_cli.experiments.build import Batch, make_batches
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.experiments.tick import NOISE_BLOCK_TICKS
 from tavc_cli.experiments.trial import TrialFault
 from tavc_cli.io import write_text_atomic
 from tavc_cli.settings import ExecutorConfig
@@ -289,6 +290,7 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> list
         import multiprocessing as mp
 
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+        load_kernels(pending)
         from multiprocessing.managers import SyncManager
 
         manager = SyncManager(ctx=ctx)
@@ -327,6 +329,26 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> list
         return failures
     finally:
         prog.close()
+
+
+def load_kernels(pending: Sequence[Batch]) -> None:
+    """Compile (or load from numba's cache) the kernels these batches run, here, before any
+    worker starts: forked workers inherit them, and spawned ones find them in the cache,
+    instead of each compiling the same code at once (about 15 s of a core each, without a
+    cache). A few seconds of one trial per controller, with no warm-up, do it; what that
+    short run computes is thrown away, and anything that goes wrong in it is left to the
+    real run to report."""
+    seen: set[str] = set()
+    for b in pending:
+        if b.controller in seen:
+            continue
+        seen.add(b.controller)
+        spec = b.specs[0]
+        short = replace(spec, warmup_s=0.0, duration_s=2 * NOISE_BLOCK_TICKS * spec.dt_s)
+        try:
+            run_trials([short])
+        except Exception:  # noqa: BLE001 - only a head start; the real run reports any error
+            pass
 
 
 def _worker_start() -> None:
