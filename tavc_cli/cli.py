@@ -125,6 +125,29 @@ def run(
 
 
 @app.command()
+def reproduce(
+    overrides: Overrides = None,
+    experiments: Annotated[
+        Optional[str],
+        typer.Option("--experiments", help="Comma-separated experiment names (default: every one).",
+                     show_default=False),
+    ] = None,
+    results: Annotated[
+        Path, typer.Option("--results", help="Folder that gets one folder per experiment.")
+    ] = Path("results"),
+    progress: ProgressFlag = None,
+) -> None:
+    """Run several experiments at once, the history their trials share simulated once."""
+    with _user_errors():
+        _reproduce(
+            overrides=overrides or [],
+            names=experiments,
+            results=results,
+            progress=sys.stdout.isatty() if progress is None else progress,
+        )
+
+
+@app.command()
 def model(
     overrides: Overrides = None,
     save_calibration: Annotated[
@@ -278,6 +301,27 @@ def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
     ours = [o for o in overrides if not config.is_hydra_override(o)]
     launch_sweep(overrides, functools.partial(_sweep_job, progress=progress),
                  lambda done: _write_sweep(config.swept_values(ours), [Path(f) for f in done]))
+
+
+def _reproduce(*, overrides: Sequence[str], names: str | None, results: Path, progress: bool) -> None:
+    """Compose every experiment with the same overrides, run them together, print each summary."""
+    from tavc_cli.pipeline import run_experiments
+
+    known = [item["name"] for item in config.list_experiments()]
+    chosen = known if names is None else [n.strip() for n in names.split(",") if n.strip()]
+    unknown = [n for n in chosen if n not in known]
+    if unknown or not chosen:
+        raise TavcError(f"--experiments: no experiment {unknown[0] if unknown else names!r} "
+                        f"(known: {', '.join(known)})")
+    for override in overrides:
+        key = override.split("=", 1)[0].lstrip("+~")
+        if key in ("experiment", "output_dir"):
+            raise TavcError(f"{key}: tavc reproduce sets it for each experiment; use --experiments and --results")
+    cfgs = [config.settings(config.load_config([f"experiment={n}", *overrides, f"output_dir={results / n}"]))
+            for n in dict.fromkeys(chosen)]
+    for summary in run_experiments(cfgs, progress=progress):
+        _print_summary(summary)
+        typer.echo("")
 
 
 def _sweep_job(cfg: Any, *, progress: bool) -> str:

@@ -1,11 +1,14 @@
-"""`tavc run` below the CLI: an experiment's trials (`experiments.runner`), then its tables
-and claims (`analysis.experiment`), then its provenance, with the output folder held by this
-run alone for the whole time."""
+"""`tavc run` and `tavc reproduce` below the CLI: an experiment's trials (`experiments.runner`),
+then its tables and claims (`analysis.experiment`), then its provenance, with the output
+folder held by this run alone for the whole time."""
 
 from __future__ import annotations
 
+from contextlib import ExitStack
+
 from tavc_cli.analysis.experiment import write_analysis
-from tavc_cli.experiments.runner import run_experiment_trials, write_provenance
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments.runner import Run, run_experiment_trials, run_trials_together, write_provenance
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder
 from tavc_cli.settings import TavcConfig
@@ -16,8 +19,28 @@ def run_experiment(cfg: TavcConfig, *, progress: bool = False) -> dict:
     with the tables and claims."""
     Executor.from_config(cfg.executor).check()
     with claim_folder(cfg.output_dir):
-        run = run_experiment_trials(cfg, progress=progress)
-        tables, claims = write_analysis(cfg, run.output_dir, run.records)
-        write_provenance(cfg, run)
+        return _finish(cfg, run_experiment_trials(cfg, progress=progress))
+
+
+def run_experiments(cfgs: list[TavcConfig], *, progress: bool = False) -> list[dict]:
+    """Run several experiments' trials together, so that the history their trials share is
+    simulated once (`experiments.joint`), then write each one's outputs as `run_experiment`
+    would; return their summaries. Every folder is held from the start to the end."""
+    folders = [str(cfg.output_dir) for cfg in cfgs]
+    if len(set(folders)) != len(folders):
+        raise TavcError("output_dir: two experiments would write to the same folder")
+    for cfg in cfgs:
+        Executor.from_config(cfg.executor).check()
+    with ExitStack() as held:
+        for cfg in cfgs:
+            held.enter_context(claim_folder(cfg.output_dir))
+        runs = run_trials_together(cfgs, progress=progress)
+        return [_finish(cfg, run) for cfg, run in zip(cfgs, runs, strict=True)]
+
+
+def _finish(cfg: TavcConfig, run: Run) -> dict:
+    """An experiment's tables, claims and provenance from its trials; its summary."""
+    tables, claims = write_analysis(cfg, run.output_dir, run.records)
+    write_provenance(cfg, run)
     return {"output_dir": str(run.output_dir), "n_trials": len(run.specs), "n_reused": run.n_reused,
             "wall_time_s": run.wall_time_s, "tables": tables, "claims": claims}

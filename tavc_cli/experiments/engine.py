@@ -13,6 +13,13 @@ Per tick (`BatchEngine.run`): what falls due (events, snapshots, pose frames) ->
 behaviour choices of section 1.4's learners -> sense and decide (the kernel, over
 the bundles of `behaviours.layout`) -> serve arrivals (rewards, next tasks) -> move
 (wheel commands to the physics, one control period of it).
+
+Time: a trial runs on its own clock, `tick * dt` seconds since it started; rewards,
+events and snapshots go by it. A record's times are that clock less the trial's
+warm-up (`t0 + clock`, t0 = -warmup_s), so t = 0 is the end of the warm-up. Since
+nothing a trial computes depends on its warm-up's length, a trial with a warm-up is
+the trial without one, continued: `branch` turns a batch, mid-run, into trials whose
+history so far is the same and whose futures differ (`experiments.lineage`).
 """
 
 from __future__ import annotations
@@ -54,9 +61,10 @@ class _Schedule:
     """When each trial next takes a Q-table snapshot or a pose frame, and when anything next
     falls due in the batch (those, or a scheduled event)."""
 
-    def __init__(self, trials: Sequence[TrialState], t0: float) -> None:
-        self.next_q = [t0 if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in trials]
-        self.next_pose = [t0 if tr.spec.pose_every_s > 0 else math.inf for tr in trials]
+    def __init__(self, trials: Sequence[TrialState]) -> None:
+        # on the trials' clock, which starts at 0 with the warm-up
+        self.next_q = [0.0 if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in trials]
+        self.next_pose = [0.0 if tr.spec.pose_every_s > 0 else math.inf for tr in trials]
         self.next_due = -math.inf
 
     def update(self, trials: Sequence[TrialState]) -> None:
@@ -72,8 +80,8 @@ class BatchEngine:
         first = specs[0]
         self.arena = first.build_arena()
         for s in specs[1:]:
-            if (s.arena, s.robot, s.dt_s, s.warmup_s) != (first.arena, first.robot, first.dt_s, first.warmup_s):
-                raise ValueError("trials in one batch must share arena, robot model, time step and warm-up")
+            if (s.arena, s.robot, s.dt_s) != (first.arena, first.robot, first.dt_s):
+                raise ValueError("trials in one batch must share arena, robot model and time step")
         self.dt = first.dt_s
         robot = first.robot
         self.trials: list[TrialState] = []
@@ -118,8 +126,8 @@ class BatchEngine:
         self._trial_of = self.robots["trial"].tolist()
         # views of the robots' fields Python reads and writes per arrival (cheaper than a record's)
         self._target, self._activity, self._arrived = (self.robots[f] for f in ("target", "activity", "arrived"))
-        self.t0 = -first.warmup_s  # every trial of a batch starts its warm-up here
-        self.tick = 0
+        self.tick = 0  # every trial's clock is tick * dt
+        self.schedule = _Schedule(self.trials)
         self.on_tick: Callable[[BatchEngine], None] | None = None
         learners = [(tr.lo, tr.hi, tr.policy, tr.decide_ticks) for tr in self.trials if tr.learns_behaviours]
         self._decisions = BatchDecisions(self.robots, self.scan.camera, learners) if learners else None
@@ -131,12 +139,13 @@ class BatchEngine:
                              self.act_s, self.work, self._arrivals, 0, 0, 0.0, 0.0, 0.0, False)
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
-                self._assign(tr, i, self.t0)
+                self._assign(tr, i, 0.0)
 
     # --- time ---------------------------------------------------------------
     @property
-    def t(self) -> float:
-        return self.t0 + self.tick * self.dt
+    def clock(self) -> float:
+        """Seconds since the trials started (their warm-ups included)."""
+        return self.tick * self.dt
 
     # --- tasks --------------------------------------------------------------
     def _assign(self, tr: TrialState, i: int, t: float) -> None:
@@ -218,23 +227,30 @@ class BatchEngine:
                 tr.vc.append(tr.values.copy())
 
     # --- the loop -----------------------------------------------------------
-    def run(self, progress: Callable[[float], None] | None = None) -> list[TrialRecord]:
-        """Advance until every trial reaches its duration; return their records.
+    def end_tick(self) -> int:
+        """The tick at which the longest trial of the batch ends (warm-up and duration)."""
+        return int(round(max(tr.spec.warmup_s + tr.spec.duration_s for tr in self.trials) / self.dt))
 
-        Each tick, at time t (when it senses and decides): what falls due (scheduled
+    def run(self, progress: Callable[[float], None] | None = None,
+            until_tick: int | None = None) -> list[TrialRecord] | None:
+        """Advance until every trial reaches its duration; return their records. With
+        `until_tick`, advance only up to that tick (not served yet) and return None: the batch
+        can go on from there, or `branch` first.
+
+        Each tick, at clock time t (when it senses and decides): what falls due (scheduled
         events, Q-table snapshots, pose frames); section 1.4's learners choose
         behaviours; the kernel senses and decides for every robot; arrivals are
         served (rewards, next tasks); the physics moves the robots one period on.
         """
-        t_end = max(tr.spec.duration_s for tr in self.trials)
-        n_ticks = int(round((t_end - self.t0) / self.dt))
-        schedule = _Schedule(self.trials, self.t0)
-        report_every = max(1, n_ticks // 200)
+        n_ticks = self.end_tick() if until_tick is None else until_tick
+        schedule = self.schedule
+        start = self.tick
+        report_every = max(1, (n_ticks - start) // 200)
         # runs of ticks in compiled code wherever nothing in between needs Python (not with
         # section 1.4's learners, who choose every tick, nor with a hook watching every tick)
         runs = self._decisions is None and self.on_tick is None
         while self.tick < n_ticks:
-            t = self.t0 + self.tick * self.dt
+            t = self.tick * self.dt
             if t >= schedule.next_due:
                 self._fall_due(t, schedule)
             if self._decisions is not None:
@@ -255,9 +271,22 @@ class BatchEngine:
             if self.on_tick is not None:
                 self.on_tick(self)
             if progress is not None and self.tick % report_every == 0:
-                progress(self.tick / n_ticks)
-        self._check_poses(self.world.poses(out=self.pose), self.t)
-        return [self._record(tr) for tr in self.trials]
+                progress((self.tick - start) / (n_ticks - start))
+        if until_tick is not None:
+            return None
+        self.check()
+        return [self.record(tr) for tr in self.trials]
+
+    def branch(self, specs: Sequence[TrialSpec]) -> None:
+        """Go on, from this tick, as the trials `specs` (one per trial of the batch, in order):
+        trials whose history up to now is the batch's, so that they differ only in what is still
+        to come (their events from this tick on, their ends, their warm-ups' lengths).
+        `experiments.lineage` decides which trials may continue which."""
+        if len(specs) != len(self.trials):
+            raise ValueError("a branch names one trial for each trial of the batch")
+        for tr, spec in zip(self.trials, specs, strict=True):
+            tr.go_on_as(spec, self.tick, self.dt)
+        self.schedule.update(self.trials)
 
     def _run_compiled(self, stop: int, next_due: float) -> None:
         """The ticks up to `stop` (or to the first at which something falls due) in compiled code
@@ -268,13 +297,13 @@ class BatchEngine:
         while self.tick < stop:
             done, why = self._run(world.space_io, CP_EACH_BODY, CP_STEP, world.io, self.pose, self.robots, self.noise,
                                   self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s,
-                                  self.work, self._arrivals, self.tick, stop, self.t0, self.dt, next_due, move_first)
+                                  self.work, self._arrivals, self.tick, stop, 0.0, self.dt, next_due, move_first)
             self._log_source_arrivals()
             self.tick += done
             self.tick_started = True
             move_first = why == RUN_ARRIVED
             if move_first:  # this tick's kernel ran: its arrivals here, its move back in compiled code
-                self._serve_arrivals(self.t)
+                self._serve_arrivals(self.clock)
             elif why == RUN_DUE:
                 return
             elif why == RUN_LOST_BODIES:
@@ -286,7 +315,7 @@ class BatchEngine:
         logged = self._arrivals.logged
         for tick, g, target, circuit in self._arrivals.log[:logged[0]].tolist():
             tr = self.trials[self._trial_of[g]]
-            self._log_arrival(tr, self.t0 + tick * self.dt, g - tr.lo, target, circuit, SOURCE)
+            self._log_arrival(tr, tick * self.dt, g - tr.lo, target, circuit, SOURCE)
         logged[0] = 0
 
     @staticmethod
@@ -324,7 +353,7 @@ class BatchEngine:
         if k == 0:  # each trial's odometry noise, drawn from its own stream a block at a time
             for tr in self.trials:
                 self.noise[:, tr.lo:tr.hi] = tr.noise_rng.standard_normal((NOISE_BLOCK_TICKS, tr.hi - tr.lo, 3))
-            self._check_poses(world.poses(out=self.pose), self.t)
+            self._check_poses(world.poses(out=self.pose), self.clock)
         else:
             world.read()
         n_arrived = self._kernel(world.io, self.pose, self.robots, self.noise[k], self._params, self.geometry,
@@ -350,7 +379,7 @@ class BatchEngine:
         i = g - self.trials[b].lo
         where = ("has no valid pose" if not np.isfinite(pose[g]).all()
                  else f"is outside the walls at ({x[g]:.2f}, {y[g]:.2f}) m")
-        raise TrialFault(b, f"robot {i} {where} at t = {t:.1f} s")
+        raise TrialFault(b, f"robot {i} {where} at t = {t - self.trials[b].spec.warmup_s:.1f} s")
 
     def _serve_arrivals(self, t: float) -> None:
         for g in np.flatnonzero(self._arrived).tolist():
@@ -369,12 +398,23 @@ class BatchEngine:
             tr.q_t.append(t)
             tr.q.append(q)
 
-    def _record(self, tr: TrialState) -> TrialRecord:
-        spec = tr.spec
-        if spec.q_snapshot_every_s > 0 and (not tr.q_t or tr.q_t[-1] < self.t):
-            self._snapshot_q(tr, self.t)  # the tables as the trial ends
+    def record(self, tr: TrialState, spec: TrialSpec | None = None) -> TrialRecord:
+        """Trial tr's record as it stands, as the trial `spec` (by default its own): the times of
+        its tables are the clock less that trial's warm-up. Leaves the trial as it was, so that
+        it can go on (`branch`)."""
+        spec = spec or tr.spec
+        t0 = -spec.warmup_s
+        q_t, q = list(tr.q_t), list(tr.q)
+        if spec.q_snapshot_every_s > 0 and (not q_t or q_t[-1] < self.clock):
+            final = tr.policy.q_tables()  # the tables as the trial ends
+            if final is not None:
+                q_t.append(self.clock)
+                q.append(final)
         n = spec.n_robots
         n_c = self.arena.n_circuits
+        tables = tr.rows.build()
+        for cols in tables.values():
+            cols["t_s"] = t0 + cols["t_s"]
         rec = TrialRecord(
             meta={
                 "trial": spec.trial, "controller": spec.controller, "seed": list(spec.seed),
@@ -385,19 +425,23 @@ class BatchEngine:
                 "policy": spec.policy.name,
                 "start_poses": tr.start.tolist(),
             },
-            tables=tr.rows.build(),
+            tables=tables,
         )
-        rec.value_changes_t = np.array(tr.vc_t, dtype=np.float64)
+        rec.value_changes_t = t0 + np.array(tr.vc_t, dtype=np.float64)
         rec.value_changes = np.array(tr.vc, dtype=np.float64).reshape(len(tr.vc), n_c)
-        if tr.q:
-            rec.q_t = np.array(tr.q_t)
-            rec.q = np.stack(tr.q)
+        if q:
+            rec.q_t = t0 + np.array(q_t)
+            rec.q = np.stack(q)
         if tr.poses:
-            rec.pose_t = np.array(tr.pose_t)
+            rec.pose_t = t0 + np.array(tr.pose_t)
             rec.poses = np.stack(tr.poses)
             rec.pose_alive = np.stack(tr.pose_alive)
             rec.pose_circuit = np.stack(tr.pose_circuit)
         return rec
+
+    def check(self) -> None:
+        """Raise `TrialFault` for the first trial whose physics has failed (`_check_poses`)."""
+        self._check_poses(self.world.poses(out=self.pose), self.clock)
 
 
 def run_trials(specs: Sequence[TrialSpec], progress: Callable[[float], None] | None = None) -> list[TrialRecord]:

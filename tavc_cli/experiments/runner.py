@@ -96,6 +96,28 @@ def run_experiment_trials(cfg: TavcConfig, *, progress: bool = False) -> Run:
     return Run(out_dir, specs, store.load(specs), n_reused, wall)
 
 
+def run_trials_together(cfgs: list[TavcConfig], *, progress: bool = False) -> list[Run]:
+    """Run (or reuse) every trial of several experiments at once (`joint.run_together`: the
+    history their trials share is simulated once) and write each one's `config.yaml`. The
+    caller holds every folder; the first config's `executor` runs them all. A run's wall time
+    is that of the whole invocation."""
+    from tavc_cli.experiments.joint import run_together
+
+    folders = [Path(cfg.output_dir) for cfg in cfgs]
+    for folder in folders:
+        (folder / "provenance.json").unlink(missing_ok=True)
+    start = time.perf_counter()
+    specs = [trial_specs(cfg) for cfg in cfgs]
+    executor = Executor.from_config(cfgs[0].executor)
+    reused = run_together(list(zip(folders, specs, strict=True)), executor, progress)
+    wall = time.perf_counter() - start
+    runs = []
+    for cfg, folder, sp in zip(cfgs, folders, specs, strict=True):
+        write_text_atomic(folder / "config.yaml", to_yaml(cfg))
+        runs.append(Run(folder, sp, TrialStore(folder, executor).load(sp), reused[folder], wall))
+    return runs
+
+
 def write_provenance(cfg: TavcConfig, run: Run) -> None:
     """`provenance.json`, written last: the run is complete once it is there."""
     write_text_atomic(run.output_dir / "provenance.json",

@@ -85,26 +85,36 @@ class TrialStore:
     def run(self, specs: Sequence[TrialSpec], progress: bool = False, announce: bool = False) -> int:
         """Run every trial of `specs` that is not done; return how many were reused."""
         ex = self.executor
+        self.check_paths(specs)
+        pending, n_reused, damaged = pending_batches(self.folder, list(specs), ex.batch_size, ex.n_jobs)
+        if announce:
+            self.announce(len(specs), n_reused, damaged)
+        if ex.backend == "local":
+            failures = execute(pending, self.folder, ex.n_jobs, progress)
+        else:
+            failures = _execute_on_cluster(ex, pending, self.folder, progress)
+        self.settle(failures, len(specs))
+        return n_reused
+
+    def check_paths(self, specs: Sequence[TrialSpec]) -> None:
+        """Stop with one line if a file or folder stands where a trial's record goes."""
         trials = self.folder / "trials"
         in_the_way = [trials] if trials.exists() and not trials.is_dir() else [
             p for p in map(self.path, specs) if p.is_dir()]
         if in_the_way:
             raise TavcError(f"{in_the_way[0]}: a {'file' if in_the_way[0] == trials else 'folder'} stands where "
                             "tavc writes its trial records; move it away")
-        pending, n_reused, damaged = pending_batches(self.folder, list(specs), ex.batch_size, ex.n_jobs)
-        if announce and n_reused:
-            print(f"reusing {n_reused} of {len(specs)} finished trials in {self.folder / 'trials'}", flush=True)
-        if announce and damaged:
+
+    def announce(self, n_specs: int, n_reused: int, damaged: list[str]) -> None:
+        """Say how many finished trials are reused, and which files are run again because
+        they could not be read."""
+        if n_reused:
+            print(f"reusing {n_reused} of {n_specs} finished trials in {self.folder / 'trials'}", flush=True)
+        if damaged:
             print(f"running again {len(damaged)} trials whose files could not be read ({', '.join(damaged[:3])}"
                   f"{', ...' if len(damaged) > 3 else ''})", flush=True)
-        if ex.backend == "local":
-            failures = execute(pending, self.folder, ex.n_jobs, progress)
-        else:
-            failures = _execute_on_cluster(ex, pending, self.folder, progress)
-        self._settle(failures, len(specs))
-        return n_reused
 
-    def _settle(self, failures: list[TrialFailure], n_specs: int) -> None:
+    def settle(self, failures: list[TrialFailure], n_specs: int) -> None:
         """Record the failed trials in `failures.log` and stop with one line naming the first;
         with none, remove the log an earlier run may have left."""
         log = self.folder / FAILURES_LOG
@@ -168,6 +178,7 @@ class TrialFailure:
     seed: tuple[int, ...]
     message: str
     detail: str = ""
+    folder: str = ""  # the results folder, where trials of several are run together
 
     @classmethod
     def of(cls, spec: TrialSpec, message: str, detail: str = "") -> TrialFailure:
@@ -279,13 +290,22 @@ class _Progress:
 def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> list[TrialFailure]:
     """Run pending batches in this process (n_jobs 1 or a single batch) or a process pool;
     return the trials that failed."""
+    return run_pool([(b, run_batch, (b, str(out_dir))) for b in pending], n_jobs, tty)
+
+
+def run_pool(units: list[tuple], n_jobs: int, tty: bool) -> list[TrialFailure]:
+    """Run units of work, each (batch, function, arguments), in this process (n_jobs 1 or a
+    single unit) or a process pool of n_jobs workers, with one progress bar over their
+    simulated seconds; `function(*arguments, report)` simulates the batch, writes its trials'
+    files and returns (wall time, failed trials). Returns the trials that failed."""
+    pending = [u[0] for u in units]
     prog = _Progress(pending, tty)
     failures: list[TrialFailure] = []
     try:
-        if n_jobs <= 1 or len(pending) <= 1:
-            for b in pending:
+        if n_jobs <= 1 or len(units) <= 1:
+            for b, fn, args in units:
                 key = (b.controller, b.index)
-                failures += run_batch(b, out_dir, lambda f, k=key: prog.update(k, f))[1]
+                failures += fn(*args, lambda f, k=key: prog.update(k, f))[1]
             return failures
         import multiprocessing as mp
 
@@ -297,11 +317,11 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> list
         manager.start(_worker_start)  # the progress queue's server process: gone with the run too
         with manager:
             queue = manager.Queue()
-            pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=ctx,
+            pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(units)), mp_context=ctx,
                                        initializer=_worker_start)
             try:
-                futures = {pool.submit(run_batch, b, str(out_dir), _QueueReporter(queue, (b.controller, b.index))): b
-                           for b in pending}
+                futures = {pool.submit(fn, *args, _QueueReporter(queue, (b.controller, b.index))): b
+                           for b, fn, args in units}
                 remaining = set(futures)
                 while remaining:
                     finished, remaining = wait(remaining, timeout=0.5, return_when=FIRST_COMPLETED)
@@ -315,8 +335,8 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> list
                         except BrokenProcessPool:
                             raise TavcError(
                                 f"a worker process died while running trials {_names(b)} (out of memory, or a "
-                                "crash in compiled code); the trials finished before are kept in "
-                                f"{out_dir / 'trials'} and a rerun computes only the missing ones") from None
+                                "crash in compiled code); the trials finished before are kept and a rerun "
+                                "computes only the missing ones") from None
                         prog.update((b.controller, b.index), 1.0)
             except BaseException:
                 # stop the workers' batches (on Ctrl-C they stop themselves; on SIGTERM or an error

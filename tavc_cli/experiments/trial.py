@@ -69,16 +69,14 @@ class TrialState:
         self.state = self.policy_rng.integers(arena.n_circuits, size=n)  # class "last serviced"
         self.task = np.full(n, -1, dtype=np.int64)
         self.task_start = np.zeros(n)
-        self.last_arrival = np.full(n, -spec.warmup_s)  # for behaviour learners' r = w / t per arrival
+        self.last_arrival = np.zeros(n)  # on the clock, for behaviour learners' r = w / t per arrival
         self.learns_behaviours = hasattr(self.policy, "decide")
         self.decide_ticks = (max(1, int(round(self.policy.decision_period_s / spec.dt_s)))
                              if self.learns_behaviours else 0)
         self.last_circuit = np.full(n, -1, dtype=np.int64)
         self.alive = np.ones(n, dtype=bool)
-        self.rows = TableBuilder()
-        events = ([(b.time_s, EventKind.BREAKDOWN, b) for b in spec.breakdowns]
-                  + [(v.time_s, EventKind.VALUE_CHANGE, v) for v in spec.value_changes])
-        self.events = sorted(events, key=lambda e: (e[0], e[1]))
+        self.rows = TableBuilder()  # times on the trial's clock (seconds since it started)
+        self.events = clock_events(spec)
         self.vc_t: list[float] = []
         self.vc: list[np.ndarray] = []
         self.q_t: list[float] = []
@@ -89,4 +87,32 @@ class TrialState:
         self.pose_circuit: list[np.ndarray] = []
 
     def next_event_time(self) -> float:
+        """When the next scheduled event falls due, on the trial's clock."""
         return self.events[0][0] if self.events else math.inf
+
+    def go_on_as(self, spec: TrialSpec, tick: int, dt: float) -> None:
+        """From `tick` on, this trial is `spec`: its events still to come are the spec's that
+        fall due at this tick or later (those before it are the ones this trial has had)."""
+        self.spec = spec
+        self.events = [e for e in clock_events(spec) if due_tick(e[0], dt) >= tick]
+
+
+def clock_events(spec: TrialSpec) -> list[tuple]:
+    """The spec's scheduled events as (clock time, kind, event), in the order they fire: an
+    event at time T of the record falls due at T + warmup_s on the trial's clock."""
+    events = ([(b.time_s + spec.warmup_s, EventKind.BREAKDOWN, b) for b in spec.breakdowns]
+              + [(v.time_s + spec.warmup_s, EventKind.VALUE_CHANGE, v) for v in spec.value_changes])
+    return sorted(events, key=lambda e: (e[0], e[1]))
+
+
+def due_tick(clock_s: float, dt: float) -> int:
+    """The first tick k whose time k * dt is at or after `clock_s`: the tick at which whatever is
+    scheduled for that time falls due (the engine compares exactly this product)."""
+    if clock_s <= 0:
+        return 0
+    k = max(0, math.ceil(clock_s / dt))
+    while k > 0 and (k - 1) * dt >= clock_s:
+        k -= 1
+    while k * dt < clock_s:
+        k += 1
+    return k

@@ -1,0 +1,161 @@
+"""The trials of several results folders run together, their shared history simulated once.
+
+`run_together` is what `tavc reproduce` runs its experiments' trials through. Each folder
+keeps its own `TrialStore` semantics (finished trials reused, files written atomically,
+failures named in the folder's `failures.log`); on the local executor the trials of all
+folders are planned as trees (`lineage`) and a tree batch runs in one worker process,
+which forks at every point where its trials part. A trial so computed is the same, bit for
+bit, as the trial run alone. Where anything in a tree goes wrong, the trials it did not
+finish are run alone, each from its start, so that a fault is reported as it would be
+without the tree. On a Dask or Ray cluster, each folder's trials are run as `tavc run`
+runs them, without sharing.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import replace
+from pathlib import Path
+
+from tavc_cli.experiments.engine import BatchEngine
+from tavc_cli.experiments.lineage import Item, Node, TreeBatch, plan
+from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.experiments.store import (
+    Executor,
+    TrialFailure,
+    TrialStore,
+    pending_batches,
+    run_pool,
+    simulate_contained,
+    trial_done,
+    trial_path,
+)
+
+CAN_FORK = hasattr(os, "fork") and sys.platform.startswith("linux")
+
+
+def run_together(folders: Sequence[tuple[Path, Sequence[TrialSpec]]], executor: Executor,
+                 progress: bool = False) -> dict[Path, int]:
+    """Run every trial of every (folder, specs) that is not done; return how many were reused
+    in each folder. Stops with one line naming the first failed trial, after every other
+    trial has finished and every folder's `failures.log` is written."""
+    stores = [(TrialStore(Path(folder), executor), list(specs)) for folder, specs in folders]
+    if executor.backend != "local" or not CAN_FORK:
+        return {store.folder: store.run(specs, progress, announce=True) for store, specs in stores}
+    items, pending, reused = [], set(), {}
+    for store, specs in stores:
+        store.check_paths(specs)
+        batches, n_reused, damaged = pending_batches(store.folder, specs, executor.batch_size)
+        store.announce(len(specs), n_reused, damaged)
+        reused[store.folder] = n_reused
+        todo = {(s.controller, s.trial) for b in batches for s in b.specs}
+        for spec in specs:
+            item = Item(spec, store.folder)
+            items.append(item)
+            if (spec.controller, spec.trial) in todo:
+                pending.add(item)
+    batches = plan(items, pending, executor.batch_size, executor.n_jobs)
+    failures = run_pool([(b, run_tree_batch, (b,)) for b in batches], executor.n_jobs, progress)
+    by_folder: dict[str, list[TrialFailure]] = {}
+    for f in failures:
+        by_folder.setdefault(f.folder, []).append(f)
+    errors = []
+    for store, specs in stores:
+        try:
+            store.settle(by_folder.get(str(store.folder), []), len(specs))
+        except Exception as exc:  # noqa: BLE001 - every folder's log is written before the first stops the run
+            errors.append(exc)
+    if errors:
+        raise errors[0]
+    return reused
+
+
+def run_tree_batch(batch: TreeBatch,
+                   report: Callable[[float], None] | None = None) -> tuple[float, list[TrialFailure]]:
+    """Simulate one tree batch, writing each trial's file at the node where it ends; returns
+    the wall time (s) and the trials that failed. Trials the tree did not finish (a fault, an
+    error, a branch that died) are then run alone from their start, and fail or not as they
+    would in any run."""
+    start = time.perf_counter()
+    try:
+        _Walk(batch, report).run()
+    except Exception:  # noqa: BLE001 - what went wrong is found again, trial by trial, below
+        pass
+    failures: list[TrialFailure] = []
+    for item in [i for end in batch.root.items() for i in end]:
+        if not trial_done(item.folder, item.spec):
+            done, failed = simulate_contained([item.spec])
+            for spec, rec in done:
+                rec.save(trial_path(item.folder, spec.controller, spec.trial))
+            failures += [replace(f, folder=str(item.folder)) for f in failed]
+    return time.perf_counter() - start, failures
+
+
+class _Walk:
+    """A tree batch, node by node, in one engine: each branch but the last in a forked copy
+    of this process, the last in this one."""
+
+    def __init__(self, batch: TreeBatch, report: Callable[[float], None] | None) -> None:
+        self.batch = batch
+        self.report = report
+        self.total = max(1, batch.root.ticks)
+        self.done = 0
+
+    def run(self) -> None:
+        engine = BatchEngine(self.batch.root.specs)
+        self._node(engine, self.batch.root)
+
+    def _node(self, engine: BatchEngine, node: Node) -> None:
+        span = node.end - node.start
+        report = None if self.report is None else (lambda f: self.report((self.done + f * span) / self.total))
+        engine.run(report, until_tick=node.end)
+        self.done += span
+        if node.ends:
+            engine.check()
+            for end in node.ends:
+                for tr, item in zip(engine.trials, end, strict=True):
+                    engine.record(tr, item.spec).save(trial_path(item.folder, item.spec.controller,
+                                                                 item.spec.trial))
+        for child in node.children[:-1]:
+            self._fork(engine, child)
+            self.done += child.ticks
+            if self.report is not None:
+                self.report(self.done / self.total)
+        if node.children:
+            last = node.children[-1]
+            engine.branch(last.specs)
+            self._node(engine, last)
+
+    def _fork(self, engine: BatchEngine, child: Node) -> None:
+        """Simulate `child` in a copy of this process, whose trials are this engine's trials
+        as they are now; wait for it. A copy that fails leaves its trials' files unwritten."""
+        sys.stdout.flush()
+        sys.stderr.flush()
+        pid = os.fork()
+        if pid == 0:  # the copy: its own branch, its files, and out without any of the parent's clean-up
+            code = 1
+            try:
+                _die_with_parent()
+                self.report = None
+                engine.branch(child.specs)
+                self._node(engine, child)
+                code = 0
+            except BaseException:  # noqa: BLE001, S110 - reported by the trials it leaves undone, run alone
+                pass
+            finally:
+                os._exit(code)
+        os.waitpid(pid, 0)
+
+
+def _die_with_parent() -> None:
+    """A forked copy dies with the process that forked it, as pool workers do (`store`)."""
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
