@@ -8,6 +8,7 @@ dataclasses, never a DictConfig or nested dicts. `from_yaml` reads a results fol
 """
 
 from dataclasses import dataclass, field
+from functools import cache
 from pathlib import Path
 from typing import Any, List, Optional
 
@@ -335,4 +336,10 @@ def from_yaml(path: Path) -> TavcConfig:
 def from_mapping(cls: type, data: Any) -> Any:
     """An instance of the settings dataclass ``cls`` from plain data (a dict, as YAML gives it),
     checked against its fields' types."""
-    return OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(cls), data))
+    return OmegaConf.to_object(OmegaConf.merge(_schema(cls), data))
+
+
+@cache
+def _schema(cls: type) -> Any:
+    """The typed, empty config of a settings dataclass (merging copies it: it stays empty)."""
+    return OmegaConf.structured(cls)

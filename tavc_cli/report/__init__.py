@@ -13,6 +13,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import sys
+from concurrent.futures import Future, ProcessPoolExecutor
 from pathlib import Path
 
 import pandas as pd
@@ -118,31 +121,14 @@ def build_report(results_dir: Path) -> dict:
               "\"largest relative increase\" compares means without a test, as the chapter does. The rules are in "
               "`tavc_cli/analysis/claims.py`.", ""]
     model_json = find_model(experiments)
-    for name, d in experiments.items():
-        cfg = from_yaml(d / "config.yaml")
-        prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
-        state_time = pd.read_csv(d / "state_time.csv", dtype={"state": str})
-        comparison = experiment_comparison(name, state_time)
-        lines += [f"## {name} (section {cfg.section or '?'})", "", str(cfg.description or "").strip(), ""]
-        if (d / "table_1_1.csv").is_file():
-            lines += spatiotemporal_lines(name, d, cfg, results_dir)
-            lines += run_lines(name, cfg, prov, claims, runs)
-            continue
-        table = TABLES.get(name)
-        lines.append("% of the stable period in each state, mean ± std over trials"
-                     + (f"; the chapter's Table {table} beside ours:" if table else ":"))
-        lines += ["", *state_table(state_time, comparison), ""]
-        if name in runs:
-            lines += [performance(runs[name]), ""]
-            lines += settle_lines(runs[name], cfg)
-            lines += q_gap_lines(runs[name])
-        lines += model_lines(d / "model" / "model.json", state_time)
-        if (d / "model" / "model.json").is_file():
-            lines.append("")
-        lines += experiment_figures(name, d, cfg, state_time, results_dir, model_json)
-        lines += robot_lines(d)
-        lines += vacancy_lines(d)
-        lines += run_lines(name, cfg, prov, claims, runs)
+    read = {name: (from_yaml(d / "config.yaml"), pd.read_csv(d / "state_time.csv", dtype={"state": str}))
+            for name, d in experiments.items()}
+    with _FigurePool() as pool:
+        # every experiment's figures drawn side by side while the text is written
+        figures = {name: pool.submit(experiment_figures, name, d, read[name][0], read[name][1], results_dir,
+                                     model_json)
+                   for name, d in experiments.items() if not (d / "table_1_1.csv").is_file()}
+        lines += _experiment_sections(experiments, read, figures, claims, runs, results_dir)
     lines += value_ratio_lines(results_dir, model_json)
     lines += ["## The same tests on the chapter's own tables", "",
               "Applied to the chapter's printed means, stds and trial counts (20 TAVC and 20 random trials "
@@ -177,3 +163,57 @@ def build_report(results_dir: Path) -> dict:
     return {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
             "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished]}
 
+
+def _experiment_sections(experiments: dict[str, Path], read: dict, figures: dict, claims: pd.DataFrame,
+                         runs: dict[str, pd.DataFrame], results_dir: Path) -> list[str]:
+    """Each experiment's section of the report: its tables, notes, figures and run lines."""
+    lines: list[str] = []
+    for name, d in experiments.items():
+        cfg, state_time = read[name]
+        prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
+        comparison = experiment_comparison(name, state_time)
+        lines += [f"## {name} (section {cfg.section or '?'})", "", str(cfg.description or "").strip(), ""]
+        if (d / "table_1_1.csv").is_file():
+            lines += spatiotemporal_lines(name, d, cfg, results_dir)
+            lines += run_lines(name, cfg, prov, claims, runs)
+            continue
+        table = TABLES.get(name)
+        lines.append("% of the stable period in each state, mean ± std over trials"
+                     + (f"; the chapter's Table {table} beside ours:" if table else ":"))
+        lines += ["", *state_table(state_time, comparison), ""]
+        if name in runs:
+            lines += [performance(runs[name]), ""]
+            lines += settle_lines(runs[name], cfg)
+            lines += q_gap_lines(runs[name])
+        lines += model_lines(d / "model" / "model.json", state_time)
+        if (d / "model" / "model.json").is_file():
+            lines.append("")
+        lines += figures[name].result()
+        lines += robot_lines(d)
+        lines += vacancy_lines(d)
+        lines += run_lines(name, cfg, prov, claims, runs)
+    return lines
+
+
+class _FigurePool:
+    """Processes that draw figures while the report is written (forked, where the system
+    forks; elsewhere each figure is drawn when submitted)."""
+
+    def __enter__(self):
+        self.pool = None
+        if sys.platform.startswith("linux") and (os.cpu_count() or 1) > 1:
+            import multiprocessing as mp
+
+            self.pool = ProcessPoolExecutor(max_workers=min(2, os.cpu_count() or 1), mp_context=mp.get_context("fork"))
+        return self
+
+    def submit(self, fn, *args) -> Future:
+        if self.pool is not None:
+            return self.pool.submit(fn, *args)
+        done: Future = Future()
+        done.set_result(fn(*args))
+        return done
+
+    def __exit__(self, *exc) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
