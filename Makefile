@@ -13,7 +13,7 @@ REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
 # Learning values [w_high, w_low] for the value-ratio sweep: ratios 1.0, 1.1 (the chapter's), 1.25 ... 2.0
 VALUE_RATIOS := [2000,2000],[2200,2000],[2500,2000],[3000,2000],[3500,2000],[4000,2000]
 
-.PHONY: help venv test test-fast bench verify-outcomes reproduce-all reproduce-quick model value-ratio $(REPRODUCE) clean
+.PHONY: help venv test test-fast bench verify-outcomes reproduce-all reproduce-experiments reproduce-quick model value-ratio $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -49,18 +49,21 @@ verify-outcomes: venv ## Recompute initial_distribution and the world search at 
 	@for f in $(VERIFY_WORLD); do cmp results/calibration/world/$$f.csv $(VERIFY_DIR)/calibration/world/$$f.csv || exit 1; done
 	@echo "outcomes identical: $(words $(VERIFY_RUN)) tables of initial_distribution, $(words $(VERIFY_WORLD)) of the world search"
 
-# Experiments run two at a time, each on every core: one's idle tail is the other's work
+# The experiments (one run of every core) beside the model: the model's trials fill the run's idle tail
 REPRODUCE_JOBS ?= 2
 
 reproduce-all: venv ## Run every experiment and the model at paper scale, then write results/REPORT.md; prints the wall time
 	@date +%s > $(VENV)/.reproduce-start
-	$(MAKE) -j$(REPRODUCE_JOBS) --output-sync=target --no-print-directory $(REPRODUCE) model
+	$(MAKE) -j$(REPRODUCE_JOBS) --output-sync=target --no-print-directory reproduce-experiments model
 	$(BIN)/tavc report results
 	@echo "reproduce-all: $$(( $$(date +%s) - $$(cat $(VENV)/.reproduce-start) )) s wall time"
 
+reproduce-experiments: venv ## Every experiment at paper scale in one run: the history their trials share simulated once
+	$(BIN)/tavc reproduce scale=paper --results results
+
 reproduce-quick: venv ## A first look: every experiment at scale=quick into results-quick/, and its report
 	@date +%s > $(VENV)/.reproduce-start
-	for e in $(EXPERIMENTS); do $(BIN)/tavc run experiment=$$e scale=quick output_dir=results-quick/$$e || exit 1; done
+	$(BIN)/tavc reproduce scale=quick --results results-quick
 	$(BIN)/tavc report results-quick
 	@echo "reproduce-quick: $$(( $$(date +%s) - $$(cat $(VENV)/.reproduce-start) )) s wall time"
 
