@@ -8,7 +8,8 @@ DataFrames, for notebooks and scripts.
     run.events("deliveries")           # every delivery of every trial, one row each
     api.load("results/initial_distribution").claims
 
-`run` takes the same overrides as `tavc run` and writes the same folder; `load` only reads.
+`run` takes the same overrides as `tavc run` and writes the same folder; `reproduce` runs
+several experiments together as `tavc reproduce` does; `load` only reads.
 Errors a user can make (a bad override, a folder without results) raise `TavcError` with one
 line that names the problem.
 """
@@ -104,3 +105,23 @@ def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, 
         overrides.append(f"output_dir={Path(output_dir)}")
     summary = run_experiment(config.settings(config.load_config(overrides)), progress=progress)
     return Results(summary["output_dir"])
+
+
+def reproduce(overrides: Sequence[str] = (), *, experiments: Sequence[str] | None = None,
+              results_dir: str | Path = "results", progress: bool = False) -> dict[str, Results]:
+    """Run several experiments together as `tavc reproduce` does (the history their trials share
+    simulated once) and open each one's results, by experiment name.
+
+    Args:
+        overrides: Hydra overrides for every experiment, e.g. ``["scale=quick"]``.
+        experiments: Experiment names; by default every one.
+        results_dir: The folder that gets one folder per experiment.
+        progress: Show a progress bar.
+    """
+    from tavc_cli import config
+    from tavc_cli.pipeline import run_experiments
+
+    cfgs = config.load_experiments(experiments, overrides, results_dir)
+    summaries = run_experiments([config.settings(cfg) for cfg in cfgs], progress=progress)
+    return {str(cfg.experiment_name): Results(summary["output_dir"])
+            for cfg, summary in zip(cfgs, summaries, strict=True)}

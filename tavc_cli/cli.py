@@ -307,19 +307,8 @@ def _reproduce(*, overrides: Sequence[str], names: str | None, results: Path, pr
     """Compose every experiment with the same overrides, run them together, print each summary."""
     from tavc_cli.pipeline import run_experiments
 
-    known = [item["name"] for item in config.list_experiments()]
-    chosen = known if names is None else [n.strip() for n in names.split(",") if n.strip()]
-    unknown = [n for n in chosen if n not in known]
-    if unknown or not chosen:
-        raise TavcError(f"--experiments: no experiment {unknown[0] if unknown else names!r} "
-                        f"(known: {', '.join(known)})")
-    for override in overrides:
-        key = override.split("=", 1)[0].lstrip("+~")
-        if key in ("experiment", "output_dir"):
-            raise TavcError(f"{key}: tavc reproduce sets it for each experiment; use --experiments and --results")
-    cfgs = [config.settings(config.load_config([f"experiment={n}", *overrides, f"output_dir={results / n}"]))
-            for n in dict.fromkeys(chosen)]
-    for summary in run_experiments(cfgs, progress=progress):
+    cfgs = config.load_experiments(None if names is None else names.split(","), overrides, results)
+    for summary in run_experiments([config.settings(cfg) for cfg in cfgs], progress=progress):
         _print_summary(summary)
         typer.echo("")
 

@@ -55,3 +55,15 @@ def test_errors_are_one_line(tmp_path):
         res.events("crashes")
     with pytest.raises(TavcError, match="team.n_robots"):
         api.run(["team.n_robots=-1"], output_dir=tmp_path / "x")
+
+
+def test_reproduce_opens_each_experiments_results(tmp_path):
+    together = api.reproduce(["scale=smoke", "trials=1", "baselines=[]"],
+                             experiments=["breakdown_no_vacancy", "initial_distribution"], results_dir=tmp_path)
+    assert sorted(together) == ["breakdown_no_vacancy", "initial_distribution"]
+    for name, res in together.items():
+        assert res.path == tmp_path / name and res.config["experiment_name"] == name
+        assert len(res.records()) == 1
+    with pytest.raises(TavcError, match="no experiment 'nope'"):
+        api.reproduce(["scale=smoke"], experiments=["nope"], results_dir=tmp_path / "x")
+    assert not (tmp_path / "x").exists()

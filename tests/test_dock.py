@@ -36,7 +36,7 @@ def _arrival_poses(eng):
 
     def watch(e):
         for g in np.flatnonzero(e.robots["arrived"]):  # arrivals of this tick
-            seen.append((e.t - e.dt, int(g), e.pose[g].copy()))
+            seen.append((e.clock - e.dt, int(g), e.pose[g].copy()))  # no warm-up: the clock is t
 
     eng.on_tick = watch
     return eng.run(), seen

@@ -170,6 +170,35 @@ def list_experiments() -> list[dict]:
     return experiments
 
 
+def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
+                     results_dir: str | Path = "results") -> list[DictConfig]:
+    """Compose several experiments with the same overrides, each into ``results_dir/<name>``
+    (what ``tavc reproduce`` runs).
+
+    Args:
+        names: Experiment names (as ``experiment=`` takes them); None for every one.
+        overrides: Hydra overrides for all of them; ``experiment`` and ``output_dir`` are set
+            per experiment and refused here.
+        results_dir: The folder that gets one folder per experiment.
+
+    Raises:
+        TavcError: For an unknown or missing name, a refused key, or any override that fails.
+    """
+    known = sorted(p.stem for p in (find_conf_dir() / "experiment").glob("*.yaml"))
+    chosen = known if names is None else [n.strip() for n in names if n.strip()]
+    unknown = [n for n in chosen if n not in known]
+    if unknown or not chosen:
+        raise TavcError(f"--experiments: no experiment {unknown[0] if unknown else ''!r} "
+                        f"(known: {', '.join(known)})")
+    for override in overrides:
+        key = _override_key(override).lstrip("+~")
+        if key in ("experiment", "output_dir"):
+            raise TavcError(f"{key}: set for each experiment by itself; choose experiments and the results folder "
+                            "instead (--experiments, --results)")
+    return [load_config([f"experiment={n}", *overrides, f"output_dir={Path(results_dir) / n}"])
+            for n in dict.fromkeys(chosen)]
+
+
 def to_yaml(cfg: DictConfig | dict) -> str:
     """Render a config as YAML.
 
