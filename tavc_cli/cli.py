@@ -201,7 +201,7 @@ def bench(
     duration_s: Annotated[
         float, typer.Option("--duration-s", help="Simulated seconds per repeat.")
     ] = 600.0,
-    repeats: Annotated[int, typer.Option(min=1, help="Timed repeats; the best counts.")] = 3,
+    repeats: Annotated[int, typer.Option(min=1, help="Timed repeats; their median counts.")] = 3,
     batch: Annotated[
         Optional[int],
         typer.Option(
