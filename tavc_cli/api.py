@@ -121,7 +121,8 @@ def reproduce(overrides: Sequence[str] = (), *, experiments: Sequence[str] | Non
     from tavc_cli import config
     from tavc_cli.pipeline import run_experiments
 
-    cfgs = config.load_experiments(experiments, overrides, results_dir)
+    names = [experiments] if isinstance(experiments, str) else experiments
+    cfgs = config.load_experiments(names, list(overrides), results_dir)
     summaries = run_experiments([config.settings(cfg) for cfg in cfgs], progress=progress)
     return {str(cfg.experiment_name): Results(summary["output_dir"])
             for cfg, summary in zip(cfgs, summaries, strict=True)}

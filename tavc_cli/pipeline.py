@@ -8,7 +8,13 @@ from contextlib import ExitStack
 
 from tavc_cli.analysis.experiment import write_analysis
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.runner import Run, run_experiment_trials, run_trials_together, write_provenance
+from tavc_cli.experiments.runner import (
+    Run,
+    load_records,
+    run_experiment_trials,
+    run_trials_together,
+    write_provenance,
+)
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder
 from tavc_cli.settings import TavcConfig
@@ -35,7 +41,7 @@ def run_experiments(cfgs: list[TavcConfig], *, progress: bool = False) -> list[d
         for cfg in cfgs:
             held.enter_context(claim_folder(cfg.output_dir))
         runs = run_trials_together(cfgs, progress=progress)
-        return [_finish(cfg, run) for cfg, run in zip(cfgs, runs, strict=True)]
+        return [_finish(cfg, load_records(cfg, run)) for cfg, run in zip(cfgs, runs, strict=True)]
 
 
 def _finish(cfg: TavcConfig, run: Run) -> dict:

@@ -258,10 +258,17 @@ REFUSED = [
     (["experiment=breakdown", "events.breakdowns.0.time_s=30000"],
      "events.breakdowns[0].time_s: 600 s (after scaling) is outside the simulated time "
      "[-sim.warmup_s = -360, duration_s = 540)"),
-    # at smoke scale (x 0.02) the last control period of 0.1 s starts at 540 - 0.1 = 539.9 s
+    # at smoke scale (x 0.02) the trial runs (360 + 540) / 0.1 = 9000 periods, ticks 0-8999; 539.99 s is
+    # 899.99 s on its clock, which only tick 9000 (900 s) reaches
     (["experiment=breakdown", "events.breakdowns.0.time_s=26999.5"],
-     "events.breakdowns[0].time_s: 539.99 s (after scaling) falls after the last control period starts "
-     "(t = 539.9 s, sim.dt_s = 0.1 s), so it would never happen"),
+     "events.breakdowns[0].time_s: 539.99 s (after scaling) would fall due at tick 9000, after the trial's last "
+     "tick, 8999 (its 9000 periods of sim.dt_s = 0.1 s from the start of the warm-up), so it would never happen"),
+    # in decimals 22792.0 + 4835.9 = 27627.9 = 92093 x 0.3 s, the last of round(27628.3 / 0.3) = 92094 ticks;
+    # in binary floating point 92093 x 0.3 falls short of the sum, which the engine compares it with
+    (["experiment=breakdown", "scale=paper", "sim.dt_s=0.3", "sim.warmup_s=4835.9", "duration_s=22792.4",
+      "events.breakdowns.0.time_s=22792.0"],
+     "events.breakdowns[0].time_s: 22792 s (after scaling) would fall due at tick 92094, after the trial's last "
+     "tick, 92093 (its 92094 periods of sim.dt_s = 0.3 s from the start of the warm-up), so it would never happen"),
     (["learner=static", "learner.allocation=[4,1]"], "learner.allocation: must sum to team.n_robots (6), got 5"),
     (["baselines=[static]", "static_allocation=[6]"],
      "static_allocation: needs one robot count per circuit (2), got 1"),
@@ -333,6 +340,8 @@ def test_a_bad_input_is_refused_in_one_line_before_anything_is_written(overrides
         ["tasks.values=[1,2]", "events.value_changes=[{time_s:5,values:[3,3]}]",
          "events.breakdowns=[{time_s:5,circuit:high}]"],
         ["arena=one_circuit", "events.breakdowns=[{time_s:0,circuit:high}]"],  # one circuit: no tie
+        # 26995 x 0.02 = 539.9 s, 899.9 s on the clock: the trial's last tick, 8999 (of 9000), reaches it
+        ["experiment=breakdown", "events.breakdowns.0.time_s=26995"],
         # interior walls that leave a way round: a 1 m gap (> 2 x 0.22 m), a 1.2 m corridor to the sinks
         ["arena=two_circuits", "arena.walls=[[6,0,6,7]]"],
         ["arena=two_circuits", "arena.walls=[[0,1.2,10,1.2]]"],

@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 from tavc_cli.cli import app
 from tavc_cli.config import load_config, settings
 from tavc_cli.experiments import engine as engine_module
+from tavc_cli.experiments import joint
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.joint import run_together
@@ -73,14 +74,24 @@ def test_trials_of_other_seeds_or_learners_share_nothing(tmp_path):
     assert sorted((b.controller, len(b.specs)) for b in batches) == [("random", 2), ("static", 2), ("tavc", 2)]
 
 
+def _no_trial_alone(specs, *args):
+    raise AssertionError(f"{len(specs)} trials were run alone: the tree left them unfinished")
+
+
+def _by_folder(items):
+    folders = {}
+    for i in items:
+        folders.setdefault(i.folder, []).append(i.spec)
+    return list(folders.items())
+
+
 @pytest.fixture(scope="module")
 def together(tmp_path_factory):
     out = tmp_path_factory.mktemp("together")
     items = _items(out, "scale=smoke", "trials=2", "baseline_trials=2")
-    folders = {}
-    for i in items:
-        folders.setdefault(i.folder, []).append(i.spec)
-    reused = run_together(list(folders.items()), Executor(n_jobs=1, batch_size=8))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(joint, "simulate_contained", _no_trial_alone)  # every record comes from the tree
+        reused = run_together(_by_folder(items), Executor(n_jobs=1, batch_size=8))
     return items, reused
 
 
@@ -97,15 +108,14 @@ def test_trees_compute_every_trial_as_it_is_computed_alone(together):
         assert _alone_equals_stored(item) == [], (item.folder.name, item.spec.controller, item.spec.trial)
 
 
-def test_a_folder_already_done_is_reused_and_the_trunk_still_feeds_the_rest(tmp_path):
+def test_a_folder_already_done_is_reused_and_the_trunk_still_feeds_the_rest(tmp_path, monkeypatch):
     items = _items(tmp_path, "scale=smoke", "trials=1", "baselines=[]")
     trunk = [i for i in items if i.folder.name == "initial_distribution"]
     run_together([(trunk[0].folder, [trunk[0].spec])], Executor(n_jobs=1))
     stamp = trial_path(trunk[0].folder, "tavc", 0).stat().st_mtime_ns
-    folders = {}
-    for i in items:
-        folders.setdefault(i.folder, []).append(i.spec)
-    reused = run_together(list(folders.items()), Executor(n_jobs=1))
+    monkeypatch.setattr(joint, "simulate_contained", _no_trial_alone)
+    reused = run_together(_by_folder(items), Executor(n_jobs=1))
+    monkeypatch.undo()
     assert reused[trunk[0].folder] == 1 and sum(reused.values()) == 1
     assert trial_path(trunk[0].folder, "tavc", 0).stat().st_mtime_ns == stamp  # not written again
     for item in items:
@@ -122,13 +132,21 @@ def test_a_branch_that_fails_in_its_forked_copy_is_run_alone(tmp_path, monkeypat
             raise RuntimeError("this branch fails")
         return real(self, specs)
 
+    alone = []
+    real_alone = joint.simulate_contained
+
+    def simulate_contained(specs, *args):
+        alone.extend((s.breakdowns[0].circuit, len(s.value_changes)) for s in specs)
+        return real_alone(specs, *args)
+
     monkeypatch.setattr(engine_module.BatchEngine, "branch", branch)
+    monkeypatch.setattr(joint, "simulate_contained", simulate_contained)
     items = _items(tmp_path, "scale=smoke", "trials=1", "baselines=[]")
-    folders = {}
-    for i in items:
-        folders.setdefault(i.folder, []).append(i.spec)
-    run_together(list(folders.items()), Executor(n_jobs=1))
-    monkeypatch.setattr(engine_module.BatchEngine, "branch", real)
+    run_together(_by_folder(items), Executor(n_jobs=1))
+    monkeypatch.undo()
+    # only the branch that failed ran alone: breakdown and value_change; the trunk and the
+    # low-breakdown branch came from the tree
+    assert sorted(alone) == [("high", 0), ("high", 1)]
     for item in items:
         assert _alone_equals_stored(item) == []
 

@@ -195,8 +195,13 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
         if key in ("experiment", "output_dir"):
             raise TavcError(f"{key}: set for each experiment by itself; choose experiments and the results folder "
                             "instead (--experiments, --results)")
-    return [load_config([f"experiment={n}", *overrides, f"output_dir={Path(results_dir) / n}"])
-            for n in dict.fromkeys(chosen)]
+    cfgs = []
+    for name in dict.fromkeys(chosen):
+        try:
+            cfgs.append(load_config([f"experiment={name}", *overrides, f"output_dir={Path(results_dir) / name}"]))
+        except TavcError as error:
+            raise TavcError(f"{error} (experiment={name})") from None
+    return cfgs
 
 
 def to_yaml(cfg: DictConfig | dict) -> str:

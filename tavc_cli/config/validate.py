@@ -20,6 +20,7 @@ from tavc_cli.config.checks import (
     unit,
 )
 from tavc_cli.config.validate_world import validate_arena, validate_docks, validate_reachable, validate_start
+from tavc_cli.experiments.clock import due_tick, end_tick
 from tavc_cli.learning.registry import AVAILABLE as AVAILABLE_LEARNERS
 from tavc_cli.learning.registry import BASELINES
 from tavc_cli.learning.registry import NAMES as LEARNERS
@@ -313,11 +314,11 @@ def _validate_event_time(key: str, time_s: float, cfg: DictConfig) -> None:
         f"{time_s:g} s (after scaling) is outside the simulated time "
         f"[-sim.warmup_s = {start_s:g}, duration_s = {cfg.duration_s:g})",
     )
-    dt_s = cfg.sim.dt_s
-    last_s = start_s + (round((cfg.duration_s - start_s) / dt_s) - 1) * dt_s  # as the engine counts its ticks
-    check(time_s <= last_s, key,
-          f"{time_s:g} s (after scaling) falls after the last control period starts (t = {last_s:g} s, "
-          f"sim.dt_s = {dt_s:g} s), so it would never happen")
+    dt_s, warmup_s = cfg.sim.dt_s, cfg.sim.warmup_s
+    due, end = due_tick(time_s + warmup_s, dt_s), end_tick(warmup_s, cfg.duration_s, dt_s)  # as the engine counts
+    check(due < end, key,
+          f"{time_s:g} s (after scaling) would fall due at tick {due}, after the trial's last tick, {end - 1} "
+          f"(its {end} periods of sim.dt_s = {dt_s:g} s from the start of the warm-up), so it would never happen")
 
 
 def _validate_breakdown_target(

@@ -32,6 +32,7 @@ import numpy as np
 from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan, empty_work
 from tavc_cli.behaviours.navigation import compiled
+from tavc_cli.experiments.clock import end_tick
 from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
@@ -228,8 +229,11 @@ class BatchEngine:
 
     # --- the loop -----------------------------------------------------------
     def end_tick(self) -> int:
-        """The tick at which the longest trial of the batch ends (warm-up and duration)."""
-        return int(round(max(tr.spec.warmup_s + tr.spec.duration_s for tr in self.trials) / self.dt))
+        """The tick at which the batch's trials end (warm-up and duration); they must end together."""
+        ends = {end_tick(tr.spec.warmup_s, tr.spec.duration_s, self.dt) for tr in self.trials}
+        if len(ends) > 1:
+            raise ValueError("trials run to their end in one batch must end at the same tick")
+        return ends.pop()
 
     def run(self, progress: Callable[[float], None] | None = None,
             until_tick: int | None = None) -> list[TrialRecord] | None:

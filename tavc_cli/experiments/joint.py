@@ -14,12 +14,14 @@ runs them, without sharing.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.engine import BatchEngine
 from tavc_cli.experiments.lineage import Item, Node, TreeBatch, plan
 from tavc_cli.experiments.spec import TrialSpec
@@ -27,6 +29,7 @@ from tavc_cli.experiments.store import (
     Executor,
     TrialFailure,
     TrialStore,
+    batch_names,
     pending_batches,
     run_pool,
     simulate_contained,
@@ -43,11 +46,20 @@ def run_together(folders: Sequence[tuple[Path, Sequence[TrialSpec]]], executor: 
     in each folder. Stops with one line naming the first failed trial, after every other
     trial has finished and every folder's `failures.log` is written."""
     stores = [(TrialStore(Path(folder), executor), list(specs)) for folder, specs in folders]
-    if executor.backend != "local" or not CAN_FORK:
-        return {store.folder: store.run(specs, progress, announce=True) for store, specs in stores}
-    items, pending, reused = [], set(), {}
     for store, specs in stores:
         store.check_paths(specs)
+    if executor.backend != "local" or not CAN_FORK:
+        reused, errors = {}, []
+        for store, specs in stores:
+            try:
+                reused[store.folder] = store.run(specs, progress, announce=True)
+            except TavcError as exc:  # a folder's failed trials: the other folders still run
+                errors.append(exc)
+        if errors:
+            raise errors[0]
+        return reused
+    items, pending, reused = [], set(), {}
+    for store, specs in stores:
         batches, n_reused, damaged = pending_batches(store.folder, specs, executor.batch_size)
         store.announce(len(specs), n_reused, damaged)
         reused[store.folder] = n_reused
@@ -66,7 +78,7 @@ def run_together(folders: Sequence[tuple[Path, Sequence[TrialSpec]]], executor: 
     for store, specs in stores:
         try:
             store.settle(by_folder.get(str(store.folder), []), len(specs))
-        except Exception as exc:  # noqa: BLE001 - every folder's log is written before the first stops the run
+        except TavcError as exc:  # every folder's log is written before the first stops the run
             errors.append(exc)
     if errors:
         raise errors[0]
@@ -80,29 +92,38 @@ def run_tree_batch(batch: TreeBatch,
     error, a branch that died) are then run alone from their start, and fail or not as they
     would in any run."""
     start = time.perf_counter()
+    walk = _Walk(batch, report)
     try:
-        _Walk(batch, report).run()
-    except Exception:  # noqa: BLE001 - what went wrong is found again, trial by trial, below
-        pass
-    failures: list[TrialFailure] = []
+        walk.run()
+    except Exception as exc:  # noqa: BLE001 - what went wrong is found again, trial by trial, below
+        walk.broken.append(f"{type(exc).__name__}: {exc}")
+    left: dict[Path, list[TrialSpec]] = {}
     for item in [i for end in batch.root.items() for i in end]:
         if not trial_done(item.folder, item.spec):
-            done, failed = simulate_contained([item.spec])
-            for spec, rec in done:
-                rec.save(trial_path(item.folder, spec.controller, spec.trial))
-            failures += [replace(f, folder=str(item.folder)) for f in failed]
+            left.setdefault(item.folder, []).append(item.spec)
+    if left:
+        n_left = sum(map(len, left.values()))
+        print(f"note: {n_left} trials of a tree from {batch_names(batch)} were left unfinished "
+              f"({'; '.join(walk.broken) or 'no reason given'}); running them alone", file=sys.stderr, flush=True)
+    failures: list[TrialFailure] = []
+    for folder, specs in left.items():  # one experiment's trials: they share warm-up and duration
+        done, failed = simulate_contained(specs)
+        for spec, rec in done:
+            rec.save(trial_path(folder, spec.controller, spec.trial))
+        failures += [replace(f, folder=str(folder)) for f in failed]
     return time.perf_counter() - start, failures
 
 
 class _Walk:
     """A tree batch, node by node, in one engine: each branch but the last in a forked copy
-    of this process, the last in this one."""
+    of this process, the last in this one. `broken` says what went wrong in copies that failed."""
 
     def __init__(self, batch: TreeBatch, report: Callable[[float], None] | None) -> None:
         self.batch = batch
         self.report = report
         self.total = max(1, batch.root.ticks)
         self.done = 0
+        self.broken: list[str] = []
 
     def run(self) -> None:
         engine = BatchEngine(self.batch.root.specs)
@@ -131,31 +152,51 @@ class _Walk:
 
     def _fork(self, engine: BatchEngine, child: Node) -> None:
         """Simulate `child` in a copy of this process, whose trials are this engine's trials
-        as they are now; wait for it. A copy that fails leaves its trials' files unwritten."""
+        as they are now; wait for it. A copy that fails leaves its trials' files unwritten.
+        Signals are held while the copy is made, so that none runs this process's handlers
+        in the copy; if this process is stopped while it waits, the copy is stopped too."""
         sys.stdout.flush()
         sys.stderr.flush()
+        parent = os.getpid()
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPPING)
         pid = os.fork()
         if pid == 0:  # the copy: its own branch, its files, and out without any of the parent's clean-up
             code = 1
             try:
-                _die_with_parent()
+                _die_with(parent)
+                sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__  # not a progress bar's console
+                signal.pthread_sigmask(signal.SIG_SETMASK, held)
                 self.report = None
                 engine.branch(child.specs)
                 self._node(engine, child)
                 code = 0
-            except BaseException:  # noqa: BLE001, S110 - reported by the trials it leaves undone, run alone
+            except BaseException:  # noqa: BLE001, S110 - its trials are run alone, and fail there if they must
                 pass
             finally:
                 os._exit(code)
-        os.waitpid(pid, 0)
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        try:
+            _, status = os.waitpid(pid, 0)
+        except BaseException:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            raise
+        if status != 0:
+            self.broken.append(f"the copy of the process for a branch at tick {child.start} ended with status "
+                               f"{os.waitstatus_to_exitcode(status)}")
 
 
-def _die_with_parent() -> None:
-    """A forked copy dies with the process that forked it, as pool workers do (`store`)."""
+_STOPPING = {signal.SIGINT, signal.SIGTERM}
+
+
+def _die_with(parent: int) -> None:
+    """A forked copy dies with the process that forked it, as pool workers do (`store`), even
+    if that one died before this could be asked."""
     import ctypes
-    import signal
 
     try:
         ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
         pass
+    if os.getppid() != parent:
+        os._exit(1)

@@ -19,8 +19,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from tavc_cli.experiments import clock
 from tavc_cli.experiments.spec import TrialSpec
-from tavc_cli.experiments.trial import clock_events, due_tick
+from tavc_cli.experiments.trial import clock_events
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,18 +40,18 @@ def lineage(spec: TrialSpec) -> str:
 
 
 def end_tick(spec: TrialSpec) -> int:
-    """The tick at which the trial ends (after its warm-up and duration), as the engine counts."""
-    return int(round((spec.warmup_s + spec.duration_s) / spec.dt_s))
+    """The tick at which the trial ends (after its warm-up and duration)."""
+    return clock.end_tick(spec.warmup_s, spec.duration_s, spec.dt_s)
 
 
 def events_at(spec: TrialSpec, tick: int) -> tuple:
     """What happens to the trial at `tick`: its events that fall due then, in firing order."""
     return tuple((kind, ev.robot, ev.circuit) if hasattr(ev, "robot") else (kind, ev.values)
-                 for t, kind, ev in clock_events(spec) if due_tick(t, spec.dt_s) == tick)
+                 for t, kind, ev in clock_events(spec) if clock.due_tick(t, spec.dt_s) == tick)
 
 
 def _next_event_tick(spec: TrialSpec, after: int) -> int | None:
-    ticks = [k for k in (due_tick(t, spec.dt_s) for t, _, _ in clock_events(spec)) if k > after]
+    ticks = [k for k in (clock.due_tick(t, spec.dt_s) for t, _, _ in clock_events(spec)) if k > after]
     return min(ticks) if ticks else None
 
 

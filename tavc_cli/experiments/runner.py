@@ -12,7 +12,7 @@ import platform
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
 
@@ -100,22 +100,30 @@ def run_trials_together(cfgs: list[TavcConfig], *, progress: bool = False) -> li
     """Run (or reuse) every trial of several experiments at once (`joint.run_together`: the
     history their trials share is simulated once) and write each one's `config.yaml`. The
     caller holds every folder; the first config's `executor` runs them all. A run's wall time
-    is that of the whole invocation."""
+    is that of the whole invocation. The runs come without their records (`Run.records` is
+    empty: load them one experiment at a time, `load_records`)."""
     from tavc_cli.experiments.joint import run_together
 
-    folders = [Path(cfg.output_dir) for cfg in cfgs]
-    for folder in folders:
-        (folder / "provenance.json").unlink(missing_ok=True)
     start = time.perf_counter()
+    folders = [Path(cfg.output_dir) for cfg in cfgs]
     specs = [trial_specs(cfg) for cfg in cfgs]
     executor = Executor.from_config(cfgs[0].executor)
+    for folder, sp in zip(folders, specs, strict=True):
+        TrialStore(folder, executor).check_paths(sp)
+    for folder in folders:
+        (folder / "provenance.json").unlink(missing_ok=True)
     reused = run_together(list(zip(folders, specs, strict=True)), executor, progress)
     wall = time.perf_counter() - start
     runs = []
     for cfg, folder, sp in zip(cfgs, folders, specs, strict=True):
         write_text_atomic(folder / "config.yaml", to_yaml(cfg))
-        runs.append(Run(folder, sp, TrialStore(folder, executor).load(sp), reused[folder], wall))
+        runs.append(Run(folder, sp, [], reused[folder], wall))
     return runs
+
+
+def load_records(cfg: TavcConfig, run: Run) -> Run:
+    """The run with its trials' records read from its folder."""
+    return replace(run, records=TrialStore(run.output_dir, Executor.from_config(cfg.executor)).load(run.specs))
 
 
 def write_provenance(cfg: TavcConfig, run: Run) -> None:

@@ -77,7 +77,8 @@ class TrialSpec:
 
 
 _OUTCOME_CODE = ("sim", "behaviours", "learning", "experiments/engine.py", "experiments/events.py",
-                 "experiments/spec.py", "experiments/tick.py", "experiments/trial.py", "experiments/records.py")
+                 "experiments/clock.py", "experiments/spec.py", "experiments/tick.py", "experiments/trial.py",
+                 "experiments/records.py")
 
 
 @cache

@@ -334,7 +334,7 @@ def run_pool(units: list[tuple], n_jobs: int, tty: bool) -> list[TrialFailure]:
                             failures += f.result()[1]  # a worker's own error (not a trial's) is re-raised
                         except BrokenProcessPool:
                             raise TavcError(
-                                f"a worker process died while running trials {_names(b)} (out of memory, or a "
+                                f"a worker process died while running trials {batch_names(b)} (out of memory, or a "
                                 "crash in compiled code); the trials finished before are kept and a rerun "
                                 "computes only the missing ones") from None
                         prog.update((b.controller, b.index), 1.0)
@@ -387,7 +387,7 @@ def _worker_start() -> None:
             pass
 
 
-def _names(batch: Batch) -> str:
+def batch_names(batch: Batch) -> str:
     first, last = batch.specs[0], batch.specs[-1]
     return f"{first.controller}_{first.trial:03d}" + (f" to {last.controller}_{last.trial:03d}"
                                                      if len(batch.specs) > 1 else "")

@@ -10,6 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.clock import due_tick
 from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TableBuilder
 from tavc_cli.experiments.spec import TrialSpec
@@ -103,16 +104,3 @@ def clock_events(spec: TrialSpec) -> list[tuple]:
     events = ([(b.time_s + spec.warmup_s, EventKind.BREAKDOWN, b) for b in spec.breakdowns]
               + [(v.time_s + spec.warmup_s, EventKind.VALUE_CHANGE, v) for v in spec.value_changes])
     return sorted(events, key=lambda e: (e[0], e[1]))
-
-
-def due_tick(clock_s: float, dt: float) -> int:
-    """The first tick k whose time k * dt is at or after `clock_s`: the tick at which whatever is
-    scheduled for that time falls due (the engine compares exactly this product)."""
-    if clock_s <= 0:
-        return 0
-    k = max(0, math.ceil(clock_s / dt))
-    while k > 0 and (k - 1) * dt >= clock_s:
-        k -= 1
-    while k * dt < clock_s:
-        k += 1
-    return k
