@@ -126,7 +126,10 @@ def run(
 
 @app.command()
 def reproduce(
-    overrides: Overrides = None,
+    overrides: Annotated[
+        Optional[list[str]],
+        typer.Argument(help="Hydra overrides for every experiment, e.g. scale=paper seed=3.", show_default=False),
+    ] = None,
     experiments: Annotated[
         Optional[str],
         typer.Option("--experiments", help="Comma-separated experiment names (default: every one).",

@@ -18,7 +18,7 @@ runner = CliRunner()
 def test_help_lists_the_commands():
     result = runner.invoke(app, ["--help"])
     assert result.exit_code == 0
-    for command in ("run", "list", "config", "bench", "animate"):
+    for command in ("run", "reproduce", "list", "config", "bench", "animate"):
         assert command in result.output
 
 
