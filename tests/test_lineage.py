@@ -186,3 +186,18 @@ def test_reproduce_bad_input_is_one_error_line(args, key, tmp_path):
     lines = [line for line in result.output.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: ") and key in lines[0], result.output
     assert not any(tmp_path.iterdir())  # nothing written
+
+
+def test_a_forked_branch_reports_its_progress_through_the_process_that_forked_it(tmp_path):
+    """One TAVC seed at smoke scale (x 0.02): the trunk is ticks 0-3600 (initial_distribution's
+    360 s); the high-breakdown branch, forked first, is 3600-7200 and then 1800 (breakdown) and
+    3600 (value_change) ticks more; the low-breakdown branch, run last in this process, 5400.
+    Of 18,000 ticks, fractions strictly between 3600 / 18000 = 0.2 and 12600 / 18000 = 0.7 can
+    only come from the forked copy."""
+    items = _items(tmp_path, "scale=smoke", "trials=1", "baselines=[]")
+    (batch,) = plan(items, set(items), size=8)
+    assert batch.root.ticks == 18_000
+    seen = []
+    joint.run_tree_batch(batch, seen.append)
+    assert seen == sorted(seen) and 0.99 < seen[-1] <= 1.0  # the pool marks the batch done at its end
+    assert any(0.2 < f < 0.7 for f in seen)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import signal
+import struct
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -152,12 +153,14 @@ class _Walk:
 
     def _fork(self, engine: BatchEngine, child: Node) -> None:
         """Simulate `child` in a copy of this process, whose trials are this engine's trials
-        as they are now; wait for it. A copy that fails leaves its trials' files unwritten.
-        Signals are held while the copy is made, so that none runs this process's handlers
-        in the copy; if this process is stopped while it waits, the copy is stopped too."""
+        as they are now; wait for it, passing on the progress it reports through a pipe. A
+        copy that fails leaves its trials' files unwritten. Signals are held while the copy
+        is made, so that none runs this process's handlers in the copy; if this process is
+        stopped while it waits, the copy is stopped too."""
         sys.stdout.flush()
         sys.stderr.flush()
         parent = os.getpid()
+        progress_r, progress_w = os.pipe()
         held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPPING)
         pid = os.fork()
         if pid == 0:  # the copy: its own branch, its files, and out without any of the parent's clean-up
@@ -165,8 +168,10 @@ class _Walk:
             try:
                 _die_with(parent)
                 sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__  # not a progress bar's console
+                os.close(progress_r)
                 signal.pthread_sigmask(signal.SIG_SETMASK, held)
-                self.report = None
+                if self.report is not None:
+                    self.report = lambda frac: os.write(progress_w, struct.pack("d", frac))
                 engine.branch(child.specs)
                 self._node(engine, child)
                 code = 0
@@ -175,15 +180,30 @@ class _Walk:
             finally:
                 os._exit(code)
         signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        os.close(progress_w)
         try:
+            self._pass_on_progress(progress_r)
             _, status = os.waitpid(pid, 0)
         except BaseException:
             os.kill(pid, signal.SIGKILL)
             os.waitpid(pid, 0)
             raise
+        finally:
+            os.close(progress_r)
         if status != 0:
             self.broken.append(f"the copy of the process for a branch at tick {child.start} ended with status "
                                f"{os.waitstatus_to_exitcode(status)}")
+
+    def _pass_on_progress(self, pipe: int) -> None:
+        """Report each fraction of the tree done that a copy writes (8 bytes each) until it closes."""
+        size = struct.calcsize("d")
+        pending = b""
+        while chunk := os.read(pipe, 4096):
+            pending += chunk
+            whole = len(pending) - len(pending) % size
+            if self.report is not None and whole:
+                self.report(struct.unpack(f"{whole // size}d", pending[:whole])[-1])
+            pending = pending[whole:]
 
 
 _STOPPING = {signal.SIGINT, signal.SIGTERM}
