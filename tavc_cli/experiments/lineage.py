@@ -126,8 +126,9 @@ def zip_trees(nodes: list[Node]) -> Node:
 
 
 def prune(node: Node, pending: set[Item]) -> Node | None:
-    """The tree cut to what `pending` needs: branches with nothing pending dropped, records of
-    trials already done left out. None if nothing below is pending."""
+    """A tree of one trial (before `zip_trees`) cut to what `pending` needs: branches with
+    nothing pending dropped, records of trials already done left out. None if nothing below
+    is pending."""
     children = [c for c in (prune(c, pending) for c in node.children) if c is not None]
     ends = [e for e in node.ends if any(i in pending for i in e)]
     if not children and not ends:
