@@ -31,13 +31,12 @@ app = typer.Typer(
     pretty_exceptions_show_locals=False,
 )
 
-Overrides = Annotated[
-    Optional[list[str]],
-    typer.Argument(
-        help="Hydra overrides, e.g. experiment=breakdown scale=paper team.n_robots=4.",
-        show_default=False,
-    ),
-]
+def _overrides(example: str) -> Any:
+    """The type of a command's Hydra overrides, its help showing `example`."""
+    return Annotated[Optional[list[str]], typer.Argument(help=f"Hydra overrides, e.g. {example}.", show_default=False)]
+
+
+Overrides = _overrides("experiment=breakdown scale=paper team.n_robots=4")
 
 
 ProgressFlag = Annotated[
@@ -126,10 +125,7 @@ def run(
 
 @app.command()
 def reproduce(
-    overrides: Annotated[
-        Optional[list[str]],
-        typer.Argument(help="Hydra overrides for every experiment, e.g. scale=paper seed=3.", show_default=False),
-    ] = None,
+    overrides: _overrides("scale=paper seed=3, for every experiment") = None,
     experiments: Annotated[
         Optional[str],
         typer.Option("--experiments", help="Comma-separated experiment names (default: every one).",

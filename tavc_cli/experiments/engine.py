@@ -190,29 +190,11 @@ class BatchEngine:
         return spent
 
     # --- scheduled events ---------------------------------------------------
-    def _pick_robot(self, tr: TrialState, spec_circuit) -> int:
-        live = np.flatnonzero(tr.alive)
-        if spec_circuit is None:
-            pool = live
-        else:
-            if spec_circuit == "high":
-                c = int(np.argmax(tr.values))
-            elif spec_circuit == "low":
-                c = int(np.argmin(tr.values))
-            else:
-                c = int(spec_circuit)
-            pool = live[tr.last_circuit[live] == c]
-            if len(pool) == 0:
-                pool = live[tr.task[live] == c]
-            if len(pool) == 0:
-                pool = live
-        return int(tr.event_rng.choice(pool))
-
     def _fire_events(self, tr: TrialState, t: float) -> None:
         while tr.events and tr.events[0][0] <= t:
             _, kind, ev = tr.events.pop(0)
             if kind == EventKind.BREAKDOWN:
-                robot = ev.robot if ev.robot is not None else self._pick_robot(tr, ev.circuit)
+                robot = ev.robot if ev.robot is not None else tr.pick_robot(ev.circuit)
                 if not tr.alive[robot]:
                     continue
                 tr.alive[robot] = False
@@ -338,7 +320,7 @@ class BatchEngine:
             if tr.events and tr.events[0][0] <= t:
                 self._fire_events(tr, t)
             if t >= schedule.next_q[b]:
-                self._snapshot_q(tr, t)
+                tr.snapshot_q(t)
                 schedule.next_q[b] += tr.spec.q_snapshot_every_s  # on the schedule's own grid: no drift
             if t >= schedule.next_pose[b]:
                 tr.pose_t.append(t)
@@ -395,53 +377,10 @@ class BatchEngine:
         self.world.write()
         self.world.step()
 
-    @staticmethod
-    def _snapshot_q(tr: TrialState, t: float) -> None:
-        q = tr.policy.q_tables()
-        if q is not None:
-            tr.q_t.append(t)
-            tr.q.append(q)
-
     def record(self, tr: TrialState, spec: TrialSpec | None = None) -> TrialRecord:
-        """Trial tr's record as it stands, as the trial `spec` (by default its own): the times of
-        its tables are the clock less that trial's warm-up. Leaves the trial as it was, so that
-        it can go on (`branch`)."""
-        spec = spec or tr.spec
-        t0 = -spec.warmup_s
-        q_t, q = list(tr.q_t), list(tr.q)
-        if spec.q_snapshot_every_s > 0 and (not q_t or q_t[-1] < self.clock):
-            final = tr.policy.q_tables()  # the tables as the trial ends
-            if final is not None:
-                q_t.append(self.clock)
-                q.append(final)
-        n = spec.n_robots
-        n_c = self.arena.n_circuits
-        tables = tr.rows.build()
-        for cols in tables.values():
-            cols["t_s"] = t0 + cols["t_s"]
-        rec = TrialRecord(
-            meta={
-                "trial": spec.trial, "controller": spec.controller, "seed": list(spec.seed),
-                "key": spec.key(), "n_robots": n, "n_circuits": n_c, "groups": list(spec.groups),
-                "speeds_mps": list(spec.speeds_mps), "values": list(spec.values),
-                "score_values": list(spec.score_values), "duration_s": spec.duration_s,
-                "warmup_s": spec.warmup_s, "dt_s": spec.dt_s, "arena": self.arena.name,
-                "policy": spec.policy.name,
-                "start_poses": tr.start.tolist(),
-            },
-            tables=tables,
-        )
-        rec.value_changes_t = t0 + np.array(tr.vc_t, dtype=np.float64)
-        rec.value_changes = np.array(tr.vc, dtype=np.float64).reshape(len(tr.vc), n_c)
-        if q:
-            rec.q_t = t0 + np.array(q_t)
-            rec.q = np.stack(q)
-        if tr.poses:
-            rec.pose_t = t0 + np.array(tr.pose_t)
-            rec.poses = np.stack(tr.poses)
-            rec.pose_alive = np.stack(tr.pose_alive)
-            rec.pose_circuit = np.stack(tr.pose_circuit)
-        return rec
+        """Trial tr's record as it stands now, as the trial `spec` (by default its own), leaving
+        the trial as it was so that it can go on (`branch`)."""
+        return tr.record(spec or tr.spec, self.clock, self.arena.name, self.arena.n_circuits)
 
     def check(self) -> None:
         """Raise `TrialFault` for the first trial whose physics has failed (`_check_poses`)."""

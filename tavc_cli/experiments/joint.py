@@ -25,14 +25,13 @@ from pathlib import Path
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.engine import BatchEngine
 from tavc_cli.experiments.lineage import Item, Node, TreeBatch, plan
+from tavc_cli.experiments.pool import batch_names, die_with_parent, run_pool
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.store import (
     Executor,
     TrialFailure,
     TrialStore,
-    batch_names,
     pending_batches,
-    run_pool,
     simulate_contained,
     trial_done,
     trial_path,
@@ -166,7 +165,7 @@ class _Walk:
         if pid == 0:  # the copy: its own branch, its files, and out without any of the parent's clean-up
             code = 1
             try:
-                _die_with(parent)
+                die_with_parent(parent)
                 sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__  # not a progress bar's console
                 os.close(progress_r)
                 signal.pthread_sigmask(signal.SIG_SETMASK, held)
@@ -207,16 +206,3 @@ class _Walk:
 
 
 _STOPPING = {signal.SIGINT, signal.SIGTERM}
-
-
-def _die_with(parent: int) -> None:
-    """A forked copy dies with the process that forked it, as pool workers do (`store`), even
-    if that one died before this could be asked."""
-    import ctypes
-
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-    if os.getppid() != parent:
-        os._exit(1)

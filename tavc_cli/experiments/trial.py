@@ -1,6 +1,6 @@
 """One trial inside a batch (`engine.BatchEngine`): its random streams rebuilt from its seed,
-where its team starts, its book-keeping (tasks, policy, events, what it records), and the
-fault that stops it alone."""
+where its team starts, its book-keeping (tasks, policy, events, what it records, and the
+record made of it), and the fault that stops it alone."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.clock import due_tick
 from tavc_cli.experiments.events import EventKind
-from tavc_cli.experiments.records import TableBuilder
+from tavc_cli.experiments.records import TableBuilder, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.learning.policies import TaskPolicy
 from tavc_cli.learning.registry import make_policy
@@ -90,6 +90,72 @@ class TrialState:
     def next_event_time(self) -> float:
         """When the next scheduled event falls due, on the trial's clock."""
         return self.events[0][0] if self.events else math.inf
+
+    def pick_robot(self, circuit: str | int | None) -> int:
+        """A live robot, drawn from the trial's event stream, among those whose last target was
+        on `circuit` ('high' or 'low' by the current values, or an index; None: any), else among
+        those tasked to it, else among all live ones."""
+        live = np.flatnonzero(self.alive)
+        if circuit is None:
+            pool = live
+        else:
+            if circuit == "high":
+                c = int(np.argmax(self.values))
+            elif circuit == "low":
+                c = int(np.argmin(self.values))
+            else:
+                c = int(circuit)
+            pool = live[self.last_circuit[live] == c]
+            if len(pool) == 0:
+                pool = live[self.task[live] == c]
+            if len(pool) == 0:
+                pool = live
+        return int(self.event_rng.choice(pool))
+
+    def snapshot_q(self, t: float) -> None:
+        """Keep the learners' Q-tables as they are at clock time t (if they have any)."""
+        q = self.policy.q_tables()
+        if q is not None:
+            self.q_t.append(t)
+            self.q.append(q)
+
+    def record(self, spec: TrialSpec, clock_s: float, arena_name: str, n_circuits: int) -> TrialRecord:
+        """The trial's record as it stands at `clock_s`, as the trial `spec`: the times of its
+        tables are the clock less that trial's warm-up, and its Q-tables as they are now end
+        the snapshots. Leaves this book-keeping as it was."""
+        t0 = -spec.warmup_s
+        q_t, q = list(self.q_t), list(self.q)
+        if spec.q_snapshot_every_s > 0 and (not q_t or q_t[-1] < clock_s):
+            final = self.policy.q_tables()
+            if final is not None:
+                q_t.append(clock_s)
+                q.append(final)
+        tables = self.rows.build()
+        for cols in tables.values():
+            cols["t_s"] = t0 + cols["t_s"]
+        rec = TrialRecord(
+            meta={
+                "trial": spec.trial, "controller": spec.controller, "seed": list(spec.seed),
+                "key": spec.key(), "n_robots": spec.n_robots, "n_circuits": n_circuits, "groups": list(spec.groups),
+                "speeds_mps": list(spec.speeds_mps), "values": list(spec.values),
+                "score_values": list(spec.score_values), "duration_s": spec.duration_s,
+                "warmup_s": spec.warmup_s, "dt_s": spec.dt_s, "arena": arena_name,
+                "policy": spec.policy.name,
+                "start_poses": self.start.tolist(),
+            },
+            tables=tables,
+        )
+        rec.value_changes_t = t0 + np.array(self.vc_t, dtype=np.float64)
+        rec.value_changes = np.array(self.vc, dtype=np.float64).reshape(len(self.vc), n_circuits)
+        if q:
+            rec.q_t = t0 + np.array(q_t)
+            rec.q = np.stack(q)
+        if self.poses:
+            rec.pose_t = t0 + np.array(self.pose_t)
+            rec.poses = np.stack(self.poses)
+            rec.pose_alive = np.stack(self.pose_alive)
+            rec.pose_circuit = np.stack(self.pose_circuit)
+        return rec
 
     def go_on_as(self, spec: TrialSpec, tick: int, dt: float) -> None:
         """From `tick` on, this trial is `spec`: its events still to come are the spec's that

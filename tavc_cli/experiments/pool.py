@@ -1,0 +1,182 @@
+"""Running batches of trials in a local process pool, with one progress report over them.
+
+`run_pool` runs units of work (a batch, the function that simulates it and writes its
+trials' files, its arguments) in this process or in forked worker processes, and shows
+their progress as a share of their simulated seconds (`Progress`: a bar on a terminal,
+periodic lines otherwise). Before the workers start, `load_kernels` compiles what they
+will run, once. Workers (and anything they fork) die with the run that started them.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import time
+from collections.abc import Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import Batch
+from tavc_cli.experiments.engine import run_trials
+from tavc_cli.experiments.tick import NOISE_BLOCK_TICKS
+
+if TYPE_CHECKING:
+    from tavc_cli.experiments.store import TrialFailure
+
+
+class _QueueReporter:
+    """Progress callback for a worker process: sends (batch id, fraction) to the parent."""
+
+    def __init__(self, queue, key) -> None:
+        self.queue, self.key = queue, key
+
+    def __call__(self, frac: float) -> None:
+        self.queue.put((self.key, frac))
+
+
+class Progress:
+    """A rich bar on a terminal, plain periodic lines otherwise, over the simulated seconds
+    of the batches; each batch reports the fraction of itself that is done."""
+
+    def __init__(self, batches: list[Batch], tty: bool) -> None:
+        self.weights = {(b.controller, b.index): b.sim_seconds for b in batches}
+        self.total = total_s = sum(self.weights.values())
+        self.done: dict = {}
+        self.start = time.perf_counter()
+        self.last_line = self.start
+        self.bar = None
+        if tty and total_s > 0:
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+            self.bar = Progress(TextColumn("simulating"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
+                                TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), transient=True)
+            self.task = self.bar.add_task("run", total=total_s)
+            self.bar.start()
+
+    def update(self, key, frac: float) -> None:
+        self.done[key] = frac * self.weights[key]
+        done = sum(self.done.values())
+        if self.bar is not None:
+            self.bar.update(self.task, completed=done)
+        elif time.perf_counter() - self.last_line > 10.0 and self.total > 0:
+            self.last_line = time.perf_counter()
+            elapsed = self.last_line - self.start
+            pct = 100.0 * done / self.total
+            eta = elapsed * (self.total - done) / done if done > 0 else float("nan")
+            print(f"  {pct:5.1f}% of {self.total:,.0f} simulated s, {elapsed:,.0f} s elapsed, eta {eta:,.0f} s",
+                  flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+
+
+def run_pool(units: list[tuple], n_jobs: int, tty: bool) -> list[TrialFailure]:
+    """Run units of work, each (batch, function, arguments), in this process (n_jobs 1 or a
+    single unit) or a process pool of n_jobs workers, with one progress bar over their
+    simulated seconds; `function(*arguments, report)` simulates the batch, writes its trials'
+    files and returns (wall time, failed trials). Returns the trials that failed."""
+    pending = [u[0] for u in units]
+    prog = Progress(pending, tty)
+    failures: list[TrialFailure] = []
+    try:
+        if n_jobs <= 1 or len(units) <= 1:
+            for b, fn, args in units:
+                key = (b.controller, b.index)
+                failures += fn(*args, lambda f, k=key: prog.update(k, f))[1]
+            return failures
+        import multiprocessing as mp
+
+        ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+        load_kernels(pending)
+        from multiprocessing.managers import SyncManager
+
+        manager = SyncManager(ctx=ctx)
+        manager.start(worker_start)  # the progress queue's server process: gone with the run too
+        with manager:
+            queue = manager.Queue()
+            pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(units)), mp_context=ctx,
+                                       initializer=worker_start)
+            try:
+                futures = {pool.submit(fn, *args, _QueueReporter(queue, (b.controller, b.index))): b
+                           for b, fn, args in units}
+                remaining = set(futures)
+                while remaining:
+                    finished, remaining = wait(remaining, timeout=0.5, return_when=FIRST_COMPLETED)
+                    while not queue.empty():
+                        key, frac = queue.get()
+                        prog.update(key, frac)
+                    for f in finished:
+                        b = futures[f]
+                        try:
+                            failures += f.result()[1]  # a worker's own error (not a trial's) is re-raised
+                        except BrokenProcessPool:
+                            raise TavcError(
+                                f"a worker process died while running trials {batch_names(b)} (out of memory, or a "
+                                "crash in compiled code); the trials finished before are kept and a rerun "
+                                "computes only the missing ones") from None
+                        prog.update((b.controller, b.index), 1.0)
+            except BaseException:
+                # stop the workers' batches (on Ctrl-C they stop themselves; on SIGTERM or an error
+                # here only this process would), and start none that nobody will wait for
+                for worker in list(getattr(pool, "_processes", {}).values()):
+                    worker.terminate()
+                pool.shutdown(wait=True, cancel_futures=True)
+                raise
+            pool.shutdown(wait=True)
+        return failures
+    finally:
+        prog.close()
+
+
+def load_kernels(pending: Sequence[Batch]) -> None:
+    """Compile (or load from numba's cache) the kernels these batches run, here, before any
+    worker starts: forked workers inherit them, and spawned ones find them in the cache,
+    instead of each compiling the same code at once (about 15 s of a core each, without a
+    cache). A few seconds of one trial per controller, with no warm-up, do it; what that
+    short run computes is thrown away, and anything that goes wrong in it is left to the
+    real run to report."""
+    seen: set[str] = set()
+    for b in pending:
+        if b.controller in seen:
+            continue
+        seen.add(b.controller)
+        spec = b.specs[0]
+        short = replace(spec, warmup_s=0.0, duration_s=2 * NOISE_BLOCK_TICKS * spec.dt_s)
+        try:
+            run_trials([short])
+        except Exception:  # noqa: BLE001 - only a head start; the real run reports any error
+            pass
+
+
+def worker_start() -> None:
+    """A pool worker dies on SIGTERM (the run's own handler, inherited through fork, would
+    only stop its current batch) and, on Linux, when the run that started it dies, even by
+    kill -9: no orphan goes on computing."""
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    die_with_parent()
+
+
+def die_with_parent(parent: int | None = None) -> None:
+    """On Linux, this process is killed when its parent dies (PR_SET_PDEATHSIG); given the
+    parent's pid, it also exits at once if that parent died before this could be asked."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if parent is not None and os.getppid() != parent:
+        os._exit(1)
+
+
+def batch_names(batch: Batch) -> str:
+    first, last = batch.specs[0], batch.specs[-1]
+    return f"{first.controller}_{first.trial:03d}" + (f" to {last.controller}_{last.trial:03d}"
+                                                     if len(batch.specs) > 1 else "")
