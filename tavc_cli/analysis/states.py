@@ -19,7 +19,9 @@ All functions are pure: they read a `TrialRecord` and return numbers.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from collections.abc import Iterable, Sequence
+from functools import cache
 from itertools import product
 
 import numpy as np
@@ -30,19 +32,19 @@ from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TrialRecord
 
 
-def _events(rec: TrialRecord):
-    """Time-ordered (t, kind, payload) of everything that changes the state."""
-    ev = []
+def _events(rec: TrialRecord) -> list[tuple[float, int, object]]:
+    """Time-ordered (t, kind, payload) of everything that changes the state: ordered by time,
+    then kind, and within both as the record lists them (a stable sort)."""
     a = rec.table("arrivals")
-    for t, robot, circuit in zip(a["t_s"], a["robot"], a["circuit"], strict=True):
-        ev.append((float(t), EventKind.ARRIVAL, (int(robot), int(circuit))))
     b = rec.table("breakdowns")
-    for t, robot in zip(b["t_s"], b["robot"], strict=True):
-        ev.append((float(t), EventKind.BREAKDOWN, int(robot)))
-    for t, values in zip(rec.value_changes_t, rec.value_changes, strict=True):
-        ev.append((float(t), EventKind.VALUE_CHANGE, tuple(float(v) for v in values)))
-    ev.sort(key=lambda e: (e[0], e[1]))
-    return ev
+    times = a["t_s"].tolist() + b["t_s"].tolist() + [float(t) for t in rec.value_changes_t]
+    kinds = ([EventKind.ARRIVAL] * len(a["t_s"]) + [EventKind.BREAKDOWN] * len(b["t_s"])
+             + [EventKind.VALUE_CHANGE] * len(rec.value_changes_t))
+    payloads = (list(zip(a["robot"].tolist(), a["circuit"].tolist(), strict=True)) + b["robot"].tolist()
+                + [tuple(float(v) for v in values) for values in rec.value_changes])
+    by_kind = np.argsort(np.array(kinds, dtype=np.int64), kind="stable")
+    order = by_kind[np.argsort(np.array(times, dtype=np.float64)[by_kind], kind="stable")].tolist()
+    return [(times[k], kinds[k], payloads[k]) for k in order]
 
 
 def group_order(groups: Sequence[str], speeds: Sequence[float]) -> list[str]:
@@ -78,9 +80,9 @@ def _state_intervals(rec: TrialRecord, scheme: str) -> list[tuple[float, float, 
     n = int(meta["n_robots"])
     groups = meta["groups"]
     order = group_order(groups, meta["speeds_mps"])
-    last = [-1] * n
-    alive = [True] * n
-    rank = _rank(meta["values"])
+    by_group = scheme == "groups"
+    counter = _StateCounter(n, _rank(meta["values"]), [order.index(g) for g in groups] if by_group else [0] * n,
+                            len(order) if by_group else 1, by_group)
     t_prev = -float(meta.get("warmup_s", 0.0))
     t_end = float(meta["duration_s"])
     state = None
@@ -90,15 +92,69 @@ def _state_intervals(rec: TrialRecord, scheme: str) -> list[tuple[float, float, 
             out.append((t_prev, min(t, t_end), state))
             t_prev = t
         if kind == EventKind.ARRIVAL:
-            last[payload[0]] = payload[1]
+            counter.arrive(*payload)
         elif kind == EventKind.BREAKDOWN:
-            alive[payload] = False
+            counter.break_down(payload)
         else:
-            rank = _rank(payload)
-        state = _label(last, alive, rank, scheme, groups, order)
+            counter.rank_by(_rank(payload))
+        state = counter.label()
     if t_end > t_prev:
         out.append((t_prev, t_end, state))
     return [(a, b, s) for a, b, s in out if b > a]
+
+
+class _StateCounter:
+    """The group's state kept up to date event by event: how many live robots of each group
+    (one group for the `circuits` scheme) had their last target on each circuit, and how many
+    live robots have none yet. `label` is `_label` of the same robots, from these counts."""
+
+    def __init__(self, n: int, rank: list[int], group_of: list[int], n_groups: int, by_group: bool) -> None:
+        self.last = [-1] * n
+        self.alive = [True] * n
+        self.group_of = group_of
+        self.counts = [[0] * len(rank) for _ in range(n_groups)]
+        self.n_live, self.unknown = n, n  # live robots; live robots without a last circuit
+        self.rank, self.by_group = rank, by_group
+        self.changed, self.current = True, None
+
+    def arrive(self, robot: int, circuit: int) -> None:
+        before = self.last[robot]
+        self.last[robot] = circuit
+        if not self.alive[robot] or before == circuit:
+            return
+        counts = self.counts[self.group_of[robot]]
+        if before < 0:
+            self.unknown -= 1
+        else:
+            counts[before] -= 1
+        counts[circuit] += 1
+        self.changed = True
+
+    def break_down(self, robot: int) -> None:
+        if not self.alive[robot]:
+            return
+        self.alive[robot] = False
+        self.n_live -= 1
+        if self.last[robot] < 0:
+            self.unknown -= 1
+        else:
+            self.counts[self.group_of[robot]][self.last[robot]] -= 1
+        self.changed = True
+
+    def rank_by(self, rank: list[int]) -> None:
+        """The circuits' ranking after a change of values."""
+        self.rank, self.changed = rank, True
+
+    def label(self) -> str | None:
+        if self.changed:
+            self.changed = False
+            if not self.n_live or self.unknown:
+                self.current = None
+            elif self.by_group:
+                self.current = ":".join(str(counts[self.rank[0]]) for counts in self.counts)
+            else:
+                self.current = ":".join(str(self.counts[0][c]) for c in self.rank)
+        return self.current
 
 
 def _rank(values: Sequence[float]) -> list[int]:
@@ -223,8 +279,7 @@ def _binned_mean(intervals, value, edges: np.ndarray, n_values: int = 1) -> np.n
         return np.full((max(n_bins, 0), n_values), np.nan)
     a = np.array([iv[0] for iv in kept], dtype=float)
     b = np.array([iv[1] for iv in kept], dtype=float)
-    v = np.array([np.atleast_1d(np.asarray(value(s, start), dtype=float)) for start, _, s in kept]).reshape(
-        len(kept), -1)
+    v = np.array([value(s, start) for start, _, s in kept], dtype=float).reshape(len(kept), -1)
     first = np.maximum(np.searchsorted(edges, a, side="right") - 1, 0)
     last = np.minimum(np.searchsorted(edges, b, side="left"), n_bins)
     count = np.maximum(last - first, 0)
@@ -240,12 +295,17 @@ def _binned_mean(intervals, value, edges: np.ndarray, n_values: int = 1) -> np.n
         return np.where(covered[:, None] > 0, weighted / covered[:, None], np.nan)
 
 
+@cache
+def _first_number(label: str) -> float:
+    return float(label.split(":")[0])
+
+
 def high_circuit_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: float) -> tuple[np.ndarray, np.ndarray]:
     """(bin centres, time-weighted mean number of robots whose last target was on the
     high-value circuit, per bin) for one trial; NaN where the state is not yet defined.
     The first number of a circuits-state label is that count (the high circuit first)."""
     edges = bin_edges(t_from, t_to, bin_s)
-    mean = _binned_mean(state_intervals(rec, "circuits"), lambda s, a: float(s.split(":")[0]), edges)
+    mean = _binned_mean(state_intervals(rec, "circuits"), lambda s, a: _first_number(s), edges)
     return 0.5 * (edges[:-1] + edges[1:]), mean[:, 0]
 
 
@@ -260,12 +320,12 @@ def group_high_series(rec: TrialRecord, bin_s: float, t_from: float,
     broken_at = np.full(len(groups), np.inf)
     broken_at[b["robot"].astype(int)] = b["t_s"]
 
-    broken_sorted = np.sort(broken_at)
+    broken_sorted = sorted(broken_at.tolist())
     known: dict[tuple[str, int], np.ndarray] = {}
 
     def share(s: str, start: float) -> np.ndarray:
         # who is alive at `start` is fixed by how many breakdowns came before it
-        key = (s, int(np.searchsorted(broken_sorted, start, side="right")))
+        key = (s, bisect_right(broken_sorted, start))
         if key not in known:
             alive = broken_at > start
             sizes = np.array([((groups == g) & alive).sum() for g in order], dtype=float)
