@@ -4,10 +4,12 @@ folder held by this run alone for the whole time."""
 
 from __future__ import annotations
 
+from concurrent.futures import ProcessPoolExecutor
 from contextlib import ExitStack
 
 from tavc_cli.analysis.experiment import write_analysis
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.joint import CAN_FORK
 from tavc_cli.experiments.runner import (
     Run,
     load_records,
@@ -41,7 +43,24 @@ def run_experiments(cfgs: list[TavcConfig], *, progress: bool = False) -> list[d
         for cfg in cfgs:
             held.enter_context(claim_folder(cfg.output_dir))
         runs = run_trials_together(cfgs, progress=progress)
-        return [_finish(cfg, load_records(cfg, run)) for cfg, run in zip(cfgs, runs, strict=True)]
+        return _finish_all(cfgs, runs)
+
+
+def _finish_all(cfgs: list[TavcConfig], runs: list[Run]) -> list[dict]:
+    """`_finish` for every experiment: in forked processes on the cores the executor was given,
+    where the system forks and there is more than one, else one after another."""
+    n_jobs = min(len(cfgs), Executor.from_config(cfgs[0].executor).n_jobs if cfgs else 1)
+    if n_jobs <= 1 or not CAN_FORK:
+        return [_finish_loaded(cfg, run) for cfg, run in zip(cfgs, runs, strict=True)]
+    import multiprocessing as mp
+
+    with ProcessPoolExecutor(max_workers=n_jobs, mp_context=mp.get_context("fork")) as pool:
+        futures = [pool.submit(_finish_loaded, cfg, run) for cfg, run in zip(cfgs, runs, strict=True)]
+        return [f.result() for f in futures]
+
+
+def _finish_loaded(cfg: TavcConfig, run: Run) -> dict:
+    return _finish(cfg, load_records(cfg, run))
 
 
 def _finish(cfg: TavcConfig, run: Run) -> dict:

@@ -583,3 +583,49 @@ def test_binned_means_are_a_plain_loops_bit_for_bit():
     assert got.tobytes() == expected.tobytes()
     # nothing defined anywhere: NaN in every bin
     assert np.isnan(_binned_mean([(0.0, 1000.0, None)], value, edges, 2)).all()
+
+
+@pytest.mark.parametrize("scheme", ["circuits", "groups"])
+def test_state_intervals_are_a_recount_after_every_event(scheme):
+    """The intervals, kept by counts updated event by event, are exactly those of labelling
+    the whole team anew after every event (`state_label`), on logs with simultaneous
+    events, repeated and late arrivals, arrivals and breakdowns of robots already broken
+    down, and value changes that swap the circuits' ranking."""
+    from tavc_cli.analysis.states import _events, group_order, state_label
+
+    rng = np.random.default_rng(11)
+    groups, speeds = ("fast", "slow", "fast", "slow", "slow"), (0.3, 0.2, 0.3, 0.2, 0.2)
+    for _ in range(40):
+        times = np.round(rng.uniform(-20.0, 100.0, 30))  # whole seconds: many ties
+        arrivals = [(float(t), int(rng.integers(5)), int(rng.integers(2))) for t in times]
+        breakdowns = [(float(t), int(rng.integers(5))) for t in np.round(rng.uniform(0.0, 100.0, 3))]
+        changes = [(float(t), tuple(rng.permutation([2.0, 1.0]))) for t in np.round(rng.uniform(0.0, 100.0, 2))]
+        rec = _record(arrivals, breakdowns, changes, n_robots=5, groups=groups, speeds=speeds,
+                      warmup_s=20.0)
+        last, alive, values = np.full(5, -1), np.ones(5, dtype=bool), [2.0, 1.0]
+        order = group_order(groups, speeds)
+        t_prev, state, expected = -20.0, None, []
+        for t, kind, payload in _events(rec):
+            if t > t_prev:
+                expected.append((t_prev, min(t, 100.0), state))
+                t_prev = t
+            if kind == 2:
+                last[payload[0]] = payload[1]
+            elif kind == 0:
+                alive[payload] = False
+            else:
+                values = list(payload)
+            state = state_label(last, alive, values, scheme, groups, order)
+        if t_prev < 100.0:
+            expected.append((t_prev, 100.0, state))
+        expected = [(a, b, s) for a, b, s in expected if b > a]
+        assert state_intervals(rec, scheme) == expected
+
+
+def test_events_are_ordered_by_time_then_kind_then_as_recorded():
+    from tavc_cli.analysis.states import _events
+
+    rec = _record(arrivals=[(5.0, 1, 0), (3.0, 0, 1), (5.0, 0, 1)], breakdowns=[(5.0, 2)],
+                  value_changes=[(5.0, (1.0, 2.0))])
+    # kinds: breakdown 0, value change 1, arrival 2
+    assert _events(rec) == [(3.0, 2, (0, 1)), (5.0, 0, 2), (5.0, 1, (1.0, 2.0)), (5.0, 2, (1, 0)), (5.0, 2, (0, 1))]

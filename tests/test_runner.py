@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 from tavc_cli.analysis.states import state_intervals, theory_pct
 from tavc_cli.cli import app
 from tavc_cli.config import load_config, settings
+from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord, records_differ
 from tavc_cli.experiments.store import trial_path
 from tavc_cli.pipeline import run_experiment
@@ -301,3 +302,30 @@ def test_a_missing_cluster_package_is_one_line(monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_dask)
     with pytest.raises(TavcError, match=r"executor.backend=dask needs distributed: pip install 'tavc\[dask\]'"):
         run_on_cluster("dask", [], lambda b, r: None, 1, None)
+
+
+def test_runs_started_together_compile_their_kernels_one_at_a_time(monkeypatch):
+    """While a run compiles its kernels (`load_kernels`), another process cannot take the
+    lock it holds; once it is done, it can: a second run started beside it then loads what
+    the first wrote to numba's cache instead of compiling the same code at the same time."""
+    import subprocess
+    import sys
+
+    from tavc_cli.experiments import pool
+    from tavc_cli.experiments.build import Batch
+
+    probe = ("import fcntl, sys\n"
+             "with open(sys.argv[1], 'a') as f:\n"
+             "    try:\n        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)\n    except BlockingIOError:\n"
+             "        print('held')\n    else:\n        print('free')\n")
+
+    def lock_state():
+        return subprocess.run([sys.executable, "-c", probe, str(pool.kernel_lock_path())], capture_output=True,
+                              text=True, check=True).stdout.strip()
+
+    seen = []
+    monkeypatch.setattr(pool, "run_trials", lambda specs: seen.append(lock_state()))
+    spec = trial_specs(settings(load_config(["experiment=initial_distribution", "scale=smoke"])))[0]
+    pool.load_kernels([Batch(spec.controller, 0, (spec,))])
+    assert seen == ["held"]
+    assert lock_state() == "free"

@@ -9,14 +9,18 @@ will run, once. Workers (and anything they fork) die with the run that started t
 
 from __future__ import annotations
 
+import hashlib
 import os
 import signal
 import sys
+import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import replace
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tavc_cli.errors import TavcError
@@ -139,18 +143,47 @@ def load_kernels(pending: Sequence[Batch]) -> None:
     instead of each compiling the same code at once (about 15 s of a core each, without a
     cache). A few seconds of one trial per controller, with no warm-up, do it; what that
     short run computes is thrown away, and anything that goes wrong in it is left to the
-    real run to report."""
+    real run to report. Runs started together (`make reproduce-all` runs the experiments
+    beside the model) take turns (`_compiling_alone`): the first compiles and writes the
+    cache, the others then load it."""
     seen: set[str] = set()
-    for b in pending:
-        if b.controller in seen:
-            continue
-        seen.add(b.controller)
-        spec = b.specs[0]
-        short = replace(spec, warmup_s=0.0, duration_s=2 * NOISE_BLOCK_TICKS * spec.dt_s)
-        try:
-            run_trials([short])
-        except Exception:  # noqa: BLE001 - only a head start; the real run reports any error
-            pass
+    with _compiling_alone():
+        for b in pending:
+            if b.controller in seen:
+                continue
+            seen.add(b.controller)
+            spec = b.specs[0]
+            short = replace(spec, warmup_s=0.0, duration_s=2 * NOISE_BLOCK_TICKS * spec.dt_s)
+            try:
+                run_trials([short])
+            except Exception:  # noqa: BLE001 - only a head start; the real run reports any error
+                pass
+
+
+def kernel_lock_path() -> Path:
+    """The lock file of this installation's kernel compiles (see `_compiling_alone`)."""
+    package = str(Path(__file__).resolve().parent.parent)
+    return Path(tempfile.gettempdir()) / f"tavc-kernels-{hashlib.sha256(package.encode()).hexdigest()[:12]}.lock"
+
+
+@contextmanager
+def _compiling_alone() -> Iterator[None]:
+    """Hold, where the system has it, an exclusive lock that every run of this installation of
+    tavc takes to compile its kernels (`kernel_lock_path`). Released when the block ends, or
+    with the process."""
+    try:
+        import fcntl
+    except ImportError:  # no flock: each run compiles for itself, as numba does by default
+        yield
+        return
+    try:
+        handle = open(kernel_lock_path(), "a")  # noqa: SIM115 - held for the block
+    except OSError:
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        yield
 
 
 def worker_start() -> None:

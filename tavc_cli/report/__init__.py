@@ -16,6 +16,7 @@ import math
 import os
 import sys
 from concurrent.futures import Future, ProcessPoolExecutor
+from functools import lru_cache
 from pathlib import Path
 
 import pandas as pd
@@ -39,7 +40,7 @@ from tavc_cli.report.text import (
     state_table,
     vacancy_lines,
 )
-from tavc_cli.settings import from_yaml
+from tavc_cli.settings import TavcConfig, from_yaml
 
 ORDER = ["spatiotemporal", "initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change",
          "heterogeneous"]
@@ -53,7 +54,7 @@ def _experiments(results_dir: Path) -> tuple[dict[str, Path], list[Path]]:
         if not ((d / "state_time.csv").is_file() or (d / "trials").is_dir()):
             continue
         if (d / "state_time.csv").is_file() and (d / "config.yaml").is_file() and (d / "provenance.json").is_file():
-            found.setdefault(str(_read(d / "config.yaml", from_yaml).experiment_name or d.name), d)
+            found.setdefault(str(_read(d / "config.yaml", _config).experiment_name or d.name), d)
         else:
             unfinished.append(d)
     ordered = dict(sorted(found.items(), key=lambda kv: (ORDER.index(kv[0]) if kv[0] in ORDER else 99, kv[0])))
@@ -67,12 +68,24 @@ def _check_readable(results_dir: Path, experiments: dict[str, Path]) -> None:
         if (results_dir / name).is_dir():
             raise TavcError(f"RESULTS_DIR: {results_dir / name} is a directory; the report writes a file there")
     for d in experiments.values():
-        reads = [(d / "config.yaml", from_yaml), (d / "provenance.json", lambda p: json.loads(p.read_text()))]
+        reads = [(d / "config.yaml", _config), (d / "provenance.json", lambda p: json.loads(p.read_text()))]
         reads += [(p, lambda p: pd.read_csv(p, low_memory=False)) for p in sorted(d.glob("*.csv"))]
         if (d / "model" / "model.json").is_file():
             reads.append((d / "model" / "model.json", lambda p: json.loads(p.read_text())))
         for path, read in reads:
             _read(path, read)
+
+
+def _config(path: Path) -> TavcConfig:
+    """An experiment's settings, read once per version of its file (the report reads each
+    several times)."""
+    stat = path.stat()
+    return _config_of(str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+
+
+@lru_cache(maxsize=64)
+def _config_of(path: str, mtime_ns: int, size: int) -> TavcConfig:
+    return from_yaml(Path(path))
 
 
 def _read(path: Path, read):
@@ -121,15 +134,17 @@ def build_report(results_dir: Path) -> dict:
               "\"largest relative increase\" compares means without a test, as the chapter does. The rules are in "
               "`tavc_cli/analysis/claims.py`.", ""]
     model_json = find_model(experiments)
-    read = {name: (from_yaml(d / "config.yaml"), pd.read_csv(d / "state_time.csv", dtype={"state": str}))
+    read = {name: (_config(d / "config.yaml"), pd.read_csv(d / "state_time.csv", dtype={"state": str}))
             for name, d in experiments.items()}
     with _FigurePool() as pool:
-        # every experiment's figures drawn side by side while the text is written
-        figures = {name: pool.submit(experiment_figures, name, d, read[name][0], read[name][1], results_dir,
-                                     model_json)
-                   for name, d in experiments.items() if not (d / "table_1_1.csv").is_file()}
-        lines += _experiment_sections(experiments, read, figures, claims, runs, results_dir)
-    lines += value_ratio_lines(results_dir, model_json)
+        # the sections that draw figures are written side by side while the rest of the text is
+        ratio = pool.submit(value_ratio_lines, results_dir, model_json)
+        figures = {name: pool.submit(spatiotemporal_lines, name, d, read[name][0], results_dir)
+                   if (d / "table_1_1.csv").is_file()
+                   else pool.submit(experiment_figures, name, d, read[name][0], read[name][1], results_dir, model_json)
+                   for name, d in experiments.items()}
+        lines += _experiment_sections(experiments, read, figures, claims, runs)
+        lines += ratio.result()
     lines += ["## The same tests on the chapter's own tables", "",
               "Applied to the chapter's printed means, stds and trial counts (20 TAVC and 20 random trials "
               "for Table 1.2, 20 and 5 for Table 1.3, 20 TAVC trials for Tables 1.4 and 1.5, which print no "
@@ -165,8 +180,9 @@ def build_report(results_dir: Path) -> dict:
 
 
 def _experiment_sections(experiments: dict[str, Path], read: dict, figures: dict, claims: pd.DataFrame,
-                         runs: dict[str, pd.DataFrame], results_dir: Path) -> list[str]:
-    """Each experiment's section of the report: its tables, notes, figures and run lines."""
+                         runs: dict[str, pd.DataFrame]) -> list[str]:
+    """Each experiment's section of the report: its tables, notes, figures and run lines
+    (`figures[name]`: the future of its figures' lines, or of section 1.4's whole text)."""
     lines: list[str] = []
     for name, d in experiments.items():
         cfg, state_time = read[name]
@@ -174,7 +190,7 @@ def _experiment_sections(experiments: dict[str, Path], read: dict, figures: dict
         comparison = experiment_comparison(name, state_time)
         lines += [f"## {name} (section {cfg.section or '?'})", "", str(cfg.description or "").strip(), ""]
         if (d / "table_1_1.csv").is_file():
-            lines += spatiotemporal_lines(name, d, cfg, results_dir)
+            lines += figures[name].result()
             lines += run_lines(name, cfg, prov, claims, runs)
             continue
         table = TABLES.get(name)
