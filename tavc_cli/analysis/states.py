@@ -40,11 +40,15 @@ def _events(rec: TrialRecord) -> list[tuple[float, int, object]]:
     times = a["t_s"].tolist() + b["t_s"].tolist() + [float(t) for t in rec.value_changes_t]
     kinds = ([EventKind.ARRIVAL] * len(a["t_s"]) + [EventKind.BREAKDOWN] * len(b["t_s"])
              + [EventKind.VALUE_CHANGE] * len(rec.value_changes_t))
-    payloads = (list(zip(a["robot"].tolist(), a["circuit"].tolist(), strict=True)) + b["robot"].tolist()
+    payloads = (list(zip(_ints(a["robot"]), _ints(a["circuit"]), strict=True)) + _ints(b["robot"])
                 + [tuple(float(v) for v in values) for values in rec.value_changes])
     by_kind = np.argsort(np.array(kinds, dtype=np.int64), kind="stable")
     order = by_kind[np.argsort(np.array(times, dtype=np.float64)[by_kind], kind="stable")].tolist()
     return [(times[k], kinds[k], payloads[k]) for k in order]
+
+
+def _ints(column: np.ndarray) -> list[int]:
+    return np.asarray(column).astype(np.int64).tolist()
 
 
 def group_order(groups: Sequence[str], speeds: Sequence[float]) -> list[str]:
