@@ -42,6 +42,22 @@ def _batch_specs(settings: TavcConfig, batch: int):
     return trial_specs(replace(settings, trials=batch, baselines=[]))
 
 
+def profile_bench(settings: TavcConfig, batch: int | None) -> tuple[dict, list[str]]:
+    """`tavc bench --profile`: where one batch's time goes (`profiling.run_profile`), and the
+    lines that show it."""
+    from tavc_cli.profiling import run_profile
+
+    specs = _batch_specs(settings, int(batch or settings.executor.batch_size))
+    result = run_profile(specs)
+    lines = [f"{len(specs)} trials of {specs[0].n_robots} robots, {specs[0].duration_s:,.0f} simulated s each: "
+             f"{result['sim_seconds_per_wall_second']:,.0f} simulated s per wall s under perf; "
+             f"{result['functions_named']} compiled functions named", "", "share of the samples:"]
+    lines += [f"  {pct:5.1f} %  {name}" for name, pct in result["groups_pct"].items()]
+    lines += ["", "top functions:"]
+    lines += [f"  {row['pct']:5.2f} %  {row['function']}  ({row['object']})" for row in result["top"]]
+    return result, lines
+
+
 def _full_loop(specs) -> float:
     engine = BatchEngine(specs)
     start = time.perf_counter()

@@ -220,6 +220,10 @@ def bench(
         Optional[str],
         typer.Option(help="Run the same scenario in a reference simulator beside it: enki.", show_default=False),
     ] = None,
+    profile: Annotated[
+        bool, typer.Option(help="Instead, where one batch's time goes, by kernel and library (needs Linux's "
+                                "perf; at least 5,000 simulated s per trial).")
+    ] = False,
 ) -> None:
     """Measure simulator throughput (simulated seconds per wall second, one core)."""
     with _user_errors():
@@ -233,6 +237,7 @@ def bench(
             n_rays=n_rays,
             scaling=scaling,
             against=against,
+            profile=profile,
         )
 
 
@@ -385,13 +390,18 @@ def _bench(
     n_rays: Optional[int] = None,
     scaling: bool = True,
     against: Optional[str] = None,
+    profile: bool = False,
 ) -> None:
     """Run the benchmark and print its result as JSON or as aligned lines."""
-    from tavc_cli.bench import bench_overrides, run_bench
+    from tavc_cli.bench import bench_overrides, profile_bench, run_bench
 
     def settings_for(n: int, duration: float) -> Any:
         return config.settings(config.load_config(bench_overrides(scenario, n, duration, n_rays)))
 
+    if profile:
+        result, lines = profile_bench(settings_for(n_robots, max(duration_s, 5000.0)), batch)
+        typer.echo(json.dumps(result) if json_output else "\n".join(lines))
+        return
     result = run_bench(
         settings_for,
         scenario=scenario, n_robots=n_robots, duration_s=duration_s, repeats=repeats, batch=batch,

@@ -2,7 +2,9 @@
 
 import json
 import os
+import shutil
 
+import pytest
 from PIL import Image
 from typer.testing import CliRunner
 
@@ -89,3 +91,77 @@ def test_bench_against_enki_without_its_source_says_so_in_one_line(monkeypatch, 
     result = runner.invoke(app, ["bench", "--against", "enki", "--duration-s", "5", "--repeats", "1"])
     assert result.exit_code == 1
     assert result.output.strip().count("\n") == 0 and "Enki" in result.output
+
+
+def test_profile_names_numbas_functions_for_perf():
+    """A kernel compiled here is written to perf's map of this process under its Python name,
+    at the address the compiled code really has."""
+    import numba
+
+    from tavc_cli.profiling import readable, write_perf_map
+
+    @numba.njit
+    def tavc_probe_kernel(x):
+        return 2.0 * x
+
+    tavc_probe_kernel(1.0)
+    cres = next(iter(tavc_probe_kernel.overloads.values()))
+    path, n_named = write_perf_map([tavc_probe_kernel], pid=os.getpid())
+    try:
+        lines = path.read_text().splitlines()
+    finally:
+        path.unlink()
+    assert n_named >= 1 and len(lines) == n_named
+    entry = cres.library.get_pointer_to_function(cres.fndesc.mangled_name)
+    by_address = {int(line.split()[0], 16): line.split(maxsplit=2)[2] for line in lines}
+    assert by_address[entry].endswith("tavc_probe_kernel")
+    mangled = "_ZN8tavc_cli3sim7sensors10cast_laserB2v7B46c8tJTIeFIjxE5Array"
+    assert readable(mangled) == "tavc_cli.sim.sensors.cast_laser"
+    assert readable("__sincos_fma") == "__sincos_fma"
+
+
+def test_profile_groups_perfs_rows_by_what_they_do():
+    from tavc_cli.profiling import group_of, parse_report
+
+    text = ("# comment\n"
+            "    25.50%,[JIT] tid 9332,[.] tavc_cli.sim.sensors.cast_laser\n"
+            "     9.65%,libm.so.6,[.] __sincos_fma\n"
+            "     1.71%,_chipmunk.abi3.so,[.] cpBodyGetType\n"
+            "     5.99%,_chipmunk.abi3.so,[.] applyImpulse\n"
+            "     3.66%,[JIT] tid 9332,[.] tavc_cli.behaviours.motion.steer_to\n"
+            "     1.00%,libpython3.11.so.1.0,[.] _PyEval_EvalFrameDefault\n")
+    rows = parse_report(text)
+    assert rows[0] == (25.5, "compiled kernel", "tavc_cli.sim.sensors.cast_laser")
+    assert [group_of(dso, sym) for _, dso, sym in rows] == [
+        "laser", "C maths library (sin, cos, atan2, fmod)", "reading and writing the bodies", "Chipmunk (stepping)",
+        "behaviours", "Python, numpy and random draws"]
+
+
+def test_profile_without_perf_is_one_line(monkeypatch):
+    import shutil
+
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    result = CliRunner().invoke(app, ["bench", "--profile", "--duration-s", "10"])
+    assert result.exit_code != 0
+    assert result.output.strip().splitlines() == [
+        "error: --profile: needs Linux's perf on the PATH (Debian: apt-get install linux-perf)"]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("perf") is None, reason="needs Linux's perf")
+def test_profile_of_a_real_batch_names_the_kernels_that_take_the_time():
+    import subprocess
+    import sys
+
+    # a process of its own, as `tavc bench --profile` always is: one whose kernels are not compiled yet
+    run = subprocess.run([sys.executable, "-m", "tavc_cli", "bench", "--profile", "--json", "--batch", "2"],
+                         capture_output=True, text=True, timeout=600, check=False)
+    if run.returncode != 0 and ("perf recorded nothing" in run.stdout + run.stderr
+                                or "report was empty" in run.stdout + run.stderr):
+        pytest.skip("perf is not allowed to record here")
+    assert run.returncode == 0, run.stdout + run.stderr
+    result = json.loads(run.stdout)
+    assert result["functions_named"] >= 10
+    assert sum(result["groups_pct"].values()) == pytest.approx(100.0, abs=0.5)
+    assert result["groups_pct"].get("laser", 0.0) > 5.0
+    assert any(row["function"] == "tavc_cli.sim.sensors.cast_laser" for row in result["top"])
