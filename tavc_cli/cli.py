@@ -399,6 +399,8 @@ def _bench(
         return config.settings(config.load_config(bench_overrides(scenario, n, duration, n_rays)))
 
     if profile:
+        if against:
+            raise TavcError("--profile: profiles tavc alone; leave out --against")
         result, lines = profile_bench(settings_for(n_robots, max(duration_s, 5000.0)), batch)
         typer.echo(json.dumps(result) if json_output else "\n".join(lines))
         return

@@ -165,3 +165,9 @@ def test_profile_of_a_real_batch_names_the_kernels_that_take_the_time():
     assert sum(result["groups_pct"].values()) == pytest.approx(100.0, abs=0.5)
     assert result["groups_pct"].get("laser", 0.0) > 5.0
     assert any(row["function"] == "tavc_cli.sim.sensors.cast_laser" for row in result["top"])
+
+
+def test_profile_beside_enki_is_one_line():
+    result = CliRunner().invoke(app, ["bench", "--profile", "--against", "enki"])
+    assert result.exit_code != 0
+    assert result.output.strip().splitlines() == ["error: --profile: profiles tavc alone; leave out --against"]
