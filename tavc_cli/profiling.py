@@ -49,7 +49,7 @@ def readable(mangled: str) -> str:
     parts, i = [], 3
     while i < len(mangled) and mangled[i].isdigit():
         j = i
-        while mangled[j].isdigit():
+        while j < len(mangled) and mangled[j].isdigit():
             j += 1
         n = int(mangled[i:j])
         parts.append(mangled[j:j + n])
