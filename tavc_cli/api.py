@@ -9,14 +9,17 @@ DataFrames, for notebooks and scripts.
     api.load("results/initial_distribution").claims
 
 `run` takes the same overrides as `tavc run` and writes the same folder; `reproduce` runs
-several experiments together as `tavc reproduce` does; `load` only reads.
+several experiments together as `tavc reproduce` does; `model` and `calibrate` measure the
+model and search the docking world as `tavc model` and `tavc calibrate` do; `load` only
+reads. The command line runs through the same functions (`run_summary`,
+`reproduce_summaries`, `model`, `calibrate`).
 Errors a user can make (a bad override, a folder without results) raise `TavcError` with one
 line that names the problem.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import cached_property
 from pathlib import Path
 
@@ -97,14 +100,10 @@ def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, 
         output_dir: Where to write; by default the config's (``results/<experiment>``).
         progress: Show a progress bar.
     """
-    from tavc_cli import config
-    from tavc_cli.pipeline import run_experiment
-
     overrides = list(overrides)
     if output_dir is not None:
         overrides.append(f"output_dir={Path(output_dir)}")
-    summary = run_experiment(config.settings(config.load_config(overrides)), progress=progress)
-    return Results(summary["output_dir"])
+    return Results(run_summary(overrides, progress=progress)["output_dir"])
 
 
 def reproduce(overrides: Sequence[str] = (), *, experiments: Sequence[str] | None = None,
@@ -118,11 +117,65 @@ def reproduce(overrides: Sequence[str] = (), *, experiments: Sequence[str] | Non
         results_dir: The folder that gets one folder per experiment.
         progress: Show a progress bar.
     """
+    return {name: Results(summary["output_dir"])
+            for name, summary in reproduce_summaries(overrides, experiments=experiments, results_dir=results_dir,
+                                                     progress=progress)}
+
+
+def run_summary(overrides: Sequence[str] = (), *, progress: bool = False) -> dict:
+    """`run`'s work, returning the run's summary (where it went, its tables and claims) as
+    `tavc run` prints it."""
+    from tavc_cli import config
+    from tavc_cli.pipeline import run_experiment
+
+    return run_experiment(config.settings(config.load_config(list(overrides))), progress=progress)
+
+
+def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[str] | None = None,
+                        results_dir: str | Path = "results", progress: bool = False) -> list[tuple[str, dict]]:
+    """`reproduce`'s work, returning (experiment name, summary) per experiment as `tavc
+    reproduce` prints them."""
     from tavc_cli import config
     from tavc_cli.pipeline import run_experiments
 
     names = [experiments] if isinstance(experiments, str) else experiments
     cfgs = config.load_experiments(names, list(overrides), results_dir)
     summaries = run_experiments([config.settings(cfg) for cfg in cfgs], progress=progress)
-    return {str(cfg.experiment_name): Results(summary["output_dir"])
-            for cfg, summary in zip(cfgs, summaries, strict=True)}
+    return [(str(cfg.experiment_name), summary) for cfg, summary in zip(cfgs, summaries, strict=True)]
+
+
+def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, progress: bool = False,
+          echo: Callable[[str], None] = print) -> dict:
+    """Measure c_i(n) and apply the TAVC model as `tavc model` does, printing its summary through
+    `echo`; with `save_calibration`, record the calibrated values as tasks=calibrated. Returns
+    the model's result."""
+    from tavc_cli import config
+    from tavc_cli.model.api import run_model
+    from tavc_cli.model.api import save_calibration as save
+    from tavc_cli.model.report import model_text
+
+    result = run_model(config.settings(config.load_config(list(overrides))), progress=progress)
+    echo(model_text(result))
+    if save_calibration:
+        echo(f"calibrated values saved as {save(result, config.find_conf_dir() / 'tasks')}")
+    return result
+
+
+def calibrate(overrides: Sequence[str] = (), *, save: bool = False, progress: bool = False,
+              echo: Callable[[str], None] = print) -> None:
+    """Search the reconstructed docking world over `calibration.grid` as `tavc calibrate` does
+    (initial_distribution's six robots and the chapter's values unless an experiment is
+    given), printing through `echo`; with `save`, record the choice as world=calibrated."""
+    from tavc_cli import config
+    from tavc_cli.model.calibrate import calibrate_world
+    from tavc_cli.model.world_search import grid_points, point_overrides
+
+    overrides = list(overrides)
+    if not any(o.split("=", 1)[0].lstrip("+~") == "experiment" for o in overrides):
+        overrides = ["experiment=initial_distribution", *overrides]  # six robots, the chapter's values
+    base = config.settings(config.load_config(overrides))
+    if not base.calibration.grid:
+        raise TavcError("calibration.grid: empty; nothing to search")
+    points = [(p, config.settings(config.load_config([*overrides, *point_overrides(p)])))
+              for p in grid_points(base.calibration.grid)]
+    calibrate_world(base, points, config.find_conf_dir() / "world", save=save, progress=progress, echo=echo)

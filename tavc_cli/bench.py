@@ -42,6 +42,13 @@ def _batch_specs(settings: TavcConfig, batch: int):
     return trial_specs(replace(settings, trials=batch, baselines=[]))
 
 
+def bench_lines(result: dict) -> list[str]:
+    """`run_bench`'s result as aligned `key  value` lines."""
+    width = max((len(key) for key in result), default=0)
+    return [f"{key:<{width}}  {f'{value:,.2f}' if isinstance(value, float) else str(value)}"
+            for key, value in result.items()]
+
+
 def profile_bench(settings: TavcConfig, batch: int | None) -> tuple[dict, list[str]]:
     """`tavc bench --profile`: where one batch's time goes (`profiling.run_profile`), and the
     lines that show it."""

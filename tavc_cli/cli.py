@@ -1,7 +1,8 @@
 """The ``tavc`` command line.
 
-Each command parses its arguments and hands them to one keyword-only function below it; those
-functions load the config, call the library, and print. There is no domain logic here. A
+Each command parses its arguments and hands them to one function: a keyword-only one below it,
+or the Python API's (`tavc_cli.api`, which `tavc model` and `tavc calibrate` share with
+notebooks); those functions load the config, call the library, and print. There is no domain logic here. A
 ``TavcError`` anywhere becomes one ``error: ...`` line on stderr and exit status 1; Ctrl-C
 becomes exit status 130. Any other exception is a bug and keeps its traceback.
 
@@ -47,6 +48,11 @@ ProgressFlag = Annotated[
         show_default=False,
     ),
 ]
+
+
+def _shown(progress: Optional[bool]) -> bool:
+    """Whether to show progress: as asked, else when stdout is a terminal."""
+    return sys.stdout.isatty() if progress is None else progress
 
 
 @contextmanager
@@ -119,7 +125,7 @@ def run(
         _run(
             overrides=overrides or [],
             multirun=multirun,
-            progress=sys.stdout.isatty() if progress is None else progress,
+            progress=_shown(progress),
         )
 
 
@@ -142,7 +148,7 @@ def reproduce(
             overrides=overrides or [],
             names=experiments,
             results=results,
-            progress=sys.stdout.isatty() if progress is None else progress,
+            progress=_shown(progress),
         )
 
 
@@ -161,11 +167,9 @@ def model(
     """Measure c_i(n) in the simulator and apply the TAVC model: slot values, predicted
     allocation, constraints (1.3)/(1.4) and calibrated task values."""
     with _user_errors():
-        _model(
-            overrides=overrides or [],
-            save=save_calibration,
-            progress=sys.stdout.isatty() if progress is None else progress,
-        )
+        from tavc_cli.api import model as run_model
+
+        run_model(overrides or [], save_calibration=save_calibration, progress=_shown(progress), echo=typer.echo)
 
 
 @app.command()
@@ -183,11 +187,9 @@ def calibrate(
     """Search the reconstructed docking world (calibration.grid) for the settings under which
     the chapter's task values meet its constraints (1.3)/(1.4); static allocations only."""
     with _user_errors():
-        _calibrate(
-            overrides=overrides or [],
-            save=save,
-            progress=sys.stdout.isatty() if progress is None else progress,
-        )
+        from tavc_cli.api import calibrate as search_world
+
+        search_world(overrides or [], save=save, progress=_shown(progress), echo=typer.echo)
 
 
 @app.command()
@@ -297,9 +299,9 @@ def _print_experiments() -> None:
 def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
     """Run one experiment, or every job of a sweep (all validated first) through a Hydra launcher."""
     if not multirun:
-        from tavc_cli.pipeline import run_experiment
+        from tavc_cli.api import run_summary
 
-        return _print_summary(run_experiment(config.settings(config.load_config(overrides)), progress=progress))
+        return _print_summary(run_summary(overrides, progress=progress))
     from tavc_cli.config.launch import launch_sweep
 
     ours = [o for o in overrides if not config.is_hydra_override(o)]
@@ -309,10 +311,11 @@ def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
 
 def _reproduce(*, overrides: Sequence[str], names: str | None, results: Path, progress: bool) -> None:
     """Compose every experiment with the same overrides, run them together, print each summary."""
-    from tavc_cli.pipeline import run_experiments
+    from tavc_cli.api import reproduce_summaries
 
-    cfgs = config.load_experiments(None if names is None else names.split(","), overrides, results)
-    for summary in run_experiments([config.settings(cfg) for cfg in cfgs], progress=progress):
+    experiments = None if names is None else names.split(",")
+    for _, summary in reproduce_summaries(overrides, experiments=experiments, results_dir=results,
+                                          progress=progress):
         _print_summary(summary)
         typer.echo("")
 
@@ -328,20 +331,14 @@ def _sweep_job(cfg: Any, *, progress: bool) -> str:
 
 
 def _write_sweep(values: list[dict[str, str]], folders: list[Path]) -> None:
-    """sweep.csv (and its figure) beside the jobs' folders: every job's states side by side
-    (none for a single job)."""
-    from tavc_cli.analysis.sweep import sweep_table
-    from tavc_cli.io import write_text_atomic
-    from tavc_cli.viz.sweep import sweep_figure
+    """sweep.csv and its figure beside the jobs' folders (`pipeline.write_sweep`); print where."""
+    from tavc_cli.pipeline import write_sweep
 
-    table = sweep_table(list(zip(values, folders, strict=True))) if len(folders) > 1 else None
-    if table is None or table.empty:
-        return
-    parent = folders[0].parent
-    write_text_atomic(parent / "sweep.csv", table.to_csv(index=False, float_format="%.4f"))
-    typer.echo(f"\nsweep: {parent / 'sweep.csv'}")
-    for path in sweep_figure(table, next(iter(values[0])), parent / "sweep"):
-        typer.echo(f"figure: {path}")
+    written = write_sweep(values, folders)
+    if written:
+        typer.echo(f"\nsweep: {written[0]}")
+        for path in written[1:]:
+            typer.echo(f"figure: {path}")
 
 
 def _print_summary(summary: dict[str, Any]) -> None:
@@ -349,34 +346,6 @@ def _print_summary(summary: dict[str, Any]) -> None:
     from tavc_cli.analysis.summary import run_summary_text
 
     typer.echo(run_summary_text(summary))
-
-
-def _model(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
-    """Measure, predict and calibrate; print the model's summary."""
-    settings = config.settings(config.load_config(overrides))
-    from tavc_cli.model.api import run_model, save_calibration
-    from tavc_cli.model.report import model_text
-
-    result = run_model(settings, progress=progress)
-    typer.echo(model_text(result))
-    if save:
-        path = save_calibration(result, config.find_conf_dir() / "tasks")
-        typer.echo(f"calibrated values saved as {path}")
-
-
-def _calibrate(*, overrides: Sequence[str], save: bool, progress: bool) -> None:
-    """Search the docking world, print the table and the sensitivity, optionally save the choice."""
-    from tavc_cli.model.calibrate import calibrate_world
-    from tavc_cli.model.world_search import grid_points, point_overrides
-
-    if not any(o.split("=", 1)[0].lstrip("+~") == "experiment" for o in overrides):
-        overrides = ["experiment=initial_distribution", *overrides]  # six robots, the chapter's values
-    base = config.settings(config.load_config(overrides))
-    if not base.calibration.grid:
-        raise TavcError("calibration.grid: empty; nothing to search")
-    points = [(p, config.settings(config.load_config([*overrides, *point_overrides(p)])))
-              for p in grid_points(base.calibration.grid)]
-    calibrate_world(base, points, config.find_conf_dir() / "world", save=save, progress=progress, echo=typer.echo)
 
 
 def _bench(
@@ -393,7 +362,7 @@ def _bench(
     profile: bool = False,
 ) -> None:
     """Run the benchmark and print its result as JSON or as aligned lines."""
-    from tavc_cli.bench import bench_overrides, profile_bench, run_bench
+    from tavc_cli.bench import bench_lines, bench_overrides, profile_bench, run_bench
 
     def settings_for(n: int, duration: float) -> Any:
         return config.settings(config.load_config(bench_overrides(scenario, n, duration, n_rays)))
@@ -409,13 +378,7 @@ def _bench(
         scenario=scenario, n_robots=n_robots, duration_s=duration_s, repeats=repeats, batch=batch,
         n_rays=n_rays, scaling=scaling, against=against,
     )
-    if json_output:
-        typer.echo(json.dumps(result))
-        return
-    width = max((len(key) for key in result), default=0)
-    for key, value in result.items():
-        shown = f"{value:,.2f}" if isinstance(value, float) else str(value)
-        typer.echo(f"{key:<{width}}  {shown}")
+    typer.echo(json.dumps(result) if json_output else "\n".join(bench_lines(result)))
 
 
 def _animate(
@@ -432,11 +395,6 @@ def _animate(
 
 def _report(results_dir: Path) -> None:
     """Build the report and print its summary line and where it went."""
-    from tavc_cli.report import build_report
+    from tavc_cli.report import build_report, summary_lines
 
-    result = build_report(results_dir)
-    for folder in result["unfinished"]:
-        typer.echo(f"left out {folder}: its run did not finish (no provenance.json); run it again to complete it")
-    typer.echo(f"claims reproduced: {result['n_reproduced']} of {result['n_tested']} tested "
-               f"({', '.join(result['experiments'])})")
-    typer.echo(result["report"])
+    typer.echo("\n".join(summary_lines(build_report(results_dir))))

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import ExitStack
+from pathlib import Path
 
 from tavc_cli.analysis.experiment import write_analysis
 from tavc_cli.errors import TavcError
@@ -18,7 +19,7 @@ from tavc_cli.experiments.runner import (
     write_provenance,
 )
 from tavc_cli.experiments.store import Executor
-from tavc_cli.io import claim_folder
+from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.settings import TavcConfig
 
 
@@ -69,3 +70,18 @@ def _finish(cfg: TavcConfig, run: Run) -> dict:
     write_provenance(cfg, run)
     return {"output_dir": str(run.output_dir), "n_trials": len(run.specs), "n_reused": run.n_reused,
             "wall_time_s": run.wall_time_s, "tables": tables, "claims": claims}
+
+
+def write_sweep(values: list[dict[str, str]], folders: list[Path]) -> list[Path]:
+    """sweep.csv (and its figure) beside a sweep's job folders: every job's states side by side.
+    `values[k]` are job k's swept keys and values. Returns the files written: sweep.csv first
+    (none for a single job, or jobs without state tables)."""
+    from tavc_cli.analysis.sweep import sweep_table
+    from tavc_cli.viz.sweep import sweep_figure
+
+    table = sweep_table(list(zip(values, folders, strict=True))) if len(folders) > 1 else None
+    if table is None or table.empty:
+        return []
+    parent = folders[0].parent
+    write_text_atomic(parent / "sweep.csv", table.to_csv(index=False, float_format="%.4f"))
+    return [parent / "sweep.csv", *sweep_figure(table, next(iter(values[0])), parent / "sweep")]

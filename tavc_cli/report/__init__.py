@@ -179,6 +179,15 @@ def build_report(results_dir: Path) -> dict:
             "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished]}
 
 
+def summary_lines(result: dict) -> list[str]:
+    """`build_report`'s result in a few lines: the runs left out, the claims, where the report went."""
+    lines = [f"left out {folder}: its run did not finish (no provenance.json); run it again to complete it"
+             for folder in result["unfinished"]]
+    lines.append(f"claims reproduced: {result['n_reproduced']} of {result['n_tested']} tested "
+                 f"({', '.join(result['experiments'])})")
+    return [*lines, result["report"]]
+
+
 def _experiment_sections(experiments: dict[str, Path], read: dict, figures: dict, claims: pd.DataFrame,
                          runs: dict[str, pd.DataFrame]) -> list[str]:
     """Each experiment's section of the report: its tables, notes, figures and run lines
