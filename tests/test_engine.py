@@ -222,16 +222,19 @@ def test_a_trial_is_the_same_alone_or_batched_with_others():
     _assert_records_equal(alone, run_trials([specs[2], specs[0], specs[1]])[2])
 
 
-@pytest.mark.parametrize("log_rows", [256, 1])
-def test_runs_of_compiled_ticks_compute_what_the_tick_by_tick_loop_does(log_rows, monkeypatch):
-    # Between deliveries, events and snapshots the engine runs whole ticks in compiled code,
-    # serving arrivals at sources there too; a hook on every tick forces the loop through Python
-    # tick by tick. Breakdowns, a value change, Q-table snapshots, pose frames and a progress
-    # report all fall inside the 600 s, and several blocks of odometry noise (512 ticks each)
-    # pass. With a log of one row, compiled code must leave to Python any arrival at a source
-    # it has no room to log.
-    monkeypatch.setattr(engine_module, "_SOURCE_LOG_ROWS", log_rows)
-    specs = _specs("arena=two_circuits", "learner=tavc_egreedy", "team.n_robots=5", "trials=2", "duration_s=600",
+@pytest.mark.parametrize(("learner", "log_rows"), [("tavc_egreedy", 1024), ("tavc_egreedy", 1), ("random", 1024),
+                                                   ("static", 1024), ("tavc_softmax", 1024)])
+def test_runs_of_compiled_ticks_compute_what_the_tick_by_tick_loop_does(learner, log_rows, monkeypatch):
+    # Between events and snapshots the engine runs whole ticks in compiled code, serving
+    # arrivals there too: at a source the robot is sent on, at a sink the delivery is recorded,
+    # the Q-table updated and the next circuit chosen from the trial's own generator. A hook on
+    # every tick forces the loop through Python tick by tick. Breakdowns, a value change, Q-table
+    # snapshots, pose frames and a progress report all fall inside the 600 s, and several blocks
+    # of odometry noise (512 ticks each) pass. With a log of one row, compiled code must leave to
+    # Python any tick with more arrivals than it has room to log; Boltzmann selection is
+    # Python's alone.
+    monkeypatch.setattr(engine_module, "_LOG_ROWS", log_rows)
+    specs = _specs("arena=two_circuits", f"learner={learner}", "team.n_robots=5", "trials=2", "duration_s=600",
                    "sim.q_snapshot_every_s=70", "sim.pose_every_s=45",
                    "events.breakdowns=[{time_s:150.0,robot:1},{time_s:333.3,circuit:high}]",
                    "events.value_changes=[{time_s:250.0,values:[2000.0,2200.0]}]")
@@ -243,11 +246,23 @@ def test_runs_of_compiled_ticks_compute_what_the_tick_by_tick_loop_does(log_rows
     slow = tick_by_tick.run()
     assert compiled_runs.tick == tick_by_tick.tick == 6000
     assert len(seen) == 200 and seen[-1] == 1.0  # every report, none twice
-    for a, b in zip(fast, slow, strict=True):
+    for a, b, tr in zip(fast, slow, compiled_runs.trials, strict=True):
         _assert_records_equal(a, b)
         np.testing.assert_array_equal(a.poses, b.poses)
         np.testing.assert_array_equal(a.q, b.q)
-        assert len(a.table("arrivals")["t_s"]) > 20 and len(a.table("breakdowns")["t_s"]) == 2
+        assert len(a.table("deliveries")["t_s"]) > 10 and len(a.table("breakdowns")["t_s"]) == 2
+        # the policy's generator was drawn from as often either way
+        assert tr.policy_rng.random() == tick_by_tick.trials[fast.index(a)].policy_rng.random()
+
+
+def test_a_batch_of_policies_compiled_code_serves_and_one_it_does_not(monkeypatch):
+    # a tick in which a Boltzmann learner delivers goes to Python whole, the e-greedy deliveries of
+    # the same tick with it; the records are those of each trial run alone
+    specs = [*_specs("arena=two_circuits", "learner=tavc_softmax", "team.n_robots=4", "trials=1", "duration_s=400"),
+             *_specs("arena=two_circuits", "learner=tavc_egreedy", "team.n_robots=4", "trials=2", "duration_s=400")]
+    together = run_trials(specs)
+    for spec, record in zip(specs, together, strict=True):
+        _assert_records_equal(run_trials([spec])[0], record)
 
 
 def test_a_broken_robot_is_shown_where_it_stopped_whatever_its_slot():

@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from tavc_cli.learning.compiled import egreedy, q_learn
+from tavc_cli.learning.draws import below, entry_points, uniform
 from tavc_cli.learning.policies import (
     RandomPolicy,
     StaticPolicy,
@@ -15,6 +17,7 @@ from tavc_cli.learning.policies import (
 from tavc_cli.learning.qlearning import epsilon_greedy, q_update, softmax_choice, softmax_probs
 from tavc_cli.learning.registry import make_policy
 from tavc_cli.settings import LearnerConfig
+from tavc_cli.sim.kernel import kernel
 
 N_DRAWS = 20_000
 
@@ -268,3 +271,69 @@ def test_the_registry_keeps_every_learners_label_and_seed_code():
     assert controller_label("tavc_softmax") == controller_label("tavc_egreedy") == "tavc"
     assert BASELINES == ("random", "static")
     assert set(AVAILABLE) <= set(LEARNERS)
+
+
+# --- the same draws and choices in compiled code (deliveries served there) -----------------------
+
+@kernel
+def _draw_sequence(next_uint32, next_double, state, ns, out):
+    """out[k]: a uniform draw where ns[k] == 0, else a draw below ns[k]."""
+    for k in range(ns.shape[0]):
+        out[k] = uniform(next_double, state) if ns[k] == 0 else below(next_uint32, state, ns[k])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_draws_are_numpys_draw_for_draw(seed):
+    # ranges of every kind numpy's bounded integers treat apart: 1 (nothing drawn), small ones,
+    # one just under 2**32 whose rejection zone is nearly half of all draws, 2**32 - 1 itself
+    # (taken whole), mixed with doubles, and an odd number of 32-bit draws before (a half of a
+    # 64-bit draw left in the generator's buffer)
+    ns = np.random.default_rng(seed).integers(0, 9, size=400)
+    ns[::13] = 2**31 + 1
+    ns[::17] = 2**32 - 1
+    ns[::19] = 1
+    ours, numpys = np.random.default_rng([seed, 7]), np.random.default_rng([seed, 7])
+    ours.integers(5)
+    numpys.integers(5)
+    points = entry_points(ours)
+    out = np.zeros(len(ns))
+    _draw_sequence(points.next_uint32, points.next_double, points.state, ns, out)
+    expected = [numpys.random() if n == 0 else float(numpys.integers(n)) for n in ns]
+    np.testing.assert_array_equal(out, expected)
+    assert ours.random() == numpys.random()  # and the streams go on alike
+
+
+@kernel
+def _choose(q, epsilon, next_uint32, next_double, state, out):
+    for k in range(q.shape[0]):
+        out[k] = egreedy(q[k], epsilon, next_uint32, next_double, state)
+
+
+@pytest.mark.parametrize("epsilon", [0.0, 0.3, 1.0])
+def test_compiled_epsilon_greedy_is_pythons_choice_for_choice(epsilon):
+    # rows with one best action and rows with two, three or four tied best ones
+    rows = np.random.default_rng(1).choice([0.5, 1.0, 2.0, 3.0], size=(300, 4))
+    ours, pythons = np.random.default_rng(2), np.random.default_rng(2)
+    points = entry_points(ours)
+    out = np.zeros(len(rows), dtype=np.int64)
+    _choose(rows, epsilon, points.next_uint32, points.next_double, points.state, out)
+    expected = [epsilon_greedy(row, epsilon, pythons) for row in rows]
+    np.testing.assert_array_equal(out, expected)
+    assert ours.random() == pythons.random()
+    if epsilon < 1.0:  # ties were met and broken both ways
+        assert len({int(a) for a, row in zip(out, rows, strict=True) if (row == row.max()).sum() > 1}) > 1
+
+
+def test_compiled_q_update_is_pythons_bit_for_bit():
+    # rewards over six orders of magnitude, so that any other order of the operations rounds
+    # differently somewhere
+    rng = np.random.default_rng(3)
+    ours = rng.uniform(0, 1, size=(2, 2))
+    pythons = ours.copy()
+    for _ in range(2000):
+        s, a = (int(x) for x in rng.integers(2, size=2))
+        reward = float(rng.uniform(0, 1) * 10.0 ** rng.uniform(-3, 3))
+        alpha, gamma = (float(x) for x in rng.choice([0.1, 0.5, 1.0], size=2))
+        q_learn(ours, s, a, reward, a, alpha, gamma)
+        q_update(pythons, s, a, reward, a, alpha, gamma)
+    np.testing.assert_array_equal(ours, pythons)

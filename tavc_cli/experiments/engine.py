@@ -3,11 +3,14 @@
 Each trial has its own pymunk space, its own random streams and its own policy,
 so it computes the same alone or in any batch. The batch shares one batched read
 and write of the physics and one call of the compiled sensing and behaviour kernel
-per tick for every robot of every trial. Python runs per event (a delivery, a
-breakdown, a snapshot), never per robot per tick: between events whole ticks run in
-compiled code (`tick.run_ticks`, which also sends robots on from their sources),
-except with section 1.4's behaviour learners, whose robots choose a behaviour in
-Python when their sensed state changes, so that their batches go tick by tick.
+per tick for every robot of every trial. Python runs per event (a breakdown, a
+value change, a snapshot), never per robot per tick: between events whole ticks run
+in compiled code (`tick.run_ticks`), which serves arrivals and deliveries too (the
+rewards, the Q-learning and the next choices of the TAVC, random and static
+policies, drawn from each trial's own generator), except with section 1.4's behaviour
+learners, whose robots choose a behaviour in Python when their sensed state changes,
+so that their batches go tick by tick, and with Boltzmann selection, whose deliveries
+Python serves.
 
 Per tick (`BatchEngine.run`): what falls due (events, snapshots, pose frames) ->
 behaviour choices of section 1.4's learners -> sense and decide (the kernel, over
@@ -37,20 +40,28 @@ from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.tick import (
+    LOG_CHOICE,
+    LOG_COLUMNS,
+    LOG_SCORE,
+    LOG_SPENT,
+    LOG_STATE,
+    LOG_TASK_S,
     NOISE_BLOCK_TICKS,
     RUN_ARRIVED,
     RUN_DUE,
     RUN_LOST_BODIES,
-    SourceArrivals,
+    Arrivals,
     run_ticks,
     sense_decide_command,
 )
 from tavc_cli.experiments.trial import TrialFault, TrialState
 from tavc_cli.learning.behaviour import BatchDecisions
+from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, POLICY_STATIC, policy_kind
+from tavc_cli.learning.draws import entry_points, same_functions
 from tavc_cli.sim.arena import SOURCE
 from tavc_cli.sim.world import CP_EACH_BODY, CP_STEP, PhysicsWorld
 
-_SOURCE_LOG_ROWS = 256  # arrivals at sources compiled code may serve before Python takes them in
+_LOG_ROWS = 1024  # arrivals compiled code may serve before Python takes them into the trials' tables
 
 
 def _next_multiple(tick: int, every: int) -> int:
@@ -118,12 +129,7 @@ class BatchEngine:
         self.src = np.array([c.source for c in self.arena.circuits], dtype=np.int64)
         self.snk = np.array([c.sink for c in self.arena.circuits], dtype=np.int64)
         self.kind_of = np.array([t.kind for t in self.arena.targets], dtype=np.int64)
-        # every trial's circuit per robot, in two arrays of the batch that compiled code reads too
-        task, last_circuit = np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64)
-        for tr in self.trials:
-            tr.task, tr.last_circuit = task[tr.lo:tr.hi], last_circuit[tr.lo:tr.hi]
-        self._arrivals = SourceArrivals(task, last_circuit, self.kind_of, self.snk,
-                                        np.zeros((_SOURCE_LOG_ROWS, 4), dtype=np.int64), np.zeros(1, dtype=np.int64))
+        self._arrivals, self._draws = self._arrival_bundle()
         self._trial_of = self.robots["trial"].tolist()
         # views of the robots' fields Python reads and writes per arrival (cheaper than a record's)
         self._target, self._activity, self._arrived = (self.robots[f] for f in ("target", "activity", "arrived"))
@@ -137,10 +143,53 @@ class BatchEngine:
                                 self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s, self.work)
         self._run = compiled(run_ticks, self.world.space_io, CP_EACH_BODY, CP_STEP, self.world.io, self.pose,
                              self.robots, self.noise, self._params, self.geometry, self.laser, self.scan, self.cmd,
-                             self.act_s, self.work, self._arrivals, 0, 0, 0.0, 0.0, 0.0, False)
+                             self.act_s, self.work, self._arrivals, *self._draws[:2], 0, 0, 0.0, 0.0, 0.0, False)
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
                 self._assign(tr, i, 0.0)
+
+    def _arrival_bundle(self) -> tuple[Arrivals, tuple]:
+        """What compiled code serves arrivals with (`tick.Arrivals`), and the two entry points
+        of the policies' bit generator it draws through. Each trial's per-robot state (tasks,
+        learning states, task starts) and each TAVC policy's Q-tables become views of the
+        bundle's arrays, so that Python and compiled code serve arrivals on the same numbers."""
+        n, n_c, trials = self.n, self.arena.n_circuits, self.trials
+        task, last_circuit = np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64)
+        state, task_start = np.zeros(n, dtype=np.int64), np.zeros(n)
+        q, assignment = np.zeros((n, n_c, n_c)), np.zeros(n, dtype=np.int64)
+        policy = np.array([policy_kind(tr.policy) for tr in trials], dtype=np.int64)
+        learning = np.zeros((3, len(trials)))  # epsilon, alpha, gamma of each TAVC trial
+        points = [entry_points(tr.policy_rng) for tr in trials]
+        if not same_functions(points):  # one pair of functions serves the batch, or Python does
+            policy[:] = POLICY_PYTHON
+        for b, tr in enumerate(trials):
+            lo, hi = tr.lo, tr.hi
+            tr.task, tr.last_circuit = task[lo:hi], last_circuit[lo:hi]
+            state[lo:hi] = tr.state
+            tr.state, tr.task_start = state[lo:hi], task_start[lo:hi]
+            if policy[b] == POLICY_EGREEDY:
+                q[lo:hi] = tr.policy.q
+                tr.policy.q = q[lo:hi]
+                learning[:, b] = tr.policy.epsilon, tr.policy.alpha, tr.policy.gamma
+            elif policy[b] == POLICY_STATIC:
+                assignment[lo:hi] = tr.policy.assignment
+        arrivals = Arrivals(
+            task, last_circuit, state, task_start, self.act_at_task, q, assignment, self.kind_of, self.src, self.snk,
+            policy, *learning.copy(), np.zeros(len(trials)),
+            np.zeros((len(trials), n_c)), np.zeros((len(trials), n_c)),
+            np.array([p.state for p in points], dtype=np.uint64),
+            np.zeros((_LOG_ROWS, LOG_COLUMNS)), np.zeros(1, dtype=np.int64))
+        for b in range(len(trials)):
+            self._sync_trial(b, arrivals)
+        return arrivals, (points[0].next_uint32, points[0].next_double, points)
+
+    def _sync_trial(self, b: int, arrivals: Arrivals | None = None) -> None:
+        """Trial b's values, scores and unit of time, as they stand, into the arrival bundle."""
+        arrivals = arrivals or self._arrivals
+        tr = self.trials[b]
+        arrivals.values[b] = tr.values
+        arrivals.scores[b] = tr.scores
+        arrivals.time_unit_s[b] = tr.spec.time_unit_s
 
     # --- time ---------------------------------------------------------------
     @property
@@ -190,7 +239,8 @@ class BatchEngine:
         return spent
 
     # --- scheduled events ---------------------------------------------------
-    def _fire_events(self, tr: TrialState, t: float) -> None:
+    def _fire_events(self, b: int, t: float) -> None:
+        tr = self.trials[b]
         while tr.events and tr.events[0][0] <= t:
             _, kind, ev = tr.events.pop(0)
             if kind == EventKind.BREAKDOWN:
@@ -208,6 +258,7 @@ class BatchEngine:
                 tr.scores[np.argsort(-tr.values, kind="stable")] = np.sort(tr.spec.score_values)[::-1]
                 tr.vc_t.append(t)
                 tr.vc.append(tr.values.copy())
+                self._sync_trial(b)
 
     # --- the loop -----------------------------------------------------------
     def end_tick(self) -> int:
@@ -270,21 +321,24 @@ class BatchEngine:
         `experiments.lineage` decides which trials may continue which."""
         if len(specs) != len(self.trials):
             raise ValueError("a branch names one trial for each trial of the batch")
-        for tr, spec in zip(self.trials, specs, strict=True):
+        for b, (tr, spec) in enumerate(zip(self.trials, specs, strict=True)):
             tr.go_on_as(spec, self.tick, self.dt)
+            self._sync_trial(b)
         self.schedule.update(self.trials)
 
     def _run_compiled(self, stop: int, next_due: float) -> None:
         """The ticks up to `stop` (or to the first at which something falls due) in compiled code
-        (`tick.run_ticks`), Python serving only the ticks with a delivery (arrivals at sources
-        are served in compiled code and logged for the tables): the same work, in the same
-        order, as the loop of `run` does it tick by tick."""
+        (`tick.run_ticks`), which serves arrivals and deliveries and logs them for the tables
+        (`_take_served`), Python serving only the ticks it leaves (a delivery of a policy it
+        does not run, a full log): the same work, in the same order, as the loop of `run`
+        does it tick by tick."""
         world, move_first = self.world, False  # `run` has seen to what is due at the first tick
         while self.tick < stop:
             done, why = self._run(world.space_io, CP_EACH_BODY, CP_STEP, world.io, self.pose, self.robots, self.noise,
                                   self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s,
-                                  self.work, self._arrivals, self.tick, stop, 0.0, self.dt, next_due, move_first)
-            self._log_source_arrivals()
+                                  self.work, self._arrivals, *self._draws[:2], self.tick, stop, 0.0, self.dt, next_due,
+                                  move_first)
+            self._take_served()
             self.tick += done
             self.tick_started = True
             move_first = why == RUN_ARRIVED
@@ -295,13 +349,20 @@ class BatchEngine:
             elif why == RUN_LOST_BODIES:
                 raise RuntimeError("the physics space holds bodies the world did not index")
 
-    def _log_source_arrivals(self) -> None:
-        """The arrivals at sources that compiled code served (`tick.send_on_from_sources`), into
-        their trials' tables as `_arrive` puts them."""
+    def _take_served(self) -> None:
+        """The arrivals and deliveries compiled code served (`tick.serve_arrivals`), into their
+        trials' tables as `_arrive` and `_assign` put them."""
         logged = self._arrivals.logged
-        for tick, g, target, circuit in self._arrivals.log[:logged[0]].tolist():
+        if not logged[0]:
+            return
+        for row in self._arrivals.log[:logged[0]].tolist():
+            tick, g, target, circuit, kind = (int(x) for x in row[:5])
             tr = self.trials[self._trial_of[g]]
-            self._log_arrival(tr, tick * self.dt, g - tr.lo, target, circuit, SOURCE)
+            t, i = tick * self.dt, g - tr.lo
+            self._log_arrival(tr, t, i, target, circuit, kind)
+            if kind != SOURCE:
+                tr.rows.add("deliveries", t, i, circuit, *row[LOG_TASK_S:LOG_SCORE + 1], *row[LOG_SPENT:LOG_STATE])
+                tr.rows.add("choices", t, i, int(row[LOG_STATE]), int(row[LOG_CHOICE]))
         logged[0] = 0
 
     @staticmethod
@@ -318,7 +379,7 @@ class BatchEngine:
         poses = self.world.poses(out=np.empty_like(self.pose))
         for b, tr in enumerate(self.trials):
             if tr.events and tr.events[0][0] <= t:
-                self._fire_events(tr, t)
+                self._fire_events(b, t)
             if t >= schedule.next_q[b]:
                 tr.snapshot_q(t)
                 schedule.next_q[b] += tr.spec.q_snapshot_every_s  # on the schedule's own grid: no drift

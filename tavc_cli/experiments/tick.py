@@ -4,11 +4,12 @@
 state just read, the control kernel (`behaviours.navigation.control_tick`) for every
 robot of every trial, the wheel commands into the velocities the world writes next.
 
-`run_ticks` goes further: between the moments Python is needed (an arrival to serve, an
-event, snapshot or pose frame due, a new block of odometry noise, a progress report) it
-reads, decides, writes and steps the physics tick after tick without returning, calling
-Chipmunk through the world's `SpaceIO`. Each tick does exactly what the Python loop
-would do, in the same order, so the numbers are the same either way (checked by the tests).
+`run_ticks` goes further: between the moments Python is needed (an event, snapshot or pose
+frame due, a new block of odometry noise, a progress report, a delivery of a policy only
+Python runs) it reads, decides, serves arrivals and deliveries, writes and steps the physics
+tick after tick without returning, calling Chipmunk through the world's `SpaceIO`. Each tick
+does exactly what the Python loop would do, in the same order, so the numbers are the same
+either way (checked by the tests).
 """
 
 from __future__ import annotations
@@ -17,7 +18,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.navigation import control_tick
+from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, POLICY_RANDOM, egreedy, q_learn
+from tavc_cli.learning.draws import below
 from tavc_cli.sim.arena import SOURCE
 from tavc_cli.sim.kernel import kernel
 from tavc_cli.sim.world import read_bodies, read_poses, write_and_step, write_commands
@@ -26,50 +30,111 @@ NOISE_BLOCK_TICKS = 512  # odometry noise is drawn a block of ticks at a time; p
 
 # why `run_ticks` stopped
 RUN_DONE = 0         # it reached the tick it was told to stop at
-RUN_ARRIVED = 1      # a robot delivered in the tick it stopped in: its arrivals, then the move, are Python's
+RUN_ARRIVED = 1      # a robot arrived in the tick it stopped in, and Python serves it: its arrivals, then the move
 RUN_DUE = 2          # something falls due at the tick it stopped at (nothing of that tick done)
 RUN_LOST_BODIES = 3  # the space holds bodies the world did not index
 
 
-class SourceArrivals(NamedTuple):
-    """What compiled code needs to send a robot that reached its circuit's source on to the
-    sink, which is all the engine does for such an arrival, and the log of those arrivals
-    that it leaves for the engine to put in the trials' tables. Rows are robots of the batch."""
+# the columns of `Arrivals.log`: every arrival compiled code served, and for a delivery what
+# its record and the robot's next choice hold
+LOG_TICK, LOG_ROBOT, LOG_TARGET, LOG_CIRCUIT, LOG_KIND = range(5)
+LOG_TASK_S, LOG_REWARD, LOG_VALUE, LOG_SCORE = range(5, 9)
+LOG_SPENT = 9  # N_ACT columns: the task's seconds in each activity
+LOG_STATE, LOG_CHOICE = LOG_SPENT + N_ACT, LOG_SPENT + N_ACT + 1
+LOG_COLUMNS = LOG_CHOICE + 1
 
-    task: np.ndarray          # (n,) int64: the circuit each robot serves (the engine's own array)
-    last_circuit: np.ndarray  # (n,) int64: each robot's circuit at its last arrival (likewise)
+
+class Arrivals(NamedTuple):
+    """What compiled code needs to serve an arrival as the engine does: send a robot on from
+    its source to the sink; at the sink, record the delivery, update the robot's Q-table and
+    choose its next circuit (for trials whose policy `learning.compiled` runs; the others are
+    left to the engine), drawing from the trial's own generator. Rows are robots of the batch
+    unless said otherwise; every array is the engine's own (its trials' views, its policies'
+    tables), so Python and compiled code serve arrivals alike."""
+
+    task: np.ndarray          # (n,) int64: the circuit each robot serves
+    last_circuit: np.ndarray  # (n,) int64: each robot's circuit at its last arrival
+    state: np.ndarray         # (n,) int64: each robot's learning state (the circuit it last served)
+    task_start: np.ndarray    # (n,) float64: when each robot's task began, on the clock
+    act_at_task: np.ndarray   # (n, N_ACT): its activity seconds as its task began
+    q: np.ndarray             # (n, n_circuits, n_circuits): each robot's Q-table (egreedy trials)
+    assignment: np.ndarray    # (n,) int64: each robot's circuit under a static policy
     kind_of: np.ndarray       # (n_targets,) int64: SOURCE or SINK, per target
+    source_of: np.ndarray     # (n_circuits,) int64: each circuit's source
     sink_of: np.ndarray       # (n_circuits,) int64: each circuit's sink
-    log: np.ndarray           # (capacity, 4) int64: tick, robot, target, circuit of each arrival
+    policy: np.ndarray        # (n_trials,) int64: `learning.compiled.POLICY_*`
+    epsilon: np.ndarray       # (n_trials,) float64, and likewise alpha, gamma
+    alpha: np.ndarray
+    gamma: np.ndarray
+    time_unit_s: np.ndarray   # (n_trials,) float64: the unit of t in r = w / t
+    values: np.ndarray        # (n_trials, n_circuits): learning values as they stand
+    scores: np.ndarray        # (n_trials, n_circuits): score per delivery as they stand
+    rng: np.ndarray           # (n_trials,) uint64: address of each trial's policy generator's state
+    log: np.ndarray           # (capacity, LOG_COLUMNS) float64: the arrivals served, in order
     logged: np.ndarray        # (1,) int64: rows of `log` in use
 
 
 @kernel
-def send_on_from_sources(robots, arrivals, tick):
-    """If every robot that arrived in `tick` did so at a source, and the log has room for them:
-    log each arrival, note its circuit as the robot's last, send the robot on to that circuit's
-    sink, and return True. Otherwise change nothing and return False: a delivery needs the
-    robot's policy, so the engine serves that tick's arrivals itself."""
+def serve_arrivals(robots, arr, tick, dt_s, act_s, next_uint32, next_double):
+    """Serve every robot that arrived in `tick`, as the engine's `_arrive` does, and log each
+    arrival; return True. If a robot delivered for a trial whose policy only Python runs, or
+    the log has no room for them all, change nothing and return False: the engine serves
+    that tick's arrivals itself."""
     n = 0
     for g in range(robots.shape[0]):
         if robots[g].arrived:
-            if arrivals.kind_of[robots[g].target] != SOURCE:
-                return False
             n += 1
-    log, logged = arrivals.log, arrivals.logged
+            if arr.kind_of[robots[g].target] != SOURCE and arr.policy[robots[g].trial] == POLICY_PYTHON:
+                return False
+    log, logged = arr.log, arr.logged
     if logged[0] + n > log.shape[0]:
         return False
+    t = tick * dt_s
     for g in range(robots.shape[0]):
-        if robots[g].arrived:
-            circuit = arrivals.task[g]
-            row = logged[0]
-            log[row, 0] = tick
-            log[row, 1] = g
-            log[row, 2] = robots[g].target
-            log[row, 3] = circuit
-            logged[0] = row + 1
-            arrivals.last_circuit[g] = circuit
-            robots[g].target = arrivals.sink_of[circuit]
+        rob = robots[g]
+        if not rob.arrived:
+            continue
+        circuit, target = arr.task[g], rob.target
+        kind = arr.kind_of[target]
+        row = logged[0]
+        logged[0] = row + 1
+        log[row, LOG_TICK] = tick
+        log[row, LOG_ROBOT] = g
+        log[row, LOG_TARGET] = target
+        log[row, LOG_CIRCUIT] = circuit
+        log[row, LOG_KIND] = kind
+        arr.last_circuit[g] = circuit
+        if kind == SOURCE:
+            rob.target = arr.sink_of[circuit]
+            continue
+        b = rob.trial
+        task_s = t - arr.task_start[g]
+        value = arr.values[b, circuit]
+        reward = value / (task_s / arr.time_unit_s[b])
+        log[row, LOG_TASK_S] = task_s
+        log[row, LOG_REWARD] = reward
+        log[row, LOG_VALUE] = value
+        log[row, LOG_SCORE] = arr.scores[b, circuit]
+        # the activity seconds up to this tick (which is spent at the dock, on the next task)
+        for a in range(act_s.shape[1]):
+            before = act_s[g, a] - dt_s if a == rob.activity else act_s[g, a]
+            log[row, LOG_SPENT + a] = before - arr.act_at_task[g, a]
+            arr.act_at_task[g, a] = before
+        kind_of_policy = arr.policy[b]
+        if kind_of_policy == POLICY_EGREEDY:
+            q_learn(arr.q[g], arr.state[g], circuit, reward, circuit, arr.alpha[b], arr.gamma[b])
+        arr.state[g] = circuit
+        if kind_of_policy == POLICY_EGREEDY:
+            choice = egreedy(arr.q[g, circuit], arr.epsilon[b], next_uint32, next_double, arr.rng[b])
+        elif kind_of_policy == POLICY_RANDOM:
+            choice = below(next_uint32, arr.rng[b], arr.q.shape[1])
+        else:
+            choice = arr.assignment[g]
+        log[row, LOG_STATE] = circuit
+        log[row, LOG_CHOICE] = choice
+        arr.task[g] = choice
+        arr.task_start[g] = t
+        rob.target = arr.source_of[choice]
     return True
 
 
@@ -89,14 +154,15 @@ def sense_decide_command(io, pose, robots, noise, params, arena, laser, scan, cm
 
 @kernel
 def run_ticks(sio, each_body, step, io, pose, robots, noise, params, arena, laser, scan, cmd, act_s, work,
-              arrivals, tick, stop, t0_s, dt_s, next_due_s, move_first):
+              arrivals, next_uint32, next_double, tick, stop, t0_s, dt_s, next_due_s, move_first):
     """Whole ticks from `tick` up to `stop` (exclusive), each as the engine's Python loop does
     it: read the bodies, `sense_decide_command`, serve the arrivals, write the velocities,
-    step. Arrivals at sources are served here (`send_on_from_sources`, logged in `arrivals`
-    for the engine's tables). Stops early before a tick at whose time t0 + tick dt something
-    is due (all but the first: the caller has seen to that one), in a tick in which a robot
-    delivered (its kernel done, its arrivals and move not), or if the space's bodies are not
-    the world's. `noise` is the block of odometry draws, row tick % NOISE_BLOCK_TICKS for each
+    step. Arrivals are served here (`serve_arrivals`, drawing through `next_uint32` and
+    `next_double`, the policies' bit generator's; logged in `arrivals` for the engine's
+    tables). Stops early before a tick at whose time t0 + tick dt something is due (all but
+    the first: the caller has seen to that one), in a tick with an arrival left to Python
+    (its kernel done, its arrivals and move not), or if the space's bodies are not the
+    world's. `noise` is the block of odometry draws, row tick % NOISE_BLOCK_TICKS for each
     tick. With `move_first`, tick `tick` is one whose kernel has run and whose arrivals Python
     has served: its move comes first, then the ticks after it (the next one checked for what
     is due). Returns (ticks completed, RUN_*)."""
@@ -112,7 +178,8 @@ def run_ticks(sio, each_body, step, io, pose, robots, noise, params, arena, lase
         if read_bodies(sio, each_body) != n_numbers:
             return done, RUN_LOST_BODIES
         if sense_decide_command(io, pose, robots, noise[k % NOISE_BLOCK_TICKS], params, arena, laser, scan,
-                                cmd, act_s, work) and not send_on_from_sources(robots, arrivals, k):
+                                cmd, act_s, work) and not serve_arrivals(robots, arrivals, k, dt_s, act_s,
+                                                                         next_uint32, next_double):
             return done, RUN_ARRIVED
         write_and_step(sio, each_body, step)
         done += 1

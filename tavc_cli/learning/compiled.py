@@ -1,0 +1,62 @@
+"""The task policies' choices and Q-learning in compiled code, for deliveries served there.
+
+Each kernel does what its Python twin (`policies`, `qlearning`) does, in the same order
+and with the same roundings, drawing from the same generator (`draws`), so that a delivery
+served in compiled code and one served in Python leave the same tables, the same stream
+and the same record. Section 1.4's behaviour learners and Boltzmann selection are served in
+Python only (`POLICY_PYTHON`).
+"""
+
+from __future__ import annotations
+
+from tavc_cli.learning.draws import below, uniform
+from tavc_cli.learning.policies import RandomPolicy, StaticPolicy, TaskPolicy, TavcPolicy
+from tavc_cli.sim.kernel import kernel
+
+# which policy a trial's deliveries are served by in compiled code
+POLICY_PYTHON, POLICY_EGREEDY, POLICY_RANDOM, POLICY_STATIC = range(4)
+
+
+def policy_kind(policy: TaskPolicy) -> int:
+    """How compiled code serves this policy's deliveries (`POLICY_*`)."""
+    if isinstance(policy, TavcPolicy):
+        return POLICY_EGREEDY if policy.selection == "egreedy" else POLICY_PYTHON
+    if isinstance(policy, RandomPolicy):
+        return POLICY_RANDOM
+    if isinstance(policy, StaticPolicy):
+        return POLICY_STATIC
+    return POLICY_PYTHON
+
+
+@kernel
+def q_learn(q, state, action, reward, next_state, alpha, gamma):
+    """`qlearning.q_update` on one robot's table q (n_states, n_actions), in place."""
+    q_sa = q[state, action]
+    top = q[next_state, 0]
+    for b in range(1, q.shape[1]):
+        if q[next_state, b] > top:  # Python's max keeps the first of equals, as this does
+            top = q[next_state, b]
+    q[state, action] = q_sa + alpha * (reward + gamma * top - q_sa)
+
+
+@kernel
+def egreedy(q_row, epsilon, next_uint32, next_double, rng):
+    """`qlearning.epsilon_greedy`: a random action with probability epsilon, else the
+    greedy one, ties broken by a draw among them."""
+    n = q_row.shape[0]
+    if uniform(next_double, rng) < epsilon:
+        return below(next_uint32, rng, n)
+    top = q_row[0]
+    for b in range(1, n):
+        if q_row[b] > top:
+            top = q_row[b]
+    ties = 0
+    for b in range(n):
+        ties += q_row[b] == top
+    pick = 0 if ties == 1 else below(next_uint32, rng, ties)
+    for b in range(n):
+        if q_row[b] == top:
+            if pick == 0:
+                return b
+            pick -= 1
+    return n - 1  # not reached: one action holds the maximum
