@@ -517,8 +517,13 @@ def test_wrap_angle_is_the_remainder_formula_to_the_last_bit():
     edges = [0.0, -0.0, math.pi, -math.pi, 2 * math.pi, -2 * math.pi, 3 * math.pi, -3 * math.pi, 5 * math.pi,
              1e-300, -1e-300]
     near = [np.nextafter(e, d) for e in edges for d in (-np.inf, np.inf)]
-    angles = np.concatenate([edges, near, rng.uniform(-4 * math.pi, 4 * math.pi, 20000),
-                             rng.uniform(-1e6, 1e6, 1000), [np.inf, -np.inf, np.nan]])
+    # headings that have turned many times: a hair either side of whole turns (less pi), where a
+    # quotient rounded to the next integer would give the wrong multiple of 2 pi, and beyond 1e6
+    turns = np.concatenate([np.arange(-300, 300), rng.integers(-150_000, 150_000, 2000)]) * 2 * math.pi - math.pi
+    around = [np.nextafter(np.nextafter(t, d), d) for t in turns for d in (-np.inf, np.inf)]
+    angles = np.concatenate([edges, near, turns, np.nextafter(turns, np.inf), np.nextafter(turns, -np.inf), around,
+                             rng.uniform(-4 * math.pi, 4 * math.pi, 20000), rng.uniform(-1e6, 1e6, 20000),
+                             rng.uniform(-1e9, 1e9, 1000), [np.inf, -np.inf, np.nan]])
     for a in angles.tolist():
         expected = (a + math.pi) % (2.0 * math.pi) - math.pi  # Python's float remainder
         got = wrap_angle(a)

@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 from tavc_cli.sim.arena import N_OUTER_WALLS
-from tavc_cli.sim.kernel import kernel
+from tavc_cli.sim.kernel import fma, kernel
 
 HIT_NONE, HIT_WALL, HIT_ROBOT, HIT_TARGET = 0, 1, 2, 3
 # rays this much outside an object's angular extent (as `_fast_atan2` bounds it) are not
@@ -58,7 +58,30 @@ def wrap_angle(a: float) -> float:
         return (x - turn) - math.pi
     if -turn <= x < 0.0:
         return (x + turn) - math.pi
-    return x % turn - math.pi
+    return _turns_remainder(x) - math.pi
+
+
+@kernel(inline="always")
+def _turns_remainder(x: float) -> float:
+    """x % 2 pi, as Python computes it, for x outside [-2 pi, 4 pi) (headings that have turned
+    many times), without the C library's fmod where |x| < 1e6.
+
+    Python's remainder is fmod's exact one, moved into [0, 2 pi) by adding 2 pi to a negative
+    one; that sum is exact too, since the result is x - k 2 pi for the integer k = floor(x / 2 pi)
+    exactly, and every such number in [0, 2 pi) is a double: x (|x| >= 4) and 2 pi are multiples
+    of 2^-50, so it is one too, below 8 = 2^53 2^-50. So one fused multiply-add gives it for the
+    right k; the k from a rounded x / 2 pi may be one off, which the result's range shows.
+    """
+    turn = 2.0 * math.pi
+    if not -1e6 < x < 1e6:
+        return x % turn
+    k = np.floor(x / turn)
+    r = fma(-k, turn, x)
+    if r < 0.0:
+        return fma(-(k - 1.0), turn, x)
+    if r >= turn:
+        return fma(-(k + 1.0), turn, x)
+    return r
 
 
 @kernel(inline="always")
