@@ -100,7 +100,7 @@ def write_perf_map(dispatchers, pid: int | None = None) -> tuple[Path, int]:
     path = Path(tempfile.gettempdir()) / f"perf-{pid or os.getpid()}.map"
     starts = sorted(entries)
     with open(path, "w") as out:
-        for start, end in zip(starts, [*starts[1:], None], strict=True):
+        for start, end in zip(starts, [*starts[1:], None][:len(starts)], strict=True):
             size = min((end or start + 65536) - start, 1 << 20)
             out.write(f"{start:x} {size:x} {entries[start]}\n")
     return path, len(starts)
@@ -143,7 +143,7 @@ def run_profile(specs, perf: str | None = None) -> dict:
     from tavc_cli.experiments.engine import BatchEngine
 
     compile_afresh()
-    engine = BatchEngine(specs)  # compiles the kernels it runs
+    engine = BatchEngine(specs).compile()
     map_path, n_named = write_perf_map([tick.run_ticks, tick.sense_decide_command])
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp) / "perf.data"

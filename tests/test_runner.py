@@ -329,3 +329,44 @@ def test_runs_started_together_compile_their_kernels_one_at_a_time(monkeypatch):
     pool.load_kernels([Batch(spec.controller, 0, (spec,))])
     assert seen == ["held"]
     assert lock_state() == "free"
+
+
+def test_the_kernel_parts_have_the_types_the_entry_points_call_them_with():
+    # compiled apart, a part helps only if the entry points then find it under the very
+    # signature they call it with; any other type would compile it a second time
+    import numba
+
+    from tavc_cli.experiments.engine import BatchEngine
+
+    spec = trial_specs(settings(load_config(["experiment=breakdown", "scale=smoke"])))[0]
+    engine = BatchEngine([spec])
+    engine.run()  # both entry points, and everything below them, compiled or loaded
+    apart, here = engine.kernel_parts()
+    assert apart and here
+    for kernel, args in apart + here:
+        assert tuple(numba.typeof(a) for a in args) in kernel.signatures, kernel.py_func.__name__
+
+
+@pytest.mark.slow
+def test_kernels_compiled_in_two_processes_are_found_in_the_cache(tmp_path):
+    # with an empty cache, the copy compiles the behaviours and this process the rest; compiling
+    # the entry points then loads the behaviours from the cache instead of compiling them again
+    import os
+    import subprocess
+    import sys
+
+    probe = (
+        "from tavc_cli.config import load_config, settings\n"
+        "from tavc_cli.experiments.build import trial_specs\n"
+        "from tavc_cli.experiments.engine import BatchEngine\n"
+        "from tavc_cli.experiments.pool import compile_in_two\n"
+        "from tavc_cli.behaviours.navigation import behave\n"
+        "from tavc_cli.sim.sensors import cast_laser\n"
+        "spec = trial_specs(settings(load_config(['experiment=breakdown', 'scale=smoke'])))[0]\n"
+        "compile_in_two(BatchEngine([spec]))\n"
+        "BatchEngine([spec]).run()\n"
+        "for k in (behave, cast_laser):\n"
+        "    print(sum(k.stats.cache_hits.values()), sum(k.stats.cache_misses.values()), len(k.signatures))\n")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True,
+                         env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}).stdout.split("\n")
+    assert out[:2] == ["1 0 1", "0 1 1"]  # behaviours: found in the cache; laser: compiled here; once each

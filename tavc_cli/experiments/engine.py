@@ -29,12 +29,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from functools import cached_property
 
 import numpy as np
 
 from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan, empty_work
-from tavc_cli.behaviours.navigation import compiled
+from tavc_cli.behaviours.navigation import behave, compiled
 from tavc_cli.experiments.clock import end_tick
 from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TrialRecord
@@ -53,13 +54,23 @@ from tavc_cli.experiments.tick import (
     Arrivals,
     run_ticks,
     sense_decide_command,
+    serve_arrivals,
 )
 from tavc_cli.experiments.trial import TrialFault, TrialState
 from tavc_cli.learning.behaviour import BatchDecisions
 from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, POLICY_STATIC, policy_kind
 from tavc_cli.learning.draws import entry_points, same_functions
 from tavc_cli.sim.arena import SOURCE
-from tavc_cli.sim.world import CP_EACH_BODY, CP_STEP, PhysicsWorld
+from tavc_cli.sim.sensors import camera_nearest, cast_laser, odometry_update
+from tavc_cli.sim.world import (
+    CP_EACH_BODY,
+    CP_STEP,
+    PhysicsWorld,
+    read_bodies,
+    read_poses,
+    write_and_step,
+    write_commands,
+)
 
 _LOG_ROWS = 1024  # arrivals compiled code may serve before Python takes them into the trials' tables
 
@@ -139,11 +150,6 @@ class BatchEngine:
         learners = [(tr.lo, tr.hi, tr.policy, tr.decide_ticks) for tr in self.trials if tr.learns_behaviours]
         self._decisions = BatchDecisions(self.robots, self.scan.camera, learners) if learners else None
         self._params = np.array([self.params], dtype=self.params.dtype)
-        self._kernel = compiled(sense_decide_command, self.world.io, self.pose, self.robots, self.noise[0],
-                                self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s, self.work)
-        self._run = compiled(run_ticks, self.world.space_io, CP_EACH_BODY, CP_STEP, self.world.io, self.pose,
-                             self.robots, self.noise, self._params, self.geometry, self.laser, self.scan, self.cmd,
-                             self.act_s, self.work, self._arrivals, *self._draws[:2], 0, 0, 0.0, 0.0, 0.0, False)
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
                 self._assign(tr, i, 0.0)
@@ -182,6 +188,46 @@ class BatchEngine:
         for b in range(len(trials)):
             self._sync_trial(b, arrivals)
         return arrivals, (points[0].next_uint32, points[0].next_double, points)
+
+    # --- compiled code ---------------------------------------------------------
+    @cached_property
+    def _kernel(self):
+        """`tick.sense_decide_command`, compiled (or loaded from numba's cache) for this batch's
+        bundles when first needed."""
+        return compiled(sense_decide_command, self.world.io, self.pose, self.robots, self.noise[0], self._params,
+                        self.geometry, self.laser, self.scan, self.cmd, self.act_s, self.work)
+
+    @cached_property
+    def _run(self):
+        """`tick.run_ticks`, likewise."""
+        return compiled(run_ticks, self.world.space_io, CP_EACH_BODY, CP_STEP, self.world.io, self.pose,
+                        self.robots, self.noise, self._params, self.geometry, self.laser, self.scan, self.cmd,
+                        self.act_s, self.work, self._arrivals, *self._draws[:2], 0, 0, 0.0, 0.0, 0.0, False)
+
+    def compile(self) -> BatchEngine:
+        """Compile (or load) both entry points now rather than when first needed."""
+        _ = self._kernel, self._run
+        return self
+
+    def kernel_parts(self) -> tuple[list[tuple], list[tuple]]:
+        """The kernels below this batch's two entry points, as (kernel, arguments) with arguments
+        of the types they are called with, in two parts of similar compile time, neither calling
+        into the other: the behaviours (about half of the whole), and the sensors, the serving of
+        arrivals and the physics' input and output. Compiled apart, the two fill numba's cache,
+        and the entry points then compile only what is their own."""
+        r, k = np.int64(0), np.int64(0)
+        record = self._params[0]
+        behaviours = [(behave, (r, self.robots, self.pose, record, self.geometry, self.laser, self.scan, self.cmd,
+                                self.work))]
+        world = self.world
+        rest = [(cast_laser, (r, self.robots, self.pose, self.laser, self.geometry, record, self.scan)),
+                (camera_nearest, (r, self.robots, self.pose, self.geometry, record, self.scan)),
+                (odometry_update, (r, self.robots, self.pose, self.noise[0])),
+                (serve_arrivals, (self.robots, self._arrivals, k, float(self.dt), self.act_s, *self._draws[:2])),
+                (read_poses, (world.io, self.pose)), (write_commands, (world.io, self.cmd, self.scan.heading_cs)),
+                (read_bodies, (world.space_io, CP_EACH_BODY)),
+                (write_and_step, (world.space_io, CP_EACH_BODY, CP_STEP))]
+        return behaviours, rest
 
     def _sync_trial(self, b: int, arrivals: Arrivals | None = None) -> None:
         """Trial b's values, scores and unit of time, as they stand, into the arrival bundle."""
