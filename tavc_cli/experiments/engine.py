@@ -231,7 +231,7 @@ class BatchEngine:
 
     def _sync_trial(self, b: int, arrivals: Arrivals | None = None) -> None:
         """Trial b's values, scores and unit of time, as they stand, into the arrival bundle."""
-        arrivals = arrivals or self._arrivals
+        arrivals = self._arrivals if arrivals is None else arrivals
         tr = self.trials[b]
         arrivals.values[b] = tr.values
         arrivals.scores[b] = tr.scores
