@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from tavc_cli.config import load_config, settings
-from tavc_cli.experiments import engine as engine_module
+from tavc_cli.experiments import arrivals as arrivals_module
 from tavc_cli.experiments import trial
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine, run_trials
@@ -233,7 +233,7 @@ def test_runs_of_compiled_ticks_compute_what_the_tick_by_tick_loop_does(learner,
     # of odometry noise (512 ticks each) pass. With a log of one row, compiled code must leave to
     # Python any tick with more arrivals than it has room to log; Boltzmann selection is
     # Python's alone.
-    monkeypatch.setattr(engine_module, "_LOG_ROWS", log_rows)
+    monkeypatch.setattr(arrivals_module, "LOG_ROWS", log_rows)
     specs = _specs("arena=two_circuits", f"learner={learner}", "team.n_robots=5", "trials=2", "duration_s=600",
                    "sim.q_snapshot_every_s=70", "sim.pose_every_s=45",
                    "events.breakdowns=[{time_s:150.0,robot:1},{time_s:333.3,circuit:high}]",

@@ -19,6 +19,7 @@ from tavc_cli.cli import app
 from tavc_cli.config import load_config, settings
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments import engine
+from tavc_cli.experiments.arrivals import ArrivalDesk
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.store import FAILURES_LOG, trial_path
 from tavc_cli.io import LOCK_NAME, claim_folder
@@ -117,14 +118,14 @@ def test_a_robot_outside_the_walls_stops_its_trial(tmp_path, monkeypatch, refere
 
 
 def test_an_exception_inside_a_trial_is_named_and_the_others_finish(tmp_path, monkeypatch, reference):
-    real_log = engine.BatchEngine._log_arrival  # every arrival is logged, served by Python or compiled code
+    real_log = ArrivalDesk.log_arrival  # every arrival is logged, served by Python or compiled code
 
     def log_arrival(tr, *row):
         if tr.spec.trial in (0, 2):
             raise ZeroDivisionError("a made-up fault in the simulation")
         real_log(tr, *row)
 
-    monkeypatch.setattr(engine.BatchEngine, "_log_arrival", staticmethod(log_arrival))
+    monkeypatch.setattr(ArrivalDesk, "log_arrival", staticmethod(log_arrival))
     result = _cli(tmp_path, "trials=4", "executor.batch_size=4")
     assert result.exit_code == 1
     assert len(result.output.strip().splitlines()) == 1
@@ -168,8 +169,8 @@ def test_a_second_run_on_a_folder_in_use_stops_and_writes_nothing(tmp_path):
 
 
 def test_the_folder_is_released_after_a_refused_or_failed_run(tmp_path, monkeypatch):
-    monkeypatch.setattr(engine.BatchEngine, "_log_arrival",
-                        staticmethod(lambda *a: (_ for _ in ()).throw(RuntimeError("boom"))))
+    boom = staticmethod(lambda *a: (_ for _ in ()).throw(RuntimeError("boom")))
+    monkeypatch.setattr(ArrivalDesk, "log_arrival", boom)
     with pytest.raises(TavcError, match="failed: RuntimeError: boom"):
         run_experiment(_cfg(tmp_path, "trials=1"))
     assert not (tmp_path / LOCK_NAME).exists()

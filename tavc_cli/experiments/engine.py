@@ -14,7 +14,8 @@ Python serves.
 
 Per tick (`BatchEngine.run`): what falls due (events, snapshots, pose frames) ->
 behaviour choices of section 1.4's learners -> sense and decide (the kernel, over
-the bundles of `behaviours.layout`) -> serve arrivals (rewards, next tasks) -> move
+the bundles of `behaviours.layout`) -> serve arrivals (rewards, next tasks: the
+`arrivals.ArrivalDesk`, in Python or by compiled code) -> move
 (wheel commands to the physics, one control period of it).
 
 Time: a trial runs on its own clock, `tick * dt` seconds since it started; rewards,
@@ -36,31 +37,22 @@ import numpy as np
 from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan, empty_work
 from tavc_cli.behaviours.navigation import behave, compiled
+from tavc_cli.experiments.arrivals import ArrivalDesk
 from tavc_cli.experiments.clock import end_tick
 from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.tick import (
-    LOG_CHOICE,
-    LOG_COLUMNS,
-    LOG_SCORE,
-    LOG_SPENT,
-    LOG_STATE,
-    LOG_TASK_S,
     NOISE_BLOCK_TICKS,
     RUN_ARRIVED,
     RUN_DUE,
     RUN_LOST_BODIES,
-    Arrivals,
     run_ticks,
     sense_decide_command,
     serve_arrivals,
 )
 from tavc_cli.experiments.trial import TrialFault, TrialState
 from tavc_cli.learning.behaviour import BatchDecisions
-from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, POLICY_STATIC, policy_kind
-from tavc_cli.learning.draws import entry_points, same_functions
-from tavc_cli.sim.arena import SOURCE
 from tavc_cli.sim.sensors import camera_nearest, cast_laser, odometry_update
 from tavc_cli.sim.world import (
     CP_EACH_BODY,
@@ -71,8 +63,6 @@ from tavc_cli.sim.world import (
     write_and_step,
     write_commands,
 )
-
-_LOG_ROWS = 1024  # arrivals compiled code may serve before Python takes them into the trials' tables
 
 
 def _next_multiple(tick: int, every: int) -> int:
@@ -135,15 +125,7 @@ class BatchEngine:
         self.cmd = np.zeros((n, 2))
         # seconds each robot spent in each activity (activities.ACTIVITIES), in all and at its task's start
         self.act_s = np.zeros((n, N_ACT))
-        self.act_at_task = np.zeros((n, N_ACT))
-        self.tick_started = False
-        self.src = np.array([c.source for c in self.arena.circuits], dtype=np.int64)
-        self.snk = np.array([c.sink for c in self.arena.circuits], dtype=np.int64)
-        self.kind_of = np.array([t.kind for t in self.arena.targets], dtype=np.int64)
-        self._arrivals, self._draws = self._arrival_bundle()
-        self._trial_of = self.robots["trial"].tolist()
-        # views of the robots' fields Python reads and writes per arrival (cheaper than a record's)
-        self._target, self._activity, self._arrived = (self.robots[f] for f in ("target", "activity", "arrived"))
+        self.desk = ArrivalDesk(self.trials, self.arena, self.robots, self.act_s, self.dt)
         self.tick = 0  # every trial's clock is tick * dt
         self.schedule = _Schedule(self.trials)
         self.on_tick: Callable[[BatchEngine], None] | None = None
@@ -152,42 +134,7 @@ class BatchEngine:
         self._params = np.array([self.params], dtype=self.params.dtype)
         for tr in self.trials:
             for i in range(tr.spec.n_robots):
-                self._assign(tr, i, 0.0)
-
-    def _arrival_bundle(self) -> tuple[Arrivals, tuple]:
-        """What compiled code serves arrivals with (`tick.Arrivals`), and the two entry points
-        of the policies' bit generator it draws through. Each trial's per-robot state (tasks,
-        learning states, task starts) and each TAVC policy's Q-tables become views of the
-        bundle's arrays, so that Python and compiled code serve arrivals on the same numbers."""
-        n, n_c, trials = self.n, self.arena.n_circuits, self.trials
-        task, last_circuit = np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64)
-        state, task_start = np.zeros(n, dtype=np.int64), np.zeros(n)
-        q, assignment = np.zeros((n, n_c, n_c)), np.zeros(n, dtype=np.int64)
-        policy = np.array([policy_kind(tr.policy) for tr in trials], dtype=np.int64)
-        learning = np.zeros((3, len(trials)))  # epsilon, alpha, gamma of each TAVC trial
-        points = [entry_points(tr.policy_rng) for tr in trials]
-        if not same_functions(points):  # one pair of functions serves the batch, or Python does
-            policy[:] = POLICY_PYTHON
-        for b, tr in enumerate(trials):
-            lo, hi = tr.lo, tr.hi
-            tr.task, tr.last_circuit = task[lo:hi], last_circuit[lo:hi]
-            state[lo:hi] = tr.state
-            tr.state, tr.task_start = state[lo:hi], task_start[lo:hi]
-            if policy[b] == POLICY_EGREEDY:
-                q[lo:hi] = tr.policy.q
-                tr.policy.q = q[lo:hi]
-                learning[:, b] = tr.policy.epsilon, tr.policy.alpha, tr.policy.gamma
-            elif policy[b] == POLICY_STATIC:
-                assignment[lo:hi] = tr.policy.assignment
-        arrivals = Arrivals(
-            task, last_circuit, state, task_start, self.act_at_task, q, assignment, self.kind_of, self.src, self.snk,
-            policy, *learning.copy(), np.zeros(len(trials)),
-            np.zeros((len(trials), n_c)), np.zeros((len(trials), n_c)),
-            np.array([p.state for p in points], dtype=np.uint64),
-            np.zeros((_LOG_ROWS, LOG_COLUMNS)), np.zeros(1, dtype=np.int64))
-        for b in range(len(trials)):
-            self._sync_trial(b, arrivals)
-        return arrivals, (points[0].next_uint32, points[0].next_double, points)
+                self.desk.assign(tr, i, 0.0)
 
     # --- compiled code ---------------------------------------------------------
     @cached_property
@@ -202,7 +149,7 @@ class BatchEngine:
         """`tick.run_ticks`, likewise."""
         return compiled(run_ticks, self.world.space_io, CP_EACH_BODY, CP_STEP, self.world.io, self.pose,
                         self.robots, self.noise, self._params, self.geometry, self.laser, self.scan, self.cmd,
-                        self.act_s, self.work, self._arrivals, *self._draws[:2], 0, 0, 0.0, 0.0, 0.0, False)
+                        self.act_s, self.work, self.desk.bundle, *self.desk.draws, 0, 0, 0.0, 0.0, 0.0, False)
 
     def compile(self) -> BatchEngine:
         """Compile (or load) both entry points now rather than when first needed."""
@@ -223,66 +170,17 @@ class BatchEngine:
         rest = [(cast_laser, (r, self.robots, self.pose, self.laser, self.geometry, record, self.scan)),
                 (camera_nearest, (r, self.robots, self.pose, self.geometry, record, self.scan)),
                 (odometry_update, (r, self.robots, self.pose, self.noise[0])),
-                (serve_arrivals, (self.robots, self._arrivals, k, float(self.dt), self.act_s, *self._draws[:2])),
+                (serve_arrivals, (self.robots, self.desk.bundle, k, float(self.dt), self.act_s, *self.desk.draws)),
                 (read_poses, (world.io, self.pose)), (write_commands, (world.io, self.cmd, self.scan.heading_cs)),
                 (read_bodies, (world.space_io, CP_EACH_BODY)),
                 (write_and_step, (world.space_io, CP_EACH_BODY, CP_STEP))]
         return behaviours, rest
-
-    def _sync_trial(self, b: int, arrivals: Arrivals | None = None) -> None:
-        """Trial b's values, scores and unit of time, as they stand, into the arrival bundle."""
-        arrivals = self._arrivals if arrivals is None else arrivals
-        tr = self.trials[b]
-        arrivals.values[b] = tr.values
-        arrivals.scores[b] = tr.scores
-        arrivals.time_unit_s[b] = tr.spec.time_unit_s
 
     # --- time ---------------------------------------------------------------
     @property
     def clock(self) -> float:
         """Seconds since the trials started (their warm-ups included)."""
         return self.tick * self.dt
-
-    # --- tasks --------------------------------------------------------------
-    def _assign(self, tr: TrialState, i: int, t: float) -> None:
-        """Robot i of trial tr picks its next circuit and heads for that circuit's source."""
-        circuit = tr.policy.choose(i, int(tr.state[i]))
-        tr.rows.add("choices", t, i, int(tr.state[i]), circuit)
-        tr.task[i] = circuit
-        tr.task_start[i] = t
-        self.act_at_task[tr.lo + i] = self._act_before_tick(tr.lo + i)
-        # the robot finishes what it is doing at the dock it leaves before heading off
-        self._target[tr.lo + i] = self.src[circuit]
-
-    def _arrive(self, tr: TrialState, i: int, t: float) -> None:
-        g = tr.lo + i
-        target = int(self._target[g])
-        circuit = int(tr.task[i])
-        kind = int(self.kind_of[target])
-        self._log_arrival(tr, t, i, target, circuit, kind)
-        tr.last_circuit[i] = circuit
-        if tr.learns_behaviours:
-            tr.policy.arrived(i, float(tr.values[circuit]) / ((t - tr.last_arrival[i]) / tr.spec.time_unit_s))
-            tr.last_arrival[i] = t
-        if kind == SOURCE:
-            self._target[g] = self.snk[circuit]
-            return
-        task_time = t - tr.task_start[i]
-        value = float(tr.values[circuit])
-        reward = value / (task_time / tr.spec.time_unit_s)
-        spent = self._act_before_tick(g) - self.act_at_task[g]
-        tr.rows.add("deliveries", t, i, circuit, task_time, reward, value, float(tr.scores[circuit]), *spent)
-        tr.policy.learn(i, int(tr.state[i]), circuit, reward, circuit)
-        tr.state[i] = circuit
-        self._assign(tr, i, t)
-
-    def _act_before_tick(self, g: int) -> np.ndarray:
-        """Robot g's activity seconds up to the start of this tick: the tick in which a robot
-        arrives is spent at the dock, on its next task (none yet before the first tick)."""
-        spent = self.act_s[g].copy()
-        if self.tick_started:
-            spent[self._activity[g]] -= self.dt
-        return spent
 
     # --- scheduled events ---------------------------------------------------
     def _fire_events(self, b: int, t: float) -> None:
@@ -304,7 +202,7 @@ class BatchEngine:
                 tr.scores[np.argsort(-tr.values, kind="stable")] = np.sort(tr.spec.score_values)[::-1]
                 tr.vc_t.append(t)
                 tr.vc.append(tr.values.copy())
-                self._sync_trial(b)
+                self.desk.sync(b)
 
     # --- the loop -----------------------------------------------------------
     def end_tick(self) -> int:
@@ -348,7 +246,7 @@ class BatchEngine:
             else:
                 n_arrived = self._sense_and_decide()
                 if n_arrived:
-                    self._serve_arrivals(t)
+                    self.desk.serve(t)
                 self._move()
                 self.tick += 1
             if self.on_tick is not None:
@@ -369,52 +267,31 @@ class BatchEngine:
             raise ValueError("a branch names one trial for each trial of the batch")
         for b, (tr, spec) in enumerate(zip(self.trials, specs, strict=True)):
             tr.go_on_as(spec, self.tick, self.dt)
-            self._sync_trial(b)
+            self.desk.sync(b)
         self.schedule.update(self.trials)
 
     def _run_compiled(self, stop: int, next_due: float) -> None:
         """The ticks up to `stop` (or to the first at which something falls due) in compiled code
         (`tick.run_ticks`), which serves arrivals and deliveries and logs them for the tables
-        (`_take_served`), Python serving only the ticks it leaves (a delivery of a policy it
+        (`ArrivalDesk.take_served`), Python serving only the ticks it leaves (a delivery of a policy it
         does not run, a full log): the same work, in the same order, as the loop of `run`
         does it tick by tick."""
         world, move_first = self.world, False  # `run` has seen to what is due at the first tick
         while self.tick < stop:
             done, why = self._run(world.space_io, CP_EACH_BODY, CP_STEP, world.io, self.pose, self.robots, self.noise,
                                   self._params, self.geometry, self.laser, self.scan, self.cmd, self.act_s,
-                                  self.work, self._arrivals, *self._draws[:2], self.tick, stop, 0.0, self.dt, next_due,
-                                  move_first)
-            self._take_served()
+                                  self.work, self.desk.bundle, *self.desk.draws, self.tick, stop, 0.0, self.dt,
+                                  next_due, move_first)
+            self.desk.take_served()
             self.tick += done
-            self.tick_started = True
+            self.desk.tick_started = True
             move_first = why == RUN_ARRIVED
             if move_first:  # this tick's kernel ran: its arrivals here, its move back in compiled code
-                self._serve_arrivals(self.clock)
+                self.desk.serve(self.clock)
             elif why == RUN_DUE:
                 return
             elif why == RUN_LOST_BODIES:
                 raise RuntimeError("the physics space holds bodies the world did not index")
-
-    def _take_served(self) -> None:
-        """The arrivals and deliveries compiled code served (`tick.serve_arrivals`), into their
-        trials' tables as `_arrive` and `_assign` put them."""
-        logged = self._arrivals.logged
-        if not logged[0]:
-            return
-        for row in self._arrivals.log[:logged[0]].tolist():
-            tick, g, target, circuit, kind = (int(x) for x in row[:5])
-            tr = self.trials[self._trial_of[g]]
-            t, i = tick * self.dt, g - tr.lo
-            self._log_arrival(tr, t, i, target, circuit, kind)
-            if kind != SOURCE:
-                tr.rows.add("deliveries", t, i, circuit, *row[LOG_TASK_S:LOG_SCORE + 1], *row[LOG_SPENT:LOG_STATE])
-                tr.rows.add("choices", t, i, int(row[LOG_STATE]), int(row[LOG_CHOICE]))
-        logged[0] = 0
-
-    @staticmethod
-    def _log_arrival(tr: TrialState, t: float, i: int, target: int, circuit: int, kind: int) -> None:
-        """Robot i of trial tr reached `target` (a SOURCE or SINK of `circuit`) at time t."""
-        tr.rows.add("arrivals", t, i, target, circuit, kind)
 
     def _fall_due(self, t: float, schedule: _Schedule) -> None:
         """Scheduled events, Q-table snapshots and pose frames that fall due at time t.
@@ -451,7 +328,7 @@ class BatchEngine:
             world.read()
         n_arrived = self._kernel(world.io, self.pose, self.robots, self.noise[k], self._params, self.geometry,
                                  self.laser, self.scan, self.cmd, self.act_s, self.work)
-        self.tick_started = True
+        self.desk.tick_started = True
         return n_arrived
 
     def _check_poses(self, pose: np.ndarray, t: float) -> None:
@@ -473,11 +350,6 @@ class BatchEngine:
         where = ("has no valid pose" if not np.isfinite(pose[g]).all()
                  else f"is outside the walls at ({x[g]:.2f}, {y[g]:.2f}) m")
         raise TrialFault(b, f"robot {i} {where} at t = {t - self.trials[b].spec.warmup_s:.1f} s")
-
-    def _serve_arrivals(self, t: float) -> None:
-        for g in np.flatnonzero(self._arrived).tolist():
-            tr = self.trials[self._trial_of[g]]
-            self._arrive(tr, g - tr.lo, t)
 
     def _move(self) -> None:
         """The wheel commands the kernel left to the physics, and one control period of it."""

@@ -76,9 +76,9 @@ class TrialSpec:
         return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 
-_OUTCOME_CODE = ("sim", "behaviours", "learning", "experiments/engine.py", "experiments/events.py",
-                 "experiments/clock.py", "experiments/spec.py", "experiments/tick.py", "experiments/trial.py",
-                 "experiments/records.py")
+_OUTCOME_CODE = ("sim", "behaviours", "learning", "experiments/engine.py", "experiments/arrivals.py",
+                 "experiments/events.py", "experiments/clock.py", "experiments/spec.py", "experiments/tick.py",
+                 "experiments/trial.py", "experiments/records.py")
 
 
 @cache

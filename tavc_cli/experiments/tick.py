@@ -40,7 +40,7 @@ RUN_LOST_BODIES = 3  # the space holds bodies the world did not index
 LOG_TICK, LOG_ROBOT, LOG_TARGET, LOG_CIRCUIT, LOG_KIND = range(5)
 LOG_TASK_S, LOG_REWARD, LOG_VALUE, LOG_SCORE = range(5, 9)
 LOG_SPENT = 9  # N_ACT columns: the task's seconds in each activity
-LOG_STATE, LOG_CHOICE = LOG_SPENT + N_ACT, LOG_SPENT + N_ACT + 1
+LOG_CHOICE = LOG_SPENT + N_ACT  # the next circuit (chosen in the state LOG_CIRCUIT, the one just served)
 LOG_COLUMNS = LOG_CHOICE + 1
 
 
@@ -120,17 +120,14 @@ def serve_arrivals(robots, arr, tick, dt_s, act_s, next_uint32, next_double):
             before = act_s[g, a] - dt_s if a == rob.activity else act_s[g, a]
             log[row, LOG_SPENT + a] = before - arr.act_at_task[g, a]
             arr.act_at_task[g, a] = before
-        kind_of_policy = arr.policy[b]
-        if kind_of_policy == POLICY_EGREEDY:
+        if arr.policy[b] == POLICY_EGREEDY:
             q_learn(arr.q[g], arr.state[g], circuit, reward, circuit, arr.alpha[b], arr.gamma[b])
-        arr.state[g] = circuit
-        if kind_of_policy == POLICY_EGREEDY:
             choice = egreedy(arr.q[g, circuit], arr.epsilon[b], next_uint32, next_double, arr.rng[b])
-        elif kind_of_policy == POLICY_RANDOM:
+        elif arr.policy[b] == POLICY_RANDOM:
             choice = below(next_uint32, arr.rng[b], arr.q.shape[1])
         else:
             choice = arr.assignment[g]
-        log[row, LOG_STATE] = circuit
+        arr.state[g] = circuit
         log[row, LOG_CHOICE] = choice
         arr.task[g] = choice
         arr.task_start[g] = t

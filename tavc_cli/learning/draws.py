@@ -34,12 +34,11 @@ _SHIFT32 = np.uint64(32)
 class EntryPoints(NamedTuple):
     """Where compiled code draws a generator's numbers: its state's address and the two
     functions of its bit generator that read it. The functions are the same for every
-    generator of one kind of bit generator; `bit_generator` keeps the state alive."""
+    generator of one kind of bit generator; the state lives as long as the generator."""
 
     state: int
     next_uint32: ctypes._CFuncPtr
     next_double: ctypes._CFuncPtr
-    bit_generator: object
 
 
 def entry_points(rng: np.random.Generator) -> EntryPoints:
@@ -47,8 +46,7 @@ def entry_points(rng: np.random.Generator) -> EntryPoints:
     iface = rng.bit_generator.ctypes
     return EntryPoints(int(iface.state_address),
                        NEXT_UINT32(ctypes.cast(iface.next_uint32, ctypes.c_void_p).value),
-                       NEXT_DOUBLE(ctypes.cast(iface.next_double, ctypes.c_void_p).value),
-                       rng.bit_generator)
+                       NEXT_DOUBLE(ctypes.cast(iface.next_double, ctypes.c_void_p).value))
 
 
 def same_functions(points: list[EntryPoints]) -> bool:
