@@ -54,18 +54,19 @@ class ArrivalDesk:
         # views of the robots' fields Python reads and writes per arrival (cheaper than a record's)
         self.target, self.activity, self.arrived = (robots[f] for f in ("target", "activity", "arrived"))
         self.bundle, self.draws = self._bundle(n, arena.n_circuits)
-        for b in range(len(trials)):
-            self.sync(b)
 
     def _bundle(self, n: int, n_c: int) -> tuple[Arrivals, tuple]:
         """What compiled code serves arrivals with (`tick.Arrivals`) and the two entry points of
         the policies' bit generator it draws through (the trials' generators keep them alive). Each
-        trial's per-robot state (tasks, learning states, task starts) and each TAVC policy's
-        Q-tables become views of the bundle's arrays."""
+        trial's per-robot state (tasks, learning states, task starts), its values and scores
+        (which a value change rewrites in place) and each TAVC policy's Q-tables become views
+        of the bundle's arrays."""
         trials = self.trials
         task, last_circuit = np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64)
         state, task_start = np.zeros(n, dtype=np.int64), np.zeros(n)
         q, assignment = np.zeros((n, n_c, n_c)), np.zeros(n, dtype=np.int64)
+        values, scores = np.zeros((len(trials), n_c)), np.zeros((len(trials), n_c))
+        time_unit_s = np.array([tr.spec.time_unit_s for tr in trials], dtype=np.float64)
         policy = np.array([policy_kind(tr.policy) for tr in trials], dtype=np.int64)
         learning = np.zeros((3, len(trials)))  # epsilon, alpha, gamma of each TAVC trial
         points = [entry_points(tr.policy_rng) for tr in trials]
@@ -76,6 +77,8 @@ class ArrivalDesk:
             tr.task, tr.last_circuit = task[lo:hi], last_circuit[lo:hi]
             state[lo:hi] = tr.state
             tr.state, tr.task_start = state[lo:hi], task_start[lo:hi]
+            values[b], scores[b] = tr.values, tr.scores
+            tr.values, tr.scores = values[b], scores[b]
             if policy[b] == POLICY_EGREEDY:
                 q[lo:hi] = tr.policy.q
                 tr.policy.q = q[lo:hi]
@@ -84,18 +87,10 @@ class ArrivalDesk:
                 assignment[lo:hi] = tr.policy.assignment
         bundle = Arrivals(
             task, last_circuit, state, task_start, self.act_at_task, q, assignment, self.kind_of, self.source_of,
-            self.sink_of, policy, *learning, np.zeros(len(trials)),
-            np.zeros((len(trials), n_c)), np.zeros((len(trials), n_c)),
+            self.sink_of, policy, *learning, time_unit_s, values, scores,
             np.array([p.state for p in points], dtype=np.uint64),
             np.zeros((LOG_ROWS, LOG_COLUMNS)), np.zeros(1, dtype=np.int64))
         return bundle, (points[0].next_uint32, points[0].next_double)
-
-    def sync(self, b: int) -> None:
-        """Trial b's values, scores and unit of time, as they stand, into the bundle."""
-        tr = self.trials[b]
-        self.bundle.values[b] = tr.values
-        self.bundle.scores[b] = tr.scores
-        self.bundle.time_unit_s[b] = tr.spec.time_unit_s
 
     # --- in Python ------------------------------------------------------------
     def serve(self, t: float) -> None:

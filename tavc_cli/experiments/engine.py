@@ -183,8 +183,7 @@ class BatchEngine:
         return self.tick * self.dt
 
     # --- scheduled events ---------------------------------------------------
-    def _fire_events(self, b: int, t: float) -> None:
-        tr = self.trials[b]
+    def _fire_events(self, tr: TrialState, t: float) -> None:
         while tr.events and tr.events[0][0] <= t:
             _, kind, ev = tr.events.pop(0)
             if kind == EventKind.BREAKDOWN:
@@ -196,13 +195,11 @@ class BatchEngine:
                 self.robots[tr.lo + robot]["alive"] = False
                 tr.rows.add("breakdowns", t, robot)
             else:
-                tr.values = np.array(ev.values, dtype=np.float64)
+                tr.values[:] = ev.values  # in place: compiled code serves arrivals with these arrays
                 # scores follow the values' ranking: the new high-value circuit earns the high score
-                tr.scores = np.empty_like(tr.scores)
                 tr.scores[np.argsort(-tr.values, kind="stable")] = np.sort(tr.spec.score_values)[::-1]
                 tr.vc_t.append(t)
                 tr.vc.append(tr.values.copy())
-                self.desk.sync(b)
 
     # --- the loop -----------------------------------------------------------
     def end_tick(self) -> int:
@@ -265,9 +262,8 @@ class BatchEngine:
         `experiments.lineage` decides which trials may continue which."""
         if len(specs) != len(self.trials):
             raise ValueError("a branch names one trial for each trial of the batch")
-        for b, (tr, spec) in enumerate(zip(self.trials, specs, strict=True)):
+        for tr, spec in zip(self.trials, specs, strict=True):
             tr.go_on_as(spec, self.tick, self.dt)
-            self.desk.sync(b)
         self.schedule.update(self.trials)
 
     def _run_compiled(self, stop: int, next_due: float) -> None:
@@ -302,7 +298,7 @@ class BatchEngine:
         poses = self.world.poses(out=np.empty_like(self.pose))
         for b, tr in enumerate(self.trials):
             if tr.events and tr.events[0][0] <= t:
-                self._fire_events(b, t)
+                self._fire_events(tr, t)
             if t >= schedule.next_q[b]:
                 tr.snapshot_q(t)
                 schedule.next_q[b] += tr.spec.q_snapshot_every_s  # on the schedule's own grid: no drift
