@@ -49,7 +49,7 @@ class Arrivals(NamedTuple):
     its source to the sink; at the sink, record the delivery, update the robot's Q-table and
     choose its next circuit (for trials whose policy `learning.compiled` runs; the others are
     left to the engine), drawing from the trial's own generator. Rows are robots of the batch
-    unless said otherwise; every array is the engine's own (its trials' views, its policies'
+    unless said otherwise; every array is `arrivals.ArrivalDesk`'s (its trials' views, its policies'
     tables), so Python and compiled code serve arrivals alike."""
 
     task: np.ndarray          # (n,) int64: the circuit each robot serves
@@ -76,7 +76,7 @@ class Arrivals(NamedTuple):
 
 @kernel
 def serve_arrivals(robots, arr, tick, dt_s, act_s, next_uint32, next_double):
-    """Serve every robot that arrived in `tick`, as the engine's `_arrive` does, and log each
+    """Serve every robot that arrived in `tick`, as `ArrivalDesk.arrive` does, and log each
     arrival; return True. If a robot delivered for a trial whose policy only Python runs, or
     the log has no room for them all, change nothing and return False: the engine serves
     that tick's arrivals itself."""
