@@ -203,6 +203,9 @@ class PaperConfig:
     duration_s: float = 3600.0
     convergence_s: float = 900.0
     baseline_trials: Optional[int] = None
+    # a trial the chapter measures in deliveries (section 1.4: 1000 traversals of the group)
+    # ends with the tick of its robots' n-th delivery after the warm-up; duration_s caps it
+    deliveries: Optional[int] = None
 
 
 @dataclass
@@ -311,6 +314,7 @@ class TavcConfig:
     baseline_trials: Optional[int] = None
     duration_s: Optional[float] = None
     convergence_s: Optional[float] = None
+    deliveries: Optional[int] = None
     output_dir: Optional[str] = None
     paper: PaperConfig = field(default_factory=PaperConfig)
     baselines: List[str] = field(default_factory=list)

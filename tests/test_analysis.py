@@ -293,6 +293,21 @@ def test_performance_counts_a_trailing_partial_bin():
     np.testing.assert_allclose(rate, [3.0 / 30, 0.0, 0.0, 2.0 / 10])
 
 
+def test_a_trial_that_ended_sooner_has_rates_over_the_time_it_ran():
+    # a trial counted in deliveries that ended at 75 s, analysed over [0, 100) in 30 s bins:
+    # [0, 30) 3 points / 30 s; [30, 60) none; [60, 90) ran 15 s, 1.5 points; [90, 100) not at all
+    rec = _record(deliveries=[(5.0, 3.0), (70.0, 1.5)], duration_s=75.0)
+    centres, rate = value_rate_series(rec, 30.0, 0.0, 100.0)
+    np.testing.assert_allclose(centres, [15.0, 45.0, 75.0, 95.0])
+    np.testing.assert_allclose(rate, [0.1, 0.0, 0.1, np.nan])
+    assert value_rate(rec, 0.0, 100.0) == pytest.approx(4.5 / 75.0)  # its 75 s, not 100
+    assert value_rate(rec, 60.0, 100.0) == pytest.approx(1.5 / 15.0)
+    assert math.isnan(value_rate(rec, 80.0, 100.0))
+    # over trials, a bin counts only the trials that ran in it
+    table = performance_table([rec, _record(deliveries=[(95.0, 2.0)])], 30.0, 0.0, 100.0)
+    assert table["n_trials"].tolist() == [2, 2, 2, 1] and table["mean"].iloc[-1] == pytest.approx(0.2)
+
+
 def test_value_rate_over_a_period():
     rec = _record(deliveries=[(10.0, 10.0), (40.0, 1.0), (60.0, 10.0)])
     # [0, 50): 11 points in 50 s = 0.22 per second; [50, 100): 10 / 50 = 0.2

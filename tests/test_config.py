@@ -270,6 +270,8 @@ def test_errors_read_exactly(overrides, message):
         (["sim.physics_substeps=0"], "sim.physics_substeps"),
         (["scale.time_factor=0"], "scale.time_factor"),
         (["paper.trials=null"], "paper.trials"),
+        (["experiment=spatiotemporal", "paper.deliveries=0"], "paper.deliveries"),
+        (["deliveries=-3"], "deliveries"),
     ],
 )
 def test_bad_values_fail_with_one_line_naming_the_key(overrides, key):
@@ -348,3 +350,15 @@ def test_long_scale_multiplies_durations_and_warm_up_by_ten():
     cfg = load_config(["experiment=breakdown", "scale=long"])
     assert (cfg.duration_s, cfg.convergence_s, cfg.sim.warmup_s) == (270000.0, 90000.0, 180000.0)
     assert cfg.trials == 8
+
+
+@pytest.mark.parametrize(("overrides", "deliveries"), [
+    (["experiment=spatiotemporal", "scale=paper"], 1000),  # the chapter's 1000 traversals a trial
+    (["experiment=spatiotemporal", "scale=quick"], 250),  # a quarter of the time, a quarter of them
+    (["experiment=spatiotemporal", "scale=smoke"], 20),
+    (["experiment=spatiotemporal", "scale=paper", "deliveries=40"], 40),  # set by hand: as given
+    (["experiment=spatiotemporal", "scale=paper", "paper.deliveries=null"], None),  # back to a fixed length
+    (["experiment=initial_distribution", "scale=paper"], None),  # the chapter gives its length in hours
+])
+def test_trials_counted_in_deliveries_scale_like_durations(overrides, deliveries):
+    assert load_config(overrides).deliveries == deliveries

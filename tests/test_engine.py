@@ -1,6 +1,7 @@
 """The transport loop (tavc_cli.experiments.engine): tasks, interference, events, seeding."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -253,6 +254,64 @@ def test_runs_of_compiled_ticks_compute_what_the_tick_by_tick_loop_does(learner,
         assert len(a.table("deliveries")["t_s"]) > 10 and len(a.table("breakdowns")["t_s"]) == 2
         # the policy's generator was drawn from as often either way
         assert tr.policy_rng.random() == tick_by_tick.trials[fast.index(a)].policy_rng.random()
+
+
+def _until(rec, t_s):
+    """The record's event tables cut to the rows at or before time t_s."""
+    return {name: {c: v[rec.table(name)["t_s"] <= t_s] for c, v in rec.table(name).items()}
+            for name in ("arrivals", "deliveries", "choices", "breakdowns")}
+
+
+def test_a_trial_counted_in_deliveries_ends_with_the_tick_of_its_nth_after_the_warm_up():
+    # Section 1.4's trials last 1000 traversals, not a time. A trial with `deliveries` set ends
+    # with the tick of its team's n-th delivery made after its warm-up; up to then it is the
+    # trial without the count, row for row (the count changes when it ends, nothing before).
+    free = _specs("arena=two_circuits", "learner=tavc_egreedy", "team.n_robots=4", "trials=1", "duration_s=600",
+                  "sim.warmup_s=150", "sim.q_snapshot_every_s=100",
+                  "events.breakdowns=[{time_s:500.0,robot:1}]")[0]
+    whole = run_trials([free])[0]
+    d = whole.table("deliveries")
+    after = d["t_s"][d["t_s"] >= 0.0]
+    assert len(d["t_s"]) > len(after) > 12  # some during the warm-up, which do not count
+    ended = run_trials([replace(free, deliveries=9)])[0]
+    nth = after[8]
+    assert ended.meta["duration_s"] == pytest.approx(nth + DT_S, abs=1e-9)
+    assert ended.meta["deliveries"] == 9 and whole.meta["duration_s"] == 600.0
+    cut = _until(whole, nth + DT_S / 2)
+    for name, cols in cut.items():
+        for col, values in cols.items():
+            np.testing.assert_array_equal(ended.table(name)[col], values, err_msg=f"{name}.{col}")
+    assert len(ended.table("breakdowns")["t_s"]) == 0  # it ended before its robot broke down
+    # the snapshots before its end, then its Q-tables as it ended
+    kept = whole.q_t < nth
+    np.testing.assert_array_equal(ended.q_t[:-1], whole.q_t[kept])
+    np.testing.assert_array_equal(ended.q[:-1], whole.q[kept])
+    assert ended.q_t[-1] == pytest.approx(nth + DT_S)
+    # a count it does not reach in its duration: the trial runs its whole length, as without one
+    unreached = run_trials([replace(free, deliveries=10_000)])[0]
+    assert unreached.meta["duration_s"] == 600.0
+    unreached.meta.update(key=whole.meta["key"], deliveries=None)
+    _assert_records_equal(unreached, whole)
+
+
+def test_trials_that_end_at_different_deliveries_are_the_same_batched_as_alone():
+    specs = _random_specs(5, 3)
+    specs = [replace(specs[0], deliveries=4), replace(specs[1], deliveries=11), specs[2]]
+    engine = BatchEngine(specs)
+    together = engine.run()
+    for spec, record in zip(specs, together, strict=True):
+        _assert_records_equal(run_trials([spec])[0], record)
+    assert together[0].meta["duration_s"] < together[1].meta["duration_s"] < 300.0
+    assert engine.tick == 3000  # the third trial, counted in seconds, ran its 300 s
+
+
+def test_a_batch_of_trials_counted_in_deliveries_stops_when_the_last_has_ended():
+    specs = [replace(s, deliveries=k) for s, k in zip(_random_specs(5, 2), (3, 5), strict=True)]
+    engine = BatchEngine(specs)
+    records = engine.run()
+    last = max(r.meta["duration_s"] for r in records)
+    assert engine.tick == round(last / DT_S) < 3000
+    assert [len(r.table("deliveries")["t_s"]) for r in records] >= [3, 5]
 
 
 def test_a_batch_of_policies_compiled_code_serves_and_one_it_does_not(monkeypatch):

@@ -16,6 +16,7 @@ from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.joint import run_together
 from tavc_cli.experiments.lineage import Item, plan, trees
 from tavc_cli.experiments.records import TrialRecord, records_differ
+from tavc_cli.experiments.spec import Breakdown
 from tavc_cli.experiments.store import Executor, trial_path
 
 SECTION_1_5 = ("initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change")
@@ -201,3 +202,24 @@ def test_a_forked_branch_reports_its_progress_through_the_process_that_forked_it
     joint.run_tree_batch(batch, seen.append)
     assert seen == sorted(seen) and 0.99 < seen[-1] <= 1.0  # the pool marks the batch done at its end
     assert any(0.2 < f < 0.7 for f in seen)
+
+
+def test_trials_counted_in_deliveries_share_history_only_with_their_own_warm_up_and_length(tmp_path, monkeypatch):
+    # a trial that ends with its n-th delivery after the warm-up may end anywhere: it shares its
+    # history only with trials of the same warm-up, duration and count, which may still part
+    # at an event; in a tree each is computed as it is alone
+    base = _specs("initial_distribution", "scale=smoke", "trials=1", "baselines=[]")[0]
+    counted = replace(base, deliveries=8)
+    items = [Item(counted, tmp_path / "a"),
+             Item(replace(counted, breakdowns=(Breakdown(30.0, circuit="high"),)), tmp_path / "b"),
+             Item(replace(counted, warmup_s=20.0), tmp_path / "c"),
+             Item(replace(counted, duration_s=counted.duration_s / 2), tmp_path / "d"),
+             Item(base, tmp_path / "e")]
+    forest = trees(items)
+    assert sorted(len(t.items()) for t in forest) == [1, 1, 1, 2]  # a and b part at the breakdown
+    monkeypatch.setattr(joint, "simulate_contained", _no_trial_alone)
+    run_together(_by_folder(items), Executor(n_jobs=1, batch_size=8))
+    for item in items:
+        assert _alone_equals_stored(item) == [], item.folder.name
+    ended = [TrialRecord.load(trial_path(i.folder, "tavc", 0)).meta["duration_s"] for i in items]
+    assert ended[0] < base.duration_s and ended[-1] == base.duration_s

@@ -182,6 +182,25 @@ def test_lane_offsets_are_left_of_the_direction_of_travel():
     assert sorted(zip(to_sink["x_m"], to_sink["y_m"], to_sink["count"], strict=True)) == [(4.5, 3.5, 2), (7.5, 3.5, 2)]
 
 
+def test_lanes_are_read_in_each_trials_own_first_and_last_tenth():
+    # two trials, one that ran 1000 s and one that ended with its n-th delivery at 400 s: frames
+    # every 20 s; the robot drives to the sink 0.4 m left of the axis until 300 s, then 0.2 m right
+    t = np.arange(0.0, 1000.0, 20.0)
+    frames = [[[4.0, 3.4 if x < 300.0 else 2.8, 0.0]] for x in t]
+    long_run = _record([], n_robots=1, poses=frames, pose_t=t)
+    short = _record([], n_robots=1, poses=[f for f, x in zip(frames, t, strict=True) if x < 400.0],
+                    pose_t=t[t < 400.0])
+    short.meta["duration_s"] = 400.0
+    assert st.lane_windows(short) == {"early": (0.0, 40.0), "late": (360.0, 400.0)}
+    lanes = st.lane_table([long_run, short], (0.0, 3.0), (8.0, 3.0), st.lane_windows)
+    # early: 0-100 s and 0-40 s, both left (+0.4); late: 900-1000 s and 360-400 s, both right (-0.2)
+    assert lanes["window"].tolist() == ["early", "late", "early", "late"]
+    np.testing.assert_allclose(lanes["mean_left_m"], [0.4, -0.2, 0.4, -0.2])
+    assert lanes["n_frames"].tolist() == [5, 5, 2, 2]
+    occ = st.occupancy_table([long_run, short], (0.0, 3.0), (8.0, 3.0), 8.0, 6.0, st.lane_windows, cell_m=1.0)
+    assert occ.groupby("window")["count"].sum().to_dict() == {"early": 7, "late": 7}
+
+
 def test_claims_1_and_2_on_hand_made_tables():
     from tavc_cli.analysis.claims import claim_rows
 

@@ -22,7 +22,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -154,13 +154,12 @@ def lane_offsets(rec: TrialRecord, source_xy: Sequence[float], sink_xy: Sequence
     return np.concatenate([lateral[to_sink & away], -lateral[to_source & away]])
 
 
-def lane_table(records: Iterable[TrialRecord], source_xy, sink_xy, windows: dict[str, tuple[float, float]]
-               ) -> pd.DataFrame:
+def lane_table(records: Iterable[TrialRecord], source_xy, sink_xy, windows: Windows) -> pd.DataFrame:
     """`controller,trial,window,mean_left_m,n_frames`: per trial and window, the mean offset to the
     left of the direction of travel (the lane index)."""
     rows = []
     for rec in records:
-        for name, (a, b) in windows.items():
+        for name, (a, b) in _windows_of(windows, rec).items():
             x = lane_offsets(rec, source_xy, sink_xy, a, b)
             rows.append({"controller": rec.meta["controller"], "trial": int(rec.meta["trial"]), "window": name,
                          "mean_left_m": float(x.mean()) if len(x) else math.nan, "n_frames": len(x)})
@@ -199,19 +198,31 @@ def table_1_1_from(traversals: pd.DataFrame, targets: pd.DataFrame) -> pd.DataFr
     return pd.DataFrame(rows)
 
 
-def lane_windows(duration_s: float) -> dict[str, tuple[float, float]]:
-    """The first and the last tenth of the run."""
+def lane_windows(rec: TrialRecord) -> dict[str, tuple[float, float]]:
+    """The first and the last tenth of the trial's run (its own length: a trial that ends with
+    its n-th delivery ends when it does)."""
+    duration_s = float(rec.meta["duration_s"])
     return {"early": (0.0, duration_s / 10.0), "late": (duration_s * 0.9, duration_s)}
 
 
+Windows = Mapping[str, tuple[float, float]] | Callable[[TrialRecord], Mapping[str, tuple[float, float]]]
+
+
+def _windows_of(windows: Windows, rec: TrialRecord) -> Mapping[str, tuple[float, float]]:
+    """The windows for one trial: the same for all, or a function of its record."""
+    return windows(rec) if callable(windows) else windows
+
+
 def occupancy_table(records: Iterable[TrialRecord], source_xy, sink_xy, width_m: float, height_m: float,
-                    windows: dict[str, tuple[float, float]], cell_m: float = 0.25) -> pd.DataFrame:
+                    windows: Windows, cell_m: float = 0.25) -> pd.DataFrame:
     """`window,direction,x_m,y_m,count`: pose frames per cell of robots driving along the axis,
     toward the sink or toward the source, summed over trials (the lane heat map)."""
     nx, ny = int(round(width_m / cell_m)), int(round(height_m / cell_m))
-    counts = {(w, d): np.zeros((nx, ny), dtype=np.int64) for w in windows for d in ("to_sink", "to_source")}
+    records = list(records)
+    names = list(dict.fromkeys(w for rec in records for w in _windows_of(windows, rec)))
+    counts = {(w, d): np.zeros((nx, ny), dtype=np.int64) for w in names for d in ("to_sink", "to_source")}
     for rec in records:
-        for w, (a, b) in windows.items():
+        for w, (a, b) in _windows_of(windows, rec).items():
             poses, _, _, to_sink, to_source = _directed_frames(rec, source_xy, sink_xy, a, b)
             for d, mask in (("to_sink", to_sink), ("to_source", to_source)):
                 xy = poses[mask][:, :2]

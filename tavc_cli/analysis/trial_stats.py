@@ -49,9 +49,11 @@ def settle_time(centres, series, bin_s: float, t_conv: float) -> float:
 
 
 def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame:
-    """`controller,trial,value_rate_stable,value_rate_convergence,value_rate_before,pct_<state>...`.
+    """`controller,trial,duration_s,value_rate_stable,value_rate_convergence,value_rate_before,pct_<state>...`
+    (`duration_s`: how long the trial ran after its warm-up).
 
-    Stable period: [convergence_s, duration_s); convergence period: [0, convergence_s);
+    Stable period: [convergence_s, duration_s) (to its end for a trial that ended sooner, with
+    its n-th delivery); convergence period: [0, convergence_s);
     before: [-w, 0) with w = analysis.before_s, or the stable period's length if that is null,
     capped by the warm-up (NaN without one).
     A state that never occurred in a trial's stable period has 0 %; a trial whose state was
@@ -78,6 +80,7 @@ def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame
         shares = time_shares(rec, t_conv, t_end, scheme)
         row = {
             "controller": rec.meta["controller"], "trial": int(rec.meta["trial"]),
+            "duration_s": float(rec.meta["duration_s"]),
             "value_rate_stable": value_rate(rec, t_conv, t_end),
             "value_rate_convergence": value_rate(rec, 0.0, t_conv) if t_conv > 0 else math.nan,
             "value_rate_before": value_rate(rec, -before, 0.0) if before > 0 else math.nan,
@@ -91,8 +94,8 @@ def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame
         for s in states:
             row[STATE_PREFIX + s] = shares.get(s, 0.0) if shares else math.nan
         rows.append(row)
-    columns = ["controller", "trial", "value_rate_stable", "value_rate_convergence", "value_rate_before", "settle_s",
-               "policy_settle_s", "policy_changes",
+    columns = ["controller", "trial", "duration_s", "value_rate_stable", "value_rate_convergence", "value_rate_before",
+               "settle_s", "policy_settle_s", "policy_changes",
                *(Q_GAP_PREFIX + g for g in (group_names if len(group_names) > 1 else [])),
                *(STATE_PREFIX + s for s in states)]
     return pd.DataFrame(rows, columns=columns)

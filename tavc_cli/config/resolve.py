@@ -9,6 +9,9 @@ Rules:
   sets ``duration_s`` but not ``convergence_s``, the stable period keeps the paper's share of
   the run: ``convergence_s = duration_s * (paper.convergence_s / paper.duration_s)`` (what
   ``scale`` gives too, since it multiplies both by the same factor).
+- ``deliveries``: ``paper.deliveries`` times ``scale.time_factor``, rounded, at least 1 (none when
+  the paper measures its trials in seconds). A trial then ends with the tick of its team's
+  n-th delivery after the warm-up, ``duration_s`` being its longest.
 - ``sim.warmup_s`` and every event time (``events.breakdowns[*].time_s``,
   ``events.value_changes[*].time_s``) are ALWAYS multiplied by ``scale.time_factor``, also when
   set on the command line, so that an experiment keeps its shape at every scale.
@@ -46,6 +49,8 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
         # a duration set by hand keeps the paper's converging share; else scale both alike
         share = cfg.paper.convergence_s / cfg.paper.duration_s
         cfg.convergence_s = cfg.duration_s * share if user_duration else cfg.paper.convergence_s * factor
+    if cfg.deliveries is None and cfg.paper.deliveries is not None:
+        cfg.deliveries = max(1, round(cfg.paper.deliveries * factor))
     # Warm-up and event times scale with the experiment, even when set by hand, so that a
     # quick run keeps the paper run's shape (a breakdown a third of the way in stays there).
     cfg.sim.warmup_s = cfg.sim.warmup_s * factor

@@ -56,6 +56,10 @@ def validate_scaling(cfg: DictConfig) -> None:
     if paper.baseline_trials is not None:
         at_least("paper.baseline_trials", paper.baseline_trials, 1)
     positive("paper.duration_s", paper.duration_s)
+    if paper.deliveries is not None:
+        at_least("paper.deliveries", paper.deliveries, 1)
+    if cfg.deliveries is not None:
+        at_least("deliveries", cfg.deliveries, 1)
     # before resolution scales it, so that the message shows the value the user wrote
     at_least("sim.warmup_s", cfg.sim.warmup_s, 0)
     check(

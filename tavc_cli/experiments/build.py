@@ -62,6 +62,7 @@ def base_spec(cfg: TavcConfig) -> TrialSpec:
         time_unit_s=TIME_UNITS_S[tasks.time_unit],
         duration_s=float(cfg.duration_s),
         warmup_s=float(sim.warmup_s),
+        deliveries=None if cfg.deliveries is None else int(cfg.deliveries),
         dt_s=float(sim.dt_s),
         physics_substeps=int(sim.physics_substeps),
         solver_iterations=int(sim.solver_iterations),

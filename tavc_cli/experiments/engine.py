@@ -129,6 +129,7 @@ class BatchEngine:
         self.tick = 0  # every trial's clock is tick * dt
         self.schedule = _Schedule(self.trials)
         self.on_tick: Callable[[BatchEngine], None] | None = None
+        self._leaving: list[TrialState] = []  # trials that ended with a delivery, robots still in the world
         learners = [(tr.lo, tr.hi, tr.policy, tr.decide_ticks) for tr in self.trials if tr.learns_behaviours]
         self._decisions = BatchDecisions(self.robots, self.scan.camera, learners) if learners else None
         self._params = np.array([self.params], dtype=self.params.dtype)
@@ -211,7 +212,8 @@ class BatchEngine:
 
     def run(self, progress: Callable[[float], None] | None = None,
             until_tick: int | None = None) -> list[TrialRecord] | None:
-        """Advance until every trial reaches its duration; return their records. With
+        """Advance until every trial reaches its duration (or has ended with its n-th delivery,
+        `TrialSpec.deliveries`); return their records. With
         `until_tick`, advance only up to that tick (not served yet) and return None: the batch
         can go on from there, or `branch` first.
 
@@ -225,10 +227,14 @@ class BatchEngine:
         start = self.tick
         report_every = max(1, (n_ticks - start) // 200)
         # runs of ticks in compiled code wherever nothing in between needs Python (not with
-        # section 1.4's learners, who choose every tick, nor with a hook watching every tick)
-        runs = self._decisions is None and self.on_tick is None
-        while self.tick < n_ticks:
+        # section 1.4's learners, who choose every tick, nor with a hook watching every tick,
+        # nor with trials that end with a delivery, which Python counts)
+        counting = any(tr.spec.deliveries is not None for tr in self.trials)
+        runs = self._decisions is None and self.on_tick is None and not counting
+        while self.tick < n_ticks and not (counting and all(tr.ended_clock is not None for tr in self.trials)):
             t = self.tick * self.dt
+            if self._leaving:
+                self._take_out_ended()
             if t >= schedule.next_due:
                 self._fall_due(t, schedule)
             if self._decisions is not None:
@@ -244,6 +250,8 @@ class BatchEngine:
                 n_arrived = self._sense_and_decide()
                 if n_arrived:
                     self.desk.serve(t)
+                    if counting:
+                        self._end_delivered()
                 self._move()
                 self.tick += 1
             if self.on_tick is not None:
@@ -265,6 +273,30 @@ class BatchEngine:
         for tr, spec in zip(self.trials, specs, strict=True):
             tr.go_on_as(spec, self.tick, self.dt)
         self.schedule.update(self.trials)
+
+    def _end_delivered(self) -> None:
+        """End, with this tick, every trial whose robots have made the deliveries it ends with:
+        it takes no snapshot, pose frame or event from here on, its record is the trial as it
+        ended (`TrialState.record`), and its robots leave the world before the next tick (as a
+        broken-down robot does, without a record of it; not in the middle of this one, whose
+        wheel commands are ready for the bodies as they are)."""
+        for b, tr in enumerate(self.trials):
+            if tr.ended_clock is not None or tr.spec.deliveries is None or tr.delivered < tr.spec.deliveries:
+                continue
+            tr.ended_clock = (self.tick + 1) * self.dt
+            tr.events = []
+            self._leaving.append(tr)
+            self.schedule.next_q[b] = self.schedule.next_pose[b] = math.inf
+            self.schedule.update(self.trials)
+
+    def _take_out_ended(self) -> None:
+        """The robots of the trials that ended last tick out of the world."""
+        for tr in self._leaving:
+            for g in range(tr.lo, tr.hi):
+                if self.robots[g]["alive"]:
+                    self.world.remove(g)
+                    self.robots[g]["alive"] = False
+        self._leaving = []
 
     def _run_compiled(self, stop: int, next_due: float) -> None:
         """The ticks up to `stop` (or to the first at which something falls due) in compiled code

@@ -11,7 +11,10 @@ a branch goes on from a copy of the whole simulation, made by forking the proces
 
 Two trials can share history only if everything that acts before they part is the same:
 arena, robot, team, learner, values, time step, physics, seed and controller (`lineage`).
-Their warm-ups, durations and events may differ; the events decide where they part.
+Their warm-ups, durations and events may differ; the events decide where they part. A trial
+that ends with a number of deliveries counts them from the end of its warm-up, and may end
+before its duration: it shares history only with trials of the same warm-up, duration and
+delivery count.
 """
 
 from __future__ import annotations
@@ -35,7 +38,10 @@ class Item:
 
 def lineage(spec: TrialSpec) -> str:
     """What must be equal for two trials to share history, as a digest: the spec without its
-    warm-up, duration and events (the tree sorts those out)."""
+    warm-up, duration and events (the tree sorts those out), or only without its events for a
+    trial that ends with a number of deliveries."""
+    if spec.deliveries is not None:
+        return replace(spec, breakdowns=(), value_changes=()).key()
     return replace(spec, duration_s=0.0, warmup_s=0.0, breakdowns=(), value_changes=()).key()
 
 

@@ -51,6 +51,7 @@ class TrialSpec:
     time_unit_s: float
     duration_s: float
     warmup_s: float = 0.0
+    deliveries: int | None = None  # the trial ends with the tick of its n-th delivery after the warm-up
     dt_s: float = 0.1
     physics_substeps: int = 1
     solver_iterations: int = 10

@@ -76,6 +76,8 @@ class TrialState:
                              if self.learns_behaviours else 0)
         self.last_circuit = np.full(n, -1, dtype=np.int64)
         self.alive = np.ones(n, dtype=bool)
+        self.delivered = 0  # deliveries after the warm-up, for a trial that ends with its n-th
+        self.ended_clock: float | None = None  # when such a trial ended, on its clock
         self.rows = TableBuilder()  # times on the trial's clock (seconds since it started)
         self.events = clock_events(spec)
         self.vc_t: list[float] = []
@@ -120,9 +122,12 @@ class TrialState:
             self.q.append(q)
 
     def record(self, spec: TrialSpec, clock_s: float, arena_name: str, n_circuits: int) -> TrialRecord:
-        """The trial's record as it stands at `clock_s`, as the trial `spec`: the times of its
-        tables are the clock less that trial's warm-up, and its Q-tables as they are now end
-        the snapshots. Leaves this book-keeping as it was."""
+        """The trial's record as it stands at `clock_s` (or as it ended, for a trial that ended
+        with its n-th delivery), as the trial `spec`: the times of its tables are the clock less
+        that trial's warm-up, its duration is the time it ran after the warm-up, and its Q-tables
+        as they are now end the snapshots. Leaves this book-keeping as it was."""
+        if self.ended_clock is not None:
+            clock_s = self.ended_clock
         t0 = -spec.warmup_s
         q_t, q = list(self.q_t), list(self.q)
         if spec.q_snapshot_every_s > 0 and (not q_t or q_t[-1] < clock_s):
@@ -138,8 +143,9 @@ class TrialState:
                 "trial": spec.trial, "controller": spec.controller, "seed": list(spec.seed),
                 "key": spec.key(), "n_robots": spec.n_robots, "n_circuits": n_circuits, "groups": list(spec.groups),
                 "speeds_mps": list(spec.speeds_mps), "values": list(spec.values),
-                "score_values": list(spec.score_values), "duration_s": spec.duration_s,
-                "warmup_s": spec.warmup_s, "dt_s": spec.dt_s, "arena": arena_name,
+                "score_values": list(spec.score_values),
+                "duration_s": spec.duration_s if self.ended_clock is None else clock_s - spec.warmup_s,
+                "deliveries": spec.deliveries, "warmup_s": spec.warmup_s, "dt_s": spec.dt_s, "arena": arena_name,
                 "policy": spec.policy.name,
                 "start_poses": self.start.tolist(),
             },
@@ -159,9 +165,11 @@ class TrialState:
 
     def go_on_as(self, spec: TrialSpec, tick: int, dt: float) -> None:
         """From `tick` on, this trial is `spec`: its events still to come are the spec's that
-        fall due at this tick or later (those before it are the ones this trial has had)."""
+        fall due at this tick or later (those before it are the ones this trial has had); a
+        trial that has ended has none."""
         self.spec = spec
-        self.events = [e for e in clock_events(spec) if due_tick(e[0], dt) >= tick]
+        self.events = [] if self.ended_clock is not None else [
+            e for e in clock_events(spec) if due_tick(e[0], dt) >= tick]
 
 
 def clock_events(spec: TrialSpec) -> list[tuple]:

@@ -55,7 +55,8 @@ def measurement_specs(cfg: TavcConfig, n_max: int, trials: int, warmup_s: float,
             replace(base, speeds_mps=(speed,) * m, groups=("all",) * m, values=(1.0,) * k, score_values=(1.0,) * k,
                     policy=LearnerConfig(name="static", allocation=list(n)), controller=prefix + split_name(n), trial=j,
                     seed=(int(cfg.seed), MODEL_CONTROLLER_CODE, *n, j), duration_s=warmup_s + measure_s,
-                    warmup_s=0.0, breakdowns=(), value_changes=(), q_snapshot_every_s=0.0, pose_every_s=0.0)
+                    warmup_s=0.0, deliveries=None, breakdowns=(), value_changes=(), q_snapshot_every_s=0.0,
+                    pose_every_s=0.0)
             for j in range(trials)
         ]
     return out

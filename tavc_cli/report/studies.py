@@ -91,6 +91,7 @@ def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path)
                      f"{c.mean_target_s:.1f} ± {c.std_target_s:.1f} | {fmt(o.mean_target_s)} ± "
                      f"{fmt(o.std_target_s)} ({o.n_trials}) |")
     lines.append("")
+    lines += trial_length_lines(d, cfg)
     fig_dir = results_dir / "figures"
     if (d / "target_times.csv").is_file():
         target_time_figure(target_time_curve(pd.read_csv(d / "target_times.csv")), chapter,
@@ -129,3 +130,18 @@ def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path)
         lines += [f"![lanes, {name}](figures/lanes_{name}.png)", ""]
     return lines
 
+
+
+def trial_length_lines(d: Path, cfg: TavcConfig) -> list[str]:
+    """How long the trials ran, where they end with a number of deliveries (traversals)."""
+    if cfg.deliveries is None or not (d / "trial_stats.csv").is_file():
+        return []
+    stats = pd.read_csv(d / "trial_stats.csv")
+    if "duration_s" not in stats:
+        return []
+    x = stats["duration_s"].to_numpy(float)
+    capped = int((x >= float(cfg.duration_s)).sum())
+    return [f"Each trial ran until its robots had made {cfg.deliveries} traversals together (the chapter: "
+            f"{cfg.paper.deliveries}), at most {float(cfg.duration_s):,.0f} s: its trials ran "
+            f"{x.min():,.0f} to {x.max():,.0f} s (mean {x.mean():,.0f} s)"
+            + (f"; {capped} of {len(x)} reached the limit first" if capped else "") + ".", ""]

@@ -99,7 +99,13 @@ def differences(cfg: TavcConfig) -> list[str]:
     if paper.trials is not None and cfg.trials != paper.trials:
         out.append(f"trials {cfg.trials} (the chapter: {paper.trials})")
     if paper.duration_s is not None and float(cfg.duration_s or 0) != float(paper.duration_s):
-        out.append(f"duration {float(cfg.duration_s):g} s (the chapter: {float(paper.duration_s):g} s)")
+        if paper.deliveries is None:
+            out.append(f"duration {float(cfg.duration_s):g} s (the chapter: {float(paper.duration_s):g} s)")
+        else:  # the chapter counts the trial in deliveries; the duration only bounds it
+            out.append(f"longest trial {float(cfg.duration_s):g} s (at paper scale: {float(paper.duration_s):g} s)")
+    if cfg.deliveries != paper.deliveries:
+        ours = "none" if cfg.deliveries is None else f"{cfg.deliveries}"
+        out.append(f"deliveries per trial {ours} (the chapter: {paper.deliveries})")
     values = cfg.tasks.values
     chapter_values = cfg.experiment_name != "spatiotemporal"
     if values is not None and chapter_values and [float(v) for v in values] != [2200.0, 2000.0]:
