@@ -203,6 +203,7 @@ class PaperConfig:
     duration_s: float = 3600.0
     convergence_s: float = 900.0
     baseline_trials: Optional[int] = None
+    static_trials: Optional[int] = None  # the static baseline's, where the chapter ran it apart
     # a trial the chapter measures in deliveries (section 1.4: 1000 traversals of the group)
     # ends with the tick of its robots' n-th delivery after the warm-up; duration_s caps it
     deliveries: Optional[int] = None
@@ -312,6 +313,7 @@ class TavcConfig:
     seed: int = 0
     trials: Optional[int] = None
     baseline_trials: Optional[int] = None
+    static_trials: Optional[int] = None
     duration_s: Optional[float] = None
     convergence_s: Optional[float] = None
     deliveries: Optional[int] = None

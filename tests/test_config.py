@@ -1,6 +1,7 @@
 """Composing, resolving and validating configs (tavc_cli.config)."""
 
 import os
+from collections import Counter
 
 import pytest
 import yaml
@@ -11,10 +12,12 @@ from tavc_cli.config import (
     list_experiments,
     load_config,
     load_sweep,
+    settings,
     to_container,
     to_yaml,
 )
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import trial_specs
 
 CONF_DIR = find_conf_dir()
 EXPERIMENTS = sorted(path.stem for path in (CONF_DIR / "experiment").glob("*.yaml"))
@@ -88,6 +91,7 @@ def test_breakdown_at_quick_scale_resolves_by_hand():
     cfg = load_config(["experiment=breakdown", "scale=quick"])
     assert cfg.trials == 6  # min(scale 6, paper 20)
     assert cfg.baseline_trials == 5  # min(scale 6, paper baseline 5)
+    assert cfg.static_trials == 6  # min(scale 6, paper static 20)
     assert cfg.duration_s == 27000 * 0.25
     assert cfg.convergence_s == 9000 * 0.25
     assert cfg.sim.warmup_s == 18000 * 0.25
@@ -99,9 +103,26 @@ def test_breakdown_at_quick_scale_resolves_by_hand():
 
 
 def test_breakdown_at_paper_scale_uses_the_chapter_counts():
+    # 20 TAVC trials, "five random controllers", a static allocation's mean "over 20 trials"
     cfg = load_config(["experiment=breakdown", "scale=paper"])
-    assert (cfg.trials, cfg.baseline_trials) == (20, 5)
+    assert (cfg.trials, cfg.baseline_trials, cfg.static_trials) == (20, 5, 20)
     assert (cfg.duration_s, cfg.convergence_s, cfg.sim.warmup_s) == (27000.0, 9000.0, 18000.0)
+    counts = Counter(s.controller for s in trial_specs(settings(cfg)))
+    assert counts == {"tavc": 20, "random": 5, "static": 20}
+
+
+@pytest.mark.parametrize("experiment", ["breakdown_no_vacancy", "value_change"])
+def test_five_robot_experiments_compare_with_five_random_trials_as_the_chapter_does(experiment):
+    cfg = load_config([f"experiment={experiment}", "scale=paper"])
+    assert Counter(s.controller for s in trial_specs(settings(cfg))) == {"tavc": 20, "random": 5}
+
+
+def test_static_trials_follow_the_baselines_unless_set():
+    cfg = load_config(["experiment=initial_distribution", "scale=paper", "baselines=[random,static]",
+                       "baseline_trials=3"])
+    assert (cfg.baseline_trials, cfg.static_trials) == (3, 3)
+    cfg = load_config(["experiment=breakdown", "scale=paper", "static_trials=2"])
+    assert Counter(s.controller for s in trial_specs(settings(cfg)))["static"] == 2
 
 
 def test_baseline_trials_default_to_trials():

@@ -5,6 +5,8 @@ Rules:
 - ``trials``: ``min(scale.trials, paper.trials)``, or ``paper.trials`` when the scale sets none.
 - ``baseline_trials``: ``paper.baseline_trials`` capped by ``scale.trials`` like ``trials``;
   when the paper gives none, the same as ``trials``.
+- ``static_trials`` (the static baseline's): ``paper.static_trials`` capped likewise; when the
+  paper gives none, the same as ``baseline_trials``.
 - ``duration_s``, ``convergence_s``: the paper's value times ``scale.time_factor``. When the user
   sets ``duration_s`` but not ``convergence_s``, the stable period keeps the paper's share of
   the run: ``convergence_s = duration_s * (paper.convergence_s / paper.duration_s)`` (what
@@ -41,6 +43,11 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
         paper_baseline = cfg.paper.baseline_trials
         cfg.baseline_trials = (
             cfg.trials if paper_baseline is None else _capped(paper_baseline, cfg.scale.trials)
+        )
+    if cfg.static_trials is None:
+        paper_static = cfg.paper.static_trials
+        cfg.static_trials = (
+            cfg.baseline_trials if paper_static is None else _capped(paper_static, cfg.scale.trials)
         )
     user_duration = cfg.duration_s is not None
     if not user_duration:

@@ -55,6 +55,8 @@ def validate_scaling(cfg: DictConfig) -> None:
     at_least("paper.trials", paper.trials, 1)
     if paper.baseline_trials is not None:
         at_least("paper.baseline_trials", paper.baseline_trials, 1)
+    if paper.static_trials is not None:
+        at_least("paper.static_trials", paper.static_trials, 1)
     positive("paper.duration_s", paper.duration_s)
     if paper.deliveries is not None:
         at_least("paper.deliveries", paper.deliveries, 1)
@@ -230,6 +232,7 @@ def _validate_run(cfg: DictConfig) -> None:
     at_least("seed", cfg.seed, 0)
     at_least("trials", cfg.trials, 1)
     at_least("baseline_trials", cfg.baseline_trials, 1)
+    at_least("static_trials", cfg.static_trials, 1)
     positive("duration_s", cfg.duration_s)
     check(
         0 <= cfg.convergence_s < cfg.duration_s,

@@ -44,7 +44,8 @@ def controllers(cfg: TavcConfig) -> list[tuple[str, LearnerConfig, int]]:
         if any(label == name for label, _, _ in out):
             continue
         allocation = cfg.static_allocation if name == "static" else None
-        out.append((name, LearnerConfig(name=name, allocation=allocation), n_base))
+        n = int(cfg.static_trials or n_base) if name == "static" else n_base
+        out.append((name, LearnerConfig(name=name, allocation=allocation), n))
     return out
 
 
