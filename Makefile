@@ -49,12 +49,16 @@ verify-outcomes: venv ## Recompute initial_distribution and the world search at 
 	@for f in $(VERIFY_WORLD); do cmp results/calibration/world/$$f.csv $(VERIFY_DIR)/calibration/world/$$f.csv || exit 1; done
 	@echo "outcomes identical: $(words $(VERIFY_RUN)) tables of initial_distribution, $(words $(VERIFY_WORLD)) of the world search"
 
-# The experiments (one run of every core) beside the model: the model's trials fill the run's idle tail
+# The experiments (one run of every core) beside the model. The model runs at the lowest
+# priority, so that its trials take only the cores the experiments leave idle (their last
+# trees, their analysis) and then the rest, rather than sharing the cores from the start.
 REPRODUCE_JOBS ?= 2
+MODEL_NICE ?=
 
 reproduce-all: venv ## Run every experiment and the model at paper scale, then write results/REPORT.md; prints the wall time
 	@date +%s > $(VENV)/.reproduce-start
-	$(MAKE) -j$(REPRODUCE_JOBS) --output-sync=target --no-print-directory reproduce-experiments model
+	$(MAKE) -j$(REPRODUCE_JOBS) --output-sync=target --no-print-directory reproduce-experiments model \
+		MODEL_NICE="$$(command -v nice >/dev/null && echo nice -n 19)"
 	$(BIN)/tavc report results
 	@echo "reproduce-all: $$(( $$(date +%s) - $$(cat $(VENV)/.reproduce-start) )) s wall time"
 
@@ -68,7 +72,7 @@ reproduce-quick: venv ## A first look: every experiment at scale=quick into resu
 	@echo "reproduce-quick: $$(( $$(date +%s) - $$(cat $(VENV)/.reproduce-start) )) s wall time"
 
 model: venv ## Measure the vacancy-chain model in the chapter's world (results/initial_distribution/model/)
-	$(BIN)/tavc model experiment=initial_distribution scale=paper
+	$(MODEL_NICE) $(BIN)/tavc model experiment=initial_distribution scale=paper
 
 value-ratio: venv ## Share of time on the high-value circuit against the value ratio: 5 h and 50 h, t in ms and s; gamma 0 at 5 h
 	$(BIN)/tavc run -m experiment=initial_distribution scale=paper 'baselines=[]' tasks.time_unit=ms,s \

@@ -118,7 +118,9 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, wo
     xs, ys = work.xs, work.ys
     m = near_points(r, max(avoid, stop), half, scan, laser, own_barcode, -1, xs, ys)
     heading = np.nan
-    free = free_along(math.cos(bearing), math.sin(bearing), half, xs, ys, m)
+    cos_bearing = math.cos(bearing)
+    heading_cos = cos_bearing  # cos of the heading taken, for the speed below (the same number either way)
+    free = free_along(cos_bearing, math.sin(bearing), half, xs, ys, m)
     if free >= need:
         heading = bearing
     else:
@@ -131,6 +133,7 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, wo
             ux, uy = laser.heading_cos[j], laser.heading_sin[j]
             if not blocked_before(ux, uy, half, xs, ys, m, need):
                 heading, free = ray_ang[j], free_along(ux, uy, half, xs, ys, m)
+                heading_cos = ux  # the C library's cos of ray_ang[j] (`layout.laser_from_angles`)
                 break
     if np.isnan(heading):
         # boxed in: turn toward the more open side, and keep turning that way
@@ -151,7 +154,7 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, wo
     slow = min(1.0, max(0.0, (min(ahead, free) - stop) / max(avoid - stop, 1e-9)))
     if heading != bearing or slow < 1.0:
         rob.activity = ACT_AVOID
-    cmd[r, 0] = vmax * slow * max(0.0, math.cos(heading)) ** 2
+    cmd[r, 0] = vmax * slow * max(0.0, heading_cos) ** 2
     cmd[r, 1] = min(wmax, max(-wmax, 2.0 * heading))
 
 
