@@ -13,6 +13,7 @@ from tavc_cli.experiments import trial
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine, run_trials
 from tavc_cli.experiments.records import records_differ
+from tavc_cli.learning.compiled import POLICY_PYTHON
 
 DT_S = 0.1
 
@@ -224,7 +225,8 @@ def test_a_trial_is_the_same_alone_or_batched_with_others():
 
 
 @pytest.mark.parametrize(("learner", "log_rows"), [("tavc_egreedy", 1024), ("tavc_egreedy", 1), ("random", 1024),
-                                                   ("static", 1024), ("tavc_softmax", 1024)])
+                                                   ("static", 1024), ("tavc_softmax", 1024),
+                                                   ("tavc_softmax", 1)])
 def test_runs_of_compiled_ticks_compute_what_the_tick_by_tick_loop_does(learner, log_rows, monkeypatch):
     # Between events and snapshots the engine runs whole ticks in compiled code, serving
     # arrivals there too: at a source the robot is sent on, at a sink the delivery is recorded,
@@ -232,14 +234,14 @@ def test_runs_of_compiled_ticks_compute_what_the_tick_by_tick_loop_does(learner,
     # every tick forces the loop through Python tick by tick. Breakdowns, a value change, Q-table
     # snapshots, pose frames and a progress report all fall inside the 600 s, and several blocks
     # of odometry noise (512 ticks each) pass. With a log of one row, compiled code must leave to
-    # Python any tick with more arrivals than it has room to log; Boltzmann selection is
-    # Python's alone.
+    # Python any tick with more arrivals than it has room to log.
     monkeypatch.setattr(arrivals_module, "LOG_ROWS", log_rows)
     specs = _specs("arena=two_circuits", f"learner={learner}", "team.n_robots=5", "trials=2", "duration_s=600",
                    "sim.q_snapshot_every_s=70", "sim.pose_every_s=45",
                    "events.breakdowns=[{time_s:150.0,robot:1},{time_s:333.3,circuit:high}]",
                    "events.value_changes=[{time_s:250.0,values:[2000.0,2200.0]}]")
     compiled_runs = BatchEngine(specs)
+    assert (compiled_runs.desk.bundle.policy != POLICY_PYTHON).all()  # every one of them served there
     seen = []
     fast = compiled_runs.run(progress=seen.append)
     tick_by_tick = BatchEngine(specs)
@@ -315,8 +317,12 @@ def test_a_batch_of_trials_counted_in_deliveries_stops_when_the_last_has_ended()
 
 
 def test_a_batch_of_policies_compiled_code_serves_and_one_it_does_not(monkeypatch):
-    # a tick in which a Boltzmann learner delivers goes to Python whole, the e-greedy deliveries of
-    # the same tick with it; the records are those of each trial run alone
+    # a policy compiled code does not serve (here Boltzmann selection, made one): a tick in
+    # which it delivers goes to Python whole, the e-greedy deliveries of the same tick with it;
+    # the records are those of each trial run alone
+    kind = arrivals_module.policy_kind
+    monkeypatch.setattr(arrivals_module, "policy_kind",
+                        lambda p: POLICY_PYTHON if getattr(p, "selection", "") == "softmax" else kind(p))
     specs = [*_specs("arena=two_circuits", "learner=tavc_softmax", "team.n_robots=4", "trials=1", "duration_s=400"),
              *_specs("arena=two_circuits", "learner=tavc_egreedy", "team.n_robots=4", "trials=2", "duration_s=400")]
     together = run_trials(specs)

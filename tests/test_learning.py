@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from tavc_cli.learning.compiled import egreedy, q_learn
-from tavc_cli.learning.draws import below, entry_points, uniform
+from tavc_cli.learning.compiled import egreedy, q_learn, softmax
+from tavc_cli.learning.draws import NEXT_DOUBLE, below, entry_points, uniform
 from tavc_cli.learning.policies import (
     RandomPolicy,
     StaticPolicy,
@@ -322,6 +322,54 @@ def test_compiled_epsilon_greedy_is_pythons_choice_for_choice(epsilon):
     assert ours.random() == pythons.random()
     if epsilon < 1.0:  # ties were met and broken both ways
         assert len({int(a) for a, row in zip(out, rows, strict=True) if (row == row.max()).sum() > 1}) > 1
+
+
+@kernel
+def _boltzmann(q, tau, next_double, state, out):
+    for k in range(q.shape[0]):
+        out[k] = softmax(q[k], tau, next_double, state)
+
+
+@pytest.mark.parametrize("tau", [0.005, 0.5, 50.0])
+def test_compiled_softmax_is_pythons_choice_for_choice(tau):
+    # rows of two to four actions whose Q-values lie from far apart to within the temperature
+    # (where every action gets drawn, the cumulative sums' roundings meet the uniform draws)
+    rng = np.random.default_rng(4)
+    for n in (2, 3, 4):
+        rows = rng.uniform(-0.1, 0.1, size=(400, n)) * 10.0 ** rng.integers(-3, 3, size=(400, 1))
+        ours, pythons = np.random.default_rng([5, n]), np.random.default_rng([5, n])
+        points = entry_points(ours)
+        out = np.zeros(len(rows), dtype=np.int64)
+        _boltzmann(rows, tau, points.next_double, points.state, out)
+        expected = [softmax_choice(row, tau, pythons) for row in rows]
+        np.testing.assert_array_equal(out, expected)
+        assert ours.random() == pythons.random()
+        assert len(set(out.tolist())) == n  # every action was drawn somewhere
+
+
+def test_compiled_softmax_meets_each_cumulative_sum_as_python_does():
+    # a uniform draw placed exactly on each cumulative probability Python sums up: where the
+    # compiled sums rounded anywhere differently, the choice at that draw would differ
+    rng = np.random.default_rng(6)
+    drawn = [0.0]
+    fixed = NEXT_DOUBLE(lambda state: drawn[0])  # the generator's next double, as given
+    met = 0
+    for _ in range(300):
+        n, tau = int(rng.integers(2, 5)), float(rng.choice([0.005, 0.5, 50.0]))
+        row = rng.uniform(-1.0, 1.0, n) * tau * float(rng.uniform(0.1, 10.0))
+        top = max(row.tolist())
+        e = [math.exp((v - top) / tau) for v in row.tolist()]
+        total = 0.0
+        for v in e:
+            total += v
+        cumulative = 0.0
+        for v in e[:-1]:
+            cumulative += v / total
+            for u in (cumulative, math.nextafter(cumulative, 0.0), math.nextafter(cumulative, 1.0)):
+                drawn[0] = u
+                assert softmax(row, tau, fixed, 0) == softmax_choice(row, tau, _Draw(u)), (row, tau, u)
+                met += 1
+    assert met > 1000
 
 
 def test_compiled_q_update_is_pythons_bit_for_bit():

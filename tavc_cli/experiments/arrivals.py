@@ -25,7 +25,7 @@ from tavc_cli.experiments.tick import (
     Arrivals,
 )
 from tavc_cli.experiments.trial import TrialState
-from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, POLICY_STATIC, policy_kind
+from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, POLICY_SOFTMAX, POLICY_STATIC, policy_kind
 from tavc_cli.learning.draws import entry_points, same_functions
 from tavc_cli.sim.arena import SOURCE, Arena
 
@@ -68,7 +68,7 @@ class ArrivalDesk:
         values, scores = np.zeros((len(trials), n_c)), np.zeros((len(trials), n_c))
         time_unit_s = np.array([tr.spec.time_unit_s for tr in trials], dtype=np.float64)
         policy = np.array([policy_kind(tr.policy) for tr in trials], dtype=np.int64)
-        learning = np.zeros((3, len(trials)))  # epsilon, alpha, gamma of each TAVC trial
+        learning = np.zeros((4, len(trials)))  # epsilon, alpha, gamma, tau of each TAVC trial
         points = [entry_points(tr.policy_rng) for tr in trials]
         if not same_functions(points):  # one pair of functions serves the batch, or Python does
             policy[:] = POLICY_PYTHON
@@ -79,10 +79,10 @@ class ArrivalDesk:
             tr.state, tr.task_start = state[lo:hi], task_start[lo:hi]
             values[b], scores[b] = tr.values, tr.scores
             tr.values, tr.scores = values[b], scores[b]
-            if policy[b] == POLICY_EGREEDY:
+            if policy[b] in (POLICY_EGREEDY, POLICY_SOFTMAX):
                 q[lo:hi] = tr.policy.q
                 tr.policy.q = q[lo:hi]
-                learning[:, b] = tr.policy.epsilon, tr.policy.alpha, tr.policy.gamma
+                learning[:, b] = tr.policy.epsilon, tr.policy.alpha, tr.policy.gamma, tr.policy.tau
             elif policy[b] == POLICY_STATIC:
                 assignment[lo:hi] = tr.policy.assignment
         bundle = Arrivals(

@@ -6,11 +6,11 @@ and write of the physics and one call of the compiled sensing and behaviour kern
 per tick for every robot of every trial. Python runs per event (a breakdown, a
 value change, a snapshot), never per robot per tick: between events whole ticks run
 in compiled code (`tick.run_ticks`), which serves arrivals and deliveries too (the
-rewards, the Q-learning and the next choices of the TAVC, random and static
-policies, drawn from each trial's own generator), except with section 1.4's behaviour
-learners, whose robots choose a behaviour in Python when their sensed state changes,
-so that their batches go tick by tick, and with Boltzmann selection, whose deliveries
-Python serves.
+rewards, the Q-learning and the next choices of the TAVC policies, epsilon-greedy or
+Boltzmann, and of the random and static ones, drawn from each trial's own generator),
+except with section 1.4's behaviour learners, whose robots choose a behaviour in Python
+when their sensed state changes, so that their batches go tick by tick, and with trials
+that end with their n-th delivery, which Python counts.
 
 Per tick (`BatchEngine.run`): what falls due (events, snapshots, pose frames) ->
 behaviour choices of section 1.4's learners -> sense and decide (the kernel, over

@@ -20,7 +20,15 @@ import numpy as np
 
 from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.navigation import control_tick
-from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, POLICY_RANDOM, egreedy, q_learn
+from tavc_cli.learning.compiled import (
+    POLICY_EGREEDY,
+    POLICY_PYTHON,
+    POLICY_RANDOM,
+    POLICY_SOFTMAX,
+    egreedy,
+    q_learn,
+    softmax,
+)
 from tavc_cli.learning.draws import below
 from tavc_cli.sim.arena import SOURCE
 from tavc_cli.sim.kernel import kernel
@@ -57,15 +65,16 @@ class Arrivals(NamedTuple):
     state: np.ndarray         # (n,) int64: each robot's learning state (the circuit it last served)
     task_start: np.ndarray    # (n,) float64: when each robot's task began, on the clock
     act_at_task: np.ndarray   # (n, N_ACT): its activity seconds as its task began
-    q: np.ndarray             # (n, n_circuits, n_circuits): each robot's Q-table (egreedy trials)
+    q: np.ndarray             # (n, n_circuits, n_circuits): each robot's Q-table (TAVC trials)
     assignment: np.ndarray    # (n,) int64: each robot's circuit under a static policy
     kind_of: np.ndarray       # (n_targets,) int64: SOURCE or SINK, per target
     source_of: np.ndarray     # (n_circuits,) int64: each circuit's source
     sink_of: np.ndarray       # (n_circuits,) int64: each circuit's sink
     policy: np.ndarray        # (n_trials,) int64: `learning.compiled.POLICY_*`
-    epsilon: np.ndarray       # (n_trials,) float64, and likewise alpha, gamma
+    epsilon: np.ndarray       # (n_trials,) float64, and likewise alpha, gamma, tau
     alpha: np.ndarray
     gamma: np.ndarray
+    tau: np.ndarray
     time_unit_s: np.ndarray   # (n_trials,) float64: the unit of t in r = w / t
     values: np.ndarray        # (n_trials, n_circuits): learning values as they stand
     scores: np.ndarray        # (n_trials, n_circuits): score per delivery as they stand
@@ -123,6 +132,9 @@ def serve_arrivals(robots, arr, tick, dt_s, act_s, next_uint32, next_double):
         if arr.policy[b] == POLICY_EGREEDY:
             q_learn(arr.q[g], arr.state[g], circuit, reward, circuit, arr.alpha[b], arr.gamma[b])
             choice = egreedy(arr.q[g, circuit], arr.epsilon[b], next_uint32, next_double, arr.rng[b])
+        elif arr.policy[b] == POLICY_SOFTMAX:
+            q_learn(arr.q[g], arr.state[g], circuit, reward, circuit, arr.alpha[b], arr.gamma[b])
+            choice = softmax(arr.q[g, circuit], arr.tau[b], next_double, arr.rng[b])
         elif arr.policy[b] == POLICY_RANDOM:
             choice = below(next_uint32, arr.rng[b], arr.q.shape[1])
         else:

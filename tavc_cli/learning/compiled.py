@@ -3,24 +3,26 @@
 Each kernel does what its Python twin (`policies`, `qlearning`) does, in the same order
 and with the same roundings, drawing from the same generator (`draws`), so that a delivery
 served in compiled code and one served in Python leave the same tables, the same stream
-and the same record. Section 1.4's behaviour learners and Boltzmann selection are served in
-Python only (`POLICY_PYTHON`).
+and the same record. Section 1.4's behaviour learners are served in Python only
+(`POLICY_PYTHON`).
 """
 
 from __future__ import annotations
+
+import math
 
 from tavc_cli.learning.draws import below, uniform
 from tavc_cli.learning.policies import RandomPolicy, StaticPolicy, TaskPolicy, TavcPolicy
 from tavc_cli.sim.kernel import kernel
 
 # which policy a trial's deliveries are served by in compiled code
-POLICY_PYTHON, POLICY_EGREEDY, POLICY_RANDOM, POLICY_STATIC = range(4)
+POLICY_PYTHON, POLICY_EGREEDY, POLICY_RANDOM, POLICY_STATIC, POLICY_SOFTMAX = range(5)
 
 
 def policy_kind(policy: TaskPolicy) -> int:
     """How compiled code serves this policy's deliveries (`POLICY_*`)."""
     if isinstance(policy, TavcPolicy):
-        return POLICY_EGREEDY if policy.selection == "egreedy" else POLICY_PYTHON
+        return {"egreedy": POLICY_EGREEDY, "softmax": POLICY_SOFTMAX}.get(policy.selection, POLICY_PYTHON)
     if isinstance(policy, RandomPolicy):
         return POLICY_RANDOM
     if isinstance(policy, StaticPolicy):
@@ -60,3 +62,25 @@ def egreedy(q_row, epsilon, next_uint32, next_double, rng):
                 return b
             pick -= 1
     return n - 1  # not reached: one action holds the maximum
+
+
+@kernel
+def softmax(q_row, tau, next_double, rng):
+    """`qlearning.softmax_choice`: the first action whose cumulative Boltzmann probability
+    exceeds a uniform draw. Each exp(Q/tau) is the C library's, as Python's math.exp is, and is
+    computed again in the second pass rather than kept (the same number; no array to allocate)."""
+    n = q_row.shape[0]
+    top = q_row[0]
+    for b in range(1, n):
+        if q_row[b] > top:
+            top = q_row[b]
+    total = 0.0
+    for b in range(n):
+        total += math.exp((q_row[b] - top) / tau)
+    u = uniform(next_double, rng)
+    cumulative, chosen = 0.0, 0
+    for b in range(n):
+        cumulative += math.exp((q_row[b] - top) / tau) / total
+        if cumulative <= u:
+            chosen = b + 1
+    return min(chosen, n - 1)
