@@ -287,6 +287,7 @@ class BatchEngine:
             tr.events = []
             self._leaving.append(tr)
             self.schedule.next_q[b] = self.schedule.next_pose[b] = math.inf
+        if self._leaving:
             self.schedule.update(self.trials)
 
     def _take_out_ended(self) -> None:

@@ -30,15 +30,21 @@ def policy_kind(policy: TaskPolicy) -> int:
     return POLICY_PYTHON
 
 
+@kernel(inline="always")
+def row_max(q_row):
+    """The largest value of a row, as Python's max gives it (the first of equals)."""
+    top = q_row[0]
+    for b in range(1, q_row.shape[0]):
+        if q_row[b] > top:
+            top = q_row[b]
+    return top
+
+
 @kernel
 def q_learn(q, state, action, reward, next_state, alpha, gamma):
     """`qlearning.q_update` on one robot's table q (n_states, n_actions), in place."""
     q_sa = q[state, action]
-    top = q[next_state, 0]
-    for b in range(1, q.shape[1]):
-        if q[next_state, b] > top:  # Python's max keeps the first of equals, as this does
-            top = q[next_state, b]
-    q[state, action] = q_sa + alpha * (reward + gamma * top - q_sa)
+    q[state, action] = q_sa + alpha * (reward + gamma * row_max(q[next_state]) - q_sa)
 
 
 @kernel
@@ -48,10 +54,7 @@ def egreedy(q_row, epsilon, next_uint32, next_double, rng):
     n = q_row.shape[0]
     if uniform(next_double, rng) < epsilon:
         return below(next_uint32, rng, n)
-    top = q_row[0]
-    for b in range(1, n):
-        if q_row[b] > top:
-            top = q_row[b]
+    top = row_max(q_row)
     ties = 0
     for b in range(n):
         ties += q_row[b] == top
@@ -70,10 +73,7 @@ def softmax(q_row, tau, next_double, rng):
     exceeds a uniform draw. Each exp(Q/tau) is the C library's, as Python's math.exp is, and is
     computed again in the second pass rather than kept (the same number; no array to allocate)."""
     n = q_row.shape[0]
-    top = q_row[0]
-    for b in range(1, n):
-        if q_row[b] > top:
-            top = q_row[b]
+    top = row_max(q_row)
     total = 0.0
     for b in range(n):
         total += math.exp((q_row[b] - top) / tau)
