@@ -154,6 +154,15 @@ def lane_offsets(rec: TrialRecord, source_xy: Sequence[float], sink_xy: Sequence
     return np.concatenate([lateral[to_sink & away], -lateral[to_source & away]])
 
 
+# time windows by name: the same for every trial, or a function of its record
+Windows = Mapping[str, tuple[float, float]] | Callable[[TrialRecord], Mapping[str, tuple[float, float]]]
+
+
+def _windows_of(windows: Windows, rec: TrialRecord) -> Mapping[str, tuple[float, float]]:
+    """The windows for one trial: the same for all, or a function of its record."""
+    return windows(rec) if callable(windows) else windows
+
+
 def lane_table(records: Iterable[TrialRecord], source_xy, sink_xy, windows: Windows) -> pd.DataFrame:
     """`controller,trial,window,mean_left_m,n_frames`: per trial and window, the mean offset to the
     left of the direction of travel (the lane index)."""
@@ -203,14 +212,6 @@ def lane_windows(rec: TrialRecord) -> dict[str, tuple[float, float]]:
     its n-th delivery ends when it does)."""
     duration_s = float(rec.meta["duration_s"])
     return {"early": (0.0, duration_s / 10.0), "late": (duration_s * 0.9, duration_s)}
-
-
-Windows = Mapping[str, tuple[float, float]] | Callable[[TrialRecord], Mapping[str, tuple[float, float]]]
-
-
-def _windows_of(windows: Windows, rec: TrialRecord) -> Mapping[str, tuple[float, float]]:
-    """The windows for one trial: the same for all, or a function of its record."""
-    return windows(rec) if callable(windows) else windows
 
 
 def occupancy_table(records: Iterable[TrialRecord], source_xy, sink_xy, width_m: float, height_m: float,
