@@ -131,7 +131,6 @@ def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path)
     return lines
 
 
-
 def trial_length_lines(d: Path, cfg: TavcConfig) -> list[str]:
     """How long the trials ran, where they end with a number of deliveries (traversals)."""
     if cfg.deliveries is None or not (d / "trial_stats.csv").is_file():
