@@ -100,7 +100,7 @@ def write_perf_map(dispatchers, pid: int | None = None) -> tuple[Path, int]:
     path = Path(tempfile.gettempdir()) / f"perf-{pid or os.getpid()}.map"
     starts = sorted(entries)
     with open(path, "w") as out:
-        for start, end in zip(starts, [*starts[1:], None][:len(starts)], strict=True):
+        for start, end in zip(starts, [*starts[1:], None], strict=False):  # the last has no next
             size = min((end or start + 65536) - start, 1 << 20)
             out.write(f"{start:x} {size:x} {entries[start]}\n")
     return path, len(starts)

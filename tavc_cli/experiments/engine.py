@@ -130,6 +130,7 @@ class BatchEngine:
         self.schedule = _Schedule(self.trials)
         self.on_tick: Callable[[BatchEngine], None] | None = None
         self._leaving: list[TrialState] = []  # trials that ended with a delivery, robots still in the world
+        self._all_ended = False  # every trial ended with its n-th delivery (`_end_delivered`)
         learners = [(tr.lo, tr.hi, tr.policy, tr.decide_ticks) for tr in self.trials if tr.learns_behaviours]
         self._decisions = BatchDecisions(self.robots, self.scan.camera, learners) if learners else None
         self._params = np.array([self.params], dtype=self.params.dtype)
@@ -231,7 +232,7 @@ class BatchEngine:
         # nor with trials that end with a delivery, which Python counts)
         counting = any(tr.spec.deliveries is not None for tr in self.trials)
         runs = self._decisions is None and self.on_tick is None and not counting
-        while self.tick < n_ticks and not (counting and all(tr.ended_clock is not None for tr in self.trials)):
+        while self.tick < n_ticks and not self._all_ended:
             t = self.tick * self.dt
             if self._leaving:
                 self._take_out_ended()
@@ -289,6 +290,7 @@ class BatchEngine:
             self.schedule.next_q[b] = self.schedule.next_pose[b] = math.inf
         if self._leaving:
             self.schedule.update(self.trials)
+            self._all_ended = all(tr.ended_clock is not None for tr in self.trials)
 
     def _take_out_ended(self) -> None:
         """The robots of the trials that ended last tick out of the world."""
