@@ -317,6 +317,7 @@ class TavcConfig:
     duration_s: Optional[float] = None
     convergence_s: Optional[float] = None
     deliveries: Optional[int] = None
+    baseline_lead_s: Optional[float] = None
     output_dir: Optional[str] = None
     paper: PaperConfig = field(default_factory=PaperConfig)
     baselines: List[str] = field(default_factory=list)

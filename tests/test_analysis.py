@@ -29,6 +29,7 @@ def _record(
     duration_s=100.0,
     warmup_s=0.0,
     controller="tavc",
+    t0_s=None,
 ):
     """A TrialRecord from rows: arrivals (t, robot, circuit), breakdowns (t, robot),
     value changes (t, values), deliveries (t, score)."""
@@ -60,6 +61,7 @@ def _record(
             "duration_s": duration_s,
             "warmup_s": warmup_s,
             "controller": controller,
+            **({} if t0_s is None else {"t0_s": t0_s}),
         },
         tables=tables,
     )
@@ -306,6 +308,32 @@ def test_a_trial_that_ended_sooner_has_rates_over_the_time_it_ran():
     # over trials, a bin counts only the trials that ran in it
     table = performance_table([rec, _record(deliveries=[(95.0, 2.0)])], 30.0, 0.0, 100.0)
     assert table["n_trials"].tolist() == [2, 2, 2, 1] and table["mean"].iloc[-1] == pytest.approx(0.2)
+
+
+def test_a_trial_that_started_late_has_rates_only_from_its_start():
+    # a baseline that started at 40 s, analysed over [0, 100) in 30 s bins: [0, 30) and
+    # [30, 60) began before it ran (NaN, not a rate over the part it ran); [60, 90) 3 points
+    # / 30 s; [90, 100) 1 point / 10 s. A period from before its start has no rate either.
+    rec = _record(deliveries=[(50.0, 2.0), (70.0, 3.0), (95.0, 1.0)], t0_s=40.0)
+    centres, rate = value_rate_series(rec, 30.0, 0.0, 100.0)
+    np.testing.assert_allclose(centres, [15.0, 45.0, 75.0, 95.0])
+    np.testing.assert_allclose(rate, [np.nan, np.nan, 0.1, 0.1])
+    assert math.isnan(value_rate(rec, 0.0, 100.0)) and math.isnan(value_rate(rec, 30.0, 60.0))
+    assert value_rate(rec, 40.0, 100.0) == pytest.approx(6.0 / 60.0)
+    assert value_rate(rec, 60.0, 100.0) == pytest.approx(4.0 / 40.0)
+    table = performance_table([rec, _record(deliveries=[(10.0, 3.0)])], 30.0, 0.0, 100.0)
+    assert table["n_trials"].tolist() == [1, 1, 2, 2] and table["mean"].iloc[0] == pytest.approx(0.1)
+
+
+def test_a_trial_that_started_late_is_covered_from_its_start():
+    # robots 0-2 of a baseline that started at 40 s: nothing is known before 40 s, the state
+    # is undefined until all three have a circuit (at 60 s), then 1:2 (robot 1 and 2 low)
+    rec = _record(arrivals=[(45.0, 0, 0), (50.0, 1, 1), (60.0, 2, 1)], t0_s=40.0)
+    assert _merged(state_intervals(rec)) == [(40.0, 60.0, None), (60.0, 100.0, "1:2")]
+    assert time_shares(rec, 50.0, 100.0) == pytest.approx({"1:2": 100.0})
+    assert (rec.start_s, rec.end_s) == (40.0, 100.0)
+    # a record saved before `t0_s` was kept starts at minus its warm-up
+    assert _record(warmup_s=30.0).start_s == -30.0
 
 
 def test_value_rate_over_a_period():

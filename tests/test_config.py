@@ -125,6 +125,34 @@ def test_static_trials_follow_the_baselines_unless_set():
     assert Counter(s.controller for s in trial_specs(settings(cfg)))["static"] == 2
 
 
+def test_heterogeneous_random_trials_start_half_an_hour_before_the_stable_period():
+    # paper: 72,000 s, stable from 54,000 s; the baseline starts 1,800 s earlier, at 52,200 s,
+    # and runs 19,800 s instead of 72,000; the learners start at 0. Quick (x 0.25): 13,500 - 450
+    cfg = load_config(["experiment=heterogeneous", "scale=paper"])
+    specs = trial_specs(settings(cfg))
+    starts = {(s.controller, s.start_s, s.span_s) for s in specs}
+    assert starts == {("tavc", 0.0, 72_000.0), ("random", 52_200.0, 19_800.0)}
+    assert sum(s.span_s for s in specs) == 15 * 72_000 + 15 * 19_800
+    quick = load_config(["experiment=heterogeneous", "scale=quick"])
+    assert {s.start_s for s in trial_specs(settings(quick)) if s.controller == "random"} == {13_050.0}
+    # null: the baselines run the whole trial; a lead longer than the convergence period starts them at 0
+    for lead in ("null", "60000"):
+        cfg = load_config(["experiment=heterogeneous", "scale=paper", f"baseline_lead_s={lead}"])
+        assert {s.start_s for s in trial_specs(settings(cfg))} == {0.0}
+
+
+@pytest.mark.parametrize("override, named", [
+    (["experiment=breakdown"], "sim.warmup_s"),
+    (["experiment=initial_distribution", "events.breakdowns=[{time_s: 100.0}]"], "events.breakdowns"),
+    (["experiment=spatiotemporal", "baselines=[random]"], "deliveries"),
+    (["experiment=heterogeneous", "baseline_lead_s=-1"], "must be"),
+])
+def test_a_late_start_is_refused_where_a_baseline_would_miss_something(override, named):
+    lead = [] if any(o.startswith("baseline_lead_s") for o in override) else ["baseline_lead_s=600"]
+    with pytest.raises(TavcError, match=r"baseline_lead_s.*" + named.replace(".", r"\.")):
+        load_config([*override, *lead, "scale=smoke"])
+
+
 def test_baseline_trials_default_to_trials():
     cfg = load_config(["experiment=initial_distribution", "scale=quick"])
     assert cfg.baseline_trials == cfg.trials == 6

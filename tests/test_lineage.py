@@ -47,6 +47,38 @@ def test_a_warm_up_is_the_trial_without_one_continued():
     assert np.array_equal(warm.q[warm.q_t == 0.0][0], plain.q[-1])
 
 
+def test_a_late_start_is_the_trial_from_t_0_with_its_times_moved():
+    """A baseline that starts 900 s into the record and runs to 1500 s is, row for row and bit
+    for bit, the same trial run from t = 0 for 600 s, its times 900 s later."""
+    base = _specs("initial_distribution", "scale=paper", "trials=1", "baseline_trials=1")[1]
+    assert base.controller == "random"
+    plain = run_trials([replace(base, duration_s=600.0)])[0]
+    late = run_trials([replace(base, start_s=900.0, duration_s=1500.0)])[0]
+    assert (late.start_s, late.end_s, late.meta["t0_s"], plain.meta["t0_s"]) == (900.0, 1500.0, 900.0, 0.0)
+    for name, cols in plain.tables.items():
+        assert len(cols["t_s"]) > 0 or name == "breakdowns"
+        assert np.array_equal(late.tables[name]["t_s"], 900.0 + cols["t_s"]), name
+        for col, values in cols.items():
+            if col != "t_s":
+                assert np.array_equal(late.tables[name][col], values), (name, col)
+
+
+def test_trials_that_start_late_share_history_only_with_their_own_start(tmp_path, monkeypatch):
+    # two baselines starting at 300 s (one longer) share their first 600 s; one starting at
+    # 0 s shares nothing with them, though it is the same trial: its clock would be 300 s ahead
+    base = _specs("initial_distribution", "scale=smoke", "trials=1", "baseline_trials=1")[1]
+    late = replace(base, start_s=300.0, duration_s=900.0)
+    items = [Item(late, tmp_path / "a"), Item(replace(late, duration_s=1200.0), tmp_path / "b"),
+             Item(replace(base, duration_s=900.0), tmp_path / "c")]
+    forest = sorted(trees(items), key=lambda t: len(t.items()))
+    assert [len(t.items()) for t in forest] == [1, 2]
+    assert (forest[1].start, forest[1].end) == (0, 6000)  # 600 s of shared history, in ticks
+    monkeypatch.setattr(joint, "simulate_contained", _no_trial_alone)
+    run_together(_by_folder(items), Executor(n_jobs=1, batch_size=8))
+    for item in items:
+        assert _alone_equals_stored(item) == [], item.folder.name
+
+
 def test_the_section_1_5_trials_of_one_seed_form_one_tree_with_the_work_computed_by_hand():
     """TAVC trial j of the four experiments of section 1.5: initial_distribution (18,000 s) is the
     trunk; breakdown_no_vacancy parts from it with a low-circuit breakdown (27,000 s more);

@@ -202,3 +202,14 @@ def test_a_run_folder_given_for_the_results_folder_says_which_to_give(one_run):
     assert result.exit_code == 1
     assert result.output.strip() == (f"error: RESULTS_DIR: {one_run / 'breakdown'} is one run's folder; give the "
                                      f"folder that holds the runs ({one_run})")
+
+
+def test_the_report_says_when_the_baselines_started_late():
+    from tavc_cli.config import load_config, settings
+    from tavc_cli.report.text import late_start_lines
+
+    cfg = settings(load_config(["experiment=heterogeneous", "scale=paper"]))
+    (line, blank) = late_start_lines(cfg)
+    assert "(random)" in line and "from 52,200 s, 1,800 s before the stable period" in line and "to 72,000 s" in line
+    assert late_start_lines(settings(load_config(["experiment=heterogeneous", "baseline_lead_s=null"]))) == []
+    assert late_start_lines(settings(load_config(["experiment=initial_distribution"]))) == []

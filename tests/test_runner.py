@@ -188,6 +188,25 @@ def test_cli_run_exits_zero(tmp_path):
     assert (tmp_path / "state_time.csv").is_file()
 
 
+def test_baselines_that_start_late_are_compared_over_the_stable_period_only(tmp_path):
+    # 120 s trials, stable from 60 s, in 30 s bins; the random baseline starts 30 s before the
+    # stable period, at 30 s: no rate for the convergence period or the bin [0, 30), a stable rate
+    # and state shares like the learners'; the learners ran from 0 s
+    summary = _run(tmp_path, "learner=tavc_egreedy", "baselines=[random]", "convergence_s=60",
+                   "analysis.performance_bin_s=30", "baseline_lead_s=30", "scale.time_factor=1")
+    starts = {c: TrialRecord.load(trial_path(tmp_path, c, 0)).start_s for c in ("tavc", "random")}
+    assert starts == {"tavc": 0.0, "random": 30.0}
+    stats = pd.read_csv(tmp_path / "trial_stats.csv").set_index("controller")
+    assert stats.loc["random", "value_rate_convergence"].isna().all()
+    assert stats.loc["tavc", "value_rate_convergence"].notna().all()
+    assert stats.loc["random", "value_rate_stable"].notna().all()
+    perf = pd.read_csv(tmp_path / "performance.csv")
+    random = perf[perf.controller == "random"].set_index("t_s")["n_trials"]
+    assert random.to_dict() == {15.0: 0, 45.0: 2, 75.0: 2, 105.0: 2}
+    shares = summary["tables"]["state_time"]
+    assert shares[shares.controller == "random"]["mean_pct"].sum() == pytest.approx(100.0)
+
+
 # --- the chapter's claim 4 -----------------------------------------------------------------------
 
 

@@ -87,8 +87,7 @@ def _state_intervals(rec: TrialRecord, scheme: str) -> list[tuple[float, float, 
     by_group = scheme == "groups"
     counter = _StateCounter(n, _rank(meta["values"]), [order.index(g) for g in groups] if by_group else [0] * n,
                             len(order) if by_group else 1, by_group)
-    t_prev = -float(meta.get("warmup_s", 0.0))
-    t_end = float(meta["duration_s"])
+    t_prev, t_end = rec.start_s, rec.end_s
     state = None
     out = []
     for t, kind, payload in _events(rec):

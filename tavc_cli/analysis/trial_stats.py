@@ -85,7 +85,7 @@ def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame
             "value_rate_convergence": value_rate(rec, 0.0, t_conv) if t_conv > 0 else math.nan,
             "value_rate_before": value_rate(rec, -before, 0.0) if before > 0 else math.nan,
             "settle_s": settle_time(*high_circuit_series(rec, bin_s, 0.0, t_end), bin_s, t_conv)
-            if scheme == "circuits" else math.nan,
+            if scheme == "circuits" and rec.start_s <= 0.0 else math.nan,  # not for a baseline started late
         }
         row["policy_settle_s"], row["policy_changes"] = trial_policy_stats(rec)
         if len(group_names) > 1:

@@ -14,7 +14,7 @@ Rules:
 - ``deliveries``: ``paper.deliveries`` times ``scale.time_factor``, rounded, at least 1 (none when
   the paper measures its trials in seconds). A trial then ends with the tick of its team's
   n-th delivery after the warm-up, ``duration_s`` being its longest.
-- ``sim.warmup_s`` and every event time (``events.breakdowns[*].time_s``,
+- ``baseline_lead_s``, ``sim.warmup_s`` and every event time (``events.breakdowns[*].time_s``,
   ``events.value_changes[*].time_s``) are ALWAYS multiplied by ``scale.time_factor``, also when
   set on the command line, so that an experiment keeps its shape at every scale.
 - ``output_dir``: ``results/<experiment_name>``.
@@ -61,6 +61,8 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
     # Warm-up and event times scale with the experiment, even when set by hand, so that a
     # quick run keeps the paper run's shape (a breakdown a third of the way in stays there).
     cfg.sim.warmup_s = cfg.sim.warmup_s * factor
+    if cfg.baseline_lead_s is not None:
+        cfg.baseline_lead_s = cfg.baseline_lead_s * factor
     for event in [*cfg.events.breakdowns, *cfg.events.value_changes]:
         event.time_s = event.time_s * factor
     base_dir = cfg.output_dir if cfg.output_dir is not None else f"results/{cfg.experiment_name}"

@@ -62,8 +62,10 @@ def validate_scaling(cfg: DictConfig) -> None:
         at_least("paper.deliveries", paper.deliveries, 1)
     if cfg.deliveries is not None:
         at_least("deliveries", cfg.deliveries, 1)
-    # before resolution scales it, so that the message shows the value the user wrote
+    # before resolution scales them, so that the message shows the value the user wrote
     at_least("sim.warmup_s", cfg.sim.warmup_s, 0)
+    if cfg.baseline_lead_s is not None:
+        at_least("baseline_lead_s", cfg.baseline_lead_s, 0)
     check(
         0 <= paper.convergence_s < paper.duration_s,
         "paper.convergence_s",
@@ -242,6 +244,13 @@ def _validate_run(cfg: DictConfig) -> None:
     for index, baseline in enumerate(cfg.baselines):
         one_of(f"baselines[{index}]", baseline, BASELINES)
     unique("baselines", list(cfg.baselines), "controller")
+    if cfg.baseline_lead_s is not None:
+        # a baseline that starts late would miss what happens before its start
+        for key, present in (("sim.warmup_s", cfg.sim.warmup_s > 0), ("events.breakdowns", bool(cfg.events.breakdowns)),
+                             ("events.value_changes", bool(cfg.events.value_changes)),
+                             ("deliveries", cfg.deliveries is not None)):
+            check(not present, "baseline_lead_s",
+                  f"baselines can start late only in runs without {key}; set baseline_lead_s=null")
     check(bool(cfg.output_dir), "output_dir", "must not be empty")
     check(Path(cfg.output_dir).resolve() != Path(Path(cfg.output_dir).resolve().anchor), "output_dir",
           f"{cfg.output_dir} is the root of the file system; give the results a folder of their own")
@@ -322,7 +331,7 @@ def _validate_event_time(key: str, time_s: float, cfg: DictConfig) -> None:
         f"[-sim.warmup_s = {start_s:g}, duration_s = {cfg.duration_s:g})",
     )
     dt_s, warmup_s = cfg.sim.dt_s, cfg.sim.warmup_s
-    due, end = due_tick(time_s + warmup_s, dt_s), end_tick(warmup_s, cfg.duration_s, dt_s)  # as the engine counts
+    due, end = due_tick(time_s + warmup_s, dt_s), end_tick(-warmup_s, cfg.duration_s, dt_s)  # as the engine counts
     check(due < end, key,
           f"{time_s:g} s (after scaling) would fall due at tick {due}, after the trial's last tick, {end - 1} "
           f"(its {end} periods of sim.dt_s = {dt_s:g} s from the start of the warm-up), so it would never happen")

@@ -128,7 +128,7 @@ class ArrivalDesk:
         reward = value / (task_time / tr.spec.time_unit_s)
         spent = self._act_before_tick(g) - self.act_at_task[g]
         tr.rows.add("deliveries", t, i, circuit, task_time, reward, value, float(tr.scores[circuit]), *spent)
-        if -tr.spec.warmup_s + t >= 0.0:  # its time in the record is not negative
+        if tr.spec.t0_s + t >= 0.0:  # its time in the record is not negative
             tr.delivered += 1
         tr.policy.learn(i, int(tr.state[i]), circuit, reward, circuit)
         tr.state[i] = circuit

@@ -33,7 +33,7 @@ class Batch:
 
     @property
     def sim_seconds(self) -> float:
-        return sum(s.duration_s + s.warmup_s for s in self.specs)
+        return sum(s.span_s for s in self.specs)
 
 
 def controllers(cfg: TavcConfig) -> list[tuple[str, LearnerConfig, int]]:
@@ -75,15 +75,24 @@ def base_spec(cfg: TavcConfig) -> TrialSpec:
     )
 
 
+def baseline_start_s(cfg: TavcConfig) -> float:
+    """When the baselines start: at t = 0, or `baseline_lead_s` before the stable period."""
+    if cfg.baseline_lead_s is None:
+        return 0.0
+    return max(0.0, float(cfg.convergence_s) - float(cfg.baseline_lead_s))
+
+
 def trial_specs(cfg: TavcConfig) -> list[TrialSpec]:
     """Every trial of every controller, in a fixed order."""
     base = base_spec(cfg)
     seed = int(cfg.seed)
     specs = []
-    for label, policy, n_trials in controllers(cfg):
+    for k, (label, policy, n_trials) in enumerate(controllers(cfg)):
         code = SEED_CODES[label]
+        start_s = baseline_start_s(cfg) if k > 0 else 0.0  # the learner comes first, then the baselines
         for j in range(n_trials):
-            specs.append(replace(base, policy=policy, controller=label, trial=j, seed=(seed, code, j)))
+            specs.append(replace(base, policy=policy, controller=label, trial=j, seed=(seed, code, j),
+                                 start_s=start_s))
     return specs
 
 

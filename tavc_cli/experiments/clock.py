@@ -1,6 +1,6 @@
 """A trial's clock, in ticks: when something scheduled falls due, and when a trial ends.
 
-A trial's clock reads `tick * dt` seconds since the start of its warm-up. The engine
+A trial's clock reads `tick * dt` seconds since it started (its warm-up's start, if it has one). The engine
 (`engine.BatchEngine`), the planner of shared history (`lineage`) and the config's
 validation all count ticks with these two functions, so that they agree to the tick.
 """
@@ -23,6 +23,7 @@ def due_tick(clock_s: float, dt_s: float) -> int:
     return k
 
 
-def end_tick(warmup_s: float, duration_s: float, dt_s: float) -> int:
-    """The tick at which a trial of that warm-up and duration ends (the ticks before it run)."""
-    return int(round((warmup_s + duration_s) / dt_s))
+def end_tick(t0_s: float, duration_s: float, dt_s: float) -> int:
+    """The tick at which a trial ends that starts at time `t0_s` of its record (minus its warm-up,
+    or its late start) and runs to `duration_s` (the ticks before it run)."""
+    return int(round((duration_s - t0_s) / dt_s))

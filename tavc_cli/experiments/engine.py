@@ -20,7 +20,9 @@ the bundles of `behaviours.layout`) -> serve arrivals (rewards, next tasks: the
 
 Time: a trial runs on its own clock, `tick * dt` seconds since it started; rewards,
 events and snapshots go by it. A record's times are that clock less the trial's
-warm-up (`t0 + clock`, t0 = -warmup_s), so t = 0 is the end of the warm-up. Since
+warm-up (`t0 + clock`, t0 = -warmup_s), so t = 0 is the end of the warm-up; a trial
+that starts late (a baseline that has nothing to learn, `TrialSpec.start_s`) has
+t0 = start_s, and its record begins there. Since
 nothing a trial computes depends on its warm-up's length, a trial with a warm-up is
 the trial without one, continued: `branch` turns a batch, mid-run, into trials whose
 history so far is the same and whose futures differ (`experiments.lineage`).
@@ -206,7 +208,7 @@ class BatchEngine:
     # --- the loop -----------------------------------------------------------
     def end_tick(self) -> int:
         """The tick at which the batch's trials end (warm-up and duration); they must end together."""
-        ends = {end_tick(tr.spec.warmup_s, tr.spec.duration_s, self.dt) for tr in self.trials}
+        ends = {end_tick(tr.spec.t0_s, tr.spec.duration_s, self.dt) for tr in self.trials}
         if len(ends) > 1:
             raise ValueError("trials run to their end in one batch must end at the same tick")
         return ends.pop()
@@ -380,7 +382,7 @@ class BatchEngine:
         i = g - self.trials[b].lo
         where = ("has no valid pose" if not np.isfinite(pose[g]).all()
                  else f"is outside the walls at ({x[g]:.2f}, {y[g]:.2f}) m")
-        raise TrialFault(b, f"robot {i} {where} at t = {t - self.trials[b].spec.warmup_s:.1f} s")
+        raise TrialFault(b, f"robot {i} {where} at t = {t + self.trials[b].spec.t0_s:.1f} s")
 
     def _move(self) -> None:
         """The wheel commands the kernel left to the physics, and one control period of it."""

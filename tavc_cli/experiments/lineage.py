@@ -10,7 +10,8 @@ exactly as it would be computed alone (a test compares them bit for bit), for le
 a branch goes on from a copy of the whole simulation, made by forking the process.
 
 Two trials can share history only if everything that acts before they part is the same:
-arena, robot, team, learner, values, time step, physics, seed and controller (`lineage`).
+arena, robot, team, learner, values, time step, physics, seed, controller and, for a
+baseline that starts late, its start (`lineage`).
 Their warm-ups, durations and events may differ; the events decide where they part. A trial
 that ends with a number of deliveries counts them from the end of its warm-up, and may end
 before its duration: it shares history only with trials of the same warm-up, duration and
@@ -47,7 +48,7 @@ def lineage(spec: TrialSpec) -> str:
 
 def end_tick(spec: TrialSpec) -> int:
     """The tick at which the trial ends (after its warm-up and duration)."""
-    return clock.end_tick(spec.warmup_s, spec.duration_s, spec.dt_s)
+    return clock.end_tick(spec.t0_s, spec.duration_s, spec.dt_s)
 
 
 def events_at(spec: TrialSpec, tick: int) -> tuple:

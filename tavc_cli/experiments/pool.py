@@ -154,7 +154,8 @@ def load_kernels(pending: Sequence[Batch]) -> None:
             if b.controller in seen:
                 continue
             spec = b.specs[0]
-            short = replace(spec, warmup_s=0.0, duration_s=2 * NOISE_BLOCK_TICKS * spec.dt_s, deliveries=None)
+            short = replace(spec, warmup_s=0.0, start_s=0.0, duration_s=2 * NOISE_BLOCK_TICKS * spec.dt_s,
+                            deliveries=None)
             try:
                 if not seen:
                     compile_in_two(BatchEngine([short]))

@@ -72,6 +72,17 @@ class TrialRecord:
     def table(self, name: str) -> dict[str, np.ndarray]:
         return self.tables[name]
 
+    @property
+    def start_s(self) -> float:
+        """The time of the record's first tick: minus the trial's warm-up, or its late start."""
+        meta = self.meta
+        return float(meta["t0_s"]) if "t0_s" in meta else -float(meta.get("warmup_s", 0.0))
+
+    @property
+    def end_s(self) -> float:
+        """The time of the record the trial ran to (its duration, or its n-th delivery)."""
+        return float(self.meta["duration_s"])
+
     def save(self, path: Path) -> None:
         """Write atomically: a temporary file in the same folder, then a rename."""
         path = Path(path)

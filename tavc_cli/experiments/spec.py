@@ -51,6 +51,7 @@ class TrialSpec:
     time_unit_s: float
     duration_s: float
     warmup_s: float = 0.0
+    start_s: float = 0.0  # a trial that starts late starts at this time of the record (then without warm-up)
     deliveries: int | None = None  # the trial ends with the tick of its n-th delivery after the warm-up
     dt_s: float = 0.1
     physics_substeps: int = 1
@@ -66,6 +67,18 @@ class TrialSpec:
     @property
     def n_robots(self) -> int:
         return len(self.speeds_mps)
+
+    @property
+    def t0_s(self) -> float:
+        """The time of the record at the trial's first tick: before t = 0 by its warm-up, or
+        after it for a trial that starts late (nothing before its start is simulated)."""
+        return self.start_s - self.warmup_s
+
+    @property
+    def span_s(self) -> float:
+        """Seconds the trial runs from its first tick to its duration (at most, for a trial
+        that ends with a number of deliveries)."""
+        return self.duration_s - self.t0_s
 
     def build_arena(self) -> Arena:
         return arena_from_config(self.arena)

@@ -123,12 +123,12 @@ class TrialState:
 
     def record(self, spec: TrialSpec, clock_s: float, arena_name: str, n_circuits: int) -> TrialRecord:
         """The trial's record as it stands at `clock_s` (or as it ended, for a trial that ended
-        with its n-th delivery), as the trial `spec`: the times of its tables are the clock less
-        that trial's warm-up, its duration is the time it ran after the warm-up, and its Q-tables
-        as they are now end the snapshots. Leaves this book-keeping as it was."""
+        with its n-th delivery), as the trial `spec`: the times of its tables are the clock from
+        that trial's `t0_s` (less its warm-up, or from its late start), its duration is the time of
+        the record it ran to, and its Q-tables as they are now end the snapshots. Leaves this book-keeping as it was."""
         if self.ended_clock is not None:
             clock_s = self.ended_clock
-        t0 = -spec.warmup_s
+        t0 = spec.t0_s
         q_t, q = list(self.q_t), list(self.q)
         if spec.q_snapshot_every_s > 0 and (not q_t or q_t[-1] < clock_s):
             final = self.policy.q_tables()
@@ -144,8 +144,9 @@ class TrialState:
                 "key": spec.key(), "n_robots": spec.n_robots, "n_circuits": n_circuits, "groups": list(spec.groups),
                 "speeds_mps": list(spec.speeds_mps), "values": list(spec.values),
                 "score_values": list(spec.score_values),
-                "duration_s": spec.duration_s if self.ended_clock is None else clock_s - spec.warmup_s,
-                "deliveries": spec.deliveries, "warmup_s": spec.warmup_s, "dt_s": spec.dt_s, "arena": arena_name,
+                "duration_s": spec.duration_s if self.ended_clock is None else clock_s + t0,
+                "deliveries": spec.deliveries, "warmup_s": spec.warmup_s, "t0_s": t0, "dt_s": spec.dt_s,
+                "arena": arena_name,
                 "policy": spec.policy.name,
                 "start_poses": self.start.tolist(),
             },
@@ -174,7 +175,7 @@ class TrialState:
 
 def clock_events(spec: TrialSpec) -> list[tuple]:
     """The spec's scheduled events as (clock time, kind, event), in the order they fire: an
-    event at time T of the record falls due at T + warmup_s on the trial's clock."""
-    events = ([(b.time_s + spec.warmup_s, EventKind.BREAKDOWN, b) for b in spec.breakdowns]
-              + [(v.time_s + spec.warmup_s, EventKind.VALUE_CHANGE, v) for v in spec.value_changes])
+    event at time T of the record falls due at T - t0 on the trial's clock (T + warmup_s)."""
+    events = ([(b.time_s - spec.t0_s, EventKind.BREAKDOWN, b) for b in spec.breakdowns]
+              + [(v.time_s - spec.t0_s, EventKind.VALUE_CHANGE, v) for v in spec.value_changes])
     return sorted(events, key=lambda e: (e[0], e[1]))

@@ -228,7 +228,21 @@ def run_lines(name: str, cfg: TavcConfig, prov: dict, claims: pd.DataFrame, runs
               f"{prov.get('git_commit') or 'no git commit'}; {len(prov.get('trials', []))} trials "
               f"({prov.get('n_trials_reused', 0)} reused from an earlier run), "
               f"{fmt(prov.get('wall_time_s'), '.0f')} s wall time for this invocation.", ""]
+    lines += late_start_lines(cfg)
     if diffs:
         lines += ["Differs from the chapter: " + "; ".join(diffs) + ".", ""]
     return lines
+
+
+def late_start_lines(cfg: TavcConfig) -> list[str]:
+    """When the baselines started, where they started late (`baseline_lead_s`)."""
+    from tavc_cli.experiments.build import baseline_start_s
+
+    start = baseline_start_s(cfg)
+    if not cfg.baselines or start <= 0:
+        return []
+    names = " and ".join(CONTROLLER_NAMES.get(b, b) for b in cfg.baselines)
+    return [f"The baselines ({names}) learn nothing: their trials ran from {start:,.0f} s, "
+            f"{float(cfg.convergence_s) - start:,.0f} s before the stable period (`baseline_lead_s`), to "
+            f"{float(cfg.duration_s):,.0f} s, and are compared with the learners over the stable period only.", ""]
 

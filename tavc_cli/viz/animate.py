@@ -38,7 +38,7 @@ _MARK_HALF_DEG = 35.0
 def simulate_for_pictures(cfg: TavcConfig, duration_s: float, frame_every_s: float) -> tuple[TrialRecord, Arena]:
     """Run the config's first trial for `duration_s` (no warm-up) with a pose trace."""
     spec = trial_specs(cfg)[0]
-    spec = replace(spec, duration_s=duration_s, warmup_s=0.0, deliveries=None, pose_every_s=frame_every_s,
+    spec = replace(spec, duration_s=duration_s, warmup_s=0.0, start_s=0.0, deliveries=None, pose_every_s=frame_every_s,
                    breakdowns=tuple(b for b in spec.breakdowns if b.time_s < duration_s),
                    value_changes=tuple(v for v in spec.value_changes if v.time_s < duration_s))
     return run_trials([spec])[0], arena_from_config(spec.arena)
