@@ -99,6 +99,22 @@ def test_the_section_1_5_trials_of_one_seed_form_one_tree_with_the_work_computed
                                                                                            (540_000, 1)]
 
 
+def test_random_trials_that_start_half_an_hour_before_the_breakdown_still_form_one_tree():
+    """Random trial j of the four experiments: the three with a breakdown start their random
+    trials 1,800 s before it, so they share only initial_distribution's first 1,800 s; breakdown
+    and value_change then share the 18,000 s up to the swap. 1,800 + 16,200 (initial_distribution
+    to its end) + 27,000 (low breakdown) + 18,000 + 9,000 (breakdown) + 18,000 (value_change) =
+    90,000 s, as before they started late, against 18,000 + 28,800 + 28,800 + 37,800 alone."""
+    items = [Item(s, None) for e in SECTION_1_5
+             for s in _specs(e, "scale=paper", "trials=1", "baseline_trials=1") if s.controller == "random"]
+    assert sum(i.spec.span_s for i in items) == 113_400.0
+    (tree,) = trees(items)
+    assert tree.ticks * 0.1 == pytest.approx(90_000.0)
+    assert (tree.start, tree.end) == (0, 18_000)
+    assert sorted((c.start, c.end) for c in tree.children) == [(18_000, 180_000), (18_000, 198_000),
+                                                               (18_000, 288_000)]
+
+
 def test_trials_of_other_seeds_or_learners_share_nothing(tmp_path):
     items = _items(tmp_path, "scale=smoke", "trials=2", "baseline_trials=2")
     # one tree per (controller, trial index): TAVC and random over four experiments, static in one

@@ -211,5 +211,9 @@ def test_the_report_says_when_the_baselines_started_late():
     cfg = settings(load_config(["experiment=heterogeneous", "scale=paper"]))
     (line, blank) = late_start_lines(cfg)
     assert "(random)" in line and "from 52,200 s, 1,800 s before the stable period" in line and "to 72,000 s" in line
+    assert "rather than from 0 s" in line
     assert late_start_lines(settings(load_config(["experiment=heterogeneous", "baseline_lead_s=null"]))) == []
     assert late_start_lines(settings(load_config(["experiment=initial_distribution"]))) == []
+    (line, _) = late_start_lines(settings(load_config(["experiment=breakdown", "scale=paper"])))
+    assert "(random and static)" in line and "from -1,800 s, 1,800 s before the first event" in line
+    assert "rather than from -18,000 s" in line

@@ -75,24 +75,33 @@ def base_spec(cfg: TavcConfig) -> TrialSpec:
     )
 
 
-def baseline_start_s(cfg: TavcConfig) -> float:
-    """When the baselines start: at t = 0, or `baseline_lead_s` before the stable period."""
+def baseline_start(cfg: TavcConfig) -> tuple[float, str]:
+    """The time of the record at which the baselines start, and what they start before: with the
+    learner (at minus the warm-up), or `baseline_lead_s` before the first thing that matters
+    to them, their first event or else the stable period, though never before the learner."""
+    learner_start = 0.0 - float(cfg.sim.warmup_s)  # not -warmup_s: that is -0.0 without one
     if cfg.baseline_lead_s is None:
-        return 0.0
-    return max(0.0, float(cfg.convergence_s) - float(cfg.baseline_lead_s))
+        return learner_start, "the learner's start"
+    events = sorted(float(e.time_s) for e in [*cfg.events.breakdowns, *cfg.events.value_changes])
+    first, what = ((events[0], "the first event") if events and events[0] < float(cfg.convergence_s)
+                   else (float(cfg.convergence_s), "the stable period"))
+    return max(learner_start, first - float(cfg.baseline_lead_s)), what
 
 
 def trial_specs(cfg: TavcConfig) -> list[TrialSpec]:
-    """Every trial of every controller, in a fixed order."""
+    """Every trial of every controller, in a fixed order. The baselines that start after the
+    learner have a shorter warm-up, or none and a late start (`baseline_start`)."""
     base = base_spec(cfg)
     seed = int(cfg.seed)
+    start, _ = baseline_start(cfg)
     specs = []
     for k, (label, policy, n_trials) in enumerate(controllers(cfg)):
         code = SEED_CODES[label]
-        start_s = baseline_start_s(cfg) if k > 0 else 0.0  # the learner comes first, then the baselines
+        # the learner comes first, then the baselines
+        warmup_s, start_s = (base.warmup_s, 0.0) if k == 0 else (max(0.0, -start), max(0.0, start))
         for j in range(n_trials):
             specs.append(replace(base, policy=policy, controller=label, trial=j, seed=(seed, code, j),
-                                 start_s=start_s))
+                                 warmup_s=warmup_s, start_s=start_s))
     return specs
 
 

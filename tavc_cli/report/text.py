@@ -235,14 +235,16 @@ def run_lines(name: str, cfg: TavcConfig, prov: dict, claims: pd.DataFrame, runs
 
 
 def late_start_lines(cfg: TavcConfig) -> list[str]:
-    """When the baselines started, where they started late (`baseline_lead_s`)."""
-    from tavc_cli.experiments.build import baseline_start_s
+    """When the baselines started, where they started after the learner (`baseline_lead_s`)."""
+    from tavc_cli.experiments.build import baseline_start
 
-    start = baseline_start_s(cfg)
-    if not cfg.baselines or start <= 0:
+    start, what = baseline_start(cfg)
+    learner_start = 0.0 - float(cfg.sim.warmup_s)
+    if not cfg.baselines or start <= learner_start:
         return []
     names = " and ".join(CONTROLLER_NAMES.get(b, b) for b in cfg.baselines)
     return [f"The baselines ({names}) learn nothing: their trials ran from {start:,.0f} s, "
-            f"{float(cfg.convergence_s) - start:,.0f} s before the stable period (`baseline_lead_s`), to "
-            f"{float(cfg.duration_s):,.0f} s, and are compared with the learners over the stable period only.", ""]
+            f"{float(cfg.baseline_lead_s):,.0f} s before {what} (`baseline_lead_s`), rather than from "
+            f"{learner_start:,.0f} s as the learners', to {float(cfg.duration_s):,.0f} s; they are compared with "
+            "the learners only after their start.", ""]
 
