@@ -84,6 +84,12 @@ def test_smoke_runs_of_the_four_experiments_through_report(tmp_path):
     claims = pd.read_csv(tmp_path / "claims.csv")
     assert claims["claim_id"].tolist() == [1, 2, 3, 4, 5, 6, 7, 8, 9]
     assert set(claims["verdict"]) <= {"reproduced", "not_reproduced", "inconclusive"}
+    # each run tested its claims on its tables as written, the numbers the report reads back
+    for name in EXPERIMENTS:
+        own = pd.read_csv(tmp_path / name / "claims.csv")
+        assert len(own)
+        pd.testing.assert_frame_equal(own, claims[claims["claim_id"].isin(own["claim_id"])].reset_index(drop=True),
+                                      check_dtype=False)
     text = (tmp_path / "REPORT.md").read_text()
     for name in EXPERIMENTS:
         assert f"## {name}" in text

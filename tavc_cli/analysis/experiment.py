@@ -3,6 +3,7 @@ after the trials (`state_time.csv`, `performance.csv`, ..., `comparison.csv`, `c
 
 from __future__ import annotations
 
+import io
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -30,16 +31,21 @@ def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord]) -
     claims, and remove the tables of an earlier run in the folder that this one does not
     write (another experiment's, or one without the event); return the tables and the claims."""
     tables = analyse(cfg, records)
+    written_tables = {}
     for name, df in tables.items():
         # Q-values span the reward's scale (about 0.05 per task with t in ms, 50 with t in s): significant digits
         fmt = "%.6g" if name == "q_values" else "%.4f"
-        write_text_atomic(out_dir / f"{name}.csv", df.to_csv(index=False, float_format=fmt))
+        text = df.to_csv(index=False, float_format=fmt)
+        write_text_atomic(out_dir / f"{name}.csv", text)
+        # the claims are tested on the tables as written, which is what `tavc report` reads back:
+        # both then give the same numbers
+        written_tables[name] = pd.read_csv(io.StringIO(text))
     from tavc_cli.analysis.comparison import experiment_comparison
 
     comparison = experiment_comparison(str(cfg.experiment_name or ""), tables["state_time"])
     if comparison is not None:
         write_text_atomic(out_dir / "comparison.csv", comparison.to_csv(index=False, float_format="%.4f"))
-    claims = experiment_claims(cfg, tables, out_dir)
+    claims = experiment_claims(cfg, written_tables, out_dir)
     if len(claims):
         write_text_atomic(out_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
     written = {*tables, *(["comparison"] if comparison is not None else []), *(["claims"] if len(claims) else [])}
