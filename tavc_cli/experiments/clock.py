@@ -1,8 +1,8 @@
 """A trial's clock, in ticks: when something scheduled falls due, and when a trial ends.
 
-A trial's clock reads `tick * dt` seconds since it started (its warm-up's start, if it has one). The engine
-(`engine.BatchEngine`), the planner of shared history (`lineage`) and the config's
-validation all count ticks with these two functions, so that they agree to the tick.
+A trial's clock reads `tick * dt` seconds since it started (its warm-up's start, if it has
+one). The engine (`engine.BatchEngine`), the planner of shared history (`lineage`) and the
+config's validation all count ticks with these two functions, so that they agree to the tick.
 """
 
 from __future__ import annotations

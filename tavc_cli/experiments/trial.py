@@ -124,8 +124,9 @@ class TrialState:
     def record(self, spec: TrialSpec, clock_s: float, arena_name: str, n_circuits: int) -> TrialRecord:
         """The trial's record as it stands at `clock_s` (or as it ended, for a trial that ended
         with its n-th delivery), as the trial `spec`: the times of its tables are the clock from
-        that trial's `t0_s` (less its warm-up, or from its late start), its duration is the time of
-        the record it ran to, and its Q-tables as they are now end the snapshots. Leaves this book-keeping as it was."""
+        that trial's `t0_s` (less its warm-up, or from its late start), its duration is the time
+        of the record it ran to, and its Q-tables as they are now end the snapshots. Leaves this
+        book-keeping as it was."""
         if self.ended_clock is not None:
             clock_s = self.ended_clock
         t0 = spec.t0_s
