@@ -169,7 +169,7 @@ def run_profile(specs, perf: str | None = None) -> dict:
         key = group_of(dso, symbol)
         groups[key] = groups.get(key, 0.0) + 100.0 * share / total
     return {
-        "sim_seconds_per_wall_second": round(sum(s.duration_s for s in specs) / wall, 1),
+        "sim_seconds_per_wall_second": round(sum(s.span_s for s in specs) / wall, 1),
         "functions_named": n_named,
         "groups_pct": {k: round(v, 1) for k, v in sorted(groups.items(), key=lambda kv: -kv[1])},
         "top": [{"pct": round(100.0 * share / total, 2), "object": dso, "function": symbol}

@@ -323,6 +323,10 @@ def test_a_trial_that_started_late_has_rates_only_from_its_start():
     assert value_rate(rec, 60.0, 100.0) == pytest.approx(4.0 / 40.0)
     table = performance_table([rec, _record(deliveries=[(10.0, 3.0)])], 30.0, 0.0, 100.0)
     assert table["n_trials"].tolist() == [1, 1, 2, 2] and table["mean"].iloc[0] == pytest.approx(0.1)
+    # a baseline whose warm-up was cut to 30 s of a learner's 100 s: no rate before -30 s
+    warm = _record(deliveries=[(-20.0, 3.0), (10.0, 1.0)], warmup_s=30.0, t0_s=-30.0)
+    assert math.isnan(value_rate(warm, -100.0, 0.0))
+    assert value_rate(warm, -30.0, 0.0) == pytest.approx(0.1)
 
 
 def test_a_trial_that_started_late_is_covered_from_its_start():
@@ -332,6 +336,19 @@ def test_a_trial_that_started_late_is_covered_from_its_start():
     assert _merged(state_intervals(rec)) == [(40.0, 60.0, None), (60.0, 100.0, "1:2")]
     assert time_shares(rec, 50.0, 100.0) == pytest.approx({"1:2": 100.0})
     assert (rec.start_s, rec.end_s) == (40.0, 100.0)
+    # over time, in 30 s bins from 0, a bin that begins before the start has no value, as the
+    # trial's performance has none there: [30, 60) though the state is known from 60 s on in
+    # this record, and from 43 s in one whose robots all arrive by then
+    early = _record(arrivals=[(41.0, 0, 0), (42.0, 1, 1), (43.0, 2, 1)], t0_s=40.0)
+    from tavc_cli.analysis.states import group_high_series, high_circuit_series
+
+    for r in (rec, early):
+        centres, high = high_circuit_series(r, 30.0, 0.0, 100.0)
+        np.testing.assert_allclose(centres, [15.0, 45.0, 75.0, 95.0])
+        np.testing.assert_allclose(high, [np.nan, np.nan, 1.0, 1.0])
+    _, order, shares = group_high_series(early, 30.0, 0.0, 100.0)  # robots 0 and 2 fast, 1 slow
+    assert order == ["fast", "slow"]
+    np.testing.assert_allclose(shares, [[np.nan, np.nan, 0.5, 0.5], [np.nan, np.nan, 0.0, 0.0]])
     # a record saved before `t0_s` was kept starts at minus its warm-up
     assert _record(warmup_s=30.0).start_s == -30.0
 

@@ -163,10 +163,18 @@ def test_the_baselines_of_the_breakdown_runs_start_half_an_hour_before_their_fir
 @pytest.mark.parametrize("override, named", [
     (["experiment=spatiotemporal", "baselines=[random]", "baseline_lead_s=600"], "deliveries"),
     (["experiment=heterogeneous", "baseline_lead_s=-1"], "must be"),
+    (["experiment=breakdown", "baseline_lead_s=0"], "must be"),  # the breakdown would come at its first tick
 ])
 def test_a_late_start_is_refused_where_it_cannot_be(override, named):
     with pytest.raises(TavcError, match=r"baseline_lead_s.*" + named):
         load_config([*override, "scale=smoke"])
+
+
+def test_a_lead_is_no_concern_of_a_run_without_baselines():
+    # `tavc reproduce baseline_lead_s=600` passes it to section 1.4, which counts deliveries
+    # but has no baseline to start late
+    cfg = load_config(["experiment=spatiotemporal", "scale=smoke", "baseline_lead_s=600"])
+    assert cfg.baseline_lead_s == 600 * 0.02 and list(cfg.baselines) == []
 
 
 def test_baseline_trials_default_to_trials():

@@ -15,7 +15,7 @@ from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.joint import run_together
 from tavc_cli.experiments.lineage import Item, plan, trees
-from tavc_cli.experiments.records import TrialRecord, records_differ
+from tavc_cli.experiments.records import ARRAY_FIELDS, TrialRecord, records_differ
 from tavc_cli.experiments.spec import Breakdown
 from tavc_cli.experiments.store import Executor, trial_path
 
@@ -55,12 +55,14 @@ def test_a_late_start_is_the_trial_from_t_0_with_its_times_moved():
     plain = run_trials([replace(base, duration_s=600.0)])[0]
     late = run_trials([replace(base, start_s=900.0, duration_s=1500.0)])[0]
     assert (late.start_s, late.end_s, late.meta["t0_s"], plain.meta["t0_s"]) == (900.0, 1500.0, 900.0, 0.0)
-    for name, cols in plain.tables.items():
-        assert len(cols["t_s"]) > 0 or name == "breakdowns"
-        assert np.array_equal(late.tables[name]["t_s"], 900.0 + cols["t_s"]), name
-        for col, values in cols.items():
-            if col != "t_s":
-                assert np.array_equal(late.tables[name][col], values), (name, col)
+    assert all(len(cols["t_s"]) > 0 or name == "breakdowns" for name, cols in plain.tables.items())
+    moved = TrialRecord(meta=late.meta, tables={name: {col: 900.0 + v if col == "t_s" else v
+                                                      for col, v in cols.items()}
+                                                for name, cols in plain.tables.items()})
+    for name in ARRAY_FIELDS:
+        values = getattr(plain, name)
+        setattr(moved, name, 900.0 + values if name.endswith("_t") else values)
+    assert records_differ(moved, late) == []
 
 
 def test_trials_that_start_late_share_history_only_with_their_own_start(tmp_path, monkeypatch):

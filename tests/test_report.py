@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from tavc_cli.analysis.comparison import compare
+from tavc_cli.analysis.comparison import compare, experiment_comparison
 from tavc_cli.cli import app
 from tavc_cli.reference import chapter_table
 
@@ -84,8 +84,12 @@ def test_smoke_runs_of_the_four_experiments_through_report(tmp_path):
     claims = pd.read_csv(tmp_path / "claims.csv")
     assert claims["claim_id"].tolist() == [1, 2, 3, 4, 5, 6, 7, 8, 9]
     assert set(claims["verdict"]) <= {"reproduced", "not_reproduced", "inconclusive"}
-    # each run tested its claims on its tables as written, the numbers the report reads back
+    # each run made its comparison and tested its claims on its tables as written, the numbers
+    # the report reads back
     for name in EXPERIMENTS:
+        state_time = pd.read_csv(tmp_path / name / "state_time.csv", dtype={"state": str})
+        again = experiment_comparison(name, state_time).to_csv(index=False, float_format="%.4f")
+        assert again == (tmp_path / name / "comparison.csv").read_text(), name
         own = pd.read_csv(tmp_path / name / "claims.csv")
         assert len(own)
         pd.testing.assert_frame_equal(own, claims[claims["claim_id"].isin(own["claim_id"])].reset_index(drop=True),

@@ -200,9 +200,13 @@ def test_baselines_that_start_late_are_compared_over_the_stable_period_only(tmp_
     assert stats.loc["random", "value_rate_convergence"].isna().all()
     assert stats.loc["tavc", "value_rate_convergence"].notna().all()
     assert stats.loc["random", "value_rate_stable"].notna().all()
+    assert stats.loc["random", "settle_s"].isna().all()  # no convergence period to settle in
     perf = pd.read_csv(tmp_path / "performance.csv")
-    random = perf[perf.controller == "random"].set_index("t_s")["n_trials"]
-    assert random.to_dict() == {15.0: 0, 45.0: 2, 75.0: 2, 105.0: 2}
+    random = perf[perf.controller == "random"].set_index("t_s")
+    assert random["n_trials"].to_dict() == {15.0: 0, 45.0: 2, 75.0: 2, 105.0: 2}
+    assert random.loc[15.0, ["mean", "std"]].isna().all()  # no trial ran there: no spread either
+    allocation = pd.read_csv(tmp_path / "allocation.csv")
+    assert allocation[allocation.controller == "random"].set_index("t_s").loc[15.0, "n_trials"] == 0
     shares = summary["tables"]["state_time"]
     assert shares[shares.controller == "random"]["mean_pct"].sum() == pytest.approx(100.0)
 

@@ -37,12 +37,12 @@ def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord]) -
         fmt = "%.6g" if name == "q_values" else "%.4f"
         text = df.to_csv(index=False, float_format=fmt)
         write_text_atomic(out_dir / f"{name}.csv", text)
-        # the claims are tested on the tables as written, which is what `tavc report` reads back:
-        # both then give the same numbers
-        written_tables[name] = pd.read_csv(io.StringIO(text))
+        # the comparison and the claims are made from the tables as written, which is what
+        # `tavc report` reads back: both then give the same numbers
+        written_tables[name] = pd.read_csv(io.StringIO(text), dtype={"state": str} if name == "state_time" else None)
     from tavc_cli.analysis.comparison import experiment_comparison
 
-    comparison = experiment_comparison(str(cfg.experiment_name or ""), tables["state_time"])
+    comparison = experiment_comparison(str(cfg.experiment_name or ""), written_tables["state_time"])
     if comparison is not None:
         write_text_atomic(out_dir / "comparison.csv", comparison.to_csv(index=False, float_format="%.4f"))
     claims = experiment_claims(cfg, written_tables, out_dir)

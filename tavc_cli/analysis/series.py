@@ -23,12 +23,13 @@ def over_trials(series: Mapping[str, Sequence[np.ndarray]], centres: np.ndarray,
                 std_of_one: float) -> pd.DataFrame:
     """`t_s,controller,<mean>,<std>,n_trials`: per controller and bin, the mean and sample std
     over its trials' series, NaN entries (undefined there) left out; `std_of_one` where a bin
-    has a single trial."""
+    has a single trial, NaN where it has none."""
     rows = []
     for ctrl, runs in series.items():
         m = np.vstack(runs)
         for k, t in enumerate(centres):
             col = m[:, k][np.isfinite(m[:, k])]
+            spread = float(col.std(ddof=1)) if len(col) > 1 else std_of_one if len(col) else np.nan
             rows.append({"t_s": float(t), "controller": ctrl, mean: float(col.mean()) if len(col) else np.nan,
-                         std: float(col.std(ddof=1)) if len(col) > 1 else std_of_one, "n_trials": len(col)})
+                         std: spread, "n_trials": len(col)})
     return pd.DataFrame(rows, columns=["t_s", "controller", mean, std, "n_trials"])

@@ -268,6 +268,12 @@ def state_time_table(records: Iterable[TrialRecord], t_from: float, t_to: float,
     return pd.DataFrame(rows)
 
 
+def _from_start(mean: np.ndarray, edges: np.ndarray, rec: TrialRecord) -> np.ndarray:
+    """`mean` (n_bins, n_values) with NaN in the bins that begin before the record's start (a
+    baseline that started late), as its performance has (`performance.value_rate_series`)."""
+    return np.where((edges[:-1] >= rec.start_s)[:, None], mean, np.nan)
+
+
 def _binned_mean(intervals, value, edges: np.ndarray, n_values: int = 1) -> np.ndarray:
     """(n_bins, n_values): the time-weighted mean of value(state, start) (a vector) over each bin
     of `edges`, from (start, end, state) intervals; NaN where no state was defined in a bin.
@@ -309,7 +315,7 @@ def high_circuit_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: flo
     The first number of a circuits-state label is that count (the high circuit first)."""
     edges = bin_edges(t_from, t_to, bin_s)
     mean = _binned_mean(state_intervals(rec, "circuits"), lambda s, a: _first_number(s), edges)
-    return 0.5 * (edges[:-1] + edges[1:]), mean[:, 0]
+    return 0.5 * (edges[:-1] + edges[1:]), _from_start(mean, edges, rec)[:, 0]
 
 
 def group_high_series(rec: TrialRecord, bin_s: float, t_from: float,
@@ -338,7 +344,7 @@ def group_high_series(rec: TrialRecord, bin_s: float, t_from: float,
 
     edges = bin_edges(t_from, t_to, bin_s)
     mean = _binned_mean(state_intervals(rec, "groups"), share, edges, len(order))
-    return 0.5 * (edges[:-1] + edges[1:]), order, mean.T
+    return 0.5 * (edges[:-1] + edges[1:]), order, _from_start(mean, edges, rec).T
 
 
 def specialisation_table(records: Iterable[TrialRecord], bin_s: float, t_from: float, t_to: float) -> pd.DataFrame:

@@ -50,12 +50,13 @@ def settle_time(centres, series, bin_s: float, t_conv: float) -> float:
 
 def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame:
     """`controller,trial,duration_s,value_rate_stable,value_rate_convergence,value_rate_before,pct_<state>...`
-    (`duration_s`: how long the trial ran after its warm-up).
+    (`duration_s`: the time of the record the trial ran to, its duration or its n-th delivery).
 
     Stable period: [convergence_s, duration_s) (to its end for a trial that ended sooner, with
     its n-th delivery); convergence period: [0, convergence_s);
     before: [-w, 0) with w = analysis.before_s, or the stable period's length if that is null,
-    capped by the warm-up (NaN without one).
+    capped by the warm-up (NaN without one, and for a baseline that started after -w:
+    `baseline_lead_s`); a period that begins before a record's start has no rate (NaN).
     A state that never occurred in a trial's stable period has 0 %; a trial whose state was
     never defined in it has NaN in every state column.
     """

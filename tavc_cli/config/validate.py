@@ -65,7 +65,7 @@ def validate_scaling(cfg: DictConfig) -> None:
     # before resolution scales them, so that the message shows the value the user wrote
     at_least("sim.warmup_s", cfg.sim.warmup_s, 0)
     if cfg.baseline_lead_s is not None:
-        at_least("baseline_lead_s", cfg.baseline_lead_s, 0)
+        positive("baseline_lead_s", cfg.baseline_lead_s)  # a baseline needs a moment before its first event
     check(
         0 <= paper.convergence_s < paper.duration_s,
         "paper.convergence_s",
@@ -245,7 +245,7 @@ def _validate_run(cfg: DictConfig) -> None:
         one_of(f"baselines[{index}]", baseline, BASELINES)
     unique("baselines", list(cfg.baselines), "controller")
     # a trial counted in deliveries counts them from t = 0: where its baselines start is no part of it
-    check(cfg.baseline_lead_s is None or cfg.deliveries is None, "baseline_lead_s",
+    check(not cfg.baselines or cfg.baseline_lead_s is None or cfg.deliveries is None, "baseline_lead_s",
           "baselines can start late only in runs without a delivery count (deliveries); set baseline_lead_s=null")
     check(bool(cfg.output_dir), "output_dir", "must not be empty")
     check(Path(cfg.output_dir).resolve() != Path(Path(cfg.output_dir).resolve().anchor), "output_dir",

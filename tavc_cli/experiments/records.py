@@ -76,7 +76,7 @@ class TrialRecord:
     def start_s(self) -> float:
         """The time of the record's first tick: minus the trial's warm-up, or its late start."""
         meta = self.meta
-        return float(meta["t0_s"]) if "t0_s" in meta else -float(meta.get("warmup_s", 0.0))
+        return float(meta["t0_s"]) if "t0_s" in meta else 0.0 - float(meta.get("warmup_s", 0.0))
 
     @property
     def end_s(self) -> float:

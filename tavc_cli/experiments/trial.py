@@ -176,7 +176,7 @@ class TrialState:
 
 def clock_events(spec: TrialSpec) -> list[tuple]:
     """The spec's scheduled events as (clock time, kind, event), in the order they fire: an
-    event at time T of the record falls due at T - t0 on the trial's clock (T + warmup_s)."""
+    event at time T of the record falls due at T - t0_s on the trial's clock."""
     events = ([(b.time_s - spec.t0_s, EventKind.BREAKDOWN, b) for b in spec.breakdowns]
               + [(v.time_s - spec.t0_s, EventKind.VALUE_CHANGE, v) for v in spec.value_changes])
     return sorted(events, key=lambda e: (e[0], e[1]))
