@@ -81,7 +81,7 @@ def _physics_only(specs) -> float:
     loop's do, so that neither side pays Python per tick.
     """
     engine = BatchEngine(specs)
-    n_ticks = int(round(specs[0].duration_s / specs[0].dt_s))
+    n_ticks = int(round(specs[0].span_s / specs[0].dt_s))
     world = engine.world
     cmd = np.column_stack([engine.robots["top_speed_mps"], np.full(engine.n, 0.2)])
     world.poses()
