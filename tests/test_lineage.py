@@ -67,7 +67,8 @@ def test_a_late_start_is_the_trial_from_t_0_with_its_times_moved():
 
 def test_trials_that_start_late_share_history_only_with_their_own_start(tmp_path, monkeypatch):
     # two baselines starting at 300 s (one longer) share their first 600 s; one starting at
-    # 0 s shares nothing with them, though it is the same trial: its clock would be 300 s ahead
+    # 0 s shares nothing with them: the tree keeps apart trials whose records start at
+    # different times, though their clocks run alike (a conservative rule, not a needed one)
     base = _specs("initial_distribution", "scale=smoke", "trials=1", "baseline_trials=1")[1]
     late = replace(base, start_s=300.0, duration_s=900.0)
     items = [Item(late, tmp_path / "a"), Item(replace(late, duration_s=1200.0), tmp_path / "b"),
