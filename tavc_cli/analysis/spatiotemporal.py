@@ -210,7 +210,7 @@ def table_1_1_from(traversals: pd.DataFrame, targets: pd.DataFrame) -> pd.DataFr
 def lane_windows(rec: TrialRecord) -> dict[str, tuple[float, float]]:
     """The first and the last tenth of the trial's run (its own length: a trial that ends with
     its n-th delivery ends when it does)."""
-    duration_s = float(rec.meta["duration_s"])
+    duration_s = rec.end_s
     return {"early": (0.0, duration_s / 10.0), "late": (duration_s * 0.9, duration_s)}
 
 

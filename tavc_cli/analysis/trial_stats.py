@@ -81,7 +81,7 @@ def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame
         shares = time_shares(rec, t_conv, t_end, scheme)
         row = {
             "controller": rec.meta["controller"], "trial": int(rec.meta["trial"]),
-            "duration_s": float(rec.meta["duration_s"]),
+            "duration_s": rec.end_s,
             "value_rate_stable": value_rate(rec, t_conv, t_end),
             "value_rate_convergence": value_rate(rec, 0.0, t_conv) if t_conv > 0 else math.nan,
             "value_rate_before": value_rate(rec, -before, 0.0) if before > 0 else math.nan,

@@ -1,4 +1,5 @@
-"""A trial's clock, in ticks: when something scheduled falls due, and when a trial ends.
+"""A trial's clock, in ticks: when something scheduled falls due, and when a trial ends;
+and a batch's schedule of what falls due next.
 
 A trial's clock reads `tick * dt` seconds since it started (its warm-up's start, if it has
 one). The engine (`engine.BatchEngine`), the planner of shared history (`lineage`) and the
@@ -8,6 +9,11 @@ config's validation all count ticks with these two functions, so that they agree
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from tavc_cli.experiments.trial import TrialState
 
 
 def due_tick(clock_s: float, dt_s: float) -> int:
@@ -27,3 +33,22 @@ def end_tick(t0_s: float, duration_s: float, dt_s: float) -> int:
     """The tick at which a trial ends that starts at time `t0_s` of its record (minus its warm-up,
     or its late start) and runs to `duration_s` (the ticks before it run)."""
     return int(round((duration_s - t0_s) / dt_s))
+
+
+def next_multiple(tick: int, every: int) -> int:
+    """The first multiple of `every` after `tick`."""
+    return (tick // every + 1) * every
+
+
+class Schedule:
+    """When each trial of a batch next takes a Q-table snapshot or a pose frame, and when
+    anything next falls due in the batch (those, or a scheduled event)."""
+
+    def __init__(self, trials: Sequence[TrialState]) -> None:
+        # on the trials' clock, which starts at 0 with the warm-up
+        self.next_q = [0.0 if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in trials]
+        self.next_pose = [0.0 if tr.spec.pose_every_s > 0 else math.inf for tr in trials]
+        self.next_due = -math.inf
+
+    def update(self, trials: Sequence[TrialState]) -> None:
+        self.next_due = min(min(self.next_q), min(self.next_pose), min(tr.next_event_time() for tr in trials))

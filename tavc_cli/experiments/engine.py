@@ -40,8 +40,7 @@ from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan, empty_work
 from tavc_cli.behaviours.navigation import behave, compiled
 from tavc_cli.experiments.arrivals import ArrivalDesk
-from tavc_cli.experiments.clock import end_tick
-from tavc_cli.experiments.events import EventKind
+from tavc_cli.experiments.clock import Schedule, end_tick, next_multiple
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.tick import (
@@ -65,25 +64,6 @@ from tavc_cli.sim.world import (
     write_and_step,
     write_commands,
 )
-
-
-def _next_multiple(tick: int, every: int) -> int:
-    """The first multiple of `every` after `tick`."""
-    return (tick // every + 1) * every
-
-
-class _Schedule:
-    """When each trial next takes a Q-table snapshot or a pose frame, and when anything next
-    falls due in the batch (those, or a scheduled event)."""
-
-    def __init__(self, trials: Sequence[TrialState]) -> None:
-        # on the trials' clock, which starts at 0 with the warm-up
-        self.next_q = [0.0 if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in trials]
-        self.next_pose = [0.0 if tr.spec.pose_every_s > 0 else math.inf for tr in trials]
-        self.next_due = -math.inf
-
-    def update(self, trials: Sequence[TrialState]) -> None:
-        self.next_due = min(min(self.next_q), min(self.next_pose), min(tr.next_event_time() for tr in trials))
 
 
 class BatchEngine:
@@ -129,7 +109,7 @@ class BatchEngine:
         self.act_s = np.zeros((n, N_ACT))
         self.desk = ArrivalDesk(self.trials, self.arena, self.robots, self.act_s, self.dt)
         self.tick = 0  # every trial's clock is tick * dt
-        self.schedule = _Schedule(self.trials)
+        self.schedule = Schedule(self.trials)
         self.on_tick: Callable[[BatchEngine], None] | None = None
         self._leaving: list[TrialState] = []  # trials that ended with a delivery, robots still in the world
         self._all_ended = False  # every trial ended with its n-th delivery (`_end_delivered`)
@@ -186,24 +166,10 @@ class BatchEngine:
         """Seconds since the trials started (their warm-ups included)."""
         return self.tick * self.dt
 
-    # --- scheduled events ---------------------------------------------------
-    def _fire_events(self, tr: TrialState, t: float) -> None:
-        while tr.events and tr.events[0][0] <= t:
-            _, kind, ev = tr.events.pop(0)
-            if kind == EventKind.BREAKDOWN:
-                robot = ev.robot if ev.robot is not None else tr.pick_robot(ev.circuit)
-                if not tr.alive[robot]:
-                    continue
-                tr.alive[robot] = False
-                self.world.remove(tr.lo + robot)
-                self.robots[tr.lo + robot]["alive"] = False
-                tr.rows.add("breakdowns", t, robot)
-            else:
-                tr.values[:] = ev.values  # in place: compiled code serves arrivals with these arrays
-                # scores follow the values' ranking: the new high-value circuit earns the high score
-                tr.scores[np.argsort(-tr.values, kind="stable")] = np.sort(tr.spec.score_values)[::-1]
-                tr.vc_t.append(t)
-                tr.vc.append(tr.values.copy())
+    def _remove(self, g: int) -> None:
+        """Robot g (of the batch) out of the world and out of the kernel's loop."""
+        self.world.remove(g)
+        self.robots[g]["alive"] = False
 
     # --- the loop -----------------------------------------------------------
     def end_tick(self) -> int:
@@ -246,8 +212,8 @@ class BatchEngine:
                 self._decisions.decide(self.tick, t)
             if runs and self.tick % NOISE_BLOCK_TICKS and self.world.hand_over():
                 # up to the next block of noise (drawn in Python) or progress report, at the latest
-                stop = min(n_ticks, _next_multiple(self.tick, NOISE_BLOCK_TICKS),
-                           _next_multiple(self.tick, report_every) if progress is not None else n_ticks)
+                stop = min(n_ticks, next_multiple(self.tick, NOISE_BLOCK_TICKS),
+                           next_multiple(self.tick, report_every) if progress is not None else n_ticks)
                 self._run_compiled(stop, schedule.next_due)
             else:
                 n_arrived = self._sense_and_decide()
@@ -299,8 +265,7 @@ class BatchEngine:
         for tr in self._leaving:
             for g in range(tr.lo, tr.hi):
                 if self.robots[g]["alive"]:
-                    self.world.remove(g)
-                    self.robots[g]["alive"] = False
+                    self._remove(g)
         self._leaving = []
 
     def _run_compiled(self, stop: int, next_due: float) -> None:
@@ -326,7 +291,7 @@ class BatchEngine:
             elif why == RUN_LOST_BODIES:
                 raise RuntimeError("the physics space holds bodies the world did not index")
 
-    def _fall_due(self, t: float, schedule: _Schedule) -> None:
+    def _fall_due(self, t: float, schedule: Schedule) -> None:
         """Scheduled events, Q-table snapshots and pose frames that fall due at time t.
 
         Pose frames show where the robots are at t, before its events (a robot that
@@ -334,8 +299,8 @@ class BatchEngine:
         """
         poses = self.world.poses(out=np.empty_like(self.pose))
         for b, tr in enumerate(self.trials):
-            if tr.events and tr.events[0][0] <= t:
-                self._fire_events(tr, t)
+            for robot in tr.fire_events(t):
+                self._remove(tr.lo + robot)
             if t >= schedule.next_q[b]:
                 tr.snapshot_q(t)
                 schedule.next_q[b] += tr.spec.q_snapshot_every_s  # on the schedule's own grid: no drift

@@ -129,13 +129,14 @@ def serve_arrivals(robots, arr, tick, dt_s, act_s, next_uint32, next_double):
             before = act_s[g, a] - dt_s if a == rob.activity else act_s[g, a]
             log[row, LOG_SPENT + a] = before - arr.act_at_task[g, a]
             arr.act_at_task[g, a] = before
-        if arr.policy[b] == POLICY_EGREEDY:
+        policy = arr.policy[b]
+        if policy == POLICY_EGREEDY or policy == POLICY_SOFTMAX:  # TAVC: learn, then choose
             q_learn(arr.q[g], arr.state[g], circuit, reward, circuit, arr.alpha[b], arr.gamma[b])
+        if policy == POLICY_EGREEDY:
             choice = egreedy(arr.q[g, circuit], arr.epsilon[b], next_uint32, next_double, arr.rng[b])
-        elif arr.policy[b] == POLICY_SOFTMAX:
-            q_learn(arr.q[g], arr.state[g], circuit, reward, circuit, arr.alpha[b], arr.gamma[b])
+        elif policy == POLICY_SOFTMAX:
             choice = softmax(arr.q[g, circuit], arr.tau[b], next_double, arr.rng[b])
-        elif arr.policy[b] == POLICY_RANDOM:
+        elif policy == POLICY_RANDOM:
             choice = below(next_uint32, arr.rng[b], arr.q.shape[1])
         else:
             choice = arr.assignment[g]

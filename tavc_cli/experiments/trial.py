@@ -93,6 +93,28 @@ class TrialState:
         """When the next scheduled event falls due, on the trial's clock."""
         return self.events[0][0] if self.events else math.inf
 
+    def fire_events(self, t: float) -> list[int]:
+        """Apply the events due at clock time t, in order: a breakdown marks its robot dead, a
+        value change sets the values and the scores that follow their ranking. Returns the
+        robots that broke down, for the engine to take out of the world."""
+        broken = []
+        while self.events and self.events[0][0] <= t:
+            _, kind, ev = self.events.pop(0)
+            if kind == EventKind.BREAKDOWN:
+                robot = ev.robot if ev.robot is not None else self.pick_robot(ev.circuit)
+                if not self.alive[robot]:
+                    continue
+                self.alive[robot] = False
+                broken.append(robot)
+                self.rows.add("breakdowns", t, robot)
+            else:
+                self.values[:] = ev.values  # in place: compiled code serves arrivals with these arrays
+                # scores follow the values' ranking: the new high-value circuit earns the high score
+                self.scores[np.argsort(-self.values, kind="stable")] = np.sort(self.spec.score_values)[::-1]
+                self.vc_t.append(t)
+                self.vc.append(self.values.copy())
+        return broken
+
     def pick_robot(self, circuit: str | int | None) -> int:
         """A live robot, drawn from the trial's event stream, among those whose last target was
         on `circuit` ('high' or 'low' by the current values, or an index; None: any), else among
