@@ -13,7 +13,13 @@ REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
 # Learning values [w_high, w_low] for the value-ratio sweep: ratios 1.0, 1.1 (the chapter's), 1.25 ... 2.0
 VALUE_RATIOS := [2000,2000],[2200,2000],[2500,2000],[3000,2000],[3500,2000],[4000,2000]
 
-.PHONY: help venv test test-fast bench verify-outcomes reproduce-all reproduce-experiments reproduce-quick model value-ratio $(REPRODUCE) clean
+# The horizon ladder: multiples of the chapter's durations at which initial_distribution runs
+LADDER ?= 1,4,10,20,40
+# Trials per process at scale=converged: small batches spread hours of trees evenly over the
+# cores, and a killed run loses less (batching changes speed, never numbers)
+CONVERGED_BATCH ?= 2
+
+.PHONY: help venv test test-fast bench verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -64,6 +70,15 @@ reproduce-all: venv ## Run every experiment and the model at paper scale, then w
 
 reproduce-experiments: venv ## Every experiment at paper scale in one run: the history their trials share simulated once
 	$(BIN)/tavc reproduce scale=paper --results results
+
+reproduce-converged: venv ## Every experiment and the horizon ladder at 40x the chapter's durations into results/converged/, then the report; prints the wall time
+	@date +%s > $(VENV)/.converged-start
+	$(BIN)/tavc reproduce scale=converged executor.batch_size=$(CONVERGED_BATCH) --results results/converged --ladder $(LADDER)
+	$(BIN)/tavc report results
+	@echo "reproduce-converged: $$(( $$(date +%s) - $$(cat $(VENV)/.converged-start) )) s wall time"
+
+ladder: venv ## initial_distribution at 1x to 40x the chapter's durations (results/converged/ladder/), the rungs' history shared
+	$(BIN)/tavc ladder --factors $(LADDER) --results results/converged executor.batch_size=$(CONVERGED_BATCH)
 
 reproduce-quick: venv ## A first look: every experiment at scale=quick into results-quick/, and its report
 	@date +%s > $(VENV)/.reproduce-start

@@ -132,16 +132,30 @@ def run_summary(overrides: Sequence[str] = (), *, progress: bool = False) -> dic
 
 
 def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[str] | None = None,
-                        results_dir: str | Path = "results", progress: bool = False) -> list[tuple[str, dict]]:
-    """`reproduce`'s work, returning (experiment name, summary) per experiment as `tavc
-    reproduce` prints them."""
+                        results_dir: str | Path = "results", progress: bool = False,
+                        ladder: Sequence[float] | None = None) -> list[tuple[str, dict]]:
+    """`reproduce`'s work, returning (name, summary) per experiment as `tavc reproduce` prints
+    them. With `ladder` (multiples of the chapter's durations), the horizon ladder's rungs run
+    in the same job (`ladder_summaries`), their history shared with the experiments' trials,
+    and follow the experiments as ``ladder x<factor>``; ``experiments=[]`` runs the ladder alone."""
     from tavc_cli import config
     from tavc_cli.pipeline import run_experiments
 
     names = [experiments] if isinstance(experiments, str) else experiments
-    cfgs = config.load_experiments(names, list(overrides), results_dir)
-    summaries = run_experiments([config.settings(cfg) for cfg in cfgs], progress=progress)
-    return [(str(cfg.experiment_name), summary) for cfg, summary in zip(cfgs, summaries, strict=True)]
+    cfgs = config.load_experiments(names, list(overrides), results_dir) if names != [] else []
+    rungs = config.load_ladder(ladder, list(overrides), results_dir) if ladder else []
+    if not cfgs and not rungs:
+        raise TavcError("--experiments: no experiment and no ladder to run")
+    summaries = run_experiments([config.settings(cfg) for cfg in [*cfgs, *rungs]], progress=progress)
+    out = [(str(cfg.experiment_name), summary) for cfg, summary in zip(cfgs, summaries, strict=False)]
+    if rungs:
+        from tavc_cli.analysis.ladder import write_ladder
+
+        folders = [Path(str(cfg.output_dir)) for cfg in rungs]
+        write_ladder(Path(results_dir) / "ladder", folders)
+        out += [(f"ladder x{float(cfg.scale.time_factor):g}", summary)
+                for cfg, summary in zip(rungs, summaries[len(cfgs):], strict=True)]
+    return out
 
 
 def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, progress: bool = False,

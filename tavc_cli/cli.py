@@ -140,6 +140,11 @@ def reproduce(
     results: Annotated[
         Path, typer.Option("--results", help="Folder that gets one folder per experiment.")
     ] = Path("results"),
+    ladder: Annotated[
+        Optional[str],
+        typer.Option("--ladder", help="Also the horizon ladder at these multiples of the chapter's durations "
+                                      "(e.g. 1,4,10,20,40), into RESULTS/ladder/.", show_default=False),
+    ] = None,
     progress: ProgressFlag = None,
 ) -> None:
     """Run several experiments at once, the history their trials share simulated once."""
@@ -149,7 +154,26 @@ def reproduce(
             names=experiments,
             results=results,
             progress=_shown(progress),
+            ladder=_factors(ladder),
         )
+
+
+@app.command("ladder")
+def ladder_command(
+    overrides: _overrides("seed=3 trials=8") = None,
+    factors: Annotated[
+        str, typer.Option("--factors", help="Multiples of the chapter's durations, comma-separated.")
+    ] = "1,4,10,20,40",
+    results: Annotated[
+        Path, typer.Option("--results", help="Folder whose ladder/ gets one folder per rung.")
+    ] = Path("results/converged"),
+    progress: ProgressFlag = None,
+) -> None:
+    """initial_distribution at several multiples of the chapter's durations (scale=converged
+    otherwise), the rungs' history shared; ladder.csv and its figure."""
+    with _user_errors():
+        _reproduce(overrides=overrides or [], names="", results=results, progress=_shown(progress),
+                   ladder=_factors(factors))
 
 
 @app.command()
@@ -309,15 +333,31 @@ def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
                  lambda done: _write_sweep(config.swept_values(ours), [Path(f) for f in done]))
 
 
-def _reproduce(*, overrides: Sequence[str], names: str | None, results: Path, progress: bool) -> None:
-    """Compose every experiment with the same overrides, run them together, print each summary."""
+def _factors(text: str | None) -> list[float] | None:
+    """`--ladder`'s comma-separated factors as numbers (None when not given)."""
+    if text is None:
+        return None
+    try:
+        return [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise TavcError(f"ladder factors: {text!r} is not a comma-separated list of numbers, e.g. 1,4,10,20,40") from None
+
+
+def _reproduce(*, overrides: Sequence[str], names: str | None, results: Path, progress: bool,
+               ladder: list[float] | None = None) -> None:
+    """Compose every experiment with the same overrides (and the ladder's rungs), run them
+    together, print each summary."""
     from tavc_cli.api import reproduce_summaries
 
-    experiments = None if names is None else names.split(",")
-    for _, summary in reproduce_summaries(overrides, experiments=experiments, results_dir=results,
-                                          progress=progress):
+    experiments = None if names is None else [n for n in names.split(",") if n]
+    for name, summary in reproduce_summaries(overrides, experiments=experiments, results_dir=results,
+                                             progress=progress, ladder=ladder):
+        if name.startswith("ladder"):
+            typer.echo(f"{name}:")
         _print_summary(summary)
         typer.echo("")
+    if ladder:
+        typer.echo(f"ladder: {results / 'ladder' / 'ladder.csv'}")
 
 
 def _sweep_job(cfg: Any, *, progress: bool) -> str:

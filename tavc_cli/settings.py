@@ -183,6 +183,12 @@ class ScaleConfig:
     name: str = "paper"
     trials: Optional[int] = None
     time_factor: float = 1.0
+    # section 1.4's trials end with a number of deliveries: that count's factor (null = time_factor)
+    deliveries_factor: Optional[float] = None
+    # the baselines' (random, static) schedule: every time of theirs at this factor of the
+    # chapter's instead of time_factor (null = time_factor). They learn nothing, so their
+    # distribution does not depend on the horizon.
+    baseline_time_factor: Optional[float] = None
 
 
 @dataclass

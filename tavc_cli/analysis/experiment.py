@@ -55,11 +55,28 @@ def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord]) -
 
 
 def analyse(cfg: TavcConfig, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:
-    """The tables every experiment shares, from saved records only."""
+    """The tables every experiment shares, from saved records only. Where the baselines ran
+    another schedule than the learner (`scale.baseline_time_factor`), each controller's records
+    are summarised over its own periods and the rows put together, the learner's first."""
+    from tavc_cli.experiments.build import baseline_settings, settings_for
+
+    if baseline_settings(cfg) is cfg:
+        return _analyse(cfg, records)
+    parts: dict[str, list[TrialRecord]] = {}
+    for rec in records:
+        parts.setdefault(str(rec.meta["controller"]), []).append(rec)
+    tables: dict[str, list[pd.DataFrame]] = {}
+    for k, (controller, mine) in enumerate(parts.items()):
+        for name, df in _analyse(settings_for(cfg, controller), mine, with_theory=k == len(parts) - 1).items():
+            tables.setdefault(name, []).append(df)
+    return {name: pd.concat(dfs, ignore_index=True) for name, dfs in tables.items()}
+
+
+def _analyse(cfg: TavcConfig, records: list[TrialRecord], with_theory: bool = True) -> dict[str, pd.DataFrame]:
     t_from, t_to = float(cfg.convergence_s), float(cfg.duration_s)
     scheme = cfg.analysis.state
     bin_s, start = float(cfg.analysis.performance_bin_s), -float(cfg.sim.warmup_s)
-    state = state_time_table(records, t_from, t_to, scheme)
+    state = state_time_table(records, t_from, t_to, scheme, with_theory=with_theory)
     perf = performance_table(records, bin_s, start, t_to)
     alloc = allocation_table(records, bin_s, start, t_to) if scheme == "circuits" else None
     tables = {"state_time": state, "performance": perf, "trial_stats": trial_stats(records, cfg)}

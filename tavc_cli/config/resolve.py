@@ -11,12 +11,14 @@ Rules:
   sets ``duration_s`` but not ``convergence_s``, the stable period keeps the paper's share of
   the run: ``convergence_s = duration_s * (paper.convergence_s / paper.duration_s)`` (what
   ``scale`` gives too, since it multiplies both by the same factor).
-- ``deliveries``: ``paper.deliveries`` times ``scale.time_factor``, rounded, at least 1 (none when
+- ``deliveries``: ``paper.deliveries`` times ``scale.deliveries_factor`` (null: ``scale.time_factor``), rounded, at least 1 (none when
   the paper measures its trials in seconds). A trial then ends with the tick of its team's
   n-th delivery after the warm-up, ``duration_s`` being its longest.
 - ``baseline_lead_s``, ``sim.warmup_s`` and every event time (``events.breakdowns[*].time_s``,
   ``events.value_changes[*].time_s``) are ALWAYS multiplied by ``scale.time_factor``, also when
   set on the command line, so that an experiment keeps its shape at every scale.
+- ``scale.baseline_time_factor``: ``scale.time_factor`` when null. The baselines then run every
+  time above at that factor instead (`experiments.build.baseline_settings`).
 - ``output_dir``: ``results/<experiment_name>``.
 - ``team.members``: ``team.n_robots`` copies of ``{speed_mps: robot.speed_mps, group: all}``.
 - ``tasks.values``: 1.0 per circuit; ``tasks.score_values``: ``tasks.values``.
@@ -37,6 +39,8 @@ from tavc_cli.sim.arena import most_robots
 def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
     """Fill every derived value in place (rules in the module docstring)."""
     factor = cfg.scale.time_factor
+    if cfg.scale.baseline_time_factor is None:
+        cfg.scale.baseline_time_factor = factor
     if cfg.trials is None:
         cfg.trials = _capped(cfg.paper.trials, cfg.scale.trials)
     if cfg.baseline_trials is None:
@@ -57,7 +61,8 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
         share = cfg.paper.convergence_s / cfg.paper.duration_s
         cfg.convergence_s = cfg.duration_s * share if user_duration else cfg.paper.convergence_s * factor
     if cfg.deliveries is None and cfg.paper.deliveries is not None:
-        cfg.deliveries = max(1, round(cfg.paper.deliveries * factor))
+        count_factor = factor if cfg.scale.deliveries_factor is None else cfg.scale.deliveries_factor
+        cfg.deliveries = max(1, round(cfg.paper.deliveries * count_factor))
     # Warm-up and event times scale with the experiment, even when set by hand, so that a
     # quick run keeps the paper run's shape (a breakdown a third of the way in stays there).
     cfg.sim.warmup_s = cfg.sim.warmup_s * factor

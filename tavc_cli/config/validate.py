@@ -49,6 +49,9 @@ def check_no_missing(cfg: DictConfig) -> None:
 def validate_scaling(cfg: DictConfig) -> None:
     """Check what resolution derives values from, so errors name the key the user set."""
     positive("scale.time_factor", cfg.scale.time_factor)
+    for key in ("deliveries_factor", "baseline_time_factor"):
+        if cfg.scale[key] is not None:
+            positive(f"scale.{key}", cfg.scale[key])
     if cfg.scale.trials is not None:
         at_least("scale.trials", cfg.scale.trials, 1)
     paper = cfg.paper

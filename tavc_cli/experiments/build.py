@@ -75,6 +75,36 @@ def base_spec(cfg: TavcConfig) -> TrialSpec:
     )
 
 
+def settings_for(cfg: TavcConfig, controller: str) -> TavcConfig:
+    """The settings a controller's trials ran on: the learner's `cfg`, or `baseline_settings`."""
+    return cfg if controller == controller_label(cfg.learner.name) else baseline_settings(cfg)
+
+
+def baseline_settings(cfg: TavcConfig) -> TavcConfig:
+    """The settings the baselines run and are analysed on: `cfg` itself, or, where the scale
+    puts them on another schedule (`scale.baseline_time_factor`), a copy whose every time
+    (duration, stable period, warm-up, lead, events, the window before an event) is `cfg`'s
+    times that factor over `scale.time_factor`. The baselines learn nothing, so their
+    distribution does not depend on the horizon: at `scale=converged` they run the chapter's
+    own schedule while the learners run 40 times it."""
+    factor, theirs = float(cfg.scale.time_factor), cfg.scale.baseline_time_factor
+    if theirs is None or float(theirs) == factor:
+        return cfg
+
+    def at(t: float | None) -> float | None:
+        # times the factor, then over it: exact for the whole seconds configs hold
+        return None if t is None else float(t) * float(theirs) / factor
+
+    events = replace(
+        cfg.events,
+        breakdowns=[replace(b, time_s=at(b.time_s)) for b in cfg.events.breakdowns],
+        value_changes=[replace(v, time_s=at(v.time_s)) for v in cfg.events.value_changes])
+    return replace(cfg, duration_s=at(cfg.duration_s), convergence_s=at(cfg.convergence_s),
+                   baseline_lead_s=at(cfg.baseline_lead_s), events=events,
+                   sim=replace(cfg.sim, warmup_s=at(cfg.sim.warmup_s)),
+                   analysis=replace(cfg.analysis, before_s=at(cfg.analysis.before_s)))
+
+
 def baseline_start(cfg: TavcConfig) -> tuple[float, str]:
     """The time of the record at which the baselines start, and what they start before: with the
     learner (at minus the warm-up), or `baseline_lead_s` before the first thing that matters
@@ -91,16 +121,18 @@ def baseline_start(cfg: TavcConfig) -> tuple[float, str]:
 def trial_specs(cfg: TavcConfig) -> list[TrialSpec]:
     """Every trial of every controller, in a fixed order. The baselines that start after the
     learner have a shorter warm-up, or none and a late start (`baseline_start`)."""
-    base = base_spec(cfg)
+    base, theirs = base_spec(cfg), baseline_settings(cfg)
+    base_baselines = base if theirs is cfg else base_spec(theirs)
     seed = int(cfg.seed)
-    start, _ = baseline_start(cfg)
+    start, _ = baseline_start(theirs)
     specs = []
     for k, (label, policy, n_trials) in enumerate(controllers(cfg)):
         code = SEED_CODES[label]
         # the learner comes first, then the baselines
-        warmup_s, start_s = (base.warmup_s, 0.0) if k == 0 else (max(0.0, -start), max(0.0, start))
+        spec = base if k == 0 else base_baselines
+        warmup_s, start_s = (spec.warmup_s, 0.0) if k == 0 else (max(0.0, -start), max(0.0, start))
         for j in range(n_trials):
-            specs.append(replace(base, policy=policy, controller=label, trial=j, seed=(seed, code, j),
+            specs.append(replace(spec, policy=policy, controller=label, trial=j, seed=(seed, code, j),
                                  warmup_s=warmup_s, start_s=start_s))
     return specs
 
