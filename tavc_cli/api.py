@@ -151,8 +151,7 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
     if rungs:
         from tavc_cli.analysis.ladder import write_ladder
 
-        folders = [Path(str(cfg.output_dir)) for cfg in rungs]
-        write_ladder(Path(results_dir) / "ladder", folders)
+        write_ladder(Path(results_dir) / "ladder", [Path(str(cfg.output_dir)) for cfg in rungs])
         out += [(f"ladder x{float(cfg.scale.time_factor):g}", summary)
                 for cfg, summary in zip(rungs, summaries[len(cfgs):], strict=True)]
     return out

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.convergence import convergence_table
+from tavc_cli.analysis.mechanism import mechanism_table
 from tavc_cli.analysis.performance import performance_table
 from tavc_cli.analysis.qvalues import q_value_table
 from tavc_cli.analysis.robots import robot_table
@@ -21,8 +23,8 @@ from tavc_cli.settings import TavcConfig
 
 # Every table an experiment may write (which ones depends on its controllers and events)
 TABLE_NAMES = ("state_time", "performance", "trial_stats", "allocation", "specialisation", "robots", "q_values",
-               "vacancy", "table_1_1", "traversals", "target_times", "policy", "lanes", "occupancy", "comparison",
-               "claims")
+               "convergence", "mechanism", "vacancy", "table_1_1", "traversals", "target_times", "policy", "lanes",
+               "occupancy", "comparison", "claims")
 
 
 def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord]) -> tuple[dict[str, pd.DataFrame],
@@ -86,9 +88,16 @@ def _analyse(cfg: TavcConfig, records: list[TrialRecord], with_theory: bool = Tr
         tables["specialisation"] = specialisation_table(records, bin_s, start, t_to)
     if records and "choices" in records[0].tables:
         tables["robots"] = robot_table(records, t_from, t_to)
-    q_values = q_value_table(records)
+    # a long run's snapshots thinned to the chapter's number per trial (same table at time_factor 1)
+    q_values = q_value_table(records, every_s=float(cfg.sim.q_snapshot_every_s) * float(cfg.scale.time_factor))
     if q_values is not None:
         tables["q_values"] = q_values
+    convergence = convergence_table(records, t_from, float(cfg.learner.gamma))
+    if len(convergence):
+        tables["convergence"] = convergence
+    mechanism = mechanism_table(records, t_from)
+    if len(mechanism):
+        tables["mechanism"] = mechanism
     if any(rec.meta["controller"] == "behaviour" for rec in records):
         tables.update(spatiotemporal_tables(cfg, records))
     vacancy = vacancy_table(records)

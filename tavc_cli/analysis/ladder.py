@@ -1,8 +1,27 @@
 """The horizon ladder: initial_distribution at several multiples of the chapter's durations,
-side by side (`ladder.csv`), from each rung's saved tables only."""
+side by side (`ladder.csv`), from each rung's saved tables only.
+
+A rung is one folder of `tavc run` output whose `config.yaml` holds its factor
+(`scale.time_factor`). The rungs' trials are prefixes of one another (the same seeds, the
+same world and rule, only longer), so the ladder shows one set of groups at several ages.
+Per rung and controller the table holds, as `quantity` rows:
+
+- `pct_<state>`: % of the stable period in each state (mean, std over trials);
+- `value_rate_stable`: score per second in the stable period;
+- `claim<k>_statistic`, `claim<k>_p`, `claim<k>_reproduced` (claims 3 and 5 on TAVC's rows, 4 on
+  random's, as
+  the rung's own `claims.csv` tests them; 1 reproduced, 0 not, NaN inconclusive);
+- the learner-side convergence measures (`analysis.convergence`): `q_drift` (median over
+  trials), `policy_changed_share`, `alloc_drift` (mean |drift|), `td_error_rel` and `converged`
+  (1 or 0, by the criteria fixed in that module before any long run was looked at);
+- how the group is made in the stable period (`analysis.mechanism`): robots per trial that are
+  `n_stayers_high`, `n_stayers_low`, `n_alternators`, `n_mixed`, the `switch_share` of tasks,
+  the mean `task_s_stay` and `task_s_switch`, and `q_gap_stay_switch`.
+"""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pandas as pd
@@ -11,32 +30,96 @@ from tavc_cli.io import write_text_atomic
 from tavc_cli.settings import from_yaml
 
 LADDER_COLUMNS = ["factor", "duration_s", "controller", "quantity", "mean", "std", "n_trials"]
+LADDER_CLAIMS = (3, 4, 5)
+CLAIM_CONTROLLER = {4: "random"}  # claim 4 is about random allocation; 3 and 5 about the learners
+MECHANISM_QUANTITIES = ("n_stayers_high", "n_stayers_low", "n_alternators", "n_mixed", "switch_share",
+                        "task_s_stay", "task_s_switch", "q_gap_stay_switch")
+
+
+def _row(factor: float, duration: float, controller: str, quantity: str, mean: float, std: float = math.nan,
+         n: int = 0) -> dict:
+    return {"factor": factor, "duration_s": duration, "controller": controller, "quantity": quantity,
+            "mean": mean, "std": std, "n_trials": n}
+
+
+def rung_rows(folder: Path) -> list[dict]:
+    """Every row of `ladder.csv` for one rung's folder."""
+    cfg = from_yaml(folder / "config.yaml")
+    factor, duration = float(cfg.scale.time_factor), float(cfg.duration_s)
+    rows = []
+    states = pd.read_csv(folder / "state_time.csv", dtype={"state": str})
+    for r in states.itertuples():
+        rows.append(_row(factor, duration, r.controller, f"pct_{r.state}", r.mean_pct, r.std_pct, int(r.n_trials)))
+    stats = pd.read_csv(folder / "trial_stats.csv")
+    for controller, group in stats.groupby("controller", sort=False):
+        x = group["value_rate_stable"].dropna()
+        rows.append(_row(factor, duration, str(controller), "value_rate_stable", x.mean(),
+                         x.std(ddof=1) if len(x) > 1 else math.nan, len(x)))
+    if (folder / "claims.csv").is_file():
+        claims = pd.read_csv(folder / "claims.csv")
+        for r in claims[claims["claim_id"].isin(LADDER_CLAIMS)].itertuples():
+            who = CLAIM_CONTROLLER.get(int(r.claim_id), "tavc")  # whose trials the claim is about
+            n = int((stats["controller"] == who).sum())
+            verdict = {"reproduced": 1.0, "not_reproduced": 0.0}.get(r.verdict, math.nan)
+            rows += [_row(factor, duration, who, f"claim{r.claim_id}_statistic", r.statistic, n=n),
+                     _row(factor, duration, who, f"claim{r.claim_id}_p", r.p_value, n=n),
+                     _row(factor, duration, who, f"claim{r.claim_id}_reproduced", verdict, n=n)]
+    rows += _convergence_rows(folder, factor, duration)
+    rows += _mechanism_rows(folder, factor, duration)
+    return rows
+
+
+def _convergence_rows(folder: Path, factor: float, duration: float) -> list[dict]:
+    path = folder / "convergence.csv"
+    if not path.is_file():
+        return []
+    from tavc_cli.analysis.convergence import convergence_verdict
+
+    table = pd.read_csv(path)
+    rows = []
+    for controller in dict.fromkeys(table["controller"]):
+        v = convergence_verdict(table, controller=str(controller))
+        n = int(v["n_trials"])
+        rows += [_row(factor, duration, str(controller), q, float(v[q]), n=n)
+                 for q in ("q_drift", "policy_changed_share", "alloc_drift", "td_error_rel")]
+        rows.append(_row(factor, duration, str(controller), "converged", float(bool(v["converged"])), n=n))
+    return rows
+
+
+def _mechanism_rows(folder: Path, factor: float, duration: float) -> list[dict]:
+    path = folder / "mechanism.csv"
+    if not path.is_file():
+        return []
+    table = pd.read_csv(path)
+    stable = table[table["window"] == "stable"]
+    rows = []
+    for controller, group in stable.groupby("controller", sort=False):
+        for q in MECHANISM_QUANTITIES:
+            x = group[q].dropna()
+            rows.append(_row(factor, duration, str(controller), q, x.mean() if len(x) else math.nan,
+                             x.std(ddof=1) if len(x) > 1 else math.nan, len(x)))
+    return rows
 
 
 def ladder_table(folders: list[Path]) -> pd.DataFrame:
-    """`factor,duration_s,controller,quantity,mean,std,n_trials`, one row per rung, controller
-    and quantity: the time in each state (`pct_<state>`, % of the stable period) and the score
-    per second in the stable period (`value_rate_stable`)."""
-    rows = []
-    for folder in folders:
-        cfg = from_yaml(folder / "config.yaml")
-        factor, duration = float(cfg.scale.time_factor), float(cfg.duration_s)
-        states = pd.read_csv(folder / "state_time.csv", dtype={"state": str})
-        for r in states.itertuples():
-            rows.append({"factor": factor, "duration_s": duration, "controller": r.controller,
-                         "quantity": f"pct_{r.state}", "mean": r.mean_pct, "std": r.std_pct, "n_trials": r.n_trials})
-        stats = pd.read_csv(folder / "trial_stats.csv")
-        for controller, group in stats.groupby("controller", sort=False):
-            x = group["value_rate_stable"].dropna()
-            rows.append({"factor": factor, "duration_s": duration, "controller": controller,
-                         "quantity": "value_rate_stable", "mean": x.mean(), "std": x.std(ddof=1) if len(x) > 1 else 0.0,
-                         "n_trials": len(x)})
-    return pd.DataFrame(rows, columns=LADDER_COLUMNS)
+    """`ladder.csv` from the rungs' folders, the shortest horizon first."""
+    order = sorted(folders, key=lambda f: float(from_yaml(f / "config.yaml").scale.time_factor))
+    return pd.DataFrame([r for f in order for r in rung_rows(f)], columns=LADDER_COLUMNS)
 
 
-def write_ladder(ladder_dir: Path, folders: list[Path]) -> Path:
-    """Write `ladder.csv` into `ladder_dir` from the rungs' folders; return its path."""
-    table = ladder_table(sorted(folders, key=lambda f: float(from_yaml(f / "config.yaml").scale.time_factor)))
+def ladder_value(table: pd.DataFrame, controller: str, quantity: str) -> pd.Series:
+    """One quantity of one controller against the factor (a Series indexed by factor)."""
+    rows = table[(table["controller"] == controller) & (table["quantity"] == quantity)]
+    return pd.Series(rows["mean"].to_numpy(float), index=rows["factor"].to_numpy(float))
+
+
+def write_ladder(ladder_dir: Path, folders: list[Path]) -> list[Path]:
+    """Write `ladder.csv` and its figure (`ladder.png`, `.svg`) into `ladder_dir` from the
+    rungs' folders; return the paths written, the table first."""
+    from tavc_cli.viz.ladder import ladder_figure
+
+    table = ladder_table(folders)
     path = Path(ladder_dir) / "ladder.csv"
     write_text_atomic(path, table.to_csv(index=False, float_format="%.4f"))
-    return path
+    return [path, *ladder_figure(table, Path(ladder_dir) / "ladder")]
+

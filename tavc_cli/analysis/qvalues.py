@@ -4,7 +4,12 @@ A TAVC robot's table Q[s, a] has one row per state (the circuit it last served) 
 column per action (the circuit it takes next). The trial records keep every robot's table
 on a grid (`sim.q_snapshot_every_s`) and once more at the end. `q_values.csv` keeps them
 in a wide form, one row per snapshot and robot (`q_<state>_<action>`), so figures can be
-drawn without the trial records.
+drawn without the trial records. A long run takes its snapshots on the chapter's grid, so it
+has time_factor times as many: `q_value_table(records, every_s)` then keeps only those at
+whole multiples of `every_s` (within THIN_TOL_S of one; times from t = 0) and the record's
+last one. `experiment._analyse` passes the snapshot period times `scale.time_factor`, which
+leaves about as many rows per trial as a chapter-length run has. With `every_s` None or not
+longer than the record's own snapshot period, the table is every snapshot, unchanged.
 
 Policy settling (`policy_settle_s`): the greedy policy of a robot is its best action in every
 state. A trial's policies have settled at the first snapshot from which no live robot's greedy
@@ -25,26 +30,48 @@ import pandas as pd
 from tavc_cli.analysis.states import alive_at_end
 from tavc_cli.experiments.records import TrialRecord
 
+# snapshot times are sums of ticks (t0 + k dt): "a multiple of every_s" allows for their rounding
+THIN_TOL_S = 1e-6
+
 
 def q_columns(n_states: int, n_actions: int) -> list[str]:
     return [f"q_{s}_{a}" for s in range(n_states) for a in range(n_actions)]
 
 
-def q_value_table(records: Iterable[TrialRecord]) -> pd.DataFrame | None:
-    """`controller,trial,robot,t_s,q_<s>_<a>...` for every record with Q snapshots; None if none has."""
+def q_value_table(records: Iterable[TrialRecord], every_s: float | None = None) -> pd.DataFrame | None:
+    """`controller,trial,robot,t_s,q_<s>_<a>...` for every record with Q snapshots; None if none has.
+
+    With `every_s` longer than a record's snapshot period, only its snapshots at multiples of
+    `every_s` (within THIN_TOL_S) and its last one are kept.
+    """
     frames = []
     for rec in records:
         q = np.asarray(rec.q)
         if q.ndim != 4 or not len(q):
             continue
+        q_t = np.asarray(rec.q_t, float)
+        keep = thinned(q_t, every_s)
+        if keep is not None:
+            q, q_t = q[keep], q_t[keep]
         n_snap, n_robots, n_s, n_a = q.shape
         frame = pd.DataFrame(q.reshape(n_snap * n_robots, n_s * n_a), columns=q_columns(n_s, n_a))
-        frame.insert(0, "t_s", np.repeat(np.asarray(rec.q_t, float), n_robots))
+        frame.insert(0, "t_s", np.repeat(q_t, n_robots))
         frame.insert(0, "robot", np.tile(np.arange(n_robots), n_snap))
         frame.insert(0, "trial", int(rec.meta["trial"]))
         frame.insert(0, "controller", rec.meta["controller"])
         frames.append(frame)
     return pd.concat(frames, ignore_index=True) if frames else None
+
+
+def thinned(q_t: np.ndarray, every_s: float | None) -> np.ndarray | None:
+    """The snapshots to keep (bool per snapshot) at one per `every_s`, or None to keep all: when
+    every_s is None or not longer than the record's period (its longest gap between snapshots:
+    the one to the final snapshot, at the end of the run, may be shorter)."""
+    if every_s is None or len(q_t) < 2 or every_s <= float(np.diff(q_t).max()) + THIN_TOL_S:
+        return None
+    keep = np.abs(q_t - np.round(q_t / every_s) * every_s) <= THIN_TOL_S
+    keep[-1] = True
+    return keep
 
 
 def policy_changes(q_t, q) -> tuple[np.ndarray, np.ndarray]:

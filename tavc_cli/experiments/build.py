@@ -83,8 +83,8 @@ def settings_for(cfg: TavcConfig, controller: str) -> TavcConfig:
 def baseline_settings(cfg: TavcConfig) -> TavcConfig:
     """The settings the baselines run and are analysed on: `cfg` itself, or, where the scale
     puts them on another schedule (`scale.baseline_time_factor`), a copy whose every time
-    (duration, stable period, warm-up, lead, events, the window before an event) is `cfg`'s
-    times that factor over `scale.time_factor`. The baselines learn nothing, so their
+    that the scale multiplies (duration, stable period, warm-up, lead, events) is `cfg`'s times
+    that factor over `scale.time_factor`. The baselines learn nothing, so their
     distribution does not depend on the horizon: at `scale=converged` they run the chapter's
     own schedule while the learners run 40 times it."""
     factor, theirs = float(cfg.scale.time_factor), cfg.scale.baseline_time_factor
@@ -101,8 +101,7 @@ def baseline_settings(cfg: TavcConfig) -> TavcConfig:
         value_changes=[replace(v, time_s=at(v.time_s)) for v in cfg.events.value_changes])
     return replace(cfg, duration_s=at(cfg.duration_s), convergence_s=at(cfg.convergence_s),
                    baseline_lead_s=at(cfg.baseline_lead_s), events=events,
-                   sim=replace(cfg.sim, warmup_s=at(cfg.sim.warmup_s)),
-                   analysis=replace(cfg.analysis, before_s=at(cfg.analysis.before_s)))
+                   sim=replace(cfg.sim, warmup_s=at(cfg.sim.warmup_s)))
 
 
 def baseline_start(cfg: TavcConfig) -> tuple[float, str]:

@@ -27,6 +27,7 @@ from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.reference import TABLES
+from tavc_cli.report import horizons
 from tavc_cli.report.figures import experiment_figures, find_model
 from tavc_cli.report.studies import spatiotemporal_lines, value_ratio_lines
 from tavc_cli.report.text import (
@@ -109,24 +110,25 @@ def build_report(results_dir: Path) -> dict:
                         f"({results_dir.parent})")
     if not experiments:
         raise TavcError(f"RESULTS_DIR: no finished runs under {results_dir} (run `tavc run experiment=...` first)")
-    runs = {name: pd.read_csv(d / "trial_stats.csv") for name, d in experiments.items()
-            if (d / "trial_stats.csv").is_file()}
-    runs.update({f"{name}/{t}": pd.read_csv(d / f"{t}.csv") for name, d in experiments.items()
-                 for t in CLAIM_TABLES if (d / f"{t}.csv").is_file()})
-    claims = claim_rows(runs)
-    tested = claims[[CLAIMS[c][0] in runs for c in claims["claim_id"]]]
-    n_ok = int((tested["verdict"] == "reproduced").sum())
+    base = _horizon(results_dir, experiments, unfinished)
+    runs, claims = base.runs, base.claims
+    tested, n_ok = base.tested, base.n_reproduced
+    long = _long_horizon(results_dir)
     lines = ["# tavc: the reproduction report", "",
              "Built by `tavc report` from the saved results in this folder; nothing here was simulated "
-             "while writing it, and no number was typed in.", "",
-             f"**Claims reproduced: {n_ok} of {len(tested)} tested** "
-             f"(claims {claims['claim_id'].min()}-{claims['claim_id'].max()} of the chapter's nine; "
-             f"{len(claims) - len(tested)} not tested because their experiment has not been run here).", "",
-             "| claim | experiment | verdict | p |", "|---|---|---|---|"]
-    for r in claims.itertuples():
-        exp = CLAIMS[r.claim_id][0]
-        verdict = r.verdict.replace("_", " ") if exp in runs else "not run"
-        lines.append(f"| {r.claim_id} | {exp} | {verdict} | {fmt(r.p_value, '.3g')} |")
+             "while writing it, and no number was typed in.", ""]
+    if long is not None:
+        lines += horizons.summary_lines(base, long)
+        lines += horizons.claims_both_table(base, long)
+    else:
+        lines += [f"**Claims reproduced: {n_ok} of {len(tested)} tested** "
+                  f"(claims {claims['claim_id'].min()}-{claims['claim_id'].max()} of the chapter's nine; "
+                  f"{len(claims) - len(tested)} not tested because their experiment has not been run here).", "",
+                  "| claim | experiment | verdict | p |", "|---|---|---|---|"]
+        for r in claims.itertuples():
+            exp = CLAIMS[r.claim_id][0]
+            verdict = r.verdict.replace("_", " ") if exp in runs else "not run"
+            lines.append(f"| {r.claim_id} | {exp} | {verdict} | {fmt(r.p_value, '.3g')} |")
     lines += ["", "Tests: t-tests at 90 % (alpha 0.10): Welch's one-sided for \"above\"/\"below\" between "
               "controllers or between early and late samples (section 1.4's traversal and target times), paired "
               "one-sided for \"most frequent\" within the same trials or robots, one-sample tests against zero for "
@@ -134,8 +136,9 @@ def build_report(results_dir: Path) -> dict:
               "\"largest relative increase\" compares means without a test, as the chapter does. The rules are in "
               "`tavc_cli/analysis/claims.py`.", ""]
     model_json = find_model(experiments)
-    read = {name: (_config(d / "config.yaml"), pd.read_csv(d / "state_time.csv", dtype={"state": str}))
-            for name, d in experiments.items()}
+    read = base.read
+    if long is not None:
+        lines += horizons.time_scale_lines(results_dir, long, model_json)
     with _FigurePool() as pool:
         # the sections that draw figures are written side by side while the rest of the text is
         ratio = pool.submit(value_ratio_lines, results_dir, model_json)
@@ -143,7 +146,8 @@ def build_report(results_dir: Path) -> dict:
                    if (d / "table_1_1.csv").is_file()
                    else pool.submit(experiment_figures, name, d, read[name][0], read[name][1], results_dir, model_json)
                    for name, d in experiments.items()}
-        lines += _experiment_sections(experiments, read, figures, claims, runs)
+        lines += _experiment_sections(experiments, read, figures, claims, runs,
+                                      long=long, results_dir=results_dir, model_json=model_json)
         lines += ratio.result()
     lines += ["## The same tests on the chapter's own tables", "",
               "Applied to the chapter's printed means, stds and trial counts (20 TAVC and 20 random trials "
@@ -174,9 +178,40 @@ def build_report(results_dir: Path) -> dict:
               "state 0:3 is read as its table's 3:0 (all fast robots on the high-value circuit).",
               ""]
     write_text_atomic(results_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
+    if long is not None:
+        write_text_atomic(long.folder / "claims.csv", long.claims.to_csv(index=False, float_format="%.6g"))
     write_text_atomic(results_dir / "REPORT.md", "\n".join(lines))
-    return {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
-            "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished]}
+    out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
+           "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished]}
+    if long is not None:
+        out.update({"factor": long.factor, "experiments_long": list(long.experiments), "claims_long": long.claims,
+                    "n_reproduced_long": long.n_reproduced, "n_tested_long": len(long.tested)})
+        out["unfinished"] += [str(d) for d in long.unfinished]
+    return out
+
+
+def _horizon(folder: Path, experiments: dict[str, Path], unfinished: list[Path]) -> horizons.Horizon:
+    """One horizon's runs, read (its folders already checked readable): settings, state tables,
+    the per-trial tables the claims read, and the claims tested on them together."""
+    runs = {name: pd.read_csv(d / "trial_stats.csv") for name, d in experiments.items()
+            if (d / "trial_stats.csv").is_file()}
+    runs.update({f"{name}/{t}": pd.read_csv(d / f"{t}.csv") for name, d in experiments.items()
+                 for t in CLAIM_TABLES if (d / f"{t}.csv").is_file()})
+    read = {name: (_config(d / "config.yaml"), pd.read_csv(d / "state_time.csv", dtype={"state": str}))
+            for name, d in experiments.items()}
+    return horizons.Horizon(folder, experiments, read, runs, claim_rows(runs), unfinished)
+
+
+def _long_horizon(results_dir: Path) -> horizons.Horizon | None:
+    """The runs at a multiple of the chapter's durations under `<results_dir>/converged/`, if any finished."""
+    folder = results_dir / horizons.CONVERGED_DIR
+    if not folder.is_dir():
+        return None
+    experiments, unfinished = _experiments(folder)
+    if not experiments:
+        return None
+    _check_readable(folder, experiments)
+    return _horizon(folder, experiments, unfinished)
 
 
 def summary_lines(result: dict) -> list[str]:
@@ -185,38 +220,52 @@ def summary_lines(result: dict) -> list[str]:
              for folder in result["unfinished"]]
     lines.append(f"claims reproduced: {result['n_reproduced']} of {result['n_tested']} tested "
                  f"({', '.join(result['experiments'])})")
+    if "factor" in result:
+        lines.append(f"claims reproduced at {result['factor']:g} times the chapter's durations: "
+                     f"{result['n_reproduced_long']} of {result['n_tested_long']} tested "
+                     f"({', '.join(result['experiments_long'])})")
     return [*lines, result["report"]]
 
 
 def _experiment_sections(experiments: dict[str, Path], read: dict, figures: dict, claims: pd.DataFrame,
-                         runs: dict[str, pd.DataFrame]) -> list[str]:
+                         runs: dict[str, pd.DataFrame], *, long: horizons.Horizon | None = None,
+                         results_dir: Path | None = None, model_json: Path | None = None) -> list[str]:
     """Each experiment's section of the report: its tables, notes, figures and run lines
-    (`figures[name]`: the future of its figures' lines, or of section 1.4's whole text)."""
+    (`figures[name]`: the future of its figures' lines, or of section 1.4's whole text), then
+    its subsection at the long horizon where there is one."""
     lines: list[str] = []
     for name, d in experiments.items():
-        cfg, state_time = read[name]
-        prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
-        comparison = experiment_comparison(name, state_time)
-        lines += [f"## {name} (section {cfg.section or '?'})", "", str(cfg.description or "").strip(), ""]
-        if (d / "table_1_1.csv").is_file():
-            lines += figures[name].result()
-            lines += run_lines(name, cfg, prov, claims, runs)
-            continue
-        table = TABLES.get(name)
-        lines.append("% of the stable period in each state, mean ± std over trials"
-                     + (f"; the chapter's Table {table} beside ours:" if table else ":"))
-        lines += ["", *state_table(state_time, comparison), ""]
-        if name in runs:
-            lines += [performance(runs[name]), ""]
-            lines += settle_lines(runs[name], cfg)
-            lines += q_gap_lines(runs[name])
-        lines += model_lines(d / "model" / "model.json", state_time)
-        if (d / "model" / "model.json").is_file():
-            lines.append("")
-        lines += figures[name].result()
-        lines += robot_lines(d)
-        lines += vacancy_lines(d)
-        lines += run_lines(name, cfg, prov, claims, runs)
+        lines += _experiment_section(name, d, read, figures, claims, runs)
+        if long is not None and results_dir is not None:
+            lines += horizons.experiment_lines(name, results_dir, long, model_json)
+    return lines
+
+
+def _experiment_section(name: str, d: Path, read: dict, figures: dict, claims: pd.DataFrame,
+                        runs: dict[str, pd.DataFrame]) -> list[str]:
+    """One experiment's section at the chapter's durations."""
+    cfg, state_time = read[name]
+    prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
+    comparison = experiment_comparison(name, state_time)
+    lines = [f"## {name} (section {cfg.section or '?'})", "", str(cfg.description or "").strip(), ""]
+    if (d / "table_1_1.csv").is_file():
+        return [*lines, *figures[name].result(), *run_lines(name, cfg, prov, claims, runs)]
+    table = TABLES.get(name)
+    lines.append("% of the stable period in each state, mean ± std over trials"
+                 + (f"; the chapter's Table {table} beside ours:" if table else ":"))
+    lines += ["", *state_table(state_time, comparison), ""]
+    if name in runs:
+        lines += [performance(runs[name]), ""]
+        lines += settle_lines(runs[name], cfg)
+        lines += q_gap_lines(runs[name])
+    lines += model_lines(d / "model" / "model.json", state_time)
+    if (d / "model" / "model.json").is_file():
+        lines.append("")
+    lines += figures[name].result()
+    lines += horizons.mechanism_lines(d)
+    lines += robot_lines(d)
+    lines += vacancy_lines(d)
+    lines += run_lines(name, cfg, prov, claims, runs)
     return lines
 
 

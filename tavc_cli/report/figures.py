@@ -40,9 +40,36 @@ def predicted_segments(cfg: TavcConfig, model_json: Path | None) -> list[tuple[f
     return out
 
 
+def baseline_levels(frame: pd.DataFrame, cfg: TavcConfig, mean: str, std: str) -> pd.DataFrame:
+    """`frame` (a table over time) with each baseline that ran another schedule than the learner
+    (`scale.baseline_time_factor`) drawn as its stable-period level: its mean and std over its
+    own stable period (the std: its bins' mean spread over trials), at every time of the
+    learner's stable period. A time series of the
+    chapter's length would otherwise sit in the first per cent of a long run's axis."""
+    from tavc_cli.experiments.build import baseline_settings, settings_for
+
+    theirs = baseline_settings(cfg)
+    if theirs is cfg:
+        return frame
+    learner = frame["controller"] == "tavc"
+    mine = frame[learner]
+    times = mine.loc[mine["t_s"] >= float(cfg.convergence_s), "t_s"].drop_duplicates()
+    parts = [mine]
+    for controller, rows in frame[~learner].groupby("controller", sort=False):
+        own = settings_for(cfg, str(controller))
+        stable = rows[(rows["t_s"] >= float(own.convergence_s)) & (rows["t_s"] < float(own.duration_s))]
+        level = pd.DataFrame({"t_s": times.to_numpy(float), "controller": controller,
+                              mean: stable[mean].mean(), std: stable[std].mean()})
+        if "n_trials" in rows:
+            level["n_trials"] = rows["n_trials"].max()
+        parts.append(level)
+    return pd.concat(parts, ignore_index=True)
+
+
 def experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame, results_dir: Path,
              model_json: Path | None) -> list[str]:
-    """Draw this experiment's figures under results_dir/figures; markdown lines that show them."""
+    """Draw this experiment's figures under results_dir/figures; markdown lines that show them
+    (baselines on another schedule than the learner's drawn as levels: `baseline_levels`)."""
     from tavc_cli.reference import chapter_table
     from tavc_cli.viz.figures import FIGURES, allocation_figure, performance_figure, state_figure
 
@@ -60,12 +87,13 @@ def experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataF
                      fig_dir / f"fig_{state_fig.replace('.', '_')}")
         lines.append(f"![Figure {state_fig}, tavc](figures/fig_{state_fig.replace('.', '_')}.png)")
     if perf_fig is not None and (d / "performance.csv").is_file():
-        performance_figure(pd.read_csv(d / "performance.csv"), conv, event,
+        performance_figure(baseline_levels(pd.read_csv(d / "performance.csv"), cfg, "mean", "std"), conv, event,
                            f"{name}: performance over time (the chapter's Figure {perf_fig})",
                            fig_dir / f"fig_{perf_fig.replace('.', '_')}")
         lines.append(f"![Figure {perf_fig}, tavc](figures/fig_{perf_fig.replace('.', '_')}.png)")
     if (d / "allocation.csv").is_file():
-        allocation_figure(pd.read_csv(d / "allocation.csv"), predicted_segments(cfg, model_json), conv, event,
+        allocation_figure(baseline_levels(pd.read_csv(d / "allocation.csv"), cfg, "mean_high", "std_high"),
+                          predicted_segments(cfg, model_json), conv, event,
                           f"{name}: robots on the high-value circuit over time", fig_dir / f"allocation_{name}")
         lines.append(f"![robots on the high-value circuit, {name}](figures/allocation_{name}.png)")
     lines += q_figure(name, d, cfg, fig_dir)
@@ -87,12 +115,19 @@ def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame,
     lines = ["![Figure 1.12, tavc](figures/fig_1_12.png)", "![Figure 1.13, tavc](figures/fig_1_13.png)",
              "![Figure 1.13, relative, tavc](figures/fig_1_13_relative.png)"]
     if (d / "specialisation.csv").is_file():
-        specialisation_figure(pd.read_csv(d / "specialisation.csv"), float(cfg.convergence_s or 0.0),
+        specialisation_figure(_group_levels(pd.read_csv(d / "specialisation.csv"), cfg), float(cfg.convergence_s or 0.0),
                               f"{name}: each speed group's share on the high-value circuit",
                               fig_dir / f"specialisation_{name}")
         lines.append(f"![specialisation, {name}](figures/specialisation_{name}.png)")
     lines += q_figure(name, d, cfg, fig_dir)
     return [*lines, ""]
+
+
+def _group_levels(spec: pd.DataFrame, cfg: TavcConfig) -> pd.DataFrame:
+    """`baseline_levels` for each speed group's share on the high-value circuit."""
+    parts = [baseline_levels(rows, cfg, "mean_share_high", "std_share_high").assign(group=group)
+             for group, rows in spec.groupby("group", sort=False)]
+    return pd.concat(parts, ignore_index=True)[list(spec.columns)] if parts else spec
 
 
 def final_high_circuit(cfg: TavcConfig) -> int:

@@ -235,16 +235,26 @@ def run_lines(name: str, cfg: TavcConfig, prov: dict, claims: pd.DataFrame, runs
 
 
 def late_start_lines(cfg: TavcConfig) -> list[str]:
-    """When the baselines started, where they started after the learner (`baseline_lead_s`)."""
-    from tavc_cli.experiments.build import baseline_start
+    """When the baselines started, where they started after the learner (`baseline_lead_s`), and
+    their schedule where it is not the learner's (`scale.baseline_time_factor`)."""
+    from tavc_cli.experiments.build import baseline_settings, baseline_start
 
-    start, what = baseline_start(cfg)
+    theirs = baseline_settings(cfg)
+    start, what = baseline_start(theirs)
     learner_start = 0.0 - float(cfg.sim.warmup_s)
-    if not cfg.baselines or start <= learner_start:
+    if not cfg.baselines:
         return []
     names = " and ".join(CONTROLLER_NAMES.get(b, b) for b in cfg.baselines)
+    if theirs is not cfg:
+        return [f"The baselines ({names}) learn nothing, so their distribution does not depend on the horizon: "
+                f"they ran the chapter's own schedule ({float(cfg.scale.baseline_time_factor):g} times its "
+                f"durations; the learners {float(cfg.scale.time_factor):g} times), from {start:,.0f} s to "
+                f"{float(theirs.duration_s):,.0f} s, and are compared over their own stable period (from "
+                f"{float(theirs.convergence_s):,.0f} s); in the figures over time they are drawn as their "
+                "stable-period level.", ""]
+    if start <= learner_start:
+        return []
     return [f"The baselines ({names}) learn nothing: their trials ran from {start:,.0f} s, "
             f"{float(cfg.baseline_lead_s):,.0f} s before {what} (`baseline_lead_s`), rather than from "
             f"{learner_start:,.0f} s as the learners', to {float(cfg.duration_s):,.0f} s; they are compared with "
             "the learners only after their start.", ""]
-

@@ -1,0 +1,381 @@
+"""The report's second horizon: the same experiments at a multiple of the chapter's durations
+(`scale=converged`, saved under `<results>/converged/`), beside the chapter's durations.
+
+The chapter's durations stay the headline; this module writes what the longer runs add:
+the summary's second count, the claims' second verdicts with how the group was made, the
+section on the time scale (the arithmetic of the learning rule, the horizon ladder, the
+learner-side convergence measures), and each experiment's subsection at the long horizon
+(its state table beside the chapter's, the mechanism, the vacancy chains, the model's
+prediction beside the learners, and the figures). Everything is read from saved tables.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.analysis.claims import CLAIMS
+from tavc_cli.report.text import CONTROLLER_NAMES, claims_table, fmt, performance, robot_lines, state_table
+from tavc_cli.settings import TavcConfig
+
+# the claims whose chapter's mechanism is persistence: robots staying on one circuit, a vacancy
+# filled by one robot that moves (section 1.5), fast robots staying on the high-value circuit (1.6)
+PERSISTENCE_CLAIMS = (3, 5, 6, 7, 8, 9)
+CONVERGED_DIR = "converged"
+
+
+@dataclass
+class Horizon:
+    """One horizon's saved runs: the folder, its experiments (name -> folder), each one's
+    settings and state table, the per-trial tables the claims read, and the claims."""
+
+    folder: Path
+    experiments: dict[str, Path]
+    read: dict[str, tuple[TavcConfig, pd.DataFrame]]
+    runs: dict[str, pd.DataFrame]
+    claims: pd.DataFrame
+    unfinished: list[Path] = field(default_factory=list)
+
+    @property
+    def factor(self) -> float:
+        """The horizon as a multiple of the chapter's durations (the learners' time factor)."""
+        factors = {float(cfg.scale.time_factor) for cfg, _ in self.read.values()}
+        return max(factors) if factors else math.nan
+
+    @property
+    def tested(self) -> pd.DataFrame:
+        return self.claims[[CLAIMS[c][0] in self.runs for c in self.claims["claim_id"]]]
+
+    @property
+    def n_reproduced(self) -> int:
+        return int((self.tested["verdict"] == "reproduced").sum())
+
+
+def label(factor: float) -> str:
+    return f"{factor:g} times the chapter's durations"
+
+
+def convergence(d: Path, controller: str = "tavc") -> dict | None:
+    """The convergence verdict of an experiment's learners (`analysis.convergence`), or None."""
+    path = d / "convergence.csv"
+    if not path.is_file():
+        return None
+    from tavc_cli.analysis.convergence import convergence_verdict
+
+    table = pd.read_csv(path)
+    if not (table["controller"] == controller).any():
+        return None
+    return convergence_verdict(table, controller=controller)
+
+
+def mechanism(d: Path, controller: str = "tavc") -> dict | None:
+    """How an experiment's learners' group was made in the stable period (`analysis.mechanism`), or None."""
+    path = d / "mechanism.csv"
+    if not path.is_file():
+        return None
+    from tavc_cli.analysis.mechanism import mechanism_summary
+
+    table = pd.read_csv(path)
+    if not ((table["controller"] == controller) & (table["window"] == "stable")).any():
+        return None
+    return mechanism_summary(table, controller=controller)
+
+
+def mechanism_words(m: dict | None) -> str:
+    """A mechanism summary in a few words: the regime and the robots of each kind per trial."""
+    if m is None:
+        return ""
+    stayers = float(m.get("n_stayers_high", 0.0)) + float(m.get("n_stayers_low", 0.0))
+    return (f"{m['regime']}: {fmt(stayers)} stayers ({fmt(m.get('n_stayers_high'))} high, "
+            f"{fmt(m.get('n_stayers_low'))} low), {fmt(m.get('n_alternators'))} alternators, "
+            f"{fmt(m.get('n_mixed'))} mixed per trial; {fmt(100 * float(m.get('switch_share', math.nan)), '.0f')} % "
+            "of tasks switch")
+
+
+def summary_lines(base: Horizon, long: Horizon | None) -> list[str]:
+    """The report's opening count: claims reproduced at the chapter's durations, and at the
+    long horizon with whether its learners converged."""
+    n_base = f"{base.n_reproduced} of {len(base.tested)}"
+    if long is None or not long.experiments:
+        return []
+    learners = [(name, convergence(d)) for name, d in long.experiments.items()]
+    judged = [(name, v) for name, v in learners if v is not None]
+    done = [name for name, v in judged if v["converged"]]
+    if judged and len(done) == len(judged):
+        how = "the learning rule converged in every experiment, by measures fixed before the runs"
+    elif judged:
+        how = (f"the learning rule converged, by measures fixed before the runs, in {len(done)} of {len(judged)} "
+               "experiments: see *The time scale*")
+    else:
+        how = "no convergence measures saved"
+    return [f"**Claims reproduced: {n_base} at the chapter's durations; {long.n_reproduced} of {len(long.tested)} "
+            f"at {long.factor:g} times them ({how}).** The chapter's durations are its inputs and stay the "
+            "headline; the second verdict says whether its findings hold under its own world and rule given "
+            "time, and by which mechanism.", ""]
+
+
+def claims_both_table(base: Horizon, long: Horizon) -> list[str]:
+    """Every claim with its verdict at both horizons and how the group was made at the long one."""
+    lines = [f"| claim | experiment | at the chapter's durations | p | at {long.factor:g}x | p | "
+             f"how the group is made at {long.factor:g}x |", "|---|---|---|---|---|---|---|"]
+    by_id = {int(r.claim_id): r for r in long.claims.itertuples()}
+    for r in base.claims.itertuples():
+        exp = CLAIMS[r.claim_id][0]
+        verdict = r.verdict.replace("_", " ") if exp in base.runs else "not run"
+        other = by_id.get(int(r.claim_id))
+        verdict_long = other.verdict.replace("_", " ") if other is not None and exp in long.runs else "not run"
+        m = mechanism(long.experiments[exp]) if exp in long.experiments else None
+        words = mechanism_words(m)
+        if other is not None and other.verdict == "reproduced" and m is not None and \
+                int(r.claim_id) in PERSISTENCE_CLAIMS and m["regime"] != "persistence":
+            words = f"**the test holds, but not by the chapter's persistence**; {words}"
+        lines.append(f"| {r.claim_id} | {exp} | {verdict} | {fmt(r.p_value, '.3g')} | {verdict_long} | "
+                     f"{fmt(other.p_value, '.3g') if other is not None else ''} | {words} |")
+    return lines
+
+
+def time_scale_lines(results_dir: Path, long: Horizon, model_json: Path | None) -> list[str]:
+    """The section on the time scale: the rule's arithmetic, the ladder, the convergence measures."""
+    cfg = next(iter(long.read.values()))[0]
+    alpha, gamma = float(cfg.learner.alpha), float(cfg.learner.gamma)
+    rate = alpha * (1.0 - gamma)
+    task_s = _task_time_3_3(model_json)
+    lines = ["## The time scale: where the chapter's learning rule converges", "",
+             f"With the chapter's rule (alpha {alpha:g}, gamma {gamma:g}, epsilon-greedy with epsilon "
+             f"{float(cfg.learner.epsilon):g}) the value of the action a robot takes after each task moves toward "
+             f"r / (1 - gamma), twenty rewards, at a rate alpha (1 - gamma) = {rate:.3g} per task in the long run: "
+             f"one e-fold takes {1 / rate:.0f} tasks"
+             + (f", some {1 / rate * task_s / 3600:.1f} h at the {task_s:.0f} s a task that three robots on a "
+                "circuit take in this world (`tavc model`)" if task_s else "")
+             + ". The value of the other action moves only on the exploratory choices, epsilon / 2 of them. "
+             "Within the chapter's 5 h the greedy policies therefore stay as the random initial tables drew "
+             f"them. The second horizon runs every experiment at {long.factor:g} times the chapter's durations, "
+             "convergence periods, warm-ups and event times, at the chapter's trial counts (`scale=converged`); "
+             "section 1.4's trials at ten times its traversals. The baselines learn nothing, so their "
+             "distribution does not depend on the horizon: they run the chapter's own schedule (the same trials "
+             "as at the chapter's durations) and are compared over its stable periods.", ""]
+    lines += ladder_lines(results_dir, long)
+    lines += convergence_lines(long)
+    return lines
+
+
+def _task_time_3_3(model_json: Path | None) -> float | None:
+    """Seconds per task of a robot on a circuit with three robots on each (the model's static runs)."""
+    if model_json is None or not model_json.is_file():
+        return None
+    budget = json.loads(model_json.read_text()).get("world", {}).get("time_budget", [])
+    times = [float(b["task_time_s"]) for b in budget if b.get("split") == "3:3"]
+    return sum(times) / len(times) if times else None
+
+
+def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
+    """The ladder's figure and table, where `<long>/ladder/ladder.csv` is saved."""
+    path = long.folder / "ladder" / "ladder.csv"
+    if not path.is_file():
+        return []
+    from tavc_cli.analysis.ladder import ladder_value
+
+    table = pd.read_csv(path)
+    rel = path.parent.relative_to(results_dir)
+    factors = sorted(set(table["factor"]))
+    lines = ["### The horizon ladder", "",
+             "initial_distribution with the same seeds at several multiples of the chapter's 5 h (`tavc ladder`; "
+             "each rung's trials are the first part of the longer rungs'). The learner-side measures are fixed in "
+             "`tavc_cli/analysis/convergence.py` and were written before any long run was looked at: the median "
+             "relative change of a robot's Q-table over the last quarter of the run (`Q drift`), the share of "
+             "robots whose greedy policy changed in that quarter, and the drift of the robots on the high-value "
+             "circuit between the two halves of the stable period; converged means all three are small.", "",
+             f"![the horizon ladder]({rel}/ladder.png)", "",
+             "| horizon | h | 2:4 | 3:3 | 4:2 | claim 3 (p) | claim 5 (p) | Q drift | policies changed | "
+             "alloc. drift | converged | stayers | alternators |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    get = {q: ladder_value(table, "tavc", q) for q in ("pct_2:4", "pct_3:3", "pct_4:2", "claim3_p", "claim3_reproduced",
+                                                       "claim5_p", "claim5_reproduced", "q_drift",
+                                                       "policy_changed_share", "alloc_drift", "converged",
+                                                       "n_stayers_high", "n_stayers_low", "n_alternators")}
+    std33 = table[(table["controller"] == "tavc") & (table["quantity"] == "pct_3:3")].set_index("factor")["std"]
+    hours = table.groupby("factor")["duration_s"].first() / 3600.0
+    for f in factors:
+        def v(q, spec=".1f"):
+            s = get[q]
+            return fmt(float(s[f]), spec) if f in s.index else ""
+
+        def verdict(k):
+            s = get[f"claim{k}_reproduced"]
+            x = float(s[f]) if f in s.index else math.nan
+            word = "holds" if x == 1.0 else ("fails" if x == 0.0 else "?")
+            return f"{word} ({v(f'claim{k}_p', '.2g')})"
+
+        conv = get["converged"]
+        conv_word = ("yes" if float(conv[f]) == 1.0 else "no") if f in conv.index else ""
+        stayers = (float(get["n_stayers_high"].get(f, math.nan)) + float(get["n_stayers_low"].get(f, math.nan)))
+        lines.append(f"| {f:g}x | {hours[f]:.0f} | {v('pct_2:4')} | {v('pct_3:3')} ± {fmt(float(std33.get(f)))} | "
+                     f"{v('pct_4:2')} | {verdict(3)} | {verdict(5)} | {v('q_drift', '.3f')} | "
+                     f"{v('policy_changed_share', '.2f')} | {v('alloc_drift', '.2f')} | {conv_word} | "
+                     f"{fmt(stayers)} | {v('n_alternators')} |")
+    rand = ladder_value(table, "random", "pct_3:3")
+    theory = ladder_value(table, "theory", "pct_3:3")
+    lines += ["", f"Random allocation spends {fmt(float(rand.mean()))} % of the stable period in 3:3 (the same trials "
+              f"at every rung), the binomial row {fmt(float(theory.mean()))} %; the chapter's learners 44.5 % in 5 h "
+              "(Table 1.2). Stayers and alternators are robots per trial in the stable period (`robots.csv`'s "
+              "classes).", ""]
+    return lines
+
+
+def convergence_lines(long: Horizon) -> list[str]:
+    """Each experiment's convergence measures at the long horizon."""
+    rows = [(name, convergence(d)) for name, d in long.experiments.items()]
+    rows = [(name, v) for name, v in rows if v is not None]
+    if not rows:
+        return []
+    lines = [f"### Did the learners converge at {long.factor:g}x?", "",
+             "| experiment | trials | Q drift (median) | policies changed | alloc. drift | TD error / Q | converged |",
+             "|---|---|---|---|---|---|---|"]
+    for name, v in rows:
+        failed = ", ".join(v.get("failed", []))
+        lines.append(f"| {name} | {v['n_trials']} | {fmt(v['q_drift'], '.3f')} | "
+                     f"{fmt(v['policy_changed_share'], '.2f')} | {fmt(v['alloc_drift'], '.2f')} | "
+                     f"{fmt(v['td_error_rel'], '.3g')} | {'yes' if v['converged'] else 'no (' + failed + ')'} |")
+    return [*lines, ""]
+
+
+def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Path | None) -> list[str]:
+    """An experiment's subsection at the long horizon: the chapter's table beside ours, the
+    learners' convergence, how the group is made, the model beside the learners, the
+    vacancy chains, the figures and the claims."""
+    if name not in long.experiments:
+        return []
+    from tavc_cli.analysis.comparison import experiment_comparison
+    from tavc_cli.report.figures import experiment_figures
+    from tavc_cli.report.text import run_lines, vacancy_lines
+    from tavc_cli.reference import TABLES
+
+    d = long.experiments[name]
+    cfg, state_time = long.read[name]
+    lines = [f"### {name} at {label(long.factor)}", ""]
+    if name == "spatiotemporal":
+        from tavc_cli.report.studies import spatiotemporal_lines
+
+        body = spatiotemporal_lines(name, d, cfg, long.folder)
+        lines += [_relinked(line, results_dir, long.folder) for line in body]
+        return lines
+    table = TABLES.get(name)
+    lines += ["% of the stable period in each state, mean ± std over trials"
+              + (f"; the chapter's Table {table} beside ours:" if table else ":"), "",
+              *state_table(state_time, experiment_comparison(name, state_time)), ""]
+    if name in long.runs:
+        lines += [performance(long.runs[name]), ""]
+    v = convergence(d)
+    if v is not None:
+        lines += [f"Convergence of the learners (measures fixed before the runs): Q drift over the last quarter "
+                  f"{fmt(v['q_drift'], '.3f')} (median over trials), greedy policies changed there for "
+                  f"{fmt(100 * v['policy_changed_share'], '.0f')} % of robots, the high-value circuit's robots "
+                  f"drifted by {fmt(v['alloc_drift'], '.2f')} between the halves of the stable period: "
+                  + ("**converged**." if v["converged"] else f"**not converged** ({', '.join(v['failed'])})."), ""]
+    lines += mechanism_lines(d)
+    lines += model_lines(name, d, cfg, model_json)
+    figures = experiment_figures(name, d, cfg, _levels(state_time), long.folder, model_json)
+    lines += [_relinked(line, results_dir, long.folder) for line in figures]
+    lines += robot_lines(d)
+    lines += vacancy_lines(d)
+    lines += _vacancy_mechanism(d)
+    own = long.claims[[CLAIMS[c][0] == name for c in long.claims["claim_id"]]]
+    if len(own) and name in long.runs:
+        lines += [*claims_table(own), ""]
+    prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
+    lines += run_lines(name, cfg, prov, long.claims.iloc[0:0], long.runs)  # its claims are above
+    return lines
+
+
+def _levels(state_time: pd.DataFrame) -> pd.DataFrame:
+    return state_time
+
+
+def _relinked(line: str, results_dir: Path, folder: Path) -> str:
+    """A markdown line written for `folder`'s own report, its links made relative to `results_dir`."""
+    rel = folder.relative_to(results_dir)
+    return line.replace("](figures/", f"]({rel}/figures/")
+
+
+def mechanism_lines(d: Path) -> list[str]:
+    """How the group is made in the stable period, and what stay and switch tasks cost."""
+    m = mechanism(d)
+    if m is None:
+        return []
+    text = (f"How the group is made in the stable period: {mechanism_words(m)}. A task that stays on the robot's "
+            f"circuit took {fmt(m.get('task_s_stay'))} s, one that switches {fmt(m.get('task_s_switch'))} s; the "
+            f"final Q(stay) - Q(switch), over states and robots, is {fmt(m.get('q_gap_stay_switch'), '.3g')}")
+    others = []
+    for controller in ("random", "static"):
+        o = mechanism(d, controller)
+        if o is not None:
+            others.append(f"{CONTROLLER_NAMES[controller]}: stay {fmt(o.get('task_s_stay'))} s, "
+                          f"switch {fmt(o.get('task_s_switch'))} s")
+    if others:
+        text += " (" + "; ".join(others) + ")"
+    return [text + ".", ""]
+
+
+def model_lines(name: str, d: Path, cfg: TavcConfig, model_json: Path | None) -> list[str]:
+    """The model's predicted allocation beside the learners' modal state and robots on the
+    high-value circuit, before the event and in the stable period after it."""
+    if model_json is None or not (d / "allocation.csv").is_file():
+        return []
+    by_size = json.loads(model_json.read_text()).get("by_team_size", {})
+    alloc = pd.read_csv(d / "allocation.csv")
+    tavc = alloc[alloc["controller"] == "tavc"]
+    n_end = int(cfg.team.n_robots) - len(cfg.events.breakdowns)
+    conv, end = float(cfg.convergence_s), float(cfg.duration_s)
+    after = tavc[(tavc["t_s"] >= conv) & (tavc["t_s"] < end)]["mean_high"].mean()
+    st = pd.read_csv(d / "state_time.csv", dtype={"state": str})
+    learners = st[st["controller"] == "tavc"].sort_values("mean_pct", ascending=False)
+    modal = learners.iloc[0] if len(learners) else None
+    pred = by_size.get(str(n_end), {}).get("predicted_state", "?")
+    text = (f"The model against the learners: for {n_end} robots it predicts **{pred}** "
+            f"({pred.split(':')[0] if pred != '?' else '?'} robots on the high-value circuit); in the stable "
+            f"period the learners' most frequent state is {modal['state'] if modal is not None else '?'} "
+            f"({fmt(modal['mean_pct']) if modal is not None else ''} %), with {fmt(after, '.2f')} robots on the "
+            "high-value circuit on average")
+    warm = float(cfg.sim.warmup_s)
+    if warm > 0:
+        n_start = int(cfg.team.n_robots) - sum(1 for b in cfg.events.breakdowns if float(b.time_s) < 0)
+        window = min(warm, end - conv)
+        before = tavc[(tavc["t_s"] >= -window) & (tavc["t_s"] < 0)]["mean_high"].mean()
+        pred_before = by_size.get(str(n_start), {}).get("predicted_state", "?")
+        text += (f"; before the event ({n_start} robots, the model: {pred_before}) "
+                 f"{fmt(before, '.2f')} over the last {window:,.0f} s")
+    return [text + ".", ""]
+
+
+def _vacancy_mechanism(d: Path) -> list[str]:
+    """Whether the vacancy after the event was filled by a robot that moved and stayed (the
+    chapter's vacancy chain) or absorbed by robots that alternate."""
+    vac, mech = d / "vacancy.csv", d / "mechanism.csv"
+    if not vac.is_file() or not mech.is_file():
+        return []
+    v = pd.read_csv(vac)
+    m = pd.read_csv(mech)
+    v = v[v["controller"] == "tavc"]
+    stable = m[(m["controller"] == "tavc") & (m["window"] == "stable")].set_index("trial")
+    if not len(v) or not len(stable):
+        return []
+    chain = absorbed = other = 0
+    for r in v.itertuples():
+        if r.trial not in stable.index:
+            continue
+        s = stable.loc[r.trial]
+        live = float(s["n_stayers_high"] + s["n_stayers_low"] + s["n_alternators"] + s["n_mixed"])
+        if bool(r.filled) and float(s["n_stayers_high"] + s["n_stayers_low"]) >= live / 2:
+            chain += 1
+        elif float(s["n_alternators"]) >= live / 2:
+            absorbed += 1
+        else:
+            other += 1
+    return [f"After the event, in {chain} of {chain + absorbed + other} TAVC trials a robot moved to the short "
+            "circuit and the group kept to its circuits (most robots stayers: the chapter's vacancy chain); in "
+            f"{absorbed} the group was mostly alternators, so the vacancy was absorbed by turn-taking; "
+            f"{other} neither.", ""]

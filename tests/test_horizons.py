@@ -1,0 +1,205 @@
+"""scale=converged, the horizon ladder and the report's second horizon.
+
+Configs compose at 40 times the chapter's durations (expected values multiplied by hand), the
+baselines keep the chapter's schedule, the ladder's table is read from its rungs' tables,
+and a report over two horizons gives both verdicts: synthetic tables where claim 3 fails
+at the chapter's durations and holds at the long horizon are reported as such."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tavc_cli import config
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import baseline_settings, trial_specs
+from tavc_cli.settings import to_yaml
+
+# experiment -> (duration, convergence, warm-up, lead, event times) at the chapter's scale
+CHAPTER = {
+    "initial_distribution": (18000.0, 4500.0, 0.0, None, []),
+    "breakdown": (27000.0, 9000.0, 18000.0, 1800.0, [0.0]),
+    "breakdown_no_vacancy": (27000.0, 9000.0, 18000.0, 1800.0, [0.0]),
+    "value_change": (18000.0, 3000.0, 36000.0, 1800.0, [-18000.0, 0.0]),
+    "heterogeneous": (72000.0, 54000.0, 0.0, 1800.0, []),
+}
+
+
+def _times(cfg) -> tuple:
+    events = sorted(float(e.time_s) for e in [*cfg.events.breakdowns, *cfg.events.value_changes])
+    lead = None if cfg.baseline_lead_s is None else float(cfg.baseline_lead_s)
+    return float(cfg.duration_s), float(cfg.convergence_s), float(cfg.sim.warmup_s), lead, events
+
+
+@pytest.mark.parametrize("name", sorted(CHAPTER))
+def test_converged_multiplies_every_time_by_40_and_keeps_the_chapters_trial_counts(name):
+    cfg = config.settings(config.load_config([f"experiment={name}", "scale=converged"]))
+    duration, conv, warm, lead, events = CHAPTER[name]
+    # by hand: 18000 * 40 = 720000, 27000 * 40 = 1080000, 4500 * 40 = 180000, 1800 * 40 = 72000 ...
+    assert _times(cfg) == (duration * 40, conv * 40, warm * 40, None if lead is None else lead * 40,
+                           [t * 40 for t in events])
+    paper = config.settings(config.load_config([f"experiment={name}", "scale=paper"]))
+    assert (cfg.trials, cfg.baseline_trials, cfg.static_trials) == (paper.trials, paper.baseline_trials,
+                                                                    paper.static_trials)
+    # the baselines run the chapter's own schedule: the same times as scale=paper's
+    assert _times(baseline_settings(cfg)) == _times(paper)
+
+
+def test_converged_values_by_hand():
+    cfg = config.settings(config.load_config(["experiment=value_change", "scale=converged"]))
+    assert cfg.duration_s == 720_000.0 and cfg.sim.warmup_s == 1_440_000.0
+    assert [b.time_s for b in cfg.events.breakdowns] == [-720_000.0]
+    theirs = baseline_settings(cfg)
+    assert theirs.duration_s == 18_000.0 and theirs.sim.warmup_s == 36_000.0 and theirs.baseline_lead_s == 1800.0
+    assert [b.time_s for b in theirs.events.breakdowns] == [-18_000.0]
+    # the window before the swap is not a time the scale multiplies: 9000 s for both
+    assert theirs.analysis.before_s == 9000.0 and cfg.analysis.before_s == 9000.0
+
+
+def test_section_1_4_runs_ten_times_the_chapters_traversals_at_converged():
+    cfg = config.settings(config.load_config(["experiment=spatiotemporal", "scale=converged"]))
+    assert cfg.deliveries == 10_000  # the chapter's 1000 traversals, times 10
+    assert cfg.duration_s == 200_000.0 * 40  # the longest a trial may run
+    assert config.settings(config.load_config(["experiment=spatiotemporal", "scale=paper"])).deliveries == 1000
+
+
+def test_converged_baselines_are_the_paper_scales_trials():
+    """Same seeds and schedule: a converged run's random and static trials are scale=paper's,
+    spec for spec, so they are the same trials."""
+    conv = trial_specs(config.settings(config.load_config(["experiment=breakdown", "scale=converged"])))
+    paper = trial_specs(config.settings(config.load_config(["experiment=breakdown", "scale=paper"])))
+    base_conv = [s for s in conv if s.controller != "tavc"]
+    base_paper = [s for s in paper if s.controller != "tavc"]
+    assert len(base_conv) == 25 and [s.key() for s in base_conv] == [s.key() for s in base_paper]
+    learner = [s for s in conv if s.controller == "tavc"]
+    assert {(s.duration_s, s.warmup_s) for s in learner} == {(1_080_000.0, 720_000.0)}
+
+
+def test_baseline_settings_is_the_config_itself_where_the_factors_agree():
+    cfg = config.settings(config.load_config(["experiment=breakdown", "scale=paper"]))
+    assert baseline_settings(cfg) is cfg
+
+
+@pytest.mark.parametrize(("override", "key"), [("scale.baseline_time_factor=0", "scale.baseline_time_factor"),
+                                               ("scale.deliveries_factor=-1", "scale.deliveries_factor")])
+def test_a_factor_that_is_not_positive_is_refused_naming_the_key(override, key):
+    with pytest.raises(TavcError, match=key.replace(".", r"\.")):
+        config.load_config(["experiment=breakdown", override])
+
+
+def test_the_ladders_rungs_are_initial_distribution_at_each_factor(tmp_path):
+    rungs = config.load_ladder([1, 4, 40], [], tmp_path)
+    assert [(c.scale.time_factor, c.duration_s, c.convergence_s) for c in rungs] == [
+        (1.0, 18000.0, 4500.0), (4.0, 72000.0, 18000.0), (40.0, 720000.0, 180000.0)]
+    assert [Path(c.output_dir) for c in rungs] == [tmp_path / "ladder" / f"x{f}" for f in (1, 4, 40)]
+    # every rung's random trials are the same trials: the chapter's schedule
+    specs = [trial_specs(config.settings(c)) for c in rungs]
+    assert len({tuple(s.key() for s in sp if s.controller == "random") for sp in specs}) == 1
+
+
+@pytest.mark.parametrize(("factors", "overrides"), [([1, 1], []), ([0], []), ([1], ["scale.time_factor=2"]),
+                                                    ([1], ["experiment=breakdown"])])
+def test_a_bad_ladder_is_one_error(tmp_path, factors, overrides):
+    with pytest.raises(TavcError):
+        config.load_ladder(factors, overrides, tmp_path)
+
+
+# --- synthetic results: a claim that fails at the chapter's durations and holds at 40x -----------
+
+STATES = ["0:6", "1:5", "2:4", "3:3", "4:2", "5:1", "6:0"]
+
+
+def _run_folder(folder: Path, scale: str, factor: float, pct_33_tavc: float, seed: int) -> None:
+    """A finished initial_distribution run folder with hand-made tables: 20 TAVC trials whose
+    share of 3:3 is about `pct_33_tavc` (the rest spread evenly), 20 random trials at the
+    binomial shares; TAVC delivers more per second than random at the long horizon only."""
+    rng = np.random.default_rng(seed)
+    cfg = config.settings(config.load_config(["experiment=initial_distribution", f"scale={scale}",
+                                              f"scale.time_factor={factor!r}", f"output_dir={folder}"]))
+    folder.mkdir(parents=True)
+    (folder / "config.yaml").write_text(to_yaml(cfg))
+    (folder / "provenance.json").write_text(json.dumps({"trials": [], "wall_time_s": 1.0}))
+    rows = []
+    theory = [1.6, 9.4, 23.4, 31.2, 23.4, 9.4, 1.6]
+    for controller, centre, rate in (("tavc", pct_33_tavc, 0.40 if factor > 1 else 0.33), ("random", None, 0.35)):
+        for j in range(20):
+            if centre is None:
+                shares = np.array(theory) + rng.normal(0, 1.0, 7)
+            else:
+                rest = (100.0 - centre) / 6
+                shares = np.array([rest, rest, rest, centre, rest, rest, rest]) + rng.normal(0, 1.0, 7)
+            shares = np.clip(shares, 0, None)
+            shares = 100 * shares / shares.sum()
+            row = {"controller": controller, "trial": j, "duration_s": float(cfg.duration_s),
+                   "value_rate_stable": rate + rng.normal(0, 0.01), "value_rate_convergence": math.nan,
+                   "value_rate_before": math.nan, "settle_s": math.nan, "policy_settle_s": math.nan,
+                   "policy_changes": math.nan}
+            row.update({f"pct_{s}": v for s, v in zip(STATES, shares, strict=True)})
+            rows.append(row)
+    stats = pd.DataFrame(rows)
+    stats.to_csv(folder / "trial_stats.csv", index=False)
+    st = []
+    for controller, g in stats.groupby("controller", sort=False):
+        for s in STATES:
+            x = g[f"pct_{s}"]
+            st.append({"state": s, "controller": controller, "mean_pct": x.mean(), "std_pct": x.std(ddof=1),
+                       "n_trials": len(x)})
+    st += [{"state": s, "controller": "theory", "mean_pct": v, "std_pct": 0.0, "n_trials": 0}
+           for s, v in zip(STATES, theory, strict=True)]
+    pd.DataFrame(st).to_csv(folder / "state_time.csv", index=False)
+
+
+@pytest.fixture(scope="module")
+def two_horizons(tmp_path_factory):
+    results = tmp_path_factory.mktemp("results")
+    _run_folder(results / "initial_distribution", "paper", 1.0, 20.0, seed=1)      # 3:3 rarer than 2:4 ...
+    _run_folder(results / "converged" / "initial_distribution", "converged", 40.0, 60.0, seed=2)
+    for k, (factor, pct) in enumerate([(1.0, 20.0), (40.0, 60.0)]):
+        _run_folder(results / "converged" / "ladder" / f"x{factor:g}", "converged", factor, pct, seed=10 + k)
+    from tavc_cli.analysis.ladder import write_ladder
+
+    write_ladder(results / "converged" / "ladder",
+                 [results / "converged" / "ladder" / "x1", results / "converged" / "ladder" / "x40"])
+    return results
+
+
+def test_the_ladder_table_holds_each_rungs_states_and_claims(two_horizons):
+    table = pd.read_csv(two_horizons / "converged" / "ladder" / "ladder.csv")
+    share = table[(table["controller"] == "tavc") & (table["quantity"] == "pct_3:3")].set_index("factor")["mean"]
+    assert share[1.0] == pytest.approx(20.0, abs=1.0) and share[40.0] == pytest.approx(60.0, abs=1.0)
+    assert (two_horizons / "converged" / "ladder" / "ladder.png").is_file()
+
+
+def test_a_claim_that_fails_at_1x_and_holds_at_40x_is_reported_as_such(two_horizons):
+    # the rungs' own claims.csv are not written by hand: the report tests both horizons itself
+    from tavc_cli.report import build_report
+
+    result = build_report(two_horizons)
+    assert result["n_tested"] == 3 and result["n_tested_long"] == 3 and result["factor"] == 40.0
+    long = result["claims_long"].set_index("claim_id")
+    assert long.loc[3, "verdict"] == "reproduced" and long.loc[5, "verdict"] == "reproduced"
+    base = result["claims"].set_index("claim_id")
+    assert base.loc[3, "verdict"] == "not_reproduced" and base.loc[5, "verdict"] == "not_reproduced"
+    report = (two_horizons / "REPORT.md").read_text()
+    assert result["n_reproduced_long"] == result["n_reproduced"] + 2  # claims 3 and 5 besides
+    assert (f"**Claims reproduced: {result['n_reproduced']} of 3 at the chapter's durations; "
+            f"{result['n_reproduced_long']} of 3 at 40 times them") in report
+    row = next(line for line in report.splitlines() if line.startswith("| 3 | initial_distribution |"))
+    assert row.split("|")[3].strip() == "not reproduced" and row.split("|")[5].strip() == "reproduced"
+    assert (two_horizons / "converged" / "claims.csv").is_file()
+
+
+def test_without_a_long_horizon_the_report_has_one_count(two_horizons, tmp_path):
+    import shutil
+
+    from tavc_cli.report import build_report
+
+    shutil.copytree(two_horizons / "initial_distribution", tmp_path / "initial_distribution")
+    build_report(tmp_path)
+    report = (tmp_path / "REPORT.md").read_text()
+    assert "**Claims reproduced: " in report and " of 3 tested**" in report and "times them" not in report
