@@ -203,3 +203,21 @@ def test_without_a_long_horizon_the_report_has_one_count(two_horizons, tmp_path)
     build_report(tmp_path)
     report = (tmp_path / "REPORT.md").read_text()
     assert "**Claims reproduced: " in report and " of 3 tested**" in report and "times them" not in report
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["ladder", "--factors", "1,x"], "error: ladder factors: '1,x' is not a comma-separated list of numbers"),
+    (["ladder", "--factors", "1,1"], "error: ladder factors: a factor is given twice"),
+    (["ladder", "--factors", "0,4"], "error: ladder factors: each must be a number above 0"),
+    (["reproduce", "scale.time_factor=3", "--ladder", "1,4"], "error: scale.time_factor: set by the ladder"),
+])
+def test_a_bad_ladder_on_the_command_line_is_one_line(tmp_path, args, message):
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    result = CliRunner().invoke(app, [*args, "--results", str(tmp_path / "out")])
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(message)
+    assert not (tmp_path / "out").exists()

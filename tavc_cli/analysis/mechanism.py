@@ -147,10 +147,12 @@ def regime(stayers: float, alternators: float, working: float) -> str:
 
 def mechanism_summary(table: pd.DataFrame, controller: str = "tavc") -> dict:
     """Over `controller`'s stable periods: the mean number of robots of each kind per trial, the
-    mean switch share, stay and switch task times and stay-switch Q gap, and the regime."""
+    mean switch share, stay and switch task times (and their seconds avoiding other robots and
+    waiting for a dock), the stay-switch Q gap, and the regime."""
     mine = table[(table["controller"] == controller) & (table["window"] == "stable")]
     out: dict = {"n_trials": int(len(mine))}
-    for col in (*KIND_COUNTS, "switch_share", "task_s_stay", "task_s_switch", "q_gap_stay_switch"):
+    for col in (*KIND_COUNTS, "switch_share", "task_s_stay", "task_s_switch", "avoid_s_stay", "avoid_s_switch",
+                "wait_s_stay", "wait_s_switch", "q_gap_stay_switch"):
         out[col] = float(mine[col].mean())
     stayers = out["n_stayers_high"] + out["n_stayers_low"]
     out["regime"] = regime(stayers, out["n_alternators"], stayers + out["n_alternators"] + out["n_mixed"])

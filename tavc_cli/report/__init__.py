@@ -237,7 +237,7 @@ def _experiment_sections(experiments: dict[str, Path], read: dict, figures: dict
     for name, d in experiments.items():
         lines += _experiment_section(name, d, read, figures, claims, runs)
         if long is not None and results_dir is not None:
-            lines += horizons.experiment_lines(name, results_dir, long, model_json)
+            lines += horizons.experiment_lines(name, results_dir, long, model_json, base_state=read[name][1])
     return lines
 
 

@@ -243,7 +243,8 @@ def convergence_lines(long: Horizon) -> list[str]:
     return [*lines, ""]
 
 
-def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Path | None) -> list[str]:
+def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Path | None,
+                     base_state: pd.DataFrame | None = None) -> list[str]:
     """An experiment's subsection at the long horizon: the chapter's table beside ours, the
     learners' convergence, how the group is made, the model beside the learners, the
     vacancy chains, the figures and the claims."""
@@ -278,7 +279,15 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
                   + ("**converged**." if v["converged"] else f"**not converged** ({', '.join(v['failed'])})."), ""]
     lines += mechanism_lines(d)
     lines += model_lines(name, d, cfg, model_json)
-    figures = experiment_figures(name, d, cfg, _levels(state_time), long.folder, model_json)
+    if base_state is not None and cfg.analysis.state == "circuits":
+        from tavc_cli.reference import chapter_table
+        from tavc_cli.viz.figures import horizon_state_figure
+
+        stem = results_dir / "figures" / f"horizons_{name}"
+        horizon_state_figure(base_state, state_time, chapter_table(table) if table else None, long.factor,
+                             f"{name}: % of the stable period in each state at both horizons", stem)
+        lines += [f"![{name} at both horizons](figures/{stem.name}.png)", ""]
+    figures = experiment_figures(name, d, cfg, state_time, long.folder, model_json)
     lines += [_relinked(line, results_dir, long.folder) for line in figures]
     lines += robot_lines(d)
     lines += vacancy_lines(d)
@@ -291,30 +300,54 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
     return lines
 
 
-def _levels(state_time: pd.DataFrame) -> pd.DataFrame:
-    return state_time
-
-
 def _relinked(line: str, results_dir: Path, folder: Path) -> str:
     """A markdown line written for `folder`'s own report, its links made relative to `results_dir`."""
     rel = folder.relative_to(results_dir)
     return line.replace("](figures/", f"]({rel}/figures/")
 
 
+def _secs(x) -> str:
+    """Seconds to one decimal, or a dash where there were no such tasks."""
+    return "-" if x is None or not math.isfinite(float(x)) else f"{float(x):.1f} s"
+
+
+def persistence_ratio(values) -> float:
+    """How much longer than a stay task a switch task must take for a robot on the low-value
+    circuit to earn more per task by staying (w_low / t_stay) than by alternating (the mean of
+    the two values over t_switch): t_switch / t_stay > (w_high + w_low) / (2 w_low)."""
+    if values is None or len(values) != 2:
+        return math.nan
+    high, low = max(float(v) for v in values), min(float(v) for v in values)
+    return (high + low) / (2.0 * low) if low > 0 else math.nan
+
+
 def mechanism_lines(d: Path) -> list[str]:
-    """How the group is made in the stable period, and what stay and switch tasks cost."""
+    """How the group is made in the stable period, what stay and switch tasks cost, and
+    whether persistence pays at those costs."""
     m = mechanism(d)
     if m is None:
         return []
     text = (f"How the group is made in the stable period: {mechanism_words(m)}. A task that stays on the robot's "
-            f"circuit took {fmt(m.get('task_s_stay'))} s, one that switches {fmt(m.get('task_s_switch'))} s; the "
-            f"final Q(stay) - Q(switch), over states and robots, is {fmt(m.get('q_gap_stay_switch'), '.3g')}")
+            f"circuit took {_secs(m.get('task_s_stay'))}, one that switches {_secs(m.get('task_s_switch'))} (of "
+            f"which avoiding other robots {_secs(m.get('avoid_s_stay'))} and {_secs(m.get('avoid_s_switch'))}, "
+            f"waiting for a dock {_secs(m.get('wait_s_stay'))} and {_secs(m.get('wait_s_switch'))}); the final "
+            f"Q(stay) - Q(switch), over states and robots, is {fmt(m.get('q_gap_stay_switch'), '.3g')}")
+    needed = math.nan
+    if (d / "config.yaml").is_file():
+        from tavc_cli.settings import from_yaml
+
+        needed = persistence_ratio(from_yaml(d / "config.yaml").tasks.values)
+    ratio = float(m.get("task_s_switch", math.nan)) / float(m.get("task_s_stay", math.nan))
+    if math.isfinite(needed) and math.isfinite(ratio):
+        text += (f". A robot on the low-value circuit earns more per task by staying than by alternating only if a "
+                 f"switch task takes more than {needed:.2f} times a stay task; among these robots it took "
+                 f"{ratio:.2f} times")
     others = []
     for controller in ("random", "static"):
         o = mechanism(d, controller)
         if o is not None:
-            others.append(f"{CONTROLLER_NAMES[controller]}: stay {fmt(o.get('task_s_stay'))} s, "
-                          f"switch {fmt(o.get('task_s_switch'))} s")
+            others.append(f"{CONTROLLER_NAMES[controller]}: stay {_secs(o.get('task_s_stay'))}, "
+                          f"switch {_secs(o.get('task_s_switch'))}")
     if others:
         text += " (" + "; ".join(others) + ")"
     return [text + ".", ""]

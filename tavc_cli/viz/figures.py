@@ -338,3 +338,33 @@ def lane_figure(occupancy: pd.DataFrame, source_xy, sink_xy, title: str, out_ste
             ax.set_ylabel("y (m)")
     fig.suptitle(title, fontsize=10)
     return save_figure(fig, out_stem)
+
+
+def horizon_state_figure(base: pd.DataFrame, long: pd.DataFrame, chapter: pd.DataFrame | None, factor: float,
+                         title: str, out_stem: Path) -> list[Path]:
+    """Bars per state: the learners at the chapter's durations and at `factor` times them (mean,
+    one std), random allocation and the theory row, with the chapter's TAVC means as stars."""
+    states = list(dict.fromkeys(long["state"]))
+    series = [("tavc", base, "TAVC, the chapter's durations", "tab:cyan"),
+              ("tavc", long, f"TAVC, {factor:g}x", "tab:blue"),
+              ("random", long, "random", COLOURS["random"]), ("theory", long, "theory", COLOURS["theory"])]
+    series = [s for s in series if (s[1]["controller"] == s[0]).any()]
+    x = np.arange(len(states))
+    width = 0.8 / max(len(series), 1)
+    fig, ax = plt.subplots(figsize=(7.5, 4.0))
+    for k, (ctrl, table, label, colour) in enumerate(series):
+        rows = table[table["controller"] == ctrl].set_index("state").reindex(states)
+        err = None if ctrl == "theory" else rows["std_pct"].to_numpy(float)
+        ax.bar(x + (k - (len(series) - 1) / 2) * width, rows["mean_pct"].to_numpy(float), width, yerr=err,
+               capsize=2, color=colour, label=label)
+    if chapter is not None and "tavc_mean_pct" in chapter:
+        ch = chapter.set_index("state").reindex(states)
+        ax.plot(x - (len(series) - 1) / 2 * width + width / 2, ch["tavc_mean_pct"], "k*", ms=9,
+                label="TAVC, the chapter")
+    ax.set_xticks(x, states)
+    ax.set_xlabel("state (robots on the high-value circuit : on the low-value circuit)")
+    ax.set_ylabel("% of the stable period")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, out_stem)
