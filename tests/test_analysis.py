@@ -14,6 +14,7 @@ from tavc_cli.analysis.states import (
     time_shares,
 )
 from tavc_cli.experiments.records import TrialRecord
+from tests.records import greedy_snapshots
 
 
 def _record(
@@ -461,15 +462,6 @@ def test_settle_time_by_hand():
     assert math.isnan(settle_time(centres, [3.0, 3.0, 3.0, 3.0, 3.0, 1.0], 100.0, 300.0))
 
 
-def _q_snapshots(greedy_per_snapshot):
-    """Q snapshots (n_snap, n_robots, 2, 2) whose greedy action in each state is given:
-    greedy_per_snapshot[k][robot] = (best after circuit 0, best after circuit 1)."""
-    q = np.zeros((len(greedy_per_snapshot), len(greedy_per_snapshot[0]), 2, 2))
-    for k, robots in enumerate(greedy_per_snapshot):
-        for r, best in enumerate(robots):
-            for s, a in enumerate(best):
-                q[k, r, s, a] = 1.0
-    return q
 
 
 def test_policy_settling_by_hand():
@@ -477,12 +469,12 @@ def test_policy_settling_by_hand():
 
     t = [0.0, 600.0, 1200.0, 1800.0, 2400.0]
     # robot 1 changes its best action after circuit 1 between 600 and 1200 s; then nothing changes
-    q = _q_snapshots([[(0, 0), (1, 1)], [(0, 0), (1, 1)], [(0, 0), (1, 0)], [(0, 0), (1, 0)], [(0, 0), (1, 0)]])
+    q = greedy_snapshots([[(0, 0), (1, 1)], [(0, 0), (1, 1)], [(0, 0), (1, 0)], [(0, 0), (1, 0)], [(0, 0), (1, 0)]])
     assert policy_settle_time(t, q) == 1200.0
     # only robot 0 counted: it never changed, so settled from the start
     assert policy_settle_time(t, q, robots=np.array([0])) == 0.0
     # a change between the last two snapshots: not settled
-    q_late = _q_snapshots([[(0, 0)], [(0, 0)], [(0, 0)], [(0, 0)], [(1, 0)]])
+    q_late = greedy_snapshots([[(0, 0)], [(0, 0)], [(0, 0)], [(0, 0)], [(1, 0)]])
     assert math.isnan(policy_settle_time(t, q_late))
     # counted from an event at 1000 s: the snapshot at 600 s is the reference, the change shows at 1200 s
     assert policy_settle_time(t, q, t0=1000.0) == pytest.approx(200.0)
@@ -495,7 +487,7 @@ def test_q_value_table_and_policy_stats_of_a_record():
 
     rec = _record(n_robots=2, groups=("a", "a"), speeds=(0.25, 0.25))
     rec.q_t = np.array([0.0, 600.0, 1200.0])
-    rec.q = _q_snapshots([[(0, 0), (1, 1)], [(1, 0), (1, 1)], [(1, 1), (1, 1)]])
+    rec.q = greedy_snapshots([[(0, 0), (1, 1)], [(1, 0), (1, 1)], [(1, 1), (1, 1)]])
     rec.meta["trial"] = 3
     table = q_value_table([rec])
     assert table.columns.tolist() == ["controller", "trial", "robot", "t_s", "q_0_0", "q_0_1", "q_1_0", "q_1_1"]

@@ -17,13 +17,10 @@ from tavc_cli.analysis.convergence import (
 )
 from tavc_cli.analysis.qvalues import q_value_table
 from tavc_cli.analysis.states import alive_at_end
-from tavc_cli.experiments.records import TABLES, TrialRecord
+from tavc_cli.experiments.records import TrialRecord
+from tests.records import greedy_snapshots, table
 
 
-def _table(name, rows):
-    """Table `name` from rows given as dicts; missing columns are 0."""
-    return {col: np.array([r.get(col, 0) for r in rows], dtype=np.float64 if typ is float else np.int64)
-            for col, typ in TABLES[name].items()}
 
 
 def _record(*, n_robots=2, values=(2.0, 1.0), duration_s=100.0, arrivals=(), breakdowns=(), deliveries=(),
@@ -35,10 +32,10 @@ def _record(*, n_robots=2, values=(2.0, 1.0), duration_s=100.0, arrivals=(), bre
         meta={"n_robots": n_robots, "n_circuits": len(values), "groups": groups,
               "speeds_mps": [0.3 if g == "fast" else 0.2 for g in groups], "values": list(values),
               "duration_s": duration_s, "warmup_s": 0.0, "controller": controller, "trial": trial},
-        tables={"arrivals": _table("arrivals", [{"t_s": a[0], "robot": a[1], "circuit": a[2]} for a in arrivals]),
-                "breakdowns": _table("breakdowns", [{"t_s": b[0], "robot": b[1]} for b in breakdowns]),
-                "deliveries": _table("deliveries", list(deliveries)),
-                "choices": _table("choices", [dict(zip(("t_s", "robot", "state", "circuit"), c, strict=True))
+        tables={"arrivals": table("arrivals", [{"t_s": a[0], "robot": a[1], "circuit": a[2]} for a in arrivals]),
+                "breakdowns": table("breakdowns", [{"t_s": b[0], "robot": b[1]} for b in breakdowns]),
+                "deliveries": table("deliveries", list(deliveries)),
+                "choices": table("choices", [dict(zip(("t_s", "robot", "state", "circuit"), c, strict=True))
                                               for c in choices])},
     )
     rec.value_changes = np.zeros((0, len(values)))
@@ -47,15 +44,6 @@ def _record(*, n_robots=2, values=(2.0, 1.0), duration_s=100.0, arrivals=(), bre
     return rec
 
 
-def _greedy_snapshots(greedy_per_snapshot):
-    """Q snapshots (n_snap, n_robots, 2, 2) whose greedy action in each state is given:
-    greedy_per_snapshot[k][robot] = (best after circuit 0, best after circuit 1)."""
-    q = np.zeros((len(greedy_per_snapshot), len(greedy_per_snapshot[0]), 2, 2))
-    for k, robots in enumerate(greedy_per_snapshot):
-        for r, best in enumerate(robots):
-            for s, a in enumerate(best):
-                q[k, r, s, a] = 1.0
-    return q
 
 
 # --- Q drift -------------------------------------------------------------------------------------
@@ -105,7 +93,7 @@ def test_policy_changed_share_counts_flips_inside_the_quarter_only():
     # robot 2 flips inside too, but has broken down: not counted
     # -> 1 of the 2 live robots: 0.5
     snaps = [[(0, 1), (0, 1), (0, 1)]] * 3 + [[(1, 1), (0, 1), (0, 1)], [(1, 1), (1, 1), (1, 1)]]
-    rec = _record(n_robots=3, breakdowns=[(10.0, 2)], q_t=[0, 25, 50, 75, 100], q=_greedy_snapshots(snaps))
+    rec = _record(n_robots=3, breakdowns=[(10.0, 2)], q_t=[0, 25, 50, 75, 100], q=greedy_snapshots(snaps))
     live = alive_at_end(rec)
     assert policy_changed_share(rec, 75.0, 100.0, live) == 0.5
     # the whole run from 0: both live robots changed

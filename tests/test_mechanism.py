@@ -18,13 +18,10 @@ from tavc_cli.analysis.mechanism import (
     task_kinds,
     task_means,
 )
-from tavc_cli.experiments.records import TABLES, TrialRecord
+from tavc_cli.experiments.records import TrialRecord
+from tests.records import table
 
 
-def _table(name, rows):
-    """Table `name` from rows given as dicts; missing columns are 0."""
-    return {col: np.array([r.get(col, 0) for r in rows], dtype=np.float64 if typ is float else np.int64)
-            for col, typ in TABLES[name].items()}
 
 
 def _record(*, n_robots=3, values=(2.0, 1.0), duration_s=100.0, breakdowns=(), deliveries=(), choices=(),
@@ -35,10 +32,10 @@ def _record(*, n_robots=3, values=(2.0, 1.0), duration_s=100.0, breakdowns=(), d
         meta={"n_robots": n_robots, "n_circuits": len(values), "groups": ["all"] * n_robots,
               "speeds_mps": [0.25] * n_robots, "values": list(values), "duration_s": duration_s,
               "warmup_s": 0.0, "controller": controller, "trial": trial},
-        tables={"arrivals": _table("arrivals", []),
-                "breakdowns": _table("breakdowns", [{"t_s": b[0], "robot": b[1]} for b in breakdowns]),
-                "deliveries": _table("deliveries", list(deliveries)),
-                "choices": _table("choices", [dict(zip(("t_s", "robot", "state", "circuit"), c, strict=True))
+        tables={"arrivals": table("arrivals", []),
+                "breakdowns": table("breakdowns", [{"t_s": b[0], "robot": b[1]} for b in breakdowns]),
+                "deliveries": table("deliveries", list(deliveries)),
+                "choices": table("choices", [dict(zip(("t_s", "robot", "state", "circuit"), c, strict=True))
                                               for c in choices])},
     )
     rec.value_changes_t = np.array([v[0] for v in value_changes], dtype=float)

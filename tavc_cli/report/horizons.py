@@ -59,15 +59,18 @@ def label(factor: float) -> str:
     return f"{factor:g} times the chapter's durations"
 
 
-def convergence(d: Path, controller: str = "tavc") -> dict | None:
-    """The convergence verdict of an experiment's learners (`analysis.convergence`), or None."""
+def convergence(d: Path, controller: str | None = None) -> dict | None:
+    """The convergence verdict of an experiment's learners (`analysis.convergence`; by default
+    the first controller of its table, the learner), or None."""
     path = d / "convergence.csv"
     if not path.is_file():
         return None
     from tavc_cli.analysis.convergence import convergence_verdict
 
     table = pd.read_csv(path)
-    if not (table["controller"] == controller).any():
+    if controller is None and len(table):
+        controller = str(table["controller"].iloc[0])
+    if controller is None or not (table["controller"] == controller).any():
         return None
     return convergence_verdict(table, controller=controller)
 
@@ -262,21 +265,14 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
         from tavc_cli.report.studies import spatiotemporal_lines
 
         body = spatiotemporal_lines(name, d, cfg, long.folder)
-        lines += [_relinked(line, results_dir, long.folder) for line in body]
-        return lines
+        return [*lines, *convergence_sentence(d), *(_relinked(line, results_dir, long.folder) for line in body)]
     table = TABLES.get(name)
     lines += ["% of the stable period in each state, mean ± std over trials"
               + (f"; the chapter's Table {table} beside ours:" if table else ":"), "",
               *state_table(state_time, experiment_comparison(name, state_time)), ""]
     if name in long.runs:
         lines += [performance(long.runs[name]), ""]
-    v = convergence(d)
-    if v is not None:
-        lines += [f"Convergence of the learners (measures fixed before the runs): Q drift over the last quarter "
-                  f"{fmt(v['q_drift'], '.3f')} (median over trials), greedy policies changed there for "
-                  f"{fmt(100 * v['policy_changed_share'], '.0f')} % of robots, the high-value circuit's robots "
-                  f"drifted by {fmt(v['alloc_drift'], '.2f')} between the halves of the stable period: "
-                  + ("**converged**." if v["converged"] else f"**not converged** ({', '.join(v['failed'])})."), ""]
+    lines += convergence_sentence(d)
     lines += mechanism_lines(d)
     lines += model_lines(name, d, cfg, model_json)
     if base_state is not None and cfg.analysis.state == "circuits":
@@ -298,6 +294,18 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
     prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
     lines += run_lines(name, cfg, prov, long.claims.iloc[0:0], long.runs)  # its claims are above
     return lines
+
+
+def convergence_sentence(d: Path) -> list[str]:
+    """The learners' convergence measures and verdict, in a sentence."""
+    v = convergence(d)
+    if v is None:
+        return []
+    return [f"Convergence of the learners (measures fixed before the runs): Q drift over the last quarter "
+            f"{fmt(v['q_drift'], '.3f')} (median over trials), greedy policies changed there for "
+            f"{fmt(100 * v['policy_changed_share'], '.0f')} % of robots, the high-value circuit's robots "
+            f"drifted by {fmt(v['alloc_drift'], '.2f')} between the halves of the stable period: "
+            + ("**converged**." if v["converged"] else f"**not converged** ({', '.join(v['failed'])})."), ""]
 
 
 def _relinked(line: str, results_dir: Path, folder: Path) -> str:

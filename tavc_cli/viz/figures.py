@@ -69,6 +69,11 @@ def state_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: 
         ch = chapter.set_index("state").reindex(states)
         k = ctrls.index("tavc") if "tavc" in ctrls else 0
         ax.plot(x + (k - (len(ctrls) - 1) / 2) * width, ch["tavc_mean_pct"], "k*", ms=9, label="TAVC, the chapter")
+    return _finish_states(fig, ax, x, states, title, out_stem)
+
+
+def _finish_states(fig, ax, x: np.ndarray, states: Sequence[str], title: str, out_stem: Path) -> list[Path]:
+    """A state histogram's axes, title and legend; saved."""
     ax.set_xticks(x, states)
     ax.set_xlabel("state (robots on the high-value circuit : on the low-value circuit)")
     ax.set_ylabel("% of the stable period")
@@ -361,10 +366,4 @@ def horizon_state_figure(base: pd.DataFrame, long: pd.DataFrame, chapter: pd.Dat
         ch = chapter.set_index("state").reindex(states)
         ax.plot(x - (len(series) - 1) / 2 * width + width / 2, ch["tavc_mean_pct"], "k*", ms=9,
                 label="TAVC, the chapter")
-    ax.set_xticks(x, states)
-    ax.set_xlabel("state (robots on the high-value circuit : on the low-value circuit)")
-    ax.set_ylabel("% of the stable period")
-    ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    return save_figure(fig, out_stem)
+    return _finish_states(fig, ax, x, states, title, out_stem)
