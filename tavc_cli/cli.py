@@ -340,7 +340,8 @@ def _factors(text: str | None) -> list[float] | None:
     try:
         return [float(part) for part in text.split(",") if part.strip()]
     except ValueError:
-        raise TavcError(f"ladder factors: {text!r} is not a comma-separated list of numbers, e.g. 1,4,10,20,40") from None
+        raise TavcError(f"ladder factors: {text!r} is not a comma-separated list of numbers, "
+                        "e.g. 1,4,10,20,40") from None
 
 
 def _reproduce(*, overrides: Sequence[str], names: str | None, results: Path, progress: bool,

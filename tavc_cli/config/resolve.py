@@ -11,7 +11,8 @@ Rules:
   sets ``duration_s`` but not ``convergence_s``, the stable period keeps the paper's share of
   the run: ``convergence_s = duration_s * (paper.convergence_s / paper.duration_s)`` (what
   ``scale`` gives too, since it multiplies both by the same factor).
-- ``deliveries``: ``paper.deliveries`` times ``scale.deliveries_factor`` (null: ``scale.time_factor``), rounded, at least 1 (none when
+- ``deliveries``: ``paper.deliveries`` times ``scale.deliveries_factor`` (null: ``scale.time_factor``),
+  rounded, at least 1 (none when
   the paper measures its trials in seconds). A trial then ends with the tick of its team's
   n-th delivery after the warm-up, ``duration_s`` being its longest.
 - ``baseline_lead_s``, ``sim.warmup_s`` and every event time (``events.breakdowns[*].time_s``,

@@ -28,6 +28,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.reference import TABLES
 from tavc_cli.report import horizons
+from tavc_cli.report.mechanism import mechanism_lines
 from tavc_cli.report.figures import experiment_figures, find_model
 from tavc_cli.report.studies import spatiotemporal_lines, value_ratio_lines
 from tavc_cli.report.text import (
@@ -262,7 +263,7 @@ def _experiment_section(name: str, d: Path, read: dict, figures: dict, claims: p
     if (d / "model" / "model.json").is_file():
         lines.append("")
     lines += figures[name].result()
-    lines += horizons.mechanism_lines(d)
+    lines += mechanism_lines(d)
     lines += robot_lines(d)
     lines += vacancy_lines(d)
     lines += run_lines(name, cfg, prov, claims, runs)

@@ -115,7 +115,8 @@ def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame,
     lines = ["![Figure 1.12, tavc](figures/fig_1_12.png)", "![Figure 1.13, tavc](figures/fig_1_13.png)",
              "![Figure 1.13, relative, tavc](figures/fig_1_13_relative.png)"]
     if (d / "specialisation.csv").is_file():
-        specialisation_figure(_group_levels(pd.read_csv(d / "specialisation.csv"), cfg), float(cfg.convergence_s or 0.0),
+        specialisation_figure(_group_levels(pd.read_csv(d / "specialisation.csv"), cfg),
+                              float(cfg.convergence_s or 0.0),
                               f"{name}: each speed group's share on the high-value circuit",
                               fig_dir / f"specialisation_{name}")
         lines.append(f"![specialisation, {name}](figures/specialisation_{name}.png)")

@@ -19,7 +19,8 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.claims import CLAIMS
-from tavc_cli.report.text import CONTROLLER_NAMES, claims_table, fmt, performance, robot_lines, state_table
+from tavc_cli.report.mechanism import mechanism, mechanism_lines, mechanism_words, vacancy_mechanism_lines
+from tavc_cli.report.text import claims_table, fmt, performance, robot_lines, state_table
 from tavc_cli.settings import TavcConfig
 
 # the claims whose chapter's mechanism is persistence: robots staying on one circuit, a vacancy
@@ -73,30 +74,6 @@ def convergence(d: Path, controller: str | None = None) -> dict | None:
     if controller is None or not (table["controller"] == controller).any():
         return None
     return convergence_verdict(table, controller=controller)
-
-
-def mechanism(d: Path, controller: str = "tavc") -> dict | None:
-    """How an experiment's learners' group was made in the stable period (`analysis.mechanism`), or None."""
-    path = d / "mechanism.csv"
-    if not path.is_file():
-        return None
-    from tavc_cli.analysis.mechanism import mechanism_summary
-
-    table = pd.read_csv(path)
-    if not ((table["controller"] == controller) & (table["window"] == "stable")).any():
-        return None
-    return mechanism_summary(table, controller=controller)
-
-
-def mechanism_words(m: dict | None) -> str:
-    """A mechanism summary in a few words: the regime and the robots of each kind per trial."""
-    if m is None:
-        return ""
-    stayers = float(m.get("n_stayers_high", 0.0)) + float(m.get("n_stayers_low", 0.0))
-    return (f"{m['regime']}: {fmt(stayers)} stayers ({fmt(m.get('n_stayers_high'))} high, "
-            f"{fmt(m.get('n_stayers_low'))} low), {fmt(m.get('n_alternators'))} alternators, "
-            f"{fmt(m.get('n_mixed'))} mixed per trial; {fmt(100 * float(m.get('switch_share', math.nan)), '.0f')} % "
-            "of tasks switch")
 
 
 def summary_lines(base: Horizon, long: Horizon | None) -> list[str]:
@@ -202,24 +179,23 @@ def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
                                                        "n_stayers_high", "n_stayers_low", "n_alternators")}
     std33 = table[(table["controller"] == "tavc") & (table["quantity"] == "pct_3:3")].set_index("factor")["std"]
     hours = table.groupby("factor")["duration_s"].first() / 3600.0
+    def cell(q: str, f: float, spec: str = ".1f") -> str:
+        return fmt(float(get[q][f]), spec) if f in get[q].index else ""
+
+    def verdict(k: int, f: float) -> str:
+        s = get[f"claim{k}_reproduced"]
+        x = float(s[f]) if f in s.index else math.nan
+        word = "holds" if x == 1.0 else ("fails" if x == 0.0 else "?")
+        return f"{word} ({cell(f'claim{k}_p', f, '.2g')})"
+
     for f in factors:
-        def v(q, spec=".1f"):
-            s = get[q]
-            return fmt(float(s[f]), spec) if f in s.index else ""
-
-        def verdict(k):
-            s = get[f"claim{k}_reproduced"]
-            x = float(s[f]) if f in s.index else math.nan
-            word = "holds" if x == 1.0 else ("fails" if x == 0.0 else "?")
-            return f"{word} ({v(f'claim{k}_p', '.2g')})"
-
         conv = get["converged"]
         conv_word = ("yes" if float(conv[f]) == 1.0 else "no") if f in conv.index else ""
         stayers = (float(get["n_stayers_high"].get(f, math.nan)) + float(get["n_stayers_low"].get(f, math.nan)))
-        lines.append(f"| {f:g}x | {hours[f]:.0f} | {v('pct_2:4')} | {v('pct_3:3')} ± {fmt(float(std33.get(f)))} | "
-                     f"{v('pct_4:2')} | {verdict(3)} | {verdict(5)} | {v('q_drift', '.3f')} | "
-                     f"{v('policy_changed_share', '.2f')} | {v('alloc_drift', '.2f')} | {conv_word} | "
-                     f"{fmt(stayers)} | {v('n_alternators')} |")
+        lines.append(f"| {f:g}x | {hours[f]:.0f} | {cell('pct_2:4', f)} | {cell('pct_3:3', f)} ± "
+                     f"{fmt(float(std33.get(f)))} | {cell('pct_4:2', f)} | {verdict(3, f)} | {verdict(5, f)} | "
+                     f"{cell('q_drift', f, '.3f')} | {cell('policy_changed_share', f, '.2f')} | "
+                     f"{cell('alloc_drift', f, '.2f')} | {conv_word} | {fmt(stayers)} | {cell('n_alternators', f)} |")
     rand = ladder_value(table, "random", "pct_3:3")
     theory = ladder_value(table, "theory", "pct_3:3")
     lines += ["", f"Random allocation spends {fmt(float(rand.mean()))} % of the stable period in 3:3 (the same trials "
@@ -287,7 +263,7 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
     lines += [_relinked(line, results_dir, long.folder) for line in figures]
     lines += robot_lines(d)
     lines += vacancy_lines(d)
-    lines += _vacancy_mechanism(d)
+    lines += vacancy_mechanism_lines(d)
     own = long.claims[[CLAIMS[c][0] == name for c in long.claims["claim_id"]]]
     if len(own) and name in long.runs:
         lines += [*claims_table(own), ""]
@@ -312,53 +288,6 @@ def _relinked(line: str, results_dir: Path, folder: Path) -> str:
     """A markdown line written for `folder`'s own report, its links made relative to `results_dir`."""
     rel = folder.relative_to(results_dir)
     return line.replace("](figures/", f"]({rel}/figures/")
-
-
-def _secs(x) -> str:
-    """Seconds to one decimal, or a dash where there were no such tasks."""
-    return "-" if x is None or not math.isfinite(float(x)) else f"{float(x):.1f} s"
-
-
-def persistence_ratio(values) -> float:
-    """How much longer than a stay task a switch task must take for a robot on the low-value
-    circuit to earn more per task by staying (w_low / t_stay) than by alternating (the mean of
-    the two values over t_switch): t_switch / t_stay > (w_high + w_low) / (2 w_low)."""
-    if values is None or len(values) != 2:
-        return math.nan
-    high, low = max(float(v) for v in values), min(float(v) for v in values)
-    return (high + low) / (2.0 * low) if low > 0 else math.nan
-
-
-def mechanism_lines(d: Path) -> list[str]:
-    """How the group is made in the stable period, what stay and switch tasks cost, and
-    whether persistence pays at those costs."""
-    m = mechanism(d)
-    if m is None:
-        return []
-    text = (f"How the group is made in the stable period: {mechanism_words(m)}. A task that stays on the robot's "
-            f"circuit took {_secs(m.get('task_s_stay'))}, one that switches {_secs(m.get('task_s_switch'))} (of "
-            f"which avoiding other robots {_secs(m.get('avoid_s_stay'))} and {_secs(m.get('avoid_s_switch'))}, "
-            f"waiting for a dock {_secs(m.get('wait_s_stay'))} and {_secs(m.get('wait_s_switch'))}); the final "
-            f"Q(stay) - Q(switch), over states and robots, is {fmt(m.get('q_gap_stay_switch'), '.3g')}")
-    needed = math.nan
-    if (d / "config.yaml").is_file():
-        from tavc_cli.settings import from_yaml
-
-        needed = persistence_ratio(from_yaml(d / "config.yaml").tasks.values)
-    ratio = float(m.get("task_s_switch", math.nan)) / float(m.get("task_s_stay", math.nan))
-    if math.isfinite(needed) and math.isfinite(ratio):
-        text += (f". A robot on the low-value circuit earns more per task by staying than by alternating only if a "
-                 f"switch task takes more than {needed:.2f} times a stay task; among these robots it took "
-                 f"{ratio:.2f} times")
-    others = []
-    for controller in ("random", "static"):
-        o = mechanism(d, controller)
-        if o is not None:
-            others.append(f"{CONTROLLER_NAMES[controller]}: stay {_secs(o.get('task_s_stay'))}, "
-                          f"switch {_secs(o.get('task_s_switch'))}")
-    if others:
-        text += " (" + "; ".join(others) + ")"
-    return [text + ".", ""]
 
 
 def model_lines(name: str, d: Path, cfg: TavcConfig, model_json: Path | None) -> list[str]:
@@ -391,32 +320,3 @@ def model_lines(name: str, d: Path, cfg: TavcConfig, model_json: Path | None) ->
                  f"{fmt(before, '.2f')} over the last {window:,.0f} s")
     return [text + ".", ""]
 
-
-def _vacancy_mechanism(d: Path) -> list[str]:
-    """Whether the vacancy after the event was filled by a robot that moved and stayed (the
-    chapter's vacancy chain) or absorbed by robots that alternate."""
-    vac, mech = d / "vacancy.csv", d / "mechanism.csv"
-    if not vac.is_file() or not mech.is_file():
-        return []
-    v = pd.read_csv(vac)
-    m = pd.read_csv(mech)
-    v = v[v["controller"] == "tavc"]
-    stable = m[(m["controller"] == "tavc") & (m["window"] == "stable")].set_index("trial")
-    if not len(v) or not len(stable):
-        return []
-    chain = absorbed = other = 0
-    for r in v.itertuples():
-        if r.trial not in stable.index:
-            continue
-        s = stable.loc[r.trial]
-        live = float(s["n_stayers_high"] + s["n_stayers_low"] + s["n_alternators"] + s["n_mixed"])
-        if bool(r.filled) and float(s["n_stayers_high"] + s["n_stayers_low"]) >= live / 2:
-            chain += 1
-        elif float(s["n_alternators"]) >= live / 2:
-            absorbed += 1
-        else:
-            other += 1
-    return [f"After the event, in {chain} of {chain + absorbed + other} TAVC trials a robot moved to the short "
-            "circuit and the group kept to its circuits (most robots stayers: the chapter's vacancy chain); in "
-            f"{absorbed} the group was mostly alternators, so the vacancy was absorbed by turn-taking; "
-            f"{other} neither.", ""]

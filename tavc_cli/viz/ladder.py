@@ -35,11 +35,14 @@ def ladder_figure(table: pd.DataFrame, out_stem: Path, chapter: pd.DataFrame | N
               if q.startswith("pct_")]
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(7.5, 8.0), sharex=True,
                                       gridspec_kw={"height_ratios": [3, 2]})
+    other_labelled = False
     for state in states:
         h, m, s = _series(table, "tavc", f"pct_{state}")
-        colour = STATE_COLOURS.get(state, "0.75")
-        top.errorbar(h, m, yerr=np.nan_to_num(s), marker="o", color=colour, capsize=3,
-                     lw=2 if state in STATE_COLOURS else 1, label=f"TAVC {state}")
+        central = state in STATE_COLOURS
+        label = f"TAVC {state}" if central else (None if other_labelled else "TAVC, other states")
+        other_labelled = other_labelled or not central
+        top.errorbar(h, m, yerr=np.nan_to_num(s), marker="o", color=STATE_COLOURS.get(state, "0.75"), capsize=3,
+                     lw=2 if central else 1, label=label)
     chapter_hours = 5.0
     for r in chapter.itertuples():
         if r.state in STATE_COLOURS:
