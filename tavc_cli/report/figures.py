@@ -126,6 +126,10 @@ def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame,
 
 def _group_levels(spec: pd.DataFrame, cfg: TavcConfig) -> pd.DataFrame:
     """`baseline_levels` for each speed group's share on the high-value circuit."""
+    from tavc_cli.experiments.build import baseline_settings
+
+    if baseline_settings(cfg) is cfg:
+        return spec
     parts = [baseline_levels(rows, cfg, "mean_share_high", "std_share_high").assign(group=group)
              for group, rows in spec.groupby("group", sort=False)]
     return pd.concat(parts, ignore_index=True)[list(spec.columns)] if parts else spec
