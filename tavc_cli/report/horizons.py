@@ -212,14 +212,33 @@ def convergence_lines(long: Horizon) -> list[str]:
     if not rows:
         return []
     lines = [f"### Did the learners converge at {long.factor:g}x?", "",
-             "| experiment | trials | Q drift (median) | policies changed | alloc. drift | TD error / Q | converged |",
-             "|---|---|---|---|---|---|---|"]
+             "| experiment | trials | Q drift (median) | policies changed | alloc. drift | TD error / Q | converged | "
+             "trials in which no greedy policy changed from t = 0 on |",
+             "|---|---|---|---|---|---|---|---|"]
     for name, v in rows:
         failed = ", ".join(v.get("failed", []))
+        frozen, n = never_changed(long.experiments[name])
         lines.append(f"| {name} | {v['n_trials']} | {fmt(v['q_drift'], '.3f')} | "
                      f"{fmt(v['policy_changed_share'], '.2f')} | {fmt(v['alloc_drift'], '.2f')} | "
-                     f"{fmt(v['td_error_rel'], '.3g')} | {'yes' if v['converged'] else 'no (' + failed + ')'} |")
-    return [*lines, ""]
+                     f"{fmt(v['td_error_rel'], '.3g')} | {'yes' if v['converged'] else 'no (' + failed + ')'} | "
+                     f"{f'{frozen} of {n}' if n else ''} |")
+    lines += ["", "Converged means the values and the allocation no longer move. A group whose greedy policies "
+              "never changed converges too, where its initial tables put it: the last column tells the two apart "
+              "(t = 0 is the start of the run, or the event for runs that learn before one).", ""]
+    return lines
+
+
+def never_changed(d: Path) -> tuple[int, int]:
+    """(trials of the learner in which no robot's greedy policy changed from t = 0 on, trials
+    with snapshots), from `trial_stats.csv`."""
+    path = d / "trial_stats.csv"
+    if not path.is_file():
+        return 0, 0
+    stats = pd.read_csv(path)
+    if "policy_changes" not in stats or not len(stats):
+        return 0, 0
+    mine = stats[stats["controller"] == stats["controller"].iloc[0]]["policy_changes"].dropna()
+    return int((mine == 0).sum()), len(mine)
 
 
 def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Path | None,
@@ -277,11 +296,22 @@ def convergence_sentence(d: Path) -> list[str]:
     v = convergence(d)
     if v is None:
         return []
-    return [f"Convergence of the learners (measures fixed before the runs): Q drift over the last quarter "
+    frozen, n = never_changed(d)
+    text = (f"Convergence of the learners (measures fixed before the runs): Q drift over the last quarter "
             f"{fmt(v['q_drift'], '.3f')} (median over trials), greedy policies changed there for "
             f"{fmt(100 * v['policy_changed_share'], '.0f')} % of robots, the high-value circuit's robots "
             f"drifted by {fmt(v['alloc_drift'], '.2f')} between the halves of the stable period: "
-            + ("**converged**." if v["converged"] else f"**not converged** ({', '.join(v['failed'])})."), ""]
+            + ("**converged**" if v["converged"] else f"**not converged** ({', '.join(v['failed'])})"))
+    if n and frozen * 2 >= n:
+        from tavc_cli.settings import from_yaml
+
+        if float(from_yaml(d / "config.yaml").sim.warmup_s) > 0:
+            text += (f"; in {frozen} of {n} trials no robot's greedy policy changed after the event: the "
+                     "policies the group had before it served after it too")
+        else:
+            text += (f"; but in {frozen} of {n} trials no robot's greedy policy changed at all over the whole run, "
+                     "so the group settled where its initial tables put it rather than learning an allocation")
+    return [text + ".", ""]
 
 
 def _relinked(line: str, results_dir: Path, folder: Path) -> str:
