@@ -149,7 +149,7 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
     summaries = run_experiments([config.settings(cfg) for cfg in [*cfgs, *rungs]], progress=progress)
     out = [(str(cfg.experiment_name), summary) for cfg, summary in zip(cfgs, summaries, strict=False)]
     if rungs:
-        from tavc_cli.analysis.ladder import write_ladder
+        from tavc_cli.pipeline import write_ladder
 
         write_ladder(Path(results_dir) / "ladder", [Path(str(cfg.output_dir)) for cfg in rungs])
         out += [(f"ladder x{float(cfg.scale.time_factor):g}", summary)

@@ -85,3 +85,15 @@ def write_sweep(values: list[dict[str, str]], folders: list[Path]) -> list[Path]
     parent = folders[0].parent
     write_text_atomic(parent / "sweep.csv", table.to_csv(index=False, float_format="%.4f"))
     return [parent / "sweep.csv", *sweep_figure(table, next(iter(values[0])), parent / "sweep")]
+
+
+def write_ladder(ladder_dir: Path, folders: list[Path]) -> list[Path]:
+    """`ladder.csv` and its figure (`ladder.png`, `.svg`) in `ladder_dir`, from the horizon
+    ladder's rung folders; returns the paths written, the table first."""
+    from tavc_cli.analysis.ladder import ladder_table
+    from tavc_cli.viz.ladder import ladder_figure
+
+    table = ladder_table(folders)
+    path = Path(ladder_dir) / "ladder.csv"
+    write_text_atomic(path, table.to_csv(index=False, float_format="%.4f"))
+    return [path, *ladder_figure(table, Path(ladder_dir) / "ladder")]

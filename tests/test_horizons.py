@@ -161,7 +161,7 @@ def two_horizons(tmp_path_factory):
     _run_folder(results / "converged" / "initial_distribution", "converged", 40.0, 60.0, seed=2)
     for k, (factor, pct) in enumerate([(1.0, 20.0), (40.0, 60.0)]):
         _run_folder(results / "converged" / "ladder" / f"x{factor:g}", "converged", factor, pct, seed=10 + k)
-    from tavc_cli.analysis.ladder import write_ladder
+    from tavc_cli.pipeline import write_ladder
 
     write_ladder(results / "converged" / "ladder",
                  [results / "converged" / "ladder" / "x1", results / "converged" / "ladder" / "x40"])

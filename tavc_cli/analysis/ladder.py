@@ -26,7 +26,6 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.io import write_text_atomic
 from tavc_cli.settings import from_yaml
 
 LADDER_COLUMNS = ["factor", "duration_s", "controller", "quantity", "mean", "std", "n_trials"]
@@ -111,15 +110,3 @@ def ladder_value(table: pd.DataFrame, controller: str, quantity: str) -> pd.Seri
     """One quantity of one controller against the factor (a Series indexed by factor)."""
     rows = table[(table["controller"] == controller) & (table["quantity"] == quantity)]
     return pd.Series(rows["mean"].to_numpy(float), index=rows["factor"].to_numpy(float))
-
-
-def write_ladder(ladder_dir: Path, folders: list[Path]) -> list[Path]:
-    """Write `ladder.csv` and its figure (`ladder.png`, `.svg`) into `ladder_dir` from the
-    rungs' folders; return the paths written, the table first."""
-    from tavc_cli.viz.ladder import ladder_figure
-
-    table = ladder_table(folders)
-    path = Path(ladder_dir) / "ladder.csv"
-    write_text_atomic(path, table.to_csv(index=False, float_format="%.4f"))
-    return [path, *ladder_figure(table, Path(ladder_dir) / "ladder")]
-
