@@ -221,3 +221,24 @@ def test_a_bad_ladder_on_the_command_line_is_one_line(tmp_path, args, message):
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(message)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+def test_tavc_ladder_end_to_end_at_smoke_scale(tmp_path):
+    """Two rungs in one job: ladder.csv and its figure; the rungs' random trials, on the chapter's
+    schedule at both, are one trial written twice, byte for byte."""
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    result = CliRunner().invoke(app, ["ladder", "scale=smoke", "scale.baseline_time_factor=0.01", "--factors",
+                                      "0.01,0.02", "--results", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(tmp_path / "ladder" / "ladder.csv")
+    assert sorted(set(table["factor"])) == [0.01, 0.02]
+    assert {"pct_3:3", "claim3_p", "q_drift", "n_alternators"} <= set(table["quantity"])
+    assert (tmp_path / "ladder" / "ladder.png").is_file()
+    a, b = (tmp_path / "ladder" / f"x{f}" / "trials" / "random_000.npz" for f in ("0.01", "0.02"))
+    assert a.read_bytes() == b.read_bytes()
+    durations = table[table["quantity"] == "pct_3:3"].groupby("factor")["duration_s"].first()
+    assert durations.to_dict() == {0.01: 180.0, 0.02: 360.0}  # 18000 s times each factor
