@@ -136,7 +136,7 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
                         ladder: Sequence[float] | None = None) -> list[tuple[str, dict]]:
     """`reproduce`'s work, returning (name, summary) per experiment as `tavc reproduce` prints
     them. With `ladder` (multiples of the chapter's durations), the horizon ladder's rungs run
-    in the same job (`ladder_summaries`), their history shared with the experiments' trials,
+    in the same job, their history shared with the experiments' trials (`config.load_ladder`),
     and follow the experiments as ``ladder x<factor>``; ``experiments=[]`` runs the ladder alone."""
     from tavc_cli import config
     from tavc_cli.pipeline import run_experiments
