@@ -260,7 +260,8 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
         from tavc_cli.report.studies import spatiotemporal_lines
 
         body = spatiotemporal_lines(name, d, cfg, long.folder)
-        return [*lines, *convergence_sentence(d), *(_relinked(line, results_dir, long.folder) for line in body)]
+        lines += [*convergence_sentence(d), *(_relinked(line, results_dir, long.folder) for line in body)]
+        return [*lines, *_claims_lines(name, long)]
     table = TABLES.get(name)
     lines += ["% of the stable period in each state, mean ± std over trials"
               + (f"; the chapter's Table {table} beside ours:" if table else ":"), "",
@@ -283,12 +284,16 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
     lines += robot_lines(d)
     lines += vacancy_lines(d)
     lines += vacancy_mechanism_lines(d)
-    own = long.claims[[CLAIMS[c][0] == name for c in long.claims["claim_id"]]]
-    if len(own) and name in long.runs:
-        lines += [*claims_table(own), ""]
+    lines += _claims_lines(name, long)
     prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
     lines += run_lines(name, cfg, prov, long.claims.iloc[0:0], long.runs)  # its claims are above
     return lines
+
+
+def _claims_lines(name: str, long: Horizon) -> list[str]:
+    """The experiment's claims as tested at the long horizon."""
+    own = long.claims[[CLAIMS[c][0] == name for c in long.claims["claim_id"]]]
+    return [*claims_table(own), ""] if len(own) and name in long.runs else []
 
 
 def convergence_sentence(d: Path) -> list[str]:
