@@ -11,6 +11,7 @@ runs the same scenario written for Enki, a C++ robot simulator (`bench/enki/`).
 
 from __future__ import annotations
 
+import json
 import math
 import multiprocessing
 import os
@@ -40,6 +41,21 @@ def bench_overrides(scenario: str, n_robots: int, duration_s: float, n_rays: int
 
 def _batch_specs(settings: TavcConfig, batch: int):
     return trial_specs(replace(settings, trials=batch, baselines=[]))
+
+
+def bench_text(settings_for: Callable[[int, float], TavcConfig], *, json_output: bool, scenario: str,
+               n_robots: int, duration_s: float, repeats: int, batch: int | None, n_rays: int | None = None,
+               scaling: bool = True, against: str | None = None, profile: bool = False) -> str:
+    """`tavc bench`'s output: a profile of the loop (`profile`) or the benchmark (`run_bench`), as
+    one JSON object or as aligned lines. `settings_for(n_robots, duration_s)` gives the settings."""
+    if profile:
+        if against:
+            raise TavcError("--profile: profiles tavc alone; leave out --against")
+        result, lines = profile_bench(settings_for(n_robots, max(duration_s, 5000.0)), batch)
+        return json.dumps(result) if json_output else "\n".join(lines)
+    result = run_bench(settings_for, scenario=scenario, n_robots=n_robots, duration_s=duration_s, repeats=repeats,
+                       batch=batch, n_rays=n_rays, scaling=scaling, against=against)
+    return json.dumps(result) if json_output else "\n".join(bench_lines(result))
 
 
 def bench_lines(result: dict) -> list[str]:

@@ -11,7 +11,6 @@ Modules that pull in the simulator are imported inside the commands that need th
 """
 
 import functools
-import json
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -154,7 +153,7 @@ def reproduce(
             names=experiments,
             results=results,
             progress=_shown(progress),
-            ladder=_factors(ladder),
+            ladder=config.parse_factors(ladder),
         )
 
 
@@ -169,11 +168,10 @@ def ladder_command(
     ] = Path("results/converged"),
     progress: ProgressFlag = None,
 ) -> None:
-    """initial_distribution at several multiples of the chapter's durations (scale=converged
-    otherwise), the rungs' history shared; ladder.csv and its figure."""
+    """initial_distribution at several multiples of the chapter's durations, history shared; ladder.csv."""
     with _user_errors():
         _reproduce(overrides=overrides or [], names="", results=results, progress=_shown(progress),
-                   ladder=_factors(factors))
+                   ladder=config.parse_factors(factors))
 
 
 @app.command()
@@ -312,12 +310,7 @@ def _print_config(*, overrides: Sequence[str]) -> None:
 
 def _print_experiments() -> None:
     """Print one aligned line per experiment."""
-    experiments = config.list_experiments()
-    name_width = max((len(item["name"]) for item in experiments), default=0)
-    section_width = max((len(item["section"]) for item in experiments), default=0)
-    for item in experiments:
-        name, section = f"{item['name']:<{name_width}}", f"{item['section']:<{section_width}}"
-        typer.echo(f"{name}  {section}  {item['description']}")
+    typer.echo("\n".join(config.experiment_lines()))
 
 
 def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
@@ -331,17 +324,6 @@ def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
     ours = [o for o in overrides if not config.is_hydra_override(o)]
     launch_sweep(overrides, functools.partial(_sweep_job, progress=progress),
                  lambda done: _write_sweep(config.swept_values(ours), [Path(f) for f in done]))
-
-
-def _factors(text: str | None) -> list[float] | None:
-    """`--ladder`'s comma-separated factors as numbers (None when not given)."""
-    if text is None:
-        return None
-    try:
-        return [float(part) for part in text.split(",") if part.strip()]
-    except ValueError:
-        raise TavcError(f"ladder factors: {text!r} is not a comma-separated list of numbers, "
-                        "e.g. 1,4,10,20,40") from None
 
 
 def _reproduce(*, overrides: Sequence[str], names: str | None, results: Path, progress: bool,
@@ -389,37 +371,14 @@ def _print_summary(summary: dict[str, Any]) -> None:
     typer.echo(run_summary_text(summary))
 
 
-def _bench(
-    *,
-    json_output: bool,
-    scenario: str,
-    n_robots: int,
-    duration_s: float,
-    repeats: int,
-    batch: Optional[int],
-    n_rays: Optional[int] = None,
-    scaling: bool = True,
-    against: Optional[str] = None,
-    profile: bool = False,
-) -> None:
-    """Run the benchmark and print its result as JSON or as aligned lines."""
-    from tavc_cli.bench import bench_lines, bench_overrides, profile_bench, run_bench
+def _bench(*, scenario: str, n_robots: int, n_rays: Optional[int] = None, **options: Any) -> None:
+    """Run the benchmark and print its result as JSON or as aligned lines (`bench.bench_text`)."""
+    from tavc_cli.bench import bench_overrides, bench_text
 
     def settings_for(n: int, duration: float) -> Any:
         return config.settings(config.load_config(bench_overrides(scenario, n, duration, n_rays)))
 
-    if profile:
-        if against:
-            raise TavcError("--profile: profiles tavc alone; leave out --against")
-        result, lines = profile_bench(settings_for(n_robots, max(duration_s, 5000.0)), batch)
-        typer.echo(json.dumps(result) if json_output else "\n".join(lines))
-        return
-    result = run_bench(
-        settings_for,
-        scenario=scenario, n_robots=n_robots, duration_s=duration_s, repeats=repeats, batch=batch,
-        n_rays=n_rays, scaling=scaling, against=against,
-    )
-    typer.echo(json.dumps(result) if json_output else "\n".join(bench_lines(result)))
+    typer.echo(bench_text(settings_for, scenario=scenario, n_robots=n_robots, n_rays=n_rays, **options))
 
 
 def _animate(

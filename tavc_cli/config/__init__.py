@@ -11,6 +11,7 @@ a Hydra launcher.
 
 from tavc_cli.config.loading import (
     expand_sweep,
+    experiment_lines,
     find_conf_dir,
     is_hydra_override,
     ladder_folder,
@@ -19,6 +20,7 @@ from tavc_cli.config.loading import (
     load_experiments,
     load_ladder,
     load_sweep,
+    parse_factors,
     settings,
     swept_values,
     to_container,
@@ -29,6 +31,7 @@ from tavc_cli.settings import TavcConfig
 __all__ = [
     "TavcConfig",
     "expand_sweep",
+    "experiment_lines",
     "find_conf_dir",
     "is_hydra_override",
     "ladder_folder",
@@ -37,6 +40,7 @@ __all__ = [
     "load_experiments",
     "load_ladder",
     "load_sweep",
+    "parse_factors",
     "settings",
     "swept_values",
     "to_container",

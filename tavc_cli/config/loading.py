@@ -205,7 +205,27 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
     return cfgs
 
 
+def experiment_lines() -> list[str]:
+    """`list_experiments` as aligned lines: name, chapter section, description."""
+    experiments = list_experiments()
+    name_width = max((len(item["name"]) for item in experiments), default=0)
+    section_width = max((len(item["section"]) for item in experiments), default=0)
+    return [f"{item['name']:<{name_width}}  {item['section']:<{section_width}}  {item['description']}"
+            for item in experiments]
+
+
 LADDER_EXPERIMENT = "initial_distribution"
+
+
+def parse_factors(text: str | None) -> list[float] | None:
+    """The ladder's comma-separated factors (``1,4,10,20,40``) as numbers; None when not given."""
+    if text is None:
+        return None
+    try:
+        return [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise TavcError(f"ladder factors: {text!r} is not a comma-separated list of numbers, "
+                        "e.g. 1,4,10,20,40") from None
 
 
 def ladder_folder(results_dir: str | Path, factor: float) -> Path:
