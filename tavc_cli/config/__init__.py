@@ -9,18 +9,16 @@ result into the typed ``TavcConfig`` the library takes. ``launch`` runs a sweep'
 a Hydra launcher.
 """
 
+from tavc_cli.config.ladder import ladder_folder, load_ladder, parse_factors
 from tavc_cli.config.loading import (
     expand_sweep,
     experiment_lines,
     find_conf_dir,
     is_hydra_override,
-    ladder_folder,
     list_experiments,
     load_config,
     load_experiments,
-    load_ladder,
     load_sweep,
-    parse_factors,
     settings,
     swept_values,
     to_container,

@@ -1,0 +1,60 @@
+"""The horizon ladder's configs: initial_distribution at several multiples of the chapter's
+durations, one results folder a rung."""
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+from omegaconf import DictConfig
+
+from tavc_cli.config.loading import _override_key, load_config
+from tavc_cli.errors import TavcError
+
+LADDER_EXPERIMENT = "initial_distribution"
+
+
+def parse_factors(text: str | None) -> list[float] | None:
+    """The ladder's comma-separated factors (``1,4,10,20,40``) as numbers; None when not given."""
+    if text is None:
+        return None
+    try:
+        return [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise TavcError(f"ladder factors: {text!r} is not a comma-separated list of numbers, "
+                        "e.g. 1,4,10,20,40") from None
+
+
+def ladder_folder(results_dir: str | Path, factor: float) -> Path:
+    """Where a rung of the horizon ladder goes: ``<results_dir>/ladder/x<factor>``."""
+    return Path(results_dir) / "ladder" / f"x{factor:g}"
+
+
+def load_ladder(factors: Sequence[float], overrides: Sequence[str] = (),
+                results_dir: str | Path = "results/converged") -> list[DictConfig]:
+    """The horizon ladder: initial_distribution at each factor of the chapter's durations
+    (``scale.time_factor``; the rest of ``scale=converged``: its trial counts, the baselines on
+    the chapter's schedule), one folder a rung (`ladder_folder`).
+
+    Args:
+        factors: Multiples of the chapter's durations, each > 0 and none twice.
+        overrides: Hydra overrides for every rung; ``experiment``, ``output_dir`` and
+            ``scale.time_factor`` are the ladder's and refused here.
+        results_dir: The folder whose ``ladder/`` gets the rungs.
+
+    Raises:
+        TavcError: For a bad factor, a refused key, or any override that fails.
+    """
+    factors = [float(f) for f in factors]
+    if not factors or any(not math.isfinite(f) or f <= 0 for f in factors):
+        raise TavcError("ladder factors: each must be a number above 0, e.g. 1,4,10,20,40")
+    if len(set(factors)) != len(factors):
+        raise TavcError("ladder factors: a factor is given twice")
+    for override in overrides:
+        key = _override_key(override).lstrip("+~")
+        if key in ("experiment", "output_dir", "scale.time_factor"):
+            raise TavcError(f"{key}: set by the ladder for each rung; choose the factors and the results folder "
+                            "instead (--ladder, --results)")
+    scale = [o for o in overrides if _override_key(o).lstrip("+~") == "scale"] or ["scale=converged"]
+    rest = [o for o in overrides if _override_key(o).lstrip("+~") != "scale"]
+    return [load_config([f"experiment={LADDER_EXPERIMENT}", *scale, f"scale.time_factor={f!r}", *rest,
+                         f"output_dir={ladder_folder(results_dir, f)}"]) for f in factors]
