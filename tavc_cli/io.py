@@ -54,6 +54,18 @@ def write_text_atomic(path: Path, text: str) -> None:
     write_bytes_atomic(path, text.encode())
 
 
+def file_digest(path: Path) -> str:
+    """SHA-256 of the file's bytes, in hex: what `provenance.json` records of every table a run
+    wrote (its ``tables`` map), so that a reader can tell a table tavc wrote from a damaged one."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
 LOCK_NAME = ".tavc.lock"
 _HELD: set[int] = set()  # descriptors of the folders this process holds
 

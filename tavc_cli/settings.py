@@ -325,6 +325,8 @@ class TavcConfig:
     deliveries: Optional[int] = None
     baseline_lead_s: Optional[float] = None
     output_dir: Optional[str] = None
+    overwrite: bool = False
+    force: bool = False
     paper: PaperConfig = field(default_factory=PaperConfig)
     baselines: List[str] = field(default_factory=list)
     static_allocation: Optional[List[int]] = None
