@@ -20,7 +20,8 @@ from tavc_cli.experiments.runner import (
 )
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder, write_text_atomic
-from tavc_cli.settings import TavcConfig
+from tavc_cli.ownership import RUN, Owned, config_differences, run_files, take
+from tavc_cli.settings import TavcConfig, to_yaml
 
 
 def run_experiment(cfg: TavcConfig, *, progress: bool = False) -> dict:
@@ -28,7 +29,30 @@ def run_experiment(cfg: TavcConfig, *, progress: bool = False) -> dict:
     with the tables and claims."""
     Executor.from_config(cfg.executor).check()
     with claim_folder(cfg.output_dir):
-        return _finish(cfg, run_experiment_trials(cfg, progress=progress))
+        owned = take_run_folder(cfg)
+        return _finish(cfg, run_experiment_trials(cfg, progress=progress), owned)
+
+
+def take_run_folder(cfg: TavcConfig) -> Owned:
+    """Check that the run may write its folder (`ownership.take`: new, empty or tavc's, nothing
+    of anybody else's in the way, not another configuration's run unless ``overwrite``) and
+    write its `config.yaml`; return what tavc owns there. Replacing another configuration's
+    run, the folder stops being a finished run (its `provenance.json` goes) before anything
+    of the new one is written."""
+    folder = Path(cfg.output_dir)
+    owned = take(folder, RUN, run_files())
+    text = to_yaml(cfg)
+    if (folder / "config.yaml").is_file():
+        differ = config_differences(folder / "config.yaml", text)
+        if differ and not cfg.overwrite:
+            state = "a finished run" if (folder / "provenance.json").is_file() else "an unfinished run"
+            raise TavcError(f"output_dir: {folder} holds {state} of another configuration ({'; '.join(differ)}); "
+                            "add overwrite=true to replace it, or choose another output_dir")
+        if differ:
+            owned.remove("provenance.json")
+    owned.wrote("config.yaml", "failures.log")
+    write_text_atomic(folder / "config.yaml", text)
+    return owned
 
 
 def run_experiments(cfgs: list[TavcConfig], *, progress: bool = False) -> list[dict]:
@@ -43,31 +67,34 @@ def run_experiments(cfgs: list[TavcConfig], *, progress: bool = False) -> list[d
     with ExitStack() as held:
         for cfg in cfgs:
             held.enter_context(claim_folder(cfg.output_dir))
+        owned = [take_run_folder(cfg) for cfg in cfgs]
         runs = run_trials_together(cfgs, progress=progress)
-        return _finish_all(cfgs, runs)
+        return _finish_all(cfgs, runs, owned)
 
 
-def _finish_all(cfgs: list[TavcConfig], runs: list[Run]) -> list[dict]:
+def _finish_all(cfgs: list[TavcConfig], runs: list[Run], owned: list[Owned]) -> list[dict]:
     """`_finish` for every experiment: in forked processes on the cores the executor was given,
     where the system forks and there is more than one, else one after another."""
     n_jobs = min(len(cfgs), Executor.from_config(cfgs[0].executor).n_jobs if cfgs else 1)
+    jobs = list(zip(cfgs, runs, owned, strict=True))
     if n_jobs <= 1 or not CAN_FORK:
-        return [_finish_loaded(cfg, run) for cfg, run in zip(cfgs, runs, strict=True)]
+        return [_finish_loaded(*job) for job in jobs]
     import multiprocessing as mp
 
     with ProcessPoolExecutor(max_workers=n_jobs, mp_context=mp.get_context("fork")) as pool:
-        futures = [pool.submit(_finish_loaded, cfg, run) for cfg, run in zip(cfgs, runs, strict=True)]
+        futures = [pool.submit(_finish_loaded, *job) for job in jobs]
         return [f.result() for f in futures]
 
 
-def _finish_loaded(cfg: TavcConfig, run: Run) -> dict:
-    return _finish(cfg, load_records(cfg, run))
+def _finish_loaded(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
+    return _finish(cfg, load_records(cfg, run), owned)
 
 
-def _finish(cfg: TavcConfig, run: Run) -> dict:
+def _finish(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
     """An experiment's tables, claims and provenance from its trials; its summary."""
-    tables, claims = write_analysis(cfg, run.output_dir, run.records)
-    write_provenance(cfg, run)
+    tables, claims = write_analysis(cfg, run.output_dir, run.records, owned)
+    owned.wrote("provenance.json")
+    write_provenance(cfg, run, sorted(n for n in owned.files if n.endswith(".csv") and (run.output_dir / n).is_file()))
     return {"output_dir": str(run.output_dir), "n_trials": len(run.specs), "n_reused": run.n_reused,
             "wall_time_s": run.wall_time_s, "tables": tables, "claims": claims}
 

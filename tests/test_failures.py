@@ -6,6 +6,7 @@ import math
 import os
 import random
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -23,6 +24,7 @@ from tavc_cli.experiments.arrivals import ArrivalDesk
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.store import FAILURES_LOG, trial_path
 from tavc_cli.io import LOCK_NAME, claim_folder
+from tavc_cli.ownership import MANIFEST
 from tavc_cli.pipeline import run_experiment
 
 SMOKE = ["scale=smoke", "duration_s=120", "convergence_s=20", "arena=two_circuits", "learner=random",
@@ -101,7 +103,7 @@ def test_a_pose_that_is_not_a_number_stops_only_its_trial(tmp_path, monkeypatch,
     assert line.startswith(f"error: trial random_001 (seed {list(seed)}) failed: robot 0 has no valid pose at t = ")
     assert f"the other 3 trials are kept in {tmp_path / 'trials'}" in line
     # the other trials are kept, nothing of the run's analysis is written
-    assert _files(tmp_path) == [FAILURES_LOG, *[f"trials/random_{j:03d}.npz" for j in (0, 2, 3)]]
+    assert _files(tmp_path) == [MANIFEST, "config.yaml", FAILURES_LOG, *[f"trials/random_{j:03d}.npz" for j in (0, 2, 3)]]
     assert "random_001" in (tmp_path / FAILURES_LOG).read_text()
     monkeypatch.undo()
     _assert_recovers(tmp_path, reference, n_reused=3)
@@ -133,7 +135,8 @@ def test_an_exception_inside_a_trial_is_named_and_the_others_finish(tmp_path, mo
     assert "ZeroDivisionError: a made-up fault in the simulation; the other 2 trials are kept" in result.output
     log = (tmp_path / FAILURES_LOG).read_text()
     assert "trial random_002" in log and "Traceback" in log  # the details are kept for a bug report
-    assert _files(tmp_path) == [FAILURES_LOG, "trials/random_001.npz", "trials/random_003.npz"]
+    assert _files(tmp_path) == [MANIFEST, "config.yaml", FAILURES_LOG, "trials/random_001.npz",
+                                "trials/random_003.npz"]
     monkeypatch.undo()
     _assert_recovers(tmp_path, reference, n_reused=2)
 
@@ -317,7 +320,7 @@ def test_a_folder_reused_for_another_experiment_keeps_none_of_its_tables(tmp_pat
     assert (tmp_path / "vacancy.csv").is_file() and (tmp_path / "claims.csv").is_file()
     assert {p.stem for p in tmp_path.glob("*.csv")} <= set(TABLE_NAMES)  # the list knows every table
     (tmp_path / "my_notes.csv").write_text("mine\n")
-    run_experiment(_cfg(tmp_path, "trials=2"))  # random robots, no event: no vacancies, no claims
+    run_experiment(_cfg(tmp_path, "trials=2", "overwrite=true"))  # random robots, no event: no vacancies, no claims
     assert not (tmp_path / "vacancy.csv").exists() and not (tmp_path / "claims.csv").exists()
     assert (tmp_path / "state_time.csv").is_file() and (tmp_path / "my_notes.csv").read_text() == "mine\n"
 
@@ -327,11 +330,13 @@ def test_a_damaged_trial_file_is_run_again_and_said_so(tmp_path, reference, caps
     trial_path(tmp_path, "random", 2).write_bytes(b"not a trial record")
     capsys.readouterr()
     run_experiment(_cfg(tmp_path, "trials=4"))
-    assert "running again 1 trials whose files could not be read (random_002.npz)" in capsys.readouterr().out
+    assert "are damaged or unreadable (random_002.npz); running those trials again" in capsys.readouterr().out
     assert trial_path(tmp_path, "random", 2).read_bytes() == trial_path(reference, "random", 2).read_bytes()
 
 
 def test_something_in_the_way_of_the_trial_records_is_one_line(tmp_path):
+    run_experiment(_cfg(tmp_path, "trials=1"))  # the folder is a run's: only the records' places are in the way
+    shutil.rmtree(tmp_path / "trials")
     (tmp_path / "trials").write_text("")
     with pytest.raises(TavcError, match=r"trials: a file stands where tavc writes its trial records; move it away$"):
         run_experiment(_cfg(tmp_path, "trials=1"))

@@ -11,6 +11,7 @@ from tavc_cli.analysis.states import state_intervals, theory_pct
 from tavc_cli.cli import app
 from tavc_cli.config import load_config, settings
 from tavc_cli.experiments.build import trial_specs
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.records import TrialRecord, records_differ
 from tavc_cli.experiments.store import trial_path
 from tavc_cli.pipeline import run_experiment
@@ -106,7 +107,10 @@ def test_rerun_reuses_every_trial_and_gives_identical_tables(first_run):
 def test_a_changed_seed_recomputes_everything(tmp_path):
     _run(tmp_path)
     old = TrialRecord.load(trial_path(tmp_path, "random", 0))
-    summary = _run(tmp_path, "seed=5")
+    with pytest.raises(TavcError, match=r"holds a finished run of another configuration \(seed: 0 -> 5\); add "
+                                         r"overwrite=true to replace it, or choose another output_dir$"):
+        _run(tmp_path, "seed=5")
+    summary = _run(tmp_path, "seed=5", "overwrite=true")
     assert summary["n_reused"] == 0
     new = TrialRecord.load(trial_path(tmp_path, "random", 0))
     assert new.meta["seed"] == [5, 1, 0] and old.meta["seed"] == [0, 1, 0]

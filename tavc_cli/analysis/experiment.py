@@ -19,6 +19,7 @@ from tavc_cli.analysis.trial_stats import trial_stats
 from tavc_cli.analysis.vacancy import vacancy_table
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import write_text_atomic
+from tavc_cli.ownership import Owned
 from tavc_cli.settings import TavcConfig
 
 # Every table an experiment may write (which ones depends on its controllers and events)
@@ -27,12 +28,15 @@ TABLE_NAMES = ("state_time", "performance", "trial_stats", "allocation", "specia
                "occupancy", "comparison", "claims")
 
 
-def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord]) -> tuple[dict[str, pd.DataFrame],
-                                                                                       pd.DataFrame]:
+def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord],
+                   owned: Owned | None = None) -> tuple[dict[str, pd.DataFrame], pd.DataFrame]:
     """Compute and write (atomically) every table, the comparison with the chapter and the
     claims, and remove the tables of an earlier run in the folder that this one does not
-    write (another experiment's, or one without the event); return the tables and the claims."""
+    write (another experiment's, or one without the event), where `owned` says tavc wrote
+    them; return the tables and the claims."""
     tables = analyse(cfg, records)
+    if owned is not None:  # listed before they are written: a run stopped midway still owns them
+        owned.wrote(*(f"{name}.csv" for name in [*tables, "comparison", "claims"]))
     written_tables = {}
     for name, df in tables.items():
         # Q-values span the reward's scale (about 0.05 per task with t in ms, 50 with t in s): significant digits
@@ -51,8 +55,9 @@ def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord]) -
     if len(claims):
         write_text_atomic(out_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
     written = {*tables, *(["comparison"] if comparison is not None else []), *(["claims"] if len(claims) else [])}
-    for name in set(TABLE_NAMES) - written:
-        (out_dir / f"{name}.csv").unlink(missing_ok=True)
+    for name in sorted(set(TABLE_NAMES) - written):
+        if owned is not None:
+            owned.remove(f"{name}.csv")
     return tables, claims
 
 

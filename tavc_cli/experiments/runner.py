@@ -1,6 +1,6 @@
 """Run an experiment's trials through the results folder's `TrialStore` (finished ones
-reused, the rest run on the chosen executor) and record how: `config.yaml` and
-`provenance.json`, each written atomically. The analysis is not the runner's: see
+reused, the rest run on the chosen executor) and record how: `provenance.json`, written
+atomically. The analysis is not the runner's: see
 `tavc_cli.pipeline`, which runs both.
 """
 
@@ -20,8 +20,8 @@ from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec, code_digest
 from tavc_cli.experiments.store import Executor, TrialStore, trial_path
-from tavc_cli.io import write_text_atomic
-from tavc_cli.settings import TavcConfig, to_yaml
+from tavc_cli.io import file_digest, write_text_atomic
+from tavc_cli.settings import TavcConfig
 
 _PACKAGES = ("numpy", "scipy", "pandas", "pymunk", "numba", "hydra-core", "omegaconf", "typer", "matplotlib")
 
@@ -83,16 +83,16 @@ class Run:
 
 
 def run_experiment_trials(cfg: TavcConfig, *, progress: bool = False) -> Run:
-    """Run (or reuse) every trial of the experiment into its `output_dir` and write `config.yaml`.
-    The caller holds the folder (`io.claim_folder`)."""
+    """Run (or reuse) every trial of the experiment into its `output_dir`. The caller holds the
+    folder (`io.claim_folder`) and has written its `config.yaml`; a `provenance.json` already
+    there (the same configuration's finished run) stays until `write_provenance` replaces it,
+    so an interrupted rerun leaves the folder as finished as it found it."""
     out_dir = Path(cfg.output_dir)
-    (out_dir / "provenance.json").unlink(missing_ok=True)  # the folder is no finished run until it is back
     start = time.perf_counter()
     specs = trial_specs(cfg)
     store = TrialStore(out_dir, Executor.from_config(cfg.executor))
     n_reused = store.run(specs, progress, announce=True)
     wall = time.perf_counter() - start
-    write_text_atomic(out_dir / "config.yaml", to_yaml(cfg))
     return Run(out_dir, specs, store.load(specs), n_reused, wall)
 
 
@@ -101,7 +101,8 @@ def run_trials_together(cfgs: list[TavcConfig], *, progress: bool = False) -> li
     history their trials share is simulated once) and write each one's `config.yaml`. The
     caller holds every folder; the first config's `executor` runs them all. A run's wall time
     is that of the whole invocation. The runs come without their records (`Run.records` is
-    empty: load them one experiment at a time, `load_records`)."""
+    empty: load them one experiment at a time, `load_records`). As `run_experiment_trials`,
+    every folder's `config.yaml` is the caller's."""
     from tavc_cli.experiments.joint import run_together
 
     start = time.perf_counter()
@@ -110,13 +111,10 @@ def run_trials_together(cfgs: list[TavcConfig], *, progress: bool = False) -> li
     executor = Executor.from_config(cfgs[0].executor)
     for folder, sp in zip(folders, specs, strict=True):
         TrialStore(folder, executor).check_paths(sp)
-    for folder in folders:
-        (folder / "provenance.json").unlink(missing_ok=True)
     reused = run_together(list(zip(folders, specs, strict=True)), executor, progress)
     wall = time.perf_counter() - start
     runs = []
-    for cfg, folder, sp in zip(cfgs, folders, specs, strict=True):
-        write_text_atomic(folder / "config.yaml", to_yaml(cfg))
+    for folder, sp in zip(folders, specs, strict=True):
         runs.append(Run(folder, sp, [], reused[folder], wall))
     return runs
 
@@ -126,7 +124,10 @@ def load_records(cfg: TavcConfig, run: Run) -> Run:
     return replace(run, records=TrialStore(run.output_dir, Executor.from_config(cfg.executor)).load(run.specs))
 
 
-def write_provenance(cfg: TavcConfig, run: Run) -> None:
-    """`provenance.json`, written last: the run is complete once it is there."""
-    write_text_atomic(run.output_dir / "provenance.json",
-                      json.dumps(provenance(cfg, run.specs, run.wall_time_s, run.n_reused), indent=2, default=str))
+def write_provenance(cfg: TavcConfig, run: Run, tables: list[str] = ()) -> None:
+    """`provenance.json`, written last: the run is complete once it is there. `tables` (file
+    names in the run's folder) are recorded with their SHA-256 (``tables``), so that whoever
+    reads them can tell a table this run wrote from a damaged or edited one."""
+    record = provenance(cfg, run.specs, run.wall_time_s, run.n_reused)
+    record["tables"] = {name: file_digest(run.output_dir / name) for name in sorted(tables)}
+    write_text_atomic(run.output_dir / "provenance.json", json.dumps(record, indent=2, default=str))

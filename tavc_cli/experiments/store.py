@@ -2,8 +2,9 @@
 
 `TrialStore` is what `tavc run`, `tavc model` and `tavc calibrate` all run trials through.
 Given trial specs it
-1. reuses every trial whose file exists with a matching key (a digest of everything that
-   fixes its outcome, seed included);
+1. reuses every trial whose file exists whole (every byte read and checked against the
+   archive's checksums) with a matching key (a digest of everything that fixes its outcome,
+   seed included); a damaged file is named and its trial run again;
 2. groups the rest into batches (`build.make_batches`) and runs them on the executor
    (`Executor`: a local process pool, or a Dask or Ray cluster, `executors`), each
    trial's file written atomically as its batch finishes (a stopped run loses at most
@@ -20,6 +21,7 @@ from __future__ import annotations
 import json
 import time
 import traceback
+import zipfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +32,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, make_batches
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.pool import Progress, run_pool
-from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.experiments.records import ARRAY_FIELDS, TABLES, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.trial import TrialFault
 from tavc_cli.io import write_text_atomic
@@ -108,8 +110,9 @@ class TrialStore:
         if n_reused:
             print(f"reusing {n_reused} of {n_specs} finished trials in {self.folder / 'trials'}", flush=True)
         if damaged:
-            print(f"running again {len(damaged)} trials whose files could not be read ({', '.join(damaged[:3])}"
-                  f"{', ...' if len(damaged) > 3 else ''})", flush=True)
+            print(f"note: {len(damaged)} trial files in {self.folder / 'trials'} are damaged or unreadable "
+                  f"({', '.join(damaged[:3])}{', ...' if len(damaged) > 3 else ''}); running those trials again",
+                  flush=True)
 
     def settle(self, failures: list[TrialFailure], n_specs: int) -> None:
         """Record the failed trials in `failures.log` and stop with one line naming the first;
@@ -136,27 +139,40 @@ def trial_path(out_dir: Path, controller: str, trial: int) -> Path:
     return out_dir / "trials" / f"{controller}_{trial:03d}.npz"
 
 
-def _stored_key(path: Path) -> str | None:
+# the members every trial record holds (`TrialRecord.save`)
+_MEMBERS = frozenset({"meta.npy", *(f"{name}.npy" for name in ARRAY_FIELDS),
+                      *(f"{name}__{col}.npy" for name, cols in TABLES.items() for col in cols)})
+
+
+def _stored_key(path: Path, whole: bool = False) -> str | None:
+    """The key a trial record was made with; None if the file is missing or cannot be read.
+    With `whole`, every byte of the record is read and checked against the checksums the
+    archive keeps of each array (zip's CRC-32), and every array a record holds must be there:
+    a file damaged anywhere, not only in its header, gives None."""
     try:
+        with zipfile.ZipFile(path) as archive:
+            if whole and (not _MEMBERS <= set(archive.namelist()) or archive.testzip() is not None):
+                return None
         with np.load(path, allow_pickle=False) as data:
             return json.loads(str(data["meta"])).get("key")
-    except Exception:  # missing, truncated or foreign: the trial is simply run again
+    except Exception:  # missing, truncated, damaged or foreign: the trial is simply run again
         return None
 
 
 def trial_done(out_dir: Path, spec: TrialSpec) -> bool:
-    """True if the trial's file exists and was made from this exact spec and seed."""
-    return _stored_key(trial_path(out_dir, spec.controller, spec.trial)) == spec.key()
+    """True if the trial's file exists, is whole, and was made from this exact spec and seed."""
+    return _stored_key(trial_path(out_dir, spec.controller, spec.trial), whole=True) == spec.key()
 
 
 def pending_batches(out_dir: Path, specs: list[TrialSpec], batch_size: int,
                     workers: int = 1) -> tuple[list[Batch], int, list[str]]:
     """Batches of the trials still to run, how many finished trials are reused, and the names
-    of the files among those to run that are there but could not be read (each file read once)."""
+    of the files among those to run that are there but could not be read whole (each file
+    read once, to its last byte: a reused trial is one the analysis can read)."""
     todo, damaged = [], []
     for spec in specs:
         path = trial_path(out_dir, spec.controller, spec.trial)
-        key = _stored_key(path)
+        key = _stored_key(path, whole=True)
         if key == spec.key():
             continue
         todo.append(spec)

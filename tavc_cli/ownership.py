@@ -1,0 +1,196 @@
+"""What tavc owns in a folder, so that a command replaces and deletes only files it wrote.
+
+Every folder a command writes carries ``.tavc.json``, written as soon as the folder is taken
+and again whenever the command writes or removes a file there: which command's folder it is
+(its kind: a run's, a sweep's, a ladder's, or results with a report on top) and the files tavc
+wrote in it. A trial record (``trials/<controller>_<NNN>.npz``) is tavc's by its name and is not
+listed. Before a command writes, `take` checks the folder:
+
+- a folder that holds another kind of output (a run aimed at a reproduce root or at a sweep's
+  folder, a sweep aimed at a run) is refused;
+- a run's folder must be new, empty, or a tavc run's: a folder with anything else in it is
+  refused, naming what is there;
+- a file the command would write that exists but is not tavc's is refused, naming it;
+- a run over a run of another configuration is refused unless ``overwrite=true``, naming the
+  settings that differ (`config_differences`).
+
+Folders written before the list existed are recognised by what tavc always writes there (a
+run's ``provenance.json`` or ``config.yaml`` with ``trials/``, a report's ``REPORT.md``, a
+sweep's ``sweep.csv``, a ladder's ``ladder.csv``) and their files of tavc's names are taken as
+tavc's.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from tavc_cli.errors import TavcError
+from tavc_cli.io import LOCK_NAME, write_text_atomic
+
+MANIFEST = ".tavc.json"
+RUN, SWEEP, LADDER, RESULTS = "run", "sweep", "ladder", "results"
+_WHAT = {RUN: "a tavc run's folder", SWEEP: "a tavc sweep's folder (the jobs' folders and sweep.csv)",
+         LADDER: "a horizon ladder's folder (its rungs and ladder.csv)",
+         RESULTS: "a results folder with a tavc report on top (REPORT.md)"}
+REPORT_TITLE = "# tavc: the reproduction report"
+
+# what each kind of folder holds of tavc's, by name (a run's tables are added by `run_files`)
+RUN_FILES = ("config.yaml", "provenance.json", "failures.log")
+SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
+LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
+RESULTS_FILES = ("REPORT.md", "claims.csv")
+
+# settings that decide where and how fast a run goes, not what it computes
+_NOT_RESULTS = ("executor", "output_dir", "overwrite", "force")
+
+
+def run_files() -> tuple[str, ...]:
+    """Every file a run may write in its folder, trial records apart."""
+    from tavc_cli.analysis.experiment import TABLE_NAMES
+
+    return (*RUN_FILES, *(f"{name}.csv" for name in TABLE_NAMES))
+
+
+def is_trial_record(name: str) -> bool:
+    """True for a trial record's path relative to its run folder (``trials/random_003.npz``)."""
+    parts = name.split("/")
+    return len(parts) == 2 and parts[0] == "trials" and parts[1].endswith(".npz") and not parts[1].startswith(".")
+
+
+@dataclass
+class Owned:
+    """The files tavc wrote in `folder`, a folder of `kind`; kept in its ``.tavc.json``."""
+
+    folder: Path
+    kind: str
+    files: set[str] = field(default_factory=set)
+
+    def owns(self, name: str) -> bool:
+        """True if tavc wrote `name` (a path relative to the folder) here."""
+        return name in self.files or (self.kind == RUN and is_trial_record(name))
+
+    def wrote(self, *names: str) -> None:
+        """Record files written (or about to be written) by tavc."""
+        self.files.update(names)
+        self.save()
+
+    def remove(self, name: str) -> bool:
+        """Remove `name` if tavc wrote it; True if it was removed. A file of anybody else's stays."""
+        if not self.owns(name):
+            return False
+        existed = (self.folder / name).is_file()
+        (self.folder / name).unlink(missing_ok=True)
+        self.files.discard(name)
+        self.save()
+        return existed
+
+    def save(self) -> None:
+        write_text_atomic(self.folder / MANIFEST, json.dumps(
+            {"tavc": self.kind, "files": sorted(self.files)}, indent=1) + "\n")
+
+
+def read(folder: Path) -> Owned | None:
+    """What tavc owns in `folder` by its ``.tavc.json`` or, for a folder an earlier version wrote,
+    by what is in it; None where tavc has written nothing recognisable."""
+    folder = Path(folder)
+    path = folder / MANIFEST
+    if path.is_file():
+        try:
+            data = json.loads(path.read_text())
+            kind, files = str(data["tavc"]), {str(f) for f in data["files"]}
+        except (ValueError, KeyError, TypeError) as exc:
+            raise TavcError(f"{path}: cannot be read ({exc}); it lists what tavc wrote in the folder: "
+                            "move the folder's results elsewhere, or remove this file to have them taken "
+                            "as tavc's") from None
+        return Owned(folder, kind, files)
+    kind = _earlier_kind(folder)
+    if kind is None:
+        return None
+    names = {RUN: run_files(), SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES}[kind]
+    files = {n for n in names if (folder / n).is_file()}
+    if kind == RESULTS and (folder / "figures").is_dir():
+        files |= {f"figures/{p.name}" for p in (folder / "figures").iterdir() if p.is_file()}
+    return Owned(folder, kind, files)
+
+
+def _earlier_kind(folder: Path) -> str | None:
+    """The kind of a folder an earlier tavc wrote without ``.tavc.json``, or None."""
+    prov = folder / "provenance.json"
+    if prov.is_file():
+        try:
+            if "tavc_version" in json.loads(prov.read_text()):
+                return RUN
+        except ValueError:
+            pass
+    if (folder / "config.yaml").is_file() and (folder / "trials").is_dir():
+        return RUN
+    report = folder / "REPORT.md"
+    if report.is_file():
+        with open(report, "rb") as fh:
+            if fh.read(len(REPORT_TITLE)).decode(errors="replace") == REPORT_TITLE:
+                return RESULTS
+    if (folder / "ladder.csv").is_file():
+        return LADDER
+    if (folder / "sweep.csv").is_file():
+        return SWEEP
+    return None
+
+
+def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir") -> Owned:
+    """Check that a command of `kind` may write `writes` (paths relative to `folder`) there, and
+    return what tavc owns in it, its ``.tavc.json`` written. Refuses, with one line naming the
+    folder or file, a folder of another kind, a run's folder holding anything not tavc's, and a
+    file in the way that tavc did not write. The caller holds the folder (`io.claim_folder`)."""
+    folder = Path(folder)
+    owned = read(folder)
+    if owned is not None and owned.kind != kind:
+        raise TavcError(f"{what}: {folder} is {_WHAT.get(owned.kind, owned.kind)}, not {_WHAT[kind]}; "
+                        "choose another folder")
+    if owned is None:
+        owned = Owned(folder, kind)
+        if kind == RUN:
+            foreign = sorted(p.name + ("/" if p.is_dir() else "") for p in folder.iterdir() if not _ours(p.name))
+            if foreign:
+                shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+                raise TavcError(f"{what}: {folder} holds files tavc did not write ({shown}); a run needs a new "
+                                "or empty folder, or one of its own earlier runs: choose another folder")
+    in_the_way = sorted(n for n in writes if (folder / n).exists() and not owned.owns(n))
+    if in_the_way:
+        raise TavcError(f"{what}: {folder / in_the_way[0]} was not written by tavc and tavc would write a file of "
+                        "that name; move it away or choose another folder")
+    owned.save()
+    return owned
+
+
+def _ours(name: str) -> bool:
+    """Names tavc itself leaves in a folder it holds: the lock, the list, half-written files."""
+    return name in (LOCK_NAME, MANIFEST) or (name.startswith(".") and name.endswith(".tmp"))
+
+
+def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3) -> list[str]:
+    """The settings (dotted keys, ``old -> new``) in which the run recorded in `old_yaml` differs
+    from the configuration `new_yaml`, leaving out where and how fast it runs (`_NOT_RESULTS`);
+    empty if they would compute the same. At most `limit` of them, then how many more."""
+    import yaml
+
+    try:
+        old = yaml.safe_load(Path(old_yaml).read_text())
+    except (OSError, yaml.YAMLError):
+        return [f"{Path(old_yaml).name} unreadable"]
+    new = yaml.safe_load(new_yaml)
+    a, b = _flat(old if isinstance(old, dict) else {}), _flat(new)
+    keys = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k) and k.split(".")[0] not in _NOT_RESULTS)
+    shown = [f"{k}: {a.get(k)} -> {b.get(k)}" for k in keys[:limit]]
+    return [*shown, f"{len(keys) - limit} more"] if len(keys) > limit else shown
+
+
+def _flat(tree, prefix: str = "") -> dict[str, object]:
+    if isinstance(tree, dict):
+        out: dict[str, object] = {}
+        for key, value in tree.items():
+            out.update(_flat(value, f"{prefix}{key}."))
+        return out or {prefix.rstrip("."): {}}
+    return {prefix.rstrip("."): tree}
