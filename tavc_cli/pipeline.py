@@ -20,7 +20,7 @@ from tavc_cli.experiments.runner import (
 )
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder, write_text_atomic
-from tavc_cli.ownership import RUN, Owned, config_differences, run_files, take
+from tavc_cli.ownership import LADDER, LADDER_FILES, RUN, SWEEP, SWEEP_FILES, Owned, config_differences, run_files, take
 from tavc_cli.settings import TavcConfig, to_yaml
 
 
@@ -81,9 +81,21 @@ def _finish_all(cfgs: list[TavcConfig], runs: list[Run], owned: list[Owned]) -> 
         return [_finish_loaded(*job) for job in jobs]
     import multiprocessing as mp
 
-    with ProcessPoolExecutor(max_workers=n_jobs, mp_context=mp.get_context("fork")) as pool:
+    from tavc_cli.experiments.pool import worker_start
+
+    pool = ProcessPoolExecutor(max_workers=n_jobs, mp_context=mp.get_context("fork"), initializer=worker_start)
+    try:
         futures = [pool.submit(_finish_loaded, *job) for job in jobs]
-        return [f.result() for f in futures]
+        done = [f.result() for f in futures]
+    except BaseException:
+        # Ctrl-C, SIGTERM or an error: the workers stop now (each table they wrote is whole,
+        # and provenance.json comes last), rather than the run waiting for them to finish
+        for worker in list(getattr(pool, "_processes", {}).values()):
+            worker.terminate()
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+    return done
 
 
 def _finish_loaded(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
@@ -102,14 +114,19 @@ def _finish(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
 def write_sweep(values: list[dict[str, str]], folders: list[Path]) -> list[Path]:
     """sweep.csv (and its figure) beside a sweep's job folders: every job's states side by side.
     `values[k]` are job k's swept keys and values. Returns the files written: sweep.csv first
-    (none for a single job, or jobs without state tables)."""
+    (none for a single job, or jobs without state tables, and then an earlier sweep's
+    sweep.csv and figure there are removed: they would describe jobs this sweep did not run)."""
     from tavc_cli.analysis.sweep import sweep_table
     from tavc_cli.viz.sweep import sweep_figure
 
+    parent = folders[0].parent
+    owned = take(parent, SWEEP, SWEEP_FILES, what="the sweep's folder")
     table = sweep_table(list(zip(values, folders, strict=True))) if len(folders) > 1 else None
     if table is None or table.empty:
+        for name in SWEEP_FILES:
+            owned.remove(name)
         return []
-    parent = folders[0].parent
+    owned.wrote(*SWEEP_FILES)
     write_text_atomic(parent / "sweep.csv", table.to_csv(index=False, float_format="%.4f"))
     return [parent / "sweep.csv", *sweep_figure(table, next(iter(values[0])), parent / "sweep")]
 
@@ -120,7 +137,9 @@ def write_ladder(ladder_dir: Path, folders: list[Path]) -> list[Path]:
     from tavc_cli.analysis.ladder import ladder_table
     from tavc_cli.viz.ladder import ladder_figure
 
+    owned = take(Path(ladder_dir), LADDER, LADDER_FILES, what="the ladder's folder")
     table = ladder_table(folders)
+    owned.wrote(*LADDER_FILES)
     path = Path(ladder_dir) / "ladder.csv"
     write_text_atomic(path, table.to_csv(index=False, float_format="%.4f"))
     return [path, *ladder_figure(table, Path(ladder_dir) / "ladder")]

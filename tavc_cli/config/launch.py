@@ -30,6 +30,7 @@ from tavc_cli.config.loading import complete, initialize_conf, is_hydra_override
 from tavc_cli.config.messages import hydra_errors
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder
+from tavc_cli.ownership import SWEEP, SWEEP_FILES, take
 
 # Hydra writes nothing of its own into a job's folder (config.yaml and provenance.json are
 # tavc's record), changes no directory and leaves logging alone.
@@ -46,8 +47,9 @@ def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any],
         task: Called once per job with its read-only, resolved config; must be picklable for
             launchers that run jobs in other processes.
         finish: Called with what the tasks returned, while the sweep's folder is still held
-            (a sweep of several jobs holds the folder its jobs' folders are in, as a run holds
-            its own: two sweeps never write one folder at once).
+            (a sweep holds the folder its jobs' folders are in, as a run holds its own: two
+            sweeps never write one folder at once; `ownership.take` checks it is a sweep's
+            folder or a new one).
 
     Returns:
         What ``task`` returned for each job, in sweep order.
@@ -72,7 +74,9 @@ def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any],
             hydra_context=HydraContext(config_loader=hydra.config_loader, callbacks=Callbacks(master)),
             task_function=_Job(task), config=master)
         # held once the launcher is known good: a refused launcher writes nothing
-        with claim_folder(Path(common)) if len(plan) > 1 and common != "." else nullcontext():
+        with claim_folder(Path(common)) if common != "." else nullcontext():
+            if common != ".":  # the jobs' folder is a sweep's, or new: never a run's or a report's
+                take(Path(common), SWEEP, SWEEP_FILES)
             returns = launcher.launch(jobs, initial_job_idx=0)
             done = [r.return_value for r in returns]  # a failed job's exception is raised here
             if finish is not None:

@@ -1,0 +1,155 @@
+"""A command writes, replaces and deletes only what tavc wrote (`tavc_cli.ownership`): a folder
+with somebody else's files, another command's output or another configuration's run is
+refused with one line, and nothing in it changes."""
+
+import json
+import shutil
+
+import pytest
+from typer.testing import CliRunner
+
+from tavc_cli.cli import app
+from tavc_cli.config import load_config, settings
+from tavc_cli.errors import TavcError
+from tavc_cli.io import LOCK_NAME
+from tavc_cli.ownership import MANIFEST, REPORT_TITLE, config_differences, read
+from tavc_cli.pipeline import run_experiment, write_ladder, write_sweep
+
+SMOKE = ["scale=smoke", "duration_s=60", "convergence_s=20", "arena=two_circuits", "learner=random",
+         "executor.n_jobs=1", "trials=1"]
+
+
+def _cfg(out_dir, *extra):
+    return settings(load_config([*SMOKE, f"output_dir={out_dir}", *extra]))
+
+
+def _snapshot(folder):
+    """Every file under `folder` with its bytes."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """A finished run, copied by each test that changes it."""
+    out = tmp_path_factory.mktemp("finished") / "run"
+    run_experiment(_cfg(out))
+    return out
+
+
+def _copy(finished, tmp_path):
+    shutil.copytree(finished, tmp_path / "run")
+    return tmp_path / "run"
+
+
+def test_a_run_lists_what_it_wrote(finished):
+    manifest = json.loads((finished / MANIFEST).read_text())
+    assert manifest["tavc"] == "run"
+    tables = sorted(p.name for p in finished.glob("*.csv"))
+    assert set(manifest["files"]) >= {"config.yaml", "provenance.json", *tables}
+    provenance = json.loads((finished / "provenance.json").read_text())
+    assert sorted(provenance["tables"]) == tables  # every table, with its digest
+    assert all(len(d) == 64 for d in provenance["tables"].values())
+
+
+def test_a_folder_of_somebody_elses_files_is_refused_and_left_as_it_was(tmp_path):
+    (tmp_path / "policy.csv").write_text("my policy\n")
+    (tmp_path / "traversals.csv").write_text("my traversals\n")
+    before = _snapshot(tmp_path)
+    result = CliRunner().invoke(app, ["run", *SMOKE, f"output_dir={tmp_path}"])
+    assert result.exit_code == 1
+    assert result.output.strip().splitlines() == [
+        f"error: output_dir: {tmp_path} holds files tavc did not write (policy.csv, traversals.csv); a run needs "
+        "a new or empty folder, or one of its own earlier runs: choose another folder"]
+    assert _snapshot(tmp_path) == before  # nothing deleted, nothing added (not even the lock)
+
+
+def test_a_run_aimed_at_a_report_folder_is_refused(tmp_path):
+    (tmp_path / "REPORT.md").write_text(f"{REPORT_TITLE}\n\nclaims...\n")
+    (tmp_path / "claims.csv").write_text("claim_id,claim,verdict\n1,x,reproduced\n")
+    before = _snapshot(tmp_path)
+    with pytest.raises(TavcError, match=r"is a results folder with a tavc report on top \(REPORT.md\), not a "
+                                        r"tavc run's folder; choose another folder$"):
+        run_experiment(_cfg(tmp_path))
+    assert _snapshot(tmp_path) == before
+
+
+def test_a_run_aimed_at_a_sweeps_folder_and_a_sweep_at_a_run_are_refused(tmp_path, finished):
+    (tmp_path / "sweep").mkdir()
+    (tmp_path / "sweep" / "sweep.csv").write_text("job,seed\n")
+    with pytest.raises(TavcError, match=r"is a tavc sweep's folder"):
+        run_experiment(_cfg(tmp_path / "sweep"))
+    with pytest.raises(TavcError, match=r"is a tavc run's folder, not a tavc sweep's folder"):
+        write_sweep([{"seed": "1"}, {"seed": "2"}], [finished / "a", finished / "b"])
+
+
+def test_a_file_of_a_tables_name_added_to_a_run_folder_is_never_overwritten_or_deleted(finished, tmp_path):
+    out = _copy(finished, tmp_path)
+    (out / "policy.csv").write_text("mine\n")  # a table section 1.4 writes, which this run would remove
+    with pytest.raises(TavcError, match=r"policy.csv was not written by tavc and tavc would write a file of that "
+                                        r"name; move it away or choose another folder$"):
+        run_experiment(_cfg(out))
+    assert (out / "policy.csv").read_text() == "mine\n"
+
+
+def test_another_configuration_is_refused_unless_overwrite_and_then_only_tavcs_files_go(finished, tmp_path):
+    out = _copy(finished, tmp_path)
+    (out / "notes.txt").write_text("mine\n")
+    before = _snapshot(out)
+    with pytest.raises(TavcError, match=r"holds a finished run of another configuration \(seed: 0 -> 7\); add "
+                                        r"overwrite=true to replace it, or choose another output_dir$"):
+        run_experiment(_cfg(out, "seed=7"))
+    assert _snapshot(out) == before
+    # settings of where and how fast are not another configuration
+    run_experiment(_cfg(out, "executor.batch_size=3"))
+    run_experiment(settings(load_config(["experiment=breakdown", "scale=smoke", "duration_s=60",
+                                         "convergence_s=20", "trials=1", "executor.n_jobs=1",
+                                         f"output_dir={out}", "overwrite=true"])))
+    assert (out / "notes.txt").read_text() == "mine\n"
+    assert "experiment_name: breakdown" in (out / "config.yaml").read_text()
+
+
+def test_the_settings_that_differ_are_named_at_most_three(tmp_path):
+    old = "seed: 0\nexecutor:\n  n_jobs: 1\nlearner:\n  alpha: 0.1\n  gamma: 0.95\ntrials: 2\nextra: 1\n"
+    (tmp_path / "config.yaml").write_text(old)
+    new = "seed: 1\nexecutor:\n  n_jobs: 2\nlearner:\n  alpha: 0.2\n  gamma: 0.9\ntrials: 3\n"
+    assert config_differences(tmp_path / "config.yaml", new) == [
+        "extra: 1 -> None", "learner.alpha: 0.1 -> 0.2", "learner.gamma: 0.95 -> 0.9", "2 more"]
+    assert config_differences(tmp_path / "config.yaml", old.replace("n_jobs: 1", "n_jobs: 8")) == []
+
+
+def test_a_folder_an_earlier_version_wrote_is_taken_as_tavcs(finished, tmp_path):
+    out = _copy(finished, tmp_path)
+    (out / MANIFEST).unlink()  # as before the list existed: provenance.json says it is a run
+    (out / "vacancy.csv").write_text("an earlier experiment's table\n")
+    (out / "notes.txt").write_text("mine\n")
+    owned = read(out)
+    assert owned.kind == "run" and "vacancy.csv" in owned.files and "notes.txt" not in owned.files
+    run_experiment(_cfg(out))
+    assert not (out / "vacancy.csv").exists()  # tavc's by its name in a tavc run: removed as stale
+    assert (out / "notes.txt").read_text() == "mine\n"
+    assert json.loads((out / MANIFEST).read_text())["tavc"] == "run"
+
+
+def test_a_damaged_list_is_one_line_naming_it(finished, tmp_path):
+    out = _copy(finished, tmp_path)
+    (out / MANIFEST).write_text("{not json")
+    with pytest.raises(TavcError, match=rf"{MANIFEST}: cannot be read"):
+        run_experiment(_cfg(out))
+
+
+def test_a_single_job_sweep_removes_the_previous_sweeps_table(tmp_path):
+    base = ["run", "-m", *SMOKE, f"output_dir={tmp_path}"]
+    assert CliRunner().invoke(app, [*base, "seed=1,2"]).exit_code == 0
+    assert (tmp_path / "sweep.csv").is_file()
+    assert CliRunner().invoke(app, [*base, "seed=3"]).exit_code == 0
+    assert not (tmp_path / "sweep.csv").exists() and not (tmp_path / "sweep.png").exists()
+    assert json.loads((tmp_path / MANIFEST).read_text()) == {"tavc": "sweep", "files": []}
+
+
+def test_a_ladder_never_replaces_a_table_it_did_not_write(tmp_path, finished):
+    (tmp_path / "ladder.csv").write_text("mine\n")
+    (tmp_path / MANIFEST).write_text(json.dumps({"tavc": "ladder", "files": []}))
+    with pytest.raises(TavcError, match=r"ladder.csv was not written by tavc"):
+        write_ladder(tmp_path, [finished])
+    assert (tmp_path / "ladder.csv").read_text() == "mine\n"
+    assert not (tmp_path / LOCK_NAME).exists()
