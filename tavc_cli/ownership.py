@@ -16,8 +16,8 @@ listed. Before a command writes, `take` checks the folder:
 
 Folders written before the list existed are recognised by what tavc always writes there (a
 run's ``provenance.json`` or ``config.yaml`` with ``trials/``, a report's ``REPORT.md``, a
-sweep's ``sweep.csv``, a ladder's ``ladder.csv``) and their files of tavc's names are taken as
-tavc's.
+sweep's ``sweep.csv``, a ladder's ``ladder.csv``, a model's ``model.json``, a calibration's
+``search.json``) and their files of tavc's names are taken as tavc's.
 """
 
 from __future__ import annotations
@@ -31,8 +31,9 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import LOCK_NAME, write_text_atomic
 
 MANIFEST = ".tavc.json"
-RUN, SWEEP, LADDER, RESULTS = "run", "sweep", "ladder", "results"
+RUN, SWEEP, LADDER, RESULTS, MODEL, CALIBRATION = "run", "sweep", "ladder", "results", "model", "calibration"
 _WHAT = {RUN: "a tavc run's folder", SWEEP: "a tavc sweep's folder (the jobs' folders and sweep.csv)",
+         MODEL: "the folder of a tavc model (model.json)", CALIBRATION: "a tavc calibration's folder (search.csv)",
          LADDER: "a horizon ladder's folder (its rungs and ladder.csv)",
          RESULTS: "a results folder with a tavc report on top (REPORT.md)"}
 REPORT_TITLE = "# tavc: the reproduction report"
@@ -42,6 +43,12 @@ RUN_FILES = ("config.yaml", "provenance.json", "failures.log")
 SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
 LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
 RESULTS_FILES = ("REPORT.md", "claims.csv")
+MODEL_FILES = ("model.csv", "model.json")
+CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
+    f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))
+_FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODEL: MODEL_FILES,
+          CALIBRATION: CALIBRATION_FILES}
+_WITH_TRIALS = (RUN, MODEL)  # folders whose trials/ holds tavc's records
 
 # settings that decide where and how fast a run goes, not what it computes
 _NOT_RESULTS = ("executor", "output_dir", "overwrite", "force")
@@ -70,7 +77,7 @@ class Owned:
 
     def owns(self, name: str) -> bool:
         """True if tavc wrote `name` (a path relative to the folder) here."""
-        return name in self.files or (self.kind == RUN and is_trial_record(name))
+        return name in self.files or (self.kind in _WITH_TRIALS and is_trial_record(name))
 
     def wrote(self, *names: str) -> None:
         """Record files written (or about to be written) by tavc."""
@@ -109,8 +116,7 @@ def read(folder: Path) -> Owned | None:
     kind = _earlier_kind(folder)
     if kind is None:
         return None
-    names = {RUN: run_files(), SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES}[kind]
-    files = {n for n in names if (folder / n).is_file()}
+    files = {n for n in (run_files() if kind == RUN else _FILES[kind]) if (folder / n).is_file()}
     if kind == RESULTS and (folder / "figures").is_dir():
         files |= {f"figures/{p.name}" for p in (folder / "figures").iterdir() if p.is_file()}
     return Owned(folder, kind, files)
@@ -132,8 +138,9 @@ def _earlier_kind(folder: Path) -> str | None:
         with open(report, "rb") as fh:
             if fh.read(len(REPORT_TITLE)).decode(errors="replace") == REPORT_TITLE:
                 return RESULTS
-    if (folder / "ladder.csv").is_file():
-        return LADDER
+    for kind, mark in ((LADDER, "ladder.csv"), (MODEL, "model.json"), (CALIBRATION, "search.json")):
+        if (folder / mark).is_file():
+            return kind
     if (folder / "sweep.csv").is_file():
         return SWEEP
     return None

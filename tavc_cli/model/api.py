@@ -14,6 +14,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import TIME_UNITS_S
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.ownership import MODEL, MODEL_FILES, take
 from tavc_cli.model import core
 from tavc_cli.model.measure import measure
 from tavc_cli.reference import chapter_world
@@ -199,6 +200,7 @@ def run_model(cfg: TavcConfig, *, progress: bool = False) -> dict:
     out_dir = Path(cfg.output_dir) / "model"
     Executor.from_config(cfg.executor).check()
     with claim_folder(out_dir):
+        take(out_dir, MODEL, MODEL_FILES).wrote(*MODEL_FILES)
         return _measure_and_predict(cfg, out_dir, n_robots, values, progress)
 
 

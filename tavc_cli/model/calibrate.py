@@ -10,6 +10,7 @@ from pathlib import Path
 
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder
+from tavc_cli.ownership import CALIBRATION, CALIBRATION_FILES, take
 from tavc_cli.model.report import search_text, sensitivity_text
 from tavc_cli.model.world_search import Point, one_axis_variants, point_id, run_search, run_sensitivity, save_world
 from tavc_cli.settings import TavcConfig
@@ -32,6 +33,7 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
     )
     measurement["executor"].check()
     with claim_folder(out_dir):
+        take(out_dir, CALIBRATION, CALIBRATION_FILES).wrote(*CALIBRATION_FILES)
         _search_and_measure(base, points, out_dir, world_dir, measurement, save=save, echo=echo)
 
 
