@@ -179,8 +179,10 @@ def _ours(name: str) -> bool:
 
 def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3) -> list[str]:
     """The settings (dotted keys, ``old -> new``) in which the run recorded in `old_yaml` differs
-    from the configuration `new_yaml`, leaving out where and how fast it runs (`_NOT_RESULTS`);
-    empty if they would compute the same. At most `limit` of them, then how many more."""
+    from the configuration `new_yaml`, leaving out where and how fast it runs (`_NOT_RESULTS`)
+    and keys only one of them has (a setting a later version of tavc added is not another
+    configuration); empty if they would compute the same. At most `limit` of them, then how
+    many more."""
     import yaml
 
     try:
@@ -189,7 +191,7 @@ def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3) -> list[st
         return [f"{Path(old_yaml).name} unreadable"]
     new = yaml.safe_load(new_yaml)
     a, b = _flat(old if isinstance(old, dict) else {}), _flat(new)
-    keys = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k) and k.split(".")[0] not in _NOT_RESULTS)
+    keys = sorted(k for k in set(a) & set(b) if a[k] != b[k] and k.split(".")[0] not in _NOT_RESULTS)
     shown = [f"{k}: {a.get(k)} -> {b.get(k)}" for k in keys[:limit]]
     return [*shown, f"{len(keys) - limit} more"] if len(keys) > limit else shown
 

@@ -109,11 +109,12 @@ def test_another_configuration_is_refused_unless_overwrite_and_then_only_tavcs_f
 
 
 def test_the_settings_that_differ_are_named_at_most_three(tmp_path):
-    old = "seed: 0\nexecutor:\n  n_jobs: 1\nlearner:\n  alpha: 0.1\n  gamma: 0.95\ntrials: 2\nextra: 1\n"
+    old = "seed: 0\nexecutor:\n  n_jobs: 1\nlearner:\n  alpha: 0.1\n  gamma: 0.95\ntrials: 2\nretired: 1\n"
     (tmp_path / "config.yaml").write_text(old)
-    new = "seed: 1\nexecutor:\n  n_jobs: 2\nlearner:\n  alpha: 0.2\n  gamma: 0.9\ntrials: 3\n"
+    new = "seed: 1\nexecutor:\n  n_jobs: 2\nlearner:\n  alpha: 0.2\n  gamma: 0.9\ntrials: 3\nadded: 0\n"
+    # where it runs (executor) and keys only one version has are not another configuration
     assert config_differences(tmp_path / "config.yaml", new) == [
-        "extra: 1 -> None", "learner.alpha: 0.1 -> 0.2", "learner.gamma: 0.95 -> 0.9", "2 more"]
+        "learner.alpha: 0.1 -> 0.2", "learner.gamma: 0.95 -> 0.9", "seed: 0 -> 1", "1 more"]
     assert config_differences(tmp_path / "config.yaml", old.replace("n_jobs: 1", "n_jobs: 8")) == []
 
 
