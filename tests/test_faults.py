@@ -152,3 +152,23 @@ def test_sigterm_while_tables_are_written_stops_at_once(monkeypatch, tmp_path):
     with pytest.raises(Terminated), sigterm_raises():
         pipeline._finish_all(cfgs, [None, None], [None, None])
     assert time.monotonic() - start < 20
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("moment", [0.05, 0.3, 0.6, *[random.Random(k).uniform(0.8, 6.0) for k in (1, 2)]])
+def test_ctrl_c_at_any_moment_is_one_line_and_the_rerun_heals(undisturbed, tmp_path, moment):
+    """Ctrl-C (SIGINT to the run's process group, as a terminal sends it) at a moment from the
+    first imports to the tables: at most one line on standard error, no traceback, exit 130
+    (or 0 if the run was already done), and the rerun comes back to the undisturbed tables."""
+    out = tmp_path / "run"
+    run = [sys.executable, "-m", "tavc_cli", "run", *SMOKE, f"output_dir={out}"]
+    proc = subprocess.Popen(run, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    time.sleep(moment)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode in (0, 130), err
+    assert "Traceback" not in err
+    assert len([line for line in err.splitlines() if line.strip()]) <= 1, err
+    subprocess.run(run, check=True, capture_output=True)
+    _assert_healed(out, undisturbed)
