@@ -1,0 +1,381 @@
+"""The tables a run writes, column by column, and the check a reader runs on a table before
+trusting it: `tavc report` on every table of every run it reads, `api.Results.table` on the
+one it returns.
+
+A table tavc wrote is complete text: a header, one line per row, a newline at the end (a
+file cut short lacks it), as many fields in every row as in the header. Beyond that, each
+table has its columns (`TABLES`), some of them numbers, some never empty; its `trial`
+values are trials the run's `provenance.json` lists (for the row's controller), its
+`state` values states the experiment's team can be in (robots per circuit, or per speed
+group on the high-value circuit: `analysis.states`), and where `provenance.json` recorded
+each table's SHA-256 (its ``tables`` map, `io.file_digest`) the file must still have it.
+That digest is the only check that catches every change; the others catch damage that
+breaks a table's shape, which is what a file cut short or a flipped byte mostly does, in
+runs written before the digests were.
+
+A table that fails raises `TavcError("<path>: <what is wrong>; rerun its experiment to
+rewrite it")`.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from itertools import product
+from pathlib import Path
+
+from tavc_cli.analysis.experiment import TABLE_NAMES
+from tavc_cli.errors import TavcError
+from tavc_cli.io import file_digest
+from tavc_cli.settings import TavcConfig, from_yaml
+
+
+@dataclass(frozen=True)
+class TableSchema:
+    """One table's columns: `columns` are always there and hold numbers unless named in
+    `text`; `optional` columns hold numbers where they are there (tables of runs written
+    before they were added lack them); `keys` are never empty; columns whose names start
+    with one of `prefixes` hold numbers too (one per state, per Q-table entry, ...);
+    `choices` limit a column's values; a table that a run writes only with rows in it is
+    not `empty_ok`."""
+
+    columns: tuple[str, ...]
+    text: tuple[str, ...] = ("controller",)
+    keys: tuple[str, ...] = ("controller", "trial")
+    optional: tuple[str, ...] = ()
+    prefixes: tuple[str, ...] = ()
+    choices: dict[str, frozenset[str]] = field(default_factory=dict)
+    empty_ok: bool = True
+
+
+TABLES: dict[str, TableSchema] = {
+    "state_time": TableSchema(("state", "controller", "mean_pct", "std_pct", "n_trials"),
+                              text=("state", "controller"),
+                              keys=("state", "controller", "mean_pct", "std_pct", "n_trials"), empty_ok=False),
+    "performance": TableSchema(("t_s", "controller", "mean", "std", "n_trials"),
+                               keys=("t_s", "controller", "n_trials")),
+    "trial_stats": TableSchema(("controller", "trial", "value_rate_stable", "value_rate_convergence",
+                                "value_rate_before", "settle_s", "policy_settle_s", "policy_changes"),
+                               keys=("controller", "trial", "duration_s"), optional=("duration_s",),
+                               prefixes=("pct_", "q_gap_")),
+    "allocation": TableSchema(("t_s", "controller", "mean_high", "std_high", "n_trials"),
+                              keys=("t_s", "controller", "n_trials")),
+    "specialisation": TableSchema(("t_s", "controller", "group", "mean_share_high", "std_share_high", "n_trials"),
+                                  text=("controller", "group"), keys=("t_s", "controller", "group", "n_trials")),
+    "robots": TableSchema(("controller", "trial", "robot", "kind", "circuit", "n_choices", "share_main",
+                           "switch_rate"), text=("controller", "kind"), keys=("controller", "trial", "robot", "kind")),
+    "q_values": TableSchema(("controller", "trial", "robot", "t_s"), keys=("controller", "trial", "robot", "t_s"),
+                            prefixes=("q_",)),
+    "convergence": TableSchema(("controller", "trial", "t_from_s", "t_to_s", "q_drift", "policy_changed_share",
+                                "alloc_first_half", "alloc_second_half", "alloc_drift", "td_error_rel"),
+                               empty_ok=False),
+    "mechanism": TableSchema(("controller", "trial", "window", "t_from_s", "t_to_s", "n_stayers_high",
+                              "n_stayers_low", "n_alternators", "n_mixed", "n_idle", "switch_share", "task_s_stay",
+                              "task_s_switch", "avoid_s_stay", "avoid_s_switch", "wait_s_stay", "wait_s_switch",
+                              "q_gap_stay_switch"), text=("controller", "window"),
+                             keys=("controller", "trial", "window"), empty_ok=False),
+    "vacancy": TableSchema(("controller", "trial", "event", "event_t_s", "vacancy_circuit", "filled", "filler",
+                            "filler_from", "fill_delay_s", "moves_before_fill", "chain"),
+                           text=("controller", "event", "filled", "chain"), keys=("controller", "trial", "filled"),
+                           choices={"filled": frozenset({"True", "False"})}, empty_ok=False),
+    "table_1_1": TableSchema(("n_traversals", "mean_traversal_s", "std_traversal_s", "n_robots", "m_arrivals",
+                              "mean_target_s", "std_target_s", "n_trials"), text=(),
+                             keys=("n_traversals", "m_arrivals")),
+    "traversals": TableSchema(("controller", "trial", "robot", "traversal", "time_s"),
+                              keys=("controller", "trial", "robot", "traversal", "time_s")),
+    "target_times": TableSchema(("controller", "trial", "arrival", "time_s"),
+                                keys=("controller", "trial", "arrival", "time_s")),
+    "policy": TableSchema(("controller", "trial", "robot", "n_states"), keys=("controller", "trial", "robot"),
+                          prefixes=("share_", "stop_rate_")),
+    "lanes": TableSchema(("controller", "trial", "window", "mean_left_m", "n_frames"), text=("controller", "window"),
+                         keys=("controller", "trial", "window")),
+    "occupancy": TableSchema(("window", "direction", "x_m", "y_m", "count"), text=("window", "direction"),
+                             keys=("window", "direction", "x_m", "y_m", "count")),
+    # the chapter's states, whatever team this run had: its `state` column is not checked
+    "comparison": TableSchema(("table", "state", "quantity", "chapter", "ours", "difference"),
+                              text=("table", "state", "quantity"), keys=("table", "state", "quantity", "chapter"),
+                              empty_ok=False),
+    "claims": TableSchema(("claim_id", "claim", "verdict", "statistic", "p_value", "detail"),
+                          text=("claim", "verdict", "detail"), keys=("claim_id", "claim", "verdict"),
+                          choices={"verdict": frozenset({"reproduced", "not_reproduced", "inconclusive"})},
+                          empty_ok=False),
+}
+# the settings' sections, each written as a block of config.yaml, `calibration` last
+SECTIONS = tuple(f.name for f in dataclasses.fields(TavcConfig) if dataclasses.is_dataclass(f.default_factory))
+STATE_PREFIX = "pct_"  # trial_stats: one column of shares per state (`analysis.trial_stats`)
+REWRITE = "rerun its experiment to rewrite it"
+
+
+def damaged(path: Path, what: str) -> TavcError:
+    """The one-line error for a file of a run that cannot be trusted."""
+    return TavcError(f"{path}: {what}; {REWRITE}")
+
+
+@dataclass(frozen=True)
+class RunFacts:
+    """What a run's tables are checked against: the trials its `provenance.json` lists
+    ((controller, trial) pairs; None without one), the digests it recorded (None without),
+    and the states its team can be in: `scheme` (`analysis.state`), the robots per
+    `groups` fastest first (one group for the circuits scheme), the circuits, and the
+    fewest robots working at once (after every breakdown)."""
+
+    folder: Path
+    trials: frozenset[tuple[str, int]] | None
+    digests: dict[str, str] | None
+    scheme: str
+    groups: tuple[int, ...]
+    n_circuits: int
+    fewest: int
+
+    @classmethod
+    def of(cls, cfg: TavcConfig, provenance: dict | None, folder: Path) -> RunFacts:
+        from tavc_cli.analysis.states import group_order
+
+        members = cfg.team.members or []
+        names = [str(m.group) for m in members] or ["all"] * int(cfg.team.n_robots)
+        speeds = [float(m.speed_mps) for m in members] or [float(cfg.robot.speed_mps)] * len(names)
+        scheme = str(cfg.analysis.state)
+        sizes = tuple(names.count(g) for g in group_order(names, speeds)) if scheme == "groups" else (len(names),)
+        trials = digests = None
+        if provenance is not None:
+            trials = frozenset((str(t["controller"]), int(t["trial"])) for t in provenance["trials"])
+            digests = provenance.get("tables")
+        return cls(folder, trials, digests, scheme, sizes, len(cfg.arena.circuits),
+                   len(names) - len(cfg.events.breakdowns))
+
+    def valid_state(self, label: str) -> bool:
+        """Whether `label` is a state of this team: robots per circuit (high-value circuit
+        first) adding up to the robots working, or robots of each group on the high-value
+        circuit, none more than the group has."""
+        parts = label.split(":")
+        if not all(p.isdigit() for p in parts):
+            return False
+        counts = [int(p) for p in parts]
+        if self.scheme == "groups":
+            return len(counts) == len(self.groups) and all(c <= g for c, g in zip(counts, self.groups, strict=True))
+        return len(counts) == self.n_circuits and self.fewest <= sum(counts) <= sum(self.groups)
+
+    def team_states(self, theory: set[str]) -> set[str]:
+        """Every state of the team at the end of the run, as `analysis.states.all_states`
+        lists them (the theory rows list them all): the configured team where no robot
+        breaks down, else the team the theory rows are for (for circuits, as many robots
+        as the first has; for groups, each group's largest count among them)."""
+        counts = [[int(p) for p in s.split(":")] for s in theory]
+        whole = self.fewest == sum(self.groups)
+        if self.scheme == "groups":
+            sizes = self.groups if whole else [max(c[k] for c in counts) for k in range(len(self.groups))]
+            return {":".join(map(str, c)) for c in product(*(range(g + 1) for g in sizes))}
+        n = sum(self.groups) if whole else sum(counts[0])
+        return {":".join(map(str, c)) for c in product(range(n + 1), repeat=self.n_circuits) if sum(c) == n}
+
+
+def read_provenance(path: Path) -> dict:
+    """A run's `provenance.json`, checked: a JSON object listing its trials, each with its
+    controller, number and file."""
+    try:
+        prov = json.loads(Path(path).read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise damaged(path, f"cannot be read ({_first_line(exc)})") from None
+    trials = prov.get("trials") if isinstance(prov, dict) else None
+    if not isinstance(trials, list):
+        raise damaged(path, "cannot be read (no list of trials in it)")
+    for t in trials:
+        if not (isinstance(t, dict) and isinstance(t.get("controller"), str) and isinstance(t.get("trial"), int)
+                and isinstance(t.get("file"), str)):
+            raise damaged(path, f"cannot be read (a trial without its controller, number and file: {t!r:.60})")
+    tables = prov.get("tables")
+    if tables is not None and not (isinstance(tables, dict) and all(isinstance(v, str) for v in tables.values())):
+        raise damaged(path, "cannot be read (its tables are not a map of file names to digests)")
+    return prov
+
+
+def read_config(path: Path, digests: dict[str, str] | None = None,
+                load: Callable[[Path], TavcConfig] = from_yaml) -> TavcConfig:
+    """A run's `config.yaml` read by `load`, checked: its digest where `provenance.json`
+    recorded one, then whole (a newline at its end, every section of the settings there: a
+    file cut short loses its last, `calibration`), of the settings' types, with the
+    durations a finished run resolved. A cut inside the last section's last list leaves a
+    file that passes without a digest; the report reads nothing there."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+        cfg = load(path)
+    except Exception as exc:  # any parser's or the schema's error: the file is damaged, whatever the library
+        raise damaged(path, f"cannot be read ({_first_line(exc)})") from None
+    if not raw.endswith(b"\n"):
+        raise damaged(path, "cut short (no newline at its end)")
+    keys = set(re.findall(rb"^([A-Za-z_]\w*):", raw, re.M))  # the top level of a block mapping, as to_yaml writes
+    missing = [s for s in SECTIONS if s.encode() not in keys]
+    if missing:
+        raise damaged(path, f"cut short (no {missing[0]!r} section)")
+    if cfg.duration_s is None or cfg.convergence_s is None:
+        raise damaged(path, "cut short or edited (no duration_s or convergence_s, which a run always writes)")
+    _check_digest(path, digests)
+    return cfg
+
+
+def run_facts(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) -> RunFacts:
+    """The facts a run folder's tables are checked against, its `provenance.json` and
+    `config.yaml` (read by `load`) checked on the way; without a provenance.json, no trials
+    or digests to check against."""
+    folder = Path(folder)
+    prov = read_provenance(folder / "provenance.json") if (folder / "provenance.json").is_file() else None
+    cfg = read_config(folder / "config.yaml", prov.get("tables") if prov is not None else None, load)
+    return RunFacts.of(cfg, prov, folder)
+
+
+def check_run(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) -> RunFacts:
+    """Check a run folder as a reader will take it: `provenance.json`, `config.yaml` (read by
+    `load`), every table it holds of those a run writes, and every table its provenance
+    lists being there."""
+    facts = run_facts(folder, load)
+    for name in sorted(facts.digests or {}):
+        if not (facts.folder / name).is_file():
+            raise damaged(facts.folder / name, "missing, though provenance.json lists it")
+    for name in TABLE_NAMES:
+        if (facts.folder / f"{name}.csv").is_file():
+            check_table(facts.folder / f"{name}.csv", facts)
+    return facts
+
+
+def check_table(path: Path, facts: RunFacts | None = None) -> None:
+    """Check one table file of a run (see the module's docstring); `facts` as `run_facts`
+    gives them, read from the table's folder when not given."""
+    path = Path(path)
+    if facts is None:
+        facts = run_facts(path.parent)
+    try:
+        text = path.read_bytes().decode()
+    except UnicodeDecodeError:
+        raise damaged(path, "cannot be read (not UTF-8 text)") from None
+    if not text:
+        raise damaged(path, "empty")
+    if not text.endswith("\n"):
+        raise damaged(path, "cut short (its last line has no newline)")
+    reader = csv.reader(io.StringIO(text, newline=""), strict=True)
+    try:
+        header = next(reader)
+        rows = [(reader.line_num, row) for row in reader]
+    except csv.Error as exc:
+        raise damaged(path, f"cannot be read (line {reader.line_num}: {exc})") from None
+    if len(set(header)) < len(header):
+        raise damaged(path, "a column named twice in its header")
+    for line, row in rows:
+        if len(row) != len(header):
+            raise damaged(path, f"line {line} has {len(row)} fields, its header {len(header)}")
+    schema = TABLES.get(path.stem)
+    if schema is not None and not rows and not schema.empty_ok:
+        raise damaged(path, "no rows under its header (a run writes this table only with rows)")
+    if schema is not None:
+        _check_columns(path, schema, header, rows, facts)
+    _check_digest(path, facts.digests, table=True)  # last: what is wrong, where the shape says, first
+
+
+def _check_columns(path: Path, schema: TableSchema, header: list[str], rows: list, facts: RunFacts) -> None:
+    missing = [c for c in schema.columns if c not in header]
+    if missing:
+        raise damaged(path, f"no column {missing[0]!r}")
+    numbers = [c for c in header if (c in schema.columns and c not in schema.text) or c in schema.optional
+               or c.startswith(schema.prefixes)]
+    at = {c: k for k, c in enumerate(header)}
+    keys = [c for c in schema.keys if c in at]
+    for line, row in rows:
+        for c in keys:
+            if row[at[c]] == "":
+                raise damaged(path, f"line {line}: no {c}")
+        for c in numbers:
+            if row[at[c]] != "" and not _is_number(row[at[c]]):
+                raise damaged(path, f"line {line}: {c} {row[at[c]]!r} is not a number")
+        for c, allowed in schema.choices.items():
+            if row[at[c]] not in allowed:
+                raise damaged(path, f"line {line}: {c} {row[at[c]]!r} is none of {', '.join(sorted(allowed))}")
+    _check_trials(path, header, rows, facts)
+    _check_states(path, header, rows, facts)
+
+
+def _check_trials(path: Path, header: list[str], rows: list, facts: RunFacts) -> None:
+    """Every trial is one the run ran (for its controller, where the table has one); the
+    trials' own table has a row for each of them."""
+    if "trial" not in header or facts.trials is None:
+        return
+    at_trial, at_ctrl = header.index("trial"), header.index("controller") if "controller" in header else None
+    numbers = {n for _, n in facts.trials}
+    seen = set()
+    for line, row in rows:
+        trial = float(row[at_trial])
+        if not math.isfinite(trial) or trial != int(trial):
+            raise damaged(path, f"line {line}: trial {row[at_trial]!r} is not a whole number")
+        key = (row[at_ctrl], int(trial)) if at_ctrl is not None else None
+        if (key not in facts.trials) if key is not None else (int(trial) not in numbers):
+            which = f"{row[at_ctrl]} trial {int(trial)}" if key is not None else f"trial {int(trial)}"
+            raise damaged(path, f"line {line}: {which} is not among the trials provenance.json lists")
+        seen.add(key)
+    if path.stem == "trial_stats" and at_ctrl is not None and seen != facts.trials:
+        controller, trial = sorted(facts.trials - seen)[0]
+        raise damaged(path, f"no row for {controller} trial {trial}, which provenance.json lists")
+
+
+def _check_states(path: Path, header: list[str], rows: list, facts: RunFacts) -> None:
+    """Every state (a `state` value, a trial_stats column's) is one this team can be in;
+    in `state_time`, the theory rows list every state of one team, and every controller
+    has a row for each of them (a table cut at the end of a line loses the theory's last)."""
+    if path.stem == "comparison":
+        return
+    for c in header:
+        if c.startswith(STATE_PREFIX) and path.stem == "trial_stats" and not facts.valid_state(c[len(STATE_PREFIX):]):
+            raise damaged(path, f"column {c!r}: {c[len(STATE_PREFIX):]!r} is no state of this experiment's team")
+    if "state" not in header:
+        return
+    at = header.index("state")
+    for line, row in rows:
+        if not facts.valid_state(row[at]):
+            raise damaged(path, f"line {line}: state {row[at]!r} is no state of this experiment's team")
+    if path.stem != "state_time" or not rows:
+        return
+    by_ctrl: dict[str, set[str]] = {}
+    for _, row in rows:
+        by_ctrl.setdefault(row[header.index("controller")], set()).add(row[at])
+    theory = by_ctrl.get("theory")
+    if theory is None:
+        raise damaged(path, "no theory rows (they come last: cut short?)")
+    full = facts.team_states(theory)
+    if theory != full:
+        raise damaged(path, f"the theory rows list {len(theory)} of the team's {len(full)} states (cut short?)")
+    for controller, states in by_ctrl.items():
+        if not full <= states:
+            raise damaged(path, f"{controller} has no row for state {sorted(full - states)[0]}")
+
+
+def _check_digest(path: Path, digests: dict[str, str] | None, table: bool = False) -> None:
+    """The file's SHA-256 against the one provenance.json recorded for it, where it did. A
+    table of a run's kind that the record leaves out was not written by that run."""
+    if digests is None:
+        return
+    recorded = digests.get(path.name)
+    if recorded is None:
+        if table and path.stem in TABLE_NAMES:
+            raise damaged(path, "not among the tables provenance.json lists (left by another run?)")
+        return
+    if not path.is_file():
+        raise damaged(path, "missing, though provenance.json lists it")
+    if file_digest(path) != recorded:
+        raise damaged(path, "changed since its run wrote it (its SHA-256 is not the one provenance.json recorded)")
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def _first_line(exc: Exception) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
