@@ -43,11 +43,16 @@ class Results:
         return f"Results({str(self.path)!r})"
 
     def table(self, name: str) -> pd.DataFrame:
-        """The run's table `name`.csv (state_time, performance, trial_stats, claims, ...)."""
+        """The run's table `name`.csv (state_time, performance, trial_stats, claims, ...), checked
+        as `tavc report` checks it first (`analysis.schema.check_table`: a damaged table is one
+        line naming it)."""
+        from tavc_cli.analysis.schema import check_table
+
         path = self.path / f"{name}.csv"
         if not path.is_file():
             have = ", ".join(sorted(p.stem for p in self.path.glob("*.csv"))) or "none"
             raise TavcError(f"{self.path}: no table {name!r} (tables here: {have})")
+        check_table(path)
         return pd.read_csv(path)
 
     @property
@@ -66,12 +71,28 @@ class Results:
         return yaml.safe_load((self.path / "config.yaml").read_text())
 
     def records(self) -> list[TrialRecord]:
-        """Every trial's raw record (trials/*.npz), in file-name order."""
-        files = sorted((self.path / "trials").glob("*.npz"))
+        """The raw record of every trial of the run, in file-name order: the files its
+        `provenance.json` lists (a rerun with fewer trials leaves the others' files in
+        `trials/`, and they are not this run's). A folder without a `provenance.json` (a run
+        that did not finish) gives every file in `trials/`."""
+        files = sorted(self._trial_files())
         if not files:
             raise TavcError(f"{self.path}: no trial records in trials/ (tables only: rerun with tavc run to "
                             "get the events)")
-        return [TrialRecord.load(f) for f in files]
+        return [_load_record(f) for f in files]
+
+    def _trial_files(self) -> list[Path]:
+        """The trial files of the run: those `provenance.json` lists, else all in `trials/`."""
+        if not (self.path / "provenance.json").is_file():
+            return list((self.path / "trials").glob("*.npz"))
+        from tavc_cli.analysis.schema import read_provenance
+
+        listed = [self.path / t["file"] for t in read_provenance(self.path / "provenance.json")["trials"]]
+        missing = [f for f in listed if not f.is_file()]
+        if missing and len(missing) < len(listed):
+            raise TavcError(f"{missing[0]}: missing, though provenance.json lists it; rerun its experiment to "
+                            "rewrite it")
+        return [] if missing else listed
 
     def events(self, kind: str) -> pd.DataFrame:
         """Every event of one kind (arrivals, deliveries, choices, breakdowns) of every trial, with the
@@ -85,6 +106,15 @@ class Results:
             frame.insert(0, "controller", rec.meta["controller"])
             frames.append(frame)
         return pd.concat(frames, ignore_index=True)
+
+
+def _load_record(path: Path) -> TrialRecord:
+    """A trial's record; a damaged file is one line naming it."""
+    try:
+        return TrialRecord.load(path)
+    except Exception as exc:  # numpy's or zipfile's error: the file is damaged, whatever the library
+        raise TavcError(f"{path}: cannot be read ({type(exc).__name__}: {exc}); rerun its experiment to "
+                        "rewrite it") from None
 
 
 def load(path: str | Path) -> Results:
