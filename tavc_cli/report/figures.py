@@ -67,60 +67,73 @@ def baseline_levels(frame: pd.DataFrame, cfg: TavcConfig, mean: str, std: str) -
 
 
 def experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame, results_dir: Path,
-             model_json: Path | None) -> list[str]:
-    """Draw this experiment's figures under results_dir/figures; markdown lines that show them
+                       model_json: Path | None, fig_dir: Path | None = None, label: str | None = None) -> list[str]:
+    """Draw this experiment's figures under `fig_dir` (results_dir/figures unless given), their
+    titles naming `label` (the experiment's name unless given); markdown lines that show them
     (baselines on another schedule than the learner's drawn as levels: `baseline_levels`)."""
     from tavc_cli.reference import chapter_table
     from tavc_cli.viz.figures import FIGURES, allocation_figure, performance_figure, state_figure
 
-    fig_dir = results_dir / "figures"
+    fig_dir = fig_dir or results_dir / "figures"
+    link, label = figure_link(results_dir, fig_dir), label or name
     state_fig, perf_fig = FIGURES.get(name, (None, None))
     conv = float(cfg.convergence_s or 0.0)
     event = float(cfg.sim.warmup_s) > 0
     lines = []
     if cfg.analysis.state == "groups":
-        return group_figures(name, d, cfg, state_time, fig_dir)
+        return group_figures(name, d, cfg, state_time, fig_dir, link, label)
     if state_fig is not None:
         table = TABLES.get(name)
+        stem = f"fig_{state_fig.replace('.', '_')}"
         state_figure(state_time, chapter_table(table) if table else None,
-                     f"{name}: % of the stable period in each state (the chapter's Figure {state_fig})",
-                     fig_dir / f"fig_{state_fig.replace('.', '_')}")
-        lines.append(f"![Figure {state_fig}, tavc](figures/fig_{state_fig.replace('.', '_')}.png)")
+                     f"{label}: % of the stable period in each state (the chapter's Figure {state_fig})",
+                     fig_dir / stem)
+        lines.append(f"![Figure {state_fig}, tavc]({link}/{stem}.png)")
     if perf_fig is not None and (d / "performance.csv").is_file():
+        stem = f"fig_{perf_fig.replace('.', '_')}"
         performance_figure(baseline_levels(pd.read_csv(d / "performance.csv"), cfg, "mean", "std"), conv, event,
-                           f"{name}: performance over time (the chapter's Figure {perf_fig})",
-                           fig_dir / f"fig_{perf_fig.replace('.', '_')}")
-        lines.append(f"![Figure {perf_fig}, tavc](figures/fig_{perf_fig.replace('.', '_')}.png)")
+                           f"{label}: performance over time (the chapter's Figure {perf_fig})", fig_dir / stem)
+        lines.append(f"![Figure {perf_fig}, tavc]({link}/{stem}.png)")
     if (d / "allocation.csv").is_file():
         allocation_figure(baseline_levels(pd.read_csv(d / "allocation.csv"), cfg, "mean_high", "std_high"),
                           predicted_segments(cfg, model_json), conv, event,
-                          f"{name}: robots on the high-value circuit over time", fig_dir / f"allocation_{name}")
-        lines.append(f"![robots on the high-value circuit, {name}](figures/allocation_{name}.png)")
-    lines += q_figure(name, d, cfg, fig_dir)
+                          f"{label}: robots on the high-value circuit over time", fig_dir / f"allocation_{name}")
+        lines.append(f"![robots on the high-value circuit, {label}]({link}/allocation_{name}.png)")
+    lines += q_figure(name, d, cfg, fig_dir, link, label)
     return [*lines, ""] if lines else []
 
 
-def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame, fig_dir: Path) -> list[str]:
+def figure_link(results_dir: Path, fig_dir: Path) -> str:
+    """`fig_dir` as a markdown link from REPORT.md in results_dir (each part URL-quoted: a
+    run's folder may be named `1_tasks.values=_2200,2000_`)."""
+    from urllib.parse import quote
+
+    return "/".join(quote(part) for part in fig_dir.relative_to(results_dir).parts)
+
+
+def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame, fig_dir: Path,
+                  link: str = "figures", label: str | None = None) -> list[str]:
     """Fast and slow robots: the f:s grids (Figure 1.12's kind), TAVC against the theory row (1.13's),
     each speed group on the high-value circuit over time, and the Q-values of trial 0."""
     from tavc_cli.reference import chapter_table
     from tavc_cli.viz.figures import group_difference_figure, group_state_figure, specialisation_figure
 
+    label = label or name
     table = TABLES.get(name)
     chapter = chapter_table(table) if table else None
-    group_state_figure(state_time, chapter, f"{name}: % of the stable period in each state f:s (Figure 1.12's kind)",
+    group_state_figure(state_time, chapter, f"{label}: % of the stable period in each state f:s (Figure 1.12's kind)",
                        fig_dir / "fig_1_12")
-    group_difference_figure(state_time, chapter, f"{name}: TAVC against the theory row (Figure 1.13's kind)",
+    group_difference_figure(state_time, chapter, f"{label}: TAVC against the theory row (Figure 1.13's kind)",
                             fig_dir / "fig_1_13")
-    lines = ["![Figure 1.12, tavc](figures/fig_1_12.png)", "![Figure 1.13, tavc](figures/fig_1_13.png)",
-             "![Figure 1.13, relative, tavc](figures/fig_1_13_relative.png)"]
+    lines = [f"![Figure 1.12, tavc]({link}/fig_1_12.png)", f"![Figure 1.13, tavc]({link}/fig_1_13.png)",
+             f"![Figure 1.13, relative, tavc]({link}/fig_1_13_relative.png)"]
     if (d / "specialisation.csv").is_file():
         specialisation_figure(_group_levels(pd.read_csv(d / "specialisation.csv"), cfg),
                               float(cfg.convergence_s or 0.0),
-                              f"{name}: each speed group's share on the high-value circuit",
+                              f"{label}: each speed group's share on the high-value circuit",
                               fig_dir / f"specialisation_{name}")
-        lines.append(f"![specialisation, {name}](figures/specialisation_{name}.png)")
-    lines += q_figure(name, d, cfg, fig_dir)
+        lines.append(f"![specialisation, {label}]({link}/specialisation_{name}.png)")
+    lines += q_figure(name, d, cfg, fig_dir, link, label)
     return [*lines, ""]
 
 
@@ -144,7 +157,8 @@ def final_high_circuit(cfg: TavcConfig) -> int:
     return int(max(range(len(values)), key=lambda i: float(values[i]))) if values else 0
 
 
-def q_figure(name: str, d: Path, cfg: TavcConfig, fig_dir: Path) -> list[str]:
+def q_figure(name: str, d: Path, cfg: TavcConfig, fig_dir: Path, link: str = "figures",
+             label: str | None = None) -> list[str]:
     """The Q-tables of the first TAVC trial (trial 0, fixed before looking), robot by robot."""
     path = d / "q_values.csv"
     if not path.is_file():
@@ -159,7 +173,7 @@ def q_figure(name: str, d: Path, cfg: TavcConfig, fig_dir: Path) -> list[str]:
     if (d / "robots.csv").is_file():
         r = pd.read_csv(d / "robots.csv")
         robots = r[(r["controller"] == "tavc") & (r["trial"] == 0)]
+    label = label or name
     q_value_figure(q, robots, final_high_circuit(cfg), float(cfg.convergence_s or 0.0),
-                   f"{name}: Q-values of TAVC trial 0, robot by robot", fig_dir / f"q_values_{name}")
-    return [f"![Q-values of trial 0, {name}](figures/q_values_{name}.png)"]
-
+                   f"{label}: Q-values of TAVC trial 0, robot by robot", fig_dir / f"q_values_{name}")
+    return [f"![Q-values of trial 0, {label}]({link}/q_values_{name}.png)"]

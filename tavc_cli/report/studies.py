@@ -72,10 +72,14 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     return lines
 
 
-def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path) -> list[str]:
-    """Section 1.4: Table 1.1 beside the chapter's, Figure 1.4's kind, the learned policies, the lanes."""
+def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path, fig_dir: Path | None = None,
+                         label: str | None = None) -> list[str]:
+    """Section 1.4: Table 1.1 beside the chapter's, Figure 1.4's kind, the learned policies, the
+    lanes; the figures under `fig_dir` (results_dir/figures unless given), their titles naming
+    `label` (the experiment's name unless given)."""
     from tavc_cli.analysis.spatiotemporal import target_time_curve
     from tavc_cli.reference import chapter_table
+    from tavc_cli.report.figures import figure_link
     from tavc_cli.viz.figures import lane_figure, target_time_figure
 
     ours = pd.read_csv(d / "table_1_1.csv")
@@ -93,11 +97,12 @@ def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path)
                      f"{fmt(o.std_target_s)} ({o.n_trials}) |")
     lines.append("")
     lines += trial_length_lines(d, cfg)
-    fig_dir = results_dir / "figures"
+    fig_dir = fig_dir or results_dir / "figures"
+    link, label = figure_link(results_dir, fig_dir), label or name
     if (d / "target_times.csv").is_file():
         target_time_figure(target_time_curve(pd.read_csv(d / "target_times.csv")), chapter,
-                           f"{name}: the group's target time over arrivals (Figure 1.4's kind)", fig_dir / "fig_1_4")
-        lines += ["![Figure 1.4, tavc](figures/fig_1_4.png)", ""]
+                           f"{label}: the group's target time over arrivals (Figure 1.4's kind)", fig_dir / "fig_1_4")
+        lines += [f"![Figure 1.4, tavc]({link}/fig_1_4.png)", ""]
     if (d / "policy.csv").is_file():
         pol = pd.read_csv(d / "policy.csv")
         shares = ", ".join(f"{c[len('share_'):]} {pol[c].mean():.2f}" for c in pol.columns if c.startswith("share_"))
@@ -127,8 +132,8 @@ def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path)
         arena = cfg.arena
         xy = {t.name: (float(t.x), float(t.y)) for t in arena.targets}
         lane_figure(pd.read_csv(d / "occupancy.csv"), xy[arena.circuits[0].source],
-                    xy[arena.circuits[0].sink], f"{name}: where the robots drive", fig_dir / f"lanes_{name}")
-        lines += [f"![lanes, {name}](figures/lanes_{name}.png)", ""]
+                    xy[arena.circuits[0].sink], f"{label}: where the robots drive", fig_dir / f"lanes_{name}")
+        lines += [f"![lanes, {label}]({link}/lanes_{name}.png)", ""]
     return lines
 
 
