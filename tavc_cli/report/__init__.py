@@ -1,12 +1,14 @@
 """`tavc report`: REPORT.md from saved results only; it never simulates.
 
-It reads, for every experiment folder under the results directory, what `tavc run`
-wrote (`config.yaml`, `provenance.json`, `state_time.csv`, `trial_stats.csv`, and the
-model's `model/model.json` if `tavc model` was run into it), tests the chapter's claims
-on the per-trial numbers of all of them together (claim 7 compares two experiments),
-and writes `claims.csv` (every claim) and `REPORT.md` beside the experiment folders.
-The sections are written by `text` (an experiment's prose), `figures` (its figures) and
-`studies` (section 1.4 and the value-ratio sweep).
+It reads, for every run folder under the results directory, what `tavc run` wrote
+(`config.yaml`, `provenance.json`, `state_time.csv`, `trial_stats.csv`, and the model's
+`model/model.json` if `tavc model` was run into it), checks all of it before writing
+anything (`analysis.schema`: a damaged file is one line naming it, and nothing written),
+tests the chapter's claims on the per-trial numbers of one run per experiment together
+(claim 7 compares two experiments), and writes `claims.csv` (every claim) and `REPORT.md`
+beside the run folders. Every other run of an experiment gets a section of its own
+(`runs`). The sections are written by `text` (an experiment's prose), `figures` (its
+figures) and `studies` (section 1.4 and the value-ratio sweep).
 """
 
 from __future__ import annotations
@@ -24,14 +26,17 @@ import pandas as pd
 from tavc_cli.analysis.chapter_checks import chapter_checks
 from tavc_cli.analysis.claims import CLAIM_TABLES, CLAIMS, claim_rows
 from tavc_cli.analysis.comparison import experiment_comparison
+from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.reference import TABLES
 from tavc_cli.report import horizons
-from tavc_cli.report.mechanism import mechanism_lines
 from tavc_cli.report.figures import experiment_figures, find_model
+from tavc_cli.report.mechanism import mechanism_lines
+from tavc_cli.report.runs import choice_lines, designated_first, draw_figures, other_run_lines, rel
 from tavc_cli.report.studies import spatiotemporal_lines, value_ratio_lines
 from tavc_cli.report.text import (
+    delivery_lines,
     fmt,
     model_lines,
     performance,
@@ -48,34 +53,49 @@ ORDER = ["spatiotemporal", "initial_distribution", "breakdown", "breakdown_no_va
          "heterogeneous"]
 
 
-def _experiments(results_dir: Path) -> tuple[dict[str, Path], list[Path]]:
-    """experiment name -> its folder, for every folder holding a finished run (its
-    `provenance.json`, written last, is there); and the folders of runs that did not finish."""
-    found, unfinished = {}, []
+def _finished_runs(results_dir: Path) -> tuple[dict[str, list[Path]], list[Path]]:
+    """experiment name -> the folders of its finished runs (their `provenance.json`, written
+    last, is there), the one its claims are tested on first (`runs.designated_first`); and
+    the folders of runs that did not finish."""
+    found: dict[str, list[Path]] = {}
+    unfinished = []
     for d in sorted(p for p in results_dir.iterdir() if p.is_dir()):
         if not ((d / "state_time.csv").is_file() or (d / "trials").is_dir()):
             continue
         if (d / "state_time.csv").is_file() and (d / "config.yaml").is_file() and (d / "provenance.json").is_file():
-            found.setdefault(str(_read(d / "config.yaml", _config).experiment_name or d.name), d)
+            found.setdefault(str(_read(d / "config.yaml", _config).experiment_name or d.name), []).append(d)
         else:
             unfinished.append(d)
-    ordered = dict(sorted(found.items(), key=lambda kv: (ORDER.index(kv[0]) if kv[0] in ORDER else 99, kv[0])))
-    return ordered, unfinished
+    ordered = sorted(found.items(), key=lambda kv: (ORDER.index(kv[0]) if kv[0] in ORDER else 99, kv[0]))
+    return {name: designated_first(name, folders) for name, folders in ordered}, unfinished
 
 
-def _check_readable(results_dir: Path, experiments: dict[str, Path]) -> None:
-    """Read every file the report reads, and check where it writes, before writing anything:
-    a damaged file is one line naming it, not a half-built report."""
-    for name in ("REPORT.md", "claims.csv"):
+def _experiments(results_dir: Path) -> tuple[dict[str, Path], list[Path]]:
+    """experiment name -> the folder of the run its claims are tested on; and the folders of
+    runs that did not finish (`_finished_runs`)."""
+    runs, unfinished = _finished_runs(results_dir)
+    return {name: folders[0] for name, folders in runs.items()}, unfinished
+
+
+def _check_readable(results_dir: Path, *horizon_runs: dict[str, list[Path]]) -> None:
+    """Check every file the report reads, and where it writes, before writing anything: a
+    damaged file is one line naming it, not a half-built report. Every run of every horizon
+    and of the value-ratio sweep (`schema.check_run`: its config.yaml, provenance.json and
+    tables), the models' outputs, the ladder's table."""
+    for name in ("REPORT.md", "claims.csv", f"{horizons.CONVERGED_DIR}/claims.csv"):
         if (results_dir / name).is_dir():
             raise TavcError(f"RESULTS_DIR: {results_dir / name} is a directory; the report writes a file there")
-    for d in experiments.values():
-        reads = [(d / "config.yaml", _config), (d / "provenance.json", lambda p: json.loads(p.read_text()))]
-        reads += [(p, lambda p: pd.read_csv(p, low_memory=False)) for p in sorted(d.glob("*.csv"))]
+    folders = [d for runs in horizon_runs for ds in runs.values() for d in ds]
+    if (results_dir / "value_ratio").is_dir():  # its runs as `analysis.value_ratio` finds them
+        folders += sorted(p.parent for p in (results_dir / "value_ratio").rglob("trial_stats.csv")
+                          if (p.parent / "config.yaml").is_file())
+    for d in folders:
+        check_run(d, _config)
         if (d / "model" / "model.json").is_file():
-            reads.append((d / "model" / "model.json", lambda p: json.loads(p.read_text())))
-        for path, read in reads:
-            _read(path, read)
+            _read(d / "model" / "model.json", lambda p: json.loads(p.read_text()))
+    ladder = results_dir / horizons.CONVERGED_DIR / "ladder" / "ladder.csv"
+    if ladder.is_file():
+        _read(ladder, pd.read_csv)
 
 
 def _config(path: Path) -> TavcConfig:
@@ -104,17 +124,20 @@ def build_report(results_dir: Path) -> dict:
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise TavcError(f"RESULTS_DIR: {results_dir} is not a directory")
-    experiments, unfinished = _experiments(results_dir)
-    _check_readable(results_dir, experiments)
+    found, unfinished = _finished_runs(results_dir)
+    long_dir = results_dir / horizons.CONVERGED_DIR
+    found_long, unfinished_long = _finished_runs(long_dir) if long_dir.is_dir() else ({}, [])
+    _check_readable(results_dir, found, found_long)
+    experiments = {name: folders[0] for name, folders in found.items()}
     if not experiments and (results_dir / "state_time.csv").is_file():
         raise TavcError(f"RESULTS_DIR: {results_dir} is one run's folder; give the folder that holds the runs "
                         f"({results_dir.parent})")
     if not experiments:
         raise TavcError(f"RESULTS_DIR: no finished runs under {results_dir} (run `tavc run experiment=...` first)")
-    base = _horizon(results_dir, experiments, unfinished)
+    base = _horizon(results_dir, found, unfinished)
     runs, claims = base.runs, base.claims
     tested, n_ok = base.tested, base.n_reproduced
-    long = _long_horizon(results_dir)
+    long = _horizon(long_dir, found_long, unfinished_long) if found_long else None
     lines = ["# tavc: the reproduction report", "",
              "Built by `tavc report` from the saved results in this folder; nothing here was simulated "
              "while writing it, and no number was typed in.", ""]
@@ -147,8 +170,10 @@ def build_report(results_dir: Path) -> dict:
                    if (d / "table_1_1.csv").is_file()
                    else pool.submit(experiment_figures, name, d, read[name][0], read[name][1], results_dir, model_json)
                    for name, d in experiments.items()}
-        lines += _experiment_sections(experiments, read, figures, claims, runs,
-                                      long=long, results_dir=results_dir, model_json=model_json)
+        figures.update({d: pool.submit(draw_figures, name, d, _config(d / "config.yaml"), results_dir, results_dir,
+                                       model_json)
+                        for name, ds in base.others.items() for d in ds})
+        lines += _experiment_sections(base, figures, long=long, results_dir=results_dir, model_json=model_json)
         lines += ratio.result()
     lines += ["## The same tests on the chapter's own tables", "",
               "Applied to the chapter's printed means, stds and trial counts (20 TAVC and 20 random trials "
@@ -183,72 +208,112 @@ def build_report(results_dir: Path) -> dict:
         write_text_atomic(long.folder / "claims.csv", long.claims.to_csv(index=False, float_format="%.6g"))
     write_text_atomic(results_dir / "REPORT.md", "\n".join(lines))
     out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
-           "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished]}
+           "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished],
+           "runs": _run_names(found, results_dir)}
     if long is not None:
         out.update({"factor": long.factor, "experiments_long": list(long.experiments), "claims_long": long.claims,
-                    "n_reproduced_long": long.n_reproduced, "n_tested_long": len(long.tested)})
+                    "n_reproduced_long": long.n_reproduced, "n_tested_long": len(long.tested),
+                    "runs_long": _run_names(found_long, results_dir)})
         out["unfinished"] += [str(d) for d in long.unfinished]
     return out
 
 
-def _horizon(folder: Path, experiments: dict[str, Path], unfinished: list[Path]) -> horizons.Horizon:
-    """One horizon's runs, read (its folders already checked readable): settings, state tables,
-    the per-trial tables the claims read, and the claims tested on them together."""
+def _horizon(folder: Path, found: dict[str, list[Path]], unfinished: list[Path]) -> horizons.Horizon:
+    """One horizon's runs, read (its folders already checked; a damaged trial record that
+    `text.delivery_lines` reads is refused here, before anything is written): settings,
+    state tables, the per-trial tables the claims read, and the claims tested on them
+    together, for the run of each experiment they are tested on; the other runs' folders
+    beside, and what every run delivered."""
+    experiments = {name: folders[0] for name, folders in found.items()}
     runs = {name: pd.read_csv(d / "trial_stats.csv") for name, d in experiments.items()
             if (d / "trial_stats.csv").is_file()}
     runs.update({f"{name}/{t}": pd.read_csv(d / f"{t}.csv") for name, d in experiments.items()
                  for t in CLAIM_TABLES if (d / f"{t}.csv").is_file()})
     read = {name: (_config(d / "config.yaml"), pd.read_csv(d / "state_time.csv", dtype={"state": str}))
             for name, d in experiments.items()}
-    return horizons.Horizon(folder, experiments, read, runs, claim_rows(runs), unfinished)
+    others = {name: folders[1:] for name, folders in found.items() if len(folders) > 1}
+    deliveries = {d: delivery_lines(d, json.loads((d / "provenance.json").read_text()))
+                  for folders in found.values() for d in folders}
+    return horizons.Horizon(folder, experiments, read, runs, claim_rows(runs), unfinished, others, deliveries)
 
 
-def _long_horizon(results_dir: Path) -> horizons.Horizon | None:
-    """The runs at a multiple of the chapter's durations under `<results_dir>/converged/`, if any finished."""
-    folder = results_dir / horizons.CONVERGED_DIR
-    if not folder.is_dir():
-        return None
-    experiments, unfinished = _experiments(folder)
-    if not experiments:
-        return None
-    _check_readable(folder, experiments)
-    return _horizon(folder, experiments, unfinished)
+def _run_names(found: dict[str, list[Path]], results_dir: Path) -> dict[str, list[str]]:
+    """experiment -> its runs' folders as the report names them, the one its claims are tested on first."""
+    return {name: [rel(d, results_dir) for d in folders] for name, folders in found.items()}
 
 
 def summary_lines(result: dict) -> list[str]:
-    """`build_report`'s result in a few lines: the runs left out, the claims, where the report went."""
+    """`build_report`'s result in a few lines: the runs left out, the claims and the runs they
+    were tested on, every other run reported, where the report went."""
     lines = [f"left out {folder}: its run did not finish (no provenance.json); run it again to complete it"
              for folder in result["unfinished"]]
     lines.append(f"claims reproduced: {result['n_reproduced']} of {result['n_tested']} tested "
-                 f"({', '.join(result['experiments'])})")
+                 f"({_tested_on(result['runs'])})")
+    lines += _other_runs(result["runs"])
     if "factor" in result:
         lines.append(f"claims reproduced at {result['factor']:g} times the chapter's durations: "
                      f"{result['n_reproduced_long']} of {result['n_tested_long']} tested "
-                     f"({', '.join(result['experiments_long'])})")
+                     f"({_tested_on(result['runs_long'])})")
+        lines += _other_runs(result["runs_long"])
     return [*lines, result["report"]]
 
 
-def _experiment_sections(experiments: dict[str, Path], read: dict, figures: dict, claims: pd.DataFrame,
-                         runs: dict[str, pd.DataFrame], *, long: horizons.Horizon | None = None,
+def _tested_on(runs: dict[str, list[str]]) -> str:
+    """The experiments and the folder of the run each one's claims were tested on, where it
+    is not the folder named after it."""
+    return ", ".join(name if folders[0] in (name, f"{horizons.CONVERGED_DIR}/{name}") else f"{name} in {folders[0]}"
+                     for name, folders in runs.items())
+
+
+def _other_runs(runs: dict[str, list[str]]) -> list[str]:
+    return [f"also reported, in sections of their own: {', '.join(folders[1:])} ({name}; its claims tested on "
+            f"{folders[0]})" for name, folders in runs.items() if len(folders) > 1]
+
+
+def _experiment_sections(base: horizons.Horizon, figures: dict, *, long: horizons.Horizon | None = None,
                          results_dir: Path | None = None, model_json: Path | None = None) -> list[str]:
     """Each experiment's section of the report: its tables, notes, figures and run lines
-    (`figures[name]`: the future of its figures' lines, or of section 1.4's whole text), then
-    its subsection at the long horizon where there is one."""
+    (`figures[name]`: the future of its figures' lines, or of section 1.4's whole text), the
+    sections of its other runs (`figures[folder]`: theirs), then its subsection at the long
+    horizon where there is one, and the long horizon's other runs."""
     lines: list[str] = []
-    for name, d in experiments.items():
-        lines += _experiment_section(name, d, read, figures, claims, runs)
+    for name, d in base.experiments.items():
+        lines += _experiment_section(name, d, base, figures)
+        for other in base.others.get(name, []):
+            lines += other_run_lines(name, other, _config(other / "config.yaml"), d, base.folder,
+                                     figures[other].result(), base.deliveries[other])
         if long is not None and results_dir is not None:
-            lines += horizons.experiment_lines(name, results_dir, long, model_json, base_state=read[name][1])
+            lines += _long_lines(name, long, results_dir, model_json, base_state=base.read[name][1])
+    for name in (long.experiments if long is not None and results_dir is not None else {}):
+        if name not in base.experiments:  # run at the long horizon only
+            cfg = long.read[name][0]
+            lines += [f"## {name} (section {cfg.section or '?'})", "", str(cfg.description or "").strip(), "",
+                      "Not run at the chapter's durations here.", ""]
+            lines += _long_lines(name, long, results_dir, model_json)
     return lines
 
 
-def _experiment_section(name: str, d: Path, read: dict, figures: dict, claims: pd.DataFrame,
-                        runs: dict[str, pd.DataFrame]) -> list[str]:
+def _long_lines(name: str, long: horizons.Horizon, results_dir: Path, model_json: Path | None,
+                base_state: pd.DataFrame | None = None) -> list[str]:
+    """An experiment's subsection at the long horizon, then the sections of its other runs there."""
+    lines = horizons.experiment_lines(name, results_dir, long, model_json, base_state=base_state)
+    for other in long.others.get(name, []):
+        cfg = _config(other / "config.yaml")
+        drawn = draw_figures(name, other, cfg, long.folder, results_dir, model_json)
+        lines += other_run_lines(name, other, cfg, long.experiments[name], results_dir, drawn,
+                                 long.deliveries[other], f" at {horizons.label(long.factor)}")
+    return lines
+
+
+def _experiment_section(name: str, d: Path, base: horizons.Horizon, figures: dict) -> list[str]:
     """One experiment's section at the chapter's durations."""
-    cfg, state_time = read[name]
+    cfg, state_time = base.read[name]
+    claims, runs = base.claims, base.runs
     prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
     comparison = experiment_comparison(name, state_time)
     lines = [f"## {name} (section {cfg.section or '?'})", "", str(cfg.description or "").strip(), ""]
+    lines += choice_lines(name, [d, *base.others.get(name, [])], base.folder)
+    lines += base.deliveries[d]
     if (d / "table_1_1.csv").is_file():
         return [*lines, *figures[name].result(), *run_lines(name, cfg, prov, claims, runs)]
     table = TABLES.get(name)

@@ -31,8 +31,10 @@ CONVERGED_DIR = "converged"
 
 @dataclass
 class Horizon:
-    """One horizon's saved runs: the folder, its experiments (name -> folder), each one's
-    settings and state table, the per-trial tables the claims read, and the claims."""
+    """One horizon's saved runs: the folder, its experiments (name -> the folder of the run
+    the claims are tested on), each one's settings and state table, the per-trial tables the
+    claims read, the claims, the runs that did not finish, each experiment's other runs, and
+    what the report says of every run's deliveries (`text.delivery_lines`, by folder)."""
 
     folder: Path
     experiments: dict[str, Path]
@@ -40,6 +42,8 @@ class Horizon:
     runs: dict[str, pd.DataFrame]
     claims: pd.DataFrame
     unfinished: list[Path] = field(default_factory=list)
+    others: dict[str, list[Path]] = field(default_factory=dict)
+    deliveries: dict[Path, list[str]] = field(default_factory=dict)
 
     @property
     def factor(self) -> float:
@@ -249,13 +253,17 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
     if name not in long.experiments:
         return []
     from tavc_cli.analysis.comparison import experiment_comparison
-    from tavc_cli.report.figures import experiment_figures
-    from tavc_cli.report.text import run_lines, vacancy_lines
     from tavc_cli.reference import TABLES
+    from tavc_cli.report.figures import experiment_figures
+    from tavc_cli.report.runs import choice_lines
+    from tavc_cli.report.text import run_lines, vacancy_lines
 
     d = long.experiments[name]
     cfg, state_time = long.read[name]
+    prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
     lines = [f"### {name} at {label(long.factor)}", ""]
+    lines += choice_lines(name, [d, *long.others.get(name, [])], results_dir)
+    lines += long.deliveries.get(d, [])
     if name == "spatiotemporal":
         from tavc_cli.report.studies import spatiotemporal_lines
 
@@ -285,7 +293,6 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
     lines += vacancy_lines(d)
     lines += vacancy_mechanism_lines(d)
     lines += _claims_lines(name, long)
-    prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
     lines += run_lines(name, cfg, prov, long.claims.iloc[0:0], long.runs)  # its claims are above
     return lines
 

@@ -258,3 +258,66 @@ def late_start_lines(cfg: TavcConfig) -> list[str]:
             f"{float(cfg.baseline_lead_s):,.0f} s before {what} (`baseline_lead_s`), rather than from "
             f"{learner_start:,.0f} s as the learners', to {float(cfg.duration_s):,.0f} s; they are compared with "
             "the learners only after their start.", ""]
+
+
+def delivery_lines(d: Path, prov: dict) -> list[str]:
+    """One sentence where robots delivered nothing: in every trial of the run, or of one of
+    its controllers. Counted from the trial records `provenance.json` lists (a damaged one is
+    a `TavcError` naming it: call this before writing anything); where they are not all kept
+    (results committed without `trials/`), read from the value rates of `trial_stats.csv`
+    and `performance.csv` instead."""
+    delivered = _delivered_by_records(d, prov)
+    if delivered is None:
+        return _no_value_lines(d)
+    idle = [c for c, done in delivered.items() if not done]
+    if not idle:
+        return []
+    n = {c: sum(1 for t in prov["trials"] if t["controller"] == c) for c in delivered}
+    if len(idle) == len(delivered):
+        names = [CONTROLLER_NAMES.get(c, c) for c in idle]
+        names = ", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else names[0]
+        return [f"**No robot delivered anything in any trial of this run** ({_trials(sum(n.values()))} of {names}): "
+                "the tables and figures below describe robots that never completed a task, and no claim about "
+                "their allocation can be tested on them.", ""]
+    return ["No robot delivered anything in any trial of "
+            + " or of ".join(f"{CONTROLLER_NAMES.get(c, c)} ({_trials(n[c])})" for c in idle) + ".", ""]
+
+
+def _trials(n: int) -> str:
+    return f"{n} trial" if n == 1 else f"{n} trials"
+
+
+def _delivered_by_records(d: Path, prov: dict) -> dict[str, bool] | None:
+    """controller -> whether any of its trials has a delivery, from the records provenance.json
+    lists (each controller's read until one has); None unless every record is there."""
+    trials = prov.get("trials", [])
+    if not trials or not all((d / t["file"]).is_file() for t in trials):
+        return None
+    from tavc_cli.analysis.schema import damaged
+    from tavc_cli.experiments.records import TrialRecord
+
+    delivered: dict[str, bool] = {}
+    for t in trials:
+        c = str(t["controller"])
+        if not delivered.get(c):
+            try:
+                delivered[c] = len(TrialRecord.load(d / t["file"]).table("deliveries")["t_s"]) > 0
+            except Exception as exc:  # numpy's or zipfile's error: the file is damaged, whatever the library
+                raise damaged(d / t["file"], f"cannot be read ({type(exc).__name__}: {exc})") from None
+    return delivered
+
+
+def _no_value_lines(d: Path) -> list[str]:
+    """The sentence of `delivery_lines` from the tables: every value rate zero or empty."""
+    rates = []
+    if (d / "trial_stats.csv").is_file():
+        stats = pd.read_csv(d / "trial_stats.csv")
+        rates += [stats[c] for c in stats.columns if c.startswith("value_rate_")]
+    if (d / "performance.csv").is_file():
+        rates.append(pd.read_csv(d / "performance.csv")["mean"])
+    values = pd.concat(rates, ignore_index=True).dropna() if rates else pd.Series(dtype=float)
+    if not len(values) or (values != 0).any():
+        return []
+    return ["**Nothing was delivered in any trial of this run**: every value rate in its `trial_stats.csv` and "
+            "`performance.csv` is zero (its trial records, which would count the deliveries, are not kept here).",
+            ""]

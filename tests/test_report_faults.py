@@ -1,0 +1,374 @@
+"""Damaged results are refused on reading, never reported: a table cut short, a flipped byte,
+a truncated config.yaml each give one line naming the file, and `tavc report` writes nothing.
+Every finished run of a folder is reported, the claims tested on one per experiment; a run in
+which nothing was delivered says so; the API reads only the trials a run lists."""
+
+import csv
+import io
+import json
+import shutil
+import tempfile
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
+from typer.testing import CliRunner
+
+from tavc_cli import api
+from tavc_cli.analysis.schema import RunFacts, check_run
+from tavc_cli.cli import app
+from tavc_cli.config import load_config
+from tavc_cli.config import settings as to_settings
+from tavc_cli.errors import TavcError
+from tavc_cli.io import file_digest
+from tavc_cli.pipeline import run_experiment
+
+RESULTS = Path(__file__).resolve().parents[1] / "results"
+SMOKE = ["scale=smoke", "duration_s=120", "convergence_s=20", "executor.n_jobs=1"]
+BREAKDOWN = ["experiment=breakdown", *SMOKE, "trials=2", "baseline_trials=2", "static_trials=2"]
+REWRITE = "; rerun its experiment to rewrite it"
+runner = CliRunner()
+
+
+def _run(folder: Path, *overrides: str) -> Path:
+    run_experiment(to_settings(load_config([*overrides, f"output_dir={folder}"])))
+    return folder
+
+
+def _with_digests(folder: Path) -> Path:
+    """The run's provenance.json with the digest of every table, as `tavc run` records them
+    (added here where the run predates them, so that the tests below do not depend on it)."""
+    prov = json.loads((folder / "provenance.json").read_text())
+    if "tables" not in prov:
+        prov["tables"] = {p.name: file_digest(p) for p in sorted(folder.glob("*.csv"))}
+        (folder / "provenance.json").write_text(json.dumps(prov, indent=2))
+    return folder
+
+
+@pytest.fixture(scope="module")
+def breakdown(tmp_path_factory):
+    """A finished breakdown run (six robots, one breaks down) with its tables' digests."""
+    return _with_digests(_run(tmp_path_factory.mktemp("seed0") / "breakdown", *BREAKDOWN))
+
+
+@pytest.fixture(scope="module")
+def breakdown_seed1(tmp_path_factory):
+    """The same experiment on other seeds: a second run of it."""
+    return _with_digests(_run(tmp_path_factory.mktemp("seed1") / "breakdown", *BREAKDOWN, "seed=1"))
+
+
+@pytest.fixture(scope="module")
+def nothing_delivered(tmp_path_factory):
+    """A run whose robots are too heavy to move: no trial has a delivery."""
+    return _run(tmp_path_factory.mktemp("heavy") / "initial_distribution", "experiment=initial_distribution",
+                *SMOKE, "trials=1", "baselines=[]", "robot.mass_kg=1e9")
+
+
+@pytest.fixture(scope="module")
+def undamaged_report(breakdown, tmp_path_factory):
+    """REPORT.md of a folder holding the breakdown run as it was written."""
+    results = _results_with(tmp_path_factory.mktemp("undamaged"), breakdown)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    return (results / "REPORT.md").read_text()
+
+
+def _results_with(root: Path, *runs: Path, names: tuple[str, ...] = ()) -> Path:
+    """A results folder at root/results holding copies of `runs` (named as `names`, else as they are)."""
+    results = root / "results"
+    for k, run in enumerate(runs):
+        shutil.copytree(run, results / (names[k] if names else run.name))
+    return results
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _refused(results: Path, path: Path, what: str | None = None) -> str:
+    """Run the report on `results`; assert it refuses in one line naming `path` (saying `what`,
+    where given) and writes nothing; return the line."""
+    before = _files(results)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 1, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1, result.output
+    assert lines[0].startswith(f"error: {path}: ") and lines[0].endswith(REWRITE), lines[0]
+    if what is not None:
+        assert lines[0] == f"error: {path}: {what}{REWRITE}"
+    assert _files(results) == before  # no REPORT.md, claims.csv or figure, and no table touched
+    return lines[0]
+
+
+# --- 1. damaged tables -----------------------------------------------------------------------------
+
+
+def test_claims_4_and_5_are_not_turned_inconclusive_by_a_cut_trial_stats(tmp_path):
+    committed = pd.read_csv(RESULTS / "claims.csv").set_index("claim_id")
+    assert committed.loc[[4, 5], "verdict"].tolist() == ["not_reproduced", "not_reproduced"]
+    results = _results_with(tmp_path, RESULTS / "initial_distribution")
+    path = results / "initial_distribution" / "trial_stats.csv"
+    data = path.read_bytes()
+    path.write_bytes(data[:len(data) // 2])
+    _refused(results, path, "cut short (its last line has no newline)")
+    # cut at the end of a line: the rows it lost are trials provenance.json lists
+    path.write_bytes(b"".join(data.splitlines(keepends=True)[:26]))
+    line = _refused(results, path)
+    assert "no row for random trial 5, which provenance.json lists" in line
+
+
+def test_a_state_time_cut_at_byte_200_is_refused_not_printed(tmp_path):
+    results = _results_with(tmp_path, RESULTS / "initial_distribution")
+    path = results / "initial_distribution" / "state_time.csv"
+    path.write_bytes(path.read_bytes()[:200])
+    _refused(results, path, "cut short (its last line has no newline)")
+    # the API refuses it the same way
+    with pytest.raises(TavcError, match="cut short") as info:
+        _ = api.load(results / "initial_distribution").state_time
+    assert str(info.value) == f"{path}: cut short (its last line has no newline){REWRITE}"
+
+
+def test_a_state_time_cut_at_the_end_of_a_line_is_refused(tmp_path):
+    results = _results_with(tmp_path, RESULTS / "breakdown")
+    path = results / "breakdown" / "state_time.csv"
+    path.write_bytes(b"".join(path.read_bytes().splitlines(keepends=True)[:-2]))  # two theory rows gone
+    _refused(results, path, "the theory rows list 4 of the team's 6 states (cut short?)")
+
+
+def _edit_line(k: int, field: int, value: str):
+    """A damage: line k's field set to `value` (lines counted from 1, fields from 0)."""
+    def edit(data: bytes) -> bytes:
+        lines = data.decode().split("\n")
+        rows = list(csv.reader([lines[k - 1]]))[0]
+        rows[field] = value
+        out = io.StringIO()
+        csv.writer(out, lineterminator="").writerow(rows)
+        lines[k - 1] = out.getvalue()
+        return "\n".join(lines).encode()
+    return edit
+
+
+def _insert_line(k: int, line: str):
+    """A damage: `line` inserted as line k."""
+    def edit(data: bytes) -> bytes:
+        lines = data.decode().split("\n")
+        return "\n".join([*lines[:k - 1], line, *lines[k - 1:]]).encode()
+    return edit
+
+
+@pytest.mark.parametrize(("name", "edit", "what"), [
+    ("performance.csv", _insert_line(2, "0.0,tavc,0.0,0.0,2,9"), "line 2 has 6 fields, its header 5"),
+    ("performance.csv", _edit_line(2, 2, "abc"), "line 2: mean 'abc' is not a number"),
+    ("claims.csv", _edit_line(2, 2, "maybe"), "line 2: verdict 'maybe' is none of inconclusive, not_reproduced, "
+                                              "reproduced"),
+    ("trial_stats.csv", _edit_line(3, 1, "7"), "line 3: tavc trial 7 is not among the trials provenance.json lists"),
+    ("state_time.csv", _edit_line(4, 0, "4:4"), "line 4: state '4:4' is no state of this experiment's team"),
+    ("robots.csv", _edit_line(2, 0, ""), "line 2: no controller"),
+])
+def test_a_readable_but_malformed_table_is_refused_before_anything_is_written(breakdown, tmp_path, name, edit, what):
+    results = _results_with(tmp_path, breakdown)
+    path = results / "breakdown" / name
+    path.write_bytes(edit(path.read_bytes()))
+    _refused(results, path, what)
+
+
+def test_a_changed_number_is_caught_by_its_digest_alone(breakdown, tmp_path):
+    results = _results_with(tmp_path, breakdown)
+    path = results / "breakdown" / "trial_stats.csv"
+    duration = path.read_text().splitlines()[1].split(",")[2]
+    path.write_bytes(_edit_line(2, 2, f"{float(duration) + 1:.4f}")(path.read_bytes()))
+    _refused(results, path, "changed since its run wrote it (its SHA-256 is not the one provenance.json recorded)")
+    # without the digests (runs written before them) such a change has the shape of a table
+    prov = json.loads((results / "breakdown" / "provenance.json").read_text())
+    del prov["tables"]
+    (results / "breakdown" / "provenance.json").write_text(json.dumps(prov))
+    check_run(results / "breakdown")
+
+
+def test_a_damaged_trial_record_the_report_reads_is_refused_before_anything_is_written(breakdown, tmp_path):
+    results = _results_with(tmp_path, breakdown)
+    path = results / "breakdown" / "trials" / "tavc_000.npz"  # read for whether anything was delivered
+    path.write_bytes(path.read_bytes()[:100])
+    line = _refused(results, path)
+    assert line.startswith(f"error: {path}: cannot be read (")
+    with pytest.raises(TavcError, match="tavc_000.npz: cannot be read"):
+        api.load(results / "breakdown").records()
+
+
+# --- 2. config.yaml read and checked before anything is written --------------------------------------
+
+
+@pytest.mark.parametrize(("before", "what"), [
+    (b"\nsim:", "cut short (no 'sim' section)"),
+    (b"\nduration_s:", "cut short (no 'paper' section)"),
+    (b"\ncalibration:", "cut short (no 'calibration' section)"),
+    (None, None),  # halfway, wherever that falls
+])
+def test_a_truncated_config_is_refused_before_any_figure(breakdown, tmp_path, before, what):
+    results = _results_with(tmp_path, breakdown)
+    path = results / "breakdown" / "config.yaml"
+    data = path.read_bytes()
+    path.write_bytes(data[:data.index(before) + 1] if before else data[:len(data) // 2])
+    _refused(results, path, what)
+
+
+def test_every_committed_run_passes_the_checks():
+    runs = sorted(p.parent for p in RESULTS.rglob("provenance.json"))
+    assert len(runs) >= 12  # both horizons, the ladder's rungs, the value-ratio sweep
+    for run in runs:
+        check_run(run)
+
+
+def test_the_states_a_team_can_be_in():
+    breakdown = RunFacts.of(to_settings(load_config(["experiment=breakdown"])), None, Path("."))
+    assert breakdown.valid_state("3:2") and breakdown.valid_state("3:3")  # after the breakdown, and before
+    assert not any(map(breakdown.valid_state, ["4:4", "2:2", "3:2:1", "6", "a:b", "", "3:-1"]))
+    groups = RunFacts.of(to_settings(load_config(["experiment=heterogeneous"])), None, Path("."))
+    assert groups.valid_state("3:0") and groups.valid_state("0:3") and groups.valid_state("0:0")
+    assert not any(map(groups.valid_state, ["4:0", "0:4", "1:1:1", "6"]))
+    one_circuit = RunFacts.of(to_settings(load_config(["experiment=spatiotemporal"])), None, Path("."))
+    assert one_circuit.valid_state("5") and not one_circuit.valid_state("4") and not one_circuit.valid_state("5:0")
+
+
+# --- 3. every run of a folder reported ----------------------------------------------------------------
+
+
+def test_every_run_of_an_experiment_is_reported(breakdown, breakdown_seed1, tmp_path):
+    results = _results_with(tmp_path, breakdown, breakdown_seed1, names=("a", "b"))
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    first, second = result.output.splitlines()[:2]
+    assert first.startswith("claims reproduced: ") and first.endswith(" of 1 tested (breakdown in a)")
+    assert second == "also reported, in sections of their own: b (breakdown; its claims tested on a)"
+    text = (results / "REPORT.md").read_text()
+    assert text.count("\n## breakdown (section") == 1
+    assert ("There are 2 runs of breakdown here. The claims are tested on `a` (the first by name; none is named "
+            "after it); the others each have a section of their own below: `b`.") in text
+    other = text.split("\n### b: another run of breakdown\n")[1].split("\n## ")[0]
+    assert "The claims about breakdown are tested on `a`, not on this run, which differs from it in seed 1 (`a`: 0)." \
+        in other
+    assert "| 3:2 |" in other and "![Figure 1.8, tavc](figures/runs/b/fig_1_8.png)" in other
+    assert (results / "figures" / "fig_1_8.png").is_file() and (results / "figures" / "runs" / "b" / "fig_1_8.png")\
+        .is_file()
+    # the claims are run a's, as its own run tested them
+    claims = pd.read_csv(results / "claims.csv")
+    own = pd.read_csv(results / "a" / "claims.csv")
+    pd.testing.assert_frame_equal(own, claims[claims["claim_id"].isin(own["claim_id"])].reset_index(drop=True),
+                                  check_dtype=False)
+    assert "delivered anything" not in text
+
+
+def test_the_run_named_after_its_experiment_is_the_one_tested(breakdown, breakdown_seed1, tmp_path):
+    results = _results_with(tmp_path, breakdown_seed1, breakdown, names=("a_first", "breakdown"))
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    first, second = result.output.splitlines()[:2]
+    assert first.startswith("claims reproduced: ") and first.endswith(" of 1 tested (breakdown)")
+    assert second == "also reported, in sections of their own: a_first (breakdown; its claims tested on breakdown)"
+    text = (results / "REPORT.md").read_text()
+    assert "The claims are tested on `breakdown` (the folder named after the experiment)" in text
+    assert "\n### a_first: another run of breakdown\n" in text
+    claims = pd.read_csv(results / "claims.csv")
+    own = pd.read_csv(results / "breakdown" / "claims.csv")
+    pd.testing.assert_frame_equal(own, claims[claims["claim_id"].isin(own["claim_id"])].reset_index(drop=True),
+                                  check_dtype=False)
+
+
+# --- 4. a run with no delivery ------------------------------------------------------------------------
+
+
+def test_a_run_where_no_robot_delivered_says_so(nothing_delivered, tmp_path):
+    results = _results_with(tmp_path, nothing_delivered)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    section = (results / "REPORT.md").read_text().split("\n## initial_distribution")[1].split("\n## ")[0]
+    assert ("**No robot delivered anything in any trial of this run** (1 trial of TAVC): the tables and figures "
+            "below describe robots that never completed a task, and no claim about their allocation can be tested "
+            "on them.") in section
+    # without the trial records (results committed without trials/), from the tables' value rates
+    shutil.rmtree(results / "initial_distribution" / "trials")
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    section = (results / "REPORT.md").read_text().split("\n## initial_distribution")[1].split("\n## ")[0]
+    assert ("**Nothing was delivered in any trial of this run**: every value rate in its `trial_stats.csv` and "
+            "`performance.csv` is zero") in section
+
+
+# --- 5. the API reads the run's own trials ------------------------------------------------------------
+
+
+def test_the_api_reads_only_the_trials_provenance_lists(breakdown, tmp_path):
+    folder = tmp_path / "breakdown"
+    shutil.copytree(breakdown, folder)
+    listed = json.loads((folder / "provenance.json").read_text())["trials"]
+    shutil.copy(folder / "trials" / "tavc_000.npz", folder / "trials" / "tavc_002.npz")  # left by a larger run
+    res = api.load(folder)
+    records = res.records()
+    assert sorted((r.meta["controller"], int(r.meta["trial"])) for r in records) == sorted(
+        (t["controller"], t["trial"]) for t in listed)
+    assert len(res.events("deliveries")) == sum(len(r.table("deliveries")["t_s"]) for r in records)
+    # a folder without provenance.json (a run that did not finish) reads every file in trials/
+    (folder / "provenance.json").unlink()
+    assert len(api.load(folder).records()) == len(listed) + 1
+
+
+def test_the_api_names_a_listed_trial_file_that_is_gone(breakdown, tmp_path):
+    folder = tmp_path / "breakdown"
+    shutil.copytree(breakdown, folder)
+    (folder / "trials" / "random_001.npz").unlink()
+    with pytest.raises(TavcError, match="random_001.npz: missing, though provenance.json lists it"):
+        api.load(folder).events("deliveries")
+
+
+def test_the_api_checks_a_table_as_the_report_does(breakdown, tmp_path):
+    folder = tmp_path / "breakdown"
+    shutil.copytree(breakdown, folder)
+    pd.testing.assert_frame_equal(api.load(folder).table("trial_stats"), pd.read_csv(folder / "trial_stats.csv"))
+    path = folder / "trial_stats.csv"
+    path.write_bytes(path.read_bytes().replace(b"\ntavc,1,", b"\ntavc,7,", 1))
+    with pytest.raises(TavcError) as info:
+        api.load(folder).table("trial_stats")
+    assert str(info.value) == f"{path}: line 3: tavc trial 7 is not among the trials provenance.json lists{REWRITE}"
+
+
+# --- any damage to any table -------------------------------------------------------------------------
+
+
+@st.composite
+def damage(draw, names: list[str]):
+    """(table, how, where): cut the table at `where` (a fraction of its length: at 1.0 nothing is
+    cut), or flip some bits of its byte there."""
+    return (draw(st.sampled_from(names)), draw(st.sampled_from(["cut", "flip"])), draw(st.floats(0.0, 1.0)),
+            draw(st.integers(min_value=1, max_value=255)))
+
+
+@pytest.mark.slow
+def test_any_damage_to_any_table_is_refused_or_changes_nothing(breakdown, undamaged_report):
+    names = sorted(p.name for p in breakdown.glob("*.csv"))
+
+    @settings(max_examples=60, deadline=None, database=None, derandomize=True,
+              suppress_health_check=[HealthCheck.too_slow])
+    @given(damage(names))
+    @example(("state_time.csv", "cut", 1.0, 1))  # a cut at the end: the same table
+    def check(case):
+        name, how, where, xor = case
+        with tempfile.TemporaryDirectory() as tmp:
+            results = _results_with(Path(tmp), breakdown)
+            path = results / "breakdown" / name
+            data = path.read_bytes()
+            if how == "cut":
+                damaged = data[:round(where * len(data))]
+            else:
+                at = min(int(where * len(data)), len(data) - 1)
+                damaged = data[:at] + bytes([data[at] ^ xor]) + data[at + 1:]
+            path.write_bytes(damaged)
+            if damaged == data:
+                result = runner.invoke(app, ["report", str(results)])
+                assert result.exit_code == 0, result.output
+                assert (results / "REPORT.md").read_text() == undamaged_report
+            else:
+                _refused(results, path)
+
+    check()
