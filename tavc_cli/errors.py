@@ -44,3 +44,33 @@ def sigterm_raises() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def interrupts_not_swallowed() -> None:
+    """Make a Ctrl-C or SIGTERM that lands inside a finalizer (a pymunk body freed by the
+    garbage collector, say) stop the run as anywhere else.
+
+    Python cannot raise from a finalizer: it prints the exception as "ignored", with a
+    traceback, and carries on, so the interrupt would be lost. Here it is passed on, quietly,
+    to the main thread, as the same signal again."""
+    import _thread
+    import sys
+
+    default = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            signum = signal.SIGTERM if isinstance(unraisable.exc_value, Terminated) else signal.SIGINT
+            # from another thread, once this hook is over: raised in here, it would be swallowed again
+            threading.Thread(target=_interrupt_later, args=(_thread.interrupt_main, signum), daemon=True).start()
+            return
+        default(unraisable)
+
+    sys.unraisablehook = hook
+
+
+def _interrupt_later(interrupt, signum: int) -> None:
+    import time
+
+    time.sleep(0.02)
+    interrupt(signum)
