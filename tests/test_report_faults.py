@@ -224,7 +224,7 @@ def test_every_committed_run_passes_the_checks():
 def test_the_states_a_team_can_be_in():
     breakdown = RunFacts.of(to_settings(load_config(["experiment=breakdown"])), None, Path("."))
     assert breakdown.valid_state("3:2") and breakdown.valid_state("3:3")  # after the breakdown, and before
-    assert not any(map(breakdown.valid_state, ["4:4", "2:2", "3:2:1", "6", "a:b", "", "3:-1"]))
+    assert not any(map(breakdown.valid_state, ["4:4", "2:2", "3:2:1", "6", "a:b", "", "3:-1", "3:²"]))
     groups = RunFacts.of(to_settings(load_config(["experiment=heterogeneous"])), None, Path("."))
     assert groups.valid_state("3:0") and groups.valid_state("0:3") and groups.valid_state("0:0")
     assert not any(map(groups.valid_state, ["4:0", "0:4", "1:1:1", "6"]))

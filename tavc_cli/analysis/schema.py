@@ -20,7 +20,6 @@ rewrite it")`.
 from __future__ import annotations
 
 import csv
-import dataclasses
 import io
 import json
 import math
@@ -106,8 +105,10 @@ TABLES: dict[str, TableSchema] = {
                           choices={"verdict": frozenset({"reproduced", "not_reproduced", "inconclusive"})},
                           empty_ok=False),
 }
-# the settings' sections, each written as a block of config.yaml, `calibration` last
-SECTIONS = tuple(f.name for f in dataclasses.fields(TavcConfig) if dataclasses.is_dataclass(f.default_factory))
+# the settings' sections every config.yaml tavc has written holds, each a block, `calibration` last (a
+# section added later is not asked of the files written before it)
+SECTIONS = ("arena", "robot", "team", "learner", "scale", "executor", "paper", "tasks", "events", "sim", "analysis",
+            "model", "calibration")
 STATE_PREFIX = "pct_"  # trial_stats: one column of shares per state (`analysis.trial_stats`)
 REWRITE = "rerun its experiment to rewrite it"
 
@@ -154,7 +155,7 @@ class RunFacts:
         first) adding up to the robots working, or robots of each group on the high-value
         circuit, none more than the group has."""
         parts = label.split(":")
-        if not all(p.isdigit() for p in parts):
+        if not all(p.isascii() and p.isdigit() for p in parts):
             return False
         counts = [int(p) for p in parts]
         if self.scheme == "groups":
