@@ -121,7 +121,8 @@ def damaged(path: Path, what: str) -> TavcError:
 @dataclass(frozen=True)
 class RunFacts:
     """What a run's tables are checked against: the trials its `provenance.json` lists
-    ((controller, trial) pairs; None without one), the digests it recorded (None without),
+    ((controller, trial) pairs; None where it lists none, or there is none), the digests it
+    recorded (None without),
     and the states its team can be in: `scheme` (`analysis.state`), the robots per
     `groups` fastest first (one group for the circuits scheme), the circuits, and the
     fewest robots working at once (after every breakdown)."""
@@ -145,7 +146,8 @@ class RunFacts:
         sizes = tuple(names.count(g) for g in group_order(names, speeds)) if scheme == "groups" else (len(names),)
         trials = digests = None
         if provenance is not None:
-            trials = frozenset((str(t["controller"]), int(t["trial"])) for t in provenance["trials"])
+            # a provenance listing no trial (a folder made by hand) gives none to check against
+            trials = frozenset((str(t["controller"]), int(t["trial"])) for t in provenance["trials"]) or None
             digests = provenance.get("tables")
         return cls(folder, trials, digests, scheme, sizes, len(cfg.arena.circuits),
                    len(names) - len(cfg.events.breakdowns))
