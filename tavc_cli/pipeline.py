@@ -106,7 +106,8 @@ def _finish(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
     """An experiment's tables, claims and provenance from its trials; its summary."""
     tables, claims = write_analysis(cfg, run.output_dir, run.records, owned)
     owned.wrote("provenance.json")
-    write_provenance(cfg, run, sorted(n for n in owned.files if n.endswith(".csv") and (run.output_dir / n).is_file()))
+    written = [n for n in owned.files if n.endswith(".csv") or n == "config.yaml"]
+    write_provenance(cfg, run, sorted(n for n in written if (run.output_dir / n).is_file()))
     return {"output_dir": str(run.output_dir), "n_trials": len(run.specs), "n_reused": run.n_reused,
             "wall_time_s": run.wall_time_s, "tables": tables, "claims": claims}
 

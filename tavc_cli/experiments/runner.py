@@ -126,8 +126,9 @@ def load_records(cfg: TavcConfig, run: Run) -> Run:
 
 def write_provenance(cfg: TavcConfig, run: Run, tables: list[str] = ()) -> None:
     """`provenance.json`, written last: the run is complete once it is there. `tables` (file
-    names in the run's folder) are recorded with their SHA-256 (``tables``), so that whoever
-    reads them can tell a table this run wrote from a damaged or edited one."""
+    names in the run's folder: its tables and `config.yaml`) are recorded with their SHA-256
+    (``tables``), so that whoever reads them can tell a file this run wrote from a damaged or
+    edited one."""
     record = provenance(cfg, run.specs, run.wall_time_s, run.n_reused)
     record["tables"] = {name: file_digest(run.output_dir / name) for name in sorted(tables)}
     write_text_atomic(run.output_dir / "provenance.json", json.dumps(record, indent=2, default=str))
