@@ -169,6 +169,7 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
     in the same job, their history shared with the experiments' trials (`config.load_ladder`),
     and follow the experiments as ``ladder x<factor>``; ``experiments=[]`` runs the ladder alone."""
     from tavc_cli import config
+    from tavc_cli.ownership import LADDER, RESULTS, expect
     from tavc_cli.pipeline import run_experiments
 
     names = [experiments] if isinstance(experiments, str) else experiments
@@ -176,6 +177,9 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
     rungs = config.load_ladder(ladder, list(overrides), results_dir) if ladder else []
     if not cfgs and not rungs:
         raise TavcError("--experiments: no experiment and no ladder to run")
+    expect(Path(results_dir), RESULTS, "--results")  # the report goes there at the end: checked before hours of runs
+    if rungs:
+        expect(Path(results_dir) / "ladder", LADDER, "--results")
     summaries = run_experiments([config.settings(cfg) for cfg in [*cfgs, *rungs]], progress=progress)
     out = [(str(cfg.experiment_name), summary) for cfg, summary in zip(cfgs, summaries, strict=False)]
     if rungs:

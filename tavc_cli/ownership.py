@@ -42,7 +42,8 @@ REPORT_TITLE = "# tavc: the reproduction report"
 RUN_FILES = ("config.yaml", "provenance.json", "failures.log")
 SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
 LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
-RESULTS_FILES = ("REPORT.md", "claims.csv")
+RESULTS_FILES = ("REPORT.md", "claims.csv", "value_ratio.csv")
+CLAIMS_HEADER = "claim_id,claim,verdict"
 MODEL_FILES = ("model.csv", "model.json")
 CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
     f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))
@@ -138,12 +139,27 @@ def _earlier_kind(folder: Path) -> str | None:
         with open(report, "rb") as fh:
             if fh.read(len(REPORT_TITLE)).decode(errors="replace") == REPORT_TITLE:
                 return RESULTS
-    for kind, mark in ((LADDER, "ladder.csv"), (MODEL, "model.json"), (CALIBRATION, "search.json")):
+    for kind, mark in ((LADDER, "ladder.csv"), (MODEL, "model.json"), (CALIBRATION, "search.json"),
+                       (RESULTS, "value_ratio.csv")):
         if (folder / mark).is_file():
             return kind
+    claims = folder / "claims.csv"  # the long horizon's claims, beside its runs
+    if claims.is_file():
+        with open(claims, "rb") as fh:
+            if fh.read(len(CLAIMS_HEADER)).decode(errors="replace") == CLAIMS_HEADER:
+                return RESULTS
     if (folder / "sweep.csv").is_file():
         return SWEEP
     return None
+
+
+def expect(folder: Path, kind: str, what: str = "output_dir") -> None:
+    """Refuse, with one line and before anything is run, a folder that holds another kind of
+    output than `kind` (a command that writes there at its end checks early with this)."""
+    owned = read(Path(folder)) if Path(folder).is_dir() else None
+    if owned is not None and owned.kind != kind:
+        raise TavcError(f"{what}: {folder} is {_WHAT.get(owned.kind, owned.kind)}, not {_WHAT[kind]}; "
+                        "choose another folder")
 
 
 def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir") -> Owned:
@@ -152,10 +168,8 @@ def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir
     folder or file, a folder of another kind, a run's folder holding anything not tavc's, and a
     file in the way that tavc did not write. The caller holds the folder (`io.claim_folder`)."""
     folder = Path(folder)
+    expect(folder, kind, what)
     owned = read(folder)
-    if owned is not None and owned.kind != kind:
-        raise TavcError(f"{what}: {folder} is {_WHAT.get(owned.kind, owned.kind)}, not {_WHAT[kind]}; "
-                        "choose another folder")
     if owned is None:
         owned = Owned(folder, kind)
         if kind == RUN:

@@ -154,3 +154,20 @@ def test_a_ladder_never_replaces_a_table_it_did_not_write(tmp_path, finished):
         write_ladder(tmp_path, [finished])
     assert (tmp_path / "ladder.csv").read_text() == "mine\n"
     assert not (tmp_path / LOCK_NAME).exists()
+
+
+def test_a_report_or_reproduce_aimed_at_a_run_folder_is_refused_before_anything_runs(finished, tmp_path):
+    from tavc_cli.api import reproduce_summaries
+    from tavc_cli.report import build_report
+
+    out = _copy(finished, tmp_path)
+    before = _snapshot(out)
+    with pytest.raises(TavcError, match=r"--results: .* is a tavc run's folder, not a results folder"):
+        reproduce_summaries(["scale=smoke"], experiments=["breakdown"], results_dir=out)
+    assert _snapshot(out) == before
+    (tmp_path / "mine").mkdir()
+    shutil.copytree(finished, tmp_path / "mine" / "initial_distribution")
+    (tmp_path / "mine" / "REPORT.md").write_text("my own report\n")
+    with pytest.raises(TavcError, match=r"REPORT.md was not written by tavc"):
+        build_report(tmp_path / "mine")
+    assert (tmp_path / "mine" / "REPORT.md").read_text() == "my own report\n"

@@ -119,6 +119,21 @@ def _read(path: Path, read):
         raise TavcError(f"{path}: cannot be read ({detail}); rerun its experiment to rewrite it") from None
 
 
+def _take_results(results_dir: Path, long_dir: Path | None) -> None:
+    """Check, before anything is written, that the report may write its files (`ownership.take`):
+    REPORT.md and claims.csv on top, the long horizon's claims.csv, the value-ratio table; a
+    folder that is a run's, or a file of those names that tavc did not write, is refused."""
+    from tavc_cli.ownership import RESULTS, take
+
+    roots = [(results_dir, ("REPORT.md", "claims.csv"))]
+    if long_dir is not None:
+        roots.append((long_dir, ("claims.csv",)))
+    if (results_dir / "value_ratio").is_dir():
+        roots.append((results_dir / "value_ratio", ("value_ratio.csv",)))
+    for folder, files in roots:
+        take(folder, RESULTS, files, what="RESULTS_DIR").wrote(*files)
+
+
 def build_report(results_dir: Path) -> dict:
     """Write `claims.csv` and `REPORT.md` under results_dir; return what was found."""
     results_dir = Path(results_dir)
@@ -134,6 +149,7 @@ def build_report(results_dir: Path) -> dict:
                         f"({results_dir.parent})")
     if not experiments:
         raise TavcError(f"RESULTS_DIR: no finished runs under {results_dir} (run `tavc run experiment=...` first)")
+    _take_results(results_dir, long_dir if found_long else None)
     base = _horizon(results_dir, found, unfinished)
     runs, claims = base.runs, base.claims
     tested, n_ok = base.tested, base.n_reproduced
