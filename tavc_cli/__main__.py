@@ -2,33 +2,62 @@
 
 Typer would print a mistyped option or command as a framed usage box; here it is one
 ``error: ...`` line and exit status 2, like every other mistake (the commands themselves
-turn tavc's own errors into one line, `cli._user_errors`).
+turn tavc's own errors into one line, `console.user_errors`).
+
+Ctrl-C is one line and exit status 130 at any moment: the command line (Typer, Hydra, the
+simulator's modules) is imported inside `main`, so that an interrupt while it loads is caught
+as any other is, and once the command is done a second Ctrl-C during the interpreter's exit
+ends it at once rather than printing a traceback from the middle of its clean-up.
 """
 
+import os
+import signal
 import sys
-
-import typer
-
-from tavc_cli.cli import app
-
-# click's UsageError, wherever this Typer keeps click (its own copy, in recent versions)
-_USAGE_ERROR = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
 
 
 def main() -> None:
     """Run the command line; a usage error (unknown option or command, a value the option's
-    type refuses) is one line."""
+    type refuses) is one line, and so is Ctrl-C however early it comes."""
+    try:
+        code = _run()
+    except KeyboardInterrupt:
+        code = _interrupted()
+    signal.signal(signal.SIGINT, _exit_interrupted)
+    sys.exit(code)
+
+
+def _run() -> int:
+    import typer
+
+    from tavc_cli import console
+    from tavc_cli.cli import app
+
+    # click's UsageError, wherever this Typer keeps click (its own copy, in recent versions)
+    usage_error = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
     try:
         code = app(prog_name="tavc", standalone_mode=False)
-    except _USAGE_ERROR as error:
+    except usage_error as error:
         message = " ".join(error.format_message().split())
         if message:  # none when the help was shown for want of arguments
             print(f"error: {message} (tavc --help)", file=sys.stderr)
-        sys.exit(error.exit_code)
+        return error.exit_code
     except typer.Abort:
-        print("error: interrupted", file=sys.stderr)
-        sys.exit(130)
-    sys.exit(code if isinstance(code, int) else 0)
+        return _interrupted()
+    if code == 130 and not console.shown:  # Typer's own exit on Ctrl-C outside a command's handling
+        return _interrupted()
+    return code if isinstance(code, int) else 0
+
+
+def _interrupted() -> int:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # one line, however often Ctrl-C is pressed
+    print("error: interrupted", file=sys.stderr)
+    return 130
+
+
+def _exit_interrupted(signum, frame) -> None:
+    """Ctrl-C while the interpreter exits: one line, and out at once."""
+    os.write(2, b"error: interrupted\n")
+    os._exit(130)
 
 
 if __name__ == "__main__":

@@ -3,8 +3,9 @@
 Each command parses its arguments and hands them to one function: a keyword-only one below it,
 or the Python API's (`tavc_cli.api`, which `tavc model` and `tavc calibrate` share with
 notebooks); those functions load the config, call the library, and print. There is no domain logic here. A
-``TavcError`` anywhere becomes one ``error: ...`` line on stderr and exit status 1; Ctrl-C
-becomes exit status 130. Any other exception is a bug and keeps its traceback.
+``TavcError`` or an ``OSError`` anywhere becomes one ``error: ...`` line on stderr and exit status 1;
+Ctrl-C becomes exit status 130 (`console.user_errors`). Any other exception is a bug and keeps its
+traceback.
 
 Modules that pull in the simulator are imported inside the commands that need them, so that
 ``tavc config`` and ``tavc list`` start fast.
@@ -12,15 +13,15 @@ Modules that pull in the simulator are imported inside the commands that need th
 
 import functools
 import sys
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
 import typer
 
 from tavc_cli import __version__, config
-from tavc_cli.errors import TavcError, Terminated, sigterm_raises
+from tavc_cli.console import summary_text
+from tavc_cli.console import user_errors as _user_errors
 
 app = typer.Typer(
     name="tavc",
@@ -52,21 +53,6 @@ ProgressFlag = Annotated[
 def _shown(progress: Optional[bool]) -> bool:
     """Whether to show progress: as asked, else when stdout is a terminal."""
     return sys.stdout.isatty() if progress is None else progress
-
-
-@contextmanager
-def _user_errors() -> Iterator[None]:
-    """Turn a ``TavcError`` into one line and exit 1, Ctrl-C into exit 130, SIGTERM into 143."""
-    try:
-        with sigterm_raises():
-            yield
-    except TavcError as error:
-        typer.echo(f"error: {error}", err=True)
-        raise typer.Exit(code=1) from None
-    except KeyboardInterrupt as stop:
-        terminated = isinstance(stop, Terminated)
-        typer.echo(f"error: {'terminated' if terminated else 'interrupted'}", err=True)
-        raise typer.Exit(code=143 if terminated else 130) from None
 
 
 def _show_version(value: bool) -> None:
@@ -120,7 +106,7 @@ def run(
     progress: ProgressFlag = None,
 ) -> None:
     """Run every trial and controller an experiment needs and write its results."""
-    with _user_errors():
+    with _user_errors(folder=lambda: config.load_config(overrides or []).output_dir):
         _run(
             overrides=overrides or [],
             multirun=multirun,
@@ -147,7 +133,7 @@ def reproduce(
     progress: ProgressFlag = None,
 ) -> None:
     """Run several experiments at once, the history their trials share simulated once."""
-    with _user_errors():
+    with _user_errors(folder=lambda: results):
         _reproduce(
             overrides=overrides or [],
             names=experiments,
@@ -169,7 +155,7 @@ def ladder_command(
     progress: ProgressFlag = None,
 ) -> None:
     """initial_distribution at several multiples of the chapter's durations, history shared; ladder.csv."""
-    with _user_errors():
+    with _user_errors(folder=lambda: results):
         _reproduce(overrides=overrides or [], names="", results=results, progress=_shown(progress),
                    ladder=config.parse_factors(factors))
 
@@ -188,7 +174,7 @@ def model(
 ) -> None:
     """Measure c_i(n) in the simulator and apply the TAVC model: slot values, predicted
     allocation, constraints (1.3)/(1.4) and calibrated task values."""
-    with _user_errors():
+    with _user_errors(folder=lambda: config.load_config(overrides or []).output_dir):
         from tavc_cli.api import model as run_model
 
         run_model(overrides or [], save_calibration=save_calibration, progress=_shown(progress), echo=typer.echo)
@@ -294,7 +280,7 @@ def report(
     ] = Path("results"),
 ) -> None:
     """Write RESULTS_DIR/REPORT.md and claims.csv from saved results (never simulates)."""
-    with _user_errors():
+    with _user_errors(folder=lambda: results_dir):
         _report(results_dir)
 
 
@@ -365,10 +351,9 @@ def _write_sweep(values: list[dict[str, str]], folders: list[Path]) -> None:
 
 
 def _print_summary(summary: dict[str, Any]) -> None:
-    """Print where results went, how many trials ran, and the state and performance summary."""
-    from tavc_cli.analysis.summary import run_summary_text
-
-    typer.echo(run_summary_text(summary))
+    """Print where results went, how many trials ran, the state and performance summary, and
+    whether anything was delivered (`console.summary_text`)."""
+    typer.echo(summary_text(summary))
 
 
 def _bench(*, scenario: str, n_robots: int, n_rays: Optional[int] = None, **options: Any) -> None:

@@ -1,7 +1,12 @@
 """The ``tavc`` command line: help, config, list, and one-line errors."""
 
+import os
+import re
+import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -197,3 +202,147 @@ def test_a_sweep_holds_its_folder_and_an_empty_sweep_is_refused(tmp_path):
     assert result.exit_code == 1
     assert result.output.strip() == "error: seed: the sweep gives it no values, so there is no job to run"
     assert not (tmp_path / LOCK_NAME).exists()
+
+
+# ------------------------------------------------------------------------------- faults of the machine
+
+
+def _failing_saves(monkeypatch, counter: Path, after: int, error) -> None:
+    """Trial records fail to save with `error(path)` after the first `after` (counted in a file,
+    so that worker processes count too)."""
+    from tavc_cli.experiments.records import TrialRecord
+
+    counter.write_text("0")
+    save = TrialRecord.save
+
+    def failing(self, path):
+        done = int(counter.read_text())
+        counter.write_text(str(done + 1))
+        if done >= after:
+            raise error(path)
+        return save(self, path)
+
+    monkeypatch.setattr(TrialRecord, "save", failing)
+
+
+SMALL_RUN = ["run", "scale=smoke", "experiment=initial_distribution", "executor.n_jobs=1", "executor.batch_size=1"]
+
+
+def test_a_full_disk_is_one_line_and_the_finished_trials_resume(tmp_path, monkeypatch):
+    import errno
+
+    out = tmp_path / "out"
+    _failing_saves(monkeypatch, tmp_path / "saves", 2,
+                   lambda path: OSError(errno.ENOSPC, "No space left on device", str(path)))
+    result = runner.invoke(app, [*SMALL_RUN, f"output_dir={out}"])
+    assert result.exit_code == 1
+    assert result.output.splitlines() == [
+        f"error: {out / 'trials' / 'random_000.npz'}: No space left on device; free some space on that disk or "
+        "choose another output_dir (finished trials are kept: rerun the same command to resume)"]
+    monkeypatch.undo()  # space again
+    result = runner.invoke(app, [*SMALL_RUN, f"output_dir={out}"])
+    assert result.exit_code == 0, result.output
+    assert "trials: 4 (2 reused)" in result.output
+
+
+def test_an_os_error_without_a_file_names_the_output_folder(tmp_path, monkeypatch):
+    """As one raised in a worker process and sent back to the run arrives: no file name."""
+    import errno
+
+    out = tmp_path / "out"
+    _failing_saves(monkeypatch, tmp_path / "saves", 0, lambda path: OSError(errno.ENOSPC, "No space left on device"))
+    result = runner.invoke(app, [*SMALL_RUN, f"output_dir={out}"])
+    assert result.exit_code == 1
+    assert result.output.startswith(f"error: {out}: No space left on device; free some space")
+    assert len(result.output.splitlines()) == 1
+
+
+def test_a_trials_folder_without_write_permission_is_one_line(tmp_path, monkeypatch):
+    import errno
+
+    out = tmp_path / "out"
+    # what atomic_path's temporary file beside the record raises in a folder one may not write
+    _failing_saves(monkeypatch, tmp_path / "saves", 0, lambda path: PermissionError(
+        errno.EACCES, "Permission denied", str(Path(path).parent / f".{Path(path).name}.x1y2.tmp")))
+    result = runner.invoke(app, [*SMALL_RUN, f"output_dir={out}"])
+    assert result.exit_code == 1
+    assert result.output.splitlines() == [
+        f"error: {out / 'trials'}: Permission denied; make the folder writable for you or choose another "
+        "output_dir (finished trials are kept: rerun the same command to resume)"]
+
+
+@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root writes where permissions forbid")
+def test_a_real_trials_folder_without_write_permission_is_one_line(tmp_path):
+    out = tmp_path / "out"
+    (out / "trials").mkdir(parents=True)
+    (out / "trials").chmod(0o500)
+    try:
+        result = subprocess.run([sys.executable, "-m", "tavc_cli", *SMALL_RUN, f"output_dir={out}"],
+                                capture_output=True, text=True, timeout=300)
+    finally:
+        (out / "trials").chmod(0o700)
+    assert result.returncode == 1
+    assert result.stderr.startswith(f"error: {out / 'trials'}: Permission denied;"), result.stderr
+    assert len(result.stderr.splitlines()) == 1
+
+
+def test_a_real_full_disk_is_one_line(tmp_path):
+    """On a tmpfs of 100 kB, mounted in a mount namespace of this process's own (skipped where the
+    system does not let a process make one)."""
+    if not shutil.which("unshare") or subprocess.run(
+            ["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size=100k tmpfs {tmp_path}"],
+            capture_output=True).returncode != 0:
+        pytest.skip("cannot mount a small tmpfs here")
+    out = tmp_path / "out"
+    command = " ".join([sys.executable, "-m", "tavc_cli", *SMALL_RUN, "trials=8", f"output_dir={out}", "--no-progress"])
+    result = subprocess.run(["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size=100k tmpfs {tmp_path} && "
+                             f"cd {REPO_ROOT} && {command}; echo rc=$?; ls {out / 'trials'}"],
+                            capture_output=True, text=True, timeout=300)
+    assert "rc=1" in result.stdout, result.stdout + result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {out}"), result.stderr
+    assert lines[0].endswith(": No space left on device; free some space on that disk or choose another output_dir "
+                             "(finished trials are kept: rerun the same command to resume)"), lines[0]
+    assert ".npz" in result.stdout  # the trials finished before the disk filled are there
+
+
+def test_ctrl_c_at_any_moment_is_one_line_and_exit_130(tmp_path):
+    """While the modules load (before any command runs), and in the middle of a run."""
+    interrupted = 0
+    for args, delay in ((["config", "scale=smoke"], 0.1), (["config", "scale=smoke"], 0.25),
+                        (["config", "scale=smoke"], 0.5), ([*SMALL_RUN, "trials=8", f"output_dir={tmp_path}"], 1.5)):
+        process = subprocess.Popen([sys.executable, "-m", "tavc_cli", *args], cwd=REPO_ROOT, stdout=subprocess.PIPE,
+                                   stderr=subprocess.PIPE, text=True, start_new_session=True)
+        time.sleep(delay)
+        os.killpg(process.pid, signal.SIGINT)  # as the terminal sends Ctrl-C: to every process of the group
+        _, stderr = process.communicate(timeout=60)
+        assert "Traceback" not in stderr, stderr
+        # killed by SIGINT itself (the shell's 130 too) only once the interpreter is winding down
+        if stderr:
+            assert stderr.strip() == "error: interrupted" and process.returncode in (130, -signal.SIGINT), stderr
+            interrupted += 1
+        else:  # done before the signal came, or ended by it in the interpreter's last moments
+            assert process.returncode in (0, -signal.SIGINT)
+    assert interrupted >= 2
+
+
+# ------------------------------------------------------------------------------- what a summary says
+
+
+def test_a_run_in_which_nothing_was_delivered_says_so(tmp_path):
+    result = runner.invoke(app, ["run", "scale=smoke", "experiment=initial_distribution", "robot.mass_kg=1e9",
+                                 "trials=1", f"output_dir={tmp_path / 'out'}"])
+    assert result.exit_code == 0, result.output
+    warnings = [line for line in result.output.splitlines() if line.startswith("warning:")]
+    assert warnings == ["warning: nothing was delivered: no robot delivered anything in any of the 2 trials, so no "
+                        "claim could be tested; can the robots move and reach the targets? (robot.mass_kg, "
+                        "robot.drive_force_n, arena.walls)"]
+
+
+def test_one_trial_shows_no_spread(tmp_path):
+    result = runner.invoke(app, ["run", "scale=smoke", "experiment=initial_distribution", "trials=1",
+                                 f"output_dir={tmp_path / 'out'}"])
+    assert result.exit_code == 0, result.output
+    rows = [line for line in result.output.splitlines() if re.match(r"\s+\d:\d ", line)]
+    assert len(rows) == 7 and all(line.count("+- nan") == 2 for line in rows), result.output
+    assert "+- 0.0" not in result.output and "warning:" not in result.output

@@ -1,0 +1,136 @@
+"""What the command line shows when things go wrong, and what a run's summary must not hide.
+
+Every failure a user or the machine causes ends in one line ``error: ...`` and a non-zero exit
+status (`user_errors`): tavc's own `TavcError`, any `OSError` (a full disk, a folder without
+write permission: the file, the system's reason and what to do), memory running out, Ctrl-C and
+SIGTERM. Only a bug keeps its traceback. A run's trials are saved one by one as they finish
+(`experiments.store`), so whatever stops a run, rerunning it resumes from what was kept.
+
+The summary of `tavc run` says what the tables cannot: that no robot delivered anything, and
+that one trial has no spread (its std is shown as nan, not 0).
+"""
+
+from __future__ import annotations
+
+import errno
+import math
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Optional
+
+import typer
+
+from tavc_cli.errors import TavcError, Terminated, sigterm_raises
+
+RESUME = "finished trials are kept: rerun the same command to resume"
+# what to do about an OSError, by its errno
+_REMEDIES = {
+    errno.ENOSPC: "free some space on that disk or choose another output_dir",
+    errno.EDQUOT: "free some of your disk quota or choose another output_dir",
+    errno.EACCES: "make the folder writable for you or choose another output_dir",
+    errno.EPERM: "make the folder writable for you or choose another output_dir",
+    errno.EROFS: "that file system is read-only; choose another output_dir",
+    errno.EMFILE: "raise the limit of open files (ulimit -n)",
+    errno.ENFILE: "raise the system's limit of open files",
+}
+
+
+@contextmanager
+def user_errors(folder: Optional[Callable[[], Any]] = None) -> Iterator[None]:
+    """Turn a ``TavcError`` or an ``OSError`` into one line and exit 1, running out of memory
+    into one line and exit 1, Ctrl-C into exit 130, SIGTERM into 143. `folder` gives the folder
+    the command writes to, for an OSError that names no file."""
+    try:
+        with sigterm_raises():
+            yield
+    except TavcError as error:
+        _fail(str(error), 1)
+    except OSError as error:
+        _fail(os_error_text(error, folder), 1)
+    except MemoryError:
+        _fail(f"out of memory; use fewer trials per process (executor.batch_size) or fewer processes "
+              f"(executor.n_jobs); {RESUME}", 1)
+    except KeyboardInterrupt as stop:
+        terminated = isinstance(stop, Terminated)
+        _fail("terminated" if terminated else "interrupted", 143 if terminated else 130)
+
+
+# the line `user_errors` printed last, if any (`__main__` then prints none of its own)
+shown: list[str] = []
+
+
+def _fail(message: str, code: int) -> None:
+    line = f"error: {' '.join(message.split())}"
+    shown.append(line)
+    typer.echo(line, err=True)
+    raise typer.Exit(code=code) from None
+
+
+def os_error_text(error: OSError, folder: Optional[Callable[[], Any]] = None) -> str:
+    """``<file>: <the system's reason>; <what to do> (<that a rerun resumes>)``.
+
+    A temporary file (written beside its result and renamed over it) is named by its folder; an
+    error without a file, as one from a worker process can be, by the command's `folder`.
+    """
+    name = error.filename if error.filename is not None else _folder_of(folder)
+    if isinstance(name, bytes):
+        name = name.decode(errors="replace")
+    if name is not None and Path(str(name)).name.startswith(".") and str(name).endswith(".tmp"):
+        name = Path(str(name)).parent
+    reason = error.strerror or str(error) or type(error).__name__
+    remedy = _REMEDIES.get(error.errno, "fix the cause")
+    return f"{name or 'tavc'}: {reason}; {remedy} ({RESUME})"
+
+
+def _folder_of(folder: Optional[Callable[[], Any]]) -> Any:
+    if folder is None:
+        return None
+    try:
+        return folder()
+    except Exception:  # the folder is only a better name for the message; none is fine too
+        return None
+
+
+def summary_text(summary: dict[str, Any]) -> str:
+    """`analysis.summary.run_summary_text` for `tavc run`, its std over one trial shown as nan
+    (one trial has no spread), and a line when no robot delivered anything."""
+    from tavc_cli.analysis.summary import run_summary_text
+
+    tables = dict(summary.get("tables") or {})
+    state_time = tables.get("state_time")
+    if state_time is not None and len(state_time) and "n_trials" in state_time:
+        state_time = state_time.copy()
+        single = (state_time["n_trials"] < 2) & (state_time["controller"] != "theory")
+        state_time.loc[single, "std_pct"] = math.nan
+        tables["state_time"] = state_time
+    text = run_summary_text({**summary, "tables": tables})
+    silent = undelivered(Path(summary["output_dir"]))
+    if silent:
+        text += "\n\n" + silent
+    return text
+
+
+def undelivered(folder: Path) -> str:
+    """A line saying that no robot delivered anything in any trial of the run in `folder`, or
+    naming the controllers of which none did; empty when every controller delivered."""
+    import json
+
+    import numpy as np
+
+    delivered: dict[str, int] = {}
+    n_trials = 0
+    for path in sorted((folder / "trials").glob("*.npz")):
+        # only these two arrays of the record (`TrialRecord.save`'s layout): npz reads lazily
+        with np.load(path, allow_pickle=False) as data:
+            label = str(json.loads(str(data["meta"]))["controller"])
+            delivered[label] = delivered.get(label, 0) + len(data["deliveries__t_s"])
+        n_trials += 1
+    idle = [label for label, count in delivered.items() if count == 0]
+    if not idle:
+        return ""
+    why = "can the robots move and reach the targets? (robot.mass_kg, robot.drive_force_n, arena.walls)"
+    if len(idle) == len(delivered):
+        return (f"warning: nothing was delivered: no robot delivered anything in any of the {n_trials} trials, so "
+                f"no claim could be tested; {why}")
+    return f"warning: no robot of {', '.join(idle)} delivered anything in any of its trials; {why}"
