@@ -23,20 +23,84 @@ from dataclasses import replace
 
 import numpy as np
 
+from tavc_cli import estimates
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine
-from tavc_cli.settings import TavcConfig
+from tavc_cli.settings import ExecutorConfig, TavcConfig
 from tavc_cli.sim.world import CP_STEP, step_only
 
 SettingsFor = Callable[[int, float], TavcConfig]  # (robots, duration_s) -> the benchmark's settings
 
 
 def bench_overrides(scenario: str, n_robots: int, duration_s: float, n_rays: int | None) -> list[str]:
-    """The config the benchmark runs: `scenario`'s arena, TAVC learners, no snapshots."""
+    """The config the benchmark runs: `scenario`'s arena, TAVC learners, no snapshots. Its trials
+    are the benchmark's own (`check_bench_size` estimates them), not the config's: force=true."""
     rays = [f"robot.laser.n_rays={n_rays}"] if n_rays else []
     return [f"arena={scenario}", "learner=tavc_egreedy", f"team.n_robots={n_robots}", f"duration_s={duration_s}",
-            "convergence_s=0", "sim.q_snapshot_every_s=0", *rays]
+            "convergence_s=0", "sim.q_snapshot_every_s=0", "force=true", *rays]
+
+
+# The benchmark's sizes as their options name them, with their defaults: the one furthest above
+# its default is named when the whole is too long or too large.
+_BENCH_OPTIONS = {"--duration-s": 600.0, "--repeats": 3, "--batch": ExecutorConfig.batch_size, "--n-robots": 6,
+                  "--n-rays": estimates.BENCH_RAYS}
+
+
+def check_bench_size(*, n_robots: int, duration_s: float, repeats: int, batch: int | None, n_rays: int | None,
+                     scaling: bool, profile: bool, against: str | None, force: bool) -> None:
+    """Refuse, before anything is built, a benchmark that could never run (a trial longer than its
+    clock counts, batches larger than memory) or, unless `force`, one estimated to take more than a
+    day (`config.limits`, from the simulator's measured throughput)."""
+    if repeats < 1:
+        raise TavcError(f"--repeats: must be >= 1, got {repeats}")
+    if not 0 < duration_s < math.inf:
+        raise TavcError(f"--duration-s: must be a finite number > 0, got {duration_s}")
+    batch, rays = int(batch or ExecutorConfig.batch_size), int(n_rays or estimates.BENCH_RAYS)
+    given = {"--duration-s": duration_s, "--repeats": repeats, "--batch": batch, "--n-robots": n_robots,
+             "--n-rays": rays}
+    ticks = max(duration_s, 5000.0 if profile else 0.0) / estimates.BENCH_DT_S
+    if ticks > estimates.MAX_TICKS:
+        raise TavcError(f"--duration-s: {duration_s:g} simulated s is {ticks:.3g} control periods, more than a "
+                        f"trial's clock counts (2**53); not even --force runs that")
+    cores = os.cpu_count() or 1
+    robots = max(n_robots, 24) if scaling else n_robots
+    need = estimates.batch_bytes(batch * (max(2, cores) if scaling else 1), robots, rays)
+    memory = estimates.physical_memory()
+    if need > memory:
+        key = _furthest(given, ("--batch", "--n-robots", "--n-rays"))
+        raise TavcError(f"{key}: {batch:,} trials of {robots:,} robots with {rays:,} laser rays in each process would "
+                        f"need about {estimates.in_bytes(need)} of memory, more than this machine's "
+                        f"{estimates.in_bytes(memory)}; not even --force runs that")
+    wall = _bench_wall_s(n_robots, duration_s, repeats, batch, rays, scaling, profile, against, cores)
+    if wall > estimates.DAY_S and not force:
+        raise TavcError(f"{_furthest(given, tuple(given))}: the benchmark would take about {estimates.about(wall)} "
+                        f"{estimates.speed_note()}; more than a day: make it smaller, or pass --force to run it anyway")
+
+
+def _bench_wall_s(n_robots: int, duration_s: float, repeats: int, batch: int, rays: int, scaling: bool, profile: bool,
+                  against: str | None, cores: int) -> float:
+    """`run_bench`'s (or `profile_bench`'s) wall seconds, as `config.limits` estimates a run's."""
+
+    def trials(n: int, span_s: float, count: int = batch) -> float:
+        return count * estimates.trial_cost_s(span_s, estimates.BENCH_DT_S, n, 1, rays)
+
+    if profile:
+        return trials(n_robots, max(duration_s, 5000.0))
+    full = trials(n_robots, duration_s)
+    wall = trials(n_robots, min(duration_s, 30.0)) + repeats * full * (1 + estimates.PHYSICS_SHARE)
+    if scaling:
+        wall += sum(trials(n, min(duration_s / 2, 10.0)) + repeats * trials(n, duration_s / 2) for n in (2, 6, 12, 24))
+        wall += sum(math.ceil(k / cores) * (full + trials(n_robots, min(duration_s, 10.0)))
+                    for k in sorted({1, 2, cores}))
+    if against == "enki":
+        wall += 2 * repeats * trials(n_robots, duration_s, 1)
+    return wall
+
+
+def _furthest(given: dict[str, float], options: tuple[str, ...]) -> str:
+    """Of `options`, the one whose value is the most times its default."""
+    return max(options, key=lambda option: given[option] / _BENCH_OPTIONS[option])
 
 
 def _batch_specs(settings: TavcConfig, batch: int):
@@ -45,9 +109,12 @@ def _batch_specs(settings: TavcConfig, batch: int):
 
 def bench_text(settings_for: Callable[[int, float], TavcConfig], *, json_output: bool, scenario: str,
                n_robots: int, duration_s: float, repeats: int, batch: int | None, n_rays: int | None = None,
-               scaling: bool = True, against: str | None = None, profile: bool = False) -> str:
+               scaling: bool = True, against: str | None = None, profile: bool = False, force: bool = False) -> str:
     """`tavc bench`'s output: a profile of the loop (`profile`) or the benchmark (`run_bench`), as
-    one JSON object or as aligned lines. `settings_for(n_robots, duration_s)` gives the settings."""
+    one JSON object or as aligned lines. `settings_for(n_robots, duration_s)` gives the settings.
+    A benchmark longer than a day is refused unless `force` (`check_bench_size`)."""
+    check_bench_size(n_robots=n_robots, duration_s=duration_s, repeats=repeats, batch=batch, n_rays=n_rays,
+                     scaling=scaling, profile=profile, against=against, force=force)
     if profile:
         if against:
             raise TavcError("--profile: profiles tavc alone; leave out --against")

@@ -11,6 +11,7 @@ a Hydra launcher.
 
 from tavc_cli.config.ladder import ladder_folder, load_ladder, parse_factors
 from tavc_cli.config.loading import (
+    check_measurement,
     expand_sweep,
     experiment_lines,
     find_conf_dir,
@@ -28,6 +29,7 @@ from tavc_cli.settings import TavcConfig
 
 __all__ = [
     "TavcConfig",
+    "check_measurement",
     "expand_sweep",
     "experiment_lines",
     "find_conf_dir",

@@ -15,6 +15,7 @@ from omegaconf.errors import (
     OmegaConfBaseException,
 )
 
+from tavc_cli.config.limits import sources, validate_measurement_time
 from tavc_cli.config.messages import hydra_detail, hydra_errors, omegaconf_message
 from tavc_cli.config.resolve import resolve
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
@@ -72,6 +73,19 @@ def load_config(overrides: Sequence[str] = ()) -> DictConfig:
                 f"{key}: a sweep needs -m/--multirun (to set a list, write {key}=[a,b])"
             )
     return _load(overrides)
+
+
+def check_measurement(overrides: Sequence[str], group: str) -> None:
+    """Refuse `tavc model` (`group` model) or `tavc calibrate` (calibration) estimated to take more
+    than a day, unless ``force=true`` (`limits.validate_measurement_time`).
+
+    Raises:
+        TavcError: On a bad config, or a measurement longer than a day.
+    """
+    overrides = list(overrides)
+    if group == "calibration" and not any(_override_key(o).lstrip("+~") == "experiment" for o in overrides):
+        overrides = ["experiment=initial_distribution", *overrides]  # as `api.calibrate` composes it
+    validate_measurement_time(load_config(overrides), group)
 
 
 def is_hydra_override(text: str) -> bool:
@@ -269,8 +283,9 @@ def complete(cfg: DictConfig, *, job_dir: Optional[str] = None) -> DictConfig:
     try:
         check_no_missing(cfg)
         validate_scaling(cfg)
+        named = sources(cfg)  # the keys resolution derives, for messages
         resolve(cfg, job_dir=job_dir)
-        validate(cfg)
+        validate(cfg, named)
     except OmegaConfBaseException as error:
         raise TavcError(omegaconf_message(error)) from None
     OmegaConf.set_readonly(cfg, True)

@@ -4,6 +4,7 @@ import importlib.util
 import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Optional
 
 from omegaconf import DictConfig, OmegaConf
 
@@ -19,6 +20,7 @@ from tavc_cli.config.checks import (
     unique,
     unit,
 )
+from tavc_cli.config.limits import validate_limits, validate_team_size
 from tavc_cli.config.validate_world import validate_arena, validate_docks, validate_reachable, validate_start
 from tavc_cli.experiments.clock import due_tick, end_tick
 from tavc_cli.learning.registry import AVAILABLE as AVAILABLE_LEARNERS
@@ -30,6 +32,7 @@ from tavc_cli.settings import (
     BACKENDS,
     MIN_DOCK_CLEARANCE_M,
     TIME_UNITS,
+    SimConfig,
 )
 from tavc_cli.sim.arena import START_GAP_M, START_WALL_MARGIN_M, most_robots
 
@@ -61,6 +64,19 @@ def validate_scaling(cfg: DictConfig) -> None:
     if paper.static_trials is not None:
         at_least("paper.static_trials", paper.static_trials, 1)
     positive("paper.duration_s", paper.duration_s)
+    factor = cfg.scale.time_factor
+    check(math.isfinite(paper.duration_s * factor), "scale.time_factor",
+          f"{factor:g} times paper.duration_s = {paper.duration_s:g} is more than a float holds")
+    if cfg.duration_s is None and 0 < cfg.sim.dt_s < math.inf:  # named as set: trials last their product
+        named = ("sim.dt_s" if cfg.sim.dt_s > SimConfig.dt_s else "scale.time_factor" if factor < 0.02
+                 else "paper.duration_s")  # whichever is out of the usual: the period, or the smoke scale's factor
+        check(paper.duration_s * factor >= cfg.sim.dt_s, named,
+              f"paper.duration_s x scale.time_factor = {paper.duration_s:g} s x {factor:g} makes trials shorter than "
+              f"one control period (sim.dt_s = {cfg.sim.dt_s:g} s)")
+    if paper.deliveries is not None:
+        count_factor = cfg.scale.deliveries_factor or cfg.scale.time_factor
+        check(math.isfinite(paper.deliveries * count_factor), "scale.deliveries_factor",
+              f"{count_factor:g} times paper.deliveries = {paper.deliveries} is more than a float holds")
     if paper.deliveries is not None:
         at_least("paper.deliveries", paper.deliveries, 1)
     if cfg.deliveries is not None:
@@ -74,10 +90,12 @@ def validate_scaling(cfg: DictConfig) -> None:
         "paper.convergence_s",
         f"must be in [0, paper.duration_s = {paper.duration_s:g}), got {paper.convergence_s!r}",
     )
+    validate_team_size(cfg)  # before resolution lists the team's members
 
 
-def validate(cfg: DictConfig) -> None:
-    """Validate a resolved config."""
+def validate(cfg: DictConfig, named: Optional[dict[str, str]] = None) -> None:
+    """Validate a resolved config; `named` maps the keys resolution derived to the keys their values
+    came from (`limits.sources`), for the limits' messages."""
     validate_arena(cfg.arena)
     _validate_robot(cfg.robot)
     validate_docks(cfg.arena, cfg.robot)
@@ -90,15 +108,16 @@ def validate(cfg: DictConfig) -> None:
         _validate_allocation("static_allocation", cfg.static_allocation, n_circuits, n_robots)
     _validate_tasks(cfg.tasks, n_circuits)
     _validate_sim(cfg.sim)
-    _validate_events(cfg, n_circuits)  # after sim: events fall due on its control periods
     _validate_control_period(cfg)
     _validate_executor(cfg.executor)
+    _validate_model(cfg.model)
+    _validate_calibration(cfg.calibration)
+    validate_limits(cfg, named)  # before anything counts the trials' ticks or plans them
+    _validate_events(cfg, n_circuits)  # after sim: events fall due on its control periods
     one_of("analysis.state", cfg.analysis.state, ANALYSIS_STATES)
     positive("analysis.performance_bin_s", cfg.analysis.performance_bin_s)
     if cfg.analysis.before_s is not None:
         positive("analysis.before_s", cfg.analysis.before_s)
-    _validate_model(cfg.model)
-    _validate_calibration(cfg.calibration)
     validate_start(cfg)  # last: beyond what always fits, it builds the trials to place their teams
 
 
