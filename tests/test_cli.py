@@ -346,3 +346,11 @@ def test_one_trial_shows_no_spread(tmp_path):
     rows = [line for line in result.output.splitlines() if re.match(r"\s+\d:\d ", line)]
     assert len(rows) == 7 and all(line.count("+- nan") == 2 for line in rows), result.output
     assert "+- 0.0" not in result.output and "warning:" not in result.output
+
+
+def test_animate_into_a_folder_names_the_folder_not_the_suffix(tmp_path):
+    result = runner.invoke(app, ["animate", "scale=smoke", "--out", str(tmp_path)])
+    assert result.exit_code == 1
+    assert result.output.strip() == (f"error: --out: {tmp_path} is a folder; give the file to write in it, e.g. "
+                                     f"--out {tmp_path / 'animation.gif'}")
+    assert list(tmp_path.iterdir()) == []

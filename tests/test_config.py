@@ -435,3 +435,32 @@ def test_long_scale_multiplies_durations_and_warm_up_by_ten():
 ])
 def test_trials_counted_in_deliveries_scale_like_durations(overrides, deliveries):
     assert load_config(overrides).deliveries == deliveries
+
+
+@pytest.mark.parametrize("overrides, message", [
+    # the shell split `output_dir=/tmp/my results` at the space
+    (["output_dir=/tmp/my", "results"],
+     "results: not an override (key=value); if it is the rest of output_dir's value, cut off at a space, quote the "
+     """whole override: 'output_dir="/tmp/my results"'"""),
+    (["output_dir=/tmp/résultats"],
+     "output_dir: the value '/tmp/résultats' has a character Hydra's override grammar reads only in quotes ('é'); "
+     """quote it: 'output_dir="/tmp/résultats"'"""),
+    (["output_dir=/tmp/a(b)"],
+     "output_dir: the value '/tmp/a(b)' has a character Hydra's override grammar reads only in quotes ('('); "
+     """quote it: 'output_dir="/tmp/a(b)"'"""),
+    (["results"], "results: not an override (key=value); to set a key, write results=<value>"),
+])
+def test_a_path_hydra_cannot_read_unquoted_gets_the_quoting_that_reads_it(overrides, message):
+    with pytest.raises(TavcError) as error:
+        load_config(overrides)
+    assert str(error.value) == message
+    with pytest.raises(TavcError) as error:  # a sweep parses its overrides alike
+        expand_sweep(overrides)
+    assert str(error.value) == message
+
+
+@pytest.mark.parametrize("override, folder", [('output_dir="/tmp/my results"', "/tmp/my results"),
+                                              ("output_dir=/tmp/my results", "/tmp/my results"),
+                                              ('output_dir="/tmp/résultats"', "/tmp/résultats")])
+def test_the_suggested_quoting_reads_the_path(override, folder):
+    assert load_config([override]).output_dir == folder

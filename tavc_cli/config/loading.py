@@ -2,7 +2,7 @@
 
 import itertools
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Optional
 
@@ -16,7 +16,7 @@ from omegaconf.errors import (
 )
 
 from tavc_cli.config.limits import sources, validate_measurement_time
-from tavc_cli.config.messages import hydra_detail, hydra_errors, omegaconf_message
+from tavc_cli.config.messages import hydra_errors, omegaconf_message, override_syntax_message
 from tavc_cli.config.resolve import resolve
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
@@ -323,17 +323,27 @@ def _typed(cfg: DictConfig) -> DictConfig:
 
 
 def _parse_overrides(overrides: Sequence[str]) -> list:
-    """Parse overrides one by one so that a syntax error names the override at fault."""
+    """Parse overrides one by one so that a syntax error names the override at fault (and says
+    how to quote it, `messages.override_syntax_message`)."""
     parser = OverridesParser.create()
     parsed = []
-    for text in overrides:
+    for index, text in enumerate(overrides):
         try:
             parsed.extend(parser.parse_overrides([text]))
         except OverrideParseException as error:
-            raise TavcError(
-                f"{_override_key(text)}: cannot parse override {text!r} ({hydra_detail(error)})"
-            ) from None
+            raise TavcError(override_syntax_message(overrides, index, error, _parses(parser))) from None
     return parsed
+
+
+def _parses(parser: OverridesParser) -> Callable[[str], bool]:
+    def parses(text: str) -> bool:
+        try:
+            parser.parse_overrides([text])
+        except OverrideParseException:
+            return False
+        return True
+
+    return parses
 
 
 def _sweep_choices(overrides: Sequence[str]) -> dict[str, list[str]]:

@@ -4,7 +4,8 @@ import contextlib
 import dataclasses
 import difflib
 import re
-from collections.abc import Iterator, Sequence
+import shlex
+from collections.abc import Callable, Iterator, Sequence
 from typing import Optional
 
 import yaml
@@ -41,6 +42,63 @@ def hydra_errors(overrides: Sequence[str]) -> Iterator[None]:
         if "Config group override must be" not in str(error):
             raise
         raise TavcError(_group_value_message(overrides)) from None
+
+
+def override_syntax_message(overrides: Sequence[str], index: int, error: Exception,
+                            parses: Callable[[str], bool]) -> str:
+    """One line for an override Hydra's grammar cannot read, with the quoting that would read it.
+
+    A value with characters the grammar takes only in quotes (non-ASCII letters, brackets, ``#``)
+    is shown quoted, as the shell must pass it (``'output_dir="/tmp/résultats"'``); a word
+    without ``=`` after an override is taken for the rest of that override's value that the
+    shell split off at a space (``output_dir=/tmp/my results``). `parses` says whether an
+    override would parse.
+
+    Args:
+        overrides: The overrides as given.
+        index: The one that does not parse.
+        error: What Hydra raised for it.
+        parses: Whether a rewritten override would parse.
+    """
+    text = overrides[index]
+    key, equals, value = text.partition("=")
+    key = key.strip()
+    if not equals:
+        previous = overrides[index - 1] if index > 0 else ""
+        before, _, start = previous.partition("=")
+        joined = f"{before}={_hydra_quoted(f'{start} {text}')}"
+        if "=" in previous and parses(joined):
+            return (f"{text}: not an override (key=value); if it is the rest of {before}'s value, cut off at a "
+                    f"space, quote the whole override: {shlex.quote(joined)}")
+        return f"{text}: not an override (key=value); to set a key, write {text}=<value>"
+    quoted = f"{key}={_hydra_quoted(value)}"
+    if parses(quoted):
+        where = _offending(text, error)
+        which = f" ({where!r})" if where else ""
+        return (f"{key}: the value {value!r} has a character Hydra's override grammar reads only in quotes{which}; "
+                f"quote it: {shlex.quote(quoted)}")
+    return f"{key or text}: cannot parse override {text!r} ({hydra_detail(error)})"
+
+
+def _hydra_quoted(value: str) -> str:
+    """`value` as a quoted string of Hydra's override grammar."""
+    if '"' not in value:
+        return f'"{value}"'
+    if "'" not in value:
+        return f"'{value}'"
+    return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _offending(text: str, error: Exception) -> str:
+    """The character of `text` Hydra stopped at, where its message shows it."""
+    lines = str(error).splitlines()
+    lexer = "LexerNoViableAltException: "
+    if len(lines) > 1 and lines[0].startswith(lexer) and "^" in lines[1]:
+        column = lines[1].index("^") - len(lexer)
+        if 0 <= column < len(text):
+            return text[column]
+    mismatched = re.match(r"mismatched input '(.+?)'", lines[0] if lines else "")
+    return mismatched.group(1) if mismatched else ""
 
 
 def _null_parent_message(overrides: Sequence[str], error: AssertionError) -> str:

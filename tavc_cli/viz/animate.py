@@ -140,6 +140,8 @@ def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float =
     if fps < 1:
         raise TavcError(f"--fps: must be >= 1, got {fps}")
     out = Path(out) if out is not None else Path(cfg.output_dir) / "animation.gif"
+    if out.is_dir():
+        raise TavcError(f"--out: {out} is a folder; give the file to write in it, e.g. --out {out / 'animation.gif'}")
     if out.suffix.lower() != ".gif":
         raise TavcError(f"--out: the animation is written as a .gif, got '{out.name}'")
     try:  # before simulating: a place that cannot be written is found now, not after the run
