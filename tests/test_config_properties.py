@@ -223,10 +223,20 @@ REFUSED = [
     (["arena=one_circuit", "team.n_robots=80"],
      "team.n_robots: cannot place 80 robots of robot.radius_m = 0.22 at random 0.3 m apart and 0.6 m from the "
      "walls of the 8 x 6 m arena (trial 0 of random, seed 0); 19 always fit"),
-    # 0.1 m / 2 m/s = 0.05 s
+    # too fast even at the usual period: 2 m/s x 0.1 s = 0.2 m, at most 0.1 m / 0.1 s = 1 m/s
     (["robot.speed_mps=2"],
-     "sim.dt_s: must be at most robot.dock.lateral_tol_m / top speed = 0.1 m / 2 m/s = 0.05 s (no robot may "
-     "move further than its docking tolerance in one control period), got 0.1"),
+     "robot.speed_mps: 2 m/s would carry the robot 0.2 m in one control period (sim.dt_s = 0.1 s), past its "
+     "docking tolerance robot.dock.lateral_tol_m = 0.1 m, so it could overshoot every dock; at most 1 m/s at "
+     "this period"),
+    # a member of a heterogeneous team likewise, named by its own key
+    (["experiment=heterogeneous", "team.members.4.speed_mps=1000"],
+     "team.members[4].speed_mps: 1000 m/s would carry the robot 100 m in one control period (sim.dt_s = 0.1 s), "
+     "past its docking tolerance robot.dock.lateral_tol_m = 0.1 m, so it could overshoot every dock; at most 1 m/s "
+     "at this period"),
+    # 0.1 m / 0.25 m/s = 0.4 s: the period is what is out of line
+    (["sim.dt_s=0.5"],
+     "sim.dt_s: must be at most robot.dock.lateral_tol_m / top speed = 0.1 m / 0.25 m/s = 0.4 s (no robot may "
+     "move further than its docking tolerance in one control period), got 0.5"),
     # the fast members (0.3 m/s) set the limit: 0.1 / 0.3 = 0.333333 s
     (["experiment=heterogeneous", "sim.dt_s=0.4"],
      "sim.dt_s: must be at most robot.dock.lateral_tol_m / top speed = 0.1 m / 0.3 m/s = 0.333333 s (no robot "

@@ -387,10 +387,22 @@ def _validate_sim(sim: DictConfig) -> None:
 
 
 def _validate_control_period(cfg: DictConfig) -> None:
-    """Trials and performance bins span a control period, in which no robot outruns its dock."""
+    """Trials and performance bins span a control period, in which no robot outruns its dock.
+
+    A robot too fast for its dock even at the usual period is the speed's fault (its member's key
+    in a team that lists them), else the period's.
+    """
     dt_s = cfg.sim.dt_s
-    top_mps = max(member.speed_mps for member in cfg.team.members)
+    members = cfg.team.members
+    fastest = max(range(len(members)), key=lambda index: members[index].speed_mps)
+    top_mps = members[fastest].speed_mps
     tolerance_m = cfg.robot.dock.lateral_tol_m
+    if top_mps * min(dt_s, SimConfig.dt_s) > tolerance_m:
+        same = all(member.speed_mps == cfg.robot.speed_mps for member in members)
+        fail("robot.speed_mps" if same else f"team.members[{fastest}].speed_mps",
+             f"{top_mps:g} m/s would carry the robot {top_mps * dt_s:g} m in one control period (sim.dt_s = "
+             f"{dt_s:g} s), past its docking tolerance robot.dock.lateral_tol_m = {tolerance_m:g} m, so it could "
+             f"overshoot every dock; at most {tolerance_m / dt_s:g} m/s at this period")
     check(top_mps * dt_s <= tolerance_m, "sim.dt_s",
           f"must be at most robot.dock.lateral_tol_m / top speed = {tolerance_m:g} m / {top_mps:g} m/s "
           f"= {tolerance_m / top_mps:g} s (no robot may move further than its docking tolerance in one "
