@@ -190,8 +190,22 @@ def grid_points(cfg: DictConfig) -> int:
 # --------------------------------------------------------------------------------------------
 
 
-def validate_team_size(cfg: DictConfig) -> None:
-    """Before resolution lists the team's members: a team memory could never hold."""
+def validate_scaled(cfg: DictConfig) -> None:
+    """Before resolution multiplies the paper's values by the scale and lists the team's members:
+    products no float holds, trials shorter than a control period, a team memory never could."""
+    paper, factor, dt_s = cfg.paper, cfg.scale.time_factor, cfg.sim.dt_s
+    check(math.isfinite(paper.duration_s * factor), "scale.time_factor",
+          f"{factor:g} times paper.duration_s = {paper.duration_s:g} is more than a float holds")
+    if cfg.duration_s is None and 0 < dt_s < math.inf:  # named as set: trials last the product
+        named = ("sim.dt_s" if dt_s > BENCH_DT_S else "scale.time_factor" if factor < 0.02
+                 else "paper.duration_s")  # whichever is out of the usual: the period, or the smoke scale's factor
+        check(paper.duration_s * factor >= dt_s, named,
+              f"paper.duration_s x scale.time_factor = {paper.duration_s:g} s x {factor:g} makes trials shorter than "
+              f"one control period (sim.dt_s = {dt_s:g} s)")
+    if paper.deliveries is not None:
+        count_factor = cfg.scale.deliveries_factor or factor
+        check(math.isfinite(paper.deliveries * count_factor), "scale.deliveries_factor",
+              f"{count_factor:g} times paper.deliveries = {paper.deliveries} is more than a float holds")
     memory = physical_memory()
     for key, n in (("team.n_robots", cfg.team.n_robots), ("model.max_robots", cfg.model.max_robots)):
         if n is not None and batch_bytes(1, n, 0) > memory:

@@ -20,8 +20,14 @@ from tavc_cli.config.checks import (
     unique,
     unit,
 )
-from tavc_cli.config.limits import validate_limits, validate_team_size
-from tavc_cli.config.validate_world import validate_arena, validate_docks, validate_reachable, validate_start
+from tavc_cli.config.limits import validate_limits, validate_scaled
+from tavc_cli.config.validate_world import (
+    validate_arena,
+    validate_dock_speed,
+    validate_docks,
+    validate_reachable,
+    validate_start,
+)
 from tavc_cli.experiments.clock import due_tick, end_tick
 from tavc_cli.learning.registry import AVAILABLE as AVAILABLE_LEARNERS
 from tavc_cli.learning.registry import BASELINES
@@ -32,7 +38,6 @@ from tavc_cli.settings import (
     BACKENDS,
     MIN_DOCK_CLEARANCE_M,
     TIME_UNITS,
-    SimConfig,
 )
 from tavc_cli.sim.arena import START_GAP_M, START_WALL_MARGIN_M, most_robots
 
@@ -64,19 +69,6 @@ def validate_scaling(cfg: DictConfig) -> None:
     if paper.static_trials is not None:
         at_least("paper.static_trials", paper.static_trials, 1)
     positive("paper.duration_s", paper.duration_s)
-    factor = cfg.scale.time_factor
-    check(math.isfinite(paper.duration_s * factor), "scale.time_factor",
-          f"{factor:g} times paper.duration_s = {paper.duration_s:g} is more than a float holds")
-    if cfg.duration_s is None and 0 < cfg.sim.dt_s < math.inf:  # named as set: trials last their product
-        named = ("sim.dt_s" if cfg.sim.dt_s > SimConfig.dt_s else "scale.time_factor" if factor < 0.02
-                 else "paper.duration_s")  # whichever is out of the usual: the period, or the smoke scale's factor
-        check(paper.duration_s * factor >= cfg.sim.dt_s, named,
-              f"paper.duration_s x scale.time_factor = {paper.duration_s:g} s x {factor:g} makes trials shorter than "
-              f"one control period (sim.dt_s = {cfg.sim.dt_s:g} s)")
-    if paper.deliveries is not None:
-        count_factor = cfg.scale.deliveries_factor or cfg.scale.time_factor
-        check(math.isfinite(paper.deliveries * count_factor), "scale.deliveries_factor",
-              f"{count_factor:g} times paper.deliveries = {paper.deliveries} is more than a float holds")
     if paper.deliveries is not None:
         at_least("paper.deliveries", paper.deliveries, 1)
     if cfg.deliveries is not None:
@@ -90,7 +82,7 @@ def validate_scaling(cfg: DictConfig) -> None:
         "paper.convergence_s",
         f"must be in [0, paper.duration_s = {paper.duration_s:g}), got {paper.convergence_s!r}",
     )
-    validate_team_size(cfg)  # before resolution lists the team's members
+    validate_scaled(cfg)  # before resolution multiplies them out and lists the team's members
 
 
 def validate(cfg: DictConfig, named: Optional[dict[str, str]] = None) -> None:
@@ -387,26 +379,9 @@ def _validate_sim(sim: DictConfig) -> None:
 
 
 def _validate_control_period(cfg: DictConfig) -> None:
-    """Trials and performance bins span a control period, in which no robot outruns its dock.
-
-    A robot too fast for its dock even at the usual period is the speed's fault (its member's key
-    in a team that lists them), else the period's.
-    """
+    """No robot outruns its dock in a control period; trials and performance bins span one."""
+    validate_dock_speed(cfg)
     dt_s = cfg.sim.dt_s
-    members = cfg.team.members
-    fastest = max(range(len(members)), key=lambda index: members[index].speed_mps)
-    top_mps = members[fastest].speed_mps
-    tolerance_m = cfg.robot.dock.lateral_tol_m
-    if top_mps * min(dt_s, SimConfig.dt_s) > tolerance_m:
-        same = all(member.speed_mps == cfg.robot.speed_mps for member in members)
-        fail("robot.speed_mps" if same else f"team.members[{fastest}].speed_mps",
-             f"{top_mps:g} m/s would carry the robot {top_mps * dt_s:g} m in one control period (sim.dt_s = "
-             f"{dt_s:g} s), past its docking tolerance robot.dock.lateral_tol_m = {tolerance_m:g} m, so it could "
-             f"overshoot every dock; at most {tolerance_m / dt_s:g} m/s at this period")
-    check(top_mps * dt_s <= tolerance_m, "sim.dt_s",
-          f"must be at most robot.dock.lateral_tol_m / top speed = {tolerance_m:g} m / {top_mps:g} m/s "
-          f"= {tolerance_m / top_mps:g} s (no robot may move further than its docking tolerance in one "
-          f"control period), got {dt_s:g}")
     for key, value in (("duration_s", cfg.duration_s), ("analysis.performance_bin_s", cfg.analysis.performance_bin_s)):
         check(value >= dt_s, key, f"must be at least one control period (sim.dt_s = {dt_s:g} s), got {value:g}")
 

@@ -1,6 +1,6 @@
 """Validation of where things are: the arena, its walls and targets, room to dock at each
-bar-code, every target within reach, and room for the team where it starts (``sim.arena``
-holds the start rules)."""
+bar-code (and robots slow enough to stop there), every target within reach, and room for the
+team where it starts (``sim.arena`` holds the start rules)."""
 
 import math
 from collections.abc import Sequence
@@ -10,7 +10,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from tavc_cli.config.checks import at_least, check, fail, one_of, plain, positive, unique
 from tavc_cli.errors import TavcError
-from tavc_cli.settings import MIN_DOCK_CLEARANCE_M, TARGET_KINDS, WALL_TOLERANCE_M
+from tavc_cli.settings import MIN_DOCK_CLEARANCE_M, TARGET_KINDS, WALL_TOLERANCE_M, SimConfig
 from tavc_cli.sim.arena import (
     N_OUTER_WALLS,
     START_GAP_M,
@@ -110,6 +110,27 @@ def validate_docks(arena: DictConfig, robot: DictConfig) -> None:
                   f"must be at least arena.barcode_width_m = {arena.barcode_width_m:g} m apart, "
                   f"got {abs(along - other_along):g}")
         placed.setdefault(wall, []).append((along, index))
+
+
+def validate_dock_speed(cfg: DictConfig) -> None:
+    """No robot moves further than its docking tolerance in a control period, or it could overshoot
+    every dock. A robot too fast even at the usual period is the speed's fault (its member's key in
+    a team that lists them), else the period's."""
+    dt_s = cfg.sim.dt_s
+    members = cfg.team.members
+    fastest = max(range(len(members)), key=lambda index: members[index].speed_mps)
+    top_mps = members[fastest].speed_mps
+    tolerance_m = cfg.robot.dock.lateral_tol_m
+    if top_mps * min(dt_s, SimConfig.dt_s) > tolerance_m:
+        same = all(member.speed_mps == cfg.robot.speed_mps for member in members)
+        fail("robot.speed_mps" if same else f"team.members[{fastest}].speed_mps",
+             f"{top_mps:g} m/s would carry the robot {top_mps * dt_s:g} m in one control period (sim.dt_s = "
+             f"{dt_s:g} s), past its docking tolerance robot.dock.lateral_tol_m = {tolerance_m:g} m, so it could "
+             f"overshoot every dock; at most {tolerance_m / dt_s:g} m/s at this period")
+    check(top_mps * dt_s <= tolerance_m, "sim.dt_s",
+          f"must be at most robot.dock.lateral_tol_m / top speed = {tolerance_m:g} m / {top_mps:g} m/s "
+          f"= {tolerance_m / top_mps:g} s (no robot may move further than its docking tolerance in one "
+          f"control period), got {dt_s:g}")
 
 
 def validate_reachable(arena: DictConfig, robot: DictConfig) -> None:
