@@ -33,6 +33,7 @@ _REMEDIES = {
     errno.EROFS: "that file system is read-only; choose another output_dir",
     errno.EMFILE: "raise the limit of open files (ulimit -n)",
     errno.ENFILE: "raise the system's limit of open files",
+    errno.EPIPE: "whatever read tavc's output stopped reading it",
 }
 
 

@@ -326,6 +326,7 @@ class TavcConfig:
     baseline_lead_s: Optional[float] = None
     output_dir: Optional[str] = None
     overwrite: bool = False
+    # run what is estimated to take more than a day (config/limits.py); what could never run is refused even so
     force: bool = False
     paper: PaperConfig = field(default_factory=PaperConfig)
     baselines: List[str] = field(default_factory=list)
