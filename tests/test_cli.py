@@ -140,9 +140,9 @@ def test_sweep_jobs_run_through_hydras_joblib_launcher_with_the_basic_launchers_
     for job in ("0_learner.epsilon=0.05", "1_learner.epsilon=0.3"):
         for table in ("state_time.csv", "performance.csv", "claims.csv"):
             assert (tmp_path / "basic" / job / table).read_bytes() == (tmp_path / "joblib" / job / table).read_bytes()
-    # Hydra writes nothing of its own: no .hydra/ folder, no log file
+    # Hydra writes nothing of its own: no .hydra/ folder, no log file (.tavc.json is tavc's list of its files)
     assert sorted(p.name for p in (tmp_path / "joblib").iterdir()) == [
-        "0_learner.epsilon=0.05", "1_learner.epsilon=0.3", "sweep.csv", "sweep.png", "sweep.svg"]
+        ".tavc.json", "0_learner.epsilon=0.05", "1_learner.epsilon=0.3", "sweep.csv", "sweep.png", "sweep.svg"]
     assert not list((tmp_path / "joblib").rglob(".hydra")) and not list((tmp_path / "joblib").rglob("*.log"))
 
 

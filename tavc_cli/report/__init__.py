@@ -149,11 +149,11 @@ def build_report(results_dir: Path) -> dict:
                         f"({results_dir.parent})")
     if not experiments:
         raise TavcError(f"RESULTS_DIR: no finished runs under {results_dir} (run `tavc run experiment=...` first)")
-    _take_results(results_dir, long_dir if found_long else None)
     base = _horizon(results_dir, found, unfinished)
     runs, claims = base.runs, base.claims
     tested, n_ok = base.tested, base.n_reproduced
     long = _horizon(long_dir, found_long, unfinished_long) if found_long else None
+    _take_results(results_dir, long_dir if found_long else None)  # everything read: now the first write
     lines = ["# tavc: the reproduction report", "",
              "Built by `tavc report` from the saved results in this folder; nothing here was simulated "
              "while writing it, and no number was typed in.", ""]
