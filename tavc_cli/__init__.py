@@ -1,11 +1,26 @@
 """tavc: a reproduction of task allocation through vacancy chains in multi-robot transportation."""
 
-import hashlib
 import os
-import shutil
+import signal
 import sys
-from collections.abc import Sequence
-from pathlib import Path
+
+
+def _interrupted_while_loading(signum, frame) -> None:
+    """Ctrl-C before the command line has loaded: nothing is written yet, so one line and out."""
+    os.write(2, b"error: interrupted\n")
+    os._exit(130)
+
+
+# Started as the command line (`tavc`, `python -m tavc_cli`): Ctrl-C is one line from here on,
+# until `__main__.main` takes over with its own handling.
+if os.path.basename(sys.argv[0] if sys.argv else "") == "tavc" or getattr(sys, "orig_argv", [])[1:3] == [
+        "-m", "tavc_cli"]:
+    signal.signal(signal.SIGINT, _interrupted_while_loading)
+
+import hashlib  # noqa: E402 - after the handler: an interrupt while these load is one line too
+import shutil  # noqa: E402
+from collections.abc import Sequence  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 __version__ = "0.1.0"
 

@@ -14,10 +14,14 @@ import os
 import signal
 import sys
 
+from tavc_cli.errors import interrupts_not_swallowed
+
 
 def main() -> None:
     """Run the command line; a usage error (unknown option or command, a value the option's
     type refuses) is one line, and so is Ctrl-C however early it comes."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)  # after tavc_cli's own while it loaded
+    interrupts_not_swallowed()
     try:
         code = _run()
     except KeyboardInterrupt:
