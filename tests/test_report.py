@@ -227,3 +227,24 @@ def test_the_report_says_when_the_baselines_started_late():
     (line, _) = late_start_lines(settings(load_config(["experiment=breakdown", "scale=paper"])))
     assert "(random and static)" in line and "from -1,800 s, 1,800 s before the first event" in line
     assert "rather than from -18,000 s" in line
+
+
+def test_one_trial_has_no_spread_in_its_table_nor_in_the_report(tmp_path):
+    """A single trial's std is not 0: state_time.csv leaves it empty and the report says the
+    number comes from one trial."""
+    from tavc_cli.config import load_config, settings
+    from tavc_cli.pipeline import run_experiment
+    from tavc_cli.report import build_report
+
+    out = tmp_path / "initial_distribution"
+    run_experiment(settings(load_config(["experiment=initial_distribution", "scale=smoke", "duration_s=120",
+                                         "convergence_s=20", "executor.n_jobs=1", "trials=1", "baseline_trials=1",
+                                         f"output_dir={out}"])))
+    table = pd.read_csv(out / "state_time.csv", dtype={"state": str})
+    tavc = table[table["controller"] == "tavc"]
+    assert (tavc["n_trials"] == 1).all() and tavc["std_pct"].isna().all()
+    build_report(tmp_path)
+    report = (tmp_path / "REPORT.md").read_text()
+    row = next(line for line in report.splitlines() if line.startswith("| 3:3 |"))
+    assert f"{tavc.set_index('state').loc['3:3', 'mean_pct']:.1f} (one trial)" in row
+    assert "± |" not in report and "± nan" not in report

@@ -56,7 +56,8 @@ class TableSchema:
 TABLES: dict[str, TableSchema] = {
     "state_time": TableSchema(("state", "controller", "mean_pct", "std_pct", "n_trials"),
                               text=("state", "controller"),
-                              keys=("state", "controller", "mean_pct", "std_pct", "n_trials"), empty_ok=False),
+                              # one trial has no spread: its std_pct is empty
+                              keys=("state", "controller", "mean_pct", "n_trials"), empty_ok=False),
     "performance": TableSchema(("t_s", "controller", "mean", "std", "n_trials"),
                                keys=("t_s", "controller", "n_trials")),
     "trial_stats": TableSchema(("controller", "trial", "value_rate_stable", "value_rate_convergence",

@@ -261,7 +261,7 @@ def state_time_table(records: Iterable[TrialRecord], t_from: float, t_to: float,
         for s in states + extra:
             x = np.array([sh.get(s, 0.0) for sh in shares])
             rows.append({"state": s, "controller": ctrl, "mean_pct": float(x.mean()),
-                         "std_pct": float(x.std(ddof=1)) if len(x) > 1 else 0.0, "n_trials": len(x)})
+                         "std_pct": float(x.std(ddof=1)) if len(x) > 1 else math.nan, "n_trials": len(x)})
     if with_theory:
         for s, v in theory_pct(n_live, n_c, scheme, sizes).items():
             rows.append({"state": s, "controller": "theory", "mean_pct": v, "std_pct": 0.0, "n_trials": 0})

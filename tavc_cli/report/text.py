@@ -50,7 +50,11 @@ def state_table(state_time: pd.DataFrame, comparison: pd.DataFrame | None) -> li
             if any(q == mean_key for _, q in chapter):
                 m, s = chapter.get((state, mean_key)), chapter.get((state, std_key))
                 cells.append(f"{fmt(m)} ± {fmt(s)}" if m is not None and s is not None else fmt(m))
-            cells.append(f"{fmt(r.mean_pct)} ± {fmt(r.std_pct)}" if r is not None else "")
+            if r is not None:  # one trial has no spread: its mean alone
+                cells.append(f"{fmt(r.mean_pct)} ± {fmt(r.std_pct)}" if math.isfinite(r.std_pct) else
+                             f"{fmt(r.mean_pct)} (one trial)")
+            else:
+                cells.append("")
         lines.append("| " + " | ".join(cells) + " |")
     return lines
 
