@@ -201,6 +201,7 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, prog
     from tavc_cli.model.api import save_calibration as save
     from tavc_cli.model.report import model_text
 
+    config.check_measurement(list(overrides), "model")  # its time on this machine, before anything runs
     result = run_model(config.settings(config.load_config(list(overrides))), progress=progress)
     echo(model_text(result))
     if save_calibration:
@@ -218,6 +219,7 @@ def calibrate(overrides: Sequence[str] = (), *, save: bool = False, progress: bo
     from tavc_cli.model.world_search import grid_points, point_overrides
 
     overrides = list(overrides)
+    config.check_measurement(overrides, "calibration")  # its time on this machine, before anything runs
     if not any(o.split("=", 1)[0].lstrip("+~") == "experiment" for o in overrides):
         overrides = ["experiment=initial_distribution", *overrides]  # six robots, the chapter's values
     base = config.settings(config.load_config(overrides))

@@ -175,7 +175,6 @@ def model(
     """Measure c_i(n) in the simulator and apply the TAVC model: slot values, predicted
     allocation, constraints (1.3)/(1.4) and calibrated task values."""
     with _user_errors(folder=lambda: config.load_config(overrides or []).output_dir):
-        config.check_measurement(overrides or [], "model")
         from tavc_cli.api import model as run_model
 
         run_model(overrides or [], save_calibration=save_calibration, progress=_shown(progress), echo=typer.echo)
@@ -196,7 +195,6 @@ def calibrate(
     """Search the reconstructed docking world (calibration.grid) for the settings under which
     the chapter's task values meet its constraints (1.3)/(1.4); static allocations only."""
     with _user_errors():
-        config.check_measurement(overrides or [], "calibration")
         from tavc_cli.api import calibrate as search_world
 
         search_world(overrides or [], save=save, progress=_shown(progress), echo=typer.echo)
