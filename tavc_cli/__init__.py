@@ -1,7 +1,7 @@
 """tavc: a reproduction of task allocation through vacancy chains in multi-robot transportation."""
 
+import _signal  # the interpreter's own: `signal` itself takes long enough to load to be interrupted
 import os
-import signal
 import sys
 
 
@@ -15,7 +15,7 @@ def _interrupted_while_loading(signum, frame) -> None:
 # until `__main__.main` takes over with its own handling.
 if os.path.basename(sys.argv[0] if sys.argv else "") == "tavc" or getattr(sys, "orig_argv", [])[1:3] == [
         "-m", "tavc_cli"]:
-    signal.signal(signal.SIGINT, _interrupted_while_loading)
+    _signal.signal(_signal.SIGINT, _interrupted_while_loading)
 
 import hashlib  # noqa: E402 - after the handler: an interrupt while these load is one line too
 import shutil  # noqa: E402
