@@ -81,7 +81,7 @@ def _finish_all(cfgs: list[TavcConfig], runs: list[Run], owned: list[Owned]) -> 
         return [_finish_loaded(*job) for job in jobs]
     import multiprocessing as mp
 
-    from tavc_cli.experiments.pool import worker_start
+    from tavc_cli.experiments.pool import stop_workers, worker_start
 
     pool = ProcessPoolExecutor(max_workers=n_jobs, mp_context=mp.get_context("fork"), initializer=worker_start)
     try:
@@ -90,9 +90,7 @@ def _finish_all(cfgs: list[TavcConfig], runs: list[Run], owned: list[Owned]) -> 
     except BaseException:
         # Ctrl-C, SIGTERM or an error: the workers stop now (each table they wrote is whole,
         # and provenance.json comes last), rather than the run waiting for them to finish
-        for worker in list(getattr(pool, "_processes", {}).values()):
-            worker.terminate()
-        pool.shutdown(wait=True, cancel_futures=True)
+        stop_workers(pool)
         raise
     pool.shutdown(wait=True)
     return done

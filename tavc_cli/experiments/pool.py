@@ -126,11 +126,7 @@ def run_pool(units: list[tuple], n_jobs: int, tty: bool) -> list[TrialFailure]:
                                 "computes only the missing ones") from None
                         prog.update((b.controller, b.index), 1.0)
             except BaseException:
-                # stop the workers' batches (on Ctrl-C they stop themselves; on SIGTERM or an error
-                # here only this process would), and start none that nobody will wait for
-                for worker in list(getattr(pool, "_processes", {}).values()):
-                    worker.terminate()
-                pool.shutdown(wait=True, cancel_futures=True)
+                stop_workers(pool)
                 raise
             pool.shutdown(wait=True)
         return failures
@@ -219,6 +215,14 @@ def _compiling_alone() -> Iterator[None]:
     with handle:
         fcntl.flock(handle, fcntl.LOCK_EX)
         yield
+
+
+def stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Stop a pool's workers now and start no work that nobody will wait for (on Ctrl-C they
+    stop themselves; on SIGTERM or an error in this process only this process would)."""
+    for worker in list(getattr(pool, "_processes", {}).values()):
+        worker.terminate()
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 def worker_start() -> None:
