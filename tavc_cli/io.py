@@ -93,9 +93,9 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
     same folder stops at once with a line naming the run that holds it, instead of
     interleaving its writes. The operating system drops the lock when the process exits
     however it ends (kill -9 included), so a crashed run never leaves the folder claimed; the
-    file itself is removed on a normal exit. Temporary files a killed run left half-written
-    (`atomic_path`) in the folder or its `trials/` are removed once the folder is held. `what`
-    names the setting behind the folder.
+    file itself is removed on a normal exit. What a killed run left half-written is removed by
+    `ownership.take`, which knows which files are tavc's. `what` names the setting behind the
+    folder.
     """
     import fcntl
 
@@ -130,8 +130,6 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
         os.ftruncate(fd, 0)
         started = time.strftime("%Y-%m-%d %H:%M:%S")
         os.write(fd, f"pid {os.getpid()} on {socket.gethostname()}, since {started}: {' '.join(sys.argv)}\n".encode())
-        for stale in [*folder.glob(".*.tmp"), *folder.glob("trials/.*.tmp")]:
-            stale.unlink(missing_ok=True)  # half-written by a run that was killed: nobody else writes here now
         yield folder
     finally:
         lock_path.unlink(missing_ok=True)  # before the unlock: a waiting run then finds a fresh file

@@ -15,14 +15,15 @@ listed. Before a command writes, `take` checks the folder:
   settings that differ (`config_differences`).
 
 Folders written before the list existed are recognised by what tavc always writes there (a
-run's ``provenance.json`` or ``config.yaml`` with ``trials/``, a report's ``REPORT.md``, a
-sweep's ``sweep.csv``, a ladder's ``ladder.csv``, a model's ``model.json``, a calibration's
-``search.json``) and their files of tavc's names are taken as tavc's.
+run's ``provenance.json``, a report's ``REPORT.md``, a sweep's ``sweep.csv``, a ladder's
+``ladder.csv``, a model's ``model.json``, a calibration's ``search.json``, each beginning as
+tavc writes it) and their files of tavc's names are taken as tavc's.
 """
 
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,7 +44,6 @@ RUN_FILES = ("config.yaml", "provenance.json", "failures.log")
 SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
 LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
 RESULTS_FILES = ("REPORT.md", "claims.csv", "value_ratio.csv")
-CLAIMS_HEADER = "claim_id,claim,verdict"
 MODEL_FILES = ("model.csv", "model.json")
 CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
     f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))
@@ -53,6 +53,9 @@ _WITH_TRIALS = (RUN, MODEL)  # folders whose trials/ holds tavc's records
 
 # settings that decide where and how fast a run goes, not what it computes
 _NOT_RESULTS = ("executor", "output_dir", "overwrite", "force")
+
+
+_TEMPORARY = re.compile(r"\.(.+)\.[a-z0-9_]{8}\.tmp")  # `tempfile.mkstemp(prefix=".<name>.", suffix=".tmp")`
 
 
 def run_files() -> tuple[str, ...]:
@@ -95,6 +98,17 @@ class Owned:
         self.save()
         return existed
 
+    def remove_temporaries(self) -> None:
+        """Remove what a killed command left half-written here (`io.atomic_path`'s
+        ``.<name>.<8 characters>.tmp`` beside a file tavc owns, in the folder or its trials/):
+        nobody else writes here now that the folder is held."""
+        for where in (self.folder, self.folder / "trials"):
+            for path in where.glob(".*.tmp") if where.is_dir() else ():
+                match = _TEMPORARY.fullmatch(path.name)
+                name = str(path.relative_to(self.folder).parent / match[1]).removeprefix("./") if match else ""
+                if match and (name == MANIFEST or self.owns(name)):
+                    path.unlink(missing_ok=True)
+
     def save(self) -> None:
         write_text_atomic(self.folder / MANIFEST, json.dumps(
             {"tavc": self.kind, "files": sorted(self.files)}, indent=1) + "\n")
@@ -108,7 +122,10 @@ def read(folder: Path) -> Owned | None:
     if path.is_file():
         try:
             data = json.loads(path.read_text())
-            kind, files = str(data["tavc"]), {str(f) for f in data["files"]}
+            kind, files = data["tavc"], data["files"]
+            if kind not in _WHAT or not isinstance(files, list) or not all(isinstance(f, str) for f in files):
+                raise ValueError("not a kind of tavc folder and a list of its files")
+            files = set(files)
         except (ValueError, KeyError, TypeError) as exc:
             raise TavcError(f"{path}: cannot be read ({exc}); it lists what tavc wrote in the folder: "
                             "move the folder's results elsewhere, or remove this file to have them taken "
@@ -123,33 +140,33 @@ def read(folder: Path) -> Owned | None:
     return Owned(folder, kind, files)
 
 
+# what marks a folder an earlier tavc wrote: a file and how it begins (tavc's own first line, or
+# for JSON the keys only tavc writes)
+_MARKS = ((RESULTS, "REPORT.md", REPORT_TITLE), (RESULTS, "claims.csv", "claim_id,claim,verdict,"),
+          (RESULTS, "value_ratio.csv", "reading,horizon,ratio,"), (LADDER, "ladder.csv", "factor,duration_s,"),
+          (SWEEP, "sweep.csv", "job,"))
+_JSON_MARKS = ((RUN, "provenance.json", {"tavc_version", "code_digest", "trials"}),
+               (MODEL, "model.json", {"n_robots", "n_circuits", "predicted_state"}),
+               (CALIBRATION, "search.json", {"n_points", "n_trials_reused", "chosen"}))
+
+
 def _earlier_kind(folder: Path) -> str | None:
-    """The kind of a folder an earlier tavc wrote without ``.tavc.json``, or None."""
-    prov = folder / "provenance.json"
-    if prov.is_file():
+    """The kind of a folder an earlier tavc wrote without ``.tavc.json``, or None: known by a
+    file tavc always writes there, which begins as tavc's does (a file of somebody else's that
+    only shares its name is not taken for tavc's)."""
+    for kind, name, keys in _JSON_MARKS:
         try:
-            if "tavc_version" in json.loads(prov.read_text()):
-                return RUN
-        except ValueError:
+            if keys <= set(json.loads((folder / name).read_text())):
+                return kind
+        except (OSError, ValueError, TypeError):
             pass
-    if (folder / "config.yaml").is_file() and (folder / "trials").is_dir():
-        return RUN
-    report = folder / "REPORT.md"
-    if report.is_file():
-        with open(report, "rb") as fh:
-            if fh.read(len(REPORT_TITLE)).decode(errors="replace") == REPORT_TITLE:
-                return RESULTS
-    for kind, mark in ((LADDER, "ladder.csv"), (MODEL, "model.json"), (CALIBRATION, "search.json"),
-                       (RESULTS, "value_ratio.csv")):
-        if (folder / mark).is_file():
-            return kind
-    claims = folder / "claims.csv"  # the long horizon's claims, beside its runs
-    if claims.is_file():
-        with open(claims, "rb") as fh:
-            if fh.read(len(CLAIMS_HEADER)).decode(errors="replace") == CLAIMS_HEADER:
-                return RESULTS
-    if (folder / "sweep.csv").is_file():
-        return SWEEP
+    for kind, name, start in _MARKS:
+        try:
+            with open(folder / name, "rb") as fh:
+                if fh.read(len(start)).decode(errors="replace") == start:
+                    return kind
+        except OSError:
+            pass
     return None
 
 
@@ -183,12 +200,14 @@ def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir
         raise TavcError(f"{what}: {folder / in_the_way[0]} was not written by tavc and tavc would write a file of "
                         "that name; move it away or choose another folder")
     owned.save()
+    owned.remove_temporaries()
     return owned
 
 
 def _ours(name: str) -> bool:
     """Names tavc itself leaves in a folder it holds: the lock, the list, half-written files."""
-    return name in (LOCK_NAME, MANIFEST) or (name.startswith(".") and name.endswith(".tmp"))
+    match = _TEMPORARY.fullmatch(name)
+    return name in (LOCK_NAME, MANIFEST) or bool(match and match[1] in (MANIFEST, *run_files()))
 
 
 def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3) -> list[str]:

@@ -4,8 +4,10 @@ folder held by this run alone for the whole time."""
 
 from __future__ import annotations
 
+import json
 from concurrent.futures import ProcessPoolExecutor
-from contextlib import ExitStack
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 from tavc_cli.analysis.experiment import write_analysis
@@ -18,8 +20,8 @@ from tavc_cli.experiments.runner import (
     run_trials_together,
     write_provenance,
 )
-from tavc_cli.experiments.store import Executor
-from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.experiments.store import FAILURES_LOG, Executor
+from tavc_cli.io import claim_folder, file_digest, write_text_atomic
 from tavc_cli.ownership import LADDER, LADDER_FILES, RUN, SWEEP, SWEEP_FILES, Owned, config_differences, run_files, take
 from tavc_cli.settings import TavcConfig, to_yaml
 
@@ -30,7 +32,9 @@ def run_experiment(cfg: TavcConfig, *, progress: bool = False) -> dict:
     Executor.from_config(cfg.executor).check()
     with claim_folder(cfg.output_dir):
         owned = take_run_folder(cfg)
-        return _finish(cfg, run_experiment_trials(cfg, progress=progress), owned)
+        with _failures_listed([owned]):
+            run = run_experiment_trials(cfg, progress=progress)
+        return _finish(cfg, run, owned)
 
 
 def take_run_folder(cfg: TavcConfig) -> Owned:
@@ -42,17 +46,42 @@ def take_run_folder(cfg: TavcConfig) -> Owned:
     folder = Path(cfg.output_dir)
     owned = take(folder, RUN, run_files())
     text = to_yaml(cfg)
-    if (folder / "config.yaml").is_file():
-        differ = config_differences(folder / "config.yaml", text)
-        if differ and not cfg.overwrite:
-            state = "a finished run" if (folder / "provenance.json").is_file() else "an unfinished run"
-            raise TavcError(f"output_dir: {folder} holds {state} of another configuration ({'; '.join(differ)}); "
-                            "add overwrite=true to replace it, or choose another output_dir")
-        if differ:
-            owned.remove("provenance.json")
-    owned.wrote("config.yaml", "failures.log")
+    unknown = recorded_config_problem(folder)
+    differ = [unknown] if unknown else (
+        config_differences(folder / "config.yaml", text) if (folder / "config.yaml").is_file() else [])
+    if differ and not cfg.overwrite:
+        state = "a finished run" if (folder / "provenance.json").is_file() else "an unfinished run"
+        what = (f"whose {unknown}, so it may be of another configuration" if unknown else
+                f"of another configuration ({'; '.join(differ)})")
+        raise TavcError(f"output_dir: {folder} holds {state} {what}; add overwrite=true to replace it, or choose "
+                        "another output_dir")
+    if differ:
+        owned.remove("provenance.json")
+    owned.wrote("config.yaml")
     write_text_atomic(folder / "config.yaml", text)
     return owned
+
+
+def recorded_config_problem(folder: Path) -> str | None:
+    """Why a finished run's `config.yaml` cannot say which configuration the run was (missing,
+    changed since the run wrote it, cut short), or None if it can or the folder holds no
+    finished run."""
+    from tavc_cli.analysis.schema import SECTIONS
+
+    if not (folder / "provenance.json").is_file():
+        return None
+    path = folder / "config.yaml"
+    if not path.is_file():
+        return "config.yaml is missing"
+    try:
+        recorded = json.loads((folder / "provenance.json").read_text()).get("tables", {}).get("config.yaml")
+    except (ValueError, AttributeError):
+        recorded = None
+    if recorded is not None:
+        return None if file_digest(path) == recorded else "config.yaml differs from what its run wrote"
+    text = path.read_text(errors="replace")
+    missing = [name for name in SECTIONS if f"\n{name}:" not in f"\n{text}"]
+    return f"config.yaml lacks its section {missing[0]}" if missing else None
 
 
 def run_experiments(cfgs: list[TavcConfig], *, progress: bool = False) -> list[dict]:
@@ -68,8 +97,24 @@ def run_experiments(cfgs: list[TavcConfig], *, progress: bool = False) -> list[d
         for cfg in cfgs:
             held.enter_context(claim_folder(cfg.output_dir))
         owned = [take_run_folder(cfg) for cfg in cfgs]
-        runs = run_trials_together(cfgs, progress=progress)
+        with _failures_listed(owned):
+            runs = run_trials_together(cfgs, progress=progress)
         return _finish_all(cfgs, runs, owned)
+
+
+@contextmanager
+def _failures_listed(owned: list[Owned]) -> Iterator[None]:
+    """Within the block trials run: a `failures.log` the store wrote is listed as tavc's when
+    they fail, and tavc's own is removed when they all finish (one of anybody else's stays)."""
+    try:
+        yield
+    except TavcError:
+        for o in owned:
+            if (o.folder / FAILURES_LOG).is_file():
+                o.wrote(FAILURES_LOG)
+        raise
+    for o in owned:
+        o.remove(FAILURES_LOG)
 
 
 def _finish_all(cfgs: list[TavcConfig], runs: list[Run], owned: list[Owned]) -> list[dict]:

@@ -171,3 +171,69 @@ def test_a_report_or_reproduce_aimed_at_a_run_folder_is_refused_before_anything_
     with pytest.raises(TavcError, match=r"REPORT.md was not written by tavc"):
         build_report(tmp_path / "mine")
     assert (tmp_path / "mine" / "REPORT.md").read_text() == "my own report\n"
+
+
+def test_a_folder_that_only_looks_like_a_run_is_not_taken_for_one(tmp_path):
+    """A config.yaml and trials/ of somebody else's, a sweep.csv or model.json of theirs: tavc's
+    earlier folders are known by how tavc's files begin, not by their names."""
+    (tmp_path / "trials").mkdir()
+    (tmp_path / "config.yaml").write_text("model:\n  lr: 0.001\n")
+    before = _snapshot(tmp_path)
+    with pytest.raises(TavcError, match=r"holds files tavc did not write \(config.yaml, trials/\)"):
+        run_experiment(_cfg(tmp_path))
+    assert _snapshot(tmp_path) == before
+    (tmp_path / "sweep").mkdir()
+    (tmp_path / "sweep" / "sweep.csv").write_text("lr,acc\n0.1,0.9\n")
+    assert read(tmp_path / "sweep") is None
+    result = CliRunner().invoke(app, ["run", "-m", *SMOKE, "seed=1,2", f"output_dir={tmp_path / 'sweep'}"])
+    assert result.exit_code == 1 and "sweep.csv was not written by tavc" in result.output
+    assert (tmp_path / "sweep" / "sweep.csv").read_text() == "lr,acc\n0.1,0.9\n"
+
+
+def test_only_tavcs_own_half_written_files_are_removed(finished, tmp_path):
+    out = _copy(finished, tmp_path)
+    for name in (".notes.tmp", "trials/.keep.tmp", ".state_time.csv.abcd1234.tmp", "trials/.random_000.npz.x1y2z3_4.tmp"):
+        (out / name).write_text("half\n")
+    run_experiment(_cfg(out))
+    assert (out / ".notes.tmp").is_file() and (out / "trials/.keep.tmp").is_file()  # somebody else's
+    assert not (out / ".state_time.csv.abcd1234.tmp").exists()  # a killed run's, beside tavc's own files
+    assert not (out / "trials/.random_000.npz.x1y2z3_4.tmp").exists()
+    (tmp_path / "new").mkdir()
+    (tmp_path / "new" / ".draft.tmp").write_text("mine\n")
+    with pytest.raises(TavcError, match=r"holds files tavc did not write \(.draft.tmp\)"):
+        run_experiment(_cfg(tmp_path / "new"))
+    assert (tmp_path / "new" / ".draft.tmp").read_text() == "mine\n"
+
+
+@pytest.mark.parametrize("damage", ["remove", "empty", "cut"])
+def test_a_finished_run_without_its_config_is_not_replaced_silently(finished, tmp_path, damage):
+    out = _copy(finished, tmp_path)
+    config = out / "config.yaml"
+    text = config.read_text()
+    if damage == "remove":
+        config.unlink()
+    else:
+        config.write_text("" if damage == "empty" else "".join(text.splitlines(keepends=True)[:40]))
+    before = _snapshot(out)
+    with pytest.raises(TavcError, match=r"holds a finished run whose config.yaml (is missing|differs from what its "
+                                        r"run wrote), so it may be of another configuration; add overwrite=true"):
+        run_experiment(_cfg(out, "seed=5"))
+    assert _snapshot(out) == before
+    run_experiment(_cfg(out, "seed=5", "overwrite=true"))
+    assert "seed: 5" in (out / "config.yaml").read_text()
+
+
+def test_somebody_elses_failures_log_in_a_run_folder_is_kept(finished, tmp_path):
+    out = _copy(finished, tmp_path)
+    (out / "failures.log").write_text("my failures\n")
+    with pytest.raises(TavcError, match=r"failures.log was not written by tavc"):
+        run_experiment(_cfg(out))
+    assert (out / "failures.log").read_text() == "my failures\n"
+
+
+@pytest.mark.parametrize("text", ['{"tavc": null, "files": []}', '{"tavc": "run", "files": "abc"}', "[]"])
+def test_a_list_of_another_shape_is_one_line_naming_it(finished, tmp_path, text):
+    out = _copy(finished, tmp_path)
+    (out / MANIFEST).write_text(text)
+    with pytest.raises(TavcError, match=rf"{MANIFEST}: cannot be read"):
+        run_experiment(_cfg(out))
