@@ -6,16 +6,19 @@ import sys
 
 
 def _interrupted_while_loading(signum, frame) -> None:
-    """Ctrl-C before the command line has loaded: nothing is written yet, so one line and out."""
-    os.write(2, b"error: interrupted\n")
-    os._exit(130)
+    """Ctrl-C or SIGTERM before the command line has loaded: nothing is written yet, so one
+    line and out."""
+    terminated = signum == _signal.SIGTERM
+    os.write(2, b"error: terminated\n" if terminated else b"error: interrupted\n")
+    os._exit(143 if terminated else 130)
 
 
-# Started as the command line (`tavc`, `python -m tavc_cli`): Ctrl-C is one line from here on,
-# until `__main__.main` takes over with its own handling.
+# Started as the command line (`tavc`, `python -m tavc_cli`): Ctrl-C and SIGTERM are one line from
+# here on, until `__main__.main` (Ctrl-C) and each command (SIGTERM, `console.user_errors`) take over.
 if os.path.basename(sys.argv[0] if sys.argv else "") == "tavc" or getattr(sys, "orig_argv", [])[1:3] == [
         "-m", "tavc_cli"]:
     _signal.signal(_signal.SIGINT, _interrupted_while_loading)
+    _signal.signal(_signal.SIGTERM, _interrupted_while_loading)
 
 import hashlib  # noqa: E402 - after the handler: an interrupt while these load is one line too
 import shutil  # noqa: E402

@@ -52,6 +52,9 @@ class Results:
         if not path.is_file():
             have = ", ".join(sorted(p.stem for p in self.path.glob("*.csv"))) or "none"
             raise TavcError(f"{self.path}: no table {name!r} (tables here: {have})")
+        if not (self.path / "provenance.json").is_file():  # its tables may be an earlier run's
+            raise TavcError(f"{self.path}: its run did not finish (no provenance.json), so its tables may be "
+                            "another run's; run it again to complete it")
         check_table(path)
         return pd.read_csv(path)
 
@@ -67,8 +70,16 @@ class Results:
 
     @cached_property
     def config(self) -> dict:
-        """The composed config the run used."""
-        return yaml.safe_load((self.path / "config.yaml").read_text())
+        """The composed config the run used (a damaged config.yaml is one line naming it)."""
+        path = self.path / "config.yaml"
+        try:
+            config = yaml.safe_load(path.read_text())
+        except (OSError, yaml.YAMLError) as exc:
+            raise TavcError(f"{path}: cannot be read ({str(exc).splitlines()[0]}); rerun its experiment to rewrite "
+                            "it") from None
+        if not isinstance(config, dict):
+            raise TavcError(f"{path}: holds no settings; rerun its experiment to rewrite it")
+        return config
 
     def records(self) -> list[TrialRecord]:
         """The raw record of every trial of the run, in file-name order: the files its

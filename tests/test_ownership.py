@@ -237,3 +237,16 @@ def test_a_list_of_another_shape_is_one_line_naming_it(finished, tmp_path, text)
     (out / MANIFEST).write_text(text)
     with pytest.raises(TavcError, match=rf"{MANIFEST}: cannot be read"):
         run_experiment(_cfg(out))
+
+
+def test_the_api_says_when_a_run_did_not_finish_or_its_config_is_damaged(finished, tmp_path):
+    from tavc_cli import api
+
+    out = _copy(finished, tmp_path)
+    (out / "provenance.json").unlink()  # as an interrupted overwrite=true run leaves it
+    with pytest.raises(TavcError, match=r"its run did not finish \(no provenance.json\), so its tables may be "
+                                        r"another run's"):
+        api.load(out).state_time
+    (out / "config.yaml").write_text("seed: [0\n")
+    with pytest.raises(TavcError, match=r"config.yaml: cannot be read \("):
+        api.load(out).config

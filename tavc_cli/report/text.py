@@ -72,8 +72,8 @@ def performance(stats: pd.DataFrame) -> str:
     parts = []
     for ctrl, g in stats.groupby("controller", sort=False):
         x = g["value_rate_stable"].dropna()
-        sd = x.std(ddof=1) if len(x) > 1 else math.nan
-        parts.append(f"{CONTROLLER_NAMES.get(ctrl, ctrl)} {x.mean():.4f} ± {fmt(sd, '.4f')} (n = {len(x)})")
+        spread = f" ± {x.std(ddof=1):.4f}" if len(x) > 1 else ""  # one trial has none
+        parts.append(f"{CONTROLLER_NAMES.get(ctrl, ctrl)} {x.mean():.4f}{spread} (n = {len(x)})")
     return "score value delivered per second in the stable period: " + ", ".join(parts)
 
 
