@@ -250,3 +250,20 @@ def test_the_api_says_when_a_run_did_not_finish_or_its_config_is_damaged(finishe
     (out / "config.yaml").write_text("seed: [0\n")
     with pytest.raises(TavcError, match=r"config.yaml: cannot be read \("):
         api.load(out).config
+
+
+def test_the_report_never_replaces_a_figure_it_did_not_draw(finished, tmp_path):
+    from tavc_cli.report import build_report
+
+    shutil.copytree(finished, tmp_path / "initial_distribution")
+    (tmp_path / "figures").mkdir()
+    (tmp_path / "figures" / "fig_1_6.png").write_bytes(b"my figure")
+    before = _snapshot(tmp_path)
+    with pytest.raises(TavcError, match=r"fig_1_6.png was not written by tavc, and the report draws its figures in"):
+        build_report(tmp_path)
+    assert _snapshot(tmp_path) == before
+    (tmp_path / "figures" / "fig_1_6.png").unlink()
+    build_report(tmp_path)
+    drawn = sorted(p.relative_to(tmp_path).as_posix() for p in (tmp_path / "figures").rglob("*") if p.is_file())
+    assert drawn and set(drawn) <= set(json.loads((tmp_path / MANIFEST).read_text())["files"])
+    build_report(tmp_path)  # its own figures: drawn again
