@@ -33,8 +33,10 @@ from tavc_cli.io import LOCK_NAME, write_text_atomic
 
 MANIFEST = ".tavc.json"
 RUN, SWEEP, LADDER, RESULTS, MODEL, CALIBRATION = "run", "sweep", "ladder", "results", "model", "calibration"
+ANIMATION = "animation"
 _WHAT = {RUN: "a tavc run's folder", SWEEP: "a tavc sweep's folder (the jobs' folders and sweep.csv)",
          MODEL: "the folder of a tavc model (model.json)", CALIBRATION: "a tavc calibration's folder (search.csv)",
+         ANIMATION: "a folder of tavc animations",
          LADDER: "a horizon ladder's folder (its rungs and ladder.csv)",
          RESULTS: "a results folder with a tavc report on top (REPORT.md)"}
 REPORT_TITLE = "# tavc: the reproduction report"
@@ -48,7 +50,7 @@ MODEL_FILES = ("model.csv", "model.json")
 CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
     f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))
 _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODEL: MODEL_FILES,
-          CALIBRATION: CALIBRATION_FILES}
+          CALIBRATION: CALIBRATION_FILES, ANIMATION: ()}
 _WITH_TRIALS = (RUN, MODEL)  # folders whose trials/ holds tavc's records
 
 # settings that decide where and how fast a run goes, not what it computes

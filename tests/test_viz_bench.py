@@ -25,6 +25,21 @@ def test_animate_writes_a_gif_with_one_frame_per_second_and_a_trajectory_plot(tm
     assert str(out) in result.output
 
 
+def test_animate_never_replaces_a_file_it_did_not_write(tmp_path):
+    """Its own animation is drawn again; a trajectories.png of somebody else's beside it is
+    refused before anything is simulated."""
+    args = ["animate", "team.n_robots=2", "--duration-s", "4", "--no-mp4", "--out", str(tmp_path / "a" / "run.gif")]
+    assert runner.invoke(app, args).exit_code == 0
+    assert runner.invoke(app, args).exit_code == 0  # tavc's own files, listed in the folder's .tavc.json
+    (tmp_path / "b").mkdir()
+    (tmp_path / "b" / "trajectories.png").write_bytes(b"mine")
+    result = runner.invoke(app, [*args[:-1], str(tmp_path / "b" / "run.gif")])
+    assert result.exit_code == 1
+    assert result.output.strip() == (f"error: --out: {tmp_path / 'b' / 'trajectories.png'} was not written by tavc and "
+                                     "the animation would replace it; move it away or choose another --out")
+    assert (tmp_path / "b" / "trajectories.png").read_bytes() == b"mine" and not (tmp_path / "b" / "run.gif").exists()
+
+
 def test_animate_rejects_a_non_gif_output_with_one_line(tmp_path):
     result = runner.invoke(app, ["animate", "--out", str(tmp_path / "run.mp4")])
     assert result.exit_code == 1

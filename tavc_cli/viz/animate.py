@@ -150,10 +150,27 @@ def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float =
             pass
     except OSError as exc:
         raise TavcError(f"--out: cannot write into {out.parent}: {exc.strerror}") from None
+    owned = _owned_beside(out, mp4)
     if mp4 and not shutil.which("ffmpeg"):
         print("note: ffmpeg not found, so no MP4 is written (the GIF is)", file=sys.stderr)
     rec, arena = simulate_for_pictures(cfg, duration_s, frame_every_s)
     radius = float(cfg.robot.radius_m)
     written = animate_record(rec, arena, radius, out, fps, mp4=mp4)
     written.append(trajectory_plot(rec, arena, out.with_name("trajectories.png")))
+    owned.wrote(*(p.name for p in written))
     return written
+
+
+def _owned_beside(out: Path, mp4: bool):
+    """What tavc owns in the animation's folder (`ownership`): a run's, or one of animations
+    (listed there from now on); refuses, before anything is simulated, a file the animation
+    would replace that tavc did not write."""
+    from tavc_cli.ownership import ANIMATION, Owned, read
+
+    owned = read(out.parent) or Owned(out.parent, ANIMATION)
+    names = [out.name, *([out.with_suffix(".mp4").name] if mp4 else []), "trajectories.png"]
+    foreign = [name for name in names if (out.parent / name).exists() and not owned.owns(name)]
+    if foreign:
+        raise TavcError(f"--out: {out.parent / foreign[0]} was not written by tavc and the animation would replace it; "
+                        "move it away or choose another --out")
+    return owned
