@@ -442,6 +442,10 @@ def test_trials_counted_in_deliveries_scale_like_durations(overrides, deliveries
     (["output_dir=/tmp/my", "results"],
      "results: not an override (key=value); if it is the rest of output_dir's value, cut off at a space, quote the "
      """whole override: 'output_dir="/tmp/my results"'"""),
+    # every word the shell split off, not only the first
+    (["output_dir=/tmp/my", "new", "results", "seed=1"],
+     "new: not an override (key=value); if it is the rest of output_dir's value, cut off at a space, quote the "
+     """whole override: 'output_dir="/tmp/my new results"'"""),
     (["output_dir=/tmp/résultats"],
      "output_dir: the value '/tmp/résultats' has a character Hydra's override grammar reads only in quotes ('é'); "
      """quote it: 'output_dir="/tmp/résultats"'"""),

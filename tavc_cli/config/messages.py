@@ -64,9 +64,14 @@ def override_syntax_message(overrides: Sequence[str], index: int, error: Excepti
     key, equals, value = text.partition("=")
     key = key.strip()
     if not equals:
-        previous = overrides[index - 1] if index > 0 else ""
+        first, last = index, index  # every word the shell split off the value, not only this one
+        while first > 0 and "=" not in overrides[first - 1]:
+            first -= 1
+        while last + 1 < len(overrides) and "=" not in overrides[last + 1]:
+            last += 1
+        previous = overrides[first - 1] if first > 0 else ""
         before, _, start = previous.partition("=")
-        joined = f"{before}={_hydra_quoted(f'{start} {text}')}"
+        joined = f"{before}={_hydra_quoted(' '.join([start, *overrides[first:last + 1]]))}"
         if "=" in previous and parses(joined):
             return (f"{text}: not an override (key=value); if it is the rest of {before}'s value, cut off at a "
                     f"space, quote the whole override: {shlex.quote(joined)}")
