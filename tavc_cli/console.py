@@ -78,7 +78,9 @@ def os_error_text(error: OSError, folder: Optional[Callable[[], Any]] = None) ->
     if isinstance(name, bytes):
         name = name.decode(errors="replace")
     if name is not None and Path(str(name)).name.startswith(".") and str(name).endswith(".tmp"):
-        name = Path(str(name)).parent
+        # renaming the temporary over its result failed: the result is what cannot be written;
+        # making the temporary failed: its folder
+        name = error.filename2 if error.filename2 is not None else Path(str(name)).parent
     reason = error.strerror or str(error) or type(error).__name__
     remedy = _REMEDIES.get(error.errno, "fix the cause")
     return f"{name or 'tavc'}: {reason}; {remedy} ({RESUME})"

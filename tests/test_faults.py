@@ -175,3 +175,14 @@ def test_ctrl_c_at_any_moment_is_one_line_and_the_rerun_heals(undisturbed, tmp_p
     assert len([line for line in err.splitlines() if line.strip()]) <= 1, err
     subprocess.run(run, check=True, capture_output=True)
     _assert_healed(out, undisturbed)
+
+
+def test_a_result_that_cannot_be_replaced_is_named_not_its_folder():
+    """A table made unwritable (renaming the temporary over it fails): the line names the table."""
+    from tavc_cli.console import os_error_text
+
+    error = PermissionError(errno.EPERM, "Operation not permitted", "/r/.state_time.csv.ab12cd34.tmp", None,
+                            "/r/state_time.csv")
+    assert os_error_text(error).startswith("/r/state_time.csv: Operation not permitted; ")
+    error = PermissionError(errno.EACCES, "Permission denied", "/r/trials/.random_000.npz.ab12cd34.tmp")
+    assert os_error_text(error).startswith("/r/trials: Permission denied; ")  # no temporary could be made there
