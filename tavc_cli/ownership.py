@@ -238,3 +238,36 @@ def _flat(tree, prefix: str = "") -> dict[str, object]:
             out.update(_flat(value, f"{prefix}{key}."))
         return out or {prefix.rstrip("."): {}}
     return {prefix.rstrip("."): tree}
+
+
+def take_report_folders(results_dir: Path, long_dir: Path | None) -> list:
+    """Check, before anything is written, that `tavc report` may write its files (`take`):
+    REPORT.md, claims.csv and figures/ on top, the long horizon's claims.csv and figures/, the
+    value-ratio table; a folder that is a run's, or a file there that tavc did not write, is
+    refused. Returns what tavc owns in the folders whose figures/ the report draws."""
+    roots = [(results_dir, ("REPORT.md", "claims.csv"))]
+    if long_dir is not None:
+        roots.append((long_dir, ("claims.csv",)))
+    if (results_dir / "value_ratio").is_dir():
+        roots.append((results_dir / "value_ratio", ("value_ratio.csv",)))
+    for folder, _ in roots[:2]:
+        owned = read(folder)
+        figures = sorted(p for p in (folder / "figures").rglob("*") if p.is_file()) if (
+            folder / "figures").is_dir() else []
+        foreign = [p for p in figures if owned is None or not owned.owns(p.relative_to(folder).as_posix())]
+        if foreign:
+            raise TavcError(f"RESULTS_DIR: {foreign[0]} was not written by tavc, and the report draws its figures "
+                            f"in {folder / 'figures'}; move it away or choose another folder")
+    taken = []
+    for folder, files in roots:
+        taken.append(take(folder, RESULTS, files, what="RESULTS_DIR"))
+        taken[-1].wrote(*files)
+    return taken[:2]
+
+
+def list_figures(taken: list) -> None:
+    """Record the figures `tavc report` drew as tavc's."""
+    for owned in taken:
+        if (owned.folder / "figures").is_dir():
+            owned.wrote(*(p.relative_to(owned.folder).as_posix() for p in (owned.folder / "figures").rglob("*")
+                          if p.is_file()))

@@ -29,6 +29,7 @@ from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
+from tavc_cli.ownership import list_figures, take_report_folders
 from tavc_cli.reference import TABLES
 from tavc_cli.report import horizons
 from tavc_cli.report.figures import experiment_figures, find_model
@@ -119,41 +120,6 @@ def _read(path: Path, read):
         raise TavcError(f"{path}: cannot be read ({detail}); rerun its experiment to rewrite it") from None
 
 
-def _take_results(results_dir: Path, long_dir: Path | None) -> list:
-    """Check, before anything is written, that the report may write its files (`ownership.take`):
-    REPORT.md, claims.csv and figures/ on top, the long horizon's claims.csv and figures/, the
-    value-ratio table; a folder that is a run's, or a file there that tavc did not write, is
-    refused. Returns what tavc owns in the folders whose figures/ the report draws."""
-    from tavc_cli.ownership import RESULTS, read, take
-
-    roots = [(results_dir, ("REPORT.md", "claims.csv"))]
-    if long_dir is not None:
-        roots.append((long_dir, ("claims.csv",)))
-    if (results_dir / "value_ratio").is_dir():
-        roots.append((results_dir / "value_ratio", ("value_ratio.csv",)))
-    for folder, _ in roots[:2]:
-        owned = read(folder)
-        figures = sorted(p for p in (folder / "figures").rglob("*") if p.is_file()) if (
-            folder / "figures").is_dir() else []
-        foreign = [p for p in figures if owned is None or not owned.owns(p.relative_to(folder).as_posix())]
-        if foreign:
-            raise TavcError(f"RESULTS_DIR: {foreign[0]} was not written by tavc, and the report draws its figures "
-                            f"in {folder / 'figures'}; move it away or choose another folder")
-    taken = []
-    for folder, files in roots:
-        taken.append(take(folder, RESULTS, files, what="RESULTS_DIR"))
-        taken[-1].wrote(*files)
-    return taken[:2]
-
-
-def _list_figures(taken: list) -> None:
-    """Record the figures the report drew as tavc's."""
-    for owned in taken:
-        if (owned.folder / "figures").is_dir():
-            owned.wrote(*(p.relative_to(owned.folder).as_posix() for p in (owned.folder / "figures").rglob("*")
-                          if p.is_file()))
-
-
 def build_report(results_dir: Path) -> dict:
     """Write `claims.csv` and `REPORT.md` under results_dir; return what was found."""
     results_dir = Path(results_dir)
@@ -173,7 +139,7 @@ def build_report(results_dir: Path) -> dict:
     runs, claims = base.runs, base.claims
     tested, n_ok = base.tested, base.n_reproduced
     long = _horizon(long_dir, found_long, unfinished_long) if found_long else None
-    taken = _take_results(results_dir, long_dir if found_long else None)  # everything read: now the first write
+    taken = take_report_folders(results_dir, long_dir if found_long else None)  # everything read: now the first write
     lines = ["# tavc: the reproduction report", "",
              "Built by `tavc report` from the saved results in this folder; nothing here was simulated "
              "while writing it, and no number was typed in.", ""]
@@ -243,7 +209,7 @@ def build_report(results_dir: Path) -> dict:
     if long is not None:
         write_text_atomic(long.folder / "claims.csv", long.claims.to_csv(index=False, float_format="%.6g"))
     write_text_atomic(results_dir / "REPORT.md", "\n".join(lines))
-    _list_figures(taken)
+    list_figures(taken)
     out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
            "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished],
            "runs": _run_names(found, results_dir)}
