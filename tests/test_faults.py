@@ -75,6 +75,21 @@ def test_a_trial_file_damaged_anywhere_is_named_and_run_again(undisturbed, tmp_p
     _assert_healed(out, undisturbed)
 
 
+def test_swapped_trial_files_are_named_and_run_again(undisturbed, tmp_path):
+    """Two records swapped (each whole, but each another trial's): named in a note, and healed."""
+    out = tmp_path / "run"
+    shutil.copytree(undisturbed, out)
+    a, b = trial_path(out, "random", 0), trial_path(out, "random", 1)
+    data = a.read_bytes()
+    a.write_bytes(b.read_bytes())
+    b.write_bytes(data)
+    result = CliRunner().invoke(app, ["run", *SMOKE, f"output_dir={out}"])
+    assert result.exit_code == 0, result.output
+    assert (f"note: 2 trial files in {out / 'trials'} were made with other settings or another version of the "
+            "simulator (random_000.npz, random_001.npz); running those trials again") in result.output.splitlines()
+    _assert_healed(out, undisturbed)
+
+
 @pytest.mark.parametrize("table", ["state_time.csv", "trial_stats.csv", "performance.csv", "robots.csv"])
 def test_a_damaged_table_in_a_finished_run_is_rewritten_by_the_rerun(undisturbed, tmp_path, table):
     out = tmp_path / "run"

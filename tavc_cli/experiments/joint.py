@@ -60,8 +60,8 @@ def run_together(folders: Sequence[tuple[Path, Sequence[TrialSpec]]], executor: 
         return reused
     items, pending, reused = [], set(), {}
     for store, specs in stores:
-        batches, n_reused, damaged = pending_batches(store.folder, specs, executor.batch_size)
-        store.announce(len(specs), n_reused, damaged)
+        batches, n_reused, redone = pending_batches(store.folder, specs, executor.batch_size)
+        store.announce(len(specs), n_reused, redone)
         reused[store.folder] = n_reused
         todo = {(s.controller, s.trial) for b in batches for s in b.specs}
         for spec in specs:

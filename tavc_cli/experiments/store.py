@@ -85,9 +85,9 @@ class TrialStore:
         """Run every trial of `specs` that is not done; return how many were reused."""
         ex = self.executor
         self.check_paths(specs)
-        pending, n_reused, damaged = pending_batches(self.folder, list(specs), ex.batch_size, ex.n_jobs)
+        pending, n_reused, redone = pending_batches(self.folder, list(specs), ex.batch_size, ex.n_jobs)
         if announce:
-            self.announce(len(specs), n_reused, damaged)
+            self.announce(len(specs), n_reused, redone)
         if ex.backend == "local":
             failures = execute(pending, self.folder, ex.n_jobs, progress)
         else:
@@ -104,15 +104,16 @@ class TrialStore:
             raise TavcError(f"{in_the_way[0]}: a {'file' if in_the_way[0] == trials else 'folder'} stands where "
                             "tavc writes its trial records; move it away")
 
-    def announce(self, n_specs: int, n_reused: int, damaged: list[str]) -> None:
-        """Say how many finished trials are reused, and which files are run again because
-        they could not be read."""
+    def announce(self, n_specs: int, n_reused: int, redone: dict[str, list[str]]) -> None:
+        """Say how many finished trials are reused, and which files are there but run again:
+        because they could not be read whole, or were made with other settings or another
+        version of the simulator (`pending_batches`)."""
         if n_reused:
             print(f"reusing {n_reused} of {n_specs} finished trials in {self.folder / 'trials'}", flush=True)
-        if damaged:
-            print(f"note: {len(damaged)} trial files in {self.folder / 'trials'} are damaged or unreadable "
-                  f"({', '.join(damaged[:3])}{', ...' if len(damaged) > 3 else ''}); running those trials again",
-                  flush=True)
+        for why, names in redone.items():
+            if names:
+                print(f"note: {len(names)} trial files in {self.folder / 'trials'} {why} ({', '.join(names[:3])}"
+                      f"{', ...' if len(names) > 3 else ''}); running those trials again", flush=True)
 
     def settle(self, failures: list[TrialFailure], n_specs: int) -> None:
         """Record the failed trials in `failures.log` and stop with one line naming the first.
@@ -164,21 +165,25 @@ def trial_done(out_dir: Path, spec: TrialSpec) -> bool:
     return _stored_key(trial_path(out_dir, spec.controller, spec.trial), whole=True) == spec.key()
 
 
+DAMAGED, OTHER = "are damaged or unreadable", "were made with other settings or another version of the simulator"
+
+
 def pending_batches(out_dir: Path, specs: list[TrialSpec], batch_size: int,
-                    workers: int = 1) -> tuple[list[Batch], int, list[str]]:
+                    workers: int = 1) -> tuple[list[Batch], int, dict[str, list[str]]]:
     """Batches of the trials still to run, how many finished trials are reused, and the names
-    of the files among those to run that are there but could not be read whole (each file
-    read once, to its last byte: a reused trial is one the analysis can read)."""
-    todo, damaged = [], []
+    of the files among those to run that are there, by why they are run again (`DAMAGED`:
+    they could not be read whole; `OTHER`: their key is not the spec's). Each file is read
+    once, to its last byte: a reused trial is one the analysis can read."""
+    todo, redone = [], {DAMAGED: [], OTHER: []}
     for spec in specs:
         path = trial_path(out_dir, spec.controller, spec.trial)
         key = _stored_key(path, whole=True)
         if key == spec.key():
             continue
         todo.append(spec)
-        if key is None and path.exists():
-            damaged.append(path.name)
-    return make_batches(todo, batch_size, workers), len(specs) - len(todo), damaged
+        if path.exists():
+            redone[DAMAGED if key is None else OTHER].append(path.name)
+    return make_batches(todo, batch_size, workers), len(specs) - len(todo), redone
 
 
 @dataclass(frozen=True)
