@@ -181,7 +181,7 @@ def expect(folder: Path, kind: str, what: str = "output_dir") -> None:
                         "choose another folder")
 
 
-def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir") -> Owned:
+def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir", *, save: bool = True) -> Owned:
     """Check that a command of `kind` may write `writes` (paths relative to `folder`) there, and
     return what tavc owns in it, its ``.tavc.json`` written. Refuses, with one line naming the
     folder or file, a folder of another kind, a run's folder holding anything not tavc's, and a
@@ -201,8 +201,9 @@ def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir
     if in_the_way:
         raise TavcError(f"{what}: {folder / in_the_way[0]} was not written by tavc and tavc would write a file of "
                         "that name; move it away or choose another folder")
-    owned.save()
-    owned.remove_temporaries()
+    if save:  # a caller with checks of its own saves once they pass (`Owned.wrote`)
+        owned.save()
+        owned.remove_temporaries()
     return owned
 
 

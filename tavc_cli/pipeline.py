@@ -5,8 +5,8 @@ folder held by this run alone for the whole time."""
 from __future__ import annotations
 
 import json
-from concurrent.futures import ProcessPoolExecutor
 from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
@@ -44,7 +44,7 @@ def take_run_folder(cfg: TavcConfig) -> Owned:
     run, the folder stops being a finished run (its `provenance.json` goes) before anything
     of the new one is written."""
     folder = Path(cfg.output_dir)
-    owned = take(folder, RUN, run_files())
+    owned = take(folder, RUN, run_files(), save=False)  # nothing written until every check has passed
     text = to_yaml(cfg)
     unknown = recorded_config_problem(folder)
     differ = [unknown] if unknown else (
@@ -55,9 +55,10 @@ def take_run_folder(cfg: TavcConfig) -> Owned:
                 f"of another configuration ({'; '.join(differ)})")
         raise TavcError(f"output_dir: {folder} holds {state} {what}; add overwrite=true to replace it, or choose "
                         "another output_dir")
+    owned.wrote("config.yaml")
+    owned.remove_temporaries()
     if differ:
         owned.remove("provenance.json")
-    owned.wrote("config.yaml")
     write_text_atomic(folder / "config.yaml", text)
     return owned
 

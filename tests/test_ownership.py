@@ -267,3 +267,12 @@ def test_the_report_never_replaces_a_figure_it_did_not_draw(finished, tmp_path):
     drawn = sorted(p.relative_to(tmp_path).as_posix() for p in (tmp_path / "figures").rglob("*") if p.is_file())
     assert drawn and set(drawn) <= set(json.loads((tmp_path / MANIFEST).read_text())["files"])
     build_report(tmp_path)  # its own figures: drawn again
+
+
+def test_a_refused_run_writes_nothing_even_in_a_folder_an_earlier_version_wrote(finished, tmp_path):
+    out = _copy(finished, tmp_path)
+    (out / MANIFEST).unlink()
+    before = _snapshot(out)
+    with pytest.raises(TavcError, match=r"of another configuration \(seed: 0 -> 9\)"):
+        run_experiment(_cfg(out, "seed=9"))
+    assert _snapshot(out) == before  # not even the list
