@@ -42,6 +42,10 @@ test-fast: venv ## Run the tests not marked slow
 bench: venv ## Print simulator throughput as one JSON object
 	$(BIN)/tavc bench --json
 
+.PHONY: docs
+docs: venv ## Build the documentation site offline into site/
+	$(BIN)/mkdocs build --strict
+
 # Where verify-outcomes recomputes; the committed tables it must match byte for byte
 VERIFY_DIR ?= /tmp/tavc-verify
 VERIFY_RUN := state_time trial_stats performance allocation robots q_values claims comparison
