@@ -84,14 +84,14 @@ reproduce-converged: venv ## Every experiment and the horizon ladder at 40x the 
 ladder: venv ## initial_distribution at 1x to 40x the chapter's durations (results/converged/ladder/), the rungs' history shared
 	$(BIN)/tavc ladder --factors $(LADDER) --results results/converged executor.batch_size=$(CONVERGED_BATCH)
 
-reproduce-quick: venv ## A first look: every experiment at scale=quick into results-quick/, and its report
+reproduce-quick: venv ## A first look: every experiment at scale=quick into runs/quick/, and its report (not a verdict)
 	@date +%s > $(VENV)/.reproduce-start
-	$(BIN)/tavc reproduce scale=quick --results results-quick
-	$(BIN)/tavc report results-quick
+	$(BIN)/tavc reproduce scale=quick
+	$(BIN)/tavc report runs/quick
 	@echo "reproduce-quick: $$(( $$(date +%s) - $$(cat $(VENV)/.reproduce-start) )) s wall time"
 
 model: venv ## Measure the vacancy-chain model in the chapter's world (results/initial_distribution/model/)
-	$(MODEL_NICE) $(BIN)/tavc model experiment=initial_distribution scale=paper
+	$(MODEL_NICE) $(BIN)/tavc model experiment=initial_distribution scale=paper output_dir=results/initial_distribution
 
 value-ratio: venv ## Share of time on the high-value circuit against the value ratio: 5 h and 50 h, t in ms and s; gamma 0 at 5 h
 	$(BIN)/tavc run -m experiment=initial_distribution scale=paper 'baselines=[]' tasks.time_unit=ms,s \
@@ -109,7 +109,7 @@ value-ratio-converged: venv ## The value-ratio sweep at 40x the chapter's durati
 		executor.batch_size=$(CONVERGED_BATCH) 'tasks.values=$(VALUE_RATIOS_CONVERGED)' output_dir=results/value_ratio/converged
 
 $(REPRODUCE): reproduce-%: venv
-	$(BIN)/tavc run experiment=$* scale=paper
+	$(BIN)/tavc run experiment=$* scale=paper output_dir=results/$*
 
 clean: ## Remove build artefacts and caches (keeps .venv and results/)
 	rm -rf build dist *.egg-info .pytest_cache .ruff_cache

@@ -138,7 +138,7 @@ def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, 
 
     Args:
         overrides: Hydra overrides, e.g. ``["experiment=breakdown", "scale=quick", "seed=3"]``.
-        output_dir: Where to write; by default the config's (``results/<experiment>``).
+        output_dir: Where to write; by default the config's (``runs/<scale>/<experiment>``).
         progress: Show a progress bar.
     """
     overrides = list(overrides)
@@ -148,14 +148,14 @@ def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, 
 
 
 def reproduce(overrides: Sequence[str] = (), *, experiments: Sequence[str] | None = None,
-              results_dir: str | Path = "results", progress: bool = False) -> dict[str, Results]:
+              results_dir: str | Path | None = None, progress: bool = False) -> dict[str, Results]:
     """Run several experiments together as `tavc reproduce` does (the history their trials share
     simulated once) and open each one's results, by experiment name.
 
     Args:
         overrides: Hydra overrides for every experiment, e.g. ``["scale=quick"]``.
         experiments: Experiment names; by default every one.
-        results_dir: The folder that gets one folder per experiment.
+        results_dir: The folder that gets one folder per experiment; by default ``runs/<scale>``.
         progress: Show a progress bar.
     """
     return {name: Results(summary["output_dir"])
@@ -173,7 +173,7 @@ def run_summary(overrides: Sequence[str] = (), *, progress: bool = False) -> dic
 
 
 def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[str] | None = None,
-                        results_dir: str | Path = "results", progress: bool = False,
+                        results_dir: str | Path | None = None, progress: bool = False,
                         ladder: Sequence[float] | None = None) -> list[tuple[str, dict]]:
     """`reproduce`'s work, returning (name, summary) per experiment as `tavc reproduce` prints
     them. With `ladder` (multiples of the chapter's durations), the horizon ladder's rungs run
@@ -184,6 +184,8 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
     from tavc_cli.pipeline import run_experiments
 
     names = [experiments] if isinstance(experiments, str) else experiments
+    if results_dir is None:  # runs/<scale>: the ladder's scale is converged unless one is given
+        results_dir = config.results_root(overrides, None if names != [] else "converged")
     cfgs = config.load_experiments(names, list(overrides), results_dir) if names != [] else []
     rungs = config.load_ladder(ladder, list(overrides), results_dir) if ladder else []
     if not cfgs and not rungs:
@@ -208,15 +210,22 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, prog
     `echo`; with `save_calibration`, record the calibrated values as tasks=calibrated. Returns
     the model's result."""
     from tavc_cli import config
-    from tavc_cli.model.api import run_model
+    from tavc_cli.model.api import calibration_record, model_identity, run_model
     from tavc_cli.model.api import save_calibration as save
+    from tavc_cli.ownership import refuse_other_settings
     from tavc_cli.model.report import model_text
 
     config.check_measurement(list(overrides), "model")  # its time on this machine, before anything runs
-    result = run_model(config.settings(config.load_config(list(overrides))), progress=progress)
+    cfg = config.settings(config.load_config(list(overrides)))
+    tasks_dir = config.find_conf_dir() / "tasks"
+    if save_calibration:  # the values in conf/ are replaced only by a model of the same settings, or when told
+        refuse_other_settings(calibration_record(cfg, tasks_dir), model_identity(cfg), "--save-calibration",
+                              cfg.overwrite, allow=f"add overwrite=true to replace {tasks_dir / 'calibrated.yaml'} "
+                                                   "with this model's values, or leave out --save-calibration")
+    result = run_model(cfg, progress=progress)
     echo(model_text(result))
     if save_calibration:
-        echo(f"calibrated values saved as {save(result, config.find_conf_dir() / 'tasks')}")
+        echo(f"calibrated values saved as {save(result, tasks_dir)}")
     return result
 
 

@@ -12,7 +12,6 @@ Modules that pull in the simulator are imported inside the commands that need th
 """
 
 import functools
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, Optional
@@ -44,15 +43,16 @@ ProgressFlag = Annotated[
     Optional[bool],
     typer.Option(
         "--progress/--no-progress",
-        help="Show progress (default: when stdout is a terminal).",
+        help="Show progress while simulating: a bar on a terminal, a line every 10 s otherwise (the default); "
+             "--no-progress prints results only.",
         show_default=False,
     ),
 ]
 
 
 def _shown(progress: Optional[bool]) -> bool:
-    """Whether to show progress: as asked, else when stdout is a terminal."""
-    return sys.stdout.isatty() if progress is None else progress
+    """Whether to show progress: as asked, else yes (`pool.Progress` picks a bar or lines)."""
+    return True if progress is None else progress
 
 
 def _show_version(value: bool) -> None:
@@ -123,8 +123,10 @@ def reproduce(
                      show_default=False),
     ] = None,
     results: Annotated[
-        Path, typer.Option("--results", help="Folder that gets one folder per experiment.")
-    ] = Path("results"),
+        Optional[Path],
+        typer.Option("--results", help="Folder that gets one folder per experiment [default: runs/<scale>].",
+                     show_default=False),
+    ] = None,
     ladder: Annotated[
         Optional[str],
         typer.Option("--ladder", help="Also the horizon ladder at these multiples of the chapter's durations "
@@ -150,8 +152,10 @@ def ladder_command(
         str, typer.Option("--factors", help="Multiples of the chapter's durations, comma-separated.")
     ] = "1,4,10,20,40",
     results: Annotated[
-        Path, typer.Option("--results", help="Folder whose ladder/ gets one folder per rung.")
-    ] = Path("results/converged"),
+        Optional[Path],
+        typer.Option("--results", help="Folder whose ladder/ gets one folder per rung [default: runs/<scale>, "
+                                       "runs/converged unless a scale is given].", show_default=False),
+    ] = None,
     progress: ProgressFlag = None,
 ) -> None:
     """initial_distribution at several multiples of the chapter's durations, history shared; ladder.csv."""
@@ -314,13 +318,15 @@ def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
                  lambda done: _write_sweep(config.swept_values(ours), [Path(f) for f in done]))
 
 
-def _reproduce(*, overrides: Sequence[str], names: str | None, results: Path, progress: bool,
+def _reproduce(*, overrides: Sequence[str], names: str | None, results: Optional[Path], progress: bool,
                ladder: list[float] | None = None) -> None:
     """Compose every experiment with the same overrides (and the ladder's rungs), run them
     together, print each summary."""
     from tavc_cli.api import reproduce_summaries
 
     experiments = None if names is None else [n for n in names.split(",") if n]
+    if results is None:  # runs/<scale>; the ladder alone runs at scale=converged unless told
+        results = config.results_root(overrides, "converged" if experiments == [] else None)
     for name, summary in reproduce_summaries(overrides, experiments=experiments, results_dir=results,
                                              progress=progress, ladder=ladder):
         if name.startswith("ladder"):

@@ -232,6 +232,33 @@ def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3) -> list[st
     return [*shown, f"{len(keys) - limit} more"] if len(keys) > limit else shown
 
 
+def recorded_differences(record: Path, new: dict, limit: int = 3) -> list[str]:
+    """The settings (dotted keys, ``old -> new``) in which the JSON `record` a command wrote
+    (a model's ``model.json``, a search's ``search.json``) differs from `new`, the same
+    settings of the command about to run; keys only one side has are left out, as in
+    `config_differences`. Empty when there is no record."""
+    record = Path(record)
+    if not record.is_file():
+        return []
+    try:
+        old = json.loads(record.read_text())
+    except (OSError, ValueError):
+        return [f"{record.name} unreadable"]
+    a, b = _flat(old if isinstance(old, dict) else {}), _flat(json.loads(json.dumps(new)))
+    keys = sorted(k for k in set(a) & set(b) if a[k] != b[k])
+    shown = [f"{k}: {a[k]} -> {b[k]}" for k in keys[:limit]]
+    return [*shown, f"{len(keys) - limit} more"] if len(keys) > limit else shown
+
+
+def refuse_other_settings(record: Path, new: dict, what: str, overwrite: bool, *,
+                          allow: str = "add overwrite=true to replace it, or choose another output_dir") -> None:
+    """Refuse, in one line naming the differences and how to go on, to replace the result
+    recorded in `record` by one of other settings (`recorded_differences`), unless `overwrite`."""
+    differ = recorded_differences(record, new)
+    if differ and not overwrite:
+        raise TavcError(f"{what}: {record} was made with other settings ({'; '.join(differ)}); {allow}")
+
+
 def _flat(tree, prefix: str = "") -> dict[str, object]:
     if isinstance(tree, dict):
         out: dict[str, object] = {}

@@ -66,7 +66,7 @@ def test_every_group_option_composes(option):
 def test_default_config_composes():
     cfg = load_config()
     assert cfg.experiment_name == "default"
-    assert cfg.output_dir == "results/default"
+    assert cfg.output_dir == "runs/quick/default"
 
 
 # ------------------------------------------------------------------------------ resolution
@@ -97,7 +97,7 @@ def test_breakdown_at_quick_scale_resolves_by_hand():
     assert cfg.sim.warmup_s == 18000 * 0.25
     assert cfg.events.breakdowns[0].time_s == 0.0
     assert cfg.events.breakdowns[0].circuit == "high"
-    assert cfg.output_dir == "results/breakdown"
+    assert cfg.output_dir == "runs/quick/breakdown"
     assert list(cfg.tasks["values"]) == [2200.0, 2000.0]
     assert list(cfg.tasks.score_values) == [10.0, 1.0]
 
@@ -398,8 +398,8 @@ def test_load_sweep_gives_each_job_its_own_folder():
     configs = load_sweep(["experiment=breakdown", "learner.epsilon=0.05,0.2"])
     assert [cfg.learner.epsilon for cfg in configs] == [0.05, 0.2]
     assert [cfg.output_dir for cfg in configs] == [
-        "results/breakdown/0_learner.epsilon=0.05",
-        "results/breakdown/1_learner.epsilon=0.2",
+        "runs/quick/breakdown/0_learner.epsilon=0.05",
+        "runs/quick/breakdown/1_learner.epsilon=0.2",
     ]
 
 

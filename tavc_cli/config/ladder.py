@@ -7,7 +7,7 @@ from pathlib import Path
 
 from omegaconf import DictConfig
 
-from tavc_cli.config.loading import _override_key, load_config
+from tavc_cli.config.loading import _override_key, load_config, results_root
 from tavc_cli.errors import TavcError
 
 LADDER_EXPERIMENT = "initial_distribution"
@@ -30,7 +30,7 @@ def ladder_folder(results_dir: str | Path, factor: float) -> Path:
 
 
 def load_ladder(factors: Sequence[float], overrides: Sequence[str] = (),
-                results_dir: str | Path = "results/converged") -> list[DictConfig]:
+                results_dir: str | Path | None = None) -> list[DictConfig]:
     """The horizon ladder: initial_distribution at each factor of the chapter's durations
     (``scale.time_factor``; the rest of ``scale=converged``: its trial counts, the baselines on
     the chapter's schedule), one folder a rung (`ladder_folder`).
@@ -39,7 +39,8 @@ def load_ladder(factors: Sequence[float], overrides: Sequence[str] = (),
         factors: Multiples of the chapter's durations, each > 0 and none twice.
         overrides: Hydra overrides for every rung; ``experiment``, ``output_dir`` and
             ``scale.time_factor`` are the ladder's and refused here.
-        results_dir: The folder whose ``ladder/`` gets the rungs.
+        results_dir: The folder whose ``ladder/`` gets the rungs; by default ``runs/<scale>``
+            (``runs/converged`` unless a scale is given).
 
     Raises:
         TavcError: For a bad factor, a refused key, or any override that fails.
@@ -56,5 +57,7 @@ def load_ladder(factors: Sequence[float], overrides: Sequence[str] = (),
                             "instead (--ladder, --results)")
     scale = [o for o in overrides if _override_key(o).lstrip("+~") == "scale"] or ["scale=converged"]
     rest = [o for o in overrides if _override_key(o).lstrip("+~") != "scale"]
+    if results_dir is None:
+        results_dir = results_root(overrides, "converged")
     return [load_config([f"experiment={LADDER_EXPERIMENT}", *scale, f"scale.time_factor={f!r}", *rest,
                          f"output_dir={ladder_folder(results_dir, f)}"]) for f in factors]

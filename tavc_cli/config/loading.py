@@ -17,7 +17,7 @@ from omegaconf.errors import (
 
 from tavc_cli.config.limits import sources, validate_measurement_time
 from tavc_cli.config.messages import hydra_errors, omegaconf_message, override_syntax_message
-from tavc_cli.config.resolve import resolve
+from tavc_cli.config.resolve import default_root, resolve
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
 from tavc_cli.settings import SCHEMA_NAME, TavcConfig
@@ -184,8 +184,18 @@ def list_experiments() -> list[dict]:
     return experiments
 
 
+def results_root(overrides: Sequence[str] = (), default_scale: str | None = None) -> Path:
+    """The folder `tavc reproduce` and `tavc ladder` write into when none is named: ``runs/<scale>``
+    (`resolve.default_root`), the scale as the overrides compose it (else `default_scale`, else
+    the config's default)."""
+    scale = [o for o in overrides if _override_key(o).lstrip("+~").split(".")[0] == "scale"]
+    if default_scale is not None and not any(_override_key(o).lstrip("+~") == "scale" for o in scale):
+        scale = [f"scale={default_scale}", *scale]
+    return default_root(load_config(scale).scale.name)
+
+
 def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
-                     results_dir: str | Path = "results") -> list[DictConfig]:
+                     results_dir: str | Path | None = None) -> list[DictConfig]:
     """Compose several experiments with the same overrides, each into ``results_dir/<name>``
     (what ``tavc reproduce`` runs).
 
@@ -193,7 +203,8 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
         names: Experiment names (as ``experiment=`` takes them); None for every one.
         overrides: Hydra overrides for all of them; ``experiment`` and ``output_dir`` are set
             per experiment and refused here.
-        results_dir: The folder that gets one folder per experiment.
+        results_dir: The folder that gets one folder per experiment; by default
+            ``runs/<scale>`` (`results_root`).
 
     Raises:
         TavcError: For an unknown or missing name, a refused key, or any override that fails.
@@ -209,6 +220,8 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
         if key in ("experiment", "output_dir"):
             raise TavcError(f"{key}: set for each experiment by itself; choose experiments and the results folder "
                             "instead (--experiments, --results)")
+    if results_dir is None:
+        results_dir = results_root(overrides)
     cfgs = []
     for name in dict.fromkeys(chosen):
         try:

@@ -20,7 +20,9 @@ Rules:
   set on the command line, so that an experiment keeps its shape at every scale.
 - ``scale.baseline_time_factor``: ``scale.time_factor`` when null. The baselines then run every
   time above at that factor instead (`experiments.build.baseline_settings`).
-- ``output_dir``: ``results/<experiment_name>``.
+- ``output_dir``: ``runs/<scale.name>/<experiment_name>`` (`default_output_dir`). Outside
+  ``results/``, which holds the committed reproduction and is written only where named, and
+  apart by scale, so that a smoke run never meets a quick or a paper run of the same experiment.
 - ``team.members``: ``team.n_robots`` copies of ``{speed_mps: robot.speed_mps, group: all}``.
 - ``tasks.values``: 1.0 per circuit; ``tasks.score_values``: ``tasks.values``.
 - ``executor.n_jobs``: ``os.cpu_count()``.
@@ -35,6 +37,8 @@ from omegaconf import DictConfig
 
 from tavc_cli.settings import MemberConfig
 from tavc_cli.sim.arena import most_robots
+
+RUNS_DIR = "runs"
 
 
 def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
@@ -71,7 +75,8 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
         cfg.baseline_lead_s = cfg.baseline_lead_s * factor
     for event in [*cfg.events.breakdowns, *cfg.events.value_changes]:
         event.time_s = event.time_s * factor
-    base_dir = cfg.output_dir if cfg.output_dir is not None else f"results/{cfg.experiment_name}"
+    base_dir = cfg.output_dir if cfg.output_dir is not None else str(default_output_dir(cfg.scale.name,
+                                                                                        cfg.experiment_name))
     cfg.output_dir = str(Path(base_dir) / job_dir) if job_dir else base_dir
     # (a team that could never start is left for validation to refuse: expanding it could take minutes)
     if cfg.team.members is None and 1 <= cfg.team.n_robots <= _most_robots(cfg):
@@ -84,6 +89,18 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
         cfg.tasks.score_values = list(cfg.tasks["values"])
     if cfg.executor.n_jobs is None:
         cfg.executor.n_jobs = os.cpu_count() or 1
+
+
+def default_output_dir(scale: str, experiment: str) -> Path:
+    """Where a run goes when no ``output_dir`` is given: ``runs/<scale>/<experiment>``."""
+    return default_root(scale) / experiment
+
+
+def default_root(scale: str) -> Path:
+    """The folder that gets a scale's runs by default (and `tavc reproduce`'s, `tavc ladder`'s
+    folders): ``runs/<scale>``. Git ignores ``runs/``; ``results/`` is the committed
+    reproduction, written only when a command names it."""
+    return Path(RUNS_DIR) / str(scale)
 
 
 def _most_robots(cfg: DictConfig) -> float:

@@ -56,6 +56,9 @@ def check_no_missing(cfg: DictConfig) -> None:
 
 def validate_scaling(cfg: DictConfig) -> None:
     """Check what resolution derives values from, so errors name the key the user set."""
+    name = str(cfg.scale.name)
+    if not name or name in (".", "..") or any(c in name for c in "/\\") or name != name.strip():
+        fail("scale.name", f"{name!r} is not a plain name; runs go to runs/<scale.name>/ by default")
     positive("scale.time_factor", cfg.scale.time_factor)
     for key in ("deliveries_factor", "baseline_time_factor"):
         if cfg.scale[key] is not None:

@@ -44,49 +44,89 @@ class _QueueReporter:
 
 
 class Progress:
-    """A rich bar on a terminal, plain periodic lines otherwise, over the simulated seconds
-    of the batches; each batch reports the fraction of itself that is done."""
+    """What a run shows while it simulates, over the simulated seconds of its batches (each
+    batch reports the fraction of itself that is done): nothing unless `shown`; a rich bar on a
+    terminal; plain lines every `LINE_EVERY_S` otherwise. Until the first report it says, once,
+    what the wait is most likely for: kernels compiling (`COMPILE_NOTICE_S`). The time left is
+    the work left at the throughput measured since the first report, so the compiling is not
+    taken for slow simulation; none is given before `ETA_AFTER_S` of measuring."""
 
-    def __init__(self, batches: list[Batch], tty: bool) -> None:
+    LINE_EVERY_S = 10.0
+    COMPILE_NOTICE_S = 3.0
+    ETA_AFTER_S = 5.0
+    COMPILE_NOTICE = ("  preparing: the first run after installing or changing tavc compiles the simulator's kernels "
+                      "(about 20 s); later runs load them from the cache")
+
+    def __init__(self, batches: list[Batch], shown: bool) -> None:
         self.weights = {(b.controller, b.index): b.sim_seconds for b in batches}
         self.total = total_s = sum(self.weights.values())
         self.done: dict = {}
-        self.start = time.perf_counter()
-        self.last_line = self.start
+        self.start = self.last_line = time.perf_counter()
+        self.first: tuple[float, float] | None = None  # (time, simulated seconds done) at the first report
+        self.shown = shown and total_s > 0
         self.bar = None
-        if tty and total_s > 0:
+        self.notice = None
+        if not self.shown:
+            return
+        if sys.stdout.isatty():
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
             self.bar = Progress(TextColumn("simulating"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
                                 TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), transient=True)
             self.task = self.bar.add_task("run", total=total_s)
             self.bar.start()
+        import threading
+
+        self.notice = threading.Timer(self.COMPILE_NOTICE_S, self._say, (self.COMPILE_NOTICE,))
+        self.notice.daemon = True
+        self.notice.start()
+
+    def _say(self, line: str) -> None:
+        if self.bar is not None:
+            self.bar.console.print(line, highlight=False, markup=False)
+        else:
+            print(line, flush=True)
 
     def update(self, key, frac: float) -> None:
         self.done[key] = frac * self.weights[key]
-        done = sum(self.done.values())
+        if not self.shown:
+            return
+        done, now = sum(self.done.values()), time.perf_counter()
+        if self.first is None:
+            self.notice.cancel()
+            self.first = (now, done)
         if self.bar is not None:
             self.bar.update(self.task, completed=done)
-        elif time.perf_counter() - self.last_line > 10.0 and self.total > 0:
-            self.last_line = time.perf_counter()
-            elapsed = self.last_line - self.start
-            pct = 100.0 * done / self.total
-            eta = elapsed * (self.total - done) / done if done > 0 else float("nan")
-            print(f"  {pct:5.1f}% of {self.total:,.0f} simulated s, {elapsed:,.0f} s elapsed, eta {eta:,.0f} s",
-                  flush=True)
+        elif now - self.last_line > self.LINE_EVERY_S:
+            self.last_line = now
+            print(f"  {self.line(done, now)}", flush=True)
+
+    def line(self, done: float, now: float) -> str:
+        """``<share> of <total> simulated s, <elapsed> s elapsed, eta <left> s`` (the time left
+        from the throughput since the first report; ``eta: measuring`` until it is known)."""
+        pct = 100.0 * done / self.total
+        text = f"{pct:5.1f}% of {self.total:,.0f} simulated s, {now - self.start:,.0f} s elapsed"
+        t0, done0 = self.first if self.first is not None else (now, done)
+        if now - t0 < self.ETA_AFTER_S or done <= done0:
+            return f"{text}, eta: measuring"
+        left = (self.total - done) * (now - t0) / (done - done0)
+        return f"{text}, eta {left:,.0f} s"
 
     def close(self) -> None:
+        if self.notice is not None:
+            self.notice.cancel()
         if self.bar is not None:
             self.bar.stop()
 
 
-def run_pool(units: list[tuple], n_jobs: int, tty: bool) -> list[TrialFailure]:
+def run_pool(units: list[tuple], n_jobs: int, shown: bool) -> list[TrialFailure]:
     """Run units of work, each (batch, function, arguments), in this process (n_jobs 1 or a
-    single unit) or a process pool of n_jobs workers, with one progress bar over their
-    simulated seconds; `function(*arguments, report)` simulates the batch, writes its trials'
-    files and returns (wall time, failed trials). Returns the trials that failed."""
+    single unit) or a process pool of n_jobs workers, with one progress report over their
+    simulated seconds if `shown` (`Progress`); `function(*arguments, report)` simulates the
+    batch, writes its trials' files and returns (wall time, failed trials). Returns the trials
+    that failed."""
     pending = [u[0] for u in units]
-    prog = Progress(pending, tty)
+    prog = Progress(pending, shown)
     failures: list[TrialFailure] = []
     try:
         if n_jobs <= 1 or len(units) <= 1:

@@ -258,20 +258,20 @@ def save_result(result: BatchResult, out_dir: str | Path) -> list[TrialFailure]:
     return failures
 
 
-def execute(pending: list[Batch], out_dir: Path, n_jobs: int, tty: bool) -> list[TrialFailure]:
+def execute(pending: list[Batch], out_dir: Path, n_jobs: int, shown: bool) -> list[TrialFailure]:
     """Run pending batches in this process (n_jobs 1 or a single batch) or a process pool;
     return the trials that failed."""
-    return run_pool([(b, run_batch, (b, str(out_dir))) for b in pending], n_jobs, tty)
+    return run_pool([(b, run_batch, (b, str(out_dir))) for b in pending], n_jobs, shown)
 
 
-def _execute_on_cluster(ex: Executor, pending: list[Batch], out_dir: Path, tty: bool) -> list[TrialFailure]:
+def _execute_on_cluster(ex: Executor, pending: list[Batch], out_dir: Path, shown: bool) -> list[TrialFailure]:
     """Run pending batches on a Dask or Ray cluster (`executors`); this process writes the files.
     Returns the trials that failed."""
     from tavc_cli.experiments.executors import run_on_cluster
 
     if not pending:
         return []
-    prog = Progress(pending, tty)
+    prog = Progress(pending, shown)
     failures: list[TrialFailure] = []
 
     def save(batch: Batch, result: BatchResult) -> None:

@@ -14,7 +14,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import TIME_UNITS_S
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder, write_text_atomic
-from tavc_cli.ownership import MODEL, MODEL_FILES, take
+from tavc_cli.ownership import MODEL, MODEL_FILES, refuse_other_settings, take
 from tavc_cli.model import core
 from tavc_cli.model.measure import measure
 from tavc_cli.reference import chapter_world
@@ -200,8 +200,30 @@ def run_model(cfg: TavcConfig, *, progress: bool = False) -> dict:
     out_dir = Path(cfg.output_dir) / "model"
     Executor.from_config(cfg.executor).check()
     with claim_folder(out_dir):
-        take(out_dir, MODEL, MODEL_FILES).wrote(*MODEL_FILES)
+        owned = take(out_dir, MODEL, MODEL_FILES, save=False)  # nothing written until the checks pass
+        if owned.owns("model.json"):
+            refuse_other_settings(out_dir / "model.json", model_identity(cfg), "output_dir", cfg.overwrite)
+        owned.wrote(*MODEL_FILES)
+        owned.remove_temporaries()
         return _measure_and_predict(cfg, out_dir, n_robots, values, progress)
+
+
+def model_identity(cfg: TavcConfig) -> dict:
+    """What a model's ``model.json`` records of the settings it was measured with (the team,
+    values and measurement), in its layout: a model of other settings is another result."""
+    trials, warmup_s, measure_s = _scaled_measurement(cfg)
+    return {
+        "arena": cfg.arena.name, "n_robots": int(cfg.model.max_robots or cfg.team.n_robots),
+        "values": [float(v) for v in cfg.tasks.values], "time_unit": cfg.tasks.time_unit,
+        "measurement": {"trials_per_split": trials, "warmup_s": warmup_s, "measure_s": measure_s,
+                        "confidence": float(cfg.model.confidence), "robot_speed_mps": float(cfg.robot.speed_mps)},
+    }
+
+
+def calibration_record(cfg: TavcConfig, tasks_dir: Path) -> Path:
+    """The model output `save_calibration` keeps beside ``tasks_dir/calibrated.yaml``."""
+    n_robots = int(cfg.model.max_robots or cfg.team.n_robots)
+    return tasks_dir / "calibration" / f"{cfg.arena.name}_{n_robots}robots_model.json"
 
 
 def _measure_and_predict(cfg: TavcConfig, out_dir: Path, n_robots: int, values: list[float], progress: bool) -> dict:

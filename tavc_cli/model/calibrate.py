@@ -10,7 +10,7 @@ from pathlib import Path
 
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder
-from tavc_cli.ownership import CALIBRATION, CALIBRATION_FILES, take
+from tavc_cli.ownership import CALIBRATION, CALIBRATION_FILES, refuse_other_settings, take
 from tavc_cli.model.report import search_text, sensitivity_text
 from tavc_cli.model.world_search import Point, one_axis_variants, point_id, run_search, run_sensitivity, save_world
 from tavc_cli.settings import TavcConfig
@@ -32,8 +32,20 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
         executor=Executor.from_config(base.executor), progress=progress,
     )
     measurement["executor"].check()
+    identity = {"n_points": len(points), "values": [float(v) for v in base.tasks.values],
+                "measurement": {"trials_per_split": trials, "warmup_s": measurement["warmup_s"],
+                                "measure_s": measurement["measure_s"], "confidence": measurement["confidence"],
+                                "n_robots": measurement["n_robots"]}}
+    if save:  # conf/world/calibrated.yaml is replaced only by a search of the same settings, or when told
+        refuse_other_settings(world_dir / "calibration" / "search.json", identity, "--save", base.overwrite,
+                              allow=f"add overwrite=true to replace {world_dir / 'calibrated.yaml'} with this "
+                                    "search's choice, or leave out --save")
     with claim_folder(out_dir):
-        take(out_dir, CALIBRATION, CALIBRATION_FILES).wrote(*CALIBRATION_FILES)
+        owned = take(out_dir, CALIBRATION, CALIBRATION_FILES, save=False)  # nothing written until the checks pass
+        if owned.owns("search.json"):
+            refuse_other_settings(out_dir / "search.json", identity, "output_dir", base.overwrite)
+        owned.wrote(*CALIBRATION_FILES)
+        owned.remove_temporaries()
         _search_and_measure(base, points, out_dir, world_dir, measurement, save=save, echo=echo)
 
 

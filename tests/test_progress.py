@@ -1,0 +1,76 @@
+"""What a run shows while it simulates (`pool.Progress`): nothing with --no-progress, a notice
+while the kernels compile, and a time left from the throughput measured once simulating began."""
+
+from __future__ import annotations
+
+import time
+from types import SimpleNamespace
+
+from tavc_cli.experiments import pool
+from tavc_cli.experiments.pool import Progress
+
+
+def _batches(*seconds: float) -> list:
+    return [SimpleNamespace(controller="tavc", index=i, sim_seconds=s) for i, s in enumerate(seconds)]
+
+
+class Clock:
+    """A stand-in for time.perf_counter that moves only when told."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_not_shown_prints_nothing_whatever_happens(capsys, monkeypatch):
+    monkeypatch.setattr(Progress, "COMPILE_NOTICE_S", 0.01)
+    prog = Progress(_batches(1000.0, 1000.0), shown=False)
+    time.sleep(0.05)
+    prog.update(("tavc", 0), 0.5)
+    prog.update(("tavc", 1), 1.0)
+    prog.close()
+    assert capsys.readouterr().out == ""
+
+
+def test_a_notice_while_nothing_has_been_simulated_and_none_after(capsys, monkeypatch):
+    monkeypatch.setattr(Progress, "COMPILE_NOTICE_S", 0.05)
+    prog = Progress(_batches(1000.0), shown=True)
+    time.sleep(0.3)
+    prog.close()
+    assert capsys.readouterr().out.strip() == Progress.COMPILE_NOTICE.strip()
+    quick = Progress(_batches(1000.0), shown=True)
+    quick.update(("tavc", 0), 0.1)  # simulating began before the notice was due: no notice
+    time.sleep(0.3)
+    quick.close()
+    assert "compiles" not in capsys.readouterr().out
+
+
+def test_time_left_comes_from_the_throughput_since_simulating_began(monkeypatch):
+    clock = Clock()
+    monkeypatch.setattr(pool.time, "perf_counter", clock)
+    monkeypatch.setattr(Progress, "COMPILE_NOTICE_S", 60.0)
+    prog = Progress(_batches(2000.0, 2000.0), shown=True)  # 4,000 simulated s in all
+    clock.now += 20.0  # 20 s compiling: nothing simulated
+    prog.update(("tavc", 0), 0.1)  # 200 s done at t = 20 s
+    assert prog.line(200.0, clock.now).endswith("eta: measuring")
+    clock.now += 10.0  # 10 s later, 1,200 s done: 1,000 simulated s in 10 s of wall time
+    prog.update(("tavc", 0), 0.6)
+    # by hand: 2,800 simulated s left at 100 simulated s per wall second = 28 s; 30 s since the start
+    assert prog.line(1200.0, clock.now) == " 30.0% of 4,000 simulated s, 30 s elapsed, eta 28 s"
+    prog.close()
+
+
+def test_lines_are_printed_every_ten_seconds_off_a_terminal(capsys, monkeypatch):
+    clock = Clock()
+    monkeypatch.setattr(pool.time, "perf_counter", clock)
+    monkeypatch.setattr(Progress, "COMPILE_NOTICE_S", 60.0)
+    prog = Progress(_batches(1000.0), shown=True)  # capsys: stdout is not a terminal
+    for _ in range(4):
+        clock.now += 6.0
+        prog.update(("tavc", 0), (clock.now - 100.0) / 100.0)
+    prog.close()
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2  # at 12 s and 24 s: more than ten seconds apart
+    assert lines[0].strip().startswith("12.0% of 1,000 simulated s, 12 s elapsed")

@@ -1,0 +1,189 @@
+"""Commands never overwrite the committed results: runs go to ``runs/<scale>/<experiment>`` unless
+told otherwise, and a model, a world search or saved calibration of other settings is refused in
+one line naming the difference, unless ``overwrite=true``. The README's quickstart runs as printed
+from a copy of the repository and leaves ``git status`` clean."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from typer.testing import CliRunner
+
+from tavc_cli import config
+from tavc_cli.cli import app
+from tavc_cli.errors import TavcError
+from tavc_cli.model.api import model_identity
+from tavc_cli.ownership import recorded_differences, refuse_other_settings
+
+
+REPO = Path(__file__).resolve().parent.parent
+SMOKE = yaml.safe_load((REPO / "conf" / "scale" / "smoke.yaml").read_text())
+
+
+def invoke(args: list[str]):
+    return CliRunner().invoke(app, args)
+
+
+def test_a_run_goes_under_runs_by_scale_and_experiment():
+    assert config.load_config(["experiment=breakdown", "scale=smoke"]).output_dir == "runs/smoke/breakdown"
+    assert config.load_config(["experiment=breakdown"]).output_dir == "runs/quick/breakdown"  # quick: the default
+    assert config.load_config(["experiment=breakdown", "output_dir=results/x"]).output_dir == "results/x"
+
+
+def test_reproduce_and_ladder_default_to_runs_of_their_scale():
+    assert config.results_root(["scale=smoke", "seed=3"]) == Path("runs/smoke")
+    assert config.results_root([]) == Path("runs/quick")
+    assert config.results_root([], "converged") == Path("runs/converged")
+    assert config.results_root(["scale=paper"], "converged") == Path("runs/paper")
+    cfgs = config.load_experiments(["breakdown", "value_change"], ["scale=smoke"])
+    assert [c.output_dir for c in cfgs] == ["runs/smoke/breakdown", "runs/smoke/value_change"]
+    rungs = config.load_ladder([1, 4], ["trials=2"])
+    assert [c.output_dir for c in rungs] == ["runs/converged/ladder/x1", "runs/converged/ladder/x4"]
+
+
+@pytest.mark.parametrize("name", ["a/b", "..", "", " x"])
+def test_a_scale_name_that_is_not_a_plain_name_is_refused(name):
+    with pytest.raises(TavcError, match="scale.name"):
+        config.load_config([f"scale.name='{name}'"])
+
+
+def test_model_identity_is_what_model_json_records_at_that_scale():
+    cfg = config.settings(config.load_config(["experiment=initial_distribution", "scale=smoke"]))
+    identity = model_identity(cfg)
+    factor = SMOKE["time_factor"]
+    # by hand: trials per split min(12, scale.trials) but at least 2; times x the scale's factor
+    assert identity["measurement"]["trials_per_split"] == max(2, min(12, SMOKE["trials"]))
+    assert identity["measurement"]["warmup_s"] == pytest.approx(300.0 * factor)
+    assert identity["measurement"]["measure_s"] == pytest.approx(3000.0 * factor)
+    assert identity["values"] == [2200.0, 2000.0] and identity["n_robots"] == 6
+
+
+def test_recorded_differences_name_the_settings_and_ignore_keys_one_side_lacks(tmp_path):
+    record = tmp_path / "model.json"
+    record.write_text(json.dumps({"values": [2200.0, 2000.0], "predicted_state": "3:3",
+                                  "measurement": {"trials_per_split": 12, "measure_s": 3000.0, "n_trials_reused": 4}}))
+    same = {"values": [2200.0, 2000.0], "measurement": {"trials_per_split": 12, "measure_s": 3000.0}, "new_key": 1}
+    assert recorded_differences(record, same) == []
+    other = {"values": [2200.0, 2000.0], "measurement": {"trials_per_split": 2, "measure_s": 60.0}}
+    assert recorded_differences(record, other) == ["measurement.measure_s: 3000.0 -> 60.0",
+                                                   "measurement.trials_per_split: 12 -> 2"]
+    with pytest.raises(TavcError, match=r"model.json was made with other settings .*overwrite=true"):
+        refuse_other_settings(record, other, "output_dir", overwrite=False)
+    refuse_other_settings(record, other, "output_dir", overwrite=True)  # told to: no error
+    assert recorded_differences(tmp_path / "none.json", other) == []
+
+
+def _bytes(paths):
+    return {p: p.read_bytes() for p in paths}
+
+
+def test_a_smoke_model_is_refused_over_a_model_of_other_settings(tmp_path):
+    folder = tmp_path / "run"
+    (folder / "model").mkdir(parents=True)
+    paper = config.settings(config.load_config(["experiment=initial_distribution", "scale=paper"]))
+    (folder / "model" / "model.json").write_text(json.dumps(model_identity(paper)))
+    (folder / "model" / ".tavc.json").write_text(json.dumps({"tavc": "model", "files": ["model.json"]}))
+    before = _bytes((folder / "model").iterdir())
+    result = invoke(["model", "experiment=initial_distribution", "scale=smoke", f"output_dir={folder}"])
+    assert result.exit_code == 1
+    line = result.output.strip()
+    assert line.count("\n") == 0 and "other settings" in line and "overwrite=true" in line
+    assert "trials_per_split: 12 -> 2" in line
+    assert _bytes((folder / "model").iterdir()) == before  # nothing written, not even the list
+
+
+def test_save_calibration_of_other_settings_leaves_conf_untouched():
+    kept = _bytes([*(REPO / "conf" / "tasks").rglob("*.*"), *(REPO / "conf" / "world").rglob("*.*")])
+    model = invoke(["model", "experiment=initial_distribution", "scale=smoke", "--save-calibration",
+                    "output_dir=/nonexistent/never-written"])
+    assert model.exit_code == 1 and "--save-calibration" in model.output and "overwrite=true" in model.output
+    search = invoke(["calibrate", "scale=smoke", "--save", "output_dir=/nonexistent/never-written/x"])
+    assert search.exit_code == 1 and "--save" in search.output and "overwrite=true" in search.output
+    assert "measurement.trials_per_split: 6 -> 2" in search.output
+    assert not Path("/nonexistent").exists()
+    assert _bytes(kept) == kept
+
+
+# --- the README's quickstart, from a copy of the repository ---------------------------------------
+
+QUICKSTART = re.compile(r"<!-- quickstart -->(.*?)<!-- /quickstart -->", re.S)
+
+
+def quickstart_commands(readme: str) -> list[tuple[list[str], str | None]]:
+    """Each ``tavc ...`` line of the README's quickstart block: its arguments, and the folder its
+    comment says it writes (``-> PATH``), if any."""
+    block = QUICKSTART.search(readme)
+    assert block, "README.md has no quickstart block between <!-- quickstart --> and <!-- /quickstart -->"
+    out = []
+    for line in block.group(1).splitlines():
+        line = line.strip()
+        if not line.startswith("tavc "):
+            continue
+        command, _, comment = line.partition(" #")
+        folder = re.search(r"->\s*(\S+)", comment)
+        out.append((shlex.split(command)[1:], folder.group(1) if folder else None))
+    return out
+
+
+def test_quickstart_commands_are_parsed_with_their_folders():
+    readme = ("x\n<!-- quickstart -->\n```sh\ntavc list   # the list\n"
+              "tavc run experiment=breakdown scale=smoke  # -> runs/smoke/breakdown/\n```\n<!-- /quickstart -->\n")
+    assert quickstart_commands(readme) == [(["list"], None),
+                                           (["run", "experiment=breakdown", "scale=smoke"], "runs/smoke/breakdown/")]
+
+
+def _copy_of_repository(dest: Path) -> None:
+    tracked = subprocess.run(["git", "ls-files", "-z"], cwd=REPO, capture_output=True, check=True).stdout
+    for name in filter(None, tracked.decode().split("\0")):
+        source = REPO / name
+        if source.is_file():
+            (dest / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source, dest / name)
+    git = ["git", "-c", "user.name=t", "-c", "user.email=t@t", "-c", "commit.gpgsign=false"]
+    subprocess.run([*git, "init", "-q"], cwd=dest, check=True)
+    subprocess.run([*git, "add", "-A"], cwd=dest, check=True)
+    subprocess.run([*git, "commit", "-q", "-m", "copy"], cwd=dest, check=True)
+
+
+@pytest.mark.slow
+def test_the_quickstart_runs_as_printed_and_leaves_git_status_clean(tmp_path):
+    if shutil.which("git") is None:
+        pytest.skip("git is not installed")
+    clone = tmp_path / "tavc"
+    clone.mkdir()
+    _copy_of_repository(clone)
+    env = {**os.environ, "PYTHONPATH": str(clone)}
+
+    def tavc(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "tavc_cli", *args], cwd=clone, env=env, capture_output=True,
+                              text=True, timeout=900)
+
+    where = subprocess.run([sys.executable, "-c", "import tavc_cli; print(tavc_cli.__file__)"], cwd=clone, env=env,
+                           capture_output=True, text=True, check=True).stdout
+    assert Path(where.strip()).is_relative_to(clone)  # the copy's code and conf/, not the checkout's
+    commands = quickstart_commands((clone / "README.md").read_text())
+    assert len(commands) >= 5
+    for args, folder in commands:
+        done = tavc(*args)
+        assert done.returncode == 0, f"tavc {' '.join(args)}: {done.stderr[-2000:]}"
+        if folder is not None:
+            assert (clone / folder).exists(), f"tavc {' '.join(args)} did not write {folder} as the README says"
+    # the three ways an earlier version replaced committed results, each refused in one line
+    refused = [tavc("run", "experiment=initial_distribution", "scale=smoke", "output_dir=results/initial_distribution"),
+               tavc("model", "experiment=initial_distribution", "scale=smoke", "output_dir=results/initial_distribution"),
+               tavc("calibrate", "scale=smoke", "--save")]
+    for done in refused:
+        assert done.returncode == 1 and done.stderr.strip().startswith("error: ") and "overwrite=true" in done.stderr
+        assert done.stderr.strip().count("\n") == 0
+    status = subprocess.run(["git", "status", "--porcelain"], cwd=clone, capture_output=True, text=True, check=True)
+    assert status.stdout == ""
