@@ -52,6 +52,7 @@ CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") 
 _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODEL: MODEL_FILES,
           CALIBRATION: CALIBRATION_FILES, ANIMATION: ()}
 _WITH_TRIALS = (RUN, MODEL)  # folders whose trials/ holds tavc's records
+_NESTED = {"model": MODEL}  # folders of their own a run's folder may hold before the run (`_nested`)
 
 # settings that decide where and how fast a run goes, not what it computes
 _NOT_RESULTS = ("executor", "output_dir", "overwrite", "force")
@@ -187,12 +188,16 @@ def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir
     folder or file, a folder of another kind, a run's folder holding anything not tavc's, and a
     file in the way that tavc did not write. The caller holds the folder (`io.claim_folder`)."""
     folder = Path(folder)
-    expect(folder, kind, what)
-    owned = read(folder)
+    owned = read(folder) if folder.is_dir() else None
+    if owned is not None and owned.kind == ANIMATION and kind == RUN:
+        owned.kind = RUN  # the animation's default folder is the run's: the run adopts it, its files listed
+    else:
+        expect(folder, kind, what)
     if owned is None:
         owned = Owned(folder, kind)
         if kind == RUN:
-            foreign = sorted(p.name + ("/" if p.is_dir() else "") for p in folder.iterdir() if not _ours(p.name))
+            foreign = sorted(p.name + ("/" if p.is_dir() else "") for p in folder.iterdir()
+                             if not _ours(p.name) and not _nested(p))
             if foreign:
                 shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
                 raise TavcError(f"{what}: {folder} holds files tavc did not write ({shown}); a run needs a new "
@@ -205,6 +210,15 @@ def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir
         owned.save()
         owned.remove_temporaries()
     return owned
+
+
+def _nested(path: Path) -> bool:
+    """True for a folder tavc keeps inside a run's (the model `tavc model` measures there, an
+    animation), which a command may have written before the run itself."""
+    if not path.is_dir() or path.name not in _NESTED:
+        return False
+    owned = read(path)
+    return owned is not None and owned.kind == _NESTED[path.name]
 
 
 def _ours(name: str) -> bool:

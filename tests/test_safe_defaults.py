@@ -187,3 +187,31 @@ def test_the_quickstart_runs_as_printed_and_leaves_git_status_clean(tmp_path):
         assert done.stderr.strip().count("\n") == 0
     status = subprocess.run(["git", "status", "--porcelain"], cwd=clone, capture_output=True, text=True, check=True)
     assert status.stdout == ""
+
+
+def test_a_run_may_follow_the_model_measured_in_its_folder(tmp_path):
+    from tavc_cli.ownership import MODEL, RUN, Owned, run_files, take
+
+    folder = tmp_path / "run"
+    model = Owned(folder / "model", MODEL)
+    (folder / "model").mkdir(parents=True)
+    model.wrote("model.json")
+    (folder / "model" / "model.json").write_text("{}")
+    take(folder, RUN, run_files())  # `tavc model` first, then `tavc run` into the same folder: no refusal
+    fresh = tmp_path / "fresh"
+    (fresh / "model").mkdir(parents=True)
+    (fresh / "model" / "model.json").write_text("{}")  # the user's own model/ folder stays the user's
+    with pytest.raises(TavcError, match="model/"):
+        take(fresh, RUN, run_files())
+
+
+def test_a_run_adopts_the_folder_its_animation_was_written_to(tmp_path):
+    from tavc_cli.ownership import ANIMATION, RUN, Owned, read, run_files, take
+
+    folder = tmp_path / "run"
+    folder.mkdir()
+    Owned(folder, ANIMATION).wrote("animation.gif")  # `tavc animate` before `tavc run`, same default folder
+    (folder / "animation.gif").write_bytes(b"GIF89a")
+    take(folder, RUN, run_files())
+    owned = read(folder)
+    assert owned.kind == RUN and owned.owns("animation.gif")
