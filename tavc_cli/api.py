@@ -163,6 +163,37 @@ def reproduce(overrides: Sequence[str] = (), *, experiments: Sequence[str] | Non
                                                      progress=progress)}
 
 
+def surrogate(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None,
+              progress: bool = False) -> Results:
+    """Run an experiment on the surrogate of the learning dynamics as `tavc surrogate` does and
+    open its results (the same tables as `run`'s).
+
+    Args:
+        overrides: Hydra overrides, e.g. ``["experiment=breakdown", "scale=converged"]``.
+        output_dir: Where to write; by default ``runs/<scale>/surrogate/<experiment>``.
+        progress: Show progress while the tasks are measured.
+    """
+    overrides = list(overrides)
+    if output_dir is not None:
+        overrides.append(f"output_dir={Path(output_dir)}")
+    return Results(surrogate_summary(overrides, progress=progress, echo=lambda _: None)["output_dir"])
+
+
+def surrogate_summary(overrides: Sequence[str] = (), *, progress: bool = False,
+                      echo: Callable[[str], None] = print) -> dict:
+    """`surrogate`'s work, returning the run's summary as `tavc surrogate` prints it."""
+    from tavc_cli import config
+    from tavc_cli.io import default_root
+    from tavc_cli.surrogate.run import run_surrogate
+
+    overrides = list(overrides)
+    cfg = config.load_config(overrides)
+    if not any(o.split("=", 1)[0].lstrip("+~") == "output_dir" for o in overrides):
+        overrides.append(f"output_dir={default_root(cfg.scale.name) / 'surrogate' / cfg.experiment_name}")
+        cfg = config.load_config(overrides)
+    return run_surrogate(config.settings(cfg), progress=progress, echo=echo)
+
+
 def run_summary(overrides: Sequence[str] = (), *, progress: bool = False) -> dict:
     """`run`'s work, returning the run's summary (where it went, its tables and claims) as
     `tavc run` prints it."""

@@ -87,7 +87,7 @@ def config_command(overrides: Overrides = None) -> None:
 
 @app.command("list")
 def list_command() -> None:
-    """List the experiments: name, chapter section, what each shows."""
+    """List the experiments: name, chapter section, what the chapter reports of each."""
     with _user_errors():
         _print_experiments()
 
@@ -182,6 +182,20 @@ def model(
         from tavc_cli.api import model as run_model
 
         run_model(overrides or [], save_calibration=save_calibration, progress=_shown(progress), echo=typer.echo)
+
+
+@app.command()
+def surrogate(
+    overrides: _overrides("experiment=breakdown scale=converged surrogate.calibration=stayers") = None,
+    progress: ProgressFlag = None,
+) -> None:
+    """Run an experiment on the surrogate of the learning dynamics: the same learners, seeds,
+    events and tables, with each task drawn from tasks measured in the simulator by the group's
+    make-up [default output: runs/<scale>/surrogate/<experiment>]."""
+    with _user_errors():
+        from tavc_cli.api import surrogate_summary
+
+        _print_summary(surrogate_summary(overrides or [], progress=_shown(progress), echo=typer.echo))
 
 
 @app.command()
@@ -301,8 +315,18 @@ def _print_config(*, overrides: Sequence[str]) -> None:
 
 
 def _print_experiments() -> None:
-    """Print one aligned line per experiment."""
-    typer.echo("\n".join(config.experiment_lines()))
+    """Print one aligned line per experiment: its name, its section of the chapter, and what the
+    chapter reports of it, as the chapter's report rather than as a fact (`tavc report` tests it).
+    The words come from each experiment file's `description`, which a run also records in its
+    config.yaml: rewording them there would make every saved run another configuration."""
+    items = config.list_experiments()
+    name_width = max((len(item["name"]) for item in items), default=0)
+    section_width = max((len(item["section"]) for item in items), default=0)
+    for item in items:
+        said = str(item["description"])
+        said = said if said[1:2].isupper() else said[:1].lower() + said[1:]  # an acronym keeps its capital
+        typer.echo(f"{item['name']:<{name_width}}  {item['section']:<{section_width}}  "
+                   f"the chapter reports that {said}")
 
 
 def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:

@@ -13,6 +13,15 @@ from pathlib import Path
 
 from tavc_cli.errors import TavcError
 
+RUNS_DIR = "runs"
+
+
+def default_root(scale: str) -> Path:
+    """The folder that gets a scale's runs by default (and `tavc reproduce`'s, `tavc ladder`'s,
+    `tavc surrogate`'s folders): ``runs/<scale>``. Git ignores ``runs/``; ``results/`` is the
+    committed reproduction, written only when a command names it."""
+    return Path(RUNS_DIR) / str(scale)
+
 
 def _umask() -> int:
     mask = os.umask(0)

@@ -34,7 +34,9 @@ from tavc_cli.io import LOCK_NAME, write_text_atomic
 MANIFEST = ".tavc.json"
 RUN, SWEEP, LADDER, RESULTS, MODEL, CALIBRATION = "run", "sweep", "ladder", "results", "model", "calibration"
 ANIMATION = "animation"
-_WHAT = {RUN: "a tavc run's folder", SWEEP: "a tavc sweep's folder (the jobs' folders and sweep.csv)",
+SURROGATE, TASKS = "surrogate", "surrogate-tasks"
+_WHAT = {RUN: "a tavc run's folder", SURROGATE: "a surrogate run's folder (tavc surrogate)",
+         TASKS: "the folder of the surrogate's measured tasks (task_times.csv)", SWEEP: "a tavc sweep's folder (the jobs' folders and sweep.csv)",
          MODEL: "the folder of a tavc model (model.json)", CALIBRATION: "a tavc calibration's folder (search.csv)",
          ANIMATION: "a folder of tavc animations",
          LADDER: "a horizon ladder's folder (its rungs and ladder.csv)",
@@ -47,11 +49,12 @@ SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
 LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
 RESULTS_FILES = ("REPORT.md", "claims.csv", "value_ratio.csv")
 MODEL_FILES = ("model.csv", "model.json")
+TASKS_FILES = ("task_times.csv", "task_times.json")
 CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
     f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))
 _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODEL: MODEL_FILES,
-          CALIBRATION: CALIBRATION_FILES, ANIMATION: ()}
-_WITH_TRIALS = (RUN, MODEL)  # folders whose trials/ holds tavc's records
+          CALIBRATION: CALIBRATION_FILES, ANIMATION: (), TASKS: TASKS_FILES}
+_WITH_TRIALS = (RUN, MODEL, SURROGATE, TASKS)  # folders whose trials/ holds tavc's records
 _NESTED = {"model": MODEL}  # folders of their own a run's folder may hold before the run (`_nested`)
 
 # settings that decide where and how fast a run goes, not what it computes
@@ -137,7 +140,7 @@ def read(folder: Path) -> Owned | None:
     kind = _earlier_kind(folder)
     if kind is None:
         return None
-    files = {n for n in (run_files() if kind == RUN else _FILES[kind]) if (folder / n).is_file()}
+    files = {n for n in (run_files() if kind in (RUN, SURROGATE) else _FILES[kind]) if (folder / n).is_file()}
     if kind == RESULTS and (folder / "figures").is_dir():
         files |= {f"figures/{p.name}" for p in (folder / "figures").iterdir() if p.is_file()}
     return Owned(folder, kind, files)
@@ -195,7 +198,7 @@ def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir
         expect(folder, kind, what)
     if owned is None:
         owned = Owned(folder, kind)
-        if kind == RUN:
+        if kind in (RUN, SURROGATE):
             foreign = sorted(p.name + ("/" if p.is_dir() else "") for p in folder.iterdir()
                              if not _ours(p.name) and not _nested(p))
             if foreign:

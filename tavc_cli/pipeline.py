@@ -37,14 +37,14 @@ def run_experiment(cfg: TavcConfig, *, progress: bool = False) -> dict:
         return _finish(cfg, run, owned)
 
 
-def take_run_folder(cfg: TavcConfig) -> Owned:
+def take_run_folder(cfg: TavcConfig, kind: str = RUN) -> Owned:
     """Check that the run may write its folder (`ownership.take`: new, empty or tavc's, nothing
     of anybody else's in the way, not another configuration's run unless ``overwrite``) and
     write its `config.yaml`; return what tavc owns there. Replacing another configuration's
     run, the folder stops being a finished run (its `provenance.json` goes) before anything
     of the new one is written."""
     folder = Path(cfg.output_dir)
-    owned = take(folder, RUN, run_files(), save=False)  # nothing written until every check has passed
+    owned = take(folder, kind, run_files(), save=False)  # nothing written until every check has passed
     text = to_yaml(cfg)
     unknown = recorded_config_problem(folder)
     differ = [unknown] if unknown else (

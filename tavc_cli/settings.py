@@ -174,6 +174,9 @@ class LearnerConfig:
     decision_period_s: float = 0.1
     decide_on_change: bool = True
     allocation: Optional[List[int]] = None
+    # alternate: each robot's role, the circuit it stays on or -1 to alternate; null: `allocation`
+    # robots stay on each circuit (the first robots first) and the rest alternate
+    roles: Optional[List[int]] = None
 
 
 @dataclass
@@ -286,6 +289,19 @@ class ModelConfig:
 
 
 @dataclass
+class SurrogateConfig:
+    """`tavc surrogate`: the learners on tasks measured in the simulator (`tavc_cli.surrogate`)."""
+
+    # where the measured tasks and the static trials that measured them are kept; null:
+    # runs/<scale>/surrogate/tasks
+    tasks_dir: Optional[str] = None
+    trials_per_makeup: int = 4     # static trials per make-up of the group (capped by the scale)
+    warmup_s: float = 300.0        # left out of each measurement; times shortened by a scale below 1
+    measure_s: float = 3000.0
+    calibration: str = "makeup"    # makeup: by stayers and alternators; stayers: by robots per circuit only
+
+
+@dataclass
 class GridAxis:
     """One axis of the world search: a config key and the values it takes."""
 
@@ -337,6 +353,7 @@ class TavcConfig:
     analysis: AnalysisConfig = field(default_factory=AnalysisConfig)
     model: ModelConfig = field(default_factory=ModelConfig)
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
+    surrogate: SurrogateConfig = field(default_factory=SurrogateConfig)
 
 
 def to_yaml(settings: TavcConfig) -> str:

@@ -17,7 +17,8 @@ from omegaconf.errors import (
 
 from tavc_cli.config.limits import sources, validate_measurement_time
 from tavc_cli.config.messages import hydra_errors, omegaconf_message, override_syntax_message
-from tavc_cli.config.resolve import default_root, resolve
+from tavc_cli.config.resolve import resolve
+from tavc_cli.io import default_root
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
 from tavc_cli.settings import SCHEMA_NAME, TavcConfig
@@ -186,7 +187,7 @@ def list_experiments() -> list[dict]:
 
 def results_root(overrides: Sequence[str] = (), default_scale: str | None = None) -> Path:
     """The folder `tavc reproduce` and `tavc ladder` write into when none is named: ``runs/<scale>``
-    (`resolve.default_root`), the scale as the overrides compose it (else `default_scale`, else
+    (`io.default_root`), the scale as the overrides compose it (else `default_scale`, else
     the config's default)."""
     scale = [o for o in overrides if _override_key(o).lstrip("+~").split(".")[0] == "scale"]
     if default_scale is not None and not any(_override_key(o).lstrip("+~") == "scale" for o in scale):

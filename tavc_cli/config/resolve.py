@@ -36,9 +36,8 @@ from typing import Optional
 from omegaconf import DictConfig
 
 from tavc_cli.settings import MemberConfig
+from tavc_cli.io import default_root
 from tavc_cli.sim.arena import most_robots
-
-RUNS_DIR = "runs"
 
 
 def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
@@ -94,13 +93,6 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
 def default_output_dir(scale: str, experiment: str) -> Path:
     """Where a run goes when no ``output_dir`` is given: ``runs/<scale>/<experiment>``."""
     return default_root(scale) / experiment
-
-
-def default_root(scale: str) -> Path:
-    """The folder that gets a scale's runs by default (and `tavc reproduce`'s, `tavc ladder`'s
-    folders): ``runs/<scale>``. Git ignores ``runs/``; ``results/`` is the committed
-    reproduction, written only when a command names it."""
-    return Path(RUNS_DIR) / str(scale)
 
 
 def _most_robots(cfg: DictConfig) -> float:

@@ -107,6 +107,7 @@ def validate(cfg: DictConfig, named: Optional[dict[str, str]] = None) -> None:
     _validate_executor(cfg.executor)
     _validate_model(cfg.model)
     _validate_calibration(cfg.calibration)
+    _validate_surrogate(cfg.surrogate)
     validate_limits(cfg, named)  # before anything counts the trials' ticks or plans them
     _validate_events(cfg, n_circuits)  # after sim: events fall due on its control periods
     one_of("analysis.state", cfg.analysis.state, ANALYSIS_STATES)
@@ -136,6 +137,14 @@ def _validate_calibration(cal: DictConfig) -> None:
         check(len(axis["values"]) >= 1, f"{key}.values", "needs at least one value")
         check(OmegaConf.select(cal._get_root(), axis.key, default="__absent__") != "__absent__", f"{key}.key",
               f"no config key named {axis.key!r}")
+
+
+def _validate_surrogate(sur: DictConfig) -> None:
+    """The surrogate's measurement of tasks and how it draws them."""
+    at_least("surrogate.trials_per_makeup", sur.trials_per_makeup, 1)
+    at_least("surrogate.warmup_s", sur.warmup_s, 0)
+    positive("surrogate.measure_s", sur.measure_s)
+    one_of("surrogate.calibration", sur.calibration, ("makeup", "stayers"))
 
 
 def _validate_robot(robot: DictConfig) -> None:
@@ -228,8 +237,20 @@ def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> No
         "learner.q_init_low",
         f"must be <= learner.q_init_high ({learner.q_init_high!r}), got {learner.q_init_low!r}",
     )
-    if learner.allocation is not None:
+    if learner.allocation is not None and learner.name == "alternate":
+        per_circuit("learner.allocation", learner.allocation, n_circuits, "robot count")
+        for index, count in enumerate(learner.allocation):
+            at_least(f"learner.allocation[{index}]", count, 0)
+        check(sum(learner.allocation) <= n_robots, "learner.allocation",
+              f"stayers must number at most team.n_robots ({n_robots}), got {sum(learner.allocation)}")
+    elif learner.allocation is not None:
         _validate_allocation("learner.allocation", learner.allocation, n_circuits, n_robots)
+    if learner.roles is not None:
+        check(len(learner.roles) == n_robots, "learner.roles",
+              f"needs one role per robot ({n_robots}), got {len(learner.roles)}")
+        for index, role in enumerate(learner.roles):
+            check(role == -1 or 0 <= role < n_circuits, f"learner.roles[{index}]",
+                  f"must be a circuit index (0 to {n_circuits - 1}) or -1 to alternate, got {role!r}")
 
 
 def _validate_allocation(

@@ -63,6 +63,9 @@ class TrialSpec:
     controller: str = "main"
     trial: int = 0
     seed: tuple[int, ...] = (0,)
+    # what computes the trial: the physical simulator, or the surrogate of the learning dynamics
+    # and the measured tasks it draws from (`tavc_cli.surrogate`)
+    engine: str = "physics"
 
     @property
     def n_robots(self) -> int:

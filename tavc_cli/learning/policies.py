@@ -63,6 +63,37 @@ class StaticPolicy:
         return None
 
 
+class AlternatePolicy:
+    """Fixed roles: robot i stays on circuit `roles[i]` for every task, or, where
+    `roles[i]` is -1, alternates: each task on the circuit after the one it last served. The
+    static controller of the turn-taking groups learners form at long horizons; its runs
+    measure what a task takes by the group's make-up (`tavc surrogate`)."""
+
+    ALTERNATE = -1
+
+    def __init__(self, roles: Sequence[int], n_circuits: int) -> None:
+        self.roles = np.asarray(roles, dtype=np.int64)
+        self.n_states = n_circuits
+        self.n_circuits = n_circuits
+
+    def choose(self, robot: int, state: int) -> int:
+        role = int(self.roles[robot])
+        return (state + 1) % self.n_circuits if role == self.ALTERNATE else role
+
+    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        return None
+
+    def q_tables(self) -> None:
+        return None
+
+
+def alternate_roles(allocation: Sequence[int] | None, n_robots: int) -> list[int]:
+    """Roles from stayers per circuit: the first `allocation[0]` robots stay on circuit 0, the
+    next `allocation[1]` on circuit 1, ..., the rest alternate (all of them without one)."""
+    roles = [c for c, count in enumerate(allocation or ()) for _ in range(int(count))]
+    return roles + [AlternatePolicy.ALTERNATE] * (n_robots - len(roles))
+
+
 class TavcPolicy:
     """Independent Q-learners over task classes (sections 1.5.3 and 1.6.1).
 

@@ -14,7 +14,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from tavc_cli.learning.behaviour import BehaviourPolicy
-from tavc_cli.learning.policies import RandomPolicy, StaticPolicy, TaskPolicy, TavcPolicy, even_allocation
+from tavc_cli.learning.policies import (
+    AlternatePolicy,
+    RandomPolicy,
+    StaticPolicy,
+    TaskPolicy,
+    TavcPolicy,
+    alternate_roles,
+    even_allocation,
+)
 from tavc_cli.settings import LearnerConfig
 
 Builder = Callable[[Mapping, int, int, np.random.Generator], TaskPolicy]
@@ -36,6 +44,11 @@ def _random(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.
 def _static(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
     counts = spec.allocation or even_allocation(n_robots, n_circuits)
     return StaticPolicy(np.repeat(np.arange(n_circuits), counts), n_circuits)
+
+
+def _alternate(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+    roles = spec.roles if spec.roles is not None else alternate_roles(spec.allocation, n_robots)
+    return AlternatePolicy(roles, n_circuits)
 
 
 def _q_learning(spec: LearnerConfig) -> dict:
@@ -60,6 +73,7 @@ def _behaviour(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.rand
 LEARNERS: dict[str, Learner] = {entry.name: entry for entry in (
     Learner("random", "random", 1, _random, baseline=True),
     Learner("static", "static", 2, _static, baseline=True),
+    Learner("alternate", "alternate", 4, _alternate, baseline=True),
     Learner("tavc_egreedy", "tavc", 0, _tavc("egreedy")),
     Learner("tavc_softmax", "tavc", 0, _tavc("softmax")),
     Learner("behaviour_softmax", "behaviour", 3, _behaviour),

@@ -1,0 +1,158 @@
+"""A run of an experiment on the surrogate: its tasks measured (or reused), its trials drawn, and
+the same tables, claims and provenance as `tavc run` writes, in a folder of its own kind."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.experiments.runner import Run
+from tavc_cli.experiments.store import Executor, TrialStore, _stored_key, trial_path
+from tavc_cli.io import claim_folder, default_root, write_text_atomic
+from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_settings, take
+from tavc_cli.settings import TavcConfig
+from tavc_cli.surrogate.engine import run_trial
+from tavc_cli.surrogate.tasks import (
+    COLUMNS,
+    TaskTimes,
+    Team,
+    makeups,
+    measurement,
+    measurement_specs,
+    roles_of,
+    tasks_of,
+    teams_needed,
+)
+
+
+def tasks_dir(cfg: TavcConfig) -> Path:
+    """Where the measured tasks are kept: `surrogate.tasks_dir`, else runs/<scale>/surrogate/tasks."""
+    given = cfg.surrogate.tasks_dir
+    return Path(given) if given else default_root(cfg.scale.name) / "surrogate" / "tasks"
+
+
+def surrogate_supports(cfg: TavcConfig) -> None:
+    """Refuse, in one line, what the surrogate does not model."""
+    if len(cfg.arena.circuits) != 2:
+        raise TavcError("surrogate: models task choices between two circuits; this arena has "
+                        f"{len(cfg.arena.circuits)} (section 1.4's experiment learns behaviours, not tasks)")
+    if cfg.learner.name == "behaviour_softmax":
+        raise TavcError("surrogate: learner behaviour_softmax learns behaviours, not tasks; the surrogate draws "
+                        "whole tasks")
+
+
+def measurement_record(cfg: TavcConfig) -> dict:
+    """What `task_times.json` records of how the tasks were measured: a table of other
+    settings is not extended or mixed, but refused (`overwrite=true` replaces it)."""
+    trials, warmup_s, measure_s = measurement(cfg)
+    return {"measurement": {"trials_per_makeup": trials, "warmup_s": warmup_s, "measure_s": measure_s,
+                            "seed": int(cfg.seed)},
+            "world": {"arena": cfg.arena.name, "robot": _plain(cfg.robot)}}
+
+
+def _plain(obj) -> object:
+    from dataclasses import asdict, is_dataclass
+
+    return json.loads(json.dumps(asdict(obj) if is_dataclass(obj) else obj, default=str))
+
+
+def measure_tasks(cfg: TavcConfig, teams: list[Team] | None = None, *, progress: bool = False,
+                  echo: Callable[[str], None] = print) -> TaskTimes:
+    """Measure (or reuse) every make-up of the teams the experiment can have (`teams`: these
+    instead) in `tasks_dir`, and return the table of the tasks of those teams. The folder's
+    `task_times.csv` keeps the tasks of every team measured there with the same settings."""
+    if teams is None:
+        team = Team.of(tuple(m.group for m in cfg.team.members), tuple(m.speed_mps for m in cfg.team.members))
+        teams = teams_needed(team, len(cfg.events.breakdowns))
+    folder = tasks_dir(cfg)
+    plan = measurement_specs(cfg, teams)
+    trials, warmup_s, measure_s = measurement(cfg)
+    record = measurement_record(cfg)
+    with claim_folder(folder):
+        owned = take(folder, TASKS, TASKS_FILES, "surrogate.tasks_dir", save=False)
+        if owned.owns("task_times.json"):
+            refuse_other_settings(folder / "task_times.json", record, "surrogate.tasks_dir", cfg.overwrite,
+                                  allow="add overwrite=true to measure them again, or choose another "
+                                        "surrogate.tasks_dir")
+        table_path = folder / "task_times.csv"
+        kept = pd.DataFrame(columns=list(COLUMNS))
+        if table_path.is_file() and owned.owns("task_times.csv") and not cfg.overwrite:
+            kept = TaskTimes.read(table_path).frame
+        wanted = {t.name for t in teams}
+        have = set(kept["team"].unique()) if len(kept) else set()
+        if wanted <= have:
+            return TaskTimes(kept[kept["team"].isin(wanted)].reset_index(drop=True))
+        owned.wrote(*TASKS_FILES)
+        owned.remove_temporaries()
+        specs = [s for group in plan.values() for s in group]
+        n_makeups = len(plan)
+        echo(f"surrogate: measuring {n_makeups} make-ups of {len(teams)} team(s) in the simulator, {trials} static "
+             f"trials of {warmup_s + measure_s:g} s each, into {folder}")
+        executor = Executor.from_config(cfg.executor)
+        store = TrialStore(folder, executor)
+        store.run(specs, progress)
+        frames = []
+        by_name = {t.name: t for t in teams}
+        for (team_name, makeup), group in plan.items():
+            team = by_name[team_name]
+            _, _, roles = roles_of(team, makeup)
+            for rec in store.load(group):
+                frames.append(tasks_of(rec, team, makeup, roles, warmup_s, measure_s))
+        fresh = pd.concat(frames, ignore_index=True)
+        table = pd.concat([kept[~kept["team"].isin(wanted)], fresh], ignore_index=True) if len(kept) else fresh
+        write_text_atomic(table_path, table.to_csv(index=False, float_format="%.6g"))
+        write_text_atomic(folder / "task_times.json", json.dumps(
+            {**record, "teams": sorted(table["team"].unique().tolist()),
+             "makeups": {t.name: len(makeups(t)) for t in teams}}, indent=2))
+        return TaskTimes(TaskTimes.read(table_path).frame.query("team in @wanted").reset_index(drop=True))
+
+
+def tasks_digest(times: TaskTimes) -> str:
+    """A digest of the tasks a run draws from: part of its trials' keys."""
+    text = times.frame.to_csv(index=False, float_format="%.6g")
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def surrogate_specs(cfg: TavcConfig, times: TaskTimes) -> list:
+    """The experiment's trials (`trial_specs`: the same controllers, seeds and events), computed
+    by the surrogate: their engine names the calibration and the tasks drawn from."""
+    engine = f"surrogate:{cfg.surrogate.calibration}:{tasks_digest(times)}"
+    return [replace(s, engine=engine) for s in trial_specs(cfg)]
+
+
+def run_surrogate(cfg: TavcConfig, *, progress: bool = False, echo: Callable[[str], None] = print) -> dict:
+    """An experiment on the surrogate into `cfg.output_dir`: tasks measured or reused, trials
+    drawn (a finished one of the same key reused), then the tables, claims and provenance of
+    `tavc run`. Returns the run's summary, as `pipeline.run_experiment` does."""
+    from tavc_cli.pipeline import _finish, take_run_folder
+
+    surrogate_supports(cfg)
+    times = measure_tasks(cfg, progress=progress, echo=echo)
+    specs = surrogate_specs(cfg, times)
+    folder = Path(cfg.output_dir)
+    stayers = cfg.surrogate.calibration == "stayers"
+    with claim_folder(folder):
+        owned = take_run_folder(cfg, SURROGATE)
+        start = time.perf_counter()
+        reused, records = 0, []
+        for spec in specs:
+            path = trial_path(folder, spec.controller, spec.trial)
+            if _stored_key(path, whole=True) == spec.key():
+                reused += 1
+                records.append(TrialRecord.load(path))
+                continue
+            rec = run_trial(spec, times, stayers=stayers)
+            rec.meta["engine"] = spec.engine
+            rec.save(path)
+            records.append(rec)
+        run = Run(folder, specs, records, reused, time.perf_counter() - start)
+        return _finish(cfg, run, owned)

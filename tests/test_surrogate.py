@@ -1,0 +1,160 @@
+"""The surrogate of the learning dynamics: tasks measured by make-up in the simulator, trials drawn
+from them with the simulator's own learners, seeds and records."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tavc_cli import config
+from tavc_cli.behaviours.activities import ACTIVITIES
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import trial_specs
+from tavc_cli.learning.policies import AlternatePolicy, alternate_roles
+from tavc_cli.surrogate.engine import SurrogateTrial, run_trial
+from tavc_cli.surrogate.tasks import COLUMNS, STAY, SWITCH, TaskTimes, Team, makeup_name, makeups, teams_needed
+
+TEAM2 = Team.of(["all", "all"], [0.25, 0.25])
+# by hand: a stay on circuit 0 takes 100 s, on circuit 1 50 s; a switch to 0 takes 200 s, to 1 100 s
+FIXED = {(STAY, 0): 100.0, (STAY, 1): 50.0, (SWITCH, 0): 200.0, (SWITCH, 1): 100.0}
+
+
+def fixed_times(team: Team = TEAM2, times: dict = FIXED) -> TaskTimes:
+    """One task per cell of every make-up of `team`, of the time `times` gives its kind and circuit."""
+    rows = []
+    for m in makeups(team):
+        (s0, s1, a), = m
+        cells = [(STAY, 0)] * (s0 > 0) + [(STAY, 1)] * (s1 > 0) + [(SWITCH, 0), (SWITCH, 1)] * (a > 0)
+        for kind, c in cells:
+            t = times[(kind, c)]
+            rows.append({"team": team.name, "makeup": makeup_name(team, m), "group": "all", "kind": kind,
+                         "circuit": c, "task_time_s": t, "source_s": t / 2,
+                         **{f"{x}_s": (t if x == ACTIVITIES[0] else 0.0) for x in ACTIVITIES}})
+    return TaskTimes(pd.DataFrame(rows, columns=list(COLUMNS)))
+
+
+def two_robot_spec(**learner):
+    cfg = config.settings(config.load_config([
+        "experiment=initial_distribution", "team.n_robots=2", "learner=tavc_egreedy", "learner.epsilon=0",
+        "learner.alpha=0.5", "learner.gamma=0", "learner.q_init_low=0", "learner.q_init_high=0",
+        "tasks.values=[2.0,1.0]", "tasks.time_unit=s", "baselines=[]", "trials=1", "duration_s=500",
+        "convergence_s=100", "sim.warmup_s=0", "sim.q_snapshot_every_s=0", "scale=paper",
+        *[f"learner.{k}={v}" for k, v in learner.items()]]))
+    return trial_specs(cfg)[0]
+
+
+def test_makeups_and_teams_by_hand():
+    assert makeups(TEAM2) == [((0, 0, 2),), ((0, 1, 1),), ((0, 2, 0),), ((1, 0, 1),), ((1, 1, 0),), ((2, 0, 0),)]
+    assert len(makeups(Team.of(["all"] * 6, [0.25] * 6))) == 28  # (6+2 choose 2)
+    mixed = Team.of(["fast", "fast", "slow"], [0.3, 0.3, 0.2])
+    assert mixed.name == "fast:2@0.3,slow:1@0.2" and len(makeups(mixed)) == 6 * 3
+    assert [t.name for t in teams_needed(mixed, 1)] == ["fast:2@0.3,slow:1@0.2", "fast:1@0.3,slow:1@0.2",
+                                                        "fast:2@0.3"]
+    with pytest.raises(TavcError, match="one speed per group"):
+        Team.of(["all", "all"], [0.25, 0.3])
+
+
+def test_alternate_controller_holds_each_role():
+    policy = AlternatePolicy(alternate_roles([1, 0], 3), 2)  # robot 0 stays on circuit 0; robots 1, 2 alternate
+    assert [policy.choose(0, s) for s in (0, 1)] == [0, 0]
+    assert [policy.choose(1, s) for s in (0, 1)] == [1, 0]
+    assert policy.q_tables() is None
+
+
+def test_two_robots_every_choice_and_reward_by_hand():
+    """Greedy learners (epsilon 0), alpha 0.5, gamma 0, Q starting at 0, values 2 and 1, r = w / t in
+    seconds: replayed by hand from the initial classes, the only choices left to chance being
+    ties between equal Q-values (broken at random, as the simulator's learners do)."""
+    spec = two_robot_spec()
+    rec = run_trial(spec, fixed_times())
+    d, ch = rec.table("deliveries"), rec.table("choices")
+    values = [2.0, 1.0]
+    for i in range(2):
+        q = np.zeros((2, 2))
+        my_choices = list(zip(ch["t_s"][ch["robot"] == i].tolist(), ch["state"][ch["robot"] == i].tolist(),
+                              ch["circuit"][ch["robot"] == i].tolist(), strict=True))
+        t, expected = 0.0, []
+        for k, (t_choice, state, circuit) in enumerate(my_choices):
+            assert t_choice == pytest.approx(t)
+            if q[state, 0] != q[state, 1]:
+                assert circuit == int(np.argmax(q[state]))  # greedy where the values differ
+            task = FIXED[(STAY if circuit == state else SWITCH, circuit)]
+            if t + task >= 500:  # the trial ends at 500 s: this task is not delivered
+                assert k == len(my_choices) - 1
+                break
+            t += task
+            reward = values[circuit] / task
+            q[state, circuit] += 0.5 * (reward - q[state, circuit])
+            expected.append((t, circuit, task, reward))
+            if k + 1 < len(my_choices):
+                assert my_choices[k + 1][1] == circuit  # the next choice is from the circuit just served
+        mine = d["robot"] == i
+        got = list(zip(d["t_s"][mine].tolist(), d["circuit"][mine].tolist(), d["task_time_s"][mine].tolist(),
+                       d["reward"][mine].tolist(), strict=True))
+        assert np.allclose(np.array(got), np.array(expected)) and len(got) == len(expected) >= 2
+    assert rec.meta["key"] == spec.key() and rec.meta["duration_s"] == 500.0
+    arrivals = rec.table("arrivals")
+    assert (arrivals["kind"] == 1).sum() == len(d["t_s"])  # a sink arrival per delivery
+
+
+def test_the_same_spec_draws_the_same_trial_and_the_seed_is_the_simulators():
+    spec = two_robot_spec(epsilon=0.3)
+    a, b = run_trial(spec, fixed_times()), run_trial(spec, fixed_times())
+    assert a.tables["choices"]["circuit"].tolist() == b.tables["choices"]["circuit"].tolist()
+    from tavc_cli.experiments.trial import TrialState
+
+    state = TrialState(spec, spec.build_arena(), 0)  # the simulator's book-keeping draws the same initial classes
+    assert a.table("choices")["state"][:2].tolist() == state.state.tolist()
+
+
+def test_makeup_counts_stayers_and_alternators_of_the_live_robots():
+    spec = two_robot_spec()
+    trial = SurrogateTrial(spec, fixed_times())
+    tr = trial.tr
+    tr.task[:] = [1, 0]
+    trial.switching[:] = [False, True]
+    assert trial.makeup() == (TEAM2.name, "all:0-1-1")
+    tr.alive[1] = False
+    assert trial.makeup() == ("all:1@0.25", "all:0-1-0")
+    stayers = SurrogateTrial(spec, fixed_times(), stayers=True)
+    stayers.tr.task[:] = [1, 0]
+    stayers.switching[:] = [False, True]
+    assert stayers.makeup() == (TEAM2.name, "all:1-1-0")  # by robots per circuit only
+
+
+def test_a_cell_never_measured_borrows_the_nearest_makeup():
+    frame = fixed_times().frame
+    frame = frame[~((frame["makeup"] == "all:1-0-1") & (frame["kind"] == SWITCH))]
+    times = TaskTimes(frame)
+    row = times.draw(TEAM2.name, "all:1-0-1", "all", SWITCH, 1, np.random.default_rng(0))
+    assert row[0] == 100.0 and len(times.borrowed) == 1
+    with pytest.raises(TavcError, match="no measured"):
+        times.draw("all:3@0.25", "all:3-0-0", "all", STAY, 0, np.random.default_rng(0))
+
+
+def test_measured_tasks_come_from_static_runs_of_every_makeup(tmp_path):
+    from tavc_cli.surrogate.run import measure_tasks
+
+    cfg = config.settings(config.load_config([
+        "experiment=initial_distribution", "scale=smoke", "team.n_robots=3", f"surrogate.tasks_dir={tmp_path}",
+        "surrogate.measure_s=3000"]))
+    said: list[str] = []
+    times = measure_tasks(cfg, echo=said.append)
+    frame = times.frame
+    assert len(said) == 1 and "10 make-ups" in said[0]
+    assert set(frame["makeup"]) <= {makeup_name(Team.of(["all"] * 3, [0.25] * 3), m)
+                                    for m in makeups(Team.of(["all"] * 3, [0.25] * 3))}
+    no_alternators = frame["makeup"].str.endswith("-0")
+    assert (frame.loc[no_alternators, "kind"] == STAY).all()  # without alternators every task stays
+    assert (frame["source_s"] <= frame["task_time_s"] + 1e-9).all()
+    spent = frame[[f"{a}_s" for a in ACTIVITIES]].sum(axis=1)
+    assert np.allclose(spent, frame["task_time_s"], atol=0.2)
+    again: list[str] = []
+    measure_tasks(cfg, echo=again.append)
+    assert again == []  # measured once, then read
+    other = replace(cfg, surrogate=replace(cfg.surrogate, measure_s=2000.0))
+    with pytest.raises(TavcError, match="other settings"):
+        measure_tasks(other, echo=again.append)
