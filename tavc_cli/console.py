@@ -97,7 +97,9 @@ def _folder_of(folder: Optional[Callable[[], Any]]) -> Any:
 
 def summary_text(summary: dict[str, Any]) -> str:
     """`analysis.summary.run_summary_text` for `tavc run`, its std over one trial shown as nan
-    (one trial has no spread), and a line when no robot delivered anything."""
+    (one trial has no spread), its claims headed "not a verdict" where the run is below the
+    chapter's scale (its `config.yaml` beside the chapter's trials and duration:
+    `analysis.claims.not_a_verdict`), and a line when no robot delivered anything."""
     from tavc_cli.analysis.summary import run_summary_text
 
     tables = dict(summary.get("tables") or {})
@@ -107,7 +109,17 @@ def summary_text(summary: dict[str, Any]) -> str:
         single = (state_time["n_trials"] < 2) & (state_time["controller"] != "theory")
         state_time.loc[single, "std_pct"] = math.nan
         tables["state_time"] = state_time
-    text = run_summary_text({**summary, "tables": tables})
+    short = ""
+    settings_path = Path(summary["output_dir"]) / "config.yaml"
+    if settings_path.is_file():
+        from tavc_cli.analysis.claims import not_a_verdict
+        from tavc_cli.settings import from_yaml
+
+        try:
+            short = not_a_verdict(from_yaml(settings_path))
+        except Exception:  # the settings the run just wrote; one that cannot be read `tavc report` names
+            short = ""
+    text = run_summary_text({**summary, "tables": tables, "not_a_verdict": short})
     silent = undelivered(Path(summary["output_dir"]))
     if silent:
         text += "\n\n" + silent

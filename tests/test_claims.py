@@ -149,13 +149,20 @@ def test_claims_csv_columns_follow_the_contract():
     assert np.isnan(frame["statistic"]).all()
 
 
-def test_a_share_with_no_spread_still_counts_in_a_not_different_family():
-    # random never left 0:6 empty nor full: always exactly 0 % where theory says 1.56 %: it differs
+def test_a_share_with_no_spread_leaves_a_not_different_family_not_testable():
+    # random always exactly 0 % in 0:6 where theory says 1.5625 %: no t can be computed (it would
+    # be infinite), so the family cannot show that no state differs, and nothing says one does
     shares = dict(theory_pct(6, 2, "circuits"))
     rnd = _trials("random", shares)
     rnd["pct_0:6"] = 0.0
     row = C.claim_rows({"initial_distribution": rnd}, "initial_distribution").set_index("claim_id").loc[4]
-    assert row["verdict"] == "not_reproduced" and "most different: 0:6" in row["detail"]
+    assert row["verdict"] == "inconclusive" and "inf" not in row["detail"]
+    assert "not testable (no tested state differs, but no spread in the sample (every trial 0 against 1.562) (0:6))" \
+        in row["detail"]
+    # a state that can be tested and differs still decides the family against the claim
+    rnd["pct_3:3"] = rnd["pct_3:3"] + 20.0
+    row = C.claim_rows({"initial_distribution": rnd}, "initial_distribution").set_index("claim_id").loc[4]
+    assert row["verdict"] == "not_reproduced" and "most different: 3:3" in row["detail"]
 
 
 def _by_test(checks, claim_id, contains):

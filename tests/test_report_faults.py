@@ -239,8 +239,11 @@ def test_every_run_of_an_experiment_is_reported(breakdown, breakdown_seed1, tmp_
     results = _results_with(tmp_path, breakdown, breakdown_seed1, names=("a", "b"))
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
-    first, second = result.output.splitlines()[:2]
-    assert first.startswith("claims reproduced: ") and first.endswith(" of 1 tested (breakdown in a)")
+    scale, first, second = result.output.splitlines()[:3]
+    # smoke runs: the count is what the verdict would be, headed "not a verdict"
+    assert scale.startswith("not a verdict: scale=smoke (breakdown: 2 of the chapter's 20 trials")
+    assert first.startswith("claims (not a verdict): ") and first.endswith(" of 1 tested would be reproduced "
+                                                                          "(breakdown in a)")
     assert second == "also reported, in sections of their own: b (breakdown; its claims tested on a)"
     text = (results / "REPORT.md").read_text()
     assert text.count("\n## breakdown (section") == 1
@@ -255,8 +258,8 @@ def test_every_run_of_an_experiment_is_reported(breakdown, breakdown_seed1, tmp_
     # the claims are run a's, as its own run tested them
     claims = pd.read_csv(results / "claims.csv")
     own = pd.read_csv(results / "a" / "claims.csv")
-    pd.testing.assert_frame_equal(own, claims[claims["claim_id"].isin(own["claim_id"])].reset_index(drop=True),
-                                  check_dtype=False)
+    pd.testing.assert_frame_equal(own, claims.loc[claims["claim_id"].isin(own["claim_id"]), list(own.columns)]
+                                  .reset_index(drop=True), check_dtype=False)
     assert "delivered anything" not in text
 
 
@@ -264,16 +267,18 @@ def test_the_run_named_after_its_experiment_is_the_one_tested(breakdown, breakdo
     results = _results_with(tmp_path, breakdown_seed1, breakdown, names=("a_first", "breakdown"))
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
-    first, second = result.output.splitlines()[:2]
-    assert first.startswith("claims reproduced: ") and first.endswith(" of 1 tested (breakdown)")
+    scale, first, second = result.output.splitlines()[:3]
+    assert scale.startswith("not a verdict: scale=smoke (breakdown: ")
+    assert first.startswith("claims (not a verdict): ") and first.endswith(" of 1 tested would be reproduced "
+                                                                          "(breakdown)")
     assert second == "also reported, in sections of their own: a_first (breakdown; its claims tested on breakdown)"
     text = (results / "REPORT.md").read_text()
     assert "The claims are tested on `breakdown` (the folder named after the experiment)" in text
     assert "\n### a_first: another run of breakdown\n" in text
     claims = pd.read_csv(results / "claims.csv")
     own = pd.read_csv(results / "breakdown" / "claims.csv")
-    pd.testing.assert_frame_equal(own, claims[claims["claim_id"].isin(own["claim_id"])].reset_index(drop=True),
-                                  check_dtype=False)
+    pd.testing.assert_frame_equal(own, claims.loc[claims["claim_id"].isin(own["claim_id"]), list(own.columns)]
+                                  .reset_index(drop=True), check_dtype=False)
 
 
 # --- 4. a run with no delivery ------------------------------------------------------------------------

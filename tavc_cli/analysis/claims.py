@@ -17,8 +17,14 @@ down here before any verdict was looked at and never tuned to one:
   binomial theory row, with no test, and so does this (claim 9).
 
 A claim is `reproduced` when every one of its parts holds, `not_reproduced` when a part
-is decided against it, and `inconclusive` when no part fails but some part could not be
-tested (fewer than two trials a side, no variation at all, or a run missing).
+is decided against it, and `inconclusive` (read: not testable) when no part fails but some
+part could not be tested: fewer than two trials a side ("one trial"), no spread at all in
+the numbers a t statistic divides by ("no spread in either sample"), or a run missing. Such
+a part says why; it never becomes a t of plus or minus infinity with p = 0.
+
+Which part decides a verdict, and so which p a report shows for the claim, is `deciding`.
+Whether a run's verdicts are verdicts at all, given its trial count and duration beside the
+chapter's, is `scale_shortfall`.
 """
 
 from __future__ import annotations
@@ -66,16 +72,26 @@ CLAIM_TABLES = ("traversals", "target_times", "policy", "lanes")
 @dataclass(frozen=True)
 class Part:
     """One test of a claim: what it asked, its statistic and p-value, and whether it holds
-    (None: could not be tested)."""
+    (None: could not be tested, and `reason` says why). `name` is the question alone, without
+    the numbers `what` adds; `kind` says which way the test decides: `differs` holds when
+    p < alpha (a difference in the named direction), `same` holds when p >= alpha (no
+    significant difference), `means` is a comparison of means with no p."""
 
     what: str
     statistic: float
     p_value: float
     holds: bool | None
+    reason: str = ""
+    name: str = ""
+    kind: str = "differs"
+
+    @property
+    def question(self) -> str:
+        return self.name or self.what
 
     def text(self) -> str:
         if self.holds is None:
-            return f"{self.what}: not testable"
+            return f"{self.what}: not testable" + (f" ({self.reason})" if self.reason else "")
         if not math.isfinite(self.p_value):  # a comparison of means, not a test
             return f"{self.what}: {self.statistic:.4g} ({'holds' if self.holds else 'fails'})"
         return f"{self.what}: t = {self.statistic:.3f}, p = {self.p_value:.4g} ({'holds' if self.holds else 'fails'})"
@@ -86,16 +102,35 @@ def _clean(x) -> np.ndarray:
     return a[np.isfinite(a)]
 
 
+def untestable(*samples: np.ndarray) -> str:
+    """Why a t-test cannot be computed on `samples` (finite values only), or "" if it can: a
+    sample with no trials or one trial, or no spread in any sample (the t statistic would
+    divide by a standard error of zero)."""
+    sizes = [len(s) for s in samples]
+    if min(sizes) == 0:
+        return "no trials" if len(samples) == 1 else "no trials in one sample"
+    if min(sizes) == 1:
+        return "one trial"
+    if all(np.ptp(s) == 0 for s in samples):
+        return "no spread in the sample" if len(samples) == 1 else "no spread in either sample"
+    return ""
+
+
 def _testable(*samples: np.ndarray) -> bool:
-    return all(len(s) >= 2 for s in samples) and any(np.ptp(s) > 0 for s in samples)
+    return not untestable(*samples)
+
+
+def _not_testable(what: str, reason: str, kind: str = "differs") -> Part:
+    return Part(what, math.nan, math.nan, None, reason, what, kind)
 
 
 def _one_sided(what: str, a, b, alternative: str) -> Part:
     a, b = _clean(a), _clean(b)
     if not _testable(a, b):
-        return Part(what, math.nan, math.nan, None)
+        return _not_testable(what, untestable(a, b))
     t, p = stats.ttest_ind(a, b, equal_var=False, alternative=alternative)
-    return Part(f"{what} ({a.mean():.4g} vs {b.mean():.4g}, Welch one-sided)", float(t), float(p), bool(p < ALPHA))
+    return Part(f"{what} ({a.mean():.4g} vs {b.mean():.4g}, Welch one-sided)", float(t), float(p), bool(p < ALPHA),
+                name=what)
 
 
 def greater(what: str, a, b) -> Part:
@@ -108,46 +143,61 @@ def less(what: str, a, b) -> Part:
     return _one_sided(what, a, b, "less")
 
 
-def paired_greater(what: str, a, b) -> Part:
-    """Within the same trials, a significantly above b: paired t-test, one-sided."""
+def _differences(a, b) -> np.ndarray:
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     ok = np.isfinite(a) & np.isfinite(b)
-    d = a[ok] - b[ok]
+    return a[ok] - b[ok]
+
+
+def paired_greater(what: str, a, b) -> Part:
+    """Within the same trials, a significantly above b: paired t-test, one-sided."""
+    d = _differences(a, b)
     if not _testable(d):
-        return Part(what, math.nan, math.nan, None)
+        return _not_testable(what, untestable(d).replace("the sample", "the differences"))
     t, p = stats.ttest_1samp(d, 0.0, alternative="greater")
-    return Part(f"{what} (mean difference {d.mean():.4g}, paired one-sided)", float(t), float(p), bool(p < ALPHA))
+    return Part(f"{what} (mean difference {d.mean():.4g}, paired one-sided)", float(t), float(p), bool(p < ALPHA),
+                name=what)
 
 
 def not_different(what: str, a, b, paired: bool = False) -> Part:
     """No significant difference between a and b: two-sided t-test (Welch, or paired)."""
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     if paired:
-        ok = np.isfinite(a) & np.isfinite(b)
-        d = a[ok] - b[ok]
+        d = _differences(a, b)
         if not _testable(d):
-            return Part(what, math.nan, math.nan, None)
+            return _not_testable(what, untestable(d).replace("the sample", "the differences"), "same")
         t, p = stats.ttest_1samp(d, 0.0)
         label = f"{what} (mean difference {d.mean():.4g}, paired two-sided)"
     else:
         a, b = _clean(a), _clean(b)
         if not _testable(a, b):
-            return Part(what, math.nan, math.nan, None)
+            return _not_testable(what, untestable(a, b), "same")
         t, p = stats.ttest_ind(a, b, equal_var=False)
         label = f"{what} ({a.mean():.4g} vs {b.mean():.4g}, Welch two-sided)"
-    return Part(label, float(t), float(p), bool(p >= ALPHA))
+    return Part(label, float(t), float(p), bool(p >= ALPHA), name=what, kind="same")
 
 
-def holm_none_differ(what: str, tests: Sequence[tuple[str, Callable[[], tuple[float, float]]]]) -> Part:
-    """Several two-sided tests (name, () -> (t, p)), Holm-corrected: holds if none rejects.
-    Reported: the test with the smallest p, and its Holm-adjusted p."""
-    results = []
+def holm_none_differ(what: str, tests: Sequence[tuple[str, Callable[[], tuple]]]) -> Part:
+    """Several two-sided tests (name, () -> (t, p) or (t, p, why not testable)), Holm-corrected
+    over those that could be computed: holds if none rejects. Reported: the test with the
+    smallest p, and its Holm-adjusted p.
+
+    A state whose two samples are each constant and equal (`IDENTICAL`: every trial 0 % on both
+    sides, say) has nothing that could differ: it is no test, and does not count in the family.
+    Any other state that cannot be tested leaves the family not testable, unless a state that
+    could be tested already rejects: "none differ" cannot be shown while one state is unknown."""
+    results, identical, untested = [], [], []
     for name, run in tests:
-        t, p = run()
+        t, p, *why = run()
         if math.isfinite(p):
             results.append((p, t, name))
+        elif why and why[0] == IDENTICAL:
+            identical.append(name)
+        else:
+            untested.append((name, why[0] if why and why[0] else "not testable"))
+    aside = f"; {len(identical)} identical in every trial, no test" if identical else ""
     if not results:
-        return Part(what, math.nan, math.nan, None)
+        reason = _grouped(untested) if untested else "every state identical in every trial"
+        return _not_testable(what, reason, "same")
     results.sort()
     m = len(results)
     adjusted, running = [], 0.0
@@ -155,30 +205,51 @@ def holm_none_differ(what: str, tests: Sequence[tuple[str, Callable[[], tuple[fl
         running = max(running, min(1.0, (m - k) * p))
         adjusted.append(running)
     p0, t0, name0 = results[0]
-    holds = all(a >= ALPHA for a in adjusted)
-    return Part(f"{what} (most different: {name0}, raw p {p0:.4g}, Holm over {m} states)", float(t0),
-                float(adjusted[0]), holds)
+    label = f"{what} (most different: {name0}, raw p {p0:.4g}, Holm over {m} states{aside})"
+    if any(a < ALPHA for a in adjusted):
+        return Part(label, float(t0), float(adjusted[0]), False, name=what, kind="same")
+    if untested:  # the family's verdict is unknown, and so is its t: the tested states' are in `label`
+        return Part(label, math.nan, math.nan, None, "no tested state differs, but " + _grouped(untested), what,
+                    "same")
+    return Part(label, float(t0), float(adjusted[0]), True, name=what, kind="same")
 
 
-def _one_sample(x, mu: float) -> tuple[float, float]:
+def _grouped(untested: Sequence[tuple[str, str]]) -> str:
+    """States that could not be tested, by reason: "one trial (0:6, 1:5)"."""
+    by_reason: dict[str, list[str]] = {}
+    for name, why in untested:
+        by_reason.setdefault(why, []).append(name)
+    return "; ".join(f"{why} ({', '.join(names)})" for why, names in by_reason.items())
+
+
+# a state of a "none differ" family whose samples are constant and the same: nothing to test
+IDENTICAL = "identical in every trial"
+
+
+def _one_sample(x, mu: float) -> tuple[float, float, str]:
+    """Two-sided one-sample test of x against mu: (t, p, ""), or (nan, nan, why not testable)."""
     x = _clean(x)
     if len(x) >= 2 and np.ptp(x) == 0:
-        # no spread at all: exactly mu says nothing differs, anything else differs for certain
-        return (0.0, 1.0) if x[0] == mu else (math.copysign(math.inf, x[0] - mu), 0.0)
+        # no spread at all: the t statistic divides by zero. Exactly mu is nothing to test;
+        # anything else cannot be tested (a t of infinity would claim a certainty no test gives)
+        return (math.nan, math.nan, IDENTICAL if x[0] == mu else f"no spread in the sample (every trial {x[0]:.4g} "
+                f"against {mu:.4g})")
     if not _testable(x):
-        return math.nan, math.nan
+        return math.nan, math.nan, untestable(x)
     t, p = stats.ttest_1samp(x, mu)
-    return float(t), float(p)
+    return float(t), float(p), ""
 
 
-def _welch(a, b) -> tuple[float, float]:
+def _welch(a, b) -> tuple[float, float, str]:
+    """Welch's two-sided test: (t, p, ""), or (nan, nan, why not testable)."""
     a, b = _clean(a), _clean(b)
     if len(a) >= 2 and len(b) >= 2 and np.ptp(a) == 0 and np.ptp(b) == 0:
-        return (0.0, 1.0) if a[0] == b[0] else (math.copysign(math.inf, a[0] - b[0]), 0.0)
+        return (math.nan, math.nan, IDENTICAL if a[0] == b[0] else f"no spread in either sample (every trial "
+                f"{a[0]:.4g} against {b[0]:.4g})")
     if not _testable(a, b):
-        return math.nan, math.nan
+        return math.nan, math.nan, untestable(a, b)
     t, p = stats.ttest_ind(a, b, equal_var=False)
-    return float(t), float(p)
+    return float(t), float(p), ""
 
 
 def _ctrl(stats_: pd.DataFrame, controller: str) -> pd.DataFrame:
@@ -288,7 +359,8 @@ def largest_relative_increase(tavc: pd.DataFrame, theory: Mapping[str, float], s
     if state not in rel:
         return _missing(what)
     top = max(rel, key=rel.get)
-    return Part(f"{what} (largest: {top}, {rel[top]:.3g})", rel[state], math.nan, top == state)
+    return Part(f"{what} (largest: {top}, {rel[top]:.3g})", rel[state], math.nan, top == state, name=what,
+                kind="means")
 
 
 def _group_theory(stats_: pd.DataFrame) -> dict[str, float]:
@@ -325,11 +397,11 @@ def one_sample(what: str, x, mu: float, alternative: str) -> Part:
     """x's mean against mu: a one-sample t-test, `greater` (one-sided) or `two-sided`."""
     x = _clean(x)
     if not _testable(x):
-        return Part(what, math.nan, math.nan, None)
+        return _not_testable(what, untestable(x))
     t, p = stats.ttest_1samp(x, mu, alternative=alternative)
     sides = "one-sided" if alternative != "two-sided" else "two-sided"
     return Part(f"{what} (mean {x.mean():.4g}, one-sample {sides} against {mu:g})", float(t), float(p),
-                bool(p < ALPHA))
+                bool(p < ALPHA), name=what)
 
 
 def claim_1(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
@@ -378,11 +450,55 @@ def verdict(parts: Sequence[Part]) -> str:
     return "reproduced"
 
 
-def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None) -> pd.DataFrame:
-    """`claim_id,claim,verdict,statistic,p_value,detail` for claims 1-9 (those of one
-    experiment if given). `runs` maps an experiment's name to its `trial_stats.csv` and
-    `<experiment>/<table>` to its other tables the claims read (CLAIM_TABLES). statistic and
-    p_value are the first part's (the claim's headline comparison); `detail` lists every part."""
+def _distance(part: Part) -> float:
+    """How far a part's p lies from the line alpha draws, on a log scale: how much its data
+    would have to change to turn its result over."""
+    return abs(math.log(max(part.p_value, 1e-300) / ALPHA))
+
+
+def deciding(parts: Sequence[Part]) -> Part | None:
+    """The part that decides the claim's verdict: the one whose statistic and p a report shows.
+
+    A claim holds only when every part holds (an intersection), so:
+
+    - not reproduced: each failing part alone decides it; shown is the failing part furthest
+      from holding, the one whose result is hardest to turn over. For a part that needs
+      p < alpha (a difference in a named direction) that is the largest p; for one that needs
+      p >= alpha (no difference) the smallest; across the two kinds, the larger distance of p
+      from alpha on a log scale (`_distance`). A comparison of means (no p) is shown only
+      where no failing part has a p.
+    - reproduced: every part is needed; shown is the one closest to failing (the largest p of
+      the parts that need p < alpha, the smallest of those that need p >= alpha; the smaller
+      distance across kinds), the weakest link. A comparison of means only if no part has a p.
+    - not testable (`inconclusive`): the first part that could not be tested; it has no p.
+
+    A "none differ" family over states (`holm_none_differ`) is one part, its p the Holm-
+    adjusted p of its most different state: within it that state decides."""
+    if not parts:
+        return None
+    failing = [p for p in parts if p.holds is False]
+    if failing:
+        tested = [p for p in failing if math.isfinite(p.p_value)]
+        return max(tested, key=_distance) if tested else failing[0]
+    unknown = [p for p in parts if p.holds is None]
+    if unknown:
+        return unknown[0]
+    tested = [p for p in parts if math.isfinite(p.p_value)]
+    return min(tested, key=_distance) if tested else parts[0]
+
+
+# columns the report's claims.csv adds to COLUMNS (a run's own claims.csv keeps COLUMNS alone)
+DECIDING_COLUMNS = ["deciding_test", "deciding_statistic", "deciding_p_value", "deciding_holds_if",
+                    "not_testable_because"]
+# what a part needs to hold, by its kind (`Part.kind`)
+HOLDS_IF = {"differs": f"p < {ALPHA:g}", "same": f"p >= {ALPHA:g}", "means": "a comparison of means, no test"}
+
+
+def claim_table(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None) -> pd.DataFrame:
+    """COLUMNS, then DECIDING_COLUMNS: for claims 1-9 (those of one experiment if given), the
+    verdict and every part (`claim_rows`), and the part that decides the verdict (`deciding`):
+    its question, statistic and p-value, and why the claim could not be tested, if it could
+    not. `runs` as `claim_rows` takes them."""
     rows = []
     for cid, test in TESTS.items():
         experiment, text = CLAIMS[cid]
@@ -393,7 +509,68 @@ def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = N
             # the test's result says as much, and a run's output stays free of library noise
             warnings.filterwarnings("ignore", "Precision loss occurred", RuntimeWarning)
             parts = test(runs)
-        rows.append({"claim_id": cid, "claim": text, "verdict": verdict(parts),
+        decider = deciding(parts)
+        v = verdict(parts)
+        rows.append({"claim_id": cid, "claim": text, "verdict": v,
                      "statistic": parts[0].statistic, "p_value": parts[0].p_value,
-                     "detail": "; ".join(p.text() for p in parts)})
-    return pd.DataFrame(rows, columns=COLUMNS)
+                     "detail": "; ".join(p.text() for p in parts),
+                     "deciding_test": decider.question if decider is not None else "",
+                     "deciding_statistic": decider.statistic if decider is not None else math.nan,
+                     "deciding_p_value": decider.p_value if decider is not None else math.nan,
+                     "deciding_holds_if": HOLDS_IF[decider.kind] if decider is not None else "",
+                     "not_testable_because": (f"{decider.question}: {decider.reason}" if decider.reason
+                                              else decider.question) if v == "inconclusive" else ""})
+    return pd.DataFrame(rows, columns=[*COLUMNS, *DECIDING_COLUMNS])
+
+
+def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None) -> pd.DataFrame:
+    """`claim_id,claim,verdict,statistic,p_value,detail` for claims 1-9 (those of one
+    experiment if given): the table a run writes as its `claims.csv`. `runs` maps an
+    experiment's name to its `trial_stats.csv` and `<experiment>/<table>` to its other tables
+    the claims read (CLAIM_TABLES). statistic and p_value are the first part's (the claim's
+    headline comparison); `detail` lists every part. The part that decides each verdict
+    (`claim_table`'s DECIDING_COLUMNS) rides along in the frame's ``attrs["deciding"]``
+    (claim_id -> those columns), which a file written from the frame does not hold."""
+    table = claim_table(runs, only_experiment)
+    frame = table[COLUMNS].copy()
+    frame.attrs["deciding"] = {int(r["claim_id"]): {c: r[c] for c in DECIDING_COLUMNS}
+                               for r in table.to_dict("records")}
+    return frame
+
+
+VERDICT_WORDS = {"reproduced": "reproduced", "not_reproduced": "not reproduced", "inconclusive": "not testable"}
+
+
+def verdict_words(v: str, verdict_scale: bool = True) -> str:
+    """A verdict as a reader reads it (`inconclusive` is "not testable"); for a run below the
+    chapter's scale (`verdict_scale` False), what the verdict would be: "would be: ..."."""
+    words = VERDICT_WORDS.get(v, str(v).replace("_", " "))
+    return words if verdict_scale or v == "inconclusive" else f"would be: {words}"
+
+
+def scale_shortfall(cfg) -> str:
+    """Where a run falls below the chapter's scale for its experiment, in words ("6 of the
+    chapter's 20 trials, 0.25 of its duration"), or "" where it does not: fewer trials than
+    the chapter ran (the learners', and each baseline's where the chapter gives their own
+    count), or a shorter trial (in traversals where the chapter ends its trials with them,
+    section 1.4; else in seconds). Longer trials (scale=converged) are not below it.
+    `cfg` is a run's settings (`settings.TavcConfig`)."""
+    paper, out = cfg.paper, []
+    for ours, theirs, who in ((cfg.trials, paper.trials, ""),
+                              (cfg.baseline_trials, paper.baseline_trials, " baseline"),
+                              (cfg.static_trials, paper.static_trials, " static")):
+        if ours is not None and theirs is not None and int(ours) < int(theirs):
+            out.append(f"{int(ours)} of the chapter's {int(theirs)}{who} trials")
+    if paper.deliveries is not None and cfg.deliveries is not None:
+        if int(cfg.deliveries) < int(paper.deliveries):
+            out.append(f"{int(cfg.deliveries)} of the chapter's {int(paper.deliveries)} traversals a trial")
+    elif paper.duration_s and cfg.duration_s is not None and float(cfg.duration_s) < float(paper.duration_s):
+        out.append(f"{float(cfg.duration_s) / float(paper.duration_s):.2g} of its duration")
+    return ", ".join(out)
+
+
+def not_a_verdict(cfg) -> str:
+    """"not a verdict: scale=<name> (<shortfall>)" for a run below the chapter's scale
+    (`scale_shortfall`), or ""."""
+    short = scale_shortfall(cfg)
+    return f"not a verdict: scale={cfg.scale.name} ({short})" if short else ""

@@ -25,9 +25,15 @@ def run_summary_text(summary: dict[str, Any]) -> str:
         lines.append("\nscore value delivered per second, whole run: "
                      + ", ".join(f"{c} {v:.4f}" for c, v in perf.items()))
     claims = summary.get("claims")
+    short = summary.get("not_a_verdict") or ""
     if claims is not None and len(claims):
-        lines += ["\nthe chapter's claims about this experiment (t-tests at 90 %; claims.csv has every part)",
-                  claims_text(claims)]
+        head = "\nthe chapter's claims about this experiment (t-tests at 90 %; claims.csv has every part)"
+        if short:  # a run below the chapter's scale: what the tests give on it, not a verdict
+            head = (f"\n{short}: the tests below say what these trials give, not whether the chapter's "
+                    "claims reproduce (that takes its trial counts and durations: scale=paper)" + head)
+        lines += [head, claims_text(claims, verdicts=not short)]
+    elif short:
+        lines.append(f"\n{short}")
     return "\n".join(lines)
 
 
@@ -53,12 +59,28 @@ def state_table_text(state_time: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-def claims_text(claims: pd.DataFrame) -> str:
-    """One line per claim: id, verdict, the headline test's statistic and p-value, then its parts."""
+def claims_text(claims: pd.DataFrame, verdicts: bool = True) -> str:
+    """One line per claim: id, verdict ("would be: ..." unless `verdicts`: a run below the
+    chapter's scale), the statistic and p-value of the part that decides it (where the frame
+    carries them: `analysis.claims.claim_rows`' ``attrs["deciding"]``; else the headline part's)
+    and which part that is, or why the claim could not be tested; then every part."""
+    from tavc_cli.analysis.claims import verdict_words
+
+    deciding = claims.attrs.get("deciding", {})
     lines = []
     for r in claims.itertuples():
-        head = f"claim {r.claim_id}: {r.verdict.replace('_', ' ')}"
-        if pd.notna(r.p_value):
+        head = f"claim {r.claim_id}: {verdict_words(r.verdict, verdicts)}"
+        d = deciding.get(int(r.claim_id))
+        if d is not None and r.verdict == "inconclusive":
+            head += f" ({d['not_testable_because']})"
+        elif d is not None and pd.notna(d["deciding_p_value"]):
+            rule = f", which holds if {d['deciding_holds_if']}" if str(d["deciding_holds_if"]).startswith("p >=") \
+                else ""
+            head += (f" (t = {d['deciding_statistic']:.2f}, p = {d['deciding_p_value']:.3g}, decided by: "
+                     f"{d['deciding_test']}{rule})")
+        elif d is not None:
+            head += f" (decided by: {d['deciding_test']}, a comparison of means)"
+        elif pd.notna(r.p_value):
             head += f" (t = {r.statistic:.2f}, p = {r.p_value:.3g})"
         lines.append(head)
         lines += [f"    {part}" for part in str(r.detail).split("; ")]

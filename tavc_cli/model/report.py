@@ -11,6 +11,15 @@ def _fmt(x: float, spec: str = ".4g") -> str:
     return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
 
 
+def _interval(lo: float, hi: float) -> tuple[str, bool]:
+    """A 90 % interval of a rate (or a time) as text, and whether it was clipped. Neither can be
+    negative, but a t interval over few trials can reach below 0: its lower bound is then shown
+    as 0 and marked with a star, and the table says why below it, rather than printing a rate
+    no robot could have."""
+    clipped = lo is not None and math.isfinite(lo) and lo < 0
+    return f"[{'0*' if clipped else _fmt(lo)}, {_fmt(hi)}]", clipped
+
+
 def model_text(result: dict) -> str:
     """Per split of the full team: c_i, t_i and reward per task by circuit, total value, and
     which splits are individual equilibria; then predictions, constraints and calibration."""
@@ -25,13 +34,18 @@ def model_text(result: dict) -> str:
     head = f"{'state':>7}  {'circuit':>7}  {'robots':>6}  {'c (1/s)':>9}  {'90% CI':>19}  {'t (s)':>7}  " \
            f"{'w/t':>9}  {'slot value':>10}"
     lines.append(head)
+    any_clipped = False
     for state, rows in full.groupby("state", sort=False):
         mark = "  <- equilibrium" if state in eq else ""
         for k, r in enumerate(rows.itertuples()):
-            ci = f"[{_fmt(r.c_lo)}, {_fmt(r.c_hi)}]"
+            ci, clipped = _interval(r.c_lo, r.c_hi)
+            any_clipped = any_clipped or clipped
             lines.append(f"{state if k == 0 else '':>7}  {r.circuit:>7}  {r.n_on_circuit:>6}  {_fmt(r.c_per_s):>9}  "
                          f"{ci:>19}  {_fmt(r.task_time_s, '.1f'):>7}  {_fmt(r.reward_per_task):>9}  "
                          f"{_fmt(r.slot_value):>10}" + (mark if k == 0 else ""))
+    if any_clipped:
+        lines.append("* interval below 0: too few trials to bound the rate from below; shown from 0 "
+                     "(more trials per split: model.trials_per_split)")
     lines += ["",
               f"individual equilibrium (predicted): {m['predicted_state']}   "
               f"value-maximising optimum: {m['optimal_state']}   slot filling: {m['slot_fill_state']}"]

@@ -1,14 +1,19 @@
 """`tavc report`: REPORT.md from saved results only; it never simulates.
 
-It reads, for every run folder under the results directory, what `tavc run` wrote
-(`config.yaml`, `provenance.json`, `state_time.csv`, `trial_stats.csv`, and the model's
-`model/model.json` if `tavc model` was run into it), checks all of it before writing
-anything (`analysis.schema`: a damaged file is one line naming it, and nothing written),
-tests the chapter's claims on the per-trial numbers of one run per experiment together
-(claim 7 compares two experiments), and writes `claims.csv` (every claim) and `REPORT.md`
-beside the run folders. Every other run of an experiment gets a section of its own
-(`runs`). The sections are written by `text` (an experiment's prose), `figures` (its
-figures) and `studies` (section 1.4 and the value-ratio sweep).
+It reads, for every run folder under the results directory at any depth (a sweep's jobs sit
+two levels down: `<root>/breakdown/0_seed=1/`), what `tavc run` wrote (`config.yaml`,
+`provenance.json`, `state_time.csv`, `trial_stats.csv`, and the model's `model/model.json`
+if `tavc model` was run into it), checks all of it before writing anything
+(`analysis.schema`: a damaged file is one line naming it, and nothing written), tests the
+chapter's claims on the per-trial numbers of one run per experiment together (claim 7
+compares two experiments), and writes `claims.csv` (every claim, and the part that decides
+each verdict) and `REPORT.md` beside the run folders. Every other run of an experiment gets a
+section of its own (`runs`), titled with its folder relative to the results directory; the
+runs of the studies the report reads as a whole (the value-ratio sweep, the horizon ladder)
+are named in its list of runs, with where they are used. A report whose claims are tested on
+runs below the chapter's scale is headed "not a verdict". The sections are written by `text`
+(an experiment's prose), `figures` (its figures) and `studies` (section 1.4 and the
+value-ratio sweep).
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.chapter_checks import chapter_checks
-from tavc_cli.analysis.claims import CLAIM_TABLES, CLAIMS, claim_rows
+from tavc_cli.analysis.claims import CLAIM_TABLES, CLAIMS, claim_table, verdict_words
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
@@ -34,12 +39,23 @@ from tavc_cli.reference import TABLES
 from tavc_cli.report import horizons
 from tavc_cli.report.figures import experiment_figures, find_model
 from tavc_cli.report.mechanism import mechanism_lines
-from tavc_cli.report.runs import choice_lines, designated_first, draw_figures, other_run_lines, rel
+from tavc_cli.report.runs import (
+    choice_lines,
+    designated_first,
+    draw_figures,
+    other_run_lines,
+    rel,
+    run_folders,
+    run_list_lines,
+    study_runs,
+)
 from tavc_cli.report.studies import spatiotemporal_lines, value_ratio_lines
 from tavc_cli.report.text import (
+    chapter_says,
     delivery_lines,
     fmt,
     model_lines,
+    p_cell,
     performance,
     q_gap_lines,
     robot_lines,
@@ -56,19 +72,18 @@ ORDER = ["spatiotemporal", "initial_distribution", "breakdown", "breakdown_no_va
 
 def _finished_runs(results_dir: Path) -> tuple[dict[str, list[Path]], list[Path]]:
     """experiment name -> the folders of its finished runs (their `provenance.json`, written
-    last, is there), the one its claims are tested on first (`runs.designated_first`); and
-    the folders of runs that did not finish."""
+    last, is there) at any depth under results_dir (`runs.run_folders`: not the long horizon's
+    nor a study's), the one its claims are tested on first (`runs.designated_first`); and the
+    folders of runs that did not finish."""
     found: dict[str, list[Path]] = {}
     unfinished = []
-    for d in sorted(p for p in results_dir.iterdir() if p.is_dir()):
-        if not ((d / "state_time.csv").is_file() or (d / "trials").is_dir()):
-            continue
+    for d in run_folders(results_dir):
         if (d / "state_time.csv").is_file() and (d / "config.yaml").is_file() and (d / "provenance.json").is_file():
             found.setdefault(str(_read(d / "config.yaml", _config).experiment_name or d.name), []).append(d)
         else:
             unfinished.append(d)
     ordered = sorted(found.items(), key=lambda kv: (ORDER.index(kv[0]) if kv[0] in ORDER else 99, kv[0]))
-    return {name: designated_first(name, folders) for name, folders in ordered}, unfinished
+    return {name: designated_first(name, folders, results_dir) for name, folders in ordered}, unfinished
 
 
 def _experiments(results_dir: Path) -> tuple[dict[str, Path], list[Path]]:
@@ -89,6 +104,10 @@ def _check_readable(results_dir: Path, *horizon_runs: dict[str, list[Path]]) -> 
     folders = [d for runs in horizon_runs for ds in runs.values() for d in ds]
     if (results_dir / "value_ratio").is_dir():  # its runs as `analysis.value_ratio` finds them
         folders += sorted(p.parent for p in (results_dir / "value_ratio").rglob("trial_stats.csv")
+                          if (p.parent / "config.yaml").is_file())
+    ladder_dir = results_dir / horizons.CONVERGED_DIR / "ladder"
+    if (ladder_dir / "ladder.csv").is_file():  # the rungs whose claims the ladder's table tests again
+        folders += sorted(p.parent for p in ladder_dir.glob("*/trial_stats.csv")
                           if (p.parent / "config.yaml").is_file())
     for d in folders:
         check_run(d, _config)
@@ -141,30 +160,41 @@ def build_report(results_dir: Path) -> dict:
     long = _horizon(long_dir, found_long, unfinished_long) if found_long else None
     taken = take_report_folders(results_dir, long_dir if found_long else None)  # everything read: now the first write
     lines = ["# tavc: the reproduction report", "",
+             *horizons.not_a_verdict_lines(base, long),
              "Built by `tavc report` from the saved results in this folder; nothing here was simulated "
              "while writing it, and no number was typed in.", ""]
     if long is not None:
         lines += horizons.summary_lines(base, long)
         lines += horizons.claims_both_table(base, long)
     else:
-        lines += [f"**Claims reproduced: {n_ok} of {len(tested)} tested** "
-                  f"(claims {claims['claim_id'].min()}-{claims['claim_id'].max()} of the chapter's nine; "
+        head = (f"**Claims reproduced: {n_ok} of {len(tested)} tested**" if base.verdicts else
+                f"**Claims (not a verdict): {n_ok} of {len(tested)} tested would be reproduced at "
+                f"scale={', scale='.join(base.scale_names())}**")
+        lines += [f"{head} (claims {claims['claim_id'].min()}-{claims['claim_id'].max()} of the chapter's nine; "
                   f"{len(claims) - len(tested)} not tested because their experiment has not been run here).", "",
-                  "| claim | experiment | verdict | p |", "|---|---|---|---|"]
+                  "| claim | experiment | verdict | p (the deciding part) |", "|---|---|---|---|"]
         for r in claims.itertuples():
             exp = CLAIMS[r.claim_id][0]
-            verdict = r.verdict.replace("_", " ") if exp in runs else "not run"
-            lines.append(f"| {r.claim_id} | {exp} | {verdict} | {fmt(r.p_value, '.3g')} |")
+            ran = exp in runs
+            verdict = verdict_words(r.verdict, base.verdicts) if ran else "not run"
+            lines.append(f"| {r.claim_id} | {horizons.experiment_cell(base, exp, results_dir)} | {verdict} | "
+                         f"{p_cell(r) if ran else ''} |")
     lines += ["", "Tests: t-tests at 90 % (alpha 0.10): Welch's one-sided for \"above\"/\"below\" between "
               "controllers or between early and late samples (section 1.4's traversal and target times), paired "
               "one-sided for \"most frequent\" within the same trials or robots, one-sample tests against zero for "
               "a share or an offset, two-sided (Holm-corrected over states) for \"not different\"; claim 9's "
-              "\"largest relative increase\" compares means without a test, as the chapter does. The rules are in "
-              "`tavc_cli/analysis/claims.py`.", ""]
+              "\"largest relative increase\" compares means without a test, as the chapter does. A claim holds "
+              "only if every part does; the p shown is that of the part that decides the verdict, named beside it: "
+              "of a claim not reproduced, the failing part furthest from holding (for a part that needs a "
+              "significant difference, the largest p), of a claim reproduced, the part closest to failing. A part "
+              "whose t cannot be computed (one trial, no spread in either sample) is not testable, and so is a "
+              "claim that no part decides against. Each claim is tested on one run of its experiment: the folder "
+              "named after it, else the first by name (*The runs in this folder* lists every run). The rules are "
+              "in `tavc_cli/analysis/claims.py`.", ""]
     model_json = find_model(experiments)
     read = base.read
     if long is not None:
-        lines += horizons.time_scale_lines(results_dir, long, model_json)
+        lines += horizons.time_scale_lines(results_dir, long, model_json, base)
     with _FigurePool() as pool:
         # the sections that draw figures are written side by side while the rest of the text is
         ratio = pool.submit(value_ratio_lines, results_dir, model_json)
@@ -188,7 +218,8 @@ def build_report(results_dir: Path) -> dict:
         numbers = (f"t = {fmt(c['statistic'], '.2f')}, p = {fmt(c['p_value'], '.3g')}"
                    if math.isfinite(c["p_value"]) else f"{c['statistic']:.3g}")
         lines.append(f"- claim {c['claim_id']}, {c['test']}: {numbers}, **{verdict}**")
-    lines += ["", "## How the chapter's gaps are read", "",
+    lines += ["", *run_list_lines(results_dir, base, long)]
+    lines += ["## How the chapter's gaps are read", "",
               "- Layout: the sources on one long wall, the sinks in the opposite order on the other, so the two "
               "circuits cross mid-arena (a reading of the lost Figure 1.5's labels).",
               "- Unit of t in r = w / t: milliseconds (`tasks.time_unit`).",
@@ -212,11 +243,12 @@ def build_report(results_dir: Path) -> dict:
     list_figures(taken)
     out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
            "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished],
-           "runs": _run_names(found, results_dir)}
+           "runs": _run_names(found, results_dir), "not_a_verdict": base.shortfalls,
+           "studies": {what: [rel(d, results_dir) for d in folders] for what, folders in study_runs(results_dir)}}
     if long is not None:
         out.update({"factor": long.factor, "experiments_long": list(long.experiments), "claims_long": long.claims,
                     "n_reproduced_long": long.n_reproduced, "n_tested_long": len(long.tested),
-                    "runs_long": _run_names(found_long, results_dir)})
+                    "runs_long": _run_names(found_long, results_dir), "not_a_verdict_long": long.shortfalls})
         out["unfinished"] += [str(d) for d in long.unfinished]
     return out
 
@@ -237,7 +269,7 @@ def _horizon(folder: Path, found: dict[str, list[Path]], unfinished: list[Path])
     others = {name: folders[1:] for name, folders in found.items() if len(folders) > 1}
     deliveries = {d: delivery_lines(d, json.loads((d / "provenance.json").read_text()))
                   for folders in found.values() for d in folders}
-    return horizons.Horizon(folder, experiments, read, runs, claim_rows(runs), unfinished, others, deliveries)
+    return horizons.Horizon(folder, experiments, read, runs, claim_table(runs), unfinished, others, deliveries)
 
 
 def _run_names(found: dict[str, list[Path]], results_dir: Path) -> dict[str, list[str]]:
@@ -246,19 +278,43 @@ def _run_names(found: dict[str, list[Path]], results_dir: Path) -> dict[str, lis
 
 
 def summary_lines(result: dict) -> list[str]:
-    """`build_report`'s result in a few lines: the runs left out, the claims and the runs they
-    were tested on, every other run reported, where the report went."""
+    """`build_report`'s result in a few lines: the runs left out, "not a verdict" where the
+    claims were tested on runs below the chapter's scale, the claims and the runs they were
+    tested on, every other run reported, the studies' runs, where the report went."""
     lines = [f"left out {folder}: its run did not finish (no provenance.json); run it again to complete it"
              for folder in result["unfinished"]]
-    lines.append(f"claims reproduced: {result['n_reproduced']} of {result['n_tested']} tested "
-                 f"({_tested_on(result['runs'])})")
-    lines += _other_runs(result["runs"])
+    lines += _count_lines(result, "", "claims reproduced", "")
     if "factor" in result:
-        lines.append(f"claims reproduced at {result['factor']:g} times the chapter's durations: "
-                     f"{result['n_reproduced_long']} of {result['n_tested_long']} tested "
-                     f"({_tested_on(result['runs_long'])})")
-        lines += _other_runs(result["runs_long"])
+        lines += _count_lines(result, "_long", f"claims reproduced at {result['factor']:g} times the chapter's "
+                              "durations", f" at {result['factor']:g} times the chapter's durations")
+    lines += [f"read as a whole, not run by run: {_common(folders)} ({len(folders)} runs: {what})"
+              for what, folders in result.get("studies", {}).items()]
     return [*lines, result["report"]]
+
+
+def _common(folders: list[str]) -> str:
+    """The folder that holds all of `folders` (paths relative to the results folder), with a slash."""
+    parts = [f.split("/") for f in folders]
+    common = []
+    for level in zip(*parts, strict=False):
+        if len(set(level)) > 1:
+            break
+        common.append(level[0])
+    return "/".join(common) + "/" if common else "./"
+
+
+def _count_lines(result: dict, suffix: str, head: str, where: str) -> list[str]:
+    """One horizon's lines of `summary_lines`: "not a verdict" first where its runs are below
+    the chapter's scale, then its count (what it would be) and the runs it was tested on."""
+    short = result.get(f"not_a_verdict{suffix}") or {}
+    n, total, runs = result[f"n_reproduced{suffix}"], result[f"n_tested{suffix}"], result[f"runs{suffix}"]
+    lines = [f"{text[:text.index(' (')]}{where} ({name}: {text[text.index(' (') + 2:-1]})"
+             for name, text in short.items()]
+    if short:
+        lines.append(f"claims (not a verdict){where}: {n} of {total} tested would be reproduced ({_tested_on(runs)})")
+    else:
+        lines.append(f"{head}: {n} of {total} tested ({_tested_on(runs)})")
+    return lines + _other_runs(runs)
 
 
 def _tested_on(runs: dict[str, list[str]]) -> str:
@@ -290,7 +346,7 @@ def _experiment_sections(base: horizons.Horizon, figures: dict, *, long: horizon
     for name in (long.experiments if long is not None and results_dir is not None else {}):
         if name not in base.experiments:  # run at the long horizon only
             cfg = long.read[name][0]
-            lines += [f"## {name} (section {cfg.section or '?'})", "", str(cfg.description or "").strip(), "",
+            lines += [f"## {name} (section {cfg.section or '?'})", "", chapter_says(cfg.description), "",
                       "Not run at the chapter's durations here.", ""]
             lines += _long_lines(name, long, results_dir, model_json)
     return lines
@@ -314,7 +370,7 @@ def _experiment_section(name: str, d: Path, base: horizons.Horizon, figures: dic
     claims, runs = base.claims, base.runs
     prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
     comparison = experiment_comparison(name, state_time)
-    lines = [f"## {name} (section {cfg.section or '?'})", "", str(cfg.description or "").strip(), ""]
+    lines = [f"## {name} (section {cfg.section or '?'})", "", chapter_says(cfg.description), ""]
     lines += choice_lines(name, [d, *base.others.get(name, [])], base.folder)
     lines += base.deliveries[d]
     if (d / "table_1_1.csv").is_file():

@@ -18,15 +18,16 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.claims import CLAIMS
+from tavc_cli.analysis.claims import CLAIMS, not_a_verdict, verdict_words
 from tavc_cli.report.mechanism import mechanism, mechanism_lines, mechanism_words, vacancy_mechanism_lines
-from tavc_cli.report.text import claims_table, fmt, performance, robot_lines, state_table
+from tavc_cli.report.text import claims_table, fmt, p_cell, performance, robot_lines, state_table
 from tavc_cli.settings import TavcConfig
 
 # the claims whose chapter's mechanism is persistence: robots staying on one circuit, a vacancy
 # filled by one robot that moves (section 1.5), fast robots staying on the high-value circuit (1.6)
 PERSISTENCE_CLAIMS = (3, 5, 6, 7, 8, 9)
 CONVERGED_DIR = "converged"
+AT_CHAPTER = "at the chapter's durations"
 
 
 @dataclass
@@ -59,6 +60,23 @@ class Horizon:
     def n_reproduced(self) -> int:
         return int((self.tested["verdict"] == "reproduced").sum())
 
+    @property
+    def shortfalls(self) -> dict[str, str]:
+        """experiment -> "not a verdict: scale=... (...)" for each run the claims are tested on
+        that is below the chapter's scale (`analysis.claims.not_a_verdict`)."""
+        out = {name: not_a_verdict(cfg) for name, (cfg, _) in self.read.items()}
+        return {name: text for name, text in out.items() if text}
+
+    @property
+    def verdicts(self) -> bool:
+        """Whether this horizon's claims are verdicts: every run they are tested on at least at
+        the chapter's trial counts and durations."""
+        return not self.shortfalls
+
+    def scale_names(self) -> list[str]:
+        """The scales (`scale.name`) of the runs below the chapter's, in order."""
+        return list(dict.fromkeys(str(self.read[name][0].scale.name) for name in self.shortfalls))
+
 
 def label(factor: float) -> str:
     return f"{factor:g} times the chapter's durations"
@@ -80,10 +98,39 @@ def convergence(d: Path, controller: str | None = None) -> dict | None:
     return convergence_verdict(table, controller=controller)
 
 
+def not_a_verdict_lines(*horizons: Horizon | None) -> list[str]:
+    """The report's first words where any run its claims are tested on is below the chapter's
+    scale: "not a verdict: scale=<name>", why (the runs' trial counts and durations beside the
+    chapter's, grouped where they are the same) and what a verdict takes; none otherwise."""
+    found = [h for h in horizons if h is not None and not h.verdicts]
+    if not found:
+        return []
+    scales = list(dict.fromkeys(n for h in found for n in h.scale_names()))
+    why: dict[str, list[str]] = {}
+    for h in found:
+        for name, text in h.shortfalls.items():
+            reason = text[text.index("(") + 1:-1]
+            where = name if h is found[0] and h.folder == found[0].folder else f"{name} in {h.folder.name}"
+            why.setdefault(reason, []).append(where)
+    reasons = "; ".join(f"{', '.join(names)}: {reason}" for reason, names in why.items())
+    return [f"**This report is not a verdict: scale={', scale='.join(scales)}.** The runs the claims are tested on "
+            f"are smaller than the chapter's ({reasons}). The claims below say what the tests give on these runs, "
+            "not whether the chapter's findings reproduce: that takes the chapter's trial counts and durations "
+            "(`tavc reproduce scale=paper`).", ""]
+
+
+def count_words(h: Horizon, where: str) -> str:
+    """A horizon's count of claims: "2 of 9 at <where>", or, below the chapter's scale, what
+    it would be ("2 of 9 would be reproduced at scale=quick")."""
+    if h.verdicts:
+        return f"{h.n_reproduced} of {len(h.tested)} {where}"
+    return f"{h.n_reproduced} of {len(h.tested)} would be reproduced at scale={', scale='.join(h.scale_names())}"
+
+
 def summary_lines(base: Horizon, long: Horizon | None) -> list[str]:
     """The report's opening count: claims reproduced at the chapter's durations, and at the
-    long horizon with whether its learners converged."""
-    n_base = f"{base.n_reproduced} of {len(base.tested)}"
+    long horizon with whether its learners converged; "not a verdict" where a horizon's runs
+    are below the chapter's scale."""
     if long is None or not long.experiments:
         return []
     learners = [(name, convergence(d)) for name, d in long.experiments.items()]
@@ -96,55 +143,125 @@ def summary_lines(base: Horizon, long: Horizon | None) -> list[str]:
                "experiments: see *The time scale*")
     else:
         how = "no convergence measures saved"
-    return [f"**Claims reproduced: {n_base} at the chapter's durations; {long.n_reproduced} of {len(long.tested)} "
-            f"at {long.factor:g} times them ({how}).** The chapter's durations are its inputs and stay the "
-            "headline; the second verdict says whether its findings hold under its own world and rule given "
-            "time, and by which mechanism.", ""]
+    head = "Claims reproduced" if base.verdicts and long.verdicts else "Claims (not a verdict)"
+    return [f"**{head}: {count_words(base, AT_CHAPTER)}; "
+            f"{count_words(long, f'at {long.factor:g} times them')} ({how}).** The chapter's durations are its "
+            "inputs and stay the headline; the second verdict says whether its findings hold under its own world "
+            "and rule given time, and by which mechanism.", ""]
+
+
+def _column(h: Horizon, where: str) -> str:
+    return where if h.verdicts else f"at scale={', scale='.join(h.scale_names())} (not a verdict)"
+
+
+def experiment_cell(h: Horizon, exp: str, results_dir: Path) -> str:
+    """The experiment a claim is about, with the folder of the run it was tested on where that
+    is not the folder named after it."""
+    d = h.experiments.get(exp)
+    if d is None:
+        return exp
+    rel = d.relative_to(results_dir).as_posix()
+    return exp if rel in (exp, f"{CONVERGED_DIR}/{exp}") else f"{exp} (`{rel}`)"
 
 
 def claims_both_table(base: Horizon, long: Horizon) -> list[str]:
-    """Every claim with its verdict at both horizons and how the group was made at the long one."""
-    lines = [f"| claim | experiment | at the chapter's durations | p | at {long.factor:g}x | p | "
-             f"how the group is made at {long.factor:g}x |", "|---|---|---|---|---|---|---|"]
+    """Every claim with its verdict at both horizons, the p of the part that decides each and
+    which part that is (`analysis.claims.deciding`), and how the group was made at the long one."""
+    lines = [f"| claim | experiment | {_column(base, AT_CHAPTER)} | p (the deciding part) | "
+             f"{_column(long, f'at {long.factor:g}x')} | p (the deciding part) | how the group is made at "
+             f"{long.factor:g}x |", "|---|---|---|---|---|---|---|"]
     by_id = {int(r.claim_id): r for r in long.claims.itertuples()}
     for r in base.claims.itertuples():
         exp = CLAIMS[r.claim_id][0]
-        verdict = r.verdict.replace("_", " ") if exp in base.runs else "not run"
+        verdict = verdict_words(r.verdict, base.verdicts) if exp in base.runs else "not run"
         other = by_id.get(int(r.claim_id))
-        verdict_long = other.verdict.replace("_", " ") if other is not None and exp in long.runs else "not run"
+        ran_long = other is not None and exp in long.runs
+        verdict_long = verdict_words(other.verdict, long.verdicts) if ran_long else "not run"
         m = mechanism(long.experiments[exp]) if exp in long.experiments else None
         words = mechanism_words(m)
         if other is not None and other.verdict == "reproduced" and m is not None and \
                 int(r.claim_id) in PERSISTENCE_CLAIMS and m["regime"] != "persistence":
             words = f"**the test holds, but not by the chapter's persistence**; {words}"
-        lines.append(f"| {r.claim_id} | {exp} | {verdict} | {fmt(r.p_value, '.3g')} | {verdict_long} | "
-                     f"{fmt(other.p_value, '.3g') if other is not None else ''} | {words} |")
+        lines.append(f"| {r.claim_id} | {experiment_cell(base, exp, base.folder)} | {verdict} | "
+                     f"{p_cell(r) if exp in base.runs else ''} | {verdict_long} | "
+                     f"{p_cell(other) if ran_long else ''} | {words} |")
     return lines
 
 
-def time_scale_lines(results_dir: Path, long: Horizon, model_json: Path | None) -> list[str]:
-    """The section on the time scale: the rule's arithmetic, the ladder, the convergence measures."""
-    cfg = next(iter(long.read.values()))[0]
-    alpha, gamma = float(cfg.learner.alpha), float(cfg.learner.gamma)
-    rate = alpha * (1.0 - gamma)
-    task_s = _task_time_3_3(model_json)
-    lines = ["## The time scale: where the chapter's learning rule converges", "",
-             f"With the chapter's rule (alpha {alpha:g}, gamma {gamma:g}, epsilon-greedy with epsilon "
-             f"{float(cfg.learner.epsilon):g}) the value of the action a robot takes after each task moves toward "
-             f"r / (1 - gamma), twenty rewards, at a rate alpha (1 - gamma) = {rate:.3g} per task in the long run: "
-             f"one e-fold takes {1 / rate:.0f} tasks"
-             + (f", some {1 / rate * task_s / 3600:.1f} h at the {task_s:.0f} s a task that three robots on a "
-                "circuit take in this world (`tavc model`)" if task_s else "")
-             + ". The value of the other action moves only on the exploratory choices, epsilon / 2 of them. "
-             "Within the chapter's 5 h the greedy policies therefore stay as the random initial tables drew "
-             f"them. The second horizon runs every experiment at {long.factor:g} times the chapter's durations, "
-             "convergence periods, warm-ups and event times, at the chapter's trial counts (`scale=converged`); "
-             "section 1.4's trials at ten times its traversals. The baselines learn nothing, so their "
-             "distribution does not depend on the horizon: they run the chapter's own schedule (the same trials "
-             "as at the chapter's durations) and are compared over its stable periods.", ""]
+def time_scale_lines(results_dir: Path, long: Horizon, model_json: Path | None,
+                     base: Horizon | None = None) -> list[str]:
+    """The section on the time scale: why the learners stay where they start at the chapter's
+    durations (`stay_lines`), the second horizon, the ladder, the convergence measures."""
+    lines = ["## The time scale: where the chapter's learning rule converges", ""]
+    lines += stay_lines(results_dir, base, long, model_json)
+    lines += ["### The second horizon", "",
+              f"The second horizon runs every experiment at {long.factor:g} times the chapter's durations, "
+              "convergence periods, warm-ups and event times, at the chapter's trial counts (`scale=converged`); "
+              "section 1.4's trials at ten times its traversals. The baselines learn nothing, so their "
+              "distribution does not depend on the horizon: they run the chapter's own schedule (the same trials "
+              "as at the chapter's durations) and are compared over its stable periods.", ""]
     lines += ladder_lines(results_dir, long)
     lines += convergence_lines(long)
     return lines
+
+
+STAY_EXPERIMENT = "initial_distribution"  # the run the arithmetic and the measured policies are read from
+
+
+def stay_lines(results_dir: Path, base: Horizon | None, long: Horizon, model_json: Path | None) -> list[str]:
+    """Why the learners stay where their initial tables put them at the chapter's durations:
+    the learning rule's arithmetic, every number of it read from initial_distribution's
+    `config.yaml` (alpha, gamma, epsilon, the chapter's duration) and the model's `model.json`
+    (seconds per task), then the greedy policies as measured in the saved tables, and where the
+    figures show it."""
+    run = (base.experiments.get(STAY_EXPERIMENT) if base is not None else None) \
+        or long.experiments.get(STAY_EXPERIMENT)
+    if run is None:
+        return []
+    from tavc_cli.settings import from_yaml
+
+    cfg = from_yaml(run / "config.yaml")
+    alpha, gamma, eps = float(cfg.learner.alpha), float(cfg.learner.gamma), float(cfg.learner.epsilon)
+    rate = alpha * (1.0 - gamma)
+    chapter_s = float(cfg.paper.duration_s)
+    rel = run.relative_to(results_dir).as_posix()
+    arithmetic = (f"The chapter's rule as the `{rel}` run read it from its `config.yaml`: alpha {alpha:g}, gamma "
+                  f"{gamma:g}, epsilon-greedy choice with epsilon {eps:g}.")
+    items = [f"After each task a robot's value of the action it took moves toward r / (1 - gamma) = "
+             f"{1 / (1 - gamma):.3g} rewards at a rate alpha (1 - gamma) = {rate:.3g} per task: one e-fold of the "
+             f"way takes 1 / {rate:.3g} = {1 / rate:.0f} tasks."]
+    task_s = _task_time_3_3(model_json)
+    if task_s:
+        tasks = chapter_s / task_s
+        model_rel = model_json.relative_to(results_dir).as_posix() if model_json.is_relative_to(results_dir) \
+            else model_json.name
+        items += [f"A task takes {task_s:.0f} s with three robots on each circuit (`tavc model`, `{model_rel}`): one "
+                  f"e-fold takes {1 / rate:.0f} x {task_s:.0f} s = {task_s / rate / 3600:.1f} h, and the chapter's "
+                  f"{chapter_s / 3600:g} h hold some {tasks:.0f} tasks a robot, {tasks * rate:.2g} e-folds.",
+                  f"The value of the other action moves only on exploratory choices, epsilon / 2 = "
+                  f"{100 * eps / 2:.3g} % of them: some {tasks * eps / 2:.0f} updates a robot in the chapter's "
+                  f"{chapter_s / 3600:g} h."]
+    else:
+        items.append(f"The value of the other action moves only on exploratory choices, epsilon / 2 = "
+                     f"{100 * eps / 2:.3g} % of them.")
+    items.append(f"So the action a robot prefers is the one it takes, and its value is the one that moves, while the "
+                 f"other's moves on one choice in {2 / eps:.0f}: within the chapter's {chapter_s / 3600:g} h a robot's "
+                 "greedy policy (its preferred next circuit after each circuit) mostly stays where its random initial "
+                 "table put it.")
+    items += _measured_policies(results_dir, run, long)
+    # each drawn by this report from saved tables: the Q-values with the experiment's section, the
+    # two horizons with its second-horizon section, the ladder from its ladder.csv (`ladder_lines`)
+    figures = [(f"figures/q_values_{STAY_EXPERIMENT}.png", "the Q-values of trial 0, robot by robot",
+                (run / "q_values.csv").is_file()),
+               (f"figures/horizons_{STAY_EXPERIMENT}.png", "the states at both horizons",
+                STAY_EXPERIMENT in long.experiments and base is not None and STAY_EXPERIMENT in base.experiments),
+               (f"{CONVERGED_DIR}/figures/ladder.png", "the horizon ladder",
+                (long.folder / "ladder" / "ladder.csv").is_file())]
+    shown = [f"[{what}]({path})" for path, what, drawn in figures if drawn]
+    if shown:
+        items.append("Figures: " + ", ".join(shown) + ".")
+    return ["### Why the learners stay where they start in the chapter's "
+            f"{chapter_s / 3600:g} h", "", arithmetic, "", *[f"- {item}" for item in items], ""]
 
 
 def _task_time_3_3(model_json: Path | None) -> float | None:
@@ -156,16 +273,71 @@ def _task_time_3_3(model_json: Path | None) -> float | None:
     return sum(times) / len(times) if times else None
 
 
+def _measured_policies(results_dir: Path, run: Path, long: Horizon) -> list[str]:
+    """The greedy policies as measured: robots and trials of `run` whose greedy policy never
+    changed (its `q_values.csv`, `trial_stats.csv`), the ladder's share of robots whose policy
+    changed in the last quarter, and the long horizon's trials in which none changed."""
+    from tavc_cli.analysis.qvalues import policy_changes
+
+    out = []
+    rel = run.relative_to(results_dir).as_posix()
+    q_path = run / "q_values.csv"
+    if q_path.is_file():
+        q = pd.read_csv(q_path)
+        q = q[q["controller"] == "tavc"]
+        cols = [c for c in q.columns if c.startswith("q_")]
+        n_s = len({c.split("_")[1] for c in cols})
+        never = total = 0
+        for _, g in q.groupby(["trial", "robot"], sort=False):
+            table = g.sort_values("t_s")[cols].to_numpy(float).reshape(len(g), 1, n_s, -1)
+            _, changed = policy_changes(g["t_s"].to_numpy(float), table)
+            never += int(not changed.any())
+            total += 1
+        if total:
+            out.append(f"Measured at the chapter's durations: {never} of {total} TAVC robots "
+                       f"({100 * never / total:.0f} %) never changed their greedy policy over the whole run "
+                       f"(`{rel}/q_values.csv`, every snapshot)")
+    frozen, n = never_changed(run)
+    if n:
+        text = f"in {frozen} of {n} trials no robot's did (`{rel}/trial_stats.csv`)"
+        out[-1:] = [f"{out[-1]}; {text}."] if out else [f"Measured at the chapter's durations: {text}."]
+    elif out:
+        out[-1] += "."
+    path = long.folder / "ladder" / "ladder.csv"
+    if path.is_file():
+        from tavc_cli.analysis.ladder import ladder_value
+
+        share = ladder_value(pd.read_csv(path), "tavc", "policy_changed_share").dropna()
+        if len(share):
+            top = float(share.idxmax())
+            first = float(share.index.min())
+            out.append(f"The horizon ladder: the share of robots whose greedy policy changed in the last quarter of "
+                       f"the run is {share[first]:.2f} at {first:g}x and at most {share[top]:.2f} (at {top:g}x) "
+                       f"(`{path.relative_to(results_dir).as_posix()}`).")
+    d = long.experiments.get(STAY_EXPERIMENT)
+    if d is not None:
+        frozen, n = never_changed(d)
+        if n:
+            out.append(f"At {long.factor:g} times the chapter's durations, in {frozen} of {n} trials no robot's "
+                       f"greedy policy changed from t = 0 on (`{d.relative_to(results_dir).as_posix()}/"
+                       "trial_stats.csv`).")
+    return out
+
+
 def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
     """The ladder's figure and table, where `<long>/ladder/ladder.csv` is saved."""
     path = long.folder / "ladder" / "ladder.csv"
     if not path.is_file():
         return []
     from tavc_cli.analysis.ladder import ladder_value
+    from tavc_cli.viz.ladder import ladder_figure
 
     table = pd.read_csv(path)
     rel = path.parent.relative_to(results_dir)
     factors = sorted(set(table["factor"]))
+    # redrawn from ladder.csv with the report's figures (its bars cut at 0 and 100 %, n named)
+    ladder_figure(table, long.folder / "figures" / "ladder")
+    deciding = {f: rung_claims(path.parent / f"x{f:g}") for f in factors}
     lines = ["### The horizon ladder", "",
              "initial_distribution with the same seeds at several multiples of the chapter's 5 h (`tavc ladder`; "
              "each rung's trials are the first part of the longer rungs'). The learner-side measures are fixed in "
@@ -173,7 +345,9 @@ def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
              "relative change of a robot's Q-table over the last quarter of the run (`Q drift`), the share of "
              "robots whose greedy policy changed in that quarter, and the drift of the robots on the high-value "
              "circuit between the two halves of the stable period; converged means all three are small.", "",
-             f"![the horizon ladder]({rel}/ladder.png)", "",
+             f"![the horizon ladder]({long.folder.relative_to(results_dir).as_posix()}/figures/ladder.png)", "",
+             f"(Drawn from `{rel}/ladder.csv`. The claims' p is that of the part that decides each verdict, as in "
+             "the claims table above.)", "",
              "| horizon | h | 2:4 | 3:3 | 4:2 | claim 3 (p) | claim 5 (p) | Q drift | policies changed | "
              "alloc. drift | converged | stayers | alternators |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -187,6 +361,11 @@ def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
         return fmt(float(get[q][f]), spec) if f in get[q].index else ""
 
     def verdict(k: int, f: float) -> str:
+        own = deciding[f]
+        if own is not None and k in own.index:  # tested here on the rung's own trials
+            r = own.loc[k]
+            word = {"reproduced": "holds", "not_reproduced": "fails"}.get(r["verdict"], "not testable")
+            return f"{word} ({fmt(float(r['deciding_p_value']), '.2g')})"
         s = get[f"claim{k}_reproduced"]
         x = float(s[f]) if f in s.index else math.nan
         word = "holds" if x == 1.0 else ("fails" if x == 0.0 else "?")
@@ -200,13 +379,27 @@ def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
                      f"{fmt(float(std33.get(f)))} | {cell('pct_4:2', f)} | {verdict(3, f)} | {verdict(5, f)} | "
                      f"{cell('q_drift', f, '.3f')} | {cell('policy_changed_share', f, '.2f')} | "
                      f"{cell('alloc_drift', f, '.2f')} | {conv_word} | {fmt(stayers)} | {cell('n_alternators', f)} |")
+    from tavc_cli.reference import chapter_table
+
     rand = ladder_value(table, "random", "pct_3:3")
     theory = ladder_value(table, "theory", "pct_3:3")
+    chapter = chapter_table("1.2").set_index("state").loc["3:3", "tavc_mean_pct"]
     lines += ["", f"Random allocation spends {fmt(float(rand.mean()))} % of the stable period in 3:3 (the same trials "
-              f"at every rung), the binomial row {fmt(float(theory.mean()))} %; the chapter's learners 44.5 % in 5 h "
-              "(Table 1.2). Stayers and alternators are robots per trial in the stable period (`robots.csv`'s "
-              "classes).", ""]
+              f"at every rung), the binomial row {fmt(float(theory.mean()))} %; the chapter's learners "
+              f"{fmt(float(chapter))} % in {hours[min(factors)] / min(factors):g} h (Table 1.2). Stayers and "
+              "alternators are robots per trial in the stable period (`robots.csv`'s classes).", ""]
     return lines
+
+
+def rung_claims(d: Path) -> pd.DataFrame | None:
+    """Claims 3-5 tested on a ladder rung's own trials (`analysis.claims.claim_table`, indexed
+    by claim), or None where the rung's folder or its `trial_stats.csv` is not there."""
+    path = d / "trial_stats.csv"
+    if not path.is_file():
+        return None
+    from tavc_cli.analysis.claims import claim_table
+
+    return claim_table({STAY_EXPERIMENT: pd.read_csv(path)}, STAY_EXPERIMENT).set_index("claim_id")
 
 
 def convergence_lines(long: Horizon) -> list[str]:
@@ -300,7 +493,7 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
 def _claims_lines(name: str, long: Horizon) -> list[str]:
     """The experiment's claims as tested at the long horizon."""
     own = long.claims[[CLAIMS[c][0] == name for c in long.claims["claim_id"]]]
-    return [*claims_table(own), ""] if len(own) and name in long.runs else []
+    return [*claims_table(own, verdicts=name not in long.shortfalls), ""] if len(own) and name in long.runs else []
 
 
 def convergence_sentence(d: Path) -> list[str]:

@@ -1,31 +1,87 @@
-"""Several runs of one experiment in a results folder (a sweep's jobs, two runs side by side):
-the claims are tested on one of them, designated by its folder's name, and each of the
-others gets a section of its own: its state table, its figures under
-`figures/runs/<folder>/`, and the settings in which it differs from the designated run."""
+"""The runs under a results folder, and several runs of one experiment in it (a sweep's jobs,
+two runs side by side, a run in a folder of its own further down): every run folder at any
+depth is found (`run_folders`); the claims are tested on one run per experiment, designated
+by its folder's name, and each of the others gets a section of its own, titled with its
+folder relative to the results folder: its state table, its figures under
+`figures/runs/<folder>/`, and the settings in which it differs from the designated run. The
+runs of the studies the report reads as a whole (`study_runs`) and every run's place in the
+report are listed in *The runs in this folder* (`run_list_lines`)."""
 
 from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import pandas as pd
 import yaml
 
+from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.reference import TABLES
 from tavc_cli.report.text import performance, run_lines, state_table
-from tavc_cli.settings import TavcConfig
+from tavc_cli.settings import TavcConfig, from_yaml
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
+# folders directly under the results folder that the report reads otherwise than run by run:
+# the second horizon (`horizons`, its runs found there in turn) and the value-ratio sweep
+# (`studies.value_ratio_lines`); under a horizon, the horizon ladder (`horizons.ladder_lines`)
+TOP_STUDIES = ("converged", "value_ratio")
+LADDER = "ladder"
 
 
-def designated_first(name: str, folders: list[Path]) -> list[Path]:
+def is_run_folder(d: Path) -> bool:
+    """Whether `d` is a run's folder, finished or not: what `tavc run` writes first (its
+    `config.yaml`, its `trials/`) or last (its tables) is there."""
+    return (d / "config.yaml").is_file() or (d / "state_time.csv").is_file() or (d / "trials").is_dir()
+
+
+def run_folders(folder: Path, top: bool = True) -> list[Path]:
+    """Every run folder under `folder` at any depth (`is_run_folder`), in natural order of
+    their paths: a run's own folder is not searched further (its `trials/`, `model/`), nor
+    `figures/`, hidden folders, or the studies read as a whole (TOP_STUDIES directly under the
+    results folder, `top`; a `ladder/` with its `ladder.csv`)."""
+    out = []
+    for d in sorted((p for p in folder.iterdir() if p.is_dir()), key=lambda p: _natural(p.name)):
+        if d.name == "figures" or d.name.startswith(".") or (top and d.name in TOP_STUDIES) or \
+                (d.name == LADDER and (d / "ladder.csv").is_file()):
+            continue
+        out += [d] if is_run_folder(d) else run_folders(d, top=False)
+    return out
+
+
+def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
+    """(what reads them, run folders) for the studies the report reads as a whole: the
+    horizon ladder's rungs and the value-ratio sweep's runs."""
+    out = []
+    ladder = results_dir / TOP_STUDIES[0] / LADDER
+    if (ladder / "ladder.csv").is_file():
+        rungs = [d for d in sorted(ladder.iterdir(), key=lambda p: _natural(p.name)) if d.is_dir() and
+                 is_run_folder(d)]
+        if rungs:
+            out.append(("the horizon ladder, in *The time scale*", rungs))
+    ratio = results_dir / TOP_STUDIES[1]
+    if ratio.is_dir():
+        found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: _natural(p.as_posix()))
+        if found:
+            out.append(("the value-ratio sweep, in *Learning values and time*", found))
+    return out
+
+
+def _natural(text: str) -> list:
+    """A sort key that orders "2_seed=3" before "10_seed=11"."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", text)]
+
+
+def designated_first(name: str, folders: list[Path], results_dir: Path | None = None) -> list[Path]:
     """`folders`, every one a run of experiment `name`, in the report's order: first the run
-    the claims are tested on (the folder named exactly after the experiment, else the first
-    by name), then the others by name."""
-    folders = sorted(folders)
-    named = [d for d in folders if d.name == name]
+    the claims are tested on (the folder named exactly after the experiment, the one nearest
+    the results folder first, else the first by its path), then the others by path."""
+    key = (lambda d: (len(d.relative_to(results_dir).parts), _natural(d.relative_to(results_dir).as_posix()))) \
+        if results_dir is not None else (lambda d: _natural(d.as_posix()))
+    folders = sorted(folders, key=key)
+    named = [d for d in folders if d.name == name][:1]
     return [*named, *(d for d in folders if d not in named)]
 
 
@@ -47,20 +103,23 @@ def rel(d: Path, results_dir: Path) -> str:
 
 def figure_dir(d: Path, horizon: Path) -> Path:
     """Where the figures of a run beside the designated one go: its own folder under the
-    horizon's figures, so that no name collides with the designated run's."""
-    return horizon / "figures" / RUNS_DIR / d.name
+    horizon's figures, its path relative to the horizon (`breakdown/1_seed=2`), so that no name
+    collides with the designated run's nor with another sweep's job of the same name."""
+    return horizon / "figures" / RUNS_DIR / d.relative_to(horizon)
 
 
-def setting_differences(d: Path, base: Path) -> list[str]:
+def setting_differences(d: Path, base: Path, base_name: str | None = None) -> list[str]:
     """The settings in which run `d`'s config.yaml differs from run `base`'s, each as
-    ``key value (`base`: value)``; where a run writes is no setting of it."""
+    ``key value (`base`: value)`` (`base_name`, the folder's name unless given); where a run
+    writes is no setting of it."""
+    base_name = base_name or base.name
     ours, theirs = _flat(yaml.safe_load((d / "config.yaml").read_text())), _flat(
         yaml.safe_load((base / "config.yaml").read_text()))
     out = []
     for key in [*ours, *(k for k in theirs if k not in ours)]:
         if key == "output_dir" or ours.get(key, _UNSET) == theirs.get(key, _UNSET):
             continue
-        out.append(f"{key} {_show(ours.get(key, _UNSET))} (`{base.name}`: {_show(theirs.get(key, _UNSET))})")
+        out.append(f"{key} {_show(ours.get(key, _UNSET))} (`{base_name}`: {_show(theirs.get(key, _UNSET))})")
     return out
 
 
@@ -94,7 +153,7 @@ def other_run_lines(name: str, d: Path, cfg: TavcConfig, base: Path, results_dir
     after the title."""
     state_time = pd.read_csv(d / "state_time.csv", dtype={"state": str})
     prov = json.loads((d / "provenance.json").read_text())
-    diffs = setting_differences(d, base)
+    diffs = setting_differences(d, base, rel(base, results_dir))
     lines = [f"### {rel(d, results_dir)}: another run of {name}{horizon}", "",
              f"The claims about {name} are tested on `{rel(base, results_dir)}`, not on this run, which differs "
              "from it " + ("in " + "; ".join(diffs) if diffs else "in no setting but its folder") + ".", ""]
@@ -123,3 +182,47 @@ def draw_figures(name: str, d: Path, cfg: TavcConfig, horizon: Path, results_dir
         return spatiotemporal_lines(name, d, cfg, results_dir, fig_dir, label)
     state_time = pd.read_csv(d / "state_time.csv", dtype={"state": str})
     return experiment_figures(name, d, cfg, state_time, results_dir, model_json, fig_dir, label)
+
+
+def run_list_lines(results_dir: Path, base, long=None) -> list[str]:
+    """*The runs in this folder*: every run folder under results_dir, finished or not, with
+    its experiment, scale and trials, and where the report uses it: the run a claim is tested
+    on, a section of its own, a study read as a whole, or left out (and why). `base` and
+    `long` are the horizons (`horizons.Horizon`)."""
+    rows = []
+    for h, where in ((base, "at the chapter's durations"), (long, "at the second horizon")):
+        if h is None:
+            continue
+        for name, d in h.experiments.items():
+            rows.append((d, f"the claims about {name} {where} are tested on it"))
+            rows += [(o, f"a section of its own, under {name}") for o in h.others.get(name, [])]
+        rows += [(d, "left out: the run did not finish (no provenance.json)") for d in h.unfinished]
+    lines = ["## The runs in this folder", "",
+             "Every run under this folder, and where this report uses it.", "",
+             "| run | experiment | scale | trials | in this report |", "|---|---|---|---|---|"]
+    for d, use in sorted(rows, key=lambda r: _natural(rel(r[0], results_dir))):
+        lines.append(f"| `{rel(d, results_dir)}` | {_facts(d)} | {use} |")
+    for what, folders in study_runs(results_dir):
+        groups: dict[Path, list[Path]] = {}
+        for d in folders:
+            groups.setdefault(d.parent, []).append(d)
+        for parent, members in groups.items():
+            names = ", ".join(f"`{d.name}`" for d in members)
+            lines.append(f"| `{rel(parent, results_dir)}/`: {names} | {_facts(members[0], several=len(members))} | "
+                         f"read as a whole: {what} |")
+    return [*lines, ""]
+
+
+def _facts(d: Path, several: int = 1) -> str:
+    """A run's experiment, scale (and "not a verdict" where it is below the chapter's) and
+    trials, as three table cells; for `several` runs of a study, the first one's experiment
+    and scale and how many runs."""
+    try:
+        cfg = from_yaml(d / "config.yaml")
+    except Exception:  # an unfinished run's settings may be missing or half-written: name what is known
+        return " |  | "
+    short = scale_shortfall(cfg)
+    scale = str(cfg.scale.name) + (f" (not a verdict: {short})" if short else "")
+    if several > 1:  # a study's runs: no verdict is taken on them, but their scale is said all the same
+        return f"{cfg.experiment_name} | {cfg.scale.name}{f' ({short})' if short else ''} | {several} runs"
+    return f"{cfg.experiment_name} | {scale} | {cfg.trials}"

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.claims import CLAIMS
+from tavc_cli.analysis.claims import CLAIMS, not_a_verdict, verdict_words
 from tavc_cli.settings import TavcConfig
 
 KIND_WORDS = {"stayer": "stayers", "alternator": "alternators", "mixed": "mixed", "idle": "idle (broken down or stuck)"}
@@ -59,12 +59,49 @@ def state_table(state_time: pd.DataFrame, comparison: pd.DataFrame | None) -> li
     return lines
 
 
-def claims_table(claims: pd.DataFrame) -> list[str]:
-    lines = ["| claim | verdict | t | p | what was tested |", "|---|---|---|---|---|"]
+def chapter_says(text: str) -> str:
+    """A claim or an experiment's description as the chapter's, not as a fact: "The chapter
+    reports that ..." (the text's first letter lowered unless it starts an acronym)."""
+    text = str(text or "").strip()
+    if not text:
+        return ""
+    first = text[0].lower() if len(text) > 1 and not text[1].isupper() else text[0]
+    return f"The chapter reports that {first}{text[1:]}"
+
+
+def decided_by(r) -> str:
+    """Which part of a claim decides its verdict (`analysis.claims.deciding`), as a table cell:
+    the part's question, or why the claim could not be tested; a comparison of means says so."""
+    if r.verdict == "inconclusive":
+        return f"not testable: {getattr(r, 'not_testable_because', '') or 'see the parts'}".replace("|", "/")
+    name = str(getattr(r, "deciding_test", "") or "")
+    rule = str(getattr(r, "deciding_holds_if", "") or "")
+    if name and rule.startswith("p >="):  # a "not different" part: a large p is what it needs
+        name += f", which holds if {rule}"
+    elif name and rule and not rule.startswith("p"):
+        name += f" ({rule})"
+    return name.replace("|", "/")
+
+
+def p_cell(r) -> str:
+    """A claim's p in a summary table: the deciding part's p and, in brackets, which part that
+    is (`decided_by`)."""
+    p = fmt(getattr(r, "deciding_p_value", r.p_value), ".3g")
+    by = decided_by(r)
+    return f"{p} ({by})" if p and by else (p or (f"({by})" if by else ""))
+
+
+def claims_table(claims: pd.DataFrame, verdicts: bool = True) -> list[str]:
+    """The claims as a table: the chapter's claim, the verdict ("would be: ..." where the run
+    is below the chapter's scale: `verdicts` False), the t and p of the part that decides it and
+    which part that is, then every part."""
+    lines = ["| claim | verdict | t | p | decided by | what was tested |", "|---|---|---|---|---|---|"]
     for r in claims.itertuples():
         detail = str(r.detail).replace("|", "/").replace("; ", "<br>")
-        lines.append(f"| {r.claim_id}: {r.claim} | **{r.verdict.replace('_', ' ')}** | {fmt(r.statistic, '.2f')} | "
-                     f"{fmt(r.p_value, '.3g')} | {detail} |")
+        t = getattr(r, "deciding_statistic", r.statistic)
+        p = getattr(r, "deciding_p_value", r.p_value)
+        lines.append(f"| {r.claim_id}: {chapter_says(r.claim)} | **{verdict_words(r.verdict, verdicts)}** | "
+                     f"{fmt(t, '.2f')} | {fmt(p, '.3g')} | {decided_by(r)} | {detail} |")
     return lines
 
 
@@ -219,10 +256,11 @@ def q_gap_lines(stats: pd.DataFrame) -> list[str]:
 def run_lines(name: str, cfg: TavcConfig, prov: dict, claims: pd.DataFrame, runs: dict) -> list[str]:
     """An experiment's claims table, the command and provenance of its run, and its settings
     that differ from the chapter's."""
-    lines = []
+    short = not_a_verdict(cfg)
+    lines = [f"This run is {short}.", ""] if short else []
     own = claims[[CLAIMS[c][0] == name for c in claims["claim_id"]]]
     if len(own) and name in runs:
-        lines += [*claims_table(own), ""]
+        lines += [*claims_table(own, verdicts=not short), ""]
     diffs = differences(cfg)
     command = prov.get("command_line") or ["tavc", "run", f"experiment={name}"]
     if isinstance(command, list):

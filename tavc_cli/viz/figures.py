@@ -14,6 +14,10 @@
 - for fast and slow robots (section 1.6): f:s state shares as grids (Figure 1.12), TAVC's
   difference from the theory row, absolute and relative (Figure 1.13), and each speed
   group's share on the high-value circuit over time.
+
+Every error bar and band says what it is and over how many trials (in its legend entry), and
+is cut where the quantity ends: a share at 0 and at 100 % (or 1), a rate, a count or a time at
+0, so that no bar shows a percentage below 0 that no trial had. Every heat map has a colour bar.
 """
 
 from __future__ import annotations
@@ -53,8 +57,43 @@ def save_figure(fig, out_stem: Path) -> list[Path]:
     return paths
 
 
-def state_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: str, out_stem: Path) -> list[Path]:
-    """Bars per state: each controller's mean with its std, theory as grey bars, the chapter's TAVC means as stars."""
+def clipped_err(mean, std, lo: float | None = 0.0, hi: float | None = None) -> np.ndarray:
+    """Asymmetric error bars (2, n) of one std around `mean`, cut at `lo` and `hi` (a share
+    at 0 and 100 %): the bar ends where the quantity does; a missing std draws no bar."""
+    mean, std = np.asarray(mean, float), np.nan_to_num(np.asarray(std, float))
+    below = std if lo is None else np.minimum(std, np.maximum(mean - lo, 0.0))
+    above = std if hi is None else np.minimum(std, np.maximum(hi - mean, 0.0))
+    return np.vstack([np.nan_to_num(below), np.nan_to_num(above)])
+
+
+def clipped_band(mean, std, lo: float | None = 0.0, hi: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A one-std band's lower and upper edges, cut at `lo` and `hi`."""
+    mean, std = np.asarray(mean, float), np.asarray(std, float)
+    return np.clip(mean - std, lo, hi), np.clip(mean + std, lo, hi)
+
+
+def n_text(n) -> str:
+    """"n trials" for the trial counts of a bar or a band: one count, or their range (times
+    with no trial, before a baseline starts, draw nothing and count for nothing)."""
+    counts = sorted({int(v) for v in np.asarray(n, float) if np.isfinite(v) and v > 0})
+    if not counts:
+        return "trials"
+    span = f"{counts[0]}" if len(counts) == 1 else f"{counts[0]}-{counts[-1]}"
+    return f"{span} trial" + ("" if counts == [1] else "s")
+
+
+def _label(ctrl: str, rows: pd.DataFrame, what: str = "mean ± std") -> str:
+    """A legend entry naming what the bars or bands are: ``TAVC: mean ± std over 20 trials``."""
+    name = LABELS.get(ctrl, ctrl)
+    if ctrl == "theory":
+        return f"{name} (binomial row)"
+    if "n_trials" not in rows:
+        return f"{name}: {what} over trials"
+    return f"{name}: {what} over {n_text(rows['n_trials'])}"
+
+
+def state_fig(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: str):
+    """`state_figure`'s figure, unsaved."""
     states = list(dict.fromkeys(state_time["state"]))
     ctrls = [c for c in dict.fromkeys(state_time["controller"])]
     x = np.arange(len(states))
@@ -62,36 +101,47 @@ def state_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: 
     fig, ax = plt.subplots(figsize=(7.5, 4.0))
     for k, ctrl in enumerate(ctrls):
         rows = state_time[state_time["controller"] == ctrl].set_index("state").reindex(states)
-        err = None if ctrl == "theory" else rows["std_pct"].to_numpy(float)
-        ax.bar(x + (k - (len(ctrls) - 1) / 2) * width, rows["mean_pct"].to_numpy(float), width, yerr=err,
-               capsize=2, color=COLOURS.get(ctrl), label=LABELS.get(ctrl, ctrl))
+        mean = rows["mean_pct"].to_numpy(float)
+        err = None if ctrl == "theory" else clipped_err(mean, rows["std_pct"], 0.0, 100.0)
+        ax.bar(x + (k - (len(ctrls) - 1) / 2) * width, mean, width, yerr=err,
+               capsize=2, color=COLOURS.get(ctrl), label=_label(ctrl, rows))
     if chapter is not None and "tavc_mean_pct" in chapter:
         ch = chapter.set_index("state").reindex(states)
         k = ctrls.index("tavc") if "tavc" in ctrls else 0
-        ax.plot(x + (k - (len(ctrls) - 1) / 2) * width, ch["tavc_mean_pct"], "k*", ms=9, label="TAVC, the chapter")
-    return _finish_states(fig, ax, x, states, title, out_stem)
+        ax.plot(x + (k - (len(ctrls) - 1) / 2) * width, ch["tavc_mean_pct"], "k*", ms=9,
+                label="TAVC, the chapter's mean")
+    _finish_states(fig, ax, x, states, title)
+    return fig
 
 
-def _finish_states(fig, ax, x: np.ndarray, states: Sequence[str], title: str, out_stem: Path) -> list[Path]:
-    """A state histogram's axes, title and legend; saved."""
+def state_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: str, out_stem: Path) -> list[Path]:
+    """Bars per state: each controller's mean with its std over trials (cut at 0 and 100 %),
+    theory as grey bars, the chapter's TAVC means as stars."""
+    return save_figure(state_fig(state_time, chapter, title), out_stem)
+
+
+def _finish_states(fig, ax, x: np.ndarray, states: Sequence[str], title: str) -> None:
+    """A state histogram's axes, title and legend."""
     ax.set_xticks(x, states)
     ax.set_xlabel("state (robots on the high-value circuit : on the low-value circuit)")
     ax.set_ylabel("% of the stable period")
+    ax.set_ylim(bottom=0.0)
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return save_figure(fig, out_stem)
 
 
-def _over_time(frame: pd.DataFrame, mean: str, std: str, convergence_s: float, event: bool, ylabel: str):
-    """A figure of one quantity over time (ks): per controller its mean and a one-std band, the
-    event at t = 0 and the end of the convergence period marked."""
+def _over_time(frame: pd.DataFrame, mean: str, std: str, convergence_s: float, event: bool, ylabel: str,
+               hi: float | None = None):
+    """A figure of one quantity over time (ks): per controller its mean and a one-std band over
+    trials (cut at 0 and at `hi`), the event at t = 0 and the end of the convergence period
+    marked."""
     fig, ax = plt.subplots(figsize=(7.5, 4.0))
     for ctrl, rows in frame.groupby("controller", sort=False):
         t = rows["t_s"].to_numpy(float) / 1000.0
         m, s = rows[mean].to_numpy(float), rows[std].to_numpy(float)
-        ax.plot(t, m, color=COLOURS.get(ctrl), label=LABELS.get(ctrl, ctrl))
-        ax.fill_between(t, m - s, m + s, color=COLOURS.get(ctrl), alpha=0.15, lw=0)
+        ax.plot(t, m, color=COLOURS.get(ctrl), label=_label(ctrl, rows, "mean, band ± std"))
+        ax.fill_between(t, *clipped_band(m, s, 0.0, hi), color=COLOURS.get(ctrl), alpha=0.15, lw=0)
     if event:
         ax.axvline(0.0, color="r", lw=1, label="event")
     if convergence_s > 0:
@@ -112,6 +162,7 @@ def performance_figure(perf: pd.DataFrame, convergence_s: float, event: bool, ti
                        out_stem: Path) -> list[Path]:
     """Score per second over time (ks), mean and one-std band per controller."""
     fig, ax = _over_time(perf, "mean", "std", convergence_s, event, "score value delivered per second")
+    ax.set_ylim(bottom=0.0)
     return _finish(fig, ax, title, out_stem)
 
 
@@ -120,6 +171,7 @@ def allocation_figure(alloc: pd.DataFrame, predicted: Sequence[tuple[float, floa
     """Robots on the high-value circuit over time, mean and one-std band per controller, with
     the model's predicted count drawn as dotted lines: (from s, to s, label, robots) each."""
     fig, ax = _over_time(alloc, "mean_high", "std_high", convergence_s, event, "robots on the high-value circuit")
+    ax.set_ylim(bottom=0.0)
     for k, (a, b, label, value) in enumerate(predicted):
         ax.hlines(value, a / 1000.0, b / 1000.0, colors="k", linestyles=":", lw=2,
                   label="the model's prediction" if k == 0 else None)
@@ -185,9 +237,11 @@ def value_ratio_figure(points: pd.DataFrame, predicted: pd.DataFrame | None, cha
             g = points[(points["reading"] == reading) & (points["horizon"] == horizon)].sort_values("ratio")
             if not len(g):
                 continue
-            ax.errorbar(g["ratio"] + 0.008 * (2 * i + j - 1.5), g["mean"], yerr=g["std"], capsize=3,
+            n = f", n = {n_text(g['n_trials'])}" if "n_trials" in g else ""
+            ax.errorbar(g["ratio"] + 0.008 * (2 * i + j - 1.5), g["mean"],
+                        yerr=clipped_err(g["mean"], g["std"], 0.0, 1.0), capsize=3,
                         ls=styles.get(horizon, ":"), marker=markers[i % len(markers)],
-                        color=f"C{2 * i + j}", label=f"{reading}, {horizon}")
+                        color=f"C{2 * i + j}", label=f"{reading}, {horizon}{n}")
     if predicted is not None and len(predicted):
         ax.step(predicted["ratio"], predicted["share"], where="mid", color="k", lw=2, ls=":",
                 label="the model's prediction")
@@ -195,7 +249,7 @@ def value_ratio_figure(points: pd.DataFrame, predicted: pd.DataFrame | None, cha
     if chapter_ratio is not None:
         ax.axvline(chapter_ratio, color="0.8", lw=6, zorder=0, label="the chapter's values (2200/2000)")
     ax.set_xlabel("learning value ratio w_high / w_low")
-    ax.set_ylabel("share of robots on the high-value circuit")
+    ax.set_ylabel("share of robots on the high-value circuit\n(mean ± std over trials, cut at 0 and 1)")
     ax.set_ylim(0.0, 1.0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
@@ -291,8 +345,9 @@ def specialisation_figure(spec: pd.DataFrame, convergence_s: float, title: str, 
         t = rows["t_s"].to_numpy(float) / 1000.0
         m, s = rows["mean_share_high"].to_numpy(float), rows["std_share_high"].to_numpy(float)
         ls = styles[list(dict.fromkeys(spec["group"])).index(group) % len(styles)]
-        ax.plot(t, m, color=COLOURS.get(ctrl), ls=ls, label=f"{LABELS.get(ctrl, ctrl)}, {group} robots")
-        ax.fill_between(t, m - s, m + s, color=COLOURS.get(ctrl), alpha=0.10, lw=0)
+        n = f" (mean, band ± std over {n_text(rows['n_trials'])})" if "n_trials" in rows else ""
+        ax.plot(t, m, color=COLOURS.get(ctrl), ls=ls, label=f"{LABELS.get(ctrl, ctrl)}, {group} robots{n}")
+        ax.fill_between(t, *clipped_band(m, s, 0.0, 1.0), color=COLOURS.get(ctrl), alpha=0.10, lw=0)
     if convergence_s > 0:
         ax.axvline(convergence_s / 1000.0, color="k", ls="--", lw=1, label="end of convergence period")
     ax.axhline(0.5, color="0.6", lw=1)
@@ -307,8 +362,9 @@ def target_time_figure(curve: pd.DataFrame, chapter: pd.DataFrame | None, title:
     mean and one-std band over trials; the chapter's Table 1.1 target-time means as stars."""
     fig, ax = plt.subplots(figsize=(7.5, 4.0))
     m, mu, sd = (curve[c].to_numpy(float) for c in ("m_arrivals", "mean_target_s", "std_target_s"))
-    ax.plot(m, mu, color=COLOURS["tavc"], label="tavc, mean over trials")
-    ax.fill_between(m, mu - sd, mu + sd, color=COLOURS["tavc"], alpha=0.15, lw=0)
+    n = n_text(curve["n_trials"]) if "n_trials" in curve else "trials"
+    ax.plot(m, mu, color=COLOURS["tavc"], label=f"TAVC: mean, band ± std over {n}")
+    ax.fill_between(m, *clipped_band(mu, sd, 0.0), color=COLOURS["tavc"], alpha=0.15, lw=0)
     if chapter is not None:
         ax.plot(chapter["m_arrivals"], chapter["mean_target_s"], "k*", ms=9, label="the chapter (Table 1.1)")
     ax.set_xlabel("target arrivals of the group, m")
@@ -319,7 +375,13 @@ def target_time_figure(curve: pd.DataFrame, chapter: pd.DataFrame | None, title:
 
 def lane_figure(occupancy: pd.DataFrame, source_xy, sink_xy, title: str, out_stem: Path) -> list[Path]:
     """Where the robots drive: pose frames per cell (log scale), heading toward the sink and
-    toward the source, early and late in the run, each panel scaled to its own maximum."""
+    toward the source, early and late in the run, each panel scaled to its own maximum and
+    given its own colour bar (`lane_fig`)."""
+    return save_figure(lane_fig(occupancy, source_xy, sink_xy, title), out_stem)
+
+
+def lane_fig(occupancy: pd.DataFrame, source_xy, sink_xy, title: str):
+    """`lane_figure`'s figure, unsaved: a panel per window and direction, each with its colour bar."""
     windows = list(dict.fromkeys(occupancy["window"]))
     directions = [("to_sink", "heading to the sink"), ("to_source", "heading to the source")]
     fig, axes = plt.subplots(len(windows), 2, figsize=(9.5, 3.4 * len(windows)), squeeze=False,
@@ -332,8 +394,10 @@ def lane_figure(occupancy: pd.DataFrame, source_xy, sink_xy, title: str, out_ste
             cell = float(xs[1] - xs[0]) if len(xs) > 1 else 1.0
             ax = axes[i][j]
             # log scale: robots standing still pile up frames in one cell
-            ax.imshow(np.log1p(grid.to_numpy(float)), origin="lower", cmap="magma", aspect="equal",
-                      extent=(xs[0] - cell / 2, xs[-1] + cell / 2, ys[0] - cell / 2, ys[-1] + cell / 2))
+            image = ax.imshow(np.log1p(grid.to_numpy(float)), origin="lower", cmap="magma", aspect="equal",
+                              extent=(xs[0] - cell / 2, xs[-1] + cell / 2, ys[0] - cell / 2, ys[-1] + cell / 2))
+            # each panel has its own scale, so each has its own bar
+            fig.colorbar(image, ax=ax, shrink=0.85, label="ln(1 + pose frames in the cell)")
             ax.plot([source_xy[0], sink_xy[0]], [source_xy[1], sink_xy[1]], color="c", ls=":", lw=1)
             ax.annotate("", xy=(0.9, 0.08), xytext=(0.6, 0.08), xycoords="axes fraction",
                         arrowprops={"arrowstyle": "->", "color": "w"} if d == "to_sink" else
@@ -342,7 +406,7 @@ def lane_figure(occupancy: pd.DataFrame, source_xy, sink_xy, title: str, out_ste
             ax.set_xlabel("x (m)")
             ax.set_ylabel("y (m)")
     fig.suptitle(title, fontsize=10)
-    return save_figure(fig, out_stem)
+    return fig
 
 
 def horizon_state_figure(base: pd.DataFrame, long: pd.DataFrame, chapter: pd.DataFrame | None, factor: float,
@@ -359,11 +423,15 @@ def horizon_state_figure(base: pd.DataFrame, long: pd.DataFrame, chapter: pd.Dat
     fig, ax = plt.subplots(figsize=(7.5, 4.0))
     for k, (ctrl, table, label, colour) in enumerate(series):
         rows = table[table["controller"] == ctrl].set_index("state").reindex(states)
-        err = None if ctrl == "theory" else rows["std_pct"].to_numpy(float)
-        ax.bar(x + (k - (len(series) - 1) / 2) * width, rows["mean_pct"].to_numpy(float), width, yerr=err,
+        mean = rows["mean_pct"].to_numpy(float)
+        err = None if ctrl == "theory" else clipped_err(mean, rows["std_pct"], 0.0, 100.0)
+        if ctrl != "theory" and "n_trials" in rows:
+            label += f": mean ± std over {n_text(rows['n_trials'])}"
+        ax.bar(x + (k - (len(series) - 1) / 2) * width, mean, width, yerr=err,
                capsize=2, color=colour, label=label)
     if chapter is not None and "tavc_mean_pct" in chapter:
         ch = chapter.set_index("state").reindex(states)
         ax.plot(x - (len(series) - 1) / 2 * width + width / 2, ch["tavc_mean_pct"], "k*", ms=9,
-                label="TAVC, the chapter")
-    return _finish_states(fig, ax, x, states, title, out_stem)
+                label="TAVC, the chapter's mean")
+    _finish_states(fig, ax, x, states, title)
+    return save_figure(fig, out_stem)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tavc_cli.viz.figures import plt, save_figure
+from tavc_cli.viz.figures import clipped_err, n_text, plt, save_figure
 
 STATE_COLOURS = {"2:4": "tab:green", "3:3": "tab:blue", "4:2": "tab:red"}
 
@@ -41,8 +41,8 @@ def ladder_figure(table: pd.DataFrame, out_stem: Path, chapter: pd.DataFrame | N
         central = state in STATE_COLOURS
         label = f"TAVC {state}" if central else (None if other_labelled else "TAVC, other states")
         other_labelled = other_labelled or not central
-        top.errorbar(h, m, yerr=np.nan_to_num(s), marker="o", color=STATE_COLOURS.get(state, "0.75"), capsize=3,
-                     lw=2 if central else 1, label=label)
+        top.errorbar(h, m, yerr=clipped_err(m, s, 0.0, 100.0), marker="o", color=STATE_COLOURS.get(state, "0.75"),
+                     capsize=3, lw=2 if central else 1, label=label)
     chapter_hours = 5.0
     for r in chapter.itertuples():
         if r.state in STATE_COLOURS:
@@ -55,7 +55,10 @@ def ladder_figure(table: pd.DataFrame, out_stem: Path, chapter: pd.DataFrame | N
             top.axhline(float(np.nanmean(m)), color="0.3", ls=style, lw=1,
                         label=f"{'random' if controller == 'random' else 'binomial'} 3:3")
     top.set_xscale("log")
-    top.set_ylabel("% of the stable period")
+    tavc = table[(table["controller"] == "tavc") & table["quantity"].str.startswith("pct_")]
+    n = n_text(tavc["n_trials"]) if "n_trials" in tavc else "trials"
+    top.set_ylabel(f"% of the stable period\n(mean ± std over {n}, cut at 0 and 100)")
+    top.set_ylim(bottom=0.0)
     top.set_title("initial_distribution: time in each state against the horizon")
     top.legend(fontsize=7, ncol=2)
     top.grid(alpha=0.3)

@@ -79,14 +79,17 @@ def task_time_figure(sensitivity_csv: Path, sensitivity_json: Path, out_stem: Pa
         others = dict.fromkeys(frame["world"][frame["varied"] == varied])
         for name, color in [("chosen", "k")] + [(w, None) for w in others]:
             rows = frame[(frame["world"] == name) & (frame["circuit"] == high)].sort_values("n_on_circuit")
-            err = [rows["task_time_s"] - rows["t_lo"], rows["t_hi"] - rows["task_time_s"]]
+            # a task time is never below 0: an interval over few trials that reaches below it is cut there
+            err = [rows["task_time_s"] - rows["t_lo"].clip(lower=0.0), rows["t_hi"] - rows["task_time_s"]]
             ax.errorbar(rows["n_on_circuit"], rows["task_time_s"], yerr=err, marker="o", ms=4, capsize=2,
                         color=color, lw=2 if name == "chosen" else 1, label=label(name))
         ax.set_title(f"varying {varied.rsplit('.', 1)[1]}", fontsize=9)
         ax.set_xlabel(f"robots on the high-value circuit (of {n_team})")
         ax.legend(fontsize=6.5, loc="upper left")
         ax.set_xticks(range(1, n_team + 1))
-    axes[0, 0].set_ylabel("task time t(n) on the high-value circuit (s), 90 % interval")
+    per_split = json.loads(Path(sensitivity_json).read_text()).get("measurement", {}).get("trials_per_split")
+    over = f" over {per_split} trials per split" if per_split else ""
+    axes[0, 0].set_ylabel(f"task time t(n) on the high-value circuit (s),\nmean and 90 % interval{over}")
     fig.suptitle("How the task times and the predicted allocation rest on the docking reconstruction "
                  "(one setting changed at a time)", fontsize=9)
     fig.tight_layout()

@@ -11,8 +11,28 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
 
+def _trials(table: pd.DataFrame) -> str:
+    """The trials behind each point, as "n trials" (its range over jobs): the table's
+    `n_trials` if it has one, else each job's state_time.csv (`output_dir`)."""
+    from tavc_cli.viz.figures import n_text
+
+    if "n_trials" in table:
+        return n_text(table["n_trials"])
+    counts = []
+    for folder in dict.fromkeys(table.get("output_dir", pd.Series(dtype=str))):
+        path = Path(str(folder)) / "state_time.csv"
+        if path.is_file():
+            st = pd.read_csv(path)
+            counts += st.loc[st["controller"] != "theory", "n_trials"].tolist()
+    return n_text(counts)
+
+
 def sweep_figure(table: pd.DataFrame, key: str, out: Path) -> list[Path]:
-    """% of the stable period in each state against `key`'s values, one panel per controller."""
+    """% of the stable period in each state against `key`'s values, one panel per controller;
+    error bars one std over each job's trials, cut at 0 and 100 %."""
+    from tavc_cli.viz.figures import clipped_err
+
+    n = _trials(table)
     controllers = list(dict.fromkeys(table["controller"]))
     fig, axes = plt.subplots(1, len(controllers), figsize=(5.0 * len(controllers), 3.6), squeeze=False)
     numeric = pd.to_numeric(table[key], errors="coerce")
@@ -21,10 +41,13 @@ def sweep_figure(table: pd.DataFrame, key: str, out: Path) -> list[Path]:
         rows = table[table["controller"] == ctrl].assign(x=x)
         for state, group in rows.groupby("state", sort=False):
             group = group.sort_values("x")
-            ax.errorbar(group["x"], group["mean_pct"], yerr=group["std_pct"], marker="o", capsize=3, label=state)
+            err = None if ctrl == "theory" else clipped_err(group["mean_pct"], group["std_pct"], 0.0, 100.0)
+            ax.errorbar(group["x"], group["mean_pct"], yerr=err, marker="o", capsize=3, label=state)
         ax.set_title(ctrl)
         ax.set_xlabel(key)
-        ax.set_ylabel("% of the stable period")
+        ax.set_ylabel("% of the stable period" + ("" if ctrl == "theory" else
+                                                  f"\n(mean ± std over {n}, cut at 0 and 100)"))
+        ax.set_ylim(bottom=0.0)
         ax.legend(fontsize=7, ncol=2, title="state")
     fig.tight_layout()
     paths = [out.with_suffix(".png"), out.with_suffix(".svg")]
