@@ -187,12 +187,39 @@ def model(
 @app.command()
 def surrogate(
     overrides: _overrides("experiment=breakdown scale=converged surrogate.calibration=stayers") = None,
+    study: Annotated[
+        bool, typer.Option("--study", help="Check the surrogate against the simulator's runs and map what it "
+                                            "answers: comparison, ladder, phase diagram, convergence horizon, speed.")
+    ] = False,
+    results: Annotated[
+        Optional[Path],
+        typer.Option("--results", help="The study's folder [default: runs/<scale>/surrogate-study].",
+                     show_default=False),
+    ] = None,
+    simulator: Annotated[
+        Path, typer.Option("--simulator", help="The simulator's runs the study compares with (their results root).")
+    ] = Path("results"),
+    parts: Annotated[
+        Optional[str],
+        typer.Option("--parts", help="Only these parts of the study: compare,ladder,phase,horizon,speed.",
+                     show_default=False),
+    ] = None,
     progress: ProgressFlag = None,
 ) -> None:
     """Run an experiment on the surrogate of the learning dynamics: the same learners, seeds,
     events and tables, with each task drawn from tasks measured in the simulator by the group's
-    make-up [default output: runs/<scale>/surrogate/<experiment>]."""
-    with _user_errors():
+    make-up [default output: runs/<scale>/surrogate/<experiment>]; with --study, the surrogate
+    checked against the simulator and what it answers beyond it."""
+    with _user_errors(folder=lambda: results):
+        if study:
+            from tavc_cli.surrogate.study import run_study, summary_lines
+
+            out = results if results is not None else config.results_root(overrides or []) / "surrogate-study"
+            chosen = None if parts is None else [p.strip() for p in parts.split(",") if p.strip()]
+            run_study(out, simulator, overrides or [], parts=chosen, progress=_shown(progress), echo=typer.echo)
+            for line in summary_lines(out):
+                typer.echo(line)
+            return
         from tavc_cli.api import surrogate_summary
 
         _print_summary(surrogate_summary(overrides or [], progress=_shown(progress), echo=typer.echo))

@@ -34,9 +34,11 @@ from tavc_cli.io import LOCK_NAME, write_text_atomic
 MANIFEST = ".tavc.json"
 RUN, SWEEP, LADDER, RESULTS, MODEL, CALIBRATION = "run", "sweep", "ladder", "results", "model", "calibration"
 ANIMATION = "animation"
-SURROGATE, TASKS = "surrogate", "surrogate-tasks"
+SURROGATE, TASKS, STUDY = "surrogate", "surrogate-tasks", "surrogate-study"
 _WHAT = {RUN: "a tavc run's folder", SURROGATE: "a surrogate run's folder (tavc surrogate)",
-         TASKS: "the folder of the surrogate's measured tasks (task_times.csv)", SWEEP: "a tavc sweep's folder (the jobs' folders and sweep.csv)",
+         TASKS: "the folder of the surrogate's measured tasks (task_times.csv)",
+         STUDY: "the folder of the surrogate's study (comparison.csv, phase.csv)",
+         SWEEP: "a tavc sweep's folder (the jobs' folders and sweep.csv)",
          MODEL: "the folder of a tavc model (model.json)", CALIBRATION: "a tavc calibration's folder (search.csv)",
          ANIMATION: "a folder of tavc animations",
          LADDER: "a horizon ladder's folder (its rungs and ladder.csv)",
@@ -49,11 +51,12 @@ SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
 LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
 RESULTS_FILES = ("REPORT.md", "claims.csv", "value_ratio.csv")
 MODEL_FILES = ("model.csv", "model.json")
-TASKS_FILES = ("task_times.csv", "task_times.json")
+TASKS_FILES = ("task_times.csv", "task_times.json", "task_times_summary.csv")
 CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
     f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))
 _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODEL: MODEL_FILES,
-          CALIBRATION: CALIBRATION_FILES, ANIMATION: (), TASKS: TASKS_FILES}
+          CALIBRATION: CALIBRATION_FILES, ANIMATION: (), TASKS: TASKS_FILES,
+          STUDY: ()}
 _WITH_TRIALS = (RUN, MODEL, SURROGATE, TASKS)  # folders whose trials/ holds tavc's records
 _NESTED = {"model": MODEL}  # folders of their own a run's folder may hold before the run (`_nested`)
 

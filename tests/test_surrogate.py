@@ -158,3 +158,68 @@ def test_measured_tasks_come_from_static_runs_of_every_makeup(tmp_path):
     other = replace(cfg, surrogate=replace(cfg.surrogate, measure_s=2000.0))
     with pytest.raises(TavcError, match="other settings"):
         measure_tasks(other, echo=again.append)
+
+
+# --- the study: the side-by-side comparison on synthetic runs ------------------------------------
+
+def _run_folder(folder, shares: dict, rate: float, alternators: int, verdict: str):
+    """A run's folder with just the tables the comparison reads, of one controller `tavc`."""
+    folder.mkdir(parents=True)
+    pd.DataFrame({"state": list(shares), "controller": "tavc", "mean_pct": list(shares.values()), "std_pct": 0.0,
+                  "n_trials": 2}).to_csv(folder / "state_time.csv", index=False)
+    pd.DataFrame({"controller": "tavc", "trial": [0, 1], "value_rate_stable": [rate - 0.01, rate + 0.01]}).to_csv(
+        folder / "trial_stats.csv", index=False)
+    pd.DataFrame({"claim_id": [3], "verdict": [verdict]}).to_csv(folder / "claims.csv", index=False)
+    from tavc_cli.analysis.mechanism import COLUMNS as MECH
+
+    rows = [{c: 0.0 for c in MECH} | {"controller": "tavc", "trial": t, "window": "stable",
+                                      "n_alternators": alternators, "n_stayers_high": 6 - alternators}
+            for t in (0, 1)]
+    pd.DataFrame(rows, columns=MECH).to_csv(folder / "mechanism.csv", index=False)
+    return folder
+
+
+def test_the_comparison_reads_each_engine_against_the_simulator(tmp_path):
+    from tavc_cli.surrogate.study import comparison_rows, high_share
+
+    sim = _run_folder(tmp_path / "sim", {"2:4": 20.0, "3:3": 60.0, "4:2": 20.0}, 0.41, 6, "reproduced")
+    sur = _run_folder(tmp_path / "sur", {"2:4": 30.0, "3:3": 38.0, "4:2": 32.0}, 0.40, 6, "not_reproduced")
+    rows = comparison_rows("initial_distribution", "40x", sim, {"surrogate_makeup": sur,
+                                                               "surrogate_stayers": tmp_path / "none"})
+    assert [r["engine"] for r in rows] == ["simulator", "surrogate_makeup"]  # a missing run is left out
+    simulator, surrogate = rows
+    # by hand: |38 - 60| = 22 points in 3:3, against 10 and 12 in 2:4 and 4:2
+    assert surrogate["largest_diff_pts"] == pytest.approx(22.0) and surrogate["at_state"] == "3:3"
+    assert simulator["largest_diff_pts"] == 0.0 and simulator["at_state"] == ""
+    assert surrogate["modal_state"] == "3:3" and surrogate["pct_modal"] == 38.0
+    assert surrogate["n_alternators"] == 6 and surrogate["regime"] == "turn-taking"
+    assert surrogate["value_rate_stable"] == pytest.approx(0.40)
+    assert simulator["claims"] == "3:yes" and surrogate["claims"] == "3:no"
+    # share of robot-time on the high-value circuit, by hand: (0.2 * 2 + 0.6 * 3 + 0.2 * 4) / 6
+    assert high_share({"2:4": 20.0, "3:3": 60.0, "4:2": 20.0}, 6) == pytest.approx(0.5)
+
+
+def test_the_models_prediction_from_the_stay_tasks_by_hand():
+    from tavc_cli.surrogate.study import predicted_state
+
+    # two robots: a stay task on circuit 0 takes 100 s alone and 200 s with another robot there;
+    # on circuit 1 100 s alone. With values 2 and 1, by the model each robot earns its circuit's
+    # value over its time: 2:0 gives 2/200 = 0.01 each, 1:1 gives 2/100 and 1/100: a robot on
+    # circuit 1 would earn 2/200 = 0.01 by moving, no more than its 0.01: 1:1 holds; in 2:0 a robot
+    # earns 0.01 and would earn 1/100 on circuit 1, no more: both are equilibria. With value 3 on
+    # circuit 0 instead, 2:0 gives 3/200 = 0.015 > 1/100: the robots crowd circuit 0.
+    times = fixed_times(TEAM2, {(STAY, 0): 100.0, (STAY, 1): 100.0, (SWITCH, 0): 100.0, (SWITCH, 1): 100.0})
+    frame = times.frame.copy()
+    frame.loc[(frame["makeup"] == "all:2-0-0") & (frame["circuit"] == 0), "task_time_s"] = 200.0
+    frame.loc[(frame["makeup"] == "all:0-2-0") & (frame["circuit"] == 1), "task_time_s"] = 200.0
+    assert predicted_state(TaskTimes(frame), TEAM2.name, 2, [3.0, 1.0]) == "2:0"
+
+
+def test_the_study_refuses_what_it_sets_for_each_run(tmp_path):
+    from tavc_cli.surrogate.study import run_study
+
+    with pytest.raises(TavcError, match="scale: set by the study"):
+        run_study(tmp_path / "study", tmp_path, ["scale=smoke"])
+    with pytest.raises(TavcError, match="no part 'phases'"):
+        run_study(tmp_path / "study", tmp_path, [], parts=["phases"])
+    assert not (tmp_path / "study").exists()

@@ -110,10 +110,23 @@ def measure_tasks(cfg: TavcConfig, teams: list[Team] | None = None, *, progress:
         fresh = pd.concat(frames, ignore_index=True)
         table = pd.concat([kept[~kept["team"].isin(wanted)], fresh], ignore_index=True) if len(kept) else fresh
         write_text_atomic(table_path, table.to_csv(index=False, float_format="%.6g"))
+        write_text_atomic(folder / "task_times_summary.csv", task_summary(table).to_csv(index=False, float_format="%.4f"))
         write_text_atomic(folder / "task_times.json", json.dumps(
             {**record, "teams": sorted(table["team"].unique().tolist()),
              "makeups": {t.name: len(makeups(t)) for t in teams}}, indent=2))
         return TaskTimes(TaskTimes.read(table_path).frame.query("team in @wanted").reset_index(drop=True))
+
+
+def task_summary(table: pd.DataFrame) -> pd.DataFrame:
+    """Per cell of the measured tasks (team, make-up, group, kind, circuit): how many, the mean,
+    spread and deciles of their times, and the mean seconds of each activity."""
+    keys = ["team", "makeup", "group", "kind", "circuit"]
+    grouped = table.groupby(keys, sort=False)
+    out = grouped["task_time_s"].agg(n="size", mean_s="mean", std_s="std")
+    for q in (0.1, 0.5, 0.9):
+        out[f"p{int(q * 100)}_s"] = grouped["task_time_s"].quantile(q)
+    means = grouped[[c for c in table.columns if c.endswith("_s") and c != "task_time_s"]].mean()
+    return out.join(means.add_prefix("mean_")).reset_index()
 
 
 def tasks_digest(times: TaskTimes) -> str:
@@ -143,16 +156,50 @@ def run_surrogate(cfg: TavcConfig, *, progress: bool = False, echo: Callable[[st
     with claim_folder(folder):
         owned = take_run_folder(cfg, SURROGATE)
         start = time.perf_counter()
-        reused, records = 0, []
-        for spec in specs:
-            path = trial_path(folder, spec.controller, spec.trial)
-            if _stored_key(path, whole=True) == spec.key():
-                reused += 1
-                records.append(TrialRecord.load(path))
-                continue
-            rec = run_trial(spec, times, stayers=stayers)
-            rec.meta["engine"] = spec.engine
-            rec.save(path)
-            records.append(rec)
-        run = Run(folder, specs, records, reused, time.perf_counter() - start)
+        paths = [trial_path(folder, spec.controller, spec.trial) for spec in specs]
+        pending = [(spec, path) for spec, path in zip(specs, paths, strict=True)
+                   if _stored_key(path, whole=True) != spec.key()]
+        _draw_trials(pending, times, stayers, int(Executor.from_config(cfg.executor).n_jobs))
+        records = [TrialRecord.load(path) for path in paths]
+        run = Run(folder, specs, records, len(specs) - len(pending), time.perf_counter() - start)
         return _finish(cfg, run, owned)
+
+
+_SHARED: dict = {}  # what forked workers draw trials with (`_draw_trials`)
+
+
+def _draw_one(k: int) -> None:
+    spec, path = _SHARED["pending"][k]
+    rec = run_trial(spec, _SHARED["times"], stayers=_SHARED["stayers"])
+    rec.meta["engine"] = spec.engine
+    rec.save(path)
+
+
+def _draw_trials(pending: list, times: TaskTimes, stayers: bool, n_jobs: int) -> None:
+    """Draw and save the pending trials: in this process, or in `n_jobs` forked ones where
+    the system forks and there are trials for more than one (each trial is its own seed's, so
+    the processes change nothing but the time)."""
+    from tavc_cli.pipeline import CAN_FORK
+
+    _SHARED.update(pending=pending, times=times, stayers=stayers)
+    try:
+        if n_jobs <= 1 or len(pending) <= 1 or not CAN_FORK:
+            for k in range(len(pending)):
+                _draw_one(k)
+            return
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        from tavc_cli.experiments.pool import stop_workers, worker_start
+
+        pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=mp.get_context("fork"),
+                                   initializer=worker_start)
+        try:
+            for future in [pool.submit(_draw_one, k) for k in range(len(pending))]:
+                future.result()
+        except BaseException:
+            stop_workers(pool)
+            raise
+        pool.shutdown(wait=True)
+    finally:
+        _SHARED.clear()

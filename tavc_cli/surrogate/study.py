@@ -1,0 +1,377 @@
+"""The surrogate checked against the physical simulator, and what it then answers in minutes.
+
+`tavc surrogate --study` runs, into one folder (by default runs/<scale>/surrogate-study;
+`make surrogate-study` writes results/surrogate):
+
+- **the side-by-side comparison** (`comparison.csv`): every experiment the surrogate serves, at
+  the chapter's durations and at 40 times them, on the surrogate calibrated by make-up and on
+  the one calibrated by stayers alone, against the simulator's committed runs of the same
+  configuration (same trial counts, same seeds): the largest difference in points of any state,
+  the modal state, the make-up of the group (stayers, alternators), the convergence measures,
+  the score rate and the claims' verdicts; and the horizon ladder of initial_distribution;
+- **the phase diagram** (`phase.csv`): the learners' share of robot-time on the high-value
+  circuit, their modal allocation and make-up, over team size x value ratio at 1x and 40x,
+  with the model's prediction from the same static runs' stay tasks, and the physical
+  simulator at a few checked points;
+- **the convergence horizon** (`horizon.csv`): the first multiple of the chapter's duration at
+  which the learner-side convergence measure (`analysis.convergence`) is met, for epsilon,
+  alpha and gamma around the chapter's values;
+- **the speed** (`speed.csv`): simulated seconds per second of a core, both engines.
+
+Every grid, horizon and trial count below was fixed before any of it was run.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.errors import TavcError
+
+EXPERIMENTS = ("initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change", "heterogeneous")
+HORIZONS = {"paper": 1.0, "converged": 40.0}  # the scale of each horizon and its multiple of the chapter's
+CALIBRATIONS = ("makeup", "stayers")
+LADDER = (1.0, 4.0, 10.0, 20.0, 40.0)
+PHASE_TEAMS = tuple(range(2, 11))
+PHASE_RATIOS = (1.0, 1.1, 1.25, 1.5, 1.75, 2.0)
+PHASE_TRIALS = 8
+LOW_VALUE = 2000.0  # the chapter's low value; the high one is the ratio times it
+CHECKED = ((4, 1.5), (8, 1.1))  # the checked points beside the chapter's own (6 robots, 1.1)
+CHECKED_TRIALS = {"paper": 20, "converged": 8}
+HORIZON_FACTORS = (1.0, 2.0, 4.0, 10.0, 20.0, 40.0, 80.0)
+HORIZON_TRIALS = 8
+HORIZON_PARAMETERS = {"epsilon": (0.05, 0.1, 0.2), "alpha": (0.05, 0.1, 0.2), "gamma": (0.9, 0.95, 0.99)}
+STUDY_FILES = tuple(f"{name}.csv" for name in ("comparison", "ladder", "phase", "horizon", "speed")) + tuple(
+    f"{name}.{ext}" for name in ("comparison", "phase", "horizon") for ext in ("png", "svg"))
+
+# what the study sets for each of its runs: refused as overrides
+STUDY_KEYS = ("experiment", "scale", "scale.time_factor", "output_dir", "surrogate.calibration", "surrogate.tasks_dir",
+              "team.n_robots", "tasks.values", "trials", "baselines", "learner.epsilon", "learner.alpha",
+              "learner.gamma")
+
+Echo = Callable[[str], None]
+
+
+# --- reading a run's folder ----------------------------------------------------
+
+def run_facts(folder: Path, controller: str = "tavc") -> dict:
+    """What the comparison reads of a run's folder (simulator's or surrogate's): the state
+    shares, the modal state, the make-up and convergence of `controller`, its score rate in
+    the stable period, and the claims' verdicts."""
+    from tavc_cli.analysis.convergence import convergence_verdict
+    from tavc_cli.analysis.mechanism import mechanism_summary
+
+    folder = Path(folder)
+    states = pd.read_csv(folder / "state_time.csv", dtype={"state": str})
+    mine = states[states["controller"] == controller]
+    shares = dict(zip(mine["state"], mine["mean_pct"], strict=True))
+    out: dict = {"states": shares, "n_trials": int(mine["n_trials"].max()) if len(mine) else 0}
+    out["modal_state"] = max(shares, key=shares.get) if shares else ""
+    out["pct_modal"] = shares.get(out["modal_state"], math.nan)
+    if (folder / "mechanism.csv").is_file():
+        m = mechanism_summary(pd.read_csv(folder / "mechanism.csv"), controller)
+        out.update({k: m[k] for k in ("n_stayers_high", "n_stayers_low", "n_alternators", "n_mixed", "switch_share",
+                                      "regime")})
+    if (folder / "convergence.csv").is_file():
+        v = convergence_verdict(pd.read_csv(folder / "convergence.csv"), controller)
+        out.update({k: v[k] for k in ("q_drift", "policy_changed_share", "alloc_drift", "converged")})
+    stats = pd.read_csv(folder / "trial_stats.csv")
+    out["value_rate_stable"] = float(stats.loc[stats["controller"] == controller, "value_rate_stable"].mean())
+    if (folder / "claims.csv").is_file():
+        claims = pd.read_csv(folder / "claims.csv")
+        out["claims"] = " ".join(f"{r.claim_id}:{_short(r.verdict)}" for r in claims.itertuples())
+    return out
+
+
+def _short(verdict: str) -> str:
+    return {"reproduced": "yes", "not_reproduced": "no"}.get(str(verdict), str(verdict).replace("_", " "))
+
+
+def largest_difference(a: dict, b: dict) -> tuple[float, str]:
+    """The largest difference, in points, between two runs' shares of one state, and the state."""
+    states = sorted(set(a) | set(b))
+    if not states:
+        return math.nan, ""
+    diffs = {s: abs(a.get(s, 0.0) - b.get(s, 0.0)) for s in states}
+    worst = max(diffs, key=diffs.get)
+    return diffs[worst], worst
+
+
+def comparison_rows(experiment: str, horizon: str, simulator: Path | None, engines: dict[str, Path]) -> list[dict]:
+    """One row per engine (the simulator first, when its run exists) of one experiment at one
+    horizon; the differences are against the simulator's run."""
+    rows, reference = [], None
+    runs = ([("simulator", simulator)] if simulator is not None and (simulator / "state_time.csv").is_file() else [])
+    for engine, folder in [*runs, *engines.items()]:
+        if not (folder / "state_time.csv").is_file():
+            continue
+        facts = run_facts(folder)
+        if engine == "simulator":
+            reference = facts
+        diff, state = largest_difference(facts["states"], reference["states"]) if reference else (math.nan, "")
+        if engine == "simulator":
+            state = ""  # its own reference
+        rows.append({"experiment": experiment, "horizon": horizon, "engine": engine, "n_trials": facts["n_trials"],
+                     "largest_diff_pts": diff, "at_state": state, "modal_state": facts["modal_state"],
+                     "pct_modal": facts["pct_modal"],
+                     **{k: facts.get(k, math.nan) for k in ("n_stayers_high", "n_stayers_low", "n_alternators",
+                                                            "n_mixed", "switch_share", "regime", "q_drift",
+                                                            "policy_changed_share", "converged",
+                                                            "value_rate_stable", "claims")}})
+    return rows
+
+
+# --- the model's prediction from the stay tasks -----------------------------------
+
+def stayer_table(times, team_name: str, n_robots: int):
+    """The model's c_i(n), t_i(n) table for every split of the team from the measured stay tasks
+    of the make-ups without alternators: t_i the mean time of a stay task on circuit i,
+    c_i = n_i / t_i."""
+    from tavc_cli.model import core
+    from tavc_cli.surrogate.tasks import STAY
+
+    table = core.CTable(2)
+    frame = times.frame
+    frame = frame[(frame["team"] == team_name) & (frame["kind"] == STAY)]
+    for n0 in range(n_robots + 1):
+        n = (n0, n_robots - n0)
+        makeup = f"all:{n0}-{n_robots - n0}-0"
+        cells = []
+        for i in range(2):
+            t = frame.loc[(frame["makeup"] == makeup) & (frame["circuit"] == i), "task_time_s"]
+            mean = float(t.mean()) if len(t) else math.inf
+            cells.append(core.Cell(c=0.0 if n[i] == 0 else n[i] / mean, t=mean, n_trials=len(t)))
+        table.cells[n] = tuple(cells)
+    return table
+
+
+def predicted_state(times, team_name: str, n_robots: int, values: Sequence[float]) -> str:
+    from tavc_cli.model import core
+
+    return core.state_label(core.predicted_split(stayer_table(times, team_name, n_robots), n_robots, values), values)
+
+
+def high_share(states: dict, n_robots: int) -> float:
+    """The share of robot-time on the high-value circuit, from the state shares (states ``h:l``)."""
+    total = sum(states.values())
+    if not total:
+        return math.nan
+    return sum(p * int(s.split(":")[0]) for s, p in states.items()) / (n_robots * total)
+
+
+# --- the study --------------------------------------------------------------------
+
+class Study:
+    """Runs everything the study needs into `out` (each run resumes like any other) and writes
+    its tables and figures; `results` holds the simulator's runs to compare with."""
+
+    def __init__(self, out: Path, results: Path, overrides: Sequence[str], *, progress: bool, echo: Echo) -> None:
+        self.out, self.results, self.overrides = Path(out), Path(results), list(overrides)
+        self.progress, self.echo = progress, echo
+        self.tasks_dir = self.out / "tasks"
+
+    def surrogate(self, folder: Path, overrides: Sequence[str]) -> Path:
+        from tavc_cli import config
+        from tavc_cli.surrogate.run import run_surrogate
+
+        cfg = config.settings(config.load_config([*self.overrides, *overrides, f"surrogate.tasks_dir={self.tasks_dir}",
+                                                  f"output_dir={folder}"]))
+        run_surrogate(cfg, progress=self.progress, echo=self.echo)
+        self.echo(f"surrogate: {folder}")
+        return folder
+
+    def simulator(self, folder: Path, overrides: Sequence[str]) -> Path:
+        from tavc_cli import config
+        from tavc_cli.pipeline import run_experiment
+
+        cfg = config.settings(config.load_config([*self.overrides, *overrides, f"output_dir={folder}"]))
+        run_experiment(cfg, progress=self.progress)
+        self.echo(f"simulator: {folder}")
+        return folder
+
+    # -- the parts
+    def compare(self) -> pd.DataFrame:
+        rows = []
+        for scale, factor in HORIZONS.items():
+            for experiment in EXPERIMENTS:
+                engines = {}
+                for calibration in CALIBRATIONS:
+                    folder = self.out / calibration / scale / experiment
+                    engines[f"surrogate_{calibration}"] = self.surrogate(
+                        folder, [f"experiment={experiment}", f"scale={scale}", f"surrogate.calibration={calibration}"])
+                simulator = self.results / experiment if scale == "paper" else self.results / scale / experiment
+                rows += comparison_rows(experiment, f"{factor:g}x", simulator, engines)
+        return pd.DataFrame(rows)
+
+    def ladder(self) -> pd.DataFrame:
+        rows = []
+        for f in LADDER:
+            folder = self.out / "makeup" / "ladder" / f"x{f:g}"
+            self.surrogate(folder, ["experiment=initial_distribution", "scale=converged", f"scale.time_factor={f!r}"])
+            simulator = self.results / "converged" / "ladder" / f"x{f:g}"
+            rows += comparison_rows("initial_distribution", f"{f:g}x", simulator, {"surrogate_makeup": folder})
+        return pd.DataFrame(rows)
+
+    def phase(self) -> pd.DataFrame:
+        from tavc_cli.surrogate.run import measure_tasks
+        from tavc_cli.surrogate.tasks import Team
+
+        rows = []
+        for scale, factor in HORIZONS.items():
+            for n in PHASE_TEAMS:
+                for ratio in PHASE_RATIOS:
+                    values = [ratio * LOW_VALUE, LOW_VALUE]
+                    point = [f"experiment=initial_distribution", f"scale={scale}", f"team.n_robots={n}",
+                             f"tasks.values=[{values[0]!r},{values[1]!r}]", "baselines=[]", f"trials={PHASE_TRIALS}"]
+                    folder = self.out / "phase" / scale / f"n{n}_r{ratio:g}"
+                    self.surrogate(folder, point)
+                    rows.append(self._phase_row("surrogate", scale, factor, n, ratio, folder))
+                    if (n, ratio) in CHECKED:
+                        checked = self.out / "phase" / "checked" / scale / f"n{n}_r{ratio:g}"
+                        self.simulator(checked, [*point[:-1], f"trials={CHECKED_TRIALS[scale]}"])
+                        rows.append(self._phase_row("simulator", scale, factor, n, ratio, checked))
+            chapter = self.results / "initial_distribution" if scale == "paper" else \
+                self.results / "converged" / "initial_distribution"
+            if (chapter / "state_time.csv").is_file():  # the chapter's own point, as committed
+                rows.append(self._phase_row("simulator", scale, factor, 6, 1.1, chapter))
+        table = pd.DataFrame(rows)
+        # the model's prediction, from the same static runs' stay tasks
+        from tavc_cli import config
+
+        predicted = []
+        for n in PHASE_TEAMS:
+            cfg = config.settings(config.load_config([*self.overrides, "experiment=initial_distribution",
+                                                      f"team.n_robots={n}", f"surrogate.tasks_dir={self.tasks_dir}"]))
+            times = measure_tasks(cfg, progress=self.progress, echo=self.echo)
+            team = Team.of(["all"] * n, [float(cfg.robot.speed_mps)] * n)
+            for ratio in PHASE_RATIOS:
+                state = predicted_state(times, team.name, n, [ratio * LOW_VALUE, LOW_VALUE])
+                predicted.append({"n_robots": n, "ratio": ratio, "model_state": state,
+                                  "model_high_share": int(state.split(":")[0]) / n})
+        return table.merge(pd.DataFrame(predicted), on=["n_robots", "ratio"], how="left")
+
+    def _phase_row(self, engine: str, scale: str, factor: float, n: int, ratio: float, folder: Path) -> dict:
+        facts = run_facts(folder)
+        return {"engine": engine, "horizon": f"{factor:g}x", "n_robots": n, "ratio": ratio,
+                "n_trials": facts["n_trials"], "high_share": high_share(facts["states"], n),
+                "modal_state": facts["modal_state"], "pct_modal": facts["pct_modal"],
+                **{k: facts.get(k, math.nan) for k in ("n_stayers_high", "n_stayers_low", "n_alternators", "n_mixed",
+                                                       "switch_share", "regime", "converged")}}
+
+    def horizon(self) -> pd.DataFrame:
+        rows = []
+        chapter = {"epsilon": 0.1, "alpha": 0.1, "gamma": 0.95}
+        points = [("chapter", None)] + [(k, v) for k, vs in HORIZON_PARAMETERS.items() for v in vs if v != chapter[k]]
+        for name, value in points:
+            label = "chapter" if value is None else f"{name}={value:g}"
+            setting = [] if value is None else [f"learner.{name}={value!r}"]
+            mine = []
+            for f in HORIZON_FACTORS:
+                folder = self.out / "horizon" / label / f"x{f:g}"
+                self.surrogate(folder, ["experiment=initial_distribution", "scale=converged", f"scale.time_factor={f!r}",
+                                        "baselines=[]", f"trials={HORIZON_TRIALS}", *setting])
+                facts = run_facts(folder)
+                mine.append({"parameter": name, "value": math.nan if value is None else value, "factor": f,
+                             "q_drift": facts["q_drift"], "policy_changed_share": facts["policy_changed_share"],
+                             "alloc_drift": facts["alloc_drift"], "converged": bool(facts["converged"]),
+                             "pct_3:3": facts["states"].get("3:3", math.nan),
+                             "n_alternators": facts.get("n_alternators", math.nan)})
+            met = [r["factor"] for r in mine if r["converged"]]
+            for r in mine:  # the first multiple at which the measure is met (inf: none of the ladder's)
+                r["horizon"] = met[0] if met else math.inf
+            rows += mine
+        return pd.DataFrame(rows)
+
+    def speeds(self) -> pd.DataFrame:
+        """Simulated seconds per wall second of one core: the first learner trial of every
+        experiment, on the simulator at the chapter's durations and on the surrogate at both
+        horizons (kernels compiled and tasks measured beforehand: not timed)."""
+        from tavc_cli import config
+        from tavc_cli.experiments.build import trial_specs
+        from tavc_cli.experiments.engine import run_trials
+        from tavc_cli.surrogate.engine import run_trial
+        from tavc_cli.surrogate.run import measure_tasks, surrogate_specs
+
+        rows = []
+        for experiment in EXPERIMENTS:
+            for scale in HORIZONS:
+                cfg = config.settings(config.load_config([*self.overrides, f"experiment={experiment}", f"scale={scale}",
+                                                          f"surrogate.tasks_dir={self.tasks_dir}"]))
+                times = measure_tasks(cfg, progress=self.progress, echo=self.echo)
+                spec = surrogate_specs(cfg, times)[0]
+                start = time.perf_counter()
+                run_trial(spec, times)
+                rows.append({"engine": "surrogate", "experiment": experiment, "scale": scale,
+                             "sim_s_per_wall_s": spec.span_s / (time.perf_counter() - start)})
+                if scale == "paper":
+                    physical = trial_specs(cfg)[0]
+                    run_trials([physical])  # the kernels compiled or loaded: not timed
+                    start = time.perf_counter()
+                    run_trials([physical])
+                    rows.append({"engine": "simulator", "experiment": experiment, "scale": scale,
+                                 "sim_s_per_wall_s": physical.span_s / (time.perf_counter() - start)})
+        return pd.DataFrame(rows)
+
+
+def run_study(out: Path, results: Path, overrides: Sequence[str] = (), *, parts: Sequence[str] | None = None,
+              progress: bool = False, echo: Echo = print) -> list[Path]:
+    """Run the study (or only `parts` of it: compare, ladder, phase, horizon, speed) into `out`
+    and write its tables and figures; returns the files written."""
+    from tavc_cli.io import claim_folder, write_text_atomic
+    from tavc_cli.ownership import STUDY, take
+
+    set_here = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") in STUDY_KEYS]
+    if set_here:
+        raise TavcError(f"{set_here[0].split('=', 1)[0].lstrip('+~')}: set by the study for each of its runs; "
+                        "overrides apply to all of them (e.g. seed=3, executor.n_jobs=2)")
+    wanted = list(parts or ("compare", "ladder", "phase", "horizon", "speed"))
+    unknown = [p for p in wanted if p not in ("compare", "ladder", "phase", "horizon", "speed")]
+    if unknown:
+        raise TavcError(f"--parts: no part {unknown[0]!r} (compare, ladder, phase, horizon, speed)")
+    out = Path(out)
+    with claim_folder(out):
+        owned = take(out, STUDY, STUDY_FILES, "--results")
+    study = Study(out, results, overrides, progress=progress, echo=echo)
+    written = []
+    for part, name in (("compare", "comparison"), ("ladder", "ladder"), ("phase", "phase"), ("horizon", "horizon"),
+                       ("speed", "speed")):
+        if part not in wanted:
+            continue
+        table = getattr(study, "speeds" if part == "speed" else part)()
+        with claim_folder(out):
+            owned.wrote(f"{name}.csv")
+            write_text_atomic(out / f"{name}.csv", table.to_csv(index=False, float_format="%.4f"))
+        written.append(out / f"{name}.csv")
+        echo(f"{part}: {out / f'{name}.csv'}")
+    from tavc_cli.viz.surrogate import study_figures
+
+    figures = study_figures(out)
+    with claim_folder(out):
+        owned.wrote(*(p.name for p in figures))
+    return written + figures
+
+
+def summary_lines(out: Path) -> list[str]:
+    """The study's headline numbers, from its tables."""
+    lines = []
+    path = Path(out) / "comparison.csv"
+    if path.is_file():
+        table = pd.read_csv(path)
+        for (horizon, engine), group in table[table["engine"] != "simulator"].groupby(["horizon", "engine"]):
+            worst = group.loc[group["largest_diff_pts"].idxmax()] if group["largest_diff_pts"].notna().any() else None
+            if worst is not None:
+                lines.append(f"{engine} at {horizon}: largest state difference against the simulator "
+                             f"{worst['largest_diff_pts']:.1f} points ({worst['experiment']}, {worst['at_state']})")
+    path = Path(out) / "speed.csv"
+    if path.is_file():
+        speed = pd.read_csv(path)
+        by = speed.groupby("engine")["sim_s_per_wall_s"].median()
+        if {"simulator", "surrogate"} <= set(by.index):
+            lines.append(f"speed: the surrogate simulates {by['surrogate']:,.0f} s per second, the simulator "
+                         f"{by['simulator']:,.0f} s ({by['surrogate'] / by['simulator']:.0f} times faster)")
+    return lines
+
