@@ -216,7 +216,8 @@ def surrogate(
 
             out = results if results is not None else config.results_root(overrides or []) / "surrogate-study"
             chosen = None if parts is None else [p.strip() for p in parts.split(",") if p.strip()]
-            run_study(out, simulator, overrides or [], parts=chosen, progress=_shown(progress), echo=typer.echo)
+            run_study(out, simulator, overrides or [], lambda o: config.settings(config.load_config(o)), parts=chosen,
+                      progress=_shown(progress), echo=typer.echo)
             for line in summary_lines(out):
                 typer.echo(line)
             return

@@ -218,8 +218,11 @@ def test_the_models_prediction_from_the_stay_tasks_by_hand():
 def test_the_study_refuses_what_it_sets_for_each_run(tmp_path):
     from tavc_cli.surrogate.study import run_study
 
+    def compose(overrides):
+        return config.settings(config.load_config(overrides))
+
     with pytest.raises(TavcError, match="scale: set by the study"):
-        run_study(tmp_path / "study", tmp_path, ["scale=smoke"])
+        run_study(tmp_path / "study", tmp_path, ["scale=smoke"], compose)
     with pytest.raises(TavcError, match="no part 'phases'"):
-        run_study(tmp_path / "study", tmp_path, [], parts=["phases"])
+        run_study(tmp_path / "study", tmp_path, [], compose, parts=["phases"])
     assert not (tmp_path / "study").exists()

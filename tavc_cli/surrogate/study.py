@@ -27,10 +27,14 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
 from tavc_cli.errors import TavcError
+
+if TYPE_CHECKING:
+    from tavc_cli.settings import TavcConfig
 
 EXPERIMENTS = ("initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change", "heterogeneous")
 HORIZONS = {"paper": 1.0, "converged": 40.0}  # the scale of each horizon and its multiple of the chapter's
@@ -54,6 +58,7 @@ STUDY_KEYS = ("experiment", "scale", "scale.time_factor", "output_dir", "surroga
               "learner.gamma")
 
 Echo = Callable[[str], None]
+Compose = Callable[[list[str]], "TavcConfig"]  # overrides -> the settings (`config.load_config`, at the front doors)
 
 
 # --- reading a run's folder ----------------------------------------------------
@@ -169,26 +174,24 @@ class Study:
     """Runs everything the study needs into `out` (each run resumes like any other) and writes
     its tables and figures; `results` holds the simulator's runs to compare with."""
 
-    def __init__(self, out: Path, results: Path, overrides: Sequence[str], *, progress: bool, echo: Echo) -> None:
-        self.out, self.results, self.overrides = Path(out), Path(results), list(overrides)
+    def __init__(self, out: Path, results: Path, overrides: Sequence[str], compose: Compose, *, progress: bool,
+                 echo: Echo) -> None:
+        self.out, self.results, self.overrides, self.compose = Path(out), Path(results), list(overrides), compose
         self.progress, self.echo = progress, echo
         self.tasks_dir = self.out / "tasks"
 
     def surrogate(self, folder: Path, overrides: Sequence[str]) -> Path:
-        from tavc_cli import config
         from tavc_cli.surrogate.run import run_surrogate
 
-        cfg = config.settings(config.load_config([*self.overrides, *overrides, f"surrogate.tasks_dir={self.tasks_dir}",
-                                                  f"output_dir={folder}"]))
+        cfg = self.compose([*self.overrides, *overrides, f"surrogate.tasks_dir={self.tasks_dir}", f"output_dir={folder}"])
         run_surrogate(cfg, progress=self.progress, echo=self.echo)
         self.echo(f"surrogate: {folder}")
         return folder
 
     def simulator(self, folder: Path, overrides: Sequence[str]) -> Path:
-        from tavc_cli import config
         from tavc_cli.pipeline import run_experiment
 
-        cfg = config.settings(config.load_config([*self.overrides, *overrides, f"output_dir={folder}"]))
+        cfg = self.compose([*self.overrides, *overrides, f"output_dir={folder}"])
         run_experiment(cfg, progress=self.progress)
         self.echo(f"simulator: {folder}")
         return folder
@@ -240,12 +243,10 @@ class Study:
                 rows.append(self._phase_row("simulator", scale, factor, 6, 1.1, chapter))
         table = pd.DataFrame(rows)
         # the model's prediction, from the same static runs' stay tasks
-        from tavc_cli import config
-
         predicted = []
         for n in PHASE_TEAMS:
-            cfg = config.settings(config.load_config([*self.overrides, "experiment=initial_distribution",
-                                                      f"team.n_robots={n}", f"surrogate.tasks_dir={self.tasks_dir}"]))
+            cfg = self.compose([*self.overrides, "experiment=initial_distribution", f"team.n_robots={n}",
+                                f"surrogate.tasks_dir={self.tasks_dir}"])
             times = measure_tasks(cfg, progress=self.progress, echo=self.echo)
             team = Team.of(["all"] * n, [float(cfg.robot.speed_mps)] * n)
             for ratio in PHASE_RATIOS:
@@ -290,7 +291,6 @@ class Study:
         """Simulated seconds per wall second of one core: the first learner trial of every
         experiment, on the simulator at the chapter's durations and on the surrogate at both
         horizons (kernels compiled and tasks measured beforehand: not timed)."""
-        from tavc_cli import config
         from tavc_cli.experiments.build import trial_specs
         from tavc_cli.experiments.engine import run_trials
         from tavc_cli.surrogate.engine import run_trial
@@ -299,8 +299,8 @@ class Study:
         rows = []
         for experiment in EXPERIMENTS:
             for scale in HORIZONS:
-                cfg = config.settings(config.load_config([*self.overrides, f"experiment={experiment}", f"scale={scale}",
-                                                          f"surrogate.tasks_dir={self.tasks_dir}"]))
+                cfg = self.compose([*self.overrides, f"experiment={experiment}", f"scale={scale}",
+                                    f"surrogate.tasks_dir={self.tasks_dir}"])
                 times = measure_tasks(cfg, progress=self.progress, echo=self.echo)
                 spec = surrogate_specs(cfg, times)[0]
                 start = time.perf_counter()
@@ -317,10 +317,11 @@ class Study:
         return pd.DataFrame(rows)
 
 
-def run_study(out: Path, results: Path, overrides: Sequence[str] = (), *, parts: Sequence[str] | None = None,
-              progress: bool = False, echo: Echo = print) -> list[Path]:
-    """Run the study (or only `parts` of it: compare, ladder, phase, horizon, speed) into `out`
-    and write its tables and figures; returns the files written."""
+def run_study(out: Path, results: Path, overrides: Sequence[str], compose: Compose, *,
+              parts: Sequence[str] | None = None, progress: bool = False, echo: Echo = print) -> list[Path]:
+    """Run the study (or only `parts` of it: compare, ladder, phase, horizon, speed) into `out`,
+    composing each run's settings with `compose`, and write its tables and figures; returns the
+    files written."""
     from tavc_cli.io import claim_folder, write_text_atomic
     from tavc_cli.ownership import STUDY, take
 
@@ -335,7 +336,7 @@ def run_study(out: Path, results: Path, overrides: Sequence[str] = (), *, parts:
     out = Path(out)
     with claim_folder(out):
         owned = take(out, STUDY, STUDY_FILES, "--results")
-    study = Study(out, results, overrides, progress=progress, echo=echo)
+    study = Study(out, results, overrides, compose, progress=progress, echo=echo)
     written = []
     for part, name in (("compare", "comparison"), ("ladder", "ladder"), ("phase", "phase"), ("horizon", "horizon"),
                        ("speed", "speed")):
