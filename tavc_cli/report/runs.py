@@ -27,7 +27,7 @@ RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run b
 # folders directly under the results folder that the report reads otherwise than run by run:
 # the second horizon (`horizons`, its runs found there in turn) and the value-ratio sweep
 # (`studies.value_ratio_lines`); under a horizon, the horizon ladder (`horizons.ladder_lines`)
-TOP_STUDIES = ("converged", "value_ratio")
+TOP_STUDIES = ("converged", "value_ratio", "surrogate")
 LADDER = "ladder"
 
 
@@ -47,8 +47,17 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
         if d.name == "figures" or d.name.startswith(".") or (top and d.name in TOP_STUDIES) or \
                 (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
+        if _study_folder(d):  # the surrogate's study, wherever it was written: read as a whole
+            continue
         out += [d] if is_run_folder(d) else run_folders(d, top=False)
     return out
+
+
+def _study_folder(d: Path) -> bool:
+    from tavc_cli.ownership import STUDY, read
+
+    owned = read(d)
+    return owned is not None and owned.kind == STUDY
 
 
 def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
@@ -66,6 +75,14 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
         found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: _natural(p.as_posix()))
         if found:
             out.append(("the value-ratio sweep, in *Learning values and time*", found))
+    study = results_dir / TOP_STUDIES[2]
+    if (study / "comparison.csv").is_file():
+        # the comparison's runs, which are kept with it (the grids' runs are not: their tables say it all)
+        found = sorted((p.parent for part in ("makeup", "stayers") if (study / part).is_dir()
+                        for p in (study / part).rglob("provenance.json") if "trials" not in p.parts),
+                       key=lambda p: _natural(p.as_posix()))
+        if found:
+            out.append(("the surrogate's study, in *The surrogate*", found))
     return out
 
 

@@ -1,0 +1,102 @@
+"""The report's section on the surrogate and the study's figures, from synthetic study tables."""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from tavc_cli.report.surrogate import surrogate_lines
+from tavc_cli.viz.surrogate import study_figures
+
+
+def _comparison() -> pd.DataFrame:
+    base = {"experiment": "initial_distribution", "n_trials": 20, "n_mixed": 0.0, "q_drift": 0.01,
+            "policy_changed_share": 0.0, "value_rate_stable": 0.4}
+    return pd.DataFrame([
+        {**base, "horizon": "40x", "engine": "simulator", "largest_diff_pts": 0.0, "at_state": "", "modal_state": "3:3",
+         "pct_modal": 60.0, "n_stayers_high": 0.0, "n_stayers_low": 0.0, "n_alternators": 6.0, "switch_share": 0.94,
+         "regime": "turn-taking", "converged": True, "claims": "3:yes 5:yes"},
+        {**base, "horizon": "40x", "engine": "surrogate_makeup", "largest_diff_pts": 23.0, "at_state": "3:3",
+         "modal_state": "3:3", "pct_modal": 37.0, "n_stayers_high": 0.0, "n_stayers_low": 0.0, "n_alternators": 6.0,
+         "switch_share": 0.93, "regime": "turn-taking", "converged": True, "claims": "3:yes 5:yes"},
+        {**base, "horizon": "40x", "engine": "surrogate_stayers", "largest_diff_pts": 18.0, "at_state": "4:2",
+         "modal_state": "3:3", "pct_modal": 50.0, "n_stayers_high": 0.3, "n_stayers_low": 0.7, "n_alternators": 0.1,
+         "switch_share": 0.26, "regime": "mixed", "converged": False, "claims": "3:yes 5:no"},
+    ])
+
+
+def _phase() -> pd.DataFrame:
+    rows = []
+    for horizon in ("1x", "40x"):
+        for n in (2, 3):
+            for ratio in (1.0, 2.0):
+                rows.append({"engine": "surrogate", "horizon": horizon, "n_robots": n, "ratio": ratio, "n_trials": 8,
+                             "high_share": 0.5 if ratio == 1.0 else 0.8, "modal_state": f"{n - 1}:1",
+                             "pct_modal": 40.0, "n_alternators": 1.0 if horizon == "40x" else 0.0,
+                             "n_stayers_high": 0.0, "n_stayers_low": 0.0, "switch_share": 0.5,
+                             "regime": "turn-taking" if horizon == "40x" else "persistence", "converged": True,
+                             "model_state": f"{n - 1}:1", "model_high_share": (n - 1) / n})
+    rows.append({**rows[-1], "engine": "simulator", "n_trials": 20, "high_share": 0.7})
+    return pd.DataFrame(rows)
+
+
+def _study(tmp_path):
+    root = tmp_path / "surrogate"
+    root.mkdir()
+    _comparison().to_csv(root / "comparison.csv", index=False)
+    _phase().to_csv(root / "phase.csv", index=False)
+    pd.DataFrame([{"parameter": "chapter", "value": math.nan, "factor": f, "converged": f >= 20, "horizon": 20.0}
+                  for f in (1.0, 20.0, 40.0)] +
+                 [{"parameter": "alpha", "value": 0.05, "factor": f, "converged": False, "horizon": math.inf}
+                  for f in (1.0, 20.0, 40.0)]).to_csv(root / "horizon.csv", index=False)
+    pd.DataFrame([{"engine": "surrogate", "experiment": "x", "scale": "paper", "sim_s_per_wall_s": 600000.0},
+                  {"engine": "simulator", "experiment": "x", "scale": "paper", "sim_s_per_wall_s": 10000.0}]).to_csv(
+        root / "speed.csv", index=False)
+    return root
+
+
+def test_the_section_names_where_the_surrogate_and_the_simulator_part(tmp_path):
+    _study(tmp_path)
+    text = "\n".join(surrogate_lines(tmp_path))
+    assert "## The surrogate: the learning dynamics on measured tasks" in text
+    # the same make-up, states apart: the phases
+    assert "**initial_distribution at 40x, surrogate (make-up)**: the make-up agrees" in text
+    assert "differ by 23.0 points in 3:3" in text
+    # the stayers-only surrogate makes the group differently: the traffic decides
+    assert "**initial_distribution at 40x, surrogate (stayers alone)**: the group is made differently (mixed" in text
+    assert "claims 5:no against the simulator's 5:yes" in text
+    # the horizons: converged from 20x, or not within the ladder
+    assert "| chapter | the chapter's | 20x |" in text and "| alpha | 0.05 | not within 40x |" in text
+    # speed by hand: 600,000 / 10,000 = 60 times; 720,000 s of a 200 h trial in 1.2 s against 72 s
+    assert "60 times faster" in text and "takes 1.2 s against 72 s" in text
+    # the checked point beside its surrogate cell
+    assert "checked, 3 robots, ratio 2, 40x: share on the high-value circuit 0.70" in text
+
+
+def test_no_study_no_section(tmp_path):
+    assert surrogate_lines(tmp_path) == []
+
+
+def test_the_study_figures_say_what_they_show_with_a_colour_bar_per_heat_map(tmp_path):
+    import matplotlib.pyplot as plt
+
+    root = _study(tmp_path)
+    made = []
+    original = plt.Figure.savefig
+
+    def keep(fig, *args, **kwargs):
+        made.append(fig)
+        return original(fig, *args, **kwargs)
+
+    plt.Figure.savefig = keep
+    try:
+        written = study_figures(root)
+    finally:
+        plt.Figure.savefig = original
+    assert {p.name for p in written} >= {"comparison.png", "phase.png", "horizon.png"}
+    phase = next(f for f in made if "Phase diagram" in f._suptitle.get_text())
+    assert "8 trials a cell" in phase._suptitle.get_text()
+    heat_maps = [ax for ax in phase.axes if ax.images]
+    colour_bars = [ax for ax in phase.axes if ax.get_label() == "<colorbar>"]
+    assert len(heat_maps) == 4 and len(colour_bars) == 4
