@@ -49,7 +49,9 @@ def _study(tmp_path):
     pd.DataFrame([{"parameter": "chapter", "value": math.nan, "factor": f, "converged": f >= 20, "horizon": 20.0}
                   for f in (1.0, 20.0, 40.0)] +
                  [{"parameter": "alpha", "value": 0.05, "factor": f, "converged": False, "horizon": math.inf}
-                  for f in (1.0, 20.0, 40.0)]).to_csv(root / "horizon.csv", index=False)
+                  for f in (1.0, 20.0, 40.0)] +
+                 [{"parameter": "chapter", "value": math.nan, "factor": f, "converged": f >= 40, "horizon": 40.0,
+                   "engine": "simulator"} for f in (1.0, 20.0, 40.0)]).to_csv(root / "horizon.csv", index=False)
     pd.DataFrame([{"engine": "surrogate", "experiment": "x", "scale": "paper", "sim_s_per_wall_s": 600000.0},
                   {"engine": "simulator", "experiment": "x", "scale": "paper", "sim_s_per_wall_s": 10000.0}]).to_csv(
         root / "speed.csv", index=False)
@@ -68,6 +70,7 @@ def test_the_section_names_where_the_surrogate_and_the_simulator_part(tmp_path):
     assert "claims 5:no against the simulator's 5:yes" in text
     # the horizons: converged from 20x, or not within the ladder
     assert "| chapter | the chapter's | 20x |" in text and "| alpha | 0.05 | not within 40x |" in text
+    assert "| chapter, the physical simulator (its ladder) | the chapter's | 40x |" in text
     # speed by hand: 600,000 / 10,000 = 60 times; 720,000 s of a 200 h trial in 1.2 s against 72 s
     assert "60 times faster" in text and "takes 1.2 s against 72 s" in text
     # the checked point beside its surrogate cell

@@ -188,6 +188,9 @@ def _span(group: pd.DataFrame) -> str:
 
 
 def _horizon_lines(table: pd.DataFrame) -> list[str]:
+    engine = table["engine"] if "engine" in table else pd.Series("surrogate", index=table.index)
+    checked = table[engine == "simulator"]
+    table = table[engine != "simulator"]
     points = table.drop_duplicates(["parameter", "value"])
     factors = sorted(table["factor"].unique())
     lines = ["### The convergence horizon", "",
@@ -199,6 +202,10 @@ def _horizon_lines(table: pd.DataFrame) -> list[str]:
         value = "the chapter's" if r.parameter == "chapter" else f"{r.value:g}"
         first = f"{r.horizon:g}x" if math.isfinite(r.horizon) else f"not within {max(factors):g}x"
         lines.append(f"| {r.parameter} | {value} | {first} |")
+    if len(checked):
+        first = float(checked["horizon"].iloc[0])
+        lines.append(f"| chapter, the physical simulator (its ladder) | the chapter's | "
+                     f"{f'{first:g}x' if math.isfinite(first) else 'not within its ladder'} |")
     return [*lines, "", "![convergence horizon](surrogate/horizon.png)", ""]
 
 

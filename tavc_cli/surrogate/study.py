@@ -277,6 +277,7 @@ class Study:
                                         "baselines=[]", f"trials={HORIZON_TRIALS}", *setting])
                 facts = run_facts(folder)
                 mine.append({"parameter": name, "value": math.nan if value is None else value, "factor": f,
+                             "n_trials": facts["n_trials"],
                              "q_drift": facts["q_drift"], "policy_changed_share": facts["policy_changed_share"],
                              "alloc_drift": facts["alloc_drift"], "converged": bool(facts["converged"]),
                              "pct_3:3": facts["states"].get("3:3", math.nan),
@@ -284,8 +285,22 @@ class Study:
             met = [r["factor"] for r in mine if r["converged"]]
             for r in mine:  # the first multiple at which the measure is met (inf: none of the ladder's)
                 r["horizon"] = met[0] if met else math.inf
+                r["engine"] = "surrogate"
             rows += mine
+        rows += self._simulator_horizon()
         return pd.DataFrame(rows)
+
+    def _simulator_horizon(self) -> list[dict]:
+        """The checked point: the simulator's own ladder at the chapter's parameters, as committed."""
+        path = self.results / "converged" / "ladder" / "ladder.csv"
+        if not path.is_file():
+            return []
+        table = pd.read_csv(path)
+        rungs = table[(table["controller"] == "tavc") & (table["quantity"] == "converged")].sort_values("factor")
+        met = rungs.loc[rungs["mean"] >= 1.0, "factor"]
+        first = float(met.iloc[0]) if len(met) else math.inf
+        return [{"parameter": "chapter", "value": math.nan, "factor": float(r.factor), "converged": bool(r.mean >= 1.0),
+                 "horizon": first, "engine": "simulator"} for r in rungs.itertuples()]
 
     def speeds(self) -> pd.DataFrame:
         """Simulated seconds per wall second of one core: the first learner trial of every

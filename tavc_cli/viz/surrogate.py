@@ -114,6 +114,9 @@ def horizon_figure(table: pd.DataFrame, stem: Path) -> list[Path]:
     """The first multiple of the chapter's duration at which the learners converge, against
     epsilon, alpha and gamma (the others at the chapter's values); above the ladder's top: not
     within it."""
+    engine = table["engine"] if "engine" in table else pd.Series("surrogate", index=table.index)
+    checked = table[(engine == "simulator") & (table["parameter"] == "chapter")]
+    table = table[engine != "simulator"]
     chapter = table[table["parameter"] == "chapter"]
     top = float(table["factor"].max())
     fig, axes = plt.subplots(1, 3, figsize=(11, 3.2), sharey=True)
@@ -126,11 +129,17 @@ def horizon_figure(table: pd.DataFrame, stem: Path) -> list[Path]:
         shown = np.where(np.isfinite(rows["horizon"]), rows["horizon"], top * 2)
         ax.plot(rows["value"], shown, "o-", color="tab:blue")
         ax.axhline(top, color="0.6", lw=0.8, ls="--")
+        if len(checked):
+            first = float(checked["horizon"].iloc[0])
+            ax.scatter([base[name]], [first if math.isfinite(first) else top * 2], s=160, facecolors="none",
+                       edgecolors="red", linewidths=1.5, label="physical simulator", zorder=3)
+            ax.legend(fontsize=7)
         ax.set_xlabel(name)
         ax.set_yscale("log")
         ax.set_title(f"the chapter's {name} = {base[name]:g}", fontsize=9)
     axes[0].set_ylabel("converged from (x the chapter's duration)")
     fig.suptitle(f"Convergence horizon on the surrogate (initial_distribution, {int(table['factor'].nunique())} "
-                 f"horizons; above the dashed line: not within {top:g}x)", fontsize=10)
+                 f"horizons, {int(table['n_trials'].max()) if 'n_trials' in table else 8} trials each; above the "
+                 f"dashed line: not within {top:g}x; red: the simulator's ladder)", fontsize=10)
     fig.tight_layout()
     return save_figure(fig, stem)
