@@ -20,12 +20,15 @@ POLICY_PYTHON, POLICY_EGREEDY, POLICY_RANDOM, POLICY_STATIC, POLICY_SOFTMAX = ra
 
 
 def policy_kind(policy: TaskPolicy) -> int:
-    """How compiled code serves this policy's deliveries (`POLICY_*`)."""
-    if isinstance(policy, TavcPolicy):
+    """How compiled code serves this policy's deliveries (`POLICY_*`): the compiled paths serve the
+    exact built-in policies only; any other class, a subclass of one of them included, runs its
+    own `choose` and `learn` in Python."""
+    kind = type(policy)
+    if kind is TavcPolicy:
         return {"egreedy": POLICY_EGREEDY, "softmax": POLICY_SOFTMAX}.get(policy.selection, POLICY_PYTHON)
-    if isinstance(policy, RandomPolicy):
+    if kind is RandomPolicy:
         return POLICY_RANDOM
-    if isinstance(policy, StaticPolicy):
+    if kind is StaticPolicy:
         return POLICY_STATIC
     return POLICY_PYTHON
 
