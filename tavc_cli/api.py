@@ -225,6 +225,8 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
     if rungs:
         expect(Path(results_dir) / "ladder", LADDER, "--results")
     summaries = run_experiments([config.settings(cfg) for cfg in [*cfgs, *rungs]], progress=progress)
+    for summary in summaries:
+        summary["together"] = len(summaries) > 1  # one wall time, the invocation's
     out = [(str(cfg.experiment_name), summary) for cfg, summary in zip(cfgs, summaries, strict=False)]
     if rungs:
         from tavc_cli.pipeline import write_ladder

@@ -36,7 +36,7 @@ def _overrides(example: str) -> Any:
     return Annotated[Optional[list[str]], typer.Argument(help=f"Hydra overrides, e.g. {example}.", show_default=False)]
 
 
-Overrides = _overrides("experiment=breakdown scale=paper team.n_robots=4")
+Overrides = _overrides("experiment=initial_distribution scale=paper team.n_robots=5")
 
 
 ProgressFlag = Annotated[
@@ -124,7 +124,7 @@ def reproduce(
     ] = None,
     results: Annotated[
         Optional[Path],
-        typer.Option("--results", help="Folder that gets one folder per experiment [default: runs/<scale>].",
+        typer.Option("--results", help="Folder that gets one folder per experiment (default: runs/<scale>).",
                      show_default=False),
     ] = None,
     ladder: Annotated[
@@ -153,8 +153,8 @@ def ladder_command(
     ] = "1,4,10,20,40",
     results: Annotated[
         Optional[Path],
-        typer.Option("--results", help="Folder whose ladder/ gets one folder per rung [default: runs/<scale>, "
-                                       "runs/converged unless a scale is given].", show_default=False),
+        typer.Option("--results", help="Folder whose ladder/ gets one folder per rung (default: runs/<scale>, "
+                                       "runs/converged unless a scale is given).", show_default=False),
     ] = None,
     progress: ProgressFlag = None,
 ) -> None:
@@ -193,7 +193,7 @@ def surrogate(
     ] = False,
     results: Annotated[
         Optional[Path],
-        typer.Option("--results", help="The study's folder [default: runs/<scale>/surrogate-study].",
+        typer.Option("--results", help="The study's folder (default: runs/surrogate-study).",
                      show_default=False),
     ] = None,
     simulator: Annotated[
@@ -208,13 +208,13 @@ def surrogate(
 ) -> None:
     """Run an experiment on the surrogate of the learning dynamics: the same learners, seeds,
     events and tables, with each task drawn from tasks measured in the simulator by the group's
-    make-up [default output: runs/<scale>/surrogate/<experiment>]; with --study, the surrogate
+    make-up (default output: runs/<scale>/surrogate/<experiment>); with --study, the surrogate
     checked against the simulator and what it answers beyond it."""
     with _user_errors(folder=lambda: results):
         if study:
             from tavc_cli.surrogate.study import run_study, summary_lines
 
-            out = results if results is not None else config.results_root(overrides or []) / "surrogate-study"
+            out = results if results is not None else Path("runs") / "surrogate-study"  # both horizons: no one scale
             chosen = None if parts is None else [p.strip() for p in parts.split(",") if p.strip()]
             run_study(out, simulator, overrides or [], lambda o: config.settings(config.load_config(o)), parts=chosen,
                       progress=_shown(progress), echo=typer.echo)

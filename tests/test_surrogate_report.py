@@ -103,3 +103,26 @@ def test_the_study_figures_say_what_they_show_with_a_colour_bar_per_heat_map(tmp
     heat_maps = [ax for ax in phase.axes if ax.images]
     colour_bars = [ax for ax in phase.axes if ax.get_label() == "<colorbar>"]
     assert len(heat_maps) == 4 and len(colour_bars) == 4
+
+
+def test_a_surrogate_run_is_reported_as_such_and_never_in_the_simulators_place(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    monkeypatch.chdir(tmp_path)
+    runner = CliRunner()
+    assert runner.invoke(app, ["surrogate", "experiment=breakdown", "scale=smoke", "--no-progress",
+                               "output_dir=runs/smoke/breakdown_surrogate"]).exit_code == 0
+    alone = runner.invoke(app, ["report", "runs/smoke"])
+    assert alone.exit_code == 0
+    text = (tmp_path / "runs/smoke/REPORT.md").read_text()
+    assert "computed by the surrogate of the learning dynamics, not the physical simulator" in text
+    assert runner.invoke(app, ["run", "experiment=breakdown", "scale=smoke", "--no-progress",
+                               "output_dir=runs/smoke/zz_breakdown"]).exit_code == 0
+    assert runner.invoke(app, ["report", "runs/smoke"]).exit_code == 0
+    text = (tmp_path / "runs/smoke/REPORT.md").read_text()
+    # the simulator's run is the one the claims are tested on, though the surrogate's comes first by name
+    assert "The claims are tested on `zz_breakdown`" in text
+    assert "### breakdown_surrogate: another run of breakdown, on the surrogate" in text
+    assert "not the simulator" in text and "(on the surrogate)" in text

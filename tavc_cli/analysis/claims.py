@@ -194,7 +194,7 @@ def holm_none_differ(what: str, tests: Sequence[tuple[str, Callable[[], tuple]]]
             identical.append(name)
         else:
             untested.append((name, why[0] if why and why[0] else "not testable"))
-    aside = f"; {len(identical)} identical in every trial, no test" if identical else ""
+    aside = f", {len(identical)} identical in every trial, no test" if identical else ""
     if not results:
         reason = _grouped(untested) if untested else "every state identical in every trial"
         return _not_testable(what, reason, "same")

@@ -11,8 +11,10 @@ def run_summary_text(summary: dict[str, Any]) -> str:
     """What `tavc run` prints after a run (`pipeline.run_experiment`'s summary): where results
     went, how many trials ran, the state (or Table 1.1), performance and claims."""
     n_trials, n_reused = summary["n_trials"], summary["n_reused"]
+    together = " (for every experiment of the invocation together)" if summary.get("together") else ""
     lines = [f"results: {summary['output_dir']}",
-             f"trials: {n_trials} ({n_reused} reused) in {summary['wall_time_s']:.1f} s wall time"]
+             *([f"engine: {summary['engine']}"] if summary.get("engine") else []),
+             f"trials: {n_trials} ({n_reused} reused) in {summary['wall_time_s']:.1f} s wall time{together}"]
     tables = summary.get("tables") or {}
     if "table_1_1" in tables:  # one circuit: the group's state says nothing; Table 1.1 does
         lines += ["\ntraversal time after n traversals (over robots), target time after m arrivals (over trials)",

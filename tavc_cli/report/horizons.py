@@ -64,7 +64,13 @@ class Horizon:
     def shortfalls(self) -> dict[str, str]:
         """experiment -> "not a verdict: scale=... (...)" for each run the claims are tested on
         that is below the chapter's scale (`analysis.claims.not_a_verdict`)."""
+        from tavc_cli.report.runs import on_surrogate
+
         out = {name: not_a_verdict(cfg) for name, (cfg, _) in self.read.items()}
+        for name, d in self.experiments.items():
+            if on_surrogate(d):  # a model's answer, whatever its scale
+                out[name] = (f"not a verdict: scale={self.read[name][0].scale.name} (computed by the surrogate of the "
+                             "learning dynamics, not the physical simulator)")
         return {name: text for name, text in out.items() if text}
 
     @property
@@ -114,9 +120,9 @@ def not_a_verdict_lines(*horizons: Horizon | None) -> list[str]:
             why.setdefault(reason, []).append(where)
     reasons = "; ".join(f"{', '.join(names)}: {reason}" for reason, names in why.items())
     return [f"**This report is not a verdict: scale={', scale='.join(scales)}.** The runs the claims are tested on "
-            f"are smaller than the chapter's ({reasons}). The claims below say what the tests give on these runs, "
-            "not whether the chapter's findings reproduce: that takes the chapter's trial counts and durations "
-            "(`tavc reproduce scale=paper`).", ""]
+            f"are not the chapter's trials on the simulator ({reasons}). The claims below say what the tests give on "
+            "these runs, not whether the chapter's findings reproduce: that takes the chapter's trial counts and "
+            "durations on the physical simulator (`tavc reproduce scale=paper`).", ""]
 
 
 def count_words(h: Horizon, where: str) -> str:

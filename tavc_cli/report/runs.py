@@ -27,8 +27,17 @@ RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run b
 # folders directly under the results folder that the report reads otherwise than run by run:
 # the second horizon (`horizons`, its runs found there in turn) and the value-ratio sweep
 # (`studies.value_ratio_lines`); under a horizon, the horizon ladder (`horizons.ladder_lines`)
-TOP_STUDIES = ("converged", "value_ratio", "surrogate")
+TOP_STUDIES = ("converged", "value_ratio", "surrogate")  # the last read as a whole only when it is the study
 LADDER = "ladder"
+
+
+def on_surrogate(d: Path) -> bool:
+    """Whether the run in `d` was computed by the surrogate of the learning dynamics (its folder's
+    kind, `tavc surrogate`), not the physical simulator."""
+    from tavc_cli.ownership import SURROGATE, read
+
+    owned = read(d)
+    return owned is not None and owned.kind == SURROGATE
 
 
 def is_run_folder(d: Path) -> bool:
@@ -44,13 +53,20 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
     results folder, `top`; a `ladder/` with its `ladder.csv`)."""
     out = []
     for d in sorted((p for p in folder.iterdir() if p.is_dir()), key=lambda p: _natural(p.name)):
-        if d.name == "figures" or d.name.startswith(".") or (top and d.name in TOP_STUDIES) or \
+        if d.name == "figures" or d.name.startswith(".") or (top and d.name in TOP_STUDIES[:2]) or \
                 (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
-        if _study_folder(d):  # the surrogate's study, wherever it was written: read as a whole
+        if _study_folder(d) or _tasks_folder(d):  # the surrogate's study (read as a whole) and its measured tasks
             continue
         out += [d] if is_run_folder(d) else run_folders(d, top=False)
     return out
+
+
+def _tasks_folder(d: Path) -> bool:
+    from tavc_cli.ownership import TASKS, read
+
+    owned = read(d)
+    return owned is not None and owned.kind == TASKS
 
 
 def _study_folder(d: Path) -> bool:
@@ -97,8 +113,9 @@ def designated_first(name: str, folders: list[Path], results_dir: Path | None = 
     the results folder first, else the first by its path), then the others by path."""
     key = (lambda d: (len(d.relative_to(results_dir).parts), _natural(d.relative_to(results_dir).as_posix()))) \
         if results_dir is not None else (lambda d: _natural(d.as_posix()))
-    folders = sorted(folders, key=key)
-    named = [d for d in folders if d.name == name][:1]
+    folders = sorted(folders, key=lambda d: (on_surrogate(d), key(d)))  # the simulator's runs before the surrogate's
+    named = [d for d in folders if d.name == name and not on_surrogate(d)][:1] or \
+        [d for d in folders if d.name == name][:1]
     return [*named, *(d for d in folders if d not in named)]
 
 
@@ -171,7 +188,10 @@ def other_run_lines(name: str, d: Path, cfg: TavcConfig, base: Path, results_dir
     state_time = pd.read_csv(d / "state_time.csv", dtype={"state": str})
     prov = json.loads((d / "provenance.json").read_text())
     diffs = setting_differences(d, base, rel(base, results_dir))
-    lines = [f"### {rel(d, results_dir)}: another run of {name}{horizon}", "",
+    if on_surrogate(d) and not on_surrogate(base):
+        diffs = ["its engine: the surrogate of the learning dynamics (`tavc surrogate`), not the simulator", *diffs]
+    engine = ", on the surrogate" if on_surrogate(d) else ""
+    lines = [f"### {rel(d, results_dir)}: another run of {name}{engine}{horizon}", "",
              f"The claims about {name} are tested on `{rel(base, results_dir)}`, not on this run, which differs "
              "from it " + ("in " + "; ".join(diffs) if diffs else "in no setting but its folder") + ".", ""]
     lines += deliveries
@@ -240,6 +260,8 @@ def _facts(d: Path, several: int = 1) -> str:
         return " |  | "
     short = scale_shortfall(cfg)
     scale = str(cfg.scale.name) + (f" (not a verdict: {short})" if short else "")
+    if on_surrogate(d):
+        scale += " (on the surrogate)"
     if several > 1:  # a study's runs: no verdict is taken on them, but their scale is said all the same
         return f"{cfg.experiment_name} | {cfg.scale.name}{f' ({short})' if short else ''} | {several} runs"
     return f"{cfg.experiment_name} | {scale} | {cfg.trials}"

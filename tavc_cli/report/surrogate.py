@@ -56,7 +56,7 @@ def _intro(root: Path) -> list[str]:
         "group, kind (stay or switch) and circuit. Calibrated by stayers alone, every task is drawn as a stay of the "
         "robots on its circuit: the view of the vacancy-chain model, in which a task's time depends on the robots "
         "per circuit only." + measured + " What it leaves out: where the robots are and the order in which they "
-        "arrive, the make-up changing while a task runs, a broken robot's body in the arena.",
+        "arrive, and the make-up changing while a task runs.",
     ]
 
 

@@ -162,7 +162,9 @@ def run_surrogate(cfg: TavcConfig, *, progress: bool = False, echo: Callable[[st
         _draw_trials(pending, times, stayers, int(Executor.from_config(cfg.executor).n_jobs))
         records = [TrialRecord.load(path) for path in paths]
         run = Run(folder, specs, records, len(specs) - len(pending), time.perf_counter() - start)
-        return _finish(cfg, run, owned)
+        summary = _finish(cfg, run, owned)
+    return {**summary, "engine": f"the surrogate (surrogate.calibration={cfg.surrogate.calibration}; "
+                                 f"tasks measured in the simulator: {tasks_dir(cfg)})"}
 
 
 _SHARED: dict = {}  # what forked workers draw trials with (`_draw_trials`)
