@@ -69,8 +69,25 @@ def main(
             "--version", help="Print the version and exit.", callback=_show_version, is_eager=True
         ),
     ] = False,
+    config_dir: Annotated[
+        Optional[list[Path]],
+        typer.Option("--config-dir", help="A folder of your own configs (learner/, experiment/, team/ ...) and "
+                                          "learners' files, searched besides tavc's; repeatable.",
+                     show_default=False),
+    ] = None,
 ) -> None:
     """Reproduce task allocation through vacancy chains in multi-robot transportation."""
+    if config_dir:
+        import os
+
+        from tavc_cli.learning.registry import CONFIG_DIRS_ENV
+
+        missing = [d for d in config_dir if not d.is_dir()]
+        if missing:
+            typer.echo(f"error: --config-dir: {missing[0]} is not a folder", err=True)
+            raise typer.Exit(code=1)
+        known = [p for p in os.environ.get(CONFIG_DIRS_ENV, "").split(os.pathsep) if p]
+        os.environ[CONFIG_DIRS_ENV] = os.pathsep.join([*known, *(str(d.resolve()) for d in config_dir)])
 
 
 # --------------------------------------------------------------------------------------------

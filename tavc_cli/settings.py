@@ -10,7 +10,7 @@ dataclasses, never a DictConfig or nested dicts. `from_yaml` reads a results fol
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
-from typing import Any, List, Optional
+from typing import Any, Dict, List, Optional
 
 from omegaconf import MISSING, OmegaConf
 
@@ -177,6 +177,10 @@ class LearnerConfig:
     # alternate: each robot's role, the circuit it stays on or -1 to alternate; null: `allocation`
     # robots stay on each circuit (the first robots first) and the rest alternate
     roles: Optional[List[int]] = None
+    # a learner from outside tavc: the class (package.module.Class or path/to/file.py:Class) and
+    # the keyword arguments it is built with beside n_robots, n_circuits and rng (docs/plugins.md)
+    target: Optional[str] = None
+    params: Dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass

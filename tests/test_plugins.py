@@ -40,3 +40,119 @@ def test_a_subclass_of_a_built_in_policy_runs_its_own_code(monkeypatch):
     record = run_trials(trial_specs(cfg))[0]
     chosen = record.table("choices")["circuit"]
     assert len(chosen) > 6 and set(chosen.tolist()) == {0}  # every choice its own: circuit 0
+
+
+LEARNER_FILE = '''
+import numpy as np
+
+
+class Stubborn:
+    """Each robot serves the circuit it was given at the start, for ever; `favourite` is that
+    circuit for every robot, or None for a random one each."""
+
+    def __init__(self, n_robots, n_circuits, rng, favourite=None):
+        self.n_states = n_circuits
+        self.given = [favourite if favourite is not None else int(rng.integers(n_circuits)) for _ in range(n_robots)]
+        self.learned = 0
+
+    def choose(self, robot, state):
+        return self.given[robot]
+
+    def learn(self, robot, state, action, reward, next_state):
+        self.learned += 1
+'''
+
+
+def _plugin_folder(tmp_path):
+    folder = tmp_path / "mine"
+    (folder / "learner").mkdir(parents=True)
+    (folder / "stubborn.py").write_text(LEARNER_FILE)
+    (folder / "learner" / "stubborn.yaml").write_text(
+        "name: stubborn\ntarget: stubborn.py:Stubborn\nparams:\n  favourite: 1\n")
+    return folder
+
+
+def test_a_learner_from_a_folder_of_ones_own_runs_with_one_yaml(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+    from tavc_cli.learning.registry import CONFIG_DIRS_ENV
+
+    folder = _plugin_folder(tmp_path)
+    monkeypatch.setenv(CONFIG_DIRS_ENV, "")  # restored after the test, whatever the command sets
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["--config-dir", str(folder), "run", "experiment=initial_distribution",
+                                      "scale=smoke", "learner=stubborn", "baselines=[random]", "trials=1",
+                                      f"output_dir={out}", "--no-progress"])
+    assert result.exit_code == 0, result.output
+    from tavc_cli import api
+
+    run = api.load(out)
+    choices = run.events("choices")
+    mine = choices[choices["controller"] == "stubborn"]
+    assert len(mine) > 6 and set(mine["circuit"]) == {1}  # favourite: 1, from the YAML
+    states = run.state_time
+    assert set(states["controller"]) >= {"stubborn", "random"}
+    stubborn = states[states["controller"] == "stubborn"].set_index("state")["mean_pct"]
+    assert stubborn["0:6"] == 100.0  # circuit 1 is the low-value one: every robot there, state 0:6
+
+
+def test_a_learners_settings_are_checked_against_its_signature(tmp_path, monkeypatch):
+    from tavc_cli.errors import TavcError
+    from tavc_cli.learning.registry import CONFIG_DIRS_ENV
+
+    folder = _plugin_folder(tmp_path)
+    monkeypatch.setenv(CONFIG_DIRS_ENV, str(folder))
+    base = ["experiment=initial_distribution", "scale=smoke", "learner=stubborn"]
+    assert config.load_config(base).learner.params["favourite"] == 1
+    import pytest
+
+    with pytest.raises(TavcError, match=r"learner.params.favorite: Stubborn takes no parameter 'favorite' "
+                                        r"\(it takes: favourite\)"):
+        config.load_config([*base, "+learner.params.favorite=0"])
+    with pytest.raises(TavcError, match="learner.name: 'tavc' is a built-in"):
+        config.load_config([*base, "learner.name=tavc"])
+    with pytest.raises(TavcError, match="learner.target: no file nowhere.py"):
+        config.load_config([*base, "learner.target=nowhere.py:Stubborn"])
+    with pytest.raises(TavcError, match="names no class"):
+        config.load_config([*base, "learner.target=stubborn.py:Nothing"])
+
+
+def test_a_learners_seed_code_comes_from_its_name():
+    import zlib
+
+    from tavc_cli.learning.registry import seed_code
+
+    assert seed_code("tavc") == 0 and seed_code("random") == 1
+    assert seed_code("stubborn") == 1000 + zlib.crc32(b"stubborn") % 1_000_000  # by hand, the same everywhere
+
+
+def test_the_docs_example_learner_runs_as_the_page_shows(tmp_path, monkeypatch):
+    """docs/plugins.md's two files, written where the page puts them, run through tavc from a
+    temporary folder."""
+    import re
+    from pathlib import Path
+
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+    from tavc_cli.learning.registry import CONFIG_DIRS_ENV
+
+    page = (Path(__file__).resolve().parent.parent / "docs" / "plugins.md").read_text()
+    python = re.search(r"`mine/greedy.py`:\n\n```python\n(.*?)```", page, re.S).group(1)
+    yaml_text = re.search(r"`mine/learner/decaying.yaml`:\n\n```yaml\n(.*?)```", page, re.S).group(1)
+    (tmp_path / "mine" / "learner").mkdir(parents=True)
+    (tmp_path / "mine" / "greedy.py").write_text(python)
+    (tmp_path / "mine" / "learner" / "decaying.yaml").write_text(yaml_text)
+    monkeypatch.setenv(CONFIG_DIRS_ENV, "")
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(app, ["--config-dir", "mine", "run", "experiment=initial_distribution",
+                                      "learner=decaying", "baselines=[random]", "scale=smoke", "--no-progress"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "runs" / "smoke" / "initial_distribution" / "state_time.csv").is_file()
+    bad = CliRunner().invoke(app, ["--config-dir", "mine", "run", "experiment=initial_distribution",
+                                   "learner=decaying", "+learner.params.decai=0.9", "scale=smoke"])
+    assert bad.exit_code == 1
+    assert "learner.params.decai: DecayingGreedy takes no parameter 'decai' (it takes: alpha, epsilon, decay)" \
+        in bad.output

@@ -26,7 +26,7 @@ from hydra.core.plugins import Plugins
 from hydra.types import HydraContext, RunMode
 from omegaconf import DictConfig
 
-from tavc_cli.config.loading import complete, initialize_conf, is_hydra_override, plan_sweep
+from tavc_cli.config.loading import complete, initialize_conf, is_hydra_override, plan_sweep, search_overrides
 from tavc_cli.config.messages import hydra_errors
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder
@@ -63,12 +63,13 @@ def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any],
     plan = plan_sweep(ours)
     folders = [Path(cfg.output_dir) for _, cfg in plan]
     common = _common_parent(folders)
-    jobs = [[*job, f"hydra.sweep.dir={_quoted(str(folder.parent))}", f"hydra.sweep.subdir={_quoted(folder.name)}"]
-            for (job, _), folder in zip(plan, folders, strict=True)]
+    jobs = [[*search_overrides(), *job, f"hydra.sweep.dir={_quoted(str(folder.parent))}",
+             f"hydra.sweep.subdir={_quoted(folder.name)}"] for (job, _), folder in zip(plan, folders, strict=True)]
     with hydra_errors(theirs), initialize_conf():
         hydra = GlobalHydra.instance().hydra
         assert hydra is not None
-        master = hydra.compose_config("config", overrides=[*_QUIET, *theirs, f"hydra.sweep.dir={_quoted(common)}"],
+        master = hydra.compose_config("config", overrides=[*_QUIET, *search_overrides(), *theirs,
+                                                           f"hydra.sweep.dir={_quoted(common)}"],
                                       run_mode=RunMode.MULTIRUN)
         launcher = Plugins.instance().instantiate_launcher(
             hydra_context=HydraContext(config_loader=hydra.config_loader, callbacks=Callbacks(master)),

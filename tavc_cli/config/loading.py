@@ -314,7 +314,18 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
     as an exception that becomes one ``TavcError`` line.
     """
     with hydra_errors(overrides), initialize_conf():
-        return compose(config_name="config", overrides=list(overrides))
+        return compose(config_name="config", overrides=[*search_overrides(), *overrides])
+
+
+def search_overrides() -> list[str]:
+    """Hydra's search path extended by the user's config folders (`registry.config_dirs`): their
+    ``learner/``, ``experiment/``, ... options join tavc's own."""
+    from tavc_cli.learning.registry import config_dirs
+
+    dirs = config_dirs()
+    if not dirs:
+        return []
+    return ["hydra.searchpath=[" + ",".join(f"'file://{d.resolve()}'" for d in dirs) + "]"]
 
 
 def initialize_conf():

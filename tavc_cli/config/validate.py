@@ -218,9 +218,12 @@ def _validate_team(team: DictConfig, arena: DictConfig, robot: DictConfig) -> No
 
 def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> None:
     """Learner name and Q-learning parameters."""
-    one_of("learner.name", learner.name, LEARNERS)
-    check(learner.name in AVAILABLE_LEARNERS, "learner.name",
-          f"'{learner.name}' is not available in this version; use one of {', '.join(AVAILABLE_LEARNERS)}")
+    if learner.target is not None:
+        _validate_plugin(learner)
+    else:
+        one_of("learner.name", learner.name, LEARNERS)
+        check(learner.name in AVAILABLE_LEARNERS, "learner.name",
+              f"'{learner.name}' is not available in this version; use one of {', '.join(AVAILABLE_LEARNERS)}")
     for name in ("alpha", "gamma", "epsilon"):
         unit(f"learner.{name}", learner[name])
     positive("learner.tau", learner.tau)
@@ -251,6 +254,18 @@ def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> No
         for index, role in enumerate(learner.roles):
             check(role == -1 or 0 <= role < n_circuits, f"learner.roles[{index}]",
                   f"must be a circuit index (0 to {n_circuits - 1}) or -1 to alternate, got {role!r}")
+
+
+def _validate_plugin(learner: DictConfig) -> None:
+    """A learner from outside tavc: a plain name of its own (its label and seed), a class that
+    loads and takes the parameters given."""
+    from tavc_cli.learning.registry import SEED_CODES, check_params, load_target
+
+    name = str(learner.name)
+    check(name.isidentifier(), "learner.name", f"a learner's name is a plain word (its label in every output), got {name!r}")
+    check(name not in LEARNERS and name not in SEED_CODES, "learner.name",
+          f"{name!r} is a built-in learner's; give the learner from learner.target a name of its own")
+    check_params(load_target(str(learner.target)), dict(learner.params or {}))
 
 
 def _validate_allocation(

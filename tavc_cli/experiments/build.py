@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from tavc_cli.experiments.spec import Breakdown, TrialSpec, ValueChange
-from tavc_cli.learning.registry import SEED_CODES, controller_label
+from tavc_cli.learning.registry import controller_label, seed_code
 from tavc_cli.settings import LearnerConfig, TavcConfig
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}  # unit of t in r = w / t, in seconds
@@ -126,7 +126,7 @@ def trial_specs(cfg: TavcConfig) -> list[TrialSpec]:
     start, _ = baseline_start(theirs)
     specs = []
     for k, (label, policy, n_trials) in enumerate(controllers(cfg)):
-        code = SEED_CODES[label]
+        code = seed_code(label)
         # the learner comes first, then the baselines
         spec = base if k == 0 else base_baselines
         warmup_s, start_s = (spec.warmup_s, 0.0) if k == 0 else (max(0.0, -start), max(0.0, start))

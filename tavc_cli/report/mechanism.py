@@ -78,7 +78,7 @@ def mechanism_lines(d: Path) -> list[str]:
     for controller in ("random", "static"):
         o = mechanism(d, controller)
         if o is not None:
-            others.append(f"{CONTROLLER_NAMES[controller]}: stay {_secs(o.get('task_s_stay'))}, "
+            others.append(f"{CONTROLLER_NAMES.get(controller, controller)}: stay {_secs(o.get('task_s_stay'))}, "
                           f"switch {_secs(o.get('task_s_switch'))}")
     if others:
         text += " (" + "; ".join(others) + ")"

@@ -40,7 +40,22 @@ FIGURES = {
     "breakdown_no_vacancy": (None, "1.10"),
     "value_change": (None, "1.11"),
 }
-COLOURS = {"tavc": "tab:blue", "random": "tab:orange", "static": "tab:green", "theory": "0.4"}
+class _Colours(dict):
+    """The built-in controllers' colours; any other controller (a learner from outside tavc,
+    `alternate`) its own, drawn from the colours they leave, the same for a label everywhere."""
+
+    SPARE = ("tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan", "tab:red", "tab:gray")
+
+    def __missing__(self, label: str) -> str:
+        import zlib
+
+        return self.SPARE[zlib.crc32(str(label).encode()) % len(self.SPARE)]
+
+    def get(self, label, default=None):
+        return self[label]
+
+
+COLOURS = _Colours({"tavc": "tab:blue", "random": "tab:orange", "static": "tab:green", "theory": "0.4"})
 LABELS = {"tavc": "TAVC", "random": "random", "static": "static", "theory": "theory"}
 
 
@@ -306,9 +321,10 @@ def group_state_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, t
     for ctrl in ("tavc", "random"):
         rows = state_time[state_time["controller"] == ctrl]
         if len(rows):
-            panels.append((f"{LABELS[ctrl]}, ours", _grid(rows["state"], rows["mean_pct"])))
+            panels.append((f"{LABELS.get(ctrl, ctrl)}, ours", _grid(rows["state"], rows["mean_pct"])))
         if chapter is not None and f"{ctrl}_mean_pct" in chapter:
-            panels.append((f"{LABELS[ctrl]}, the chapter", _grid(chapter["state"], chapter[f"{ctrl}_mean_pct"])))
+            panels.append((f"{LABELS.get(ctrl, ctrl)}, the chapter", _grid(chapter["state"],
+                                                                              chapter[f"{ctrl}_mean_pct"])))
     return _heat_panels(panels, "viridis", False, ".1f", "% of the stable period", title, out_stem)
 
 
