@@ -174,6 +174,9 @@ class LearnerConfig:
     decision_period_s: float = 0.1
     decide_on_change: bool = True
     allocation: Optional[List[int]] = None
+    # wolf_phc: the policy's step while winning and while losing (Bowling and Veloso 2002)
+    delta_win: float = 0.01
+    delta_lose: float = 0.04
     # alternate: each robot's role, the circuit it stays on or -1 to alternate; null: `allocation`
     # robots stay on each circuit (the first robots first) and the rest alternate
     roles: Optional[List[int]] = None

@@ -4,6 +4,7 @@ one of the built-in policies the compiled paths serve."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from tavc_cli import config
 from tavc_cli.experiments.build import trial_specs
@@ -44,6 +45,7 @@ def test_a_subclass_of_a_built_in_policy_runs_its_own_code(monkeypatch):
 
 LEARNER_FILE = '''
 import numpy as np
+import pytest
 
 
 class Stubborn:
@@ -156,3 +158,38 @@ def test_the_docs_example_learner_runs_as_the_page_shows(tmp_path, monkeypatch):
     assert bad.exit_code == 1
     assert "learner.params.decai: DecayingGreedy takes no parameter 'decai' (it takes: alpha, epsilon, decay)" \
         in bad.output
+
+
+# --- learners from the literature -----------------------------------------------------------------
+
+def test_wolf_phc_one_step_by_hand():
+    """Two circuits, alpha 0.5, gamma 0.5, delta_w 0.1, delta_l 0.4. From Q = 0 and uniform
+    policies, robot 0 in state 0 takes action 1 and earns 2, landing in state 1."""
+    from tavc_cli.learning.literature import WolfPhcPolicy
+
+    p = WolfPhcPolicy(1, 2, alpha=0.5, gamma=0.5, epsilon=0.0, delta_win=0.1, delta_lose=0.4,
+                      rng=np.random.default_rng(0))
+    p.learn(0, 0, 1, 2.0, 1)
+    # Q(0,1) = 0 + 0.5 (2 + 0.5 * max Q(1,.) = 0 - 0) = 1
+    assert p.q[0, 0].tolist() == [0.0, 1.0]
+    # average policy after one visit: pi_avg = pi = [0.5, 0.5]; pi . Q = 0.5 = pi_avg . Q: not winning
+    # -> delta_l = 0.4; the non-greedy action 0 gives min(0.5, 0.4 / 1) = 0.4 to the greedy action 1
+    assert p.pi[0, 0].tolist() == pytest.approx([0.1, 0.9])
+    assert p.pi_avg[0, 0].tolist() == pytest.approx([0.5, 0.5])
+    p.learn(0, 0, 1, 2.0, 1)
+    # Q(0,1) = 1 + 0.5 (2 + 0 - 1) = 1.5; visits 2: pi_avg = [0.5, 0.5] + ([0.1, 0.9] - [0.5, 0.5]) / 2
+    assert p.q[0, 0, 1] == pytest.approx(1.5)
+    assert p.pi_avg[0, 0].tolist() == pytest.approx([0.3, 0.7])
+    # pi . Q = 0.9 * 1.5 = 1.35 > pi_avg . Q = 0.7 * 1.5 = 1.05: winning -> delta_w = 0.1,
+    # action 0 gives min(0.1, 0.1) = 0.1
+    assert p.pi[0, 0].tolist() == pytest.approx([0.0, 1.0])
+    assert p.choose(0, 0) == 1  # epsilon 0: drawn from pi, which is all on action 1
+
+
+def test_wolf_phc_runs_in_the_simulator_from_its_config():
+    cfg = config.settings(config.load_config(["experiment=initial_distribution", "scale=smoke", "learner=wolf_phc",
+                                              "trials=1", "baselines=[]", "duration_s=600"]))
+    specs = trial_specs(cfg)
+    assert specs[0].controller == "wolf_phc" and specs[0].seed[1] == 5
+    record = run_trials(specs)[0]
+    assert len(record.table("deliveries")["t_s"]) > 0 and record.q.shape[1:] == (6, 2, 2)

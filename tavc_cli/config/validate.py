@@ -227,6 +227,10 @@ def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> No
     for name in ("alpha", "gamma", "epsilon"):
         unit(f"learner.{name}", learner[name])
     positive("learner.tau", learner.tau)
+    for name in ("delta_win", "delta_lose"):
+        unit(f"learner.{name}", learner[name])
+    check(learner.delta_win <= learner.delta_lose, "learner.delta_win",
+          f"must be <= learner.delta_lose ({learner.delta_lose!r}): WoLF learns fast when losing")
     positive("learner.decision_period_s", learner.decision_period_s)
     finite("learner.q_init_low", learner.q_init_low)
     finite("learner.q_init_high", learner.q_init_high)

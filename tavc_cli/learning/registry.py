@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from tavc_cli.learning.behaviour import BehaviourPolicy
+from tavc_cli.learning.literature import WolfPhcPolicy
 from tavc_cli.learning.policies import (
     AlternatePolicy,
     RandomPolicy,
@@ -63,6 +64,12 @@ def _alternate(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.rand
     return AlternatePolicy(roles, n_circuits)
 
 
+def _wolf_phc(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+    return WolfPhcPolicy(n_robots, n_circuits, alpha=float(spec.alpha), gamma=float(spec.gamma),
+                         epsilon=float(spec.epsilon), delta_win=float(spec.delta_win),
+                         delta_lose=float(spec.delta_lose), rng=rng)
+
+
 def _q_learning(spec: LearnerConfig) -> dict:
     """The Q-learning parameters every learner of the chapter shares."""
     return {"alpha": float(spec.alpha), "gamma": float(spec.gamma), "tau": float(spec.tau),
@@ -86,6 +93,7 @@ LEARNERS: dict[str, Learner] = {entry.name: entry for entry in (
     Learner("random", "random", 1, _random, baseline=True),
     Learner("static", "static", 2, _static, baseline=True),
     Learner("alternate", "alternate", 4, _alternate, baseline=True),
+    Learner("wolf_phc", "wolf_phc", 5, _wolf_phc),
     Learner("tavc_egreedy", "tavc", 0, _tavc("egreedy")),
     Learner("tavc_softmax", "tavc", 0, _tavc("softmax")),
     Learner("behaviour_softmax", "behaviour", 3, _behaviour),
