@@ -177,6 +177,11 @@ class LearnerConfig:
     # wolf_phc: the policy's step while winning and while losing (Bowling and Veloso 2002)
     delta_win: float = 0.01
     delta_lose: float = 0.04
+    # threshold: each robot's thresholds drawn in [theta_low, theta_high], the response's steepness n
+    # (Bonabeau, Theraulaz and Deneubourg 1996)
+    theta_low: float = 0.5
+    theta_high: float = 1.5
+    steepness: float = 2.0
     # alternate: each robot's role, the circuit it stays on or -1 to alternate; null: `allocation`
     # robots stay on each circuit (the first robots first) and the rest alternate
     roles: Optional[List[int]] = None

@@ -193,3 +193,24 @@ def test_wolf_phc_runs_in_the_simulator_from_its_config():
     assert specs[0].controller == "wolf_phc" and specs[0].seed[1] == 5
     record = run_trials(specs)[0]
     assert len(record.table("deliveries")["t_s"]) > 0 and record.q.shape[1:] == (6, 2, 2)
+
+
+def test_the_response_threshold_by_hand():
+    from tavc_cli.learning.literature import ThresholdPolicy
+
+    p = ThresholdPolicy(1, 2, alpha=0.5, theta_low=1.0, theta_high=1.0, steepness=2.0, rng=np.random.default_rng(3))
+    assert p.stimulus(0, 0) == 1.0 and p.stay_probability(0, 0) == 0.5  # nothing seen: 1 / (1 + 1)
+    p.learn(0, 1, 0, 3.0, 0)  # the first reward on circuit 0 is taken whole
+    assert p.stimulus(0, 0) == 1.0  # one circuit seen: no comparison yet
+    p.learn(0, 0, 1, 1.0, 1)
+    # running means 3 and 1, their mean 2: stimuli 1.5 and 0.5
+    assert p.stimulus(0, 0) == pytest.approx(1.5) and p.stimulus(0, 1) == pytest.approx(0.5)
+    # T = s^2 / (s^2 + theta^2): 2.25 / 3.25 on circuit 0, 0.25 / 1.25 on circuit 1
+    assert p.stay_probability(0, 0) == pytest.approx(2.25 / 3.25)
+    assert p.stay_probability(0, 1) == pytest.approx(0.2)
+    p.learn(0, 0, 0, 1.0, 0)  # 3 + 0.5 (1 - 3) = 2
+    assert p.mean[0].tolist() == [2.0, 1.0]
+    p.started[0] = True
+    stays = sum(p.choose(0, 1) == 1 for _ in range(4000)) / 4000
+    # stimulus of circuit 1: 1 / 1.5; T = (4/9) / (4/9 + 1) = 4/13
+    assert abs(stays - 4 / 13) < 0.03

@@ -229,6 +229,10 @@ def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> No
     positive("learner.tau", learner.tau)
     for name in ("delta_win", "delta_lose"):
         unit(f"learner.{name}", learner[name])
+    positive("learner.theta_low", learner.theta_low)
+    check(learner.theta_low <= learner.theta_high, "learner.theta_low",
+          f"must be <= learner.theta_high ({learner.theta_high!r}), got {learner.theta_low!r}")
+    positive("learner.steepness", learner.steepness)
     check(learner.delta_win <= learner.delta_lose, "learner.delta_win",
           f"must be <= learner.delta_lose ({learner.delta_lose!r}): WoLF learns fast when losing")
     positive("learner.decision_period_s", learner.decision_period_s)

@@ -5,6 +5,11 @@ last) and actions (the circuit of its next task), communication-free like TAVC.
   learning using a variable learning rate", Artificial Intelligence 136(2), 2002, Table 2): a
   Q-learner whose mixed policy climbs towards its greedy action, slowly while it is winning
   (its policy's expected value above its average policy's), fast while it is losing.
+- `ThresholdPolicy`: the fixed response-threshold model of division of labour (Bonabeau,
+  Theraulaz and Deneubourg, "Quantitative study of the fixed threshold model for the regulation
+  of division of labour in insect societies", Proc. R. Soc. Lond. B 263, 1996): an individual
+  takes up a task with probability s^n / (s^n + theta^n) for the task's stimulus s and its own
+  threshold theta.
 """
 
 from __future__ import annotations
@@ -65,3 +70,52 @@ class WolfPhcPolicy:
 
     def q_tables(self) -> np.ndarray:
         return self.q.copy()
+
+
+class ThresholdPolicy:
+    """The fixed-threshold model, each robot alone. The stimulus of a circuit, in this task, is
+    what a robot itself has seen it pay: its running mean of r = w / t there (rate `alpha`, the
+    first reward taken whole), over the mean of its running means of every circuit (1 while it
+    has seen fewer than two), so that a circuit paying more than the others stimulates more
+    whatever the unit of t. After each task a robot stays on the circuit it served with
+    probability T(s) = s^n / (s^n + theta^n) of that circuit's stimulus, else takes another
+    circuit, drawn uniformly; its first task is drawn uniformly. Each robot's thresholds, one a
+    circuit, are drawn once, uniformly in [theta_low, theta_high]: a low threshold makes a
+    robot keep to a circuit, a high one makes it leave unless the circuit pays more than the
+    rest. No Q-table: `q_tables` gives the running means."""
+
+    def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, theta_low: float, theta_high: float,
+                 steepness: float, rng: np.random.Generator) -> None:
+        self.n_states = n_circuits
+        self.alpha, self.n = alpha, steepness
+        self.rng = rng
+        self.theta = rng.uniform(theta_low, theta_high, size=(n_robots, n_circuits))
+        self.mean = np.full((n_robots, n_circuits), np.nan)  # each robot's running mean reward per circuit
+        self.started = np.zeros(n_robots, dtype=bool)
+
+    def stimulus(self, robot: int, circuit: int) -> float:
+        seen = self.mean[robot][~np.isnan(self.mean[robot])]
+        if len(seen) < 2 or np.isnan(self.mean[robot, circuit]) or seen.mean() <= 0:
+            return 1.0
+        return float(self.mean[robot, circuit] / seen.mean())
+
+    def stay_probability(self, robot: int, circuit: int) -> float:
+        s, theta = self.stimulus(robot, circuit) ** self.n, float(self.theta[robot, circuit]) ** self.n
+        return s / (s + theta) if s + theta > 0 else 0.5
+
+    def choose(self, robot: int, state: int) -> int:
+        n_circuits = self.mean.shape[1]
+        if not self.started[robot]:
+            self.started[robot] = True
+            return int(self.rng.integers(n_circuits))
+        if self.rng.random() < self.stay_probability(robot, state):
+            return state
+        others = [c for c in range(n_circuits) if c != state]
+        return int(others[self.rng.integers(len(others))])
+
+    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        m = self.mean[robot, action]
+        self.mean[robot, action] = reward if np.isnan(m) else m + self.alpha * (reward - m)
+
+    def q_tables(self) -> None:
+        return None

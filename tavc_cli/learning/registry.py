@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from tavc_cli.learning.behaviour import BehaviourPolicy
-from tavc_cli.learning.literature import WolfPhcPolicy
+from tavc_cli.learning.literature import ThresholdPolicy, WolfPhcPolicy
 from tavc_cli.learning.policies import (
     AlternatePolicy,
     RandomPolicy,
@@ -70,6 +70,11 @@ def _wolf_phc(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.rando
                          delta_lose=float(spec.delta_lose), rng=rng)
 
 
+def _threshold(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+    return ThresholdPolicy(n_robots, n_circuits, alpha=float(spec.alpha), theta_low=float(spec.theta_low),
+                           theta_high=float(spec.theta_high), steepness=float(spec.steepness), rng=rng)
+
+
 def _q_learning(spec: LearnerConfig) -> dict:
     """The Q-learning parameters every learner of the chapter shares."""
     return {"alpha": float(spec.alpha), "gamma": float(spec.gamma), "tau": float(spec.tau),
@@ -94,6 +99,7 @@ LEARNERS: dict[str, Learner] = {entry.name: entry for entry in (
     Learner("static", "static", 2, _static, baseline=True),
     Learner("alternate", "alternate", 4, _alternate, baseline=True),
     Learner("wolf_phc", "wolf_phc", 5, _wolf_phc),
+    Learner("threshold", "threshold", 6, _threshold),
     Learner("tavc_egreedy", "tavc", 0, _tavc("egreedy")),
     Learner("tavc_softmax", "tavc", 0, _tavc("softmax")),
     Learner("behaviour_softmax", "behaviour", 3, _behaviour),
