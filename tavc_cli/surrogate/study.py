@@ -184,7 +184,8 @@ class Study:
         from tavc_cli.surrogate.run import run_surrogate
 
         cfg = self.compose([*self.overrides, *overrides, f"surrogate.tasks_dir={self.tasks_dir}", f"output_dir={folder}"])
-        run_surrogate(cfg, progress=self.progress, echo=self.echo)
+        if not _finished_as(folder, cfg):
+            run_surrogate(cfg, progress=self.progress, echo=self.echo)
         self.echo(f"surrogate: {folder}")
         return folder
 
@@ -192,7 +193,8 @@ class Study:
         from tavc_cli.pipeline import run_experiment
 
         cfg = self.compose([*self.overrides, *overrides, f"output_dir={folder}"])
-        run_experiment(cfg, progress=self.progress)
+        if not _finished_as(folder, cfg):
+            run_experiment(cfg, progress=self.progress)
         self.echo(f"simulator: {folder}")
         return folder
 
@@ -245,7 +247,7 @@ class Study:
         # the model's prediction, from the same static runs' stay tasks
         predicted = []
         for n in PHASE_TEAMS:
-            cfg = self.compose([*self.overrides, "experiment=initial_distribution", f"team.n_robots={n}",
+            cfg = self.compose([*self.overrides, "experiment=initial_distribution", "scale=paper", f"team.n_robots={n}",
                                 f"surrogate.tasks_dir={self.tasks_dir}"])
             times = measure_tasks(cfg, progress=self.progress, echo=self.echo)
             team = Team.of(["all"] * n, [float(cfg.robot.speed_mps)] * n)
@@ -330,6 +332,15 @@ class Study:
                     rows.append({"engine": "simulator", "experiment": experiment, "scale": scale,
                                  "sim_s_per_wall_s": physical.span_s / (time.perf_counter() - start)})
         return pd.DataFrame(rows)
+
+
+def _finished_as(folder: Path, cfg) -> bool:
+    """Whether `folder` holds a finished run (its provenance.json, written last) of exactly this
+    configuration: then the study reads it as it is instead of analysing it again."""
+    from tavc_cli.settings import to_yaml
+
+    config = folder / "config.yaml"
+    return (folder / "provenance.json").is_file() and config.is_file() and config.read_text() == to_yaml(cfg)
 
 
 def run_study(out: Path, results: Path, overrides: Sequence[str], compose: Compose, *,
