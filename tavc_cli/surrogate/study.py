@@ -270,7 +270,7 @@ class Study:
         chapter = {"epsilon": 0.1, "alpha": 0.1, "gamma": 0.95}
         points = [("chapter", None)] + [(k, v) for k, vs in HORIZON_PARAMETERS.items() for v in vs if v != chapter[k]]
         for name, value in points:
-            label = "chapter" if value is None else f"{name}={value:g}"
+            label = "chapter" if value is None else f"{name}_{value:g}"
             setting = [] if value is None else [f"learner.{name}={value!r}"]
             mine = []
             for f in HORIZON_FACTORS:
