@@ -180,7 +180,7 @@ def _run_folder(folder, shares: dict, rate: float, alternators: int, verdict: st
 
 
 def test_the_comparison_reads_each_engine_against_the_simulator(tmp_path):
-    from tavc_cli.surrogate.study import comparison_rows, high_share
+    from tavc_cli.surrogate.compare import comparison_rows, high_share
 
     sim = _run_folder(tmp_path / "sim", {"2:4": 20.0, "3:3": 60.0, "4:2": 20.0}, 0.41, 6, "reproduced")
     sur = _run_folder(tmp_path / "sur", {"2:4": 30.0, "3:3": 38.0, "4:2": 32.0}, 0.40, 6, "not_reproduced")
@@ -200,7 +200,7 @@ def test_the_comparison_reads_each_engine_against_the_simulator(tmp_path):
 
 
 def test_the_models_prediction_from_the_stay_tasks_by_hand():
-    from tavc_cli.surrogate.study import predicted_state
+    from tavc_cli.surrogate.compare import predicted_state
 
     # two robots: a stay task on circuit 0 takes 100 s alone and 200 s with another robot there;
     # on circuit 1 100 s alone. With values 2 and 1, by the model each robot earns its circuit's

@@ -33,6 +33,8 @@ import pandas as pd
 
 from tavc_cli.errors import TavcError
 
+from tavc_cli.surrogate.compare import comparison_rows, high_share, predicted_state, run_facts
+
 if TYPE_CHECKING:
     from tavc_cli.settings import TavcConfig
 
@@ -59,113 +61,6 @@ STUDY_KEYS = ("experiment", "scale", "scale.time_factor", "output_dir", "surroga
 
 Echo = Callable[[str], None]
 Compose = Callable[[list[str]], "TavcConfig"]  # overrides -> the settings (`config.load_config`, at the front doors)
-
-
-# --- reading a run's folder ----------------------------------------------------
-
-def run_facts(folder: Path, controller: str = "tavc") -> dict:
-    """What the comparison reads of a run's folder (simulator's or surrogate's): the state
-    shares, the modal state, the make-up and convergence of `controller`, its score rate in
-    the stable period, and the claims' verdicts."""
-    from tavc_cli.analysis.convergence import convergence_verdict
-    from tavc_cli.analysis.mechanism import mechanism_summary
-
-    folder = Path(folder)
-    states = pd.read_csv(folder / "state_time.csv", dtype={"state": str})
-    mine = states[states["controller"] == controller]
-    shares = dict(zip(mine["state"], mine["mean_pct"], strict=True))
-    out: dict = {"states": shares, "n_trials": int(mine["n_trials"].max()) if len(mine) else 0}
-    out["modal_state"] = max(shares, key=shares.get) if shares else ""
-    out["pct_modal"] = shares.get(out["modal_state"], math.nan)
-    if (folder / "mechanism.csv").is_file():
-        m = mechanism_summary(pd.read_csv(folder / "mechanism.csv"), controller)
-        out.update({k: m[k] for k in ("n_stayers_high", "n_stayers_low", "n_alternators", "n_mixed", "switch_share",
-                                      "regime")})
-    if (folder / "convergence.csv").is_file():
-        v = convergence_verdict(pd.read_csv(folder / "convergence.csv"), controller)
-        out.update({k: v[k] for k in ("q_drift", "policy_changed_share", "alloc_drift", "converged")})
-    stats = pd.read_csv(folder / "trial_stats.csv")
-    out["value_rate_stable"] = float(stats.loc[stats["controller"] == controller, "value_rate_stable"].mean())
-    if (folder / "claims.csv").is_file():
-        claims = pd.read_csv(folder / "claims.csv")
-        out["claims"] = " ".join(f"{r.claim_id}:{_short(r.verdict)}" for r in claims.itertuples())
-    return out
-
-
-def _short(verdict: str) -> str:
-    return {"reproduced": "yes", "not_reproduced": "no"}.get(str(verdict), str(verdict).replace("_", " "))
-
-
-def largest_difference(a: dict, b: dict) -> tuple[float, str]:
-    """The largest difference, in points, between two runs' shares of one state, and the state."""
-    states = sorted(set(a) | set(b))
-    if not states:
-        return math.nan, ""
-    diffs = {s: abs(a.get(s, 0.0) - b.get(s, 0.0)) for s in states}
-    worst = max(diffs, key=diffs.get)
-    return diffs[worst], worst
-
-
-def comparison_rows(experiment: str, horizon: str, simulator: Path | None, engines: dict[str, Path]) -> list[dict]:
-    """One row per engine (the simulator first, when its run exists) of one experiment at one
-    horizon; the differences are against the simulator's run."""
-    rows, reference = [], None
-    runs = ([("simulator", simulator)] if simulator is not None and (simulator / "state_time.csv").is_file() else [])
-    for engine, folder in [*runs, *engines.items()]:
-        if not (folder / "state_time.csv").is_file():
-            continue
-        facts = run_facts(folder)
-        if engine == "simulator":
-            reference = facts
-        diff, state = largest_difference(facts["states"], reference["states"]) if reference else (math.nan, "")
-        if engine == "simulator":
-            state = ""  # its own reference
-        rows.append({"experiment": experiment, "horizon": horizon, "engine": engine, "n_trials": facts["n_trials"],
-                     "largest_diff_pts": diff, "at_state": state, "modal_state": facts["modal_state"],
-                     "pct_modal": facts["pct_modal"],
-                     **{k: facts.get(k, math.nan) for k in ("n_stayers_high", "n_stayers_low", "n_alternators",
-                                                            "n_mixed", "switch_share", "regime", "q_drift",
-                                                            "policy_changed_share", "converged",
-                                                            "value_rate_stable", "claims")}})
-    return rows
-
-
-# --- the model's prediction from the stay tasks -----------------------------------
-
-def stayer_table(times, team_name: str, n_robots: int):
-    """The model's c_i(n), t_i(n) table for every split of the team from the measured stay tasks
-    of the make-ups without alternators: t_i the mean time of a stay task on circuit i,
-    c_i = n_i / t_i."""
-    from tavc_cli.model import core
-    from tavc_cli.surrogate.tasks import STAY
-
-    table = core.CTable(2)
-    frame = times.frame
-    frame = frame[(frame["team"] == team_name) & (frame["kind"] == STAY)]
-    for n0 in range(n_robots + 1):
-        n = (n0, n_robots - n0)
-        makeup = f"all:{n0}-{n_robots - n0}-0"
-        cells = []
-        for i in range(2):
-            t = frame.loc[(frame["makeup"] == makeup) & (frame["circuit"] == i), "task_time_s"]
-            mean = float(t.mean()) if len(t) else math.inf
-            cells.append(core.Cell(c=0.0 if n[i] == 0 else n[i] / mean, t=mean, n_trials=len(t)))
-        table.cells[n] = tuple(cells)
-    return table
-
-
-def predicted_state(times, team_name: str, n_robots: int, values: Sequence[float]) -> str:
-    from tavc_cli.model import core
-
-    return core.state_label(core.predicted_split(stayer_table(times, team_name, n_robots), n_robots, values), values)
-
-
-def high_share(states: dict, n_robots: int) -> float:
-    """The share of robot-time on the high-value circuit, from the state shares (states ``h:l``)."""
-    total = sum(states.values())
-    if not total:
-        return math.nan
-    return sum(p * int(s.split(":")[0]) for s, p in states.items()) / (n_robots * total)
 
 
 # --- the study --------------------------------------------------------------------
