@@ -27,7 +27,7 @@ RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run b
 # folders directly under the results folder that the report reads otherwise than run by run:
 # the second horizon (`horizons`, its runs found there in turn) and the value-ratio sweep
 # (`studies.value_ratio_lines`); under a horizon, the horizon ladder (`horizons.ladder_lines`)
-TOP_STUDIES = ("converged", "value_ratio", "surrogate")  # the last read as a whole only when it is the study
+TOP_STUDIES = ("converged", "value_ratio")
 LADDER = "ladder"
 
 
@@ -53,7 +53,7 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
     results folder, `top`; a `ladder/` with its `ladder.csv`)."""
     out = []
     for d in sorted((p for p in folder.iterdir() if p.is_dir()), key=lambda p: _natural(p.name)):
-        if d.name == "figures" or d.name.startswith(".") or (top and d.name in TOP_STUDIES[:2]) or \
+        if d.name == "figures" or d.name.startswith(".") or (top and d.name in TOP_STUDIES) or \
                 (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
         if _study_folder(d) or _tasks_folder(d):  # the surrogate's study (read as a whole) and its measured tasks
@@ -91,14 +91,6 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
         found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: _natural(p.as_posix()))
         if found:
             out.append(("the value-ratio sweep, in *Learning values and time*", found))
-    study = results_dir / TOP_STUDIES[2]
-    if (study / "comparison.csv").is_file():
-        # the comparison's runs, which are kept with it (the grids' runs are not: their tables say it all)
-        found = sorted((p.parent for part in ("makeup", "stayers") if (study / part).is_dir()
-                        for p in (study / part).rglob("provenance.json") if "trials" not in p.parts),
-                       key=lambda p: _natural(p.as_posix()))
-        if found:
-            out.append(("the surrogate's study, in *The surrogate*", found))
     return out
 
 
