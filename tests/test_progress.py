@@ -27,6 +27,7 @@ class Clock:
 def test_not_shown_prints_nothing_whatever_happens(capsys, monkeypatch):
     monkeypatch.setattr(Progress, "COMPILE_NOTICE_S", 0.01)
     prog = Progress(_batches(1000.0, 1000.0), shown=False)
+    assert prog.notice is None  # no notice is even set up
     time.sleep(0.05)
     prog.update(("tavc", 0), 0.5)
     prog.update(("tavc", 1), 1.0)
@@ -37,12 +38,13 @@ def test_not_shown_prints_nothing_whatever_happens(capsys, monkeypatch):
 def test_a_notice_while_nothing_has_been_simulated_and_none_after(capsys, monkeypatch):
     monkeypatch.setattr(Progress, "COMPILE_NOTICE_S", 0.05)
     prog = Progress(_batches(1000.0), shown=True)
-    time.sleep(0.3)
+    prog.notice.join(timeout=5.0)  # the notice fires: nothing was reported
     prog.close()
     assert capsys.readouterr().out.strip() == Progress.COMPILE_NOTICE.strip()
+    monkeypatch.setattr(Progress, "COMPILE_NOTICE_S", 2.0)
     quick = Progress(_batches(1000.0), shown=True)
     quick.update(("tavc", 0), 0.1)  # simulating began before the notice was due: no notice
-    time.sleep(0.3)
+    quick.notice.join(timeout=5.0)  # cancelled: it ends without firing
     quick.close()
     assert "compiles" not in capsys.readouterr().out
 
