@@ -19,6 +19,7 @@ import yaml
 
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
+from tavc_cli.ownership import STUDY, SURROGATE, TASKS, read
 from tavc_cli.reference import TABLES
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, from_yaml
@@ -31,13 +32,17 @@ TOP_STUDIES = ("converged", "value_ratio")
 LADDER = "ladder"
 
 
+def folder_kind(d: Path) -> str | None:
+    """The kind of output tavc keeps in `d` (`ownership`: run, surrogate, surrogate-study, ...),
+    or None where it recognises none."""
+    owned = read(d)
+    return owned.kind if owned is not None else None
+
+
 def on_surrogate(d: Path) -> bool:
     """Whether the run in `d` was computed by the surrogate of the learning dynamics (its folder's
     kind, `tavc surrogate`), not the physical simulator."""
-    from tavc_cli.ownership import SURROGATE, read
-
-    owned = read(d)
-    return owned is not None and owned.kind == SURROGATE
+    return folder_kind(d) == SURROGATE
 
 
 def is_run_folder(d: Path) -> bool:
@@ -56,24 +61,10 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
         if d.name == "figures" or d.name.startswith(".") or (top and d.name in TOP_STUDIES) or \
                 (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
-        if _study_folder(d) or _tasks_folder(d):  # the surrogate's study (read as a whole) and its measured tasks
+        if folder_kind(d) in (STUDY, TASKS):  # the surrogate's study (read as a whole) and its measured tasks
             continue
         out += [d] if is_run_folder(d) else run_folders(d, top=False)
     return out
-
-
-def _tasks_folder(d: Path) -> bool:
-    from tavc_cli.ownership import TASKS, read
-
-    owned = read(d)
-    return owned is not None and owned.kind == TASKS
-
-
-def _study_folder(d: Path) -> bool:
-    from tavc_cli.ownership import STUDY, read
-
-    owned = read(d)
-    return owned is not None and owned.kind == STUDY
 
 
 def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
