@@ -189,6 +189,10 @@ class LearnerConfig:
     # the keyword arguments it is built with beside n_robots, n_circuits and rng (docs/plugins.md)
     target: Optional[str] = None
     params: Dict[str, Any] = field(default_factory=dict)
+    # model, informed: the model whose allocation they follow, read into `allocations` (robots per
+    # circuit by team size, the most valuable circuit first) when the config is resolved
+    model_file: str = "results/initial_distribution/model/model.json"
+    allocations: Optional[Dict[str, List[int]]] = None
 
 
 @dataclass

@@ -26,6 +26,8 @@ Rules:
 - ``team.members``: ``team.n_robots`` copies of ``{speed_mps: robot.speed_mps, group: all}``.
 - ``tasks.values``: 1.0 per circuit; ``tasks.score_values``: ``tasks.values``.
 - ``executor.n_jobs``: ``os.cpu_count()``.
+- ``learner.allocations`` (``learner=model``, ``learner=informed``): robots per circuit by team
+  size, read from the model's output ``learner.model_file`` (`learning.informed.model_allocations`).
 """
 
 import math
@@ -35,6 +37,7 @@ from typing import Optional
 
 from omegaconf import DictConfig
 
+from tavc_cli.learning.informed import MODEL_LEARNERS, model_allocations
 from tavc_cli.settings import MemberConfig
 from tavc_cli.io import default_root
 from tavc_cli.sim.arena import most_robots
@@ -88,6 +91,8 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
         cfg.tasks.score_values = list(cfg.tasks["values"])
     if cfg.executor.n_jobs is None:
         cfg.executor.n_jobs = os.cpu_count() or 1
+    if cfg.learner.name in MODEL_LEARNERS and cfg.learner.target is None and cfg.learner.allocations is None:
+        cfg.learner.allocations = model_allocations(cfg.learner.model_file)
 
 
 def default_output_dir(scale: str, experiment: str) -> Path:

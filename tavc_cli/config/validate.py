@@ -29,6 +29,7 @@ from tavc_cli.config.validate_world import (
     validate_start,
 )
 from tavc_cli.experiments.clock import due_tick, end_tick
+from tavc_cli.learning.informed import MODEL_LEARNERS
 from tavc_cli.learning.registry import AVAILABLE as AVAILABLE_LEARNERS
 from tavc_cli.learning.registry import BASELINES
 from tavc_cli.learning.registry import NAMES as LEARNERS
@@ -248,6 +249,15 @@ def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> No
         "learner.q_init_low",
         f"must be <= learner.q_init_high ({learner.q_init_high!r}), got {learner.q_init_low!r}",
     )
+    if learner.name in MODEL_LEARNERS and learner.target is None:
+        allocations = learner.allocations or {}
+        check(str(n_robots) in allocations, "learner.allocations",
+              f"the model predicts nothing for a team of {n_robots} (it has "
+              f"{', '.join(sorted(allocations, key=int)) or 'no team'}); run `tavc model` for this team")
+        for size, counts in allocations.items():
+            per_circuit(f"learner.allocations.{size}", counts, n_circuits, "robot count")
+            check(sum(counts) == int(size), f"learner.allocations.{size}",
+                  f"must place {size} robots, places {sum(counts)}")
     if learner.allocation is not None and learner.name == "alternate":
         per_circuit("learner.allocation", learner.allocation, n_circuits, "robot count")
         for index, count in enumerate(learner.allocation):

@@ -88,6 +88,14 @@ class TrialState:
         self.poses: list[np.ndarray] = []
         self.pose_alive: list[np.ndarray] = []
         self.pose_circuit: list[np.ndarray] = []
+        self.tell_policy()
+
+    def tell_policy(self) -> None:
+        """A policy that follows the team's events (`learning.informed`) hears which robots are
+        alive and the circuits' values: at the start and after every event."""
+        hook = getattr(self.policy, "on_event", None)
+        if hook is not None:
+            hook(self.alive.copy(), self.values.copy())
 
     def next_event_time(self) -> float:
         """When the next scheduled event falls due, on the trial's clock."""
@@ -113,6 +121,7 @@ class TrialState:
                 self.scores[np.argsort(-self.values, kind="stable")] = np.sort(self.spec.score_values)[::-1]
                 self.vc_t.append(t)
                 self.vc.append(self.values.copy())
+            self.tell_policy()
         return broken
 
     def pick_robot(self, circuit: str | int | None) -> int:

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from tavc_cli.learning.behaviour import BehaviourPolicy
+from tavc_cli.learning.informed import InformedPolicy, ModelPolicy
 from tavc_cli.learning.literature import ThresholdPolicy, WolfPhcPolicy
 from tavc_cli.learning.policies import (
     AlternatePolicy,
@@ -75,6 +76,14 @@ def _threshold(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.rand
                            theta_high=float(spec.theta_high), steepness=float(spec.steepness), rng=rng)
 
 
+def _model(informed: bool) -> Builder:
+    def build(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+        cls = InformedPolicy if informed else ModelPolicy
+        return cls(spec.allocations or {}, n_robots, n_circuits, rng)
+
+    return build
+
+
 def _q_learning(spec: LearnerConfig) -> dict:
     """The Q-learning parameters every learner of the chapter shares."""
     return {"alpha": float(spec.alpha), "gamma": float(spec.gamma), "tau": float(spec.tau),
@@ -100,6 +109,8 @@ LEARNERS: dict[str, Learner] = {entry.name: entry for entry in (
     Learner("alternate", "alternate", 4, _alternate, baseline=True),
     Learner("wolf_phc", "wolf_phc", 5, _wolf_phc),
     Learner("threshold", "threshold", 6, _threshold),
+    Learner("model", "model", 7, _model(informed=False)),
+    Learner("informed", "informed", 8, _model(informed=True)),
     Learner("tavc_egreedy", "tavc", 0, _tavc("egreedy")),
     Learner("tavc_softmax", "tavc", 0, _tavc("softmax")),
     Learner("behaviour_softmax", "behaviour", 3, _behaviour),

@@ -1,0 +1,129 @@
+"""The model's allocation as a pre-programmed controller (`learner=model`) and its informed variant
+(`learner=informed`): the allocations read from a model file, the robots each moves at an event,
+and both in the simulator."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tavc_cli.errors import TavcError
+from tavc_cli.learning.informed import InformedPolicy, ModelPolicy, model_allocations, ranked
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def write_model(path: Path, values: list[float], states: dict[str, str]) -> Path:
+    path.write_text(json.dumps({"values": values,
+                                "by_team_size": {n: {"predicted_state": s} for n, s in states.items()}}))
+    return path
+
+
+def test_allocations_are_read_most_valuable_circuit_first(tmp_path):
+    # the model's states count robots per circuit in its own values' order: with circuit 1 the
+    # more valuable, "2:3" is 3 robots on the high circuit, 2 on the low one
+    model = write_model(tmp_path / "model.json", [2000.0, 2200.0], {"5": "2:3", "6": "3:3"})
+    assert model_allocations(model) == {"5": [3, 2], "6": [3, 3]}
+
+
+def test_the_committed_model_gives_the_chapter_team_three_and_three():
+    allocations = model_allocations(REPO / "results/initial_distribution/model/model.json")
+    assert allocations["6"] == [3, 3] and allocations["5"] == [3, 2]
+
+
+def test_a_missing_model_is_named(tmp_path):
+    with pytest.raises(TavcError, match="no model at .*run `tavc model` first"):
+        model_allocations(tmp_path / "nowhere.json")
+
+
+def test_counts_follow_the_values_ranking():
+    assert ranked([3, 2], np.array([2200.0, 2000.0])).tolist() == [3, 2]
+    assert ranked([3, 2], np.array([2000.0, 2200.0])).tolist() == [2, 3]
+
+
+def counts(policy, alive):
+    return np.bincount(policy.assignment[alive], minlength=2).tolist()
+
+
+def test_informed_moves_one_robot_into_the_vacancy_and_one_after_a_swap():
+    policy = InformedPolicy({"6": [3, 3], "5": [3, 2]}, 6, 2, np.random.default_rng(1))
+    alive = np.ones(6, dtype=bool)
+    values = np.array([2200.0, 2000.0])
+    policy.on_event(alive, values)
+    assert counts(policy, alive) == [3, 3]
+    before = policy.assignment.copy()
+    # a robot on the high circuit (0) breaks down: 2 robots are left there, 3 on the low one;
+    # the model wants 3:2 for five, so exactly one low robot moves up
+    broken = int(np.flatnonzero(before == 0)[0])
+    alive[broken] = False
+    policy.on_event(alive, values)
+    assert counts(policy, alive) == [3, 2]
+    moved = np.flatnonzero((policy.assignment != before) & alive)
+    assert len(moved) == 1 and before[moved[0]] == 1 and policy.assignment[moved[0]] == 0
+    # the values swap: circuit 1 is now the valuable one and must hold 3: one robot moves down
+    after_breakdown = policy.assignment.copy()
+    policy.on_event(alive, values[::-1].copy())
+    assert counts(policy, alive) == [2, 3]
+    moved = np.flatnonzero((policy.assignment != after_breakdown) & alive)
+    assert len(moved) == 1 and after_breakdown[moved[0]] == 0
+
+
+def test_model_keeps_its_allocation_through_every_event():
+    policy = ModelPolicy({"6": [3, 3], "5": [3, 2]}, 6, 2, np.random.default_rng(1))
+    alive = np.ones(6, dtype=bool)
+    policy.on_event(alive, np.array([2200.0, 2000.0]))
+    start = policy.assignment.copy()
+    alive[int(np.flatnonzero(start == 0)[0])] = False
+    policy.on_event(alive, np.array([2200.0, 2000.0]))
+    policy.on_event(alive, np.array([2000.0, 2200.0]))
+    assert policy.assignment.tolist() == start.tolist()
+    assert [policy.choose(r, 0) for r in range(6)] == start.tolist()
+
+
+def test_robots_are_drawn_onto_the_allocation_not_taken_in_order():
+    # a model that knows no robot from another: over seeds, robot 0 lands on each circuit
+    firsts = set()
+    for seed in range(20):
+        policy = ModelPolicy({"6": [3, 3]}, 6, 2, np.random.default_rng(seed))
+        policy.on_event(np.ones(6, dtype=bool), np.array([2200.0, 2000.0]))
+        firsts.add(int(policy.assignment[0]))
+    assert firsts == {0, 1}
+
+
+def tavc(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "tavc_cli", *args], cwd=REPO, capture_output=True, text=True)
+
+
+def test_a_team_the_model_has_not_predicted_is_refused_in_one_line(tmp_path):
+    result = tavc("run", "experiment=initial_distribution", "learner=model", "team.n_robots=4", "scale=smoke",
+                  f"output_dir={tmp_path}/out")
+    assert result.returncode != 0
+    assert "learner.allocations: the model predicts nothing for a team of 4" in result.stderr
+    assert "Traceback" not in result.stderr
+    result = tavc("run", "experiment=initial_distribution", "learner=model", f"learner.model_file={tmp_path}/x.json",
+                  "scale=smoke", f"output_dir={tmp_path}/out")
+    assert result.returncode != 0 and "learner.model_file: no model at" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_in_the_simulator_informed_fills_the_vacancy_and_model_leaves_it(tmp_path):
+    for name in ("model", "informed"):
+        result = tavc("run", "experiment=breakdown", f"learner={name}", "scale=quick", "trials=2", "baselines=[]",
+                      f"output_dir={tmp_path}/{name}", "--no-progress")
+        assert result.returncode == 0, result.stderr
+    model = pd.read_csv(tmp_path / "model/state_time.csv").set_index(["controller", "state"])
+    informed = pd.read_csv(tmp_path / "informed/state_time.csv").set_index(["controller", "state"])
+    # after a high-circuit robot breaks down: the model's 3:3 becomes 2:3 and stays; informed
+    # moves one robot up and holds the model's 3:2 for five
+    assert model.loc[("model", "2:3"), "mean_pct"] == pytest.approx(100.0)
+    assert informed.loc[("informed", "3:2"), "mean_pct"] == pytest.approx(100.0)
+    vacancy = pd.read_csv(tmp_path / "informed/vacancy.csv")
+    assert vacancy["filled"].all() and (vacancy["filler_from"] == 1).all()
+    assert not pd.read_csv(tmp_path / "model/vacancy.csv")["filled"].any()
