@@ -243,3 +243,18 @@ def test_claim_9_is_not_tested_on_a_team_of_three_speed_groups():
     row = C.claim_rows({"heterogeneous": s}, "heterogeneous").iloc[0]
     assert row["verdict"] == "inconclusive"
     assert "compares two speed groups, this team has 2, 3" in row["detail"]
+
+
+def test_the_claims_about_learning_test_the_learner_they_are_told():
+    # a run of another learner: its trials concentrate on 3:3, TAVC's (in the same table) do not
+    runs = {"initial_distribution": pd.concat([
+        _trials("wolf_phc", _peaked(STATES6, "3:3", 50.0), rate=0.4),
+        _trials("tavc", _peaked(STATES6, "0:6", 50.0), rate=0.2),
+        _trials("random", theory_pct(6, 2, "circuits"), rate=0.3)])}
+    theirs = C.claim_rows(runs, "initial_distribution", learner="wolf_phc").set_index("claim_id")
+    assert theirs.loc[3, "verdict"] == "reproduced" and theirs.loc[5, "verdict"] == "reproduced"
+    assert "wolf_phc above random" in theirs.loc[5, "detail"] and "TAVC" not in theirs.loc[3, "detail"]
+    # TAVC, the default, is tested on its own trials only
+    ours = C.claim_rows(runs, "initial_distribution").set_index("claim_id")
+    assert ours.loc[3, "verdict"] == "not_reproduced" and ours.loc[5, "verdict"] == "not_reproduced"
+    assert "TAVC above random" in ours.loc[5, "detail"]

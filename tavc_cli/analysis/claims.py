@@ -252,6 +252,14 @@ def _welch(a, b) -> tuple[float, float, str]:
     return float(t), float(p), ""
 
 
+LEARNER = "tavc"  # the controller whose trials the claims about learning test, unless told another
+
+
+def who(learner: str) -> str:
+    """The learner under test as the claims' parts name it: TAVC, else its label."""
+    return "TAVC" if learner == LEARNER else learner
+
+
 def _ctrl(stats_: pd.DataFrame, controller: str) -> pd.DataFrame:
     return stats_[stats_["controller"] == controller]
 
@@ -270,16 +278,17 @@ def _most_frequent(frame: pd.DataFrame, state: str, label: str) -> list[Part]:
             for s in states_of(frame) if s != state]
 
 
-def claim_3(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+def claim_3(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     s = runs.get("initial_distribution")
     if s is None:
         return [_missing("initial_distribution not run")]
-    tavc, rnd = _ctrl(s, "tavc"), _ctrl(s, "random")
-    return [greater("time in 3:3, TAVC above random (%)", _share(tavc, "3:3"), _share(rnd, "3:3")),
-            *_most_frequent(tavc, "3:3", "TAVC")]
+    tavc, rnd = _ctrl(s, learner), _ctrl(s, "random")
+    return [greater(f"time in 3:3, {who(learner)} above random (%)", _share(tavc, "3:3"), _share(rnd, "3:3")),
+            *_most_frequent(tavc, "3:3", who(learner))]
 
 
-def claim_4(runs: Mapping[str, pd.DataFrame], theory: Mapping[str, float] | None = None) -> list[Part]:
+def claim_4(runs: Mapping[str, pd.DataFrame], theory: Mapping[str, float] | None = None,
+            learner: str = LEARNER) -> list[Part]:
     s = runs.get("initial_distribution")
     if s is None:
         return [_missing("initial_distribution not run")]
@@ -293,54 +302,56 @@ def claim_4(runs: Mapping[str, pd.DataFrame], theory: Mapping[str, float] | None
     return [holm_none_differ("random's share of each state against the binomial theory row", tests)]
 
 
-def claim_5(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+def claim_5(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     s = runs.get("initial_distribution")
     if s is None:
         return [_missing("initial_distribution not run")]
-    return [greater("score per second in the stable period, TAVC above random",
-                    _ctrl(s, "tavc")["value_rate_stable"], _ctrl(s, "random")["value_rate_stable"])]
+    return [greater(f"score per second in the stable period, {who(learner)} above random",
+                    _ctrl(s, learner)["value_rate_stable"], _ctrl(s, "random")["value_rate_stable"])]
 
 
-def claim_6(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+def claim_6(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     s = runs.get("breakdown")
     if s is None:
         return [_missing("breakdown not run")]
-    tavc, rnd, static = _ctrl(s, "tavc"), _ctrl(s, "random"), _ctrl(s, "static")
-    return [greater("time in 3:2, TAVC above random (%)", _share(tavc, "3:2"), _share(rnd, "3:2")),
-            *_most_frequent(tavc, "3:2", "TAVC"),
-            greater("score per second, TAVC above random", tavc["value_rate_stable"], rnd["value_rate_stable"]),
-            greater("score per second, TAVC above the static allocation tuned for six",
+    tavc, rnd, static = _ctrl(s, learner), _ctrl(s, "random"), _ctrl(s, "static")
+    return [greater(f"time in 3:2, {who(learner)} above random (%)", _share(tavc, "3:2"), _share(rnd, "3:2")),
+            *_most_frequent(tavc, "3:2", who(learner)),
+            greater(f"score per second, {who(learner)} above random", tavc["value_rate_stable"],
+                    rnd["value_rate_stable"]),
+            greater(f"score per second, {who(learner)} above the static allocation tuned for six",
                     tavc["value_rate_stable"], static["value_rate_stable"])]
 
 
-def claim_7(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+def claim_7(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     s = runs.get("breakdown_no_vacancy")
     if s is None:
         return [_missing("breakdown_no_vacancy not run")]
-    tavc, rnd = _ctrl(s, "tavc"), _ctrl(s, "random")
+    tavc, rnd = _ctrl(s, learner), _ctrl(s, "random")
     parts = []
     b = runs.get("breakdown")
     if b is None:
         parts.append(_missing("distribution against breakdown's: breakdown not run"))
     else:
-        bt = _ctrl(b, "tavc")
+        bt = _ctrl(b, learner)
         tests = [(st, (lambda st=st: _welch(_share(tavc, st), _share(bt, st)))) for st in states_of(s)]
-        parts.append(holm_none_differ("TAVC's share of each state, against breakdown's", tests))
-    parts.append(greater("score per second, TAVC above random", tavc["value_rate_stable"], rnd["value_rate_stable"]))
-    parts.append(not_different("TAVC score per second, convergence against stable period",
+        parts.append(holm_none_differ(f"{who(learner)}'s share of each state, against breakdown's", tests))
+    parts.append(greater(f"score per second, {who(learner)} above random", tavc["value_rate_stable"],
+                         rnd["value_rate_stable"]))
+    parts.append(not_different(f"{who(learner)} score per second, convergence against stable period",
                                tavc["value_rate_convergence"], tavc["value_rate_stable"], paired=True))
     return parts
 
 
-def claim_8(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+def claim_8(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     s = runs.get("value_change")
     if s is None:
         return [_missing("value_change not run")]
-    tavc, rnd = _ctrl(s, "tavc"), _ctrl(s, "random")
-    parts = [greater("time in 3:2, TAVC above random (%)", _share(tavc, "3:2"), _share(rnd, "3:2"))]
-    parts += [less(f"time in {st}, TAVC below random (%)", _share(tavc, st), _share(rnd, st))
+    tavc, rnd = _ctrl(s, learner), _ctrl(s, "random")
+    parts = [greater(f"time in 3:2, {who(learner)} above random (%)", _share(tavc, "3:2"), _share(rnd, "3:2"))]
+    parts += [less(f"time in {st}, {who(learner)} below random (%)", _share(tavc, st), _share(rnd, st))
               for st in states_of(s) if st != "3:2"]
-    parts.append(not_different("TAVC score per second, after the change against before it",
+    parts.append(not_different(f"{who(learner)} score per second, after the change against before it",
                                tavc["value_rate_stable"], tavc["value_rate_before"], paired=True))
     return parts
 
@@ -372,18 +383,19 @@ def _group_theory(stats_: pd.DataFrame) -> dict[str, float]:
     return theory_pct(sum(sizes), 2, "groups", sizes)
 
 
-def claim_9(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+def claim_9(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     s = runs.get("heterogeneous")
     if s is None:
         return [_missing("heterogeneous not run")]
     n_groups = {len(st.split(":")) for st in states_of(s)}
     if n_groups != {2}:
         return [_missing(f"the claim compares two speed groups, this team has {', '.join(map(str, n_groups))}")]
-    tavc, rnd = _ctrl(s, "tavc"), _ctrl(s, "random")
-    parts = [greater("time in 3:0 (every fast robot high, every slow one low), TAVC above random (%)",
+    tavc, rnd = _ctrl(s, learner), _ctrl(s, "random")
+    parts = [greater(f"time in 3:0 (every fast robot high, every slow one low), {who(learner)} above random (%)",
                      _share(tavc, "3:0"), _share(rnd, "3:0")),
              largest_relative_increase(tavc, _group_theory(s), "3:0"),
-             greater("score per second, TAVC above random", tavc["value_rate_stable"], rnd["value_rate_stable"])]
+             greater(f"score per second, {who(learner)} above random", tavc["value_rate_stable"],
+                     rnd["value_rate_stable"])]
     gaps = [c for c in s.columns if c.startswith(Q_GAP_PREFIX)]  # fastest group first
     if len(gaps) >= 2:
         parts.append(paired_greater(f"final Q(high) - Q(low), {gaps[0][len(Q_GAP_PREFIX):]} robots above "
@@ -404,7 +416,7 @@ def one_sample(what: str, x, mu: float, alternative: str) -> Part:
                 bool(p < ALPHA), name=what)
 
 
-def claim_1(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+def claim_1(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     from tavc_cli.analysis.spatiotemporal import ARRIVAL_ROWS, TRAVERSAL_ROWS
 
     trav, targ = runs.get("spatiotemporal/traversals"), runs.get("spatiotemporal/target_times")
@@ -422,7 +434,7 @@ def claim_1(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
     return parts
 
 
-def claim_2(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
+def claim_2(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     pol, lanes = runs.get("spatiotemporal/policy"), runs.get("spatiotemporal/lanes")
     if pol is None or lanes is None:
         return [_missing("spatiotemporal not run")]
@@ -437,7 +449,7 @@ def claim_2(runs: Mapping[str, pd.DataFrame]) -> list[Part]:
                              pol["stop_rate_yellow"]) for c in ("red", "green", "front"))]
 
 
-TESTS: dict[int, Callable[[Mapping[str, pd.DataFrame]], list[Part]]] = {
+TESTS: dict[int, Callable[..., list[Part]]] = {
     1: claim_1, 2: claim_2, 3: claim_3, 4: claim_4, 5: claim_5, 6: claim_6, 7: claim_7, 8: claim_8, 9: claim_9,
 }
 
@@ -494,7 +506,8 @@ DECIDING_COLUMNS = ["deciding_test", "deciding_statistic", "deciding_p_value", "
 HOLDS_IF = {"differs": f"p < {ALPHA:g}", "same": f"p >= {ALPHA:g}", "means": "a comparison of means, no test"}
 
 
-def claim_table(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None) -> pd.DataFrame:
+def claim_table(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None,
+                learner: str = LEARNER) -> pd.DataFrame:
     """COLUMNS, then DECIDING_COLUMNS: for claims 1-9 (those of one experiment if given), the
     verdict and every part (`claim_rows`), and the part that decides the verdict (`deciding`):
     its question, statistic and p-value, and why the claim could not be tested, if it could
@@ -508,7 +521,7 @@ def claim_table(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = 
             # scipy warns when samples are nearly identical (a state never visited in any trial);
             # the test's result says as much, and a run's output stays free of library noise
             warnings.filterwarnings("ignore", "Precision loss occurred", RuntimeWarning)
-            parts = test(runs)
+            parts = test(runs, learner=learner)
         decider = deciding(parts)
         v = verdict(parts)
         rows.append({"claim_id": cid, "claim": text, "verdict": v,
@@ -523,7 +536,8 @@ def claim_table(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = 
     return pd.DataFrame(rows, columns=[*COLUMNS, *DECIDING_COLUMNS])
 
 
-def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None) -> pd.DataFrame:
+def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None,
+               learner: str = LEARNER) -> pd.DataFrame:
     """`claim_id,claim,verdict,statistic,p_value,detail` for claims 1-9 (those of one
     experiment if given): the table a run writes as its `claims.csv`. `runs` maps an
     experiment's name to its `trial_stats.csv` and `<experiment>/<table>` to its other tables
@@ -531,7 +545,7 @@ def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = N
     headline comparison); `detail` lists every part. The part that decides each verdict
     (`claim_table`'s DECIDING_COLUMNS) rides along in the frame's ``attrs["deciding"]``
     (claim_id -> those columns), which a file written from the frame does not hold."""
-    table = claim_table(runs, only_experiment)
+    table = claim_table(runs, only_experiment, learner)
     frame = table[COLUMNS].copy()
     frame.attrs["deciding"] = {int(r["claim_id"]): {c: r[c] for c in DECIDING_COLUMNS}
                                for r in table.to_dict("records")}

@@ -141,4 +141,7 @@ def experiment_claims(cfg: TavcConfig, tables: Mapping[str, pd.DataFrame], out_d
         path = out_dir.parent / other / "trial_stats.csv"
         if path.is_file():
             runs[other] = pd.read_csv(path)
-    return claim_rows(runs, only_experiment=name)
+    from tavc_cli.learning.registry import controller_label
+
+    # the claims about learning test this run's own learner (TAVC's runs: TAVC)
+    return claim_rows(runs, only_experiment=name, learner=controller_label(cfg.learner.name))
