@@ -19,6 +19,7 @@ from typing import Annotated, Any, Optional
 import typer
 
 from tavc_cli import __version__, config
+from tavc_cli.compare import CONTROLLERS, SCENARIOS
 from tavc_cli.console import summary_text
 from tavc_cli.console import user_errors as _user_errors
 
@@ -241,6 +242,44 @@ def surrogate(
         from tavc_cli.api import surrogate_summary
 
         _print_summary(surrogate_summary(overrides or [], progress=_shown(progress), echo=typer.echo))
+
+
+@app.command()
+def compare(
+    overrides: _overrides("scale=converged scale.trials=8") = None,
+    learners: Annotated[
+        str, typer.Option("--learners", help="Comma-separated learner configs to compare (tavc: each scenario's "
+                                             "own; a learner of your own: its config's name, with --config-dir).")
+    ] = ",".join(CONTROLLERS),
+    experiments: Annotated[
+        str, typer.Option("--experiments", help="Comma-separated scenarios.")
+    ] = ",".join(SCENARIOS),
+    results: Annotated[
+        Optional[Path],
+        typer.Option("--results", help="The comparison's folder (default: runs/<scale>/compare).", show_default=False),
+    ] = None,
+    reuse: Annotated[
+        Optional[list[str]],
+        typer.Option("--reuse", help="CONTROLLER=FOLDER: take a controller's runs from a folder holding one per "
+                                     "scenario (e.g. tavc=results/converged) instead of running them.",
+                     show_default=False),
+    ] = None,
+    progress: ProgressFlag = None,
+) -> None:
+    """Learners side by side on the chapter's scenarios: score per second, time in the model's
+    predicted state, time to fill a vacancy, fast robots on the valuable circuit, each tested
+    against TAVC and random (compare.csv, compare.md, compare.png)."""
+    with _user_errors(folder=lambda: results):
+        from tavc_cli.compare.run import parse_reuse, run_compare
+
+        out = results if results is not None else config.results_root(overrides or []) / "compare"
+        written = run_compare(overrides or [], out, controllers=[n for n in learners.split(",") if n],
+                              experiments=[n for n in experiments.split(",") if n], reuse=parse_reuse(reuse or []),
+                              progress=_shown(progress))
+        for name in ("compare.csv", "compare.md", "compare_trials.csv"):
+            typer.echo(f"{name}: {out / name}")
+        for path in written["figures"]:
+            typer.echo(f"figure: {path}")
 
 
 @app.command()

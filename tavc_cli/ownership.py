@@ -35,9 +35,11 @@ MANIFEST = ".tavc.json"
 RUN, SWEEP, LADDER, RESULTS, MODEL, CALIBRATION = "run", "sweep", "ladder", "results", "model", "calibration"
 ANIMATION = "animation"
 SURROGATE, TASKS, STUDY = "surrogate", "surrogate-tasks", "surrogate-study"
+COMPARE = "compare"
 _WHAT = {RUN: "a tavc run's folder", SURROGATE: "a surrogate run's folder (tavc surrogate)",
          TASKS: "the folder of the surrogate's measured tasks (task_times.csv)",
          STUDY: "the folder of the surrogate's study (comparison.csv, phase.csv)",
+         COMPARE: "a comparison's folder (tavc compare: compare.csv and runs/)",
          SWEEP: "a tavc sweep's folder (the jobs' folders and sweep.csv)",
          MODEL: "the folder of a tavc model (model.json)", CALIBRATION: "a tavc calibration's folder (search.csv)",
          ANIMATION: "a folder of tavc animations",
@@ -51,12 +53,13 @@ SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
 LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
 RESULTS_FILES = ("REPORT.md", "claims.csv", "value_ratio.csv")
 MODEL_FILES = ("model.csv", "model.json")
+COMPARE_FILES = ("compare.csv", "compare_trials.csv", "compare.md", "compare.png", "compare.svg")
 TASKS_FILES = ("task_times.csv", "task_times.json", "task_times_summary.csv")
 CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
     f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))
 _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODEL: MODEL_FILES,
           CALIBRATION: CALIBRATION_FILES, ANIMATION: (), TASKS: TASKS_FILES,
-          STUDY: ()}
+          STUDY: (), COMPARE: COMPARE_FILES}
 _WITH_TRIALS = (RUN, MODEL, SURROGATE, TASKS)  # folders whose trials/ holds tavc's records
 _NESTED = {"model": MODEL}  # folders of their own a run's folder may hold before the run (`_nested`)
 

@@ -44,7 +44,7 @@ class _Colours(dict):
     """The built-in controllers' colours; any other controller (a learner from outside tavc,
     `alternate`) its own, drawn from the colours they leave, the same for a label everywhere."""
 
-    SPARE = ("tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan", "tab:red", "tab:gray")
+    SPARE = ("tab:pink", "tab:red", "tab:gray", "gold", "teal", "navy", "maroon")
 
     def __missing__(self, label: str) -> str:
         import zlib
@@ -55,8 +55,10 @@ class _Colours(dict):
         return self[label]
 
 
-COLOURS = _Colours({"tavc": "tab:blue", "random": "tab:orange", "static": "tab:green", "theory": "0.4"})
-LABELS = {"tavc": "TAVC", "random": "random", "static": "static", "theory": "theory"}
+COLOURS = _Colours({"tavc": "tab:blue", "random": "tab:orange", "static": "tab:green", "theory": "0.4",
+                    "model": "tab:olive", "informed": "tab:cyan", "wolf_phc": "tab:purple", "threshold": "tab:brown"})
+LABELS = {"tavc": "TAVC", "random": "random", "static": "static", "theory": "theory", "model": "model's allocation",
+          "informed": "model, informed", "wolf_phc": "WoLF-PHC", "threshold": "response threshold"}
 
 
 def save_figure(fig, out_stem: Path) -> list[Path]:

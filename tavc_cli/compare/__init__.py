@@ -1,0 +1,18 @@
+"""`tavc compare`: learners side by side on the chapter's five task-allocation scenarios.
+
+Every controller named (built-in, from the literature, or the user's own through ``--config-dir``)
+runs every scenario (`SCENARIOS`) at one scale through the ordinary pipeline, each into a run
+folder of its own (``RESULTS/runs/<controller>/<experiment>``, every table and claim as ``tavc
+run`` writes them); `metrics` reads four numbers per trial from those folders and tests each
+controller against TAVC and against random allocation; `figures` draws them and `write`
+writes the table, the per-trial numbers and a short reading of them.
+
+The controllers that learn nothing (random, the static allocations, the model's) have the same
+distribution at every horizon: at a scale that runs baselines on the chapter's schedule
+(``scale.baseline_time_factor``, scale=converged) they run that schedule, as the baselines of every
+run do, and the table says at which multiple of the chapter's durations each row ran.
+"""
+
+SCENARIOS = ("initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change", "heterogeneous")
+CONTROLLERS = ("tavc", "random", "model", "informed", "wolf_phc", "threshold")
+REFERENCE, FLOOR = "tavc", "random"  # every controller is tested against these two

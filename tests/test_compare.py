@@ -1,0 +1,145 @@
+"""`tavc compare`: the four numbers read per trial, their tests, what each controller's runs
+add to the user's settings, and the command end to end."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from tavc_cli.compare.metrics import comparison_table, fast_share, predicted_state, rank_test, trial_metrics
+from tavc_cli.compare.run import controller_overrides, parse_reuse
+from tavc_cli.errors import TavcError
+
+REPO = Path(__file__).resolve().parent.parent
+SAME = [{"speed_mps": 0.25, "group": "all"}] * 6
+MIXED = [{"speed_mps": 0.3, "group": "fast"}] * 3 + [{"speed_mps": 0.2, "group": "slow"}] * 3
+
+
+def config(members, breakdowns=0, state="circuits"):
+    return {"team": {"members": members}, "events": {"breakdowns": [{}] * breakdowns},
+            "analysis": {"state": state}, "scale": {"time_factor": 1.0}}
+
+
+def test_the_predicted_state_is_the_models_for_the_team_left():
+    allocations = {"5": [3, 2], "6": [3, 3]}
+    assert predicted_state(config(SAME), allocations) == "3:3"
+    assert predicted_state(config(SAME, breakdowns=1), allocations) == "3:2"
+    assert predicted_state(config(SAME, breakdowns=2), allocations) is None  # no prediction for four
+    # by group: the model's three on the high circuit, fastest first
+    assert predicted_state(config(MIXED, state="groups"), allocations) == "3:0"
+    assert predicted_state(config(MIXED, state="groups"), {"6": [4, 2]}) == "3:1"
+
+
+def test_fast_share_by_hand():
+    # half the time all three fast robots high (3:0), half the time one (1:2): (3 + 1) / 2 / 3
+    stats_ = pd.DataFrame({"pct_3:0": [50.0, 0.0], "pct_1:2": [50.0, 0.0], "pct_0:3": [0.0, 100.0]})
+    assert fast_share(stats_, 3) == pytest.approx([2 / 3, 0.0])
+
+
+def test_rank_test_by_hand():
+    # no overlap between three and three: U = 0, exact two-sided p = 2 / C(6, 3) = 0.1
+    assert rank_test(np.array([1.0, 2, 3]), np.array([4.0, 5, 6])) == pytest.approx(0.1)
+    assert math.isnan(rank_test(np.array([1.0]), np.array([4.0, 5, 6])))
+    assert rank_test(np.array([2.0, 2]), np.array([2.0, 2])) == 1.0
+
+
+def write_run(folder: Path, members, controller, stats_rows, vacancy_rows=None, breakdowns=0, state="circuits"):
+    folder.mkdir(parents=True)
+    (folder / "config.yaml").write_text(yaml.safe_dump(config(members, breakdowns, state)))
+    pd.DataFrame(stats_rows).assign(controller=controller).to_csv(folder / "trial_stats.csv", index=False)
+    if vacancy_rows is not None:
+        pd.DataFrame(vacancy_rows).assign(controller=controller).to_csv(folder / "vacancy.csv", index=False)
+
+
+def test_trial_metrics_read_a_breakdown_run(tmp_path):
+    stats_rows = [{"trial": j, "duration_s": 1000.0, "value_rate_stable": 0.3 + j / 10, "pct_3:2": 40.0 * j,
+                   "pct_2:3": 100 - 40.0 * j} for j in range(2)]
+    # trial 0's vacancy filled after 120 s; trial 1's never: the whole 1000 s after the event
+    vacancy = [{"trial": 0, "event_t_s": 0.0, "filled": True, "fill_delay_s": 120.0},
+               {"trial": 1, "event_t_s": 0.0, "filled": False, "fill_delay_s": float("nan")}]
+    write_run(tmp_path / "b", SAME, "mine", stats_rows, vacancy, breakdowns=1)
+    frame = trial_metrics(tmp_path / "b", "breakdown", "mine", {"5": [3, 2], "6": [3, 3]})
+    values = frame.set_index(["metric", "trial"])["value"]
+    assert values[("score_per_s", 1)] == pytest.approx(0.4)
+    assert values[("predicted_state_pct", 1)] == pytest.approx(40.0)
+    assert values[("fill_delay_s", 0)] == 120.0 and values[("fill_delay_s", 1)] == 1000.0
+
+
+def test_the_table_tests_against_tavc_and_random_never_against_itself():
+    trials = pd.DataFrame([{"experiment": "e", "metric": "score_per_s", "controller": c, "trial": j, "value": v}
+                           for c, vs in {"tavc": [1, 2, 3], "random": [4, 5, 6], "mine": [7, 8, 9]}.items()
+                           for j, v in enumerate(vs)])
+    table = comparison_table(trials, {"tavc": 40.0, "random": 1.0, "mine": 40.0}).set_index("controller")
+    assert math.isnan(table.loc["tavc", "p_vs_tavc"]) and math.isnan(table.loc["random", "p_vs_random"])
+    assert table.loc["mine", "p_vs_tavc"] == pytest.approx(0.1) and table.loc["tavc", "p_vs_random"] == pytest.approx(0.1)
+    assert table.loc["mine", "mean"] == 8 and table.loc["mine", "std"] == 1 and table.loc["random", "time_factor"] == 1
+
+
+def test_what_each_controllers_runs_add():
+    converged = {"name": "converged", "time_factor": 40.0, "baseline_time_factor": 1.0}
+    assert controller_overrides("tavc", converged) == ["baselines=[]"]
+    assert controller_overrides("wolf_phc", converged) == ["learner=wolf_phc", "baselines=[]"]
+    # what learns nothing runs the baselines' schedule, as every run's baselines do
+    assert controller_overrides("informed", converged) == ["learner=informed", "baselines=[]", "scale.time_factor=1.0"]
+    paper = {"name": "paper", "time_factor": 1.0, "baseline_time_factor": 1.0}
+    assert controller_overrides("random", paper) == ["learner=random", "baselines=[]"]
+
+
+def test_reuse_pairs_are_checked(tmp_path):
+    assert parse_reuse([f"tavc={tmp_path}"]) == {"tavc": tmp_path}
+    with pytest.raises(TavcError, match="is not CONTROLLER=FOLDER"):
+        parse_reuse(["tavc"])
+    with pytest.raises(TavcError, match="no folder"):
+        parse_reuse([f"tavc={tmp_path / 'nowhere'}"])
+
+
+def tavc(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "tavc_cli", *args], cwd=cwd, capture_output=True, text=True)
+
+
+@pytest.mark.slow
+def test_compare_end_to_end_reruns_nothing_and_reuses_runs(tmp_path):
+    out = tmp_path / "cmp"
+    args = ["compare", "scale=smoke", "--learners", "tavc,random,informed", "--experiments", "breakdown",
+            "--results", str(out), "--no-progress"]
+    result = tavc(*args)
+    assert result.returncode == 0, result.stderr
+    table = pd.read_csv(out / "compare.csv")
+    assert set(table["controller"]) == {"tavc", "random", "informed"}
+    assert set(table["metric"]) == {"score_per_s", "predicted_state_pct", "fill_delay_s"}
+    informed = table[(table["controller"] == "informed") & (table["metric"] == "predicted_state_pct")]
+    assert informed["mean"].iloc[0] == pytest.approx(100.0)  # it hands the team the model's 3:2 at once
+    for name in ("compare.md", "compare_trials.csv", "compare.png", "compare.svg"):
+        assert (out / name).is_file()
+    trials = sorted((out / "runs").rglob("*.npz"))
+    stamps, written = [p.stat().st_mtime_ns for p in trials], (out / "compare.csv").read_bytes()
+    assert tavc(*args).returncode == 0
+    assert [p.stat().st_mtime_ns for p in trials] == stamps  # every trial reused
+    assert (out / "compare.csv").read_bytes() == written
+    # TAVC's runs taken from another folder instead of run again
+    again = tmp_path / "again"
+    result = tavc("compare", "scale=smoke", "--learners", "tavc,random", "--experiments", "breakdown",
+                  "--results", str(again), "--reuse", f"tavc={out / 'runs' / 'tavc'}", "--no-progress")
+    assert result.returncode == 0, result.stderr
+    assert not (again / "runs" / "tavc").exists()
+    reused = pd.read_csv(again / "compare.csv").set_index(["controller", "metric"])
+    assert reused.loc[("tavc", "score_per_s"), "mean"] == pytest.approx(
+        table.set_index(["controller", "metric"]).loc[("tavc", "score_per_s"), "mean"])
+
+
+def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_path):
+    run = tmp_path / "run"
+    assert tavc("run", "experiment=initial_distribution", "scale=smoke", "trials=1", "baselines=[]",
+                f"output_dir={run}", "--no-progress").returncode == 0
+    result = tavc("compare", "scale=smoke", "--results", str(run))
+    assert result.returncode == 1 and "is a tavc run's folder, not a comparison's folder" in result.stderr
+    result = tavc("compare", "scale=smoke", "--learners", "tavc,nobody", "--results", str(tmp_path / "c"))
+    assert result.returncode == 1 and "nobody" in result.stderr and "Traceback" not in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
