@@ -19,7 +19,7 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help venv test test-fast bench surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged $(REPRODUCE) clean
+.PHONY: help venv test test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -107,6 +107,11 @@ VALUE_RATIOS_CONVERGED := [2000,2000],[2200,2000],[3000,2000],[4000,2000]
 value-ratio-converged: venv ## The value-ratio sweep at 40x the chapter's durations: ratios 1.0, 1.1, 1.5, 2.0, 8 trials of 200 h
 	$(BIN)/tavc run -m experiment=initial_distribution scale=converged trials=8 'baselines=[]' \
 		executor.batch_size=$(CONVERGED_BATCH) 'tasks.values=$(VALUE_RATIOS_CONVERGED)' output_dir=results/value_ratio/converged
+
+compare: venv ## Learners side by side on the chapter's scenarios at paper scale and at 40x (results/compare/)
+	$(BIN)/tavc compare scale=paper --results results/compare/paper
+	$(BIN)/tavc compare scale=converged scale.trials=8 executor.batch_size=$(CONVERGED_BATCH) \
+		--results results/compare/converged --reuse tavc=results/converged
 
 surrogate-study: venv ## The surrogate of the learning dynamics checked against results/ and its phase diagrams (results/surrogate/)
 	$(BIN)/tavc surrogate --study --results results/surrogate --simulator results

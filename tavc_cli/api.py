@@ -19,7 +19,7 @@ line that names the problem.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from functools import cached_property
 from pathlib import Path
 
@@ -235,6 +235,57 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
         out += [(f"ladder x{float(cfg.scale.time_factor):g}", summary)
                 for cfg, summary in zip(rungs, summaries[len(cfgs):], strict=True)]
     return out
+
+
+def compare(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = None,
+            experiments: Sequence[str] | None = None, results_dir: str | Path | None = None,
+            reuse: Mapping[str, str | Path] | None = None, progress: bool = False) -> pd.DataFrame:
+    """Learners side by side on the chapter's scenarios as `tavc compare` does; returns compare.csv's table.
+
+    Args:
+        overrides: Hydra overrides for every run, e.g. ``["scale=quick"]``.
+        learners: Learner configs to compare (``tavc``: each scenario's own); by default
+            tavc, random, model, informed, wolf_phc and threshold.
+        experiments: Scenarios; by default the chapter's five task-allocation ones.
+        results_dir: The comparison's folder; by default ``runs/<scale>/compare``.
+        reuse: Controller name -> a folder holding its runs, one per scenario, to read instead of running.
+        progress: Show progress while simulating.
+    """
+    return compare_summary(overrides, learners=learners, experiments=experiments, results_dir=results_dir,
+                           reuse=reuse, progress=progress)["table"]
+
+
+def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = None,
+                    experiments: Sequence[str] | None = None, results_dir: str | Path | None = None,
+                    reuse: Mapping[str, str | Path] | None = None, progress: bool = False) -> dict:
+    """`compare`'s work: each controller's runs composed here (the config stays at the front
+    doors), run and read by `compare.run.run_compare`; returns its summary."""
+    from tavc_cli import config
+    from tavc_cli.compare import CONTROLLERS, SCENARIOS
+    from tavc_cli.compare.run import controller_overrides, run_compare
+    from tavc_cli.ownership import COMPARE, expect
+
+    overrides = list(overrides)
+    learners = list(learners or CONTROLLERS)
+    experiments = list(experiments or SCENARIOS)
+    if not learners or len(set(learners)) != len(learners):
+        raise TavcError(f"--learners: name each learner once ({', '.join(learners) or 'none given'})")
+    results = Path(results_dir) if results_dir is not None else config.results_root(overrides) / "compare"
+    expect(results, COMPARE, "--results")  # checked before hours of runs
+    reuse = {name: Path(folder) for name, folder in (reuse or {}).items()}
+    base = config.load_config([f"experiment={experiments[0]}", *overrides])
+    scale = config.to_container(base.scale)
+    plans = {}
+    for name in learners:
+        if name not in reuse:
+            try:
+                cfgs = config.load_experiments(experiments, [*overrides, *controller_overrides(name, scale)],
+                                               results / "runs" / name)
+            except TavcError as error:
+                raise TavcError(f"--learners: {name}: {error}") from None
+            plans[name] = [config.settings(cfg) for cfg in cfgs]
+    return run_compare(plans, results, controllers=learners, experiments=experiments, reuse=reuse,
+                       model_file=str(base.learner.model_file), scale_name=str(scale["name"]), progress=progress)
 
 
 def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, progress: bool = False,

@@ -270,14 +270,14 @@ def compare(
     predicted state, time to fill a vacancy, fast robots on the valuable circuit, each tested
     against TAVC and random (compare.csv, compare.md, compare.png)."""
     with _user_errors(folder=lambda: results):
-        from tavc_cli.compare.run import parse_reuse, run_compare
+        from tavc_cli.api import compare_summary
+        from tavc_cli.compare.run import parse_reuse
 
-        out = results if results is not None else config.results_root(overrides or []) / "compare"
-        written = run_compare(overrides or [], out, controllers=[n for n in learners.split(",") if n],
-                              experiments=[n for n in experiments.split(",") if n], reuse=parse_reuse(reuse or []),
-                              progress=_shown(progress))
+        written = compare_summary(overrides or [], learners=[n for n in learners.split(",") if n],
+                                  experiments=[n for n in experiments.split(",") if n], results_dir=results,
+                                  reuse=parse_reuse(reuse or []), progress=_shown(progress))
         for name in ("compare.csv", "compare.md", "compare_trials.csv"):
-            typer.echo(f"{name}: {out / name}")
+            typer.echo(f"{name}: {Path(written['results']) / name}")
         for path in written["figures"]:
             typer.echo(f"figure: {path}")
 

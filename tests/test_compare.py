@@ -78,7 +78,8 @@ def test_the_table_tests_against_tavc_and_random_never_against_itself():
                            for j, v in enumerate(vs)])
     table = comparison_table(trials, {"tavc": 40.0, "random": 1.0, "mine": 40.0}).set_index("controller")
     assert math.isnan(table.loc["tavc", "p_vs_tavc"]) and math.isnan(table.loc["random", "p_vs_random"])
-    assert table.loc["mine", "p_vs_tavc"] == pytest.approx(0.1) and table.loc["tavc", "p_vs_random"] == pytest.approx(0.1)
+    assert table.loc["mine", "p_vs_tavc"] == pytest.approx(0.1)
+    assert table.loc["tavc", "p_vs_random"] == pytest.approx(0.1)
     assert table.loc["mine", "mean"] == 8 and table.loc["mine", "std"] == 1 and table.loc["random", "time_factor"] == 1
 
 
@@ -143,3 +144,23 @@ def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_pat
     result = tavc("compare", "scale=smoke", "--learners", "tavc,nobody", "--results", str(tmp_path / "c"))
     assert result.returncode == 1 and "nobody" in result.stderr and "Traceback" not in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_the_report_section_marks_differences_from_tavc_by_hand(tmp_path):
+    from tavc_cli.report.compare import compare_lines
+
+    rows = []
+    for metric in ("score_per_s", "fill_delay_s"):
+        rows += [{"experiment": "breakdown", "metric": metric, "controller": "tavc", "time_factor": 40.0,
+                  "n_trials": 8, "mean": 1.0, "std": 0.1, "median": 1.0, "p_vs_tavc": math.nan, "p_vs_random": 0.01},
+                 {"experiment": "breakdown", "metric": metric, "controller": "mine", "time_factor": 40.0,
+                  "n_trials": 8, "mean": 2.0, "std": 0.1, "median": 2.0, "p_vs_tavc": 0.05, "p_vs_random": 0.5}]
+    (tmp_path / "compare" / "converged").mkdir(parents=True)
+    pd.DataFrame(rows).to_csv(tmp_path / "compare" / "converged" / "compare.csv", index=False)
+    text = "\n".join(compare_lines(tmp_path))
+    assert "## Other learners on the chapter's scenarios" in text
+    assert "### converged: tavc at 40x (8 trials), mine at 40x (8 trials)" in text
+    # a higher score is better (▲), a longer wait for the vacancy worse (▼); p 0.5 against random: ◇
+    assert "| mine | 2 ± 0.1 ▲ ◇ |" in text and "| mine | 2 ± 0 ▼ ◇ |" in text
+    assert "| tavc | 1 ± 0.1 |" in text  # TAVC differs from random (p 0.01): no mark
+    assert compare_lines(tmp_path / "nothing") == []

@@ -160,6 +160,48 @@ def test_the_docs_example_learner_runs_as_the_page_shows(tmp_path, monkeypatch):
         in bad.output
 
 
+@pytest.mark.slow
+def test_the_docs_example_learner_runs_through_reproduce_and_compare(tmp_path, monkeypatch):
+    """The page's learner, from a temporary folder, through `tavc reproduce` and `tavc compare` as
+    the page shows them (at scale=smoke, two scenarios)."""
+    import re
+    from pathlib import Path
+
+    import pandas as pd
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+    from tavc_cli.learning.registry import CONFIG_DIRS_ENV
+
+    page = (Path(__file__).resolve().parent.parent / "docs" / "plugins.md").read_text()
+    python = re.search(r"`mine/greedy.py`:\n\n```python\n(.*?)```", page, re.S).group(1)
+    yaml_text = re.search(r"`mine/learner/decaying.yaml`:\n\n```yaml\n(.*?)```", page, re.S).group(1)
+    (tmp_path / "mine" / "learner").mkdir(parents=True)
+    (tmp_path / "mine" / "greedy.py").write_text(python)
+    (tmp_path / "mine" / "learner" / "decaying.yaml").write_text(yaml_text)
+    monkeypatch.setenv(CONFIG_DIRS_ENV, "")
+    monkeypatch.chdir(tmp_path)
+    for line in ("tavc --config-dir mine reproduce learner=decaying 'baselines=[random]' scale=quick",
+                 "tavc --config-dir mine compare --learners tavc,random,model,informed,decaying scale=quick"):
+        assert line in page
+    # the committed model file the model's controllers read, where a checkout has it
+    model = Path(__file__).resolve().parent.parent / "results/initial_distribution/model/model.json"
+    runner = CliRunner()
+    result = runner.invoke(app, ["--config-dir", "mine", "reproduce", "learner=decaying", "baselines=[random]",
+                                 "scale=smoke", "--experiments", "initial_distribution,breakdown", "--no-progress"])
+    assert result.exit_code == 0, result.output
+    claims = pd.read_csv(tmp_path / "runs/smoke/breakdown/claims.csv")
+    assert claims["detail"].str.contains("decaying above random").any()
+    result = runner.invoke(app, ["--config-dir", "mine", "compare", "--learners", "tavc,random,informed,decaying",
+                                 "--experiments", "initial_distribution,breakdown", "scale=smoke",
+                                 f"learner.model_file={model}", "--no-progress"])
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(tmp_path / "runs/smoke/compare/compare.csv")
+    assert set(table["controller"]) == {"tavc", "random", "informed", "decaying"}
+    mine = table[table["controller"] == "decaying"]
+    assert mine["p_vs_tavc"].notna().all() and mine["p_vs_random"].notna().all()
+
+
 # --- learners from the literature -----------------------------------------------------------------
 
 def test_wolf_phc_one_step_by_hand():

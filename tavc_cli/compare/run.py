@@ -21,12 +21,12 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from tavc_cli.compare import CONTROLLERS, SCENARIOS
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, order, trial_metrics
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.learning.informed import MODEL_LEARNERS, model_allocations
 from tavc_cli.learning.registry import BASELINES
+from tavc_cli.settings import TavcConfig
 
 FIXED = (*BASELINES, *MODEL_LEARNERS)  # controllers that learn nothing
 
@@ -55,33 +55,27 @@ def parse_reuse(items: Sequence[str]) -> dict[str, Path]:
     return out
 
 
-def run_compare(overrides: Sequence[str], results: Path, *, controllers: Sequence[str] = CONTROLLERS,
-                experiments: Sequence[str] = SCENARIOS, reuse: Mapping[str, Path] | None = None,
+def run_compare(plans: Mapping[str, Sequence[TavcConfig]], results: Path, *, controllers: Sequence[str],
+                experiments: Sequence[str], reuse: Mapping[str, Path], model_file: str, scale_name: str,
                 progress: bool = False) -> dict:
-    """Run what is missing, then write the comparison (module docstring). Returns where each
-    output went, the table and each controller's time factor."""
-    from tavc_cli import config
-    from tavc_cli.ownership import COMPARE, expect
+    """Run what is missing of `plans` (each controller's experiments, composed at the front door
+    into ``results/runs/<controller>``), then write the comparison (module docstring). Returns
+    where each output went and the table."""
+    from tavc_cli.ownership import COMPARE, COMPARE_FILES, take
     from tavc_cli.pipeline import run_experiments
 
-    reuse = dict(reuse or {})
     unknown = [name for name in reuse if name not in controllers]
     if unknown:
         raise TavcError(f"--reuse: {unknown[0]} is not one of the controllers compared ({', '.join(controllers)})")
     results = Path(results)
-    expect(results, COMPARE, "--results")  # checked before hours of runs
-    base = config.load_config([f"experiment={experiments[0]}", *overrides])
-    scale = config.to_container(base.scale)
-    cfgs, folders = [], {}
-    for name in controllers:
-        if name in reuse:
-            folders[name] = reuse[name]
-            continue
-        folders[name] = results / "runs" / name
-        cfgs += config.load_experiments(experiments, [*overrides, *controller_overrides(name, scale)], folders[name])
+    results.mkdir(parents=True, exist_ok=True)
+    with claim_folder(results):  # a comparison's from the start: its runs/ are not runs of their own
+        take(results, COMPARE, COMPARE_FILES, "--results")
+    cfgs = [cfg for name in controllers if name not in reuse for cfg in plans[name]]
     if cfgs:
-        run_experiments([config.settings(cfg) for cfg in cfgs], progress=progress)
-    allocations = model_allocations(base.learner.model_file)
+        run_experiments(list(cfgs), progress=progress)
+    folders = {name: reuse.get(name, results / "runs" / name) for name in controllers}
+    allocations = model_allocations(model_file)
     trials, factors = [], {}
     for name in controllers:
         for experiment in experiments:
@@ -92,7 +86,7 @@ def run_compare(overrides: Sequence[str], results: Path, *, controllers: Sequenc
             factors.setdefault(name, _time_factor(folder))
     trials_frame = pd.concat(trials, ignore_index=True)
     table = order(comparison_table(trials_frame, factors), experiments, controllers)
-    return write(results, table, trials_frame, folders, scale_name=str(scale["name"]))
+    return write(results, table, trials_frame, folders, scale_name=scale_name)
 
 
 def _time_factor(folder: Path) -> float:
@@ -120,10 +114,11 @@ def write(results: Path, table: pd.DataFrame, trials: pd.DataFrame, folders: Map
 def markdown(table: pd.DataFrame, folders: Mapping[str, Path], scale_name: str) -> str:
     """The table as a reader reads it: one block per scenario, a row per controller, a column
     per number (mean ± std, n), then the tests."""
+    factors = table.groupby("controller", sort=False)["time_factor"].first()
     lines = [f"# Learners compared on the chapter's scenarios (scale={scale_name})", "",
              "Mean ± standard deviation over trials (n); p: two-sided Mann-Whitney U against TAVC and against "
              "random allocation. Multiple of the chapter's durations each controller ran at: "
-             + ", ".join(f"{c} {f:g}x" for c, f in table.groupby("controller", sort=False)["time_factor"].first().items())
+             + ", ".join(f"{c} {f:g}x" for c, f in factors.items())
              + ".", ""]
     for experiment, rows in table.groupby("experiment", sort=False):
         lines += [f"## {experiment}", "", "| controller | " + " | ".join(METRICS[m] for m in rows["metric"].unique())

@@ -39,6 +39,7 @@ from tavc_cli.reference import TABLES
 from tavc_cli.report import horizons
 from tavc_cli.report.figures import experiment_figures, find_model
 from tavc_cli.report.mechanism import mechanism_lines
+from tavc_cli.report.compare import compare_lines
 from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.report.runs import (
     choice_lines,
@@ -197,6 +198,7 @@ def build_report(results_dir: Path) -> dict:
     if long is not None:
         lines += horizons.time_scale_lines(results_dir, long, model_json, base)
     lines += surrogate_lines(results_dir)
+    lines += compare_lines(results_dir)
     with _FigurePool() as pool:
         # the sections that draw figures are written side by side while the rest of the text is
         ratio = pool.submit(value_ratio_lines, results_dir, model_json)

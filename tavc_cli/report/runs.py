@@ -19,7 +19,7 @@ import yaml
 
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
-from tavc_cli.ownership import STUDY, SURROGATE, TASKS, read
+from tavc_cli.ownership import COMPARE, STUDY, SURROGATE, TASKS, read
 from tavc_cli.reference import TABLES
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, from_yaml
@@ -61,7 +61,7 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
         if d.name == "figures" or d.name.startswith(".") or (top and d.name in TOP_STUDIES) or \
                 (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
-        if folder_kind(d) in (STUDY, TASKS):  # the surrogate's study (read as a whole) and its measured tasks
+        if folder_kind(d) in (STUDY, TASKS, COMPARE):  # read as a whole: the surrogate's study, its tasks, a comparison
             continue
         out += [d] if is_run_folder(d) else run_folders(d, top=False)
     return out

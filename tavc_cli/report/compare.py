@@ -1,0 +1,97 @@
+"""The report's section on other learners (`tavc compare`, `make compare`), from each comparison's
+`compare.csv` under ``RESULTS/compare/<scale>/``: per number, a table of controllers by scenario
+with TAVC's difference marked where the rank test finds one, and the sentences read from it."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.analysis.claims import ALPHA
+from tavc_cli.compare.metrics import METRICS
+from tavc_cli.report.text import fmt
+
+COMPARE_DIR = "compare"
+SCALES = ("paper", "converged")  # read first, in this order; any other comparison after them
+HIGHER_IS_BETTER = {"score_per_s": True, "predicted_state_pct": True, "fill_delay_s": False, "fast_high_share": True}
+
+
+def compare_lines(results_dir: Path) -> list[str]:
+    """The section, if a comparison was written into results_dir/compare/<name>."""
+    root = Path(results_dir) / COMPARE_DIR
+    if not root.is_dir():
+        return []
+    found = sorted((d for d in root.iterdir() if (d / "compare.csv").is_file()),
+                   key=lambda d: (SCALES.index(d.name) if d.name in SCALES else len(SCALES), d.name))
+    if not found:
+        return []
+    lines = ["## Other learners on the chapter's scenarios", "",
+             "Each controller ran the five scenarios with no other controller beside it (`tavc compare`): TAVC "
+             "(e-greedy; softmax with fast and slow robots), random allocation, the model's allocation "
+             "pre-programmed (`model`: the allocation `tavc model` predicts for the starting team, robots drawn "
+             "onto it at random, kept after events), the same handed the model's allocation for the new team "
+             "after every event (`informed`), WoLF-PHC and a fixed response-threshold allocator "
+             "(docs/plugins.md). Cells: mean ± std over trials; ▲ / ▼: better / worse than TAVC by the "
+             f"two-sided Mann-Whitney U test at p < {ALPHA:g}; ◇: not different from random allocation at that "
+             "level. Controllers that learn nothing run the chapter's schedule at every scale (their "
+             "distribution does not depend on the horizon).", ""]
+    for folder in found:
+        lines += _scale_lines(folder, Path(results_dir))
+    return lines
+
+
+def _scale_lines(folder: Path, results_dir: Path) -> list[str]:
+    table = pd.read_csv(folder / "compare.csv")
+    factors = table.groupby("controller", sort=False)["time_factor"].first()
+    n = table.groupby("controller", sort=False)["n_trials"].max()
+    lines = [f"### {folder.name}: " + ", ".join(f"{c} at {f:g}x ({int(n[c])} trials)" for c, f in factors.items()),
+             ""]
+    for metric, rows in table.groupby("metric", sort=False):
+        experiments = list(dict.fromkeys(rows["experiment"]))
+        lines += [f"**{METRICS.get(metric, metric)}**", "",
+                  "| controller | " + " | ".join(e.replace("_", " ") for e in experiments) + " |",
+                  "|---" * (1 + len(experiments)) + "|"]
+        tavc = rows[rows["controller"] == "tavc"].set_index("experiment")["mean"]
+        for controller, mine in rows.groupby("controller", sort=False):
+            by = mine.set_index("experiment")
+            cells = [_cell(by.loc[e], metric, tavc.get(e, math.nan)) if e in by.index else "" for e in experiments]
+            lines.append(f"| {controller} | " + " | ".join(cells) + " |")
+        lines += ["", *_reading(rows, metric), ""]
+    figure = folder / "compare.png"
+    if figure.is_file():
+        lines += [f"![Learners compared at scale {folder.name}]({figure.relative_to(results_dir).as_posix()})", "",
+                  f"*Learners compared at scale {folder.name}: mean ± std over trials (n in the legend); "
+                  "bars cut at 0.*", ""]
+    return lines
+
+
+def _cell(row: pd.Series, metric: str, tavc_mean: float) -> str:
+    spec = ".3g" if metric in ("score_per_s", "fast_high_share") else ".0f"
+    text = fmt(float(row["mean"]), spec)
+    if not math.isnan(float(row["std"])):
+        text += f" ± {fmt(float(row['std']), spec)}"
+    p_tavc, p_random = float(row["p_vs_tavc"]), float(row["p_vs_random"])
+    if not math.isnan(p_tavc) and p_tavc < ALPHA:
+        above = float(row["mean"]) > tavc_mean
+        text += " ▲" if above == HIGHER_IS_BETTER.get(metric, True) else " ▼"
+    if not math.isnan(p_random) and p_random >= ALPHA:
+        text += " ◇"
+    return text
+
+
+def _reading(rows: pd.DataFrame, metric: str) -> list[str]:
+    """Which controller does best in each scenario, and how TAVC stands against random."""
+    out = []
+    better = HIGHER_IS_BETTER.get(metric, True)
+    for experiment, mine in rows.groupby("experiment", sort=False):
+        best = mine.loc[(mine["mean"] if better else -mine["mean"]).idxmax()]
+        tavc = mine[mine["controller"] == "tavc"]
+        against = ""
+        if len(tavc) and not math.isnan(float(tavc["p_vs_random"].iloc[0])):
+            p = float(tavc["p_vs_random"].iloc[0])
+            against = (f"; TAVC {'differs from' if p < ALPHA else 'is not told apart from'} random (p = {p:.2g})")
+        out.append(f"{experiment.replace('_', ' ')}: best {best['controller']} ({fmt(float(best['mean']), '.3g')})"
+                   f"{against}.")
+    return [" ".join(out)]
