@@ -296,3 +296,17 @@ def test_the_model_summary_marks_an_interval_below_zero():
     text = model_text({"model": model, "table": table, "output_dir": "out", "n_reused": 0})
     assert "[0*, 0.03]" in text and "[0.002, 0.03]" in text and "-0.01" not in text
     assert "* interval below 0: too few trials" in text
+
+
+def test_the_report_tests_the_claims_on_the_learner_its_runs_are_of():
+    from types import SimpleNamespace
+
+    from tavc_cli.report import _under_test
+
+    def cfg(name):
+        return SimpleNamespace(learner=SimpleNamespace(name=name)), None
+
+    # TAVC's runs (e-greedy and softmax share the label), section 1.4's behaviour learners aside
+    assert _under_test({"a": cfg("tavc_egreedy"), "b": cfg("tavc_softmax"), "s": cfg("behaviour_softmax")}) == "tavc"
+    assert _under_test({"a": cfg("wolf_phc"), "b": cfg("wolf_phc")}) == "wolf_phc"
+    assert _under_test({"a": cfg("wolf_phc"), "b": cfg("threshold")}) == "tavc"  # mixed: the chapter's learner

@@ -273,7 +273,18 @@ def _horizon(folder: Path, found: dict[str, list[Path]], unfinished: list[Path])
     others = {name: folders[1:] for name, folders in found.items() if len(folders) > 1}
     deliveries = {d: delivery_lines(d, json.loads((d / "provenance.json").read_text()))
                   for folders in found.values() for d in folders}
-    return horizons.Horizon(folder, experiments, read, runs, claim_table(runs), unfinished, others, deliveries)
+    return horizons.Horizon(folder, experiments, read, runs, claim_table(runs, learner=_under_test(read)), unfinished,
+                            others, deliveries)
+
+
+def _under_test(read: dict) -> str:
+    """The learner the claims about learning test: the task learner every run's trials are of
+    (TAVC's runs: `tavc`), else TAVC."""
+    from tavc_cli.analysis.claims import LEARNER
+    from tavc_cli.learning.registry import controller_label
+
+    labels = {controller_label(str(cfg.learner.name)) for cfg, _ in read.values()} - {"behaviour"}
+    return labels.pop() if len(labels) == 1 else LEARNER
 
 
 def _run_names(found: dict[str, list[Path]], results_dir: Path) -> dict[str, list[str]]:
