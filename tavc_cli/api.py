@@ -266,8 +266,10 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     from tavc_cli.ownership import COMPARE, expect
 
     overrides = list(overrides)
-    learners = list(learners or CONTROLLERS)
-    experiments = list(experiments or SCENARIOS)
+    learners = list(CONTROLLERS if learners is None else learners)
+    experiments = list(SCENARIOS if experiments is None else experiments)
+    if not experiments:
+        raise TavcError("--experiments: no scenario given")
     if not learners or len(set(learners)) != len(learners):
         raise TavcError(f"--learners: name each learner once ({', '.join(learners) or 'none given'})")
     results = Path(results_dir) if results_dir is not None else config.results_root(overrides) / "compare"

@@ -13,7 +13,8 @@ import pandas as pd
 import pytest
 import yaml
 
-from tavc_cli.compare.metrics import comparison_table, fast_share, predicted_state, rank_test, trial_metrics
+from tavc_cli.compare.metrics import (above, comparison_table, cut_fill_delays, fast_share, predicted_state,
+                                      rank_test, trial_metrics)
 from tavc_cli.compare.run import controller_overrides, parse_reuse
 from tavc_cli.errors import TavcError
 
@@ -48,6 +49,8 @@ def test_rank_test_by_hand():
     assert rank_test(np.array([1.0, 2, 3]), np.array([4.0, 5, 6])) == pytest.approx(0.1)
     assert math.isnan(rank_test(np.array([1.0]), np.array([4.0, 5, 6])))
     assert rank_test(np.array([2.0, 2]), np.array([2.0, 2])) == 1.0
+    # 3 of the 4 pairs above, one tie: (3 + 0.5) / 4
+    assert above(np.array([2.0, 3]), np.array([1.0, 2])) == pytest.approx(0.875)
 
 
 def write_run(folder: Path, members, controller, stats_rows, vacancy_rows=None, breakdowns=0, state="circuits"):
@@ -61,15 +64,28 @@ def write_run(folder: Path, members, controller, stats_rows, vacancy_rows=None, 
 def test_trial_metrics_read_a_breakdown_run(tmp_path):
     stats_rows = [{"trial": j, "duration_s": 1000.0, "value_rate_stable": 0.3 + j / 10, "pct_3:2": 40.0 * j,
                    "pct_2:3": 100 - 40.0 * j} for j in range(2)]
-    # trial 0's vacancy filled after 120 s; trial 1's never: the whole 1000 s after the event
-    vacancy = [{"trial": 0, "event_t_s": 0.0, "filled": True, "fill_delay_s": 120.0},
-               {"trial": 1, "event_t_s": 0.0, "filled": False, "fill_delay_s": float("nan")}]
+    # the vacancy opens 200 s in: trial 0's is filled 120 s after, trial 1's never (800 s left)
+    vacancy = [{"trial": 0, "event_t_s": 200.0, "filled": True, "fill_delay_s": 120.0},
+               {"trial": 1, "event_t_s": 200.0, "filled": False, "fill_delay_s": float("nan")}]
     write_run(tmp_path / "b", SAME, "mine", stats_rows, vacancy, breakdowns=1)
-    frame = trial_metrics(tmp_path / "b", "breakdown", "mine", {"5": [3, 2], "6": [3, 3]})
+    frame = trial_metrics(tmp_path / "b", "breakdown", "mine", "mine", {"5": [3, 2], "6": [3, 3]})
     values = frame.set_index(["metric", "trial"])["value"]
     assert values[("score_per_s", 1)] == pytest.approx(0.4)
     assert values[("predicted_state_pct", 1)] == pytest.approx(40.0)
-    assert values[("fill_delay_s", 0)] == 120.0 and values[("fill_delay_s", 1)] == 1000.0
+    assert values[("fill_delay_s", 0)] == 120.0 and values[("fill_delay_s", 1)] == math.inf
+    assert values[("fill_window_s", 0)] == 800.0
+    # another controller ran only 100 s after its event: every delay is cut at that window
+    other = pd.DataFrame([{"experiment": "breakdown", "controller": "short", "trial": 0, "metric": m, "value": v}
+                          for m, v in (("fill_delay_s", 50.0), ("fill_window_s", 100.0))])
+    cut = cut_fill_delays(pd.concat([frame, other], ignore_index=True)).set_index(["controller", "metric", "trial"])
+    assert cut.loc[("mine", "fill_delay_s", 0), "value"] == 100.0  # 120 s: not within the 100 s window
+    assert cut.loc[("mine", "fill_delay_s", 1), "value"] == 100.0
+    assert cut.loc[("short", "fill_delay_s", 0), "value"] == 50.0
+    assert cut.loc[("mine", "filled_pct", 0), "value"] == 0.0 and cut.loc[("short", "filled_pct", 0), "value"] == 100
+    assert "fill_window_s" not in set(cut.index.get_level_values("metric"))
+    # trials of another label are not this controller's: named in one line
+    with pytest.raises(TavcError, match="holds no trials of tavc_egreedy .label tavc; it holds mine"):
+        trial_metrics(tmp_path / "b", "breakdown", "tavc_egreedy", "tavc", {"5": [3, 2]})
 
 
 def test_the_table_tests_against_tavc_and_random_never_against_itself():
@@ -114,12 +130,13 @@ def test_compare_end_to_end_reruns_nothing_and_reuses_runs(tmp_path):
     assert result.returncode == 0, result.stderr
     table = pd.read_csv(out / "compare.csv")
     assert set(table["controller"]) == {"tavc", "random", "informed"}
-    assert set(table["metric"]) == {"score_per_s", "predicted_state_pct", "fill_delay_s"}
+    assert set(table["metric"]) == {"score_per_s", "predicted_state_pct", "fill_delay_s", "filled_pct"}
     informed = table[(table["controller"] == "informed") & (table["metric"] == "predicted_state_pct")]
     assert informed["mean"].iloc[0] == pytest.approx(100.0)  # it hands the team the model's 3:2 at once
     for name in ("compare.md", "compare_trials.csv", "compare.png", "compare.svg"):
         assert (out / name).is_file()
     trials = sorted((out / "runs").rglob("*.npz"))
+    assert len(trials) == 6  # two trials for each of the three controllers
     stamps, written = [p.stat().st_mtime_ns for p in trials], (out / "compare.csv").read_bytes()
     assert tavc(*args).returncode == 0
     assert [p.stat().st_mtime_ns for p in trials] == stamps  # every trial reused
@@ -144,6 +161,16 @@ def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_pat
     result = tavc("compare", "scale=smoke", "--learners", "tavc,nobody", "--results", str(tmp_path / "c"))
     assert result.returncode == 1 and "nobody" in result.stderr and "Traceback" not in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
+    result = tavc("compare", "scale=smoke", "--learners", ",", "--results", str(tmp_path / "c"))
+    assert result.returncode == 1 and "--learners: name each learner once" in result.stderr
+    # a model file that is not there, and a folder to reuse without runs: refused before anything runs
+    result = tavc("compare", "scale=smoke", "--learners", "tavc,random", "learner.model_file=/nowhere/model.json",
+                  "--results", str(tmp_path / "d"))
+    assert result.returncode == 1 and "learner.model_file: no model at /nowhere/model.json" in result.stderr
+    result = tavc("compare", "scale=smoke", "--learners", "tavc,random", "--reuse", f"tavc={tmp_path}",
+                  "--results", str(tmp_path / "e"))
+    assert result.returncode == 1 and "--reuse:" in result.stderr and "holds no finished run" in result.stderr
+    assert not (tmp_path / "d" / "runs").exists() and not (tmp_path / "e" / "runs").exists()
 
 
 def test_the_report_section_marks_differences_from_tavc_by_hand(tmp_path):
@@ -152,9 +179,11 @@ def test_the_report_section_marks_differences_from_tavc_by_hand(tmp_path):
     rows = []
     for metric in ("score_per_s", "fill_delay_s"):
         rows += [{"experiment": "breakdown", "metric": metric, "controller": "tavc", "time_factor": 40.0,
-                  "n_trials": 8, "mean": 1.0, "std": 0.1, "median": 1.0, "p_vs_tavc": math.nan, "p_vs_random": 0.01},
+                  "n_trials": 8, "mean": 1.0, "std": 0.1, "median": 1.0, "p_vs_tavc": math.nan, "p_vs_random": 0.01,
+                  "above_tavc": math.nan, "above_random": 0.9},
                  {"experiment": "breakdown", "metric": metric, "controller": "mine", "time_factor": 40.0,
-                  "n_trials": 8, "mean": 2.0, "std": 0.1, "median": 2.0, "p_vs_tavc": 0.05, "p_vs_random": 0.5}]
+                  "n_trials": 8, "mean": 2.0, "std": 0.1, "median": 2.0, "p_vs_tavc": 0.05, "p_vs_random": 0.5,
+                  "above_tavc": 0.8, "above_random": 0.6}]
     (tmp_path / "compare" / "converged").mkdir(parents=True)
     pd.DataFrame(rows).to_csv(tmp_path / "compare" / "converged" / "compare.csv", index=False)
     text = "\n".join(compare_lines(tmp_path))
@@ -163,4 +192,7 @@ def test_the_report_section_marks_differences_from_tavc_by_hand(tmp_path):
     # a higher score is better (▲), a longer wait for the vacancy worse (▼); p 0.5 against random: ◇
     assert "| mine | 2 ± 0.1 ▲ ◇ |" in text and "| mine | 2 ± 0 ▼ ◇ |" in text
     assert "| tavc | 1 ± 0.1 |" in text  # TAVC differs from random (p 0.01): no mark
+    # the sentences: the best mean, higher for a score, lower for a wait; TAVC against random
+    assert "breakdown: highest mean mine (2); TAVC differs from random (p = 0.01)." in text
+    assert "breakdown: lowest mean tavc (1); TAVC differs from random (p = 0.01)." in text
     assert compare_lines(tmp_path / "nothing") == []

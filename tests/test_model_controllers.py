@@ -110,6 +110,15 @@ def test_a_team_the_model_has_not_predicted_is_refused_in_one_line(tmp_path):
                   "scale=smoke", f"output_dir={tmp_path}/out")
     assert result.returncode != 0 and "learner.model_file: no model at" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
+    # informed needs the model's allocation for the team a breakdown leaves, known before the warm-up
+    six = write_model(tmp_path / "six.json", [2200.0, 2000.0], {"6": "3:3"})
+    result = tavc("run", "experiment=breakdown", "learner=informed", f"learner.model_file={six}", "scale=smoke",
+                  f"output_dir={tmp_path}/out")
+    assert result.returncode != 0
+    assert "the model predicts nothing for the 5 robots left after a breakdown" in result.stderr
+    # the model's allocation kept through events needs only the starting team's
+    result = tavc("config", "experiment=breakdown", "learner=model", f"learner.model_file={six}", "scale=smoke")
+    assert result.returncode == 0, result.stderr
 
 
 @pytest.mark.slow

@@ -192,12 +192,12 @@ def test_the_docs_example_learner_runs_through_reproduce_and_compare(tmp_path, m
     assert result.exit_code == 0, result.output
     claims = pd.read_csv(tmp_path / "runs/smoke/breakdown/claims.csv")
     assert claims["detail"].str.contains("decaying above random").any()
-    result = runner.invoke(app, ["--config-dir", "mine", "compare", "--learners", "tavc,random,informed,decaying",
+    result = runner.invoke(app, ["--config-dir", "mine", "compare", "--learners", "tavc,random,model,informed,decaying",
                                  "--experiments", "initial_distribution,breakdown", "scale=smoke",
                                  f"learner.model_file={model}", "--no-progress"])
     assert result.exit_code == 0, result.output
     table = pd.read_csv(tmp_path / "runs/smoke/compare/compare.csv")
-    assert set(table["controller"]) == {"tavc", "random", "informed", "decaying"}
+    assert set(table["controller"]) == {"tavc", "random", "model", "informed", "decaying"}
     mine = table[table["controller"] == "decaying"]
     assert mine["p_vs_tavc"].notna().all() and mine["p_vs_random"].notna().all()
 

@@ -310,3 +310,5 @@ def test_the_report_tests_the_claims_on_the_learner_its_runs_are_of():
     assert _under_test({"a": cfg("tavc_egreedy"), "b": cfg("tavc_softmax"), "s": cfg("behaviour_softmax")}) == "tavc"
     assert _under_test({"a": cfg("wolf_phc"), "b": cfg("wolf_phc")}) == "wolf_phc"
     assert _under_test({"a": cfg("wolf_phc"), "b": cfg("threshold")}) == "tavc"  # mixed: the chapter's learner
+    # a controller that learns nothing is what the claims compare learners with, not a learner under test
+    assert _under_test({"a": cfg("random")}) == "tavc" and _under_test({"a": cfg("informed")}) == "tavc"

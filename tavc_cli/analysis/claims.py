@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -253,6 +253,19 @@ def _welch(a, b) -> tuple[float, float, str]:
 
 
 LEARNER = "tavc"  # the controller whose trials the claims about learning test, unless told another
+
+
+def learner_under_test(labels: Iterable[str]) -> str:
+    """The learner the claims about learning test among the task learners of some runs: the one
+    they all share, unless it learns nothing (random, the static allocations, the model's: the
+    claims compare a learner with those), else TAVC."""
+    from tavc_cli.learning.informed import MODEL_LEARNERS
+    from tavc_cli.learning.registry import BASELINES
+
+    found = set(labels) - {"behaviour"}
+    if len(found) == 1 and not found & {*BASELINES, *MODEL_LEARNERS}:
+        return found.pop()
+    return LEARNER
 
 
 def who(learner: str) -> str:

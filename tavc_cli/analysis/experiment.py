@@ -141,7 +141,8 @@ def experiment_claims(cfg: TavcConfig, tables: Mapping[str, pd.DataFrame], out_d
         path = out_dir.parent / other / "trial_stats.csv"
         if path.is_file():
             runs[other] = pd.read_csv(path)
+    from tavc_cli.analysis.claims import learner_under_test
     from tavc_cli.learning.registry import controller_label
 
     # the claims about learning test this run's own learner (TAVC's runs: TAVC)
-    return claim_rows(runs, only_experiment=name, learner=controller_label(cfg.learner.name))
+    return claim_rows(runs, only_experiment=name, learner=learner_under_test([controller_label(cfg.learner.name)]))

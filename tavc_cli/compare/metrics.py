@@ -8,14 +8,19 @@
   count on the high-value circuit filled fastest first (3:0: the three fast robots high).
 - ``fill_delay_s``: where a robot of the high-value circuit breaks down or the values swap (the
   chapter's vacancies: breakdown, value_change), the seconds from the event until a robot moves
-  into the vacancy (`vacancy.csv`); a vacancy never filled counts as the whole period after the
-  event, so that the rank test orders it after every filled one.
+  into the vacancy (`vacancy.csv`), cut at one window for every controller of a scenario: the
+  shortest period after the event any of them ran (at scale=converged the chapter's, which the
+  controllers that learn nothing run). A vacancy not filled within it counts as the whole window,
+  so that the rank test orders it after every filled one.
+- ``filled_pct``: 100 for a trial whose vacancy was filled within that window, else 0 (its mean:
+  the share of trials).
 - ``fast_high_share``: with fast and slow robots, the time-weighted share of the fast robots whose
   last task was on the high-value circuit in the stable period (random allocation: 0.5).
 
 Each controller's trials are tested against TAVC's and against random allocation's with the
 two-sided Mann-Whitney U test (rank-based: the learners' trials are often bimodal, a trial
-settling in one allocation or another); a controller is not tested against itself.
+settling in one allocation or another), and the direction given as the chance that one of its
+trials is above one of theirs (`above`: U / (n m)); a controller is not tested against itself.
 """
 
 from __future__ import annotations
@@ -31,17 +36,20 @@ from scipy import stats
 
 from tavc_cli.analysis.trial_stats import STATE_PREFIX
 from tavc_cli.compare import FLOOR, REFERENCE
+from tavc_cli.errors import TavcError
 
 METRICS = {
     "score_per_s": "score per second, stable period",
     "predicted_state_pct": "time in the model's predicted state (%)",
     "fill_delay_s": "time to fill the vacancy (s)",
+    "filled_pct": "vacancy filled (% of trials)",
     "fast_high_share": "share of fast robots on the high-value circuit",
 }
 VACANCY_SCENARIOS = ("breakdown", "value_change")  # the chapter's vacancies on the high-value circuit
 TRIAL_COLUMNS = ["experiment", "controller", "trial", "metric", "value"]
 TABLE_COLUMNS = ["experiment", "metric", "controller", "time_factor", "n_trials", "mean", "std", "median",
-                 "p_vs_tavc", "p_vs_random"]
+                 "p_vs_tavc", "p_vs_random", "above_tavc", "above_random"]
+WINDOW = "fill_window_s"  # each trial's period after its vacancy, until `cut_fill_delays` reads it
 
 
 def predicted_state(config: Mapping, allocations: Mapping[str, list[int]]) -> str | None:
@@ -77,12 +85,17 @@ def fast_share(stats_: pd.DataFrame, n_fast: int) -> np.ndarray:
     return total / 100.0 / n_fast
 
 
-def trial_metrics(folder: Path, experiment: str, controller: str,
+def trial_metrics(folder: Path, experiment: str, controller: str, label: str,
                   allocations: Mapping[str, list[int]]) -> pd.DataFrame:
-    """`TRIAL_COLUMNS` for one controller's trials in one run folder."""
+    """`TRIAL_COLUMNS` for one controller's trials (those labelled `label`) in one run folder;
+    fill delays uncut, with their windows (`cut_fill_delays`)."""
     config = yaml.safe_load((folder / "config.yaml").read_text())
     stats_ = pd.read_csv(folder / "trial_stats.csv")
-    stats_ = stats_[stats_["controller"] == controller].sort_values("trial")
+    found = sorted(set(stats_["controller"]))
+    stats_ = stats_[stats_["controller"] == label].sort_values("trial")
+    if stats_.empty:
+        raise TavcError(f"--learners: {folder} holds no trials of {controller} (label {label}; it holds "
+                        f"{', '.join(found) or 'none'})")
     rows: list[tuple[str, np.ndarray]] = [("score_per_s", stats_["value_rate_stable"].to_numpy(float))]
     state = predicted_state(config, allocations)
     if state is not None:
@@ -98,24 +111,53 @@ def trial_metrics(folder: Path, experiment: str, controller: str,
     out = [pd.DataFrame({"experiment": experiment, "controller": controller, "trial": trials, "metric": metric,
                          "value": values}) for metric, values in rows]
     if experiment in VACANCY_SCENARIOS and (folder / "vacancy.csv").is_file():
-        out.append(_fill_delays(folder, experiment, controller, stats_))
+        out.append(_fill_delays(folder, experiment, controller, label, stats_))
     return pd.concat(out, ignore_index=True)[TRIAL_COLUMNS]
 
 
-def _fill_delays(folder: Path, experiment: str, controller: str, stats_: pd.DataFrame) -> pd.DataFrame:
-    """The delay of the last event's vacancy per trial; an unfilled one: the period after it."""
+def _fill_delays(folder: Path, experiment: str, controller: str, label: str, stats_: pd.DataFrame) -> pd.DataFrame:
+    """Per trial, the delay of the last event's vacancy (inf: never filled) and the period after
+    that event (`WINDOW`)."""
     vacancy = pd.read_csv(folder / "vacancy.csv")
-    vacancy = vacancy[vacancy["controller"] == controller]
+    vacancy = vacancy[vacancy["controller"] == label]
     last = vacancy.sort_values("event_t_s").groupby("trial").tail(1).set_index("trial")
-    values = []
+    delays, windows = [], []
     for trial, duration in zip(stats_["trial"], stats_["duration_s"], strict=True):
         if trial not in last.index:
-            values.append(math.nan)
+            delays.append(math.nan)
+            windows.append(math.nan)
             continue
         row = last.loc[trial]
-        values.append(float(row["fill_delay_s"]) if bool(row["filled"]) else float(duration) - float(row["event_t_s"]))
-    return pd.DataFrame({"experiment": experiment, "controller": controller, "trial": stats_["trial"].to_numpy(int),
-                         "metric": "fill_delay_s", "value": values})
+        delays.append(float(row["fill_delay_s"]) if bool(row["filled"]) else math.inf)
+        windows.append(float(duration) - float(row["event_t_s"]))
+    trials = stats_["trial"].to_numpy(int)
+    return pd.concat([pd.DataFrame({"experiment": experiment, "controller": controller, "trial": trials,
+                                    "metric": metric, "value": values})
+                      for metric, values in (("fill_delay_s", delays), (WINDOW, windows))], ignore_index=True)
+
+
+def cut_fill_delays(trials: pd.DataFrame) -> pd.DataFrame:
+    """Every scenario's fill delays cut at one window, the shortest period after the event any
+    controller ran (module docstring), and each trial's `filled_pct` within it; the windows dropped."""
+    out = [trials[~trials["metric"].isin(["fill_delay_s", WINDOW])]]
+    for experiment, rows in trials[trials["metric"] == WINDOW].groupby("experiment", sort=False):
+        window = float(rows["value"].min())
+        delays = trials[(trials["experiment"] == experiment) & (trials["metric"] == "fill_delay_s")]
+        values = delays["value"].to_numpy(float)
+        out.append(delays.assign(value=np.minimum(values, window)))
+        out.append(delays.assign(metric="filled_pct", value=np.where(np.isnan(values), math.nan,
+                                                                     100.0 * (values <= window))))
+    frame = pd.concat(out, ignore_index=True)
+    return frame[TRIAL_COLUMNS]
+
+
+def above(a: np.ndarray, b: np.ndarray) -> float:
+    """The chance that a trial of `a` is above one of `b`, ties counting half (the Mann-Whitney U
+    over n_a n_b: 0.5 when neither side is above the other)."""
+    a, b = a[np.isfinite(a)], b[np.isfinite(b)]
+    if not len(a) or not len(b):
+        return math.nan
+    return float(((a[:, None] > b[None, :]).sum() + 0.5 * (a[:, None] == b[None, :]).sum()) / (len(a) * len(b)))
 
 
 def rank_test(a: np.ndarray, b: np.ndarray) -> float:
@@ -146,6 +188,9 @@ def comparison_table(trials: pd.DataFrame, time_factors: Mapping[str, float]) ->
                 "p_vs_tavc": rank_test(values, by[REFERENCE]) if controller != REFERENCE and REFERENCE in by
                 else math.nan,
                 "p_vs_random": rank_test(values, by[FLOOR]) if controller != FLOOR and FLOOR in by else math.nan,
+                "above_tavc": above(values, by[REFERENCE]) if controller != REFERENCE and REFERENCE in by
+                else math.nan,
+                "above_random": above(values, by[FLOOR]) if controller != FLOOR and FLOOR in by else math.nan,
             })
     return pd.DataFrame(rows, columns=TABLE_COLUMNS)
 

@@ -21,11 +21,12 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, order, trial_metrics
+from tavc_cli.compare.metrics import (METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order,
+                                      trial_metrics)
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.learning.informed import MODEL_LEARNERS, model_allocations
-from tavc_cli.learning.registry import BASELINES
+from tavc_cli.learning.registry import BASELINES, controller_label
 from tavc_cli.settings import TavcConfig
 
 FIXED = (*BASELINES, *MODEL_LEARNERS)  # controllers that learn nothing
@@ -67,6 +68,11 @@ def run_compare(plans: Mapping[str, Sequence[TavcConfig]], results: Path, *, con
     unknown = [name for name in reuse if name not in controllers]
     if unknown:
         raise TavcError(f"--reuse: {unknown[0]} is not one of the controllers compared ({', '.join(controllers)})")
+    allocations = model_allocations(model_file)  # the predicted states: known before anything runs
+    for name, folder in reuse.items():
+        missing = [e for e in experiments if not (folder / e / "trial_stats.csv").is_file()]
+        if missing:
+            raise TavcError(f"--reuse: {folder / missing[0]} holds no finished run of {missing[0]} (no trial_stats.csv)")
     results = Path(results)
     results.mkdir(parents=True, exist_ok=True)
     with claim_folder(results):  # a comparison's from the start: its runs/ are not runs of their own
@@ -75,16 +81,13 @@ def run_compare(plans: Mapping[str, Sequence[TavcConfig]], results: Path, *, con
     if cfgs:
         run_experiments(list(cfgs), progress=progress)
     folders = {name: reuse.get(name, results / "runs" / name) for name in controllers}
-    allocations = model_allocations(model_file)
     trials, factors = [], {}
     for name in controllers:
         for experiment in experiments:
             folder = folders[name] / experiment
-            if not (folder / "trial_stats.csv").is_file():
-                raise TavcError(f"--reuse: {folder} holds no finished run of {experiment} (no trial_stats.csv)")
-            trials.append(trial_metrics(folder, experiment, name, allocations))
+            trials.append(trial_metrics(folder, experiment, name, controller_label(name), allocations))
             factors.setdefault(name, _time_factor(folder))
-    trials_frame = pd.concat(trials, ignore_index=True)
+    trials_frame = cut_fill_delays(pd.concat(trials, ignore_index=True))
     table = order(comparison_table(trials_frame, factors), experiments, controllers)
     return write(results, table, trials_frame, folders, scale_name=scale_name)
 

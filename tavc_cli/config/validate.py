@@ -99,6 +99,12 @@ def validate(cfg: DictConfig, named: Optional[dict[str, str]] = None) -> None:
     _validate_team(cfg.team, cfg.arena, cfg.robot)
     n_circuits, n_robots = len(cfg.arena.circuits), cfg.team.n_robots
     _validate_learner(cfg.learner, n_circuits, n_robots)
+    if cfg.learner.name == "informed" and cfg.learner.target is None:
+        # handed the model's allocation for the team left after each breakdown: known before hours of warm-up
+        for left in range(n_robots - 1, n_robots - 1 - len(cfg.events.breakdowns), -1):
+            check(str(left) in (cfg.learner.allocations or {}), "learner.allocations",
+                  f"the model predicts nothing for the {left} robots left after a breakdown; run `tavc model` "
+                  "with that team, or use learner=model")
     _validate_run(cfg)
     if cfg.static_allocation is not None:
         _validate_allocation("static_allocation", cfg.static_allocation, n_circuits, n_robots)

@@ -279,12 +279,11 @@ def _horizon(folder: Path, found: dict[str, list[Path]], unfinished: list[Path])
 
 def _under_test(read: dict) -> str:
     """The learner the claims about learning test: the task learner every run's trials are of
-    (TAVC's runs: `tavc`), else TAVC."""
-    from tavc_cli.analysis.claims import LEARNER
+    (TAVC's runs: `tavc`), else TAVC (`claims.learner_under_test`)."""
+    from tavc_cli.analysis.claims import learner_under_test
     from tavc_cli.learning.registry import controller_label
 
-    labels = {controller_label(str(cfg.learner.name)) for cfg, _ in read.values()} - {"behaviour"}
-    return labels.pop() if len(labels) == 1 else LEARNER
+    return learner_under_test(controller_label(str(cfg.learner.name)) for cfg, _ in read.values())
 
 
 def _run_names(found: dict[str, list[Path]], results_dir: Path) -> dict[str, list[str]]:

@@ -15,7 +15,8 @@ from tavc_cli.report.text import fmt
 
 COMPARE_DIR = "compare"
 SCALES = ("paper", "converged")  # read first, in this order; any other comparison after them
-HIGHER_IS_BETTER = {"score_per_s": True, "predicted_state_pct": True, "fill_delay_s": False, "fast_high_share": True}
+HIGHER_IS_BETTER = {"score_per_s": True, "predicted_state_pct": True, "fill_delay_s": False, "filled_pct": True,
+                    "fast_high_share": True}
 
 
 def compare_lines(results_dir: Path) -> list[str]:
@@ -34,8 +35,9 @@ def compare_lines(results_dir: Path) -> list[str]:
              "onto it at random, kept after events), the same handed the model's allocation for the new team "
              "after every event (`informed`), WoLF-PHC and a fixed response-threshold allocator "
              "(docs/plugins.md). Cells: mean ± std over trials; ▲ / ▼: better / worse than TAVC by the "
-             f"two-sided Mann-Whitney U test at p < {ALPHA:g}; ◇: not different from random allocation at that "
-             "level. Controllers that learn nothing run the chapter's schedule at every scale (their "
+             f"two-sided Mann-Whitney U test at p < {ALPHA:g} (the side its trials are more likely on); ◇: not "
+             "different from random allocation at that level. A vacancy's fill time is cut at the shortest "
+             "period after the event any controller ran (the chapter's). Controllers that learn nothing run the chapter's schedule at every scale (their "
              "distribution does not depend on the horizon).", ""]
     for folder in found:
         lines += _scale_lines(folder, Path(results_dir))
@@ -53,10 +55,9 @@ def _scale_lines(folder: Path, results_dir: Path) -> list[str]:
         lines += [f"**{METRICS.get(metric, metric)}**", "",
                   "| controller | " + " | ".join(e.replace("_", " ") for e in experiments) + " |",
                   "|---" * (1 + len(experiments)) + "|"]
-        tavc = rows[rows["controller"] == "tavc"].set_index("experiment")["mean"]
         for controller, mine in rows.groupby("controller", sort=False):
             by = mine.set_index("experiment")
-            cells = [_cell(by.loc[e], metric, tavc.get(e, math.nan)) if e in by.index else "" for e in experiments]
+            cells = [_cell(by.loc[e], metric) if e in by.index else "" for e in experiments]
             lines.append(f"| {controller} | " + " | ".join(cells) + " |")
         lines += ["", *_reading(rows, metric), ""]
     figure = folder / "compare.png"
@@ -67,14 +68,15 @@ def _scale_lines(folder: Path, results_dir: Path) -> list[str]:
     return lines
 
 
-def _cell(row: pd.Series, metric: str, tavc_mean: float) -> str:
+def _cell(row: pd.Series, metric: str) -> str:
     spec = ".3g" if metric in ("score_per_s", "fast_high_share") else ".0f"
     text = fmt(float(row["mean"]), spec)
     if not math.isnan(float(row["std"])):
         text += f" ± {fmt(float(row['std']), spec)}"
     p_tavc, p_random = float(row["p_vs_tavc"]), float(row["p_vs_random"])
     if not math.isnan(p_tavc) and p_tavc < ALPHA:
-        above = float(row["mean"]) > tavc_mean
+        # the side the rank test found: a trial of this controller more likely above one of TAVC's
+        above = float(row["above_tavc"]) > 0.5
         text += " ▲" if above == HIGHER_IS_BETTER.get(metric, True) else " ▼"
     if not math.isnan(p_random) and p_random >= ALPHA:
         text += " ◇"
@@ -82,16 +84,20 @@ def _cell(row: pd.Series, metric: str, tavc_mean: float) -> str:
 
 
 def _reading(rows: pd.DataFrame, metric: str) -> list[str]:
-    """Which controller does best in each scenario, and how TAVC stands against random."""
+    """Which controller has the best mean in each scenario, and how TAVC stands against random."""
     out = []
     better = HIGHER_IS_BETTER.get(metric, True)
     for experiment, mine in rows.groupby("experiment", sort=False):
+        mine = mine.dropna(subset=["mean"])
+        if mine.empty:
+            continue
         best = mine.loc[(mine["mean"] if better else -mine["mean"]).idxmax()]
         tavc = mine[mine["controller"] == "tavc"]
         against = ""
         if len(tavc) and not math.isnan(float(tavc["p_vs_random"].iloc[0])):
             p = float(tavc["p_vs_random"].iloc[0])
             against = (f"; TAVC {'differs from' if p < ALPHA else 'is not told apart from'} random (p = {p:.2g})")
-        out.append(f"{experiment.replace('_', ' ')}: best {best['controller']} ({fmt(float(best['mean']), '.3g')})"
+        out.append(f"{experiment.replace('_', ' ')}: {'highest' if better else 'lowest'} mean {best['controller']} "
+                   f"({fmt(float(best['mean']), '.3g')})"
                    f"{against}.")
     return [" ".join(out)]
