@@ -192,6 +192,7 @@ def test_the_report_section_marks_differences_from_tavc_by_hand(tmp_path):
     # a higher score is better (▲), a longer wait for the vacancy worse (▼); p 0.5 against random: ◇
     assert "| mine | 2 ± 0.1 ▲ ◇ |" in text and "| mine | 2 ± 0 ▼ ◇ |" in text
     assert "| tavc | 1 ± 0.1 |" in text  # TAVC differs from random (p 0.01): no mark
+    assert "mine: better than TAVC in 1, worse in 1, not told apart in 0 of 2 numbers." in text
     # the sentences: the best mean, higher for a score, lower for a wait; TAVC against random
     assert "breakdown: highest mean mine (2); TAVC differs from random (p = 0.01)." in text
     assert "breakdown: lowest mean tavc (1); TAVC differs from random (p = 0.01)." in text

@@ -49,7 +49,7 @@ def _scale_lines(folder: Path, results_dir: Path) -> list[str]:
     factors = table.groupby("controller", sort=False)["time_factor"].first()
     n = table.groupby("controller", sort=False)["n_trials"].max()
     lines = [f"### {folder.name}: " + ", ".join(f"{c} at {f:g}x ({int(n[c])} trials)" for c, f in factors.items()),
-             ""]
+             "", *_glance(table), ""]
     for metric, rows in table.groupby("metric", sort=False):
         experiments = list(dict.fromkeys(rows["experiment"]))
         lines += [f"**{METRICS.get(metric, metric)}**", "",
@@ -81,6 +81,20 @@ def _cell(row: pd.Series, metric: str) -> str:
     if not math.isnan(p_random) and p_random >= ALPHA:
         text += " ◇"
     return text
+
+
+def _glance(table: pd.DataFrame) -> list[str]:
+    """Per controller, of every number in every scenario: how often it is better than TAVC, worse,
+    or not told apart (the marks of the tables below)."""
+    out = []
+    for controller, mine in table[table["controller"] != "tavc"].groupby("controller", sort=False):
+        tested = mine[mine["p_vs_tavc"].notna()]
+        differs = tested[tested["p_vs_tavc"] < ALPHA]
+        better = sum((float(r["above_tavc"]) > 0.5) == HIGHER_IS_BETTER.get(r["metric"], True)
+                     for r in differs.to_dict("records"))
+        out.append(f"{controller}: better than TAVC in {better}, worse in {len(differs) - better}, not told apart in "
+                   f"{len(tested) - len(differs)} of {len(tested)} numbers.")
+    return [" ".join(out)] if out else []
 
 
 def _reading(rows: pd.DataFrame, metric: str) -> list[str]:
