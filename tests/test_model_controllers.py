@@ -26,10 +26,10 @@ def write_model(path: Path, values: list[float], states: dict[str, str]) -> Path
 
 
 def test_allocations_are_read_most_valuable_circuit_first(tmp_path):
-    # the model's states count robots per circuit in its own values' order: with circuit 1 the
-    # more valuable, "2:3" is 3 robots on the high circuit, 2 on the low one
-    model = write_model(tmp_path / "model.json", [2000.0, 2200.0], {"5": "2:3", "6": "3:3"})
-    assert model_allocations(model) == {"5": [3, 2], "6": [3, 3]}
+    # the model writes its states most valuable circuit first, whichever circuit that is: with
+    # circuit 1 the more valuable, "3:2" is still 3 robots on the high circuit, 2 on the low one
+    model = write_model(tmp_path / "model.json", [2000.0, 2200.0], {"5": "3:2", "6": "4:2"})
+    assert model_allocations(model) == {"5": [3, 2], "6": [4, 2]}
 
 
 def test_the_committed_model_gives_the_chapter_team_three_and_three():

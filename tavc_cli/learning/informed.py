@@ -32,8 +32,8 @@ MODEL_LEARNERS = ("model", "informed")  # the learners that follow the model's a
 
 def model_allocations(path: str | Path) -> dict[str, list[int]]:
     """Robots per circuit, the most valuable circuit first, for every team size the model file
-    predicts (``by_team_size``): e.g. ``{"5": [3, 2], "6": [3, 3]}``. Its states count robots per
-    circuit in the order of its own ``values``."""
+    predicts (``by_team_size``): e.g. ``{"5": [3, 2], "6": [3, 3]}``. Its states are written that
+    way already (`analysis.states.split_label`: most valuable circuit first)."""
     path = Path(path)
     try:
         model = json.loads(path.read_text())
@@ -42,16 +42,11 @@ def model_allocations(path: str | Path) -> dict[str, list[int]]:
                         "or name its model.json") from None
     except (OSError, ValueError) as error:
         raise TavcError(f"learner.model_file: {path} is not a model.json ({error})") from None
-    values = model.get("values")
     sizes = model.get("by_team_size")
-    if not isinstance(values, list) or not isinstance(sizes, dict) or not sizes:
-        raise TavcError(f"learner.model_file: {path} has no `values` or `by_team_size`; is it tavc model's model.json?")
-    order = np.argsort(-np.asarray(values, dtype=float), kind="stable")  # most valuable first
-    out = {}
-    for size, prediction in sizes.items():
-        counts = [int(c) for c in str(prediction["predicted_state"]).split(":")]
-        out[str(size)] = [counts[c] for c in order]
-    return out
+    if not isinstance(sizes, dict) or not sizes:
+        raise TavcError(f"learner.model_file: {path} has no `by_team_size`; is it tavc model's model.json?")
+    return {str(size): [int(c) for c in str(prediction["predicted_state"]).split(":")]
+            for size, prediction in sizes.items()}
 
 
 def ranked(counts_high_first: Sequence[int], values: np.ndarray) -> np.ndarray:
