@@ -298,8 +298,8 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, prog
     from tavc_cli import config
     from tavc_cli.model.api import calibration_record, model_identity, run_model
     from tavc_cli.model.api import save_calibration as save
-    from tavc_cli.ownership import refuse_other_settings
     from tavc_cli.model.report import model_text
+    from tavc_cli.ownership import refuse_other_settings
 
     config.check_measurement(list(overrides), "model")  # its time on this machine, before anything runs
     cfg = config.settings(config.load_config(list(overrides)))

@@ -13,8 +13,15 @@ import pandas as pd
 import pytest
 import yaml
 
-from tavc_cli.compare.metrics import (above, comparison_table, cut_fill_delays, fast_share, predicted_state,
-                                      rank_test, trial_metrics)
+from tavc_cli.compare.metrics import (
+    above,
+    comparison_table,
+    cut_fill_delays,
+    fast_share,
+    predicted_state,
+    rank_test,
+    trial_metrics,
+)
 from tavc_cli.compare.run import controller_overrides, parse_reuse
 from tavc_cli.errors import TavcError
 

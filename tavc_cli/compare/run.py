@@ -21,8 +21,7 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from tavc_cli.compare.metrics import (METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order,
-                                      trial_metrics)
+from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order, trial_metrics
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.learning.informed import MODEL_LEARNERS, model_allocations
@@ -69,10 +68,11 @@ def run_compare(plans: Mapping[str, Sequence[TavcConfig]], results: Path, *, con
     if unknown:
         raise TavcError(f"--reuse: {unknown[0]} is not one of the controllers compared ({', '.join(controllers)})")
     allocations = model_allocations(model_file)  # the predicted states: known before anything runs
-    for name, folder in reuse.items():
+    for folder in reuse.values():
         missing = [e for e in experiments if not (folder / e / "trial_stats.csv").is_file()]
         if missing:
-            raise TavcError(f"--reuse: {folder / missing[0]} holds no finished run of {missing[0]} (no trial_stats.csv)")
+            raise TavcError(f"--reuse: {folder / missing[0]} holds no finished run of {missing[0]} "
+                            "(no trial_stats.csv)")
     results = Path(results)
     results.mkdir(parents=True, exist_ok=True)
     with claim_folder(results):  # a comparison's from the start: its runs/ are not runs of their own

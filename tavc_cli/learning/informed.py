@@ -112,5 +112,5 @@ class InformedPolicy(ModelPolicy):
                 on_c = live[self.assignment[live] == c]
                 movers.extend(self.rng.choice(on_c, size=surplus, replace=False).tolist())
         short = [c for c in range(self.n_circuits) for _ in range(max(0, int(target[c] - here[c])))]
-        for robot, c in zip(sorted(movers), short):
+        for robot, c in zip(sorted(movers), short, strict=True):  # as many places short as robots over
             self.assignment[robot] = c

@@ -37,7 +37,8 @@ def compare_lines(results_dir: Path) -> list[str]:
              "(docs/plugins.md). Cells: mean ± std over trials; ▲ / ▼: better / worse than TAVC by the "
              f"two-sided Mann-Whitney U test at p < {ALPHA:g} (the side its trials are more likely on); ◇: not "
              "different from random allocation at that level. A vacancy's fill time is cut at the shortest "
-             "period after the event any controller ran (the chapter's). Controllers that learn nothing run the chapter's schedule at every scale (their "
+             "period after the event any controller ran (the chapter's). "
+             "Controllers that learn nothing run the chapter's schedule at every scale (their "
              "distribution does not depend on the horizon).", ""]
     for folder in found:
         lines += _scale_lines(folder, Path(results_dir))
@@ -48,8 +49,8 @@ def _scale_lines(folder: Path, results_dir: Path) -> list[str]:
     table = pd.read_csv(folder / "compare.csv")
     factors = table.groupby("controller", sort=False)["time_factor"].first()
     n = table.groupby("controller", sort=False)["n_trials"].max()
-    lines = [f"### {folder.name}: " + ", ".join(f"{c} at {f:g}x ({int(n[c])} trials)" for c, f in factors.items()),
-             "", *_glance(table), ""]
+    ran = ", ".join(f"{c} at {f:g}x ({int(n[c])} trials)" for c, f in factors.items())
+    lines = [f"### {folder.name}: {ran}", "", *_glance(table), ""]
     for metric, rows in table.groupby("metric", sort=False):
         experiments = list(dict.fromkeys(rows["experiment"]))
         lines += [f"**{METRICS.get(metric, metric)}**", "",
