@@ -130,15 +130,12 @@ def test_a_learners_seed_code_comes_from_its_name():
     assert seed_code("stubborn") == 1000 + zlib.crc32(b"stubborn") % 1_000_000  # by hand, the same everywhere
 
 
-def test_the_docs_example_learner_runs_as_the_page_shows(tmp_path, monkeypatch):
-    """docs/plugins.md's two files, written where the page puts them, run through tavc from a
-    temporary folder."""
+def _docs_learner(tmp_path, monkeypatch) -> str:
+    """docs/plugins.md's two files written where the page puts them, in a temporary working
+    folder with no config folders of anyone else's; returns the page."""
     import re
     from pathlib import Path
 
-    from typer.testing import CliRunner
-
-    from tavc_cli.cli import app
     from tavc_cli.learning.registry import CONFIG_DIRS_ENV
 
     page = (Path(__file__).resolve().parent.parent / "docs" / "plugins.md").read_text()
@@ -149,6 +146,18 @@ def test_the_docs_example_learner_runs_as_the_page_shows(tmp_path, monkeypatch):
     (tmp_path / "mine" / "learner" / "decaying.yaml").write_text(yaml_text)
     monkeypatch.setenv(CONFIG_DIRS_ENV, "")
     monkeypatch.chdir(tmp_path)
+    return page
+
+
+def test_the_docs_example_learner_runs_as_the_page_shows(tmp_path, monkeypatch):
+    """docs/plugins.md's two files, written where the page puts them, run through tavc from a
+    temporary folder."""
+
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    _docs_learner(tmp_path, monkeypatch)
     result = CliRunner().invoke(app, ["--config-dir", "mine", "run", "experiment=initial_distribution",
                                       "learner=decaying", "baselines=[random]", "scale=smoke", "--no-progress"])
     assert result.exit_code == 0, result.output
@@ -164,23 +173,14 @@ def test_the_docs_example_learner_runs_as_the_page_shows(tmp_path, monkeypatch):
 def test_the_docs_example_learner_runs_through_reproduce_and_compare(tmp_path, monkeypatch):
     """The page's learner, from a temporary folder, through `tavc reproduce` and `tavc compare` as
     the page shows them (at scale=smoke, two scenarios)."""
-    import re
     from pathlib import Path
 
     import pandas as pd
     from typer.testing import CliRunner
 
     from tavc_cli.cli import app
-    from tavc_cli.learning.registry import CONFIG_DIRS_ENV
 
-    page = (Path(__file__).resolve().parent.parent / "docs" / "plugins.md").read_text()
-    python = re.search(r"`mine/greedy.py`:\n\n```python\n(.*?)```", page, re.S).group(1)
-    yaml_text = re.search(r"`mine/learner/decaying.yaml`:\n\n```yaml\n(.*?)```", page, re.S).group(1)
-    (tmp_path / "mine" / "learner").mkdir(parents=True)
-    (tmp_path / "mine" / "greedy.py").write_text(python)
-    (tmp_path / "mine" / "learner" / "decaying.yaml").write_text(yaml_text)
-    monkeypatch.setenv(CONFIG_DIRS_ENV, "")
-    monkeypatch.chdir(tmp_path)
+    page = _docs_learner(tmp_path, monkeypatch)
     for line in ("tavc --config-dir mine reproduce learner=decaying 'baselines=[random]' scale=quick",
                  "tavc --config-dir mine compare --learners tavc,random,model,informed,decaying scale=quick"):
         assert line in page

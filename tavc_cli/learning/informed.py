@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from tavc_cli.errors import TavcError
+from tavc_cli.learning.policies import StaticPolicy
 
 MODEL_LEARNERS = ("model", "informed")  # the learners that follow the model's allocation
 
@@ -57,25 +58,18 @@ def ranked(counts_high_first: Sequence[int], values: np.ndarray) -> np.ndarray:
     return out
 
 
-class ModelPolicy:
-    """The model's allocation for the starting team, kept through every event."""
+class ModelPolicy(StaticPolicy):
+    """The model's allocation for the starting team, kept through every event: a static
+    allocation (choosing and learning as `StaticPolicy` does, in Python: the compiled paths serve
+    only the exact built-in classes) whose assignment is drawn when the trial starts."""
 
     def __init__(self, allocations: Mapping[str, Sequence[int]], n_robots: int, n_circuits: int,
                  rng: np.random.Generator) -> None:
+        super().__init__([], n_circuits)
         self.allocations = {int(k): list(v) for k, v in allocations.items()}
-        self.n_states = n_circuits
         self.n_circuits = n_circuits
         self.rng = rng
         self.assignment: np.ndarray | None = None
-
-    def choose(self, robot: int, state: int) -> int:
-        return int(self.assignment[robot])
-
-    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
-        return None
-
-    def q_tables(self) -> None:
-        return None
 
     def target(self, n_alive: int, values: np.ndarray) -> np.ndarray:
         """Robots per circuit index the model gives a team of `n_alive`."""
