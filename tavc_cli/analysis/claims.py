@@ -259,11 +259,10 @@ def learner_under_test(labels: Iterable[str]) -> str:
     """The learner the claims about learning test among the task learners of some runs: the one
     they all share, unless it learns nothing (random, the static allocations, the model's: the
     claims compare a learner with those), else TAVC."""
-    from tavc_cli.learning.informed import MODEL_LEARNERS
-    from tavc_cli.learning.registry import BASELINES
+    from tavc_cli.learning.registry import LEARNS_NOTHING
 
     found = set(labels) - {"behaviour"}
-    if len(found) == 1 and not found & {*BASELINES, *MODEL_LEARNERS}:
+    if len(found) == 1 and not found & set(LEARNS_NOTHING):
         return found.pop()
     return LEARNER
 

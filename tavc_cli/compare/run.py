@@ -24,12 +24,9 @@ import yaml
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order, trial_metrics
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
-from tavc_cli.learning.informed import MODEL_LEARNERS, model_allocations
-from tavc_cli.learning.registry import BASELINES, controller_label
+from tavc_cli.learning.informed import model_allocations
+from tavc_cli.learning.registry import LEARNS_NOTHING, controller_label
 from tavc_cli.settings import TavcConfig
-
-FIXED = (*BASELINES, *MODEL_LEARNERS)  # controllers that learn nothing
-
 
 def controller_overrides(name: str, scale: Mapping) -> list[str]:
     """What a controller's runs add to the user's overrides: its learner, no baselines, and
@@ -37,7 +34,7 @@ def controller_overrides(name: str, scale: Mapping) -> list[str]:
     extra = [] if name == "tavc" else [f"learner={name}"]
     extra.append("baselines=[]")
     theirs = scale.get("baseline_time_factor")
-    if name in FIXED and theirs is not None and float(theirs) != float(scale["time_factor"]):
+    if name in LEARNS_NOTHING and theirs is not None and float(theirs) != float(scale["time_factor"]):
         extra.append(f"scale.time_factor={float(theirs)!r}")
     return extra
 

@@ -99,12 +99,8 @@ def validate(cfg: DictConfig, named: Optional[dict[str, str]] = None) -> None:
     _validate_team(cfg.team, cfg.arena, cfg.robot)
     n_circuits, n_robots = len(cfg.arena.circuits), cfg.team.n_robots
     _validate_learner(cfg.learner, n_circuits, n_robots)
-    if cfg.learner.name == "informed" and cfg.learner.target is None:
-        # handed the model's allocation for the team left after each breakdown: known before hours of warm-up
-        for left in range(n_robots - 1, n_robots - 1 - len(cfg.events.breakdowns), -1):
-            check(str(left) in (cfg.learner.allocations or {}), "learner.allocations",
-                  f"the model predicts nothing for the {left} robots left after a breakdown; run `tavc model` "
-                  "with that team, or use learner=model")
+    if cfg.learner.name in MODEL_LEARNERS and cfg.learner.target is None:
+        _validate_model_learner(cfg.learner, n_circuits, n_robots, len(cfg.events.breakdowns))
     _validate_run(cfg)
     if cfg.static_allocation is not None:
         _validate_allocation("static_allocation", cfg.static_allocation, n_circuits, n_robots)
@@ -223,6 +219,25 @@ def _validate_team(team: DictConfig, arena: DictConfig, robot: DictConfig) -> No
         check(bool(member.group), f"team.members[{index}].group", "must not be empty")
 
 
+def _validate_model_learner(learner: DictConfig, n_circuits: int, n_robots: int, n_breakdowns: int) -> None:
+    """The model's allocations (`learning.informed`): one for the starting team, each placing its
+    robots on the circuits; `informed`'s also for every team a breakdown leaves, known before hours
+    of warm-up."""
+    allocations = learner.allocations or {}
+    check(str(n_robots) in allocations, "learner.allocations",
+          f"the model predicts nothing for a team of {n_robots} (it has "
+          f"{', '.join(sorted(allocations, key=int)) or 'no team'}); run `tavc model` for this team")
+    for size, counts in allocations.items():
+        per_circuit(f"learner.allocations.{size}", counts, n_circuits, "robot count")
+        check(sum(counts) == int(size), f"learner.allocations.{size}",
+              f"must place {size} robots, places {sum(counts)}")
+    if learner.name == "informed":
+        for left in range(n_robots - 1, n_robots - 1 - n_breakdowns, -1):
+            check(str(left) in allocations, "learner.allocations",
+                  f"the model predicts nothing for the {left} robots left after a breakdown; run `tavc model` "
+                  "with that team, or use learner=model")
+
+
 def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> None:
     """Learner name and Q-learning parameters."""
     if learner.target is not None:
@@ -255,15 +270,6 @@ def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> No
         "learner.q_init_low",
         f"must be <= learner.q_init_high ({learner.q_init_high!r}), got {learner.q_init_low!r}",
     )
-    if learner.name in MODEL_LEARNERS and learner.target is None:
-        allocations = learner.allocations or {}
-        check(str(n_robots) in allocations, "learner.allocations",
-              f"the model predicts nothing for a team of {n_robots} (it has "
-              f"{', '.join(sorted(allocations, key=int)) or 'no team'}); run `tavc model` for this team")
-        for size, counts in allocations.items():
-            per_circuit(f"learner.allocations.{size}", counts, n_circuits, "robot count")
-            check(sum(counts) == int(size), f"learner.allocations.{size}",
-                  f"must place {size} robots, places {sum(counts)}")
     if learner.allocation is not None and learner.name == "alternate":
         per_circuit("learner.allocation", learner.allocation, n_circuits, "robot count")
         for index, count in enumerate(learner.allocation):

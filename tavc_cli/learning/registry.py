@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from tavc_cli.learning.behaviour import BehaviourPolicy
-from tavc_cli.learning.informed import InformedPolicy, ModelPolicy
+from tavc_cli.learning.informed import MODEL_LEARNERS, InformedPolicy, ModelPolicy
 from tavc_cli.learning.literature import ThresholdPolicy, WolfPhcPolicy
 from tavc_cli.learning.policies import (
     AlternatePolicy,
@@ -118,6 +118,7 @@ LEARNERS: dict[str, Learner] = {entry.name: entry for entry in (
 NAMES = tuple(LEARNERS)
 AVAILABLE = tuple(name for name, entry in LEARNERS.items() if entry.build is not None)
 BASELINES = tuple(name for name, entry in LEARNERS.items() if entry.baseline)
+LEARNS_NOTHING = (*BASELINES, *MODEL_LEARNERS)  # fixed controllers: their distribution has no horizon
 SEED_CODES = {entry.label: entry.seed_code for entry in LEARNERS.values()}
 
 
