@@ -18,6 +18,8 @@ SCHEMA_NAME = "tavc_schema"
 AVAILABLE_BACKENDS = ("local", "ray", "dask")
 BACKENDS = ("local", "ray", "dask")
 ANALYSIS_STATES = ("circuits", "groups")
+# scale.stable_window: the whole stable period, or its last stretch of the chapter's length
+STABLE_WINDOWS = ("whole", "chapter")
 TARGET_KINDS = ("source", "sink")
 TIME_UNITS = ("s", "ms")
 # A target must sit on a wall (bar-codes are mounted on walls); this is how close counts as on.
@@ -208,6 +210,10 @@ class ScaleConfig:
     # chapter's instead of time_factor (null = time_factor). They learn nothing, so their
     # distribution does not depend on the horizon.
     baseline_time_factor: Optional[float] = None
+    # the window the stable period's shares and rates are measured over: `whole`, the whole
+    # stable period, or `chapter`, its last stretch as long as the chapter's stable period, so
+    # that spreads over trials are compared over windows of equal length at every horizon
+    stable_window: str = "whole"
 
 
 @dataclass

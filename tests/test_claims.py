@@ -2,12 +2,16 @@
 whose outcome is plain by construction, and the statistics against hand computation."""
 
 import math
+import re
 
 import numpy as np
 import pandas as pd
 import pytest
 
+from scipy import stats
+
 from tavc_cli.analysis import claims as C
+from tavc_cli.analysis import significance as S
 from tavc_cli.analysis.chapter_checks import chapter_checks
 from tavc_cli.analysis.states import theory_pct
 
@@ -87,12 +91,71 @@ def test_claims_are_inconclusive_with_one_trial_or_a_missing_run():
     assert (rows.loc[[6, 7, 8], "verdict"] == "inconclusive").all()
 
 
-def test_claim_4_compares_random_with_the_binomial_row():
+def test_claim_4_is_closeness_to_the_binomial_row_with_the_significance_beside_it():
     theory = theory_pct(6, 2, "circuits")
     near = {"initial_distribution": _trials("random", theory)}
-    assert C.claim_rows(near, "initial_distribution").set_index("claim_id").loc[4, "verdict"] == "reproduced"
+    row = C.claim_rows(near, "initial_distribution").set_index("claim_id").loc[4]
+    assert row["verdict"] == "reproduced" and "Cohen's w" in row["detail"]
+    # the per-state tests are reported beside the verdict, never inside it
+    assert "against the binomial theory row" in row["observations"] and "Holm" not in row["detail"]
+    # a random row 1.5 points off in every state, with so little spread that every state differs
+    # significantly: still close (the chapter's own reading: close, "though the differences are
+    # statistically significant")
+    off = dict(theory)
+    off["3:3"] += 3.0
+    off["0:6"] -= 1.5
+    off["6:0"] -= 1.5
+    sig = {"initial_distribution": _trials("random", off, jitter=0.01)}
+    row = C.claim_rows(sig, "initial_distribution").set_index("claim_id").loc[4]
+    assert row["verdict"] == "reproduced" and "(fails)" in row["observations"]
     far = {"initial_distribution": _trials("random", _peaked(STATES6, "3:3", 60.0))}
     assert C.claim_rows(far, "initial_distribution").set_index("claim_id").loc[4, "verdict"] == "not_reproduced"
+
+
+def test_cohens_w_by_hand():
+    # Table 1.2's random row against its theory row: sum((p - q)^2 / q) over the states, in proportions
+    # 0.6^2/1.6 + 2^2/9.4 + 1.1^2/23.4 + 2.5^2/31.2 + 1.9^2/23.4 + 0.1^2/9.4 + 0.6^2/1.6 = 1.28215 (in %^2 / %)
+    observed = {"0:6": 1.0, "1:5": 7.4, "2:4": 22.3, "3:3": 33.7, "4:2": 25.3, "5:1": 9.3, "6:0": 1.0}
+    expected = {"0:6": 1.6, "1:5": 9.4, "2:4": 23.4, "3:3": 31.2, "4:2": 23.4, "5:1": 9.4, "6:0": 1.6}
+    by_hand = math.sqrt((0.36 / 1.6 + 4 / 9.4 + 1.21 / 23.4 + 6.25 / 31.2 + 3.61 / 23.4 + 0.01 / 9.4 + 0.36 / 1.6)
+                        / 100)
+    assert S.cohens_w(observed, expected) == pytest.approx(by_hand, rel=1e-12)
+    assert by_hand == pytest.approx(0.1132, abs=1e-4)
+    assert S.cohens_w(expected, expected) == 0.0
+
+
+def test_equivalence_two_one_sided_tests_by_hand():
+    # a = [1, 2, 3], b = [1, 2, 3] + 0.1: difference -0.1; se = sqrt(1/3 + 1/3) = 0.8165, Welch df = 4
+    a, b = [1.0, 2.0, 3.0], [1.1, 2.1, 3.1]
+    se = math.sqrt(2 / 3)
+    part = S.equivalent("x", a, b, margin=3.0)
+    # the test further from rejecting is the upper one: t = (-0.1 - 3) / se, p = P(T_4 > -...) ... the lower:
+    t_low, t_high = (-0.1 + 3.0) / se, (-0.1 - 3.0) / se
+    p_low, p_high = stats.t.sf(t_low, 4), stats.t.cdf(t_high, 4)
+    assert part.p_value == pytest.approx(max(p_low, p_high), rel=1e-9)
+    assert part.statistic == pytest.approx(t_low if p_low >= p_high else t_high, rel=1e-9)
+    assert part.holds is True  # both below 0.10: p_low = P(T_4 > 3.55) = 0.012
+    # a margin of 0.5 the same trials cannot show, nor any difference: undecided
+    small = S.equivalent("x", a, b, margin=0.5)
+    assert small.holds is None and "neither" in small.reason and "undecided" in small.text()
+    # a clear difference beyond the margin: fails
+    far = S.equivalent("x", [10.0, 10.5, 11.0], [1.0, 1.5, 2.0], margin=0.5)
+    assert far.holds is False and "differ" in far.reason
+    # relative margins scale with the reference's mean; paired tests use the differences
+    rel = S.equivalent("x", [1.00, 1.01, 0.99, 1.00], [1.0, 1.0, 1.0, 1.01], margin=0.05, paired=True,
+                       relative=True)
+    assert rel.holds is True and "paired TOST" in rel.what and "5 % of" in rel.what
+
+
+def test_the_margins_are_the_smallest_differences_the_chapter_calls_significant():
+    from tavc_cli.reference import chapter_table
+
+    t13, t15 = chapter_table("1.3").set_index("state"), chapter_table("1.5").set_index("state")
+    # Table 1.5 against Table 1.3: "significantly higher values for states 3 : 2 and 4 : 1"
+    smallest = min(t15.loc[st, "tavc_mean_pct"] - t13.loc[st, "tavc_mean_pct"] for st in ("3:2", "4:1"))
+    assert C.STATE_MARGIN_PCT == pytest.approx(smallest)
+    # section 1.6.3: 0.81e-2 against 0.78e-2 value per second, "significantly higher"
+    assert C.PERFORMANCE_MARGIN == pytest.approx(0.03 / 0.78)
 
 
 def test_claim_5_tests_performance_in_the_stable_period():
@@ -115,35 +178,78 @@ def test_claim_6_needs_3_2_and_performance_above_random_and_static():
     assert row["verdict"] == "not_reproduced" and "static allocation" in row["detail"]
 
 
-def test_claim_7_compares_with_breakdown_and_the_convergence_period():
+def test_claim_6_reports_3_2_as_the_most_frequent_state_beside_the_verdict():
+    # 3:2 above random, but 2:3 as frequent as 3:2: the chapter states no test of 3:2 against the
+    # other states, so the verdict stands and the comparison is reported beside it
+    shares = _peaked(STATES5, "3:2", 40)
+    shares["2:3"], shares["0:5"] = 40.0, shares["0:5"] - (40.0 - shares["2:3"])
+    tavc = _trials("tavc", shares, rate=0.40)
+    rnd = _trials("random", _peaked(STATES5, "3:2", 31), rate=0.35)
+    static = _trials("static", _peaked(STATES5, "2:3", 90), rate=0.38)
+    row = C.claim_rows({"breakdown": pd.concat([tavc, rnd, static])}, "breakdown").iloc[0]
+    assert row["verdict"] == "reproduced"
+    assert "3:2 above 2:3" in row["observations"] and "3:2 above 2:3" not in row["detail"]
+
+
+def _no_vacancy(convergence=0.40, before=0.45, breakdown_rate=0.40, breakdown_shares=None):
     shares = _peaked(STATES5, "3:2", 46)
-    no_vac = pd.concat([_trials("tavc", shares, rate=0.40), _trials("random", _peaked(STATES5, "3:2", 31), rate=0.35)])
-    breakdown = _trials("tavc", shares, rate=0.40)
-    runs = {"breakdown_no_vacancy": no_vac, "breakdown": breakdown}
-    assert C.claim_rows(runs, "breakdown_no_vacancy").iloc[0]["verdict"] == "reproduced"
+    no_vac = pd.concat([_trials("tavc", shares, rate=0.40, convergence=convergence, before=before, jitter=0.2),
+                        _trials("random", _peaked(STATES5, "3:2", 31), rate=0.35)])
+    breakdown = _trials("tavc", breakdown_shares or shares, rate=breakdown_rate, jitter=0.2)
+    return {"breakdown_no_vacancy": no_vac, "breakdown": breakdown}
+
+
+def test_claim_7_needs_the_same_distribution_a_fall_and_the_same_performance_after():
+    row = C.claim_rows(_no_vacancy(), "breakdown_no_vacancy").iloc[0]
+    assert row["verdict"] == "reproduced", row["detail"]
+    assert "Welch TOST" in row["detail"] and "paired TOST" in row["detail"]
     # without breakdown's trials the comparison cannot be made
-    row = C.claim_rows({"breakdown_no_vacancy": no_vac}, "breakdown_no_vacancy").iloc[0]
-    assert row["verdict"] == "inconclusive"
+    no_vac = _no_vacancy()["breakdown_no_vacancy"]
+    assert C.claim_rows({"breakdown_no_vacancy": no_vac}, "breakdown_no_vacancy").iloc[0]["verdict"] == "inconclusive"
+    # no fall when the robot was removed: fails
+    row = C.claim_rows(_no_vacancy(before=0.40), "breakdown_no_vacancy").iloc[0]
+    assert row["verdict"] == "not_reproduced" and "before the breakdown" in row["detail"]
     # a convergence period far below the stable one: they differ
-    slow = pd.concat([_trials("tavc", shares, rate=0.40, convergence=0.30),
-                      _trials("random", _peaked(STATES5, "3:2", 31), rate=0.35)])
-    assert C.claim_rows({"breakdown_no_vacancy": slow, "breakdown": breakdown},
-                        "breakdown_no_vacancy").iloc[0]["verdict"] == "not_reproduced"
+    assert C.claim_rows(_no_vacancy(convergence=0.30), "breakdown_no_vacancy").iloc[0]["verdict"] == "not_reproduced"
+    # breakdown's stable performance 10 % higher, beyond the 3.8 % margin: fails
+    row = C.claim_rows(_no_vacancy(breakdown_rate=0.44), "breakdown_no_vacancy").iloc[0]
+    assert row["verdict"] == "not_reproduced" and "the same as breakdown's" in row["detail"]
+
+
+def test_claim_7_is_inconclusive_where_the_trials_show_neither_sameness_nor_a_difference():
+    # the two distributions 1 point apart in two states with spreads of several points: no state differs,
+    # but 6 trials cannot show them within 2.5 points
+    runs = _no_vacancy()
+    wide = _trials("tavc", _peaked(STATES5, "3:2", 46), rate=0.40, jitter=4.0)
+    runs["breakdown"] = wide
+    row = C.claim_rows(runs, "breakdown_no_vacancy").iloc[0]
+    assert row["verdict"] == "inconclusive" and "not shown inside it" in row["detail"]
 
 
 def test_claim_8_needs_every_other_state_below_random_and_performance_back():
     rnd = _trials("random", theory_pct(5, 2, "circuits"), rate=0.35)
-    # 3:2 at 90 %, every other state at 2 %: below each binomial share (the least is 3.1 %)
-    tavc = _trials("tavc", _peaked(STATES5, "3:2", 90), rate=0.40, before=0.40, jitter=0.3)
-    assert C.claim_rows({"value_change": pd.concat([tavc, rnd])}, "value_change").iloc[0]["verdict"] == "reproduced"
-    lower = _trials("tavc", _peaked(STATES5, "3:2", 90), rate=0.40, before=0.48, jitter=0.3)
-    row = C.claim_rows({"value_change": pd.concat([lower, rnd])}, "value_change").iloc[0]
+    breakdown = _trials("tavc", _peaked(STATES5, "3:2", 40), rate=0.40, jitter=0.3)
+    breakdown["pct_4:1"] = 1.0
+    # 3:2 at 90 %, every other state at 2 %: below each binomial share (the least is 3.1 %), 4:1 above breakdown's 1 %
+    tavc = _trials("tavc", _peaked(STATES5, "3:2", 90), rate=0.40, before=0.40, convergence=0.30, jitter=0.3)
+    runs = {"value_change": pd.concat([tavc, rnd]), "breakdown": breakdown}
+    assert C.claim_rows(runs, "value_change").iloc[0]["verdict"] == "reproduced"
+    lower = _trials("tavc", _peaked(STATES5, "3:2", 90), rate=0.40, before=0.48, convergence=0.30, jitter=0.3)
+    row = C.claim_rows({"value_change": pd.concat([lower, rnd]), "breakdown": breakdown}, "value_change").iloc[0]
     assert row["verdict"] == "not_reproduced" and "before it" in row["detail"]
+    # no fall after the change: fails
+    flat = _trials("tavc", _peaked(STATES5, "3:2", 90), rate=0.40, before=0.40, jitter=0.3)
+    row = C.claim_rows({"value_change": pd.concat([flat, rnd]), "breakdown": breakdown}, "value_change").iloc[0]
+    assert row["verdict"] == "not_reproduced" and "below the period before the change" in row["detail"]
+    # 3:2 and 4:1 are tested against breakdown's: without breakdown's trials the claim is not decided
+    row = C.claim_rows({"value_change": pd.concat([tavc, rnd])}, "value_change").iloc[0]
+    assert row["verdict"] == "inconclusive" and "breakdown not run" in row["detail"]
 
 
 def test_claims_csv_columns_follow_the_contract():
     frame = C.claim_rows({})
-    assert list(frame.columns) == ["claim_id", "claim", "verdict", "statistic", "p_value", "detail"]
+    # the contract's columns first, then the observations beside each verdict
+    assert list(frame.columns) == ["claim_id", "claim", "verdict", "statistic", "p_value", "detail", "observations"]
     assert frame["claim_id"].tolist() == [1, 2, 3, 4, 5, 6, 7, 8, 9]
     assert set(frame["verdict"]) == {"inconclusive"}
     assert np.isnan(frame["statistic"]).all()
@@ -151,18 +257,18 @@ def test_claims_csv_columns_follow_the_contract():
 
 def test_a_share_with_no_spread_leaves_a_not_different_family_not_testable():
     # random always exactly 0 % in 0:6 where theory says 1.5625 %: no t can be computed (it would
-    # be infinite), so the family cannot show that no state differs, and nothing says one does
+    # be infinite), so the family beside claim 4 cannot show that no state differs, and nothing says one does
     shares = dict(theory_pct(6, 2, "circuits"))
     rnd = _trials("random", shares)
     rnd["pct_0:6"] = 0.0
     row = C.claim_rows({"initial_distribution": rnd}, "initial_distribution").set_index("claim_id").loc[4]
-    assert row["verdict"] == "inconclusive" and "inf" not in row["detail"]
+    assert "inf" not in row["observations"]
     assert "not testable (no tested state differs, but no spread in the sample (every trial 0 against 1.562) (0:6))" \
-        in row["detail"]
-    # a state that can be tested and differs still decides the family against the claim
+        in row["observations"]
+    # a state that can be tested and differs still decides the family
     rnd["pct_3:3"] = rnd["pct_3:3"] + 20.0
     row = C.claim_rows({"initial_distribution": rnd}, "initial_distribution").set_index("claim_id").loc[4]
-    assert row["verdict"] == "not_reproduced" and "most different: 3:3" in row["detail"]
+    assert "most different: 3:3" in row["observations"]
 
 
 def _by_test(checks, claim_id, contains):
@@ -176,20 +282,29 @@ def test_chapter_checks_apply_the_same_tests_to_the_chapter_tables():
     c3 = _by_test(checks, 3, "3:3")
     assert c3["statistic"] == pytest.approx(10.8 / math.sqrt(36 / 20 + 4.84 / 20), rel=1e-9)
     assert c3["holds"] is True
-    # claim 8, 3:2 of Table 1.5 (20 trials) above Table 1.3's random (5 trials):
-    # (48.7 - 32.9) / sqrt(6.1^2/20 + 2.3^2/5) = 15.8 / 1.7084 = 9.249
-    c8 = _by_test(checks, 8, "time in 3:2")
-    assert c8["statistic"] == pytest.approx(15.8 / math.sqrt(6.1 ** 2 / 20 + 2.3 ** 2 / 5), rel=1e-9)
+    # claim 8, 3:2 of Table 1.5 (20 trials) above Table 1.3's random (20 trials, Table 1.2's count: the
+    # chapter gives none): (48.7 - 32.9) / sqrt(6.1^2/20 + 2.3^2/20) = 15.8 / 1.4577 = 10.839
+    c8 = _by_test(checks, 8, "random: time in 3:2")
+    assert c8["statistic"] == pytest.approx(15.8 / math.sqrt(6.1 ** 2 / 20 + 2.3 ** 2 / 20), rel=1e-9)
     assert c8["holds"] is True
-    # 2:3 is not below random in the chapter's own numbers: (30.3 - 31.0) / sqrt(5.2^2/20 + 2.2^2/5) = -0.46
+    # 2:3 is not below random in the chapter's own numbers: (30.3 - 31.0) / sqrt(5.2^2/20 + 2.2^2/20) = -0.55
     c8_23 = _by_test(checks, 8, "time in 2:3")
-    assert c8_23["statistic"] == pytest.approx(-0.7 / math.sqrt(5.2 ** 2 / 20 + 2.2 ** 2 / 5), rel=1e-9)
+    assert c8_23["statistic"] == pytest.approx(-0.7 / math.sqrt(5.2 ** 2 / 20 + 2.2 ** 2 / 20), rel=1e-9)
     assert c8_23["holds"] is False and c8_23["p_value"] > 0.1
-    # claim 7: Tables 1.4 and 1.3 differ by at most 1.1 points in any state: nothing differs after Holm
+    # nor is 3:2 above Table 1.3's in them: (48.7 - 46.2) / sqrt(6.1^2/20 + 8.6^2/20) = 1.060
+    c8_bd = _by_test(checks, 8, "TAVC: time in 3:2 above")
+    assert c8_bd["statistic"] == pytest.approx(2.5 / math.sqrt((6.1 ** 2 + 8.6 ** 2) / 20), rel=1e-9)
+    assert c8_bd["holds"] is False
+    # claim 7: Tables 1.4 and 1.3 differ by at most 1.1 points in any state, nothing differs, but with
+    # stds of 9 points 20 trials a side cannot show 2:3 and 3:2 within 2.5 points: undecided
     c7 = _by_test(checks, 7, "Table 1.4")
-    assert c7["holds"] is True and c7["p_value"] > 0.5
-    # one check per state of Table 1.5, plus claims 3, 4, 6, 7 and 9
-    assert len([c for c in checks if c["claim_id"] == 8]) == 6
+    assert c7["holds"] is None and "2:3, 3:2" in c7["test"]
+    # claim 4: Cohen's w of Table 1.2's random row 0.113, close; its states differ, beside the claim
+    c4 = _by_test(checks, 4, "close to")
+    assert c4["statistic"] == pytest.approx(0.1132, abs=1e-4) and c4["holds"] is True and not c4["observation"]
+    assert _by_test(checks, 4, "each state")["observation"] is True
+    # one check per state of Table 1.5 against random and two against Table 1.3, plus claims 3, 4, 6, 7 and 9
+    assert len([c for c in checks if c["claim_id"] == 8]) == 8
     assert {c["claim_id"] for c in checks} == {3, 4, 6, 7, 8, 9}
     # claim 9 on Table 1.6 (15 trials each): 3:0 at 2.7 +- 4.1 against 1.7 +- 0.6:
     # t = 1.0 / sqrt(4.1^2/15 + 0.6^2/15) = 0.935, p about 0.18: not significant in the chapter's own numbers,
@@ -205,7 +320,7 @@ def test_chapter_checks_apply_the_same_tests_to_the_chapter_tables():
 STATES_FS = [f"{f}:{s}" for f in range(4) for s in range(4)]
 
 
-def _hetero(tavc_peak=30.0, gap_fast=0.05, gap_slow=0.02, tavc_rate=0.40):
+def _hetero(tavc_peak=30.0, gap_fast=0.05, gap_slow=-0.02, tavc_rate=0.40):
     theory = theory_pct(6, 2, "groups", [3, 3])
     tavc = _trials("tavc", _peaked(STATES_FS, "3:0", tavc_peak), rate=tavc_rate)
     tavc["q_gap_fast"] = gap_fast + 0.001 * np.arange(len(tavc))
@@ -228,6 +343,11 @@ def test_claim_9_parts_fail_one_at_a_time():
     # slow robots with the larger gap between high and low
     row = C.claim_rows(_hetero(gap_fast=0.02, gap_slow=0.05), "heterogeneous").iloc[0]
     assert row["verdict"] == "not_reproduced" and "fast robots above slow" in row["detail"]
+    # slow robots that rate the high-value circuit higher too: "the slow robots have higher estimated
+    # utilities for servicing the low-value circuit" fails, though the fast robots' gap is larger
+    row = C.claim_rows(_hetero(gap_fast=0.05, gap_slow=0.02), "heterogeneous").iloc[0]
+    assert row["verdict"] == "not_reproduced"
+    assert re.search(r"slow robots below zero [^;]*\(fails\)", row["detail"])
     # performance below random
     assert C.claim_rows(_hetero(tavc_rate=0.30), "heterogeneous").iloc[0]["verdict"] == "not_reproduced"
     # 3:0 at 4 % is above the theory row's 1.56 % but the other states (96/15 = 6.4 % each) rise more

@@ -15,7 +15,7 @@ from tavc_cli.analysis.performance import performance_table
 from tavc_cli.analysis.qvalues import q_value_table
 from tavc_cli.analysis.robots import robot_table
 from tavc_cli.analysis.states import allocation_table, specialisation_table, state_time_table
-from tavc_cli.analysis.trial_stats import trial_stats
+from tavc_cli.analysis.trial_stats import stable_from, trial_stats
 from tavc_cli.analysis.vacancy import vacancy_table
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import write_text_atomic
@@ -83,7 +83,9 @@ def _analyse(cfg: TavcConfig, records: list[TrialRecord], with_theory: bool = Tr
     t_from, t_to = float(cfg.convergence_s), float(cfg.duration_s)
     scheme = cfg.analysis.state
     bin_s, start = float(cfg.analysis.performance_bin_s), -float(cfg.sim.warmup_s)
-    state = state_time_table(records, t_from, t_to, scheme, with_theory=with_theory)
+    # shares over the window the claims test (the whole stable period, or its last stretch of
+    # the chapter's length: `scale.stable_window`)
+    state = state_time_table(records, stable_from(cfg), t_to, scheme, with_theory=with_theory)
     perf = performance_table(records, bin_s, start, t_to)
     alloc = allocation_table(records, bin_s, start, t_to) if scheme == "circuits" else None
     tables = {"state_time": state, "performance": perf, "trial_stats": trial_stats(records, cfg)}

@@ -86,4 +86,7 @@ def claims_text(claims: pd.DataFrame, verdicts: bool = True) -> str:
             head += f" (t = {r.statistic:.2f}, p = {r.p_value:.3g})"
         lines.append(head)
         lines += [f"    {part}" for part in str(r.detail).split("; ")]
+        seen = getattr(r, "observations", "")
+        if isinstance(seen, str) and seen:
+            lines += [f"    beside the verdict: {part}" for part in seen.split("; ")]
     return "\n".join(lines)

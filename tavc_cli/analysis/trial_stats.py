@@ -48,12 +48,28 @@ def settle_time(centres, series, bin_s: float, t_conv: float) -> float:
     return max(float(centres[k] - bin_s / 2), 0.0)
 
 
+def stable_from(cfg: TavcConfig) -> float:
+    """The time of the record from which the stable period is measured: the end of the
+    convergence period, or, with `scale.stable_window` = `chapter`, the start of the stable
+    period's last stretch as long as the chapter's own stable period (when the stable period is
+    longer), so that shares and rates, and their spread over trials, come from windows of the
+    chapter's length at every horizon. Trials that end with a number of deliveries (section 1.4)
+    have no stable window of the chapter's to match."""
+    t_conv, t_end = float(cfg.convergence_s), float(cfg.duration_s)
+    paper = cfg.paper
+    if cfg.scale.stable_window != "chapter" or paper.deliveries is not None or not paper.duration_s:
+        return t_conv
+    length = float(paper.duration_s) - float(paper.convergence_s or 0.0)
+    return max(t_conv, t_end - length)
+
+
 def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame:
     """`controller,trial,duration_s,value_rate_stable,value_rate_convergence,value_rate_before,pct_<state>...`
     (`duration_s`: the time of the record the trial ran to, its duration or its n-th delivery).
 
     Stable period: [convergence_s, duration_s) (to its end for a trial that ended sooner, with
-    its n-th delivery); convergence period: [0, convergence_s);
+    its n-th delivery), or its last stretch of the chapter's length (`stable_from`);
+    convergence period: [0, convergence_s);
     before: [-w, 0) with w = analysis.before_s, or the stable period's length if that is null,
     capped by the warm-up (NaN without one, and for a baseline that started after -w:
     `baseline_lead_s`); a period that begins before a record's start has no rate (NaN).
@@ -62,9 +78,10 @@ def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame
     """
     records = list(records)
     t_conv, t_end = float(cfg.convergence_s), float(cfg.duration_s)
+    t_stable = stable_from(cfg)
     warm = float(cfg.sim.warmup_s)
     before_s = cfg.analysis.before_s
-    before = min(warm, float(before_s) if before_s is not None else t_end - t_conv)
+    before = min(warm, float(before_s) if before_s is not None else t_end - t_stable)
     scheme = cfg.analysis.state
     bin_s = float(cfg.analysis.performance_bin_s)
     states: list[str] = []
@@ -78,11 +95,11 @@ def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame
         group_names = group_order(first.meta["groups"], first.meta["speeds_mps"])
     rows = []
     for rec in records:
-        shares = time_shares(rec, t_conv, t_end, scheme)
+        shares = time_shares(rec, t_stable, t_end, scheme)
         row = {
             "controller": rec.meta["controller"], "trial": int(rec.meta["trial"]),
             "duration_s": rec.end_s,
-            "value_rate_stable": value_rate(rec, t_conv, t_end),
+            "value_rate_stable": value_rate(rec, t_stable, t_end),
             "value_rate_convergence": value_rate(rec, 0.0, t_conv) if t_conv > 0 else math.nan,
             "value_rate_before": value_rate(rec, -before, 0.0) if before > 0 else math.nan,
             "settle_s": settle_time(*high_circuit_series(rec, bin_s, 0.0, t_end), bin_s, t_conv)

@@ -38,6 +38,7 @@ from tavc_cli.settings import (
     AVAILABLE_BACKENDS,
     BACKENDS,
     MIN_DOCK_CLEARANCE_M,
+    STABLE_WINDOWS,
     TIME_UNITS,
 )
 from tavc_cli.sim.arena import START_GAP_M, START_WALL_MARGIN_M, most_robots
@@ -61,6 +62,7 @@ def validate_scaling(cfg: DictConfig) -> None:
     if not name or name in (".", "..") or any(c in name for c in "/\\") or name != name.strip():
         fail("scale.name", f"{name!r} is not a plain name; runs go to runs/<scale.name>/ by default")
     positive("scale.time_factor", cfg.scale.time_factor)
+    one_of("scale.stable_window", cfg.scale.stable_window, STABLE_WINDOWS)
     for key in ("deliveries_factor", "baseline_time_factor"):
         if cfg.scale[key] is not None:
             positive(f"scale.{key}", cfg.scale[key])

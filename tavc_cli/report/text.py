@@ -73,7 +73,7 @@ def decided_by(r) -> str:
     """Which part of a claim decides its verdict (`analysis.claims.deciding`), as a table cell:
     the part's question, or why the claim could not be tested; a comparison of means says so."""
     if r.verdict == "inconclusive":
-        return f"not testable: {getattr(r, 'not_testable_because', '') or 'see the parts'}".replace("|", "/")
+        return f"inconclusive: {getattr(r, 'not_testable_because', '') or 'see the parts'}".replace("|", "/")
     name = str(getattr(r, "deciding_test", "") or "")
     rule = str(getattr(r, "deciding_holds_if", "") or "")
     if name and rule.startswith("p >="):  # a "not different" part: a large p is what it needs
@@ -94,10 +94,13 @@ def p_cell(r) -> str:
 def claims_table(claims: pd.DataFrame, verdicts: bool = True) -> list[str]:
     """The claims as a table: the chapter's claim, the verdict ("would be: ..." where the run
     is below the chapter's scale: `verdicts` False), the t and p of the part that decides it and
-    which part that is, then every part."""
+    which part that is, then every part, and what is observed beside the verdict."""
     lines = ["| claim | verdict | t | p | decided by | what was tested |", "|---|---|---|---|---|---|"]
     for r in claims.itertuples():
         detail = str(r.detail).replace("|", "/").replace("; ", "<br>")
+        seen = getattr(r, "observations", "")
+        if isinstance(seen, str) and seen:
+            detail += "<br>*beside the verdict:* " + seen.replace("|", "/").replace("; ", "<br>")
         t = getattr(r, "deciding_statistic", r.statistic)
         p = getattr(r, "deciding_p_value", r.p_value)
         lines.append(f"| {r.claim_id}: {chapter_says(r.claim)} | **{verdict_words(r.verdict, verdicts)}** | "
