@@ -90,7 +90,7 @@ def test_experiments_use_the_chapters_values_and_calibrated_ones_are_one_overrid
 def test_breakdown_at_quick_scale_resolves_by_hand():
     cfg = load_config(["experiment=breakdown", "scale=quick"])
     assert cfg.trials == 6  # min(scale 6, paper 20)
-    assert cfg.baseline_trials == 5  # min(scale 6, paper baseline 5)
+    assert cfg.baseline_trials == 6  # min(scale 6, paper baseline 20)
     assert cfg.static_trials == 6  # min(scale 6, paper static 20)
     assert cfg.duration_s == 27000 * 0.25
     assert cfg.convergence_s == 9000 * 0.25
@@ -103,18 +103,20 @@ def test_breakdown_at_quick_scale_resolves_by_hand():
 
 
 def test_breakdown_at_paper_scale_uses_the_chapter_counts():
-    # 20 TAVC trials, "five random controllers", a static allocation's mean "over 20 trials"
+    # 20 TAVC trials; random: "a group of five random controllers" is five robots, the chapter gives no
+    # count of trials, so Table 1.2's 20; a static allocation's mean "over 20 trials"
     cfg = load_config(["experiment=breakdown", "scale=paper"])
-    assert (cfg.trials, cfg.baseline_trials, cfg.static_trials) == (20, 5, 20)
+    assert (cfg.trials, cfg.baseline_trials, cfg.static_trials) == (20, 20, 20)
     assert (cfg.duration_s, cfg.convergence_s, cfg.sim.warmup_s) == (27000.0, 9000.0, 18000.0)
     counts = Counter(s.controller for s in trial_specs(settings(cfg)))
-    assert counts == {"tavc": 20, "random": 5, "static": 20}
+    assert counts == {"tavc": 20, "random": 20, "static": 20}
 
 
 @pytest.mark.parametrize("experiment", ["breakdown_no_vacancy", "value_change"])
-def test_five_robot_experiments_compare_with_five_random_trials_as_the_chapter_does(experiment):
+def test_five_robot_experiments_compare_with_twenty_random_trials_as_table_1_2(experiment):
+    # "random allocation among five robots": five robots, in as many trials as Table 1.2's random runs
     cfg = load_config([f"experiment={experiment}", "scale=paper"])
-    assert Counter(s.controller for s in trial_specs(settings(cfg))) == {"tavc": 20, "random": 5}
+    assert Counter(s.controller for s in trial_specs(settings(cfg))) == {"tavc": 20, "random": 20}
 
 
 def test_static_trials_follow_the_baselines_unless_set():

@@ -75,7 +75,7 @@ def test_converged_baselines_are_the_paper_scales_trials():
     paper = trial_specs(config.settings(config.load_config(["experiment=breakdown", "scale=paper"])))
     base_conv = [s for s in conv if s.controller != "tavc"]
     base_paper = [s for s in paper if s.controller != "tavc"]
-    assert len(base_conv) == 25 and [s.key() for s in base_conv] == [s.key() for s in base_paper]
+    assert len(base_conv) == 40 and [s.key() for s in base_conv] == [s.key() for s in base_paper]
     learner = [s for s in conv if s.controller == "tavc"]
     assert {(s.duration_s, s.warmup_s) for s in learner} == {(1_080_000.0, 720_000.0)}
 

@@ -128,20 +128,22 @@ def test_zero_spread_is_not_testable_with_its_reason_in_the_report_and_the_conso
     text, console = _report(tmp_path)
     claims = pd.read_csv(tmp_path / "claims.csv").set_index("claim_id")
     # every TAVC trial the same and every random trial the same: no t can be computed for claim 3's
-    # comparison with random nor for claim 5's, and claim 4's random shares never move off the theory row
-    for cid in (3, 4, 5):
+    # comparison with random nor for claim 5's; claim 4's random shares never move off the theory row,
+    # which is as close as a distribution gets (Cohen's w 0)
+    for cid in (3, 5):
         assert claims.loc[cid, "verdict"] == "inconclusive"
         assert "not testable" in claims.loc[cid, "detail"]
+    assert claims.loc[4, "verdict"] == "reproduced" and "Cohen's w 0," in claims.loc[4, "detail"]
     assert "time in 3:3, TAVC above random (%): not testable (no spread in either sample)" in claims.loc[3, "detail"]
     assert claims.loc[5, "not_testable_because"] == ("score per second in the stable period, TAVC above random: "
                                                      "no spread in either sample")
     row = next(line for line in text.splitlines() if line.startswith("| 5 | initial_distribution |"))
-    assert "| not testable | (not testable: score per second in the stable period, TAVC above random: no spread " \
+    assert "| inconclusive | (inconclusive: score per second in the stable period, TAVC above random: no spread " \
            "in either sample) |" in row
     frame = C.claim_rows({"initial_distribution": pd.read_csv(folder / "trial_stats.csv")}, "initial_distribution")
     run_text = summary_text({"output_dir": str(folder), "n_trials": 40, "n_reused": 0, "wall_time_s": 1.0,
                              "tables": {}, "claims": frame})
-    assert "claim 5: not testable (score per second in the stable period, TAVC above random: no spread in either " \
+    assert "claim 5: inconclusive (score per second in the stable period, TAVC above random: no spread in either " \
            "sample)" in run_text
     for words in (text, "\n".join(console), run_text, (tmp_path / "claims.csv").read_text()):
         assert "-inf" not in words and not re.search(r"\binf\b", words)
@@ -153,7 +155,8 @@ def test_a_constant_share_against_the_theory_row_is_not_an_infinite_t():
                          **{f"pct_{s}": v + (0.5 * (-1) ** j if s in ("2:4", "4:2") else 0.0)
                             for s, v in zip(STATES, THEORY, strict=True)}} for j in range(4)])
     rnd["pct_6:0"] = 0.0
-    part = C.claim_4({"initial_distribution": rnd})[0]
+    part = C.claim_4({"initial_distribution": rnd})[1]  # the per-state tests, beside claim 4's verdict
+    assert part.observation
     assert part.holds is None and math.isnan(part.statistic) and math.isnan(part.p_value)
     assert "no spread in the sample (every trial 0 against 1.562) (6:0)" in part.reason
 

@@ -150,6 +150,13 @@ def _share(frame: pd.DataFrame, state: str) -> np.ndarray:
     return frame[col].to_numpy(float) if col in frame else np.full(len(frame), np.nan)
 
 
+def _mean(x) -> float:
+    """The mean of the finite values in x, or NaN where there are none."""
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    return float(x.mean()) if len(x) else math.nan
+
+
 def _missing(what: str) -> Part:
     return Part(what, math.nan, math.nan, None)
 
@@ -179,7 +186,7 @@ def claim_4(runs: Mapping[str, pd.DataFrame], theory: Mapping[str, float] | None
 
         n = len(states_of(s)) - 1
         theory = theory_pct(n, 2, "circuits")
-    means = {st: float(np.nanmean(_share(rnd, st))) if len(rnd) else math.nan for st in states_of(s)}
+    means = {st: _mean(_share(rnd, st)) for st in states_of(s)}
     tests = [(st, (lambda st=st: _one_sample(_share(rnd, st), theory[st]))) for st in states_of(s)]
     return [close_to("random's mean distribution close to the binomial theory row", means, theory, CLOSE_W),
             as_observation(holm_none_differ("random's share of each state against the binomial theory row "
@@ -268,8 +275,8 @@ def mean_above(what: str, a, b) -> Part:
     """a's mean over trials above b's (either may be a number): a comparison of means, with no
     test, where the chapter states a difference of means without one. The statistic is the
     difference of the means."""
-    ma = float(np.nanmean(a)) if np.ndim(a) else float(a)
-    mb = float(np.nanmean(b)) if np.ndim(b) else float(b)
+    ma = _mean(a) if np.ndim(a) else float(a)
+    mb = _mean(b) if np.ndim(b) else float(b)
     if not (math.isfinite(ma) and math.isfinite(mb)):
         return Part(what, math.nan, math.nan, None, "no trials", what, "means")
     return Part(f"{what} ({ma:.4g} against {mb:.4g}, means)", ma - mb, math.nan, ma > mb, name=what, kind="means")
