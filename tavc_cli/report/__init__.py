@@ -181,18 +181,24 @@ def build_report(results_dir: Path) -> dict:
             verdict = verdict_words(r.verdict, base.verdicts) if ran else "not run"
             lines.append(f"| {r.claim_id} | {horizons.experiment_cell(base, exp, results_dir)} | {verdict} | "
                          f"{p_cell(r) if ran else ''} |")
-    lines += ["", "Tests: t-tests at 90 % (alpha 0.10): Welch's one-sided for \"above\"/\"below\" between "
-              "controllers or between early and late samples (section 1.4's traversal and target times), paired "
-              "one-sided for \"most frequent\" within the same trials or robots, one-sample tests against zero for "
-              "a share or an offset, two-sided (Holm-corrected over states) for \"not different\"; claim 9's "
-              "\"largest relative increase\" compares means without a test, as the chapter does. A claim holds "
-              "only if every part does; the p shown is that of the part that decides the verdict, named beside it: "
-              "of a claim not reproduced, the failing part furthest from holding (for a part that needs a "
-              "significant difference, the largest p), of a claim reproduced, the part closest to failing. A part "
-              "whose t cannot be computed (one trial, no spread in either sample) is not testable, and so is a "
-              "claim that no part decides against. Each claim is tested on one run of its experiment: the folder "
-              "named after it, else the first by name (*The runs in this folder* lists every run). The rules are "
-              "in `tavc_cli/analysis/claims.py`.", ""]
+    lines += ["", "Tests: t-tests at 90 % (alpha 0.10), each part reading a phrase of the chapter (quoted in the "
+              "claim, and in docs/claims.md). Welch's one-sided for \"significantly higher\"/\"lower\" between "
+              "controllers, experiments, or early and late samples (section 1.4's traversal and target times), "
+              "paired one-sided within the same trials (a state against another, a period against another); "
+              "\"not significantly different\" as equivalence, two one-sided tests (TOST) within the smallest "
+              "difference of the same kind the chapter calls significant (2.5 points of a state's share; 3.8 % of "
+              "performance), which holds when both reject, fails when a two-sided test finds a difference, and is "
+              "undecided otherwise; claim 4's \"closely aligned\" as Cohen's w below 0.3, with the chapter's "
+              "\"though the differences are statistically significant\" reported beside it; claim 9's relative "
+              "increase and utilities compare means without a test, as the chapter does. What a claim's reading "
+              "needs and the chapter does not state as a finding is reported beside the verdict, never in it. A "
+              "claim holds only if every part does; the p shown is that of the part that decides the verdict, "
+              "named beside it: of a claim not reproduced, the failing part furthest from holding, of a claim "
+              "reproduced, the part closest to failing. A part whose t cannot be computed (one trial, no spread "
+              "in either sample) or an equivalence the trials show neither way leaves its claim inconclusive, "
+              "unless another part decides against it. Each claim is tested on one run of its experiment: the "
+              "folder named after it, else the first by name (*The runs in this folder* lists every run). The "
+              "rules are in `tavc_cli/analysis/claims.py`.", ""]
     model_json = find_model(experiments)
     read = base.read
     if long is not None:

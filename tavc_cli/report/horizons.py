@@ -370,7 +370,7 @@ def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
         own = deciding[f]
         if own is not None and k in own.index:  # tested here on the rung's own trials
             r = own.loc[k]
-            word = {"reproduced": "holds", "not_reproduced": "fails"}.get(r["verdict"], "not testable")
+            word = {"reproduced": "holds", "not_reproduced": "fails"}.get(r["verdict"], "inconclusive")
             return f"{word} ({fmt(float(r['deciding_p_value']), '.2g')})"
         s = get[f"claim{k}_reproduced"]
         x = float(s[f]) if f in s.index else math.nan
