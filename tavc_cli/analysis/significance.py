@@ -62,7 +62,8 @@ class Part:
             return f"{self.what}: not testable" + (f" ({self.reason})" if self.reason else "")
         if not math.isfinite(self.p_value):  # a comparison of means, not a test
             return f"{self.what}: {self.statistic:.4g} ({'holds' if self.holds else 'fails'})"
-        return f"{self.what}: t = {self.statistic:.3f}, p = {self.p_value:.4g} ({'holds' if self.holds else 'fails'})"
+        outcome = "holds" if self.holds else (f"fails: {self.reason}" if self.reason else "fails")
+        return f"{self.what}: t = {self.statistic:.3f}, p = {self.p_value:.4g} ({outcome})"
 
 
 def _clean(x) -> np.ndarray:

@@ -84,9 +84,11 @@ def decided_by(r) -> str:
 
 
 def p_cell(r) -> str:
-    """A claim's p in a summary table: the deciding part's p and, in brackets, which part that
-    is (`decided_by`)."""
+    """A claim's p in a summary table: the deciding part's p (for a comparison of means, the
+    compared value) and, in brackets, which part that is (`decided_by`)."""
     p = fmt(getattr(r, "deciding_p_value", r.p_value), ".3g")
+    if not p and str(getattr(r, "deciding_holds_if", "")).startswith("a comparison of means"):
+        p = fmt(getattr(r, "deciding_statistic", math.nan), ".3g")  # the compared value (Cohen's w, a gap)
     by = decided_by(r)
     return f"{p} ({by})" if p and by else (p or (f"({by})" if by else ""))
 
