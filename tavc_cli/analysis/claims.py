@@ -271,15 +271,16 @@ def claim_8(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
     return parts
 
 
-def mean_above(what: str, a, b) -> Part:
-    """a's mean over trials above b's (either may be a number): a comparison of means, with no
-    test, where the chapter states a difference of means without one. The statistic is the
-    difference of the means."""
+def mean_above(what: str, a, b, below: bool = False) -> Part:
+    """a's mean over trials above b's (below it, if `below`; either may be a number): a
+    comparison of means, with no test, where the chapter states a difference of means without
+    one. The statistic is the difference of the means, a's minus b's."""
     ma = _mean(a) if np.ndim(a) else float(a)
     mb = _mean(b) if np.ndim(b) else float(b)
     if not (math.isfinite(ma) and math.isfinite(mb)):
         return Part(what, math.nan, math.nan, None, "no trials", what, "means")
-    return Part(f"{what} ({ma:.4g} against {mb:.4g}, means)", ma - mb, math.nan, ma > mb, name=what, kind="means")
+    holds = ma < mb if below else ma > mb
+    return Part(f"{what} ({ma:.4g} against {mb:.4g}, means)", ma - mb, math.nan, holds, name=what, kind="means")
 
 
 def largest_relative_increase(tavc: pd.DataFrame, theory: Mapping[str, float], state: str) -> Part:
@@ -326,7 +327,8 @@ def claim_9(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
     if len(gaps) >= 2:
         fast, slow = gaps[0][len(Q_GAP_PREFIX):], gaps[-1][len(Q_GAP_PREFIX):]
         parts += [mean_above(f"final Q(high) - Q(low) of the {fast} robots above zero", tavc[gaps[0]], 0.0),
-                  mean_above(f"final Q(high) - Q(low) of the {slow} robots below zero", 0.0, tavc[gaps[-1]]),
+                  mean_above(f"final Q(high) - Q(low) of the {slow} robots below zero", tavc[gaps[-1]], 0.0,
+                             below=True),
                   mean_above(f"final Q(high) - Q(low), {fast} robots above {slow}", tavc[gaps[0]], tavc[gaps[-1]])]
     else:
         parts.append(_missing("final Q(high) - Q(low) by speed group: no Q gaps recorded"))
