@@ -242,3 +242,25 @@ def test_tavc_ladder_end_to_end_at_smoke_scale(tmp_path):
     assert a.read_bytes() == b.read_bytes()
     durations = table[table["quantity"] == "pct_3:3"].groupby("factor")["duration_s"].first()
     assert durations.to_dict() == {0.01: 180.0, 0.02: 360.0}  # 18000 s times each factor
+
+
+def test_the_stable_window_at_40x_is_the_chapters_length_at_the_end():
+    from tavc_cli.analysis.trial_stats import stable_from
+    from tavc_cli.report.horizons import window_words
+
+    # initial_distribution: 5 h with 1.25 h to converge, so 3.75 h = 13,500 s of stable period; at 40x
+    # the trial ends at 720,000 s and its window starts 13,500 s before
+    conv = config.settings(config.load_config(["experiment=initial_distribution", "scale=converged"]))
+    assert (conv.scale.stable_window, stable_from(conv)) == ("chapter", 720_000.0 - 13_500.0)
+    assert window_words(conv) == "its last 3.75 h, as long as the chapter's stable period"
+    # at the chapter's durations the window is the whole stable period, as it always was
+    paper = config.settings(config.load_config(["experiment=initial_distribution", "scale=paper"]))
+    assert stable_from(paper) == 4_500.0 and window_words(paper) == "its whole length, 3.75 h"
+    # breakdown: 7.5 h after the event with 2.5 h to converge: the last 5 h of 300 h
+    bd = config.settings(config.load_config(["experiment=breakdown", "scale=converged"]))
+    assert stable_from(bd) == 1_080_000.0 - 18_000.0
+    # a baseline on the chapter's schedule inside a 40x run: its stable period is the chapter's already
+    assert stable_from(baseline_settings(bd)) == 9_000.0
+    # anything else is refused naming the key
+    with pytest.raises(TavcError, match=r"scale\.stable_window"):
+        config.load_config(["experiment=breakdown", "scale.stable_window=last"])

@@ -194,6 +194,27 @@ def claims_both_table(base: Horizon, long: Horizon) -> list[str]:
     return lines
 
 
+def window_words(cfg: TavcConfig) -> str:
+    """The stretch of the stable period a run's shares and rates were measured over, in words:
+    its whole length, or its last stretch of the chapter's length (`scale.stable_window`)."""
+    from tavc_cli.analysis.trial_stats import stable_from
+
+    start, end = stable_from(cfg), float(cfg.duration_s)
+    if start > float(cfg.convergence_s):
+        return f"its last {(end - start) / 3600:.3g} h, as long as the chapter's stable period"
+    return f"its whole length, {(end - float(cfg.convergence_s)) / 3600:.3g} h"
+
+
+def window_lines(long: Horizon) -> list[str]:
+    """Over which stretch of its stable period each run of the horizon was measured: spreads
+    over trials and the power of every test depend on it."""
+    words = {name: window_words(cfg) for name, (cfg, _) in long.read.items() if cfg.paper.deliveries is None}
+    if not words:
+        return []
+    return ["The learners' shares and rates are measured over the stable period's " + "; ".join(
+        f"{name}: {w}" for name, w in words.items()) + " (`scale.stable_window`).", ""]
+
+
 def time_scale_lines(results_dir: Path, long: Horizon, model_json: Path | None,
                      base: Horizon | None = None) -> list[str]:
     """The section on the time scale: why the learners stay where they start at the chapter's
@@ -206,6 +227,7 @@ def time_scale_lines(results_dir: Path, long: Horizon, model_json: Path | None,
               "section 1.4's trials at ten times its traversals. The baselines learn nothing, so their "
               "distribution does not depend on the horizon: they run the chapter's own schedule (the same trials "
               "as at the chapter's durations) and are compared over its stable periods.", ""]
+    lines += window_lines(long)
     lines += ladder_lines(results_dir, long)
     lines += convergence_lines(long)
     return lines
@@ -470,7 +492,7 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
         lines += [*convergence_sentence(d), *(_relinked(line, results_dir, long.folder) for line in body)]
         return [*lines, *_claims_lines(name, long)]
     table = TABLES.get(name)
-    lines += ["% of the stable period in each state, mean ± std over trials"
+    lines += [f"% of the stable period ({window_words(cfg)}) in each state, mean ± std over trials"
               + (f"; the chapter's Table {table} beside ours:" if table else ":"), "",
               *state_table(state_time, experiment_comparison(name, state_time)), ""]
     if name in long.runs:
