@@ -1,9 +1,15 @@
-"""Atomic file writes (a reader never sees a half-written result) and one run per folder."""
+"""How tavc writes files: atomically, one run per folder, and only inside the folder it holds.
+
+A reader never sees a half-written result (`atomic_path`); a second run on a folder stops at
+once (`claim_folder`); and nothing is written or read through a link, a pipe or a device
+inside the folder a command holds (`owned_path`).
+"""
 
 from __future__ import annotations
 
 import os
 import socket
+import stat
 import sys
 import tempfile
 import time
@@ -32,13 +38,67 @@ def _umask() -> int:
 _FILE_MODE = 0o666 & ~_umask()
 
 
+# what a part of a path may be, by `os.lstat`'s mode, named as a refusal names it
+_KINDS = ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a device"),
+          (stat.S_ISBLK, "a device"), (stat.S_ISSOCK, "a socket"), (stat.S_ISDIR, "a folder"),
+          (stat.S_ISREG, "a file"))
+
+
+def owned_path(root: Path, path: Path, *, folder: bool = False, what: str = "") -> Path:
+    """Return `path`, a path below `root`, once nothing on it leads a write or a read out of `root`.
+
+    `root` is the folder a command holds, as its user named it (a link there is the user's
+    choice). Below it tavc makes every folder itself, so no part of `path` may be a link, which
+    may lead anywhere, dangling or not, nor a named pipe, a device or a socket, which a write
+    would block on or reach through; nor may a folder stand where `path`, a file (unless
+    `folder`), goes. Each is refused in one line naming it (prefixed by `what`, the setting
+    behind the folder). Parts that do not exist yet are tavc's to make; a regular file where a
+    folder goes leads nowhere, and writing below it fails on its own (the store names a file
+    in the place of trials/).
+    """
+    root, path = Path(root), Path(path)
+    parts = path.relative_to(root).parts  # ValueError for a path outside `root`: a bug, not the user's
+    here = root
+    for k, part in enumerate(parts):
+        here = here / part
+        if part == "..":
+            raise TavcError(f"{what + ': ' if what else ''}{path} leads out of {root}; tavc writes only inside it")
+        try:
+            mode = os.lstat(here).st_mode
+        except FileNotFoundError:
+            break  # nothing exists below a missing part
+        wants_folder = folder or k < len(parts) - 1
+        if wants_folder and stat.S_ISREG(mode):
+            break
+        if not (stat.S_ISDIR(mode) if wants_folder else stat.S_ISREG(mode)):
+            raise _in_the_way(here, mode, wants_folder, what)
+    return path
+
+
+def _in_the_way(path: Path, mode: int, wants_folder: bool, what: str) -> TavcError:
+    """The one line refusing what stands at `path` (`os.lstat`'s `mode`; a link with where it leads)."""
+    kind = next((name for test, name in _KINDS if test(mode)), "not a file")
+    if stat.S_ISLNK(mode):
+        try:
+            kind += f" to {os.readlink(path)}"
+        except OSError:
+            pass
+    return TavcError(f"{what + ': ' if what else ''}{path} is {kind}, where tavc "
+                     f"{'keeps a folder' if wants_folder else 'writes a file'} of its own; "
+                     "move it away or choose another folder")
+
+
 @contextmanager
-def atomic_path(path: Path) -> Iterator[Path]:
+def atomic_path(path: Path, root: Path | None = None) -> Iterator[Path]:
     """Yield a temporary path beside `path`; on success rename it over `path`.
 
-    On any error the temporary file is removed and `path` is left as it was.
+    On any error the temporary file is removed and `path` is left as it was. `path` is
+    checked first below `root`, the folder the command holds (`owned_path`; by default the
+    folder written into): a link, a pipe or a device there is refused, and never written
+    through. The rename replaces only the name at `path`.
     """
     path = Path(path)
+    owned_path(path.parent if root is None else root, path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     os.close(fd)
@@ -53,14 +113,15 @@ def atomic_path(path: Path) -> Iterator[Path]:
         raise
 
 
-def write_bytes_atomic(path: Path, data: bytes) -> None:
-    """Write to a temporary file beside `path`, then rename it over `path`."""
-    with atomic_path(path) as tmp:
+def write_bytes_atomic(path: Path, data: bytes, root: Path | None = None) -> None:
+    """Write to a temporary file beside `path`, then rename it over `path` (`atomic_path`)."""
+    with atomic_path(path, root) as tmp:
         tmp.write_bytes(data)
 
 
-def write_text_atomic(path: Path, text: str) -> None:
-    write_bytes_atomic(path, text.encode())
+def write_text_atomic(path: Path, text: str, root: Path | None = None) -> None:
+    """`write_bytes_atomic` of `text`, UTF-8 encoded."""
+    write_bytes_atomic(path, text.encode(), root)
 
 
 def file_digest(path: Path) -> str:
@@ -113,12 +174,9 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise TavcError(f"{what}: cannot create {folder}: {exc.strerror}") from None
-    lock_path = folder / LOCK_NAME
+    lock_path = owned_path(folder, folder / LOCK_NAME, what=what)
     while True:
-        try:
-            fd = os.open(lock_path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666 & ~_umask())
-        except OSError as exc:
-            raise TavcError(f"{what}: cannot take {lock_path}: {exc.strerror}") from None
+        fd = _open_lock(lock_path, what)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -128,7 +186,7 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
                             "wait for it to finish or choose another folder") from None
         # the file may have been removed by the run that held it just before we locked it
         try:
-            same = os.stat(lock_path).st_ino == os.fstat(fd).st_ino
+            same = os.lstat(lock_path).st_ino == os.fstat(fd).st_ino
         except FileNotFoundError:
             same = False
         if same:
@@ -144,3 +202,22 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
         lock_path.unlink(missing_ok=True)  # before the unlock: a waiting run then finds a fresh file
         _HELD.discard(fd)
         os.close(fd)
+
+
+def _open_lock(lock_path: Path, what: str) -> int:
+    """Open (or create) the lock file, never through a link, and return its descriptor.
+
+    ``O_NOFOLLOW`` fails on a link, so one put there after `owned_path` looked is not followed
+    either; and whatever was opened, if it is not a regular file (a pipe, a device), is closed
+    before anything is read from it or written to it.
+    """
+    flags = os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC | os.O_NONBLOCK  # a pipe never blocks the open
+    try:
+        fd = os.open(lock_path, flags, 0o666 & ~_umask())
+    except OSError as exc:
+        raise TavcError(f"{what}: cannot take {lock_path}: {exc.strerror}") from None
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        raise _in_the_way(lock_path, mode, False, what)
+    return fd

@@ -23,13 +23,14 @@ tavc writes it) and their files of tavc's names are taken as tavc's.
 from __future__ import annotations
 
 import json
+import os
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from tavc_cli.errors import TavcError
-from tavc_cli.io import LOCK_NAME, write_text_atomic
+from tavc_cli.io import LOCK_NAME, owned_path, write_text_atomic
 
 MANIFEST = ".tavc.json"
 RUN, SWEEP, LADDER, RESULTS, MODEL, CALIBRATION = "run", "sweep", "ladder", "results", "model", "calibration"
@@ -61,6 +62,7 @@ _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODE
           CALIBRATION: CALIBRATION_FILES, ANIMATION: (), TASKS: TASKS_FILES,
           STUDY: (), COMPARE: COMPARE_FILES}
 _WITH_TRIALS = (RUN, MODEL, SURROGATE, TASKS)  # folders whose trials/ holds tavc's records
+_SUBFOLDERS = {**dict.fromkeys(_WITH_TRIALS, ("trials",)), RESULTS: ("figures",)}  # tavc's folders in a folder
 _NESTED = {"model": MODEL}  # folders of their own a run's folder may hold before the run (`_nested`)
 
 # settings that decide where and how fast a run goes, not what it computes
@@ -130,7 +132,7 @@ def read(folder: Path) -> Owned | None:
     """What tavc owns in `folder` by its ``.tavc.json`` or, for a folder an earlier version wrote,
     by what is in it; None where tavc has written nothing recognisable."""
     folder = Path(folder)
-    path = folder / MANIFEST
+    path = owned_path(folder, folder / MANIFEST)
     if path.is_file():
         try:
             data = json.loads(path.read_text())
@@ -197,6 +199,7 @@ def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir
     folder or file, a folder of another kind, a run's folder holding anything not tavc's, and a
     file in the way that tavc did not write. The caller holds the folder (`io.claim_folder`)."""
     folder = Path(folder)
+    check_inside(folder, kind, writes, what)
     owned = read(folder) if folder.is_dir() else None
     if owned is not None and owned.kind == ANIMATION and kind == RUN:
         owned.kind = RUN  # the animation's default folder is the run's: the run adopts it, its files listed
@@ -219,6 +222,24 @@ def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir
         owned.save()
         owned.remove_temporaries()
     return owned
+
+
+def check_inside(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir") -> None:
+    """Refuse, in one line, a link, a pipe or a device where a command of `kind` reads or writes in `folder`.
+
+    Checked before anything there is read (`io.owned_path`): the folder's list, the files the
+    command writes, and the folders of tavc's it keeps (a run's trials/, a report's figures/)
+    with everything in them.
+    """
+    for name in (MANIFEST, *writes):
+        owned_path(folder, folder / name, what=what)
+    for name in _SUBFOLDERS.get(kind, ()):
+        owned_path(folder, folder / name, folder=True, what=what)
+        for parent, folders, files in os.walk(folder / name):  # a link inside is listed, not followed
+            for entry in folders:
+                owned_path(folder, Path(parent) / entry, folder=True, what=what)
+            for entry in files:
+                owned_path(folder, Path(parent) / entry, what=what)
 
 
 def _nested(path: Path) -> bool:
@@ -301,6 +322,8 @@ def take_report_folders(results_dir: Path, long_dir: Path | None) -> list:
         roots.append((long_dir, ("claims.csv",)))
     if (results_dir / "value_ratio").is_dir():
         roots.append((results_dir / "value_ratio", ("value_ratio.csv",)))
+    for folder, files in roots:
+        check_inside(folder, RESULTS, files, what="RESULTS_DIR")
     for folder, _ in roots[:2]:
         owned = read(folder)
         figures = sorted(p for p in (folder / "figures").rglob("*") if p.is_file()) if (

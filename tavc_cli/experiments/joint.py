@@ -32,9 +32,9 @@ from tavc_cli.experiments.store import (
     TrialFailure,
     TrialStore,
     pending_batches,
+    save_record,
     simulate_contained,
     trial_done,
-    trial_path,
 )
 
 CAN_FORK = hasattr(os, "fork") and sys.platform.startswith("linux")
@@ -109,7 +109,7 @@ def run_tree_batch(batch: TreeBatch,
     for folder, specs in left.items():  # one experiment's trials: they share warm-up and duration
         done, failed = simulate_contained(specs)
         for spec, rec in done:
-            rec.save(trial_path(folder, spec.controller, spec.trial))
+            save_record(rec, spec, folder)
         failures += [replace(f, folder=str(folder)) for f in failed]
     return time.perf_counter() - start, failures
 
@@ -138,8 +138,7 @@ class _Walk:
             engine.check()
             for end in node.ends:
                 for tr, item in zip(engine.trials, end, strict=True):
-                    engine.record(tr, item.spec).save(trial_path(item.folder, item.spec.controller,
-                                                                 item.spec.trial))
+                    save_record(engine.record(tr, item.spec), item.spec, item.folder)
         for child in node.children[:-1]:
             self._fork(engine, child)
             self.done += child.ticks

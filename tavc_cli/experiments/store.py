@@ -35,7 +35,7 @@ from tavc_cli.experiments.pool import Progress, run_pool
 from tavc_cli.experiments.records import ARRAY_FIELDS, TABLES, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.trial import TrialFault
-from tavc_cli.io import write_text_atomic
+from tavc_cli.io import owned_path, write_text_atomic
 from tavc_cli.settings import ExecutorConfig
 
 FAILURES_LOG = "failures.log"
@@ -96,13 +96,20 @@ class TrialStore:
         return n_reused
 
     def check_paths(self, specs: Sequence[TrialSpec]) -> None:
-        """Stop with one line if a file or folder stands where a trial's record goes."""
-        trials = self.folder / "trials"
-        in_the_way = [trials] if trials.exists() and not trials.is_dir() else [
-            p for p in map(self.path, specs) if p.is_dir()]
-        if in_the_way:
-            raise TavcError(f"{in_the_way[0]}: a {'file' if in_the_way[0] == trials else 'folder'} stands where "
-                            "tavc writes its trial records; move it away")
+        """Stop with one line, before any record is read or written, if anything is in the way.
+
+        In the way: a file or folder where a trial's record goes, or a link, a pipe or a device
+        as trials/ or a record (`io.owned_path`): records are read and written only inside the
+        results folder.
+        """
+        trials, records = self.folder / "trials", list(map(self.path, specs))
+        if trials.is_file() and not trials.is_symlink():
+            raise _stands(trials, "file")
+        owned_path(self.folder, trials, folder=True)
+        for path in records:
+            if path.is_dir() and not path.is_symlink():
+                raise _stands(path, "folder")
+            owned_path(self.folder, path)
 
     def announce(self, n_specs: int, n_reused: int, redone: dict[str, list[str]]) -> None:
         """Say how many finished trials are reused, and which files are there but run again:
@@ -133,7 +140,12 @@ class TrialStore:
 
     def load(self, specs: Sequence[TrialSpec]) -> list[TrialRecord]:
         """The records of trials that are done."""
+        self.check_paths(specs)  # read nothing through a link either
         return [TrialRecord.load(self.path(s)) for s in specs]
+
+
+def _stands(path: Path, what: str) -> TavcError:
+    return TavcError(f"{path}: a {what} stands where tavc writes its trial records; move it away")
 
 
 def trial_path(out_dir: Path, controller: str, trial: int) -> Path:
@@ -254,8 +266,16 @@ def save_result(result: BatchResult, out_dir: str | Path) -> list[TrialFailure]:
     """Write a batch's finished trial files into out_dir, each atomically; return its failures."""
     done, failures = result
     for spec, rec in done:
-        rec.save(trial_path(Path(out_dir), spec.controller, spec.trial))
+        save_record(rec, spec, out_dir)
     return failures
+
+
+def save_record(rec: TrialRecord, spec: TrialSpec, out_dir: str | Path) -> None:
+    """Write a trial's record atomically into `out_dir`'s trials/ (`TrialRecord.save`).
+
+    Never through a link there: trials/ and the record are checked below `out_dir` (`io.owned_path`).
+    """
+    rec.save(owned_path(Path(out_dir), trial_path(Path(out_dir), spec.controller, spec.trial)))
 
 
 def execute(pending: list[Batch], out_dir: Path, n_jobs: int, shown: bool) -> list[TrialFailure]:

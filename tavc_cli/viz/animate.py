@@ -27,8 +27,10 @@ from tavc_cli.errors import TavcError  # noqa: E402
 from tavc_cli.experiments.build import trial_specs  # noqa: E402
 from tavc_cli.experiments.engine import run_trials  # noqa: E402
 from tavc_cli.experiments.records import TrialRecord  # noqa: E402
+from tavc_cli.io import atomic_path, owned_path  # noqa: E402
 from tavc_cli.settings import TavcConfig  # noqa: E402
 from tavc_cli.sim.arena import SOURCE, Arena, arena_from_config  # noqa: E402
+from tavc_cli.viz.figures import write_figure  # noqa: E402
 
 CIRCUIT_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2"]
 MARKINGS = [(90.0, "#d62728"), (-90.0, "#2ca02c"), (180.0, "#e6c619")]  # left red, right green, rear yellow
@@ -73,8 +75,10 @@ def trajectory_plot(rec: TrialRecord, arena: Arena, path: Path) -> Path:
     ax.set_title(f"{arena.name}: {poses.shape[1]} robots, {rec.pose_t[-1] - rec.pose_t[0]:.0f} s "
                  "(colour = circuit served)", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    try:
+        write_figure(fig, path, dpi=130)
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -118,13 +122,29 @@ def animate_record(rec: TrialRecord, arena: Arena, radius: float, path: Path, fp
 
     anim = animation.FuncAnimation(fig, draw, frames=len(rec.pose_t), blit=False)
     written = [path]
-    anim.save(path, writer=animation.PillowWriter(fps=fps), dpi=80)
-    if mp4 and shutil.which("ffmpeg"):
-        mp4_path = path.with_suffix(".mp4")
-        anim.save(mp4_path, writer=animation.FFMpegWriter(fps=fps), dpi=100)
-        written.append(mp4_path)
-    plt.close(fig)
+    try:
+        _save_animation(anim, path, animation.PillowWriter(fps=fps), dpi=80)
+        if mp4 and shutil.which("ffmpeg"):
+            mp4_path = path.with_suffix(".mp4")
+            _save_animation(anim, mp4_path, animation.FFMpegWriter(fps=fps), dpi=100)
+            written.append(mp4_path)
+    finally:
+        plt.close(fig)
     return written
+
+
+def _save_animation(anim, path: Path, writer, dpi: int) -> None:
+    """``anim.save`` to `path`, through a temporary file renamed over it (`io.atomic_path`).
+
+    A link, a pipe or a device at `path` is refused, never written through. The animation is
+    drawn in a private folder first: the writers choose the format by the file's extension,
+    which the temporary file beside `path` lacks.
+    """
+    with tempfile.TemporaryDirectory() as private:
+        draft = Path(private) / path.name
+        anim.save(draft, writer=writer, dpi=dpi)
+        with atomic_path(path) as tmp:
+            shutil.copyfile(draft, tmp)
 
 
 MAX_FRAMES = 36_000  # ten simulated hours at a frame a second
@@ -169,6 +189,8 @@ def _owned_beside(out: Path, mp4: bool):
 
     owned = read(out.parent) or Owned(out.parent, ANIMATION)
     names = [out.name, *([out.with_suffix(".mp4").name] if mp4 else []), "trajectories.png"]
+    for name in names:  # a link, a pipe or a device where a picture goes: refused now, not after simulating
+        owned_path(out.parent, out.parent / name, what="--out")
     foreign = [name for name in names if (out.parent / name).exists() and not owned.owns(name)]
     if foreign:
         raise TavcError(f"--out: {out.parent / foreign[0]} was not written by tavc and the animation would replace it; "

@@ -33,6 +33,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from tavc_cli.io import atomic_path  # noqa: E402
+
 # the chapter's figure numbers per experiment: (state histogram, performance)
 FIGURES = {
     "initial_distribution": ("1.6", "1.7"),
@@ -62,16 +64,28 @@ LABELS = {"tavc": "TAVC", "random": "random", "static": "static", "theory": "the
 
 
 def save_figure(fig, out_stem: Path) -> list[Path]:
-    """Write the figure as PNG and SVG beside each other and close it."""
-    out_stem.parent.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for ext in ("png", "svg"):
-        path = out_stem.with_suffix(f".{ext}")
-        # no date and fixed element ids in the SVG, so a figure redrawn from the same numbers is the same file
-        fig.savefig(path, dpi=110, metadata={"Date": None} if ext == "svg" else None)
-        paths.append(path)
-    plt.close(fig)
+    """Write the figure as PNG and SVG beside each other (`write_figure`) and close it."""
+    paths = [out_stem.with_suffix(f".{ext}") for ext in ("png", "svg")]
+    try:
+        for path in paths:
+            # no date and fixed element ids in the SVG, so a figure redrawn from the same numbers is the same file
+            write_figure(fig, path, dpi=110, metadata={"Date": None} if path.suffix == ".svg" else None)
+    finally:
+        plt.close(fig)
     return paths
+
+
+def write_figure(fig, path: Path, **options) -> Path:
+    """``fig.savefig(path, **options)``, through a temporary file renamed over `path` (`io.atomic_path`).
+
+    A link, a pipe, a device or a folder at `path` is refused in one line, never written
+    through. The format is the one `path`'s extension names, so the bytes are those `savefig`
+    writes to `path` itself.
+    """
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=path.suffix.lstrip("."), **options)  # the temporary name has no extension to go by
+    return path
 
 
 def clipped_err(mean, std, lo: float | None = 0.0, hi: float | None = None) -> np.ndarray:

@@ -30,7 +30,7 @@ def _trials(table: pd.DataFrame) -> str:
 def sweep_figure(table: pd.DataFrame, key: str, out: Path) -> list[Path]:
     """% of the stable period in each state against `key`'s values, one panel per controller;
     error bars one std over each job's trials, cut at 0 and 100 %."""
-    from tavc_cli.viz.figures import clipped_err
+    from tavc_cli.viz.figures import clipped_err, write_figure
 
     n = _trials(table)
     controllers = list(dict.fromkeys(table["controller"]))
@@ -51,7 +51,9 @@ def sweep_figure(table: pd.DataFrame, key: str, out: Path) -> list[Path]:
         ax.legend(fontsize=7, ncol=2, title="state")
     fig.tight_layout()
     paths = [out.with_suffix(".png"), out.with_suffix(".svg")]
-    for path in paths:
-        fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        for path in paths:
+            write_figure(fig, path, dpi=120)
+    finally:
+        plt.close(fig)
     return paths

@@ -1,0 +1,223 @@
+"""Nothing tavc writes goes through a link or lands outside the folder it holds (`io.owned_path`).
+
+Each hostile case puts a link, a named pipe or a folder inside the folder a command holds,
+pointing at a sibling folder of somebody else's files; the command refuses in one line naming
+the path, and the sibling's files are byte for byte as they were.
+"""
+
+import os
+import shutil
+
+import matplotlib
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from tavc_cli.cli import app
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.experiments.store import Executor, TrialStore, save_result
+from tavc_cli.io import LOCK_NAME, claim_folder, write_text_atomic
+from tavc_cli.ownership import take_report_folders
+from tavc_cli.viz.figures import plt, save_figure
+from tavc_cli.viz.sweep import sweep_figure
+
+matplotlib.use("Agg")
+runner = CliRunner()
+
+RUN = ["run", "experiment=initial_distribution", "scale=smoke", "trials=1", "duration_s=60", "convergence_s=20",
+       "executor.n_jobs=1"]
+THEIRS = b"somebody else's data, not tavc's\n"
+
+
+def _snapshot(folder):
+    """Every entry under `folder`, files with their bytes."""
+    return {str(p.relative_to(folder)): p.read_bytes() if p.is_file() else None for p in sorted(folder.rglob("*"))}
+
+
+@pytest.fixture
+def sibling(tmp_path):
+    """A folder beside the run's with a file of somebody else's in it."""
+    folder = tmp_path / "sibling"
+    folder.mkdir()
+    (folder / "theirs.txt").write_bytes(THEIRS)
+    return folder
+
+
+def _hostile(path, sibling, how):
+    """Put at `path` a link to the sibling's file, a dangling link into the sibling, a named pipe or a folder."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if how == "link":
+        path.symlink_to(sibling / "theirs.txt")
+    elif how == "dangling":
+        path.symlink_to(sibling / "new.txt")
+    elif how == "fifo":
+        os.mkfifo(path)
+    else:
+        path.mkdir()
+
+
+def _one_line_naming(message, path):
+    assert "\n" not in message and str(path) in message, message
+
+
+@pytest.mark.parametrize("how", ["link", "dangling", "fifo"])
+def test_a_lock_that_is_a_link_or_a_pipe_is_refused_and_nothing_outside_is_written(tmp_path, sibling, how):
+    run = tmp_path / "run"
+    _hostile(run / LOCK_NAME, sibling, how)
+    before = _snapshot(sibling)
+    with pytest.raises(TavcError) as refused:
+        with claim_folder(run):
+            pass
+    _one_line_naming(str(refused.value), run / LOCK_NAME)
+    assert str(refused.value).startswith("output_dir: ") and "move it away" in str(refused.value)
+    assert _snapshot(sibling) == before  # neither truncated nor created
+
+
+@pytest.mark.parametrize("how", ["link", "dangling", "fifo"])
+def test_the_lock_is_never_opened_through_a_link_even_past_the_check(tmp_path, sibling, monkeypatch, how):
+    """A link or pipe put there after the check looked: O_NOFOLLOW and the open file's type stop it."""
+    monkeypatch.setattr("tavc_cli.io.owned_path", lambda root, path, **kw: path)
+    run = tmp_path / "run"
+    _hostile(run / LOCK_NAME, sibling, how)
+    before = _snapshot(sibling)
+    with pytest.raises(TavcError) as refused:
+        with claim_folder(run):
+            pass
+    _one_line_naming(str(refused.value), run / LOCK_NAME)
+    assert _snapshot(sibling) == before
+
+
+@pytest.mark.parametrize("how", ["link", "dangling", "fifo", "folder"])
+@pytest.mark.parametrize("ext", ["png", "svg"])
+def test_a_figure_path_that_is_not_a_regular_file_is_refused(tmp_path, sibling, how, ext):
+    stem = tmp_path / "results" / "figures" / "state"
+    _hostile(stem.with_suffix(f".{ext}"), sibling, how)
+    before = _snapshot(sibling)
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    with pytest.raises(TavcError) as refused:
+        save_figure(fig, stem)
+    _one_line_naming(str(refused.value), stem.with_suffix(f".{ext}"))
+    assert _snapshot(sibling) == before
+    assert not plt.get_fignums()  # the figure is closed all the same
+
+
+def test_a_sweep_figure_over_a_link_is_refused(tmp_path, sibling):
+    table = pd.DataFrame({"controller": ["tavc", "tavc"], "state": ["0:1", "0:1"], "epsilon": [0.1, 0.2],
+                          "mean_pct": [40.0, 60.0], "std_pct": [5.0, 5.0], "n_trials": [2, 2]})
+    _hostile(tmp_path / "sweep.svg", sibling, "dangling")
+    before = _snapshot(sibling)
+    with pytest.raises(TavcError) as refused:
+        sweep_figure(table, "epsilon", tmp_path / "sweep")
+    _one_line_naming(str(refused.value), tmp_path / "sweep.svg")
+    assert _snapshot(sibling) == before
+
+
+def test_an_animation_over_a_link_is_refused_before_anything_is_simulated(tmp_path, sibling):
+    out = tmp_path / "pictures" / "run.gif"
+    _hostile(out.parent / "trajectories.png", sibling, "link")
+    before = _snapshot(sibling)
+    result = runner.invoke(app, ["animate", "team.n_robots=2", "--duration-s", "4", "--no-mp4", "--out", str(out)])
+    assert result.exit_code == 1
+    assert result.output.splitlines() == [
+        f"error: --out: {out.parent / 'trajectories.png'} is a symbolic link to {sibling / 'theirs.txt'}, where tavc "
+        "writes a file of its own; move it away or choose another folder"]
+    assert _snapshot(sibling) == before and not out.exists()
+
+
+def test_a_reports_figures_folder_that_is_a_link_is_refused(tmp_path, sibling):
+    results = tmp_path / "results"
+    results.mkdir()
+    (results / "figures").symlink_to(sibling, target_is_directory=True)
+    before = _snapshot(sibling)
+    with pytest.raises(TavcError) as refused:
+        take_report_folders(results, None)
+    _one_line_naming(str(refused.value), results / "figures")
+    assert "is a symbolic link" in str(refused.value)
+    assert _snapshot(sibling) == before and not (results / "REPORT.md").exists()
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """A finished smoke run, as `tavc run` writes it."""
+    out = tmp_path_factory.mktemp("finished") / "run"
+    result = CliRunner().invoke(app, [*RUN, f"output_dir={out}", "--no-progress"])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_a_run_whose_trials_folder_is_a_link_is_refused(finished, tmp_path, sibling):
+    """The run's own folder, its trials/ swapped for a link to somebody else's folder: a rerun
+    would have read its records there and written them there."""
+    run = tmp_path / "run"
+    shutil.copytree(finished, run)
+    shutil.copytree(run / "trials", sibling / "trials")  # the records, where the link leads
+    shutil.rmtree(run / "trials")
+    (run / "trials").symlink_to(sibling / "trials", target_is_directory=True)
+    before = _snapshot(sibling)
+    result = runner.invoke(app, [*RUN, f"output_dir={run}", "overwrite=true", "seed=5", "--no-progress"])
+    assert result.exit_code == 1
+    assert result.output.splitlines() == [
+        f"error: output_dir: {run / 'trials'} is a symbolic link to {sibling / 'trials'}, where tavc keeps a folder "
+        "of its own; move it away or choose another folder"]
+    assert _snapshot(sibling) == before
+
+
+@pytest.mark.parametrize("how", ["link", "dangling", "fifo"])
+def test_the_stores_writer_refuses_a_link_as_trials_or_as_a_record(tmp_path, sibling, how):
+    """Below `take`: the record writer (`save_result`) and the store's check before reading."""
+    record = TrialRecord(meta={"key": "k"})
+    spec = type("Spec", (), {"controller": "tavc", "trial": 0})()
+    run = tmp_path / "run"
+    if how == "link":  # trials/ itself leads to the sibling
+        run.mkdir()
+        (run / "trials").symlink_to(sibling, target_is_directory=True)
+        bad = run / "trials"
+    else:
+        bad = run / "trials" / "tavc_000.npz"
+        _hostile(bad, sibling, how)
+    before = _snapshot(sibling)
+    with pytest.raises(TavcError) as refused:
+        save_result(([(spec, record)], []), run)
+    _one_line_naming(str(refused.value), bad)
+    with pytest.raises(TavcError) as refused:
+        TrialStore(run, Executor()).check_paths([spec])
+    _one_line_naming(str(refused.value), bad)
+    assert _snapshot(sibling) == before
+
+
+def test_the_atomic_writer_refuses_a_link_as_parent_or_a_pipe_as_its_file(tmp_path, sibling):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "tables").symlink_to(sibling, target_is_directory=True)
+    os.mkfifo(run / "state_time.csv")
+    before = _snapshot(sibling)
+    with pytest.raises(TavcError, match="tables is a symbolic link"):
+        write_text_atomic(run / "tables" / "theirs.txt", "tavc's\n", root=run)
+    with pytest.raises(TavcError, match="state_time.csv is a named pipe"):  # refused, not blocked on
+        write_text_atomic(run / "state_time.csv", "tavc's\n")
+    assert _snapshot(sibling) == before
+
+
+def test_a_normal_run_still_writes_its_lock_figures_and_records(finished, tmp_path):
+    # the records, regular files in a real folder; the lock gone once the run ended
+    assert not (finished / "trials").is_symlink()
+    records = sorted(p.name for p in (finished / "trials").iterdir())
+    assert records == ["random_000.npz", "tavc_000.npz"]
+    assert all((finished / "trials" / n).is_file() and not (finished / "trials" / n).is_symlink() for n in records)
+    assert not (finished / LOCK_NAME).exists()
+    # the lock, a regular file naming the run while it holds the folder
+    with claim_folder(tmp_path / "held"):
+        lock = tmp_path / "held" / LOCK_NAME
+        assert lock.is_file() and not lock.is_symlink()
+        assert lock.read_text().startswith(f"pid {os.getpid()} on ")
+    # figures, written and replaced in place
+    stem = tmp_path / "figures" / "state"
+    for _ in range(2):
+        fig, ax = plt.subplots()
+        ax.plot([0, 1], [1, 0])
+        assert save_figure(fig, stem) == [stem.with_suffix(".png"), stem.with_suffix(".svg")]
+    assert sorted(p.name for p in stem.parent.iterdir()) == ["state.png", "state.svg"]  # no temporary left
+    assert stem.with_suffix(".png").read_bytes().startswith(b"\x89PNG")
+    assert b"<svg" in stem.with_suffix(".svg").read_bytes()
