@@ -252,10 +252,10 @@ def test_the_stable_window_at_40x_is_the_chapters_length_at_the_end():
     # the trial ends at 720,000 s and its window starts 13,500 s before
     conv = config.settings(config.load_config(["experiment=initial_distribution", "scale=converged"]))
     assert (conv.scale.stable_window, stable_from(conv)) == ("chapter", 720_000.0 - 13_500.0)
-    assert window_words(conv) == "its last 3.75 h, as long as the chapter's stable period"
+    assert window_words(conv) == "its last 3.75 h, the length of the chapter's stable period"
     # at the chapter's durations the window is the whole stable period, as it always was
     paper = config.settings(config.load_config(["experiment=initial_distribution", "scale=paper"]))
-    assert stable_from(paper) == 4_500.0 and window_words(paper) == "its whole length, 3.75 h"
+    assert stable_from(paper) == 4_500.0 and window_words(paper) == "all of it, 3.75 h"
     # breakdown: 7.5 h after the event with 2.5 h to converge: the last 5 h of 300 h
     bd = config.settings(config.load_config(["experiment=breakdown", "scale=converged"]))
     assert stable_from(bd) == 1_080_000.0 - 18_000.0

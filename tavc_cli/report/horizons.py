@@ -19,6 +19,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.claims import CLAIMS, not_a_verdict, verdict_words
+from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
 from tavc_cli.report.mechanism import mechanism, mechanism_lines, mechanism_words, vacancy_mechanism_lines
 from tavc_cli.report.text import claims_table, fmt, p_cell, performance, robot_lines, state_table
 from tavc_cli.settings import TavcConfig
@@ -184,7 +185,7 @@ def claims_both_table(base: Horizon, long: Horizon) -> list[str]:
         ran_long = other is not None and exp in long.runs
         verdict_long = verdict_words(other.verdict, long.verdicts) if ran_long else "not run"
         m = mechanism(long.experiments[exp]) if exp in long.experiments else None
-        words = mechanism_words(m)
+        words = mechanism_words(m) if int(r.claim_id) not in CLAIM_CONTROLLER else ""  # a claim about random
         if other is not None and other.verdict == "reproduced" and m is not None and \
                 int(r.claim_id) in PERSISTENCE_CLAIMS and m["regime"] != "persistence":
             words = f"**the test holds, but not by the chapter's persistence**; {words}"
@@ -196,13 +197,13 @@ def claims_both_table(base: Horizon, long: Horizon) -> list[str]:
 
 def window_words(cfg: TavcConfig) -> str:
     """The stretch of the stable period a run's shares and rates were measured over, in words:
-    its whole length, or its last stretch of the chapter's length (`scale.stable_window`)."""
+    its last stretch of the chapter's length, or all of it (`scale.stable_window`)."""
     from tavc_cli.analysis.trial_stats import stable_from
 
     start, end = stable_from(cfg), float(cfg.duration_s)
     if start > float(cfg.convergence_s):
-        return f"its last {(end - start) / 3600:.3g} h, as long as the chapter's stable period"
-    return f"its whole length, {(end - float(cfg.convergence_s)) / 3600:.3g} h"
+        return f"its last {(end - start) / 3600:.3g} h, the length of the chapter's stable period"
+    return f"all of it, {(end - float(cfg.convergence_s)) / 3600:.3g} h"
 
 
 def window_lines(long: Horizon) -> list[str]:
@@ -211,8 +212,8 @@ def window_lines(long: Horizon) -> list[str]:
     words = {name: window_words(cfg) for name, (cfg, _) in long.read.items() if cfg.paper.deliveries is None}
     if not words:
         return []
-    return ["The learners' shares and rates are measured over the stable period's " + "; ".join(
-        f"{name}: {w}" for name, w in words.items()) + " (`scale.stable_window`).", ""]
+    return ["Each run's shares and rates come from a stretch of its stable period (`scale.stable_window`): "
+            + "; ".join(f"{name}, {w}" for name, w in words.items()) + ".", ""]
 
 
 def time_scale_lines(results_dir: Path, long: Horizon, model_json: Path | None,
