@@ -118,14 +118,18 @@ def _differences(a, b) -> np.ndarray:
     return a[ok] - b[ok]
 
 
-def paired_greater(what: str, a, b) -> Part:
-    """Within the same trials, a significantly above b: paired t-test, one-sided."""
+def _paired(what: str, a, b, alternative: str) -> Part:
     d = _differences(a, b)
     if not _testable(d):
         return _not_testable(what, untestable(d).replace("the sample", "the differences"))
-    t, p = stats.ttest_1samp(d, 0.0, alternative="greater")
+    t, p = stats.ttest_1samp(d, 0.0, alternative=alternative)
     return Part(f"{what} (mean difference {d.mean():.4g}, paired one-sided)", float(t), float(p), bool(p < ALPHA),
                 name=what)
+
+
+def paired_greater(what: str, a, b) -> Part:
+    """Within the same trials, a significantly above b: paired t-test, one-sided."""
+    return _paired(what, a, b, "greater")
 
 
 def not_different(what: str, a, b, paired: bool = False) -> Part:
@@ -221,7 +225,6 @@ def _welch(a, b) -> tuple[float, float, str]:
     return float(t), float(p), ""
 
 
-
 def one_sample(what: str, x, mu: float, alternative: str) -> Part:
     """x's mean against mu: a one-sample t-test, `greater` (one-sided) or `two-sided`."""
     x = _clean(x)
@@ -236,12 +239,7 @@ def one_sample(what: str, x, mu: float, alternative: str) -> Part:
 
 def paired_less(what: str, a, b) -> Part:
     """Within the same trials, a significantly below b: paired t-test, one-sided."""
-    d = _differences(a, b)
-    if not _testable(d):
-        return _not_testable(what, untestable(d).replace("the sample", "the differences"))
-    t, p = stats.ttest_1samp(d, 0.0, alternative="less")
-    return Part(f"{what} (mean difference {d.mean():.4g}, paired one-sided)", float(t), float(p), bool(p < ALPHA),
-                name=what)
+    return _paired(what, a, b, "less")
 
 
 def as_observation(part: Part) -> Part:
