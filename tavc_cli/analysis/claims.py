@@ -1,7 +1,7 @@
 """The chapter's claims 1-9 as tests on per-trial numbers (`trial_stats.csv`; for section 1.4,
 the traversal and target-time samples, the learned policies and the lane offsets).
 
-Each part of a claim quotes the phrase of the chapter it tests (`QUOTES`, docs/claims.md), and
+Each claim quotes the phrases of the chapter its parts test (`CLAIMS`; docs/claims.md by part), and
 its side, test and margin follow that phrase; all were fixed here before any verdict was looked
 at, and none is tuned to one (the statistics are `analysis.significance`'s):
 
