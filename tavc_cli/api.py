@@ -28,6 +28,7 @@ import yaml
 
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.records import TABLES, TrialRecord
+from tavc_cli.readers import load_yaml
 
 
 class Results:
@@ -73,7 +74,7 @@ class Results:
         """The composed config the run used (a damaged config.yaml is one line naming it)."""
         path = self.path / "config.yaml"
         try:
-            config = yaml.safe_load(path.read_text())
+            config = load_yaml(path)
         except (OSError, yaml.YAMLError) as exc:
             raise TavcError(f"{path}: cannot be read ({str(exc).splitlines()[0]}); rerun its experiment to rewrite "
                             "it") from None

@@ -31,6 +31,7 @@ from pathlib import Path
 
 from tavc_cli.errors import TavcError
 from tavc_cli.io import LOCK_NAME, owned_path, write_text_atomic
+from tavc_cli.readers import load_json, load_yaml
 
 MANIFEST = ".tavc.json"
 RUN, SWEEP, LADDER, RESULTS, MODEL, CALIBRATION = "run", "sweep", "ladder", "results", "model", "calibration"
@@ -128,6 +129,10 @@ class Owned:
             {"tavc": self.kind, "files": sorted(self.files)}, indent=1) + "\n")
 
 
+MANIFEST_ADVICE = ("move the folder's results elsewhere, or remove this file to have them taken "
+                   "as tavc's")  # what to do about a .tavc.json that cannot be read
+
+
 def read(folder: Path) -> Owned | None:
     """What tavc owns in `folder` by its ``.tavc.json`` or, for a folder an earlier version wrote,
     by what is in it; None where tavc has written nothing recognisable."""
@@ -135,15 +140,14 @@ def read(folder: Path) -> Owned | None:
     path = owned_path(folder, folder / MANIFEST)
     if path.is_file():
         try:
-            data = json.loads(path.read_text())
+            data = load_json(path, advice=MANIFEST_ADVICE)
             kind, files = data["tavc"], data["files"]
             if kind not in _WHAT or not isinstance(files, list) or not all(isinstance(f, str) for f in files):
                 raise ValueError("not a kind of tavc folder and a list of its files")
             files = set(files)
         except (ValueError, KeyError, TypeError) as exc:
             raise TavcError(f"{path}: cannot be read ({exc}); it lists what tavc wrote in the folder: "
-                            "move the folder's results elsewhere, or remove this file to have them taken "
-                            "as tavc's") from None
+                            f"{MANIFEST_ADVICE}") from None
         return Owned(folder, kind, files)
     kind = _earlier_kind(folder)
     if kind is None:
@@ -170,7 +174,7 @@ def _earlier_kind(folder: Path) -> str | None:
     only shares its name is not taken for tavc's)."""
     for kind, name, keys in _JSON_MARKS:
         try:
-            if keys <= set(json.loads((folder / name).read_text())):
+            if keys <= set(load_json(folder / name)):
                 return kind
         except (OSError, ValueError, TypeError):
             pass
@@ -266,8 +270,8 @@ def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3) -> list[st
     import yaml
 
     try:
-        old = yaml.safe_load(Path(old_yaml).read_text())
-    except (OSError, yaml.YAMLError):
+        old = load_yaml(old_yaml)
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, TavcError):
         return [f"{Path(old_yaml).name} unreadable"]
     new = yaml.safe_load(new_yaml)
     a, b = _flat(old if isinstance(old, dict) else {}), _flat(new)
@@ -285,8 +289,8 @@ def recorded_differences(record: Path, new: dict, limit: int = 3) -> list[str]:
     if not record.is_file():
         return []
     try:
-        old = json.loads(record.read_text())
-    except (OSError, ValueError):
+        old = load_json(record)
+    except (OSError, ValueError, TavcError):
         return [f"{record.name} unreadable"]
     a, b = _flat(old if isinstance(old, dict) else {}), _flat(json.loads(json.dumps(new)))
     keys = sorted(k for k in set(a) & set(b) if a[k] != b[k])

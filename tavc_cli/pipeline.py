@@ -4,7 +4,6 @@ folder held by this run alone for the whole time."""
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import ExitStack, contextmanager
@@ -23,6 +22,7 @@ from tavc_cli.experiments.runner import (
 from tavc_cli.experiments.store import FAILURES_LOG, Executor
 from tavc_cli.io import claim_folder, file_digest, write_text_atomic
 from tavc_cli.ownership import LADDER, LADDER_FILES, RUN, SWEEP, SWEEP_FILES, Owned, config_differences, run_files, take
+from tavc_cli.readers import load_json
 from tavc_cli.settings import TavcConfig, to_yaml
 
 
@@ -75,7 +75,7 @@ def recorded_config_problem(folder: Path) -> str | None:
     if not path.is_file():
         return "config.yaml is missing"
     try:
-        recorded = json.loads((folder / "provenance.json").read_text()).get("tables", {}).get("config.yaml")
+        recorded = load_json(folder / "provenance.json").get("tables", {}).get("config.yaml")
     except (ValueError, AttributeError):
         recorded = None
     if recorded is not None:

@@ -385,7 +385,15 @@ def to_yaml(settings: TavcConfig) -> str:
 
 def from_yaml(path: Path) -> TavcConfig:
     """A results folder's ``config.yaml`` read back as typed settings."""
-    return from_mapping(TavcConfig, OmegaConf.load(path))
+    from omegaconf._utils import get_yaml_loader
+
+    from tavc_cli.readers import load_yaml
+
+    # as `OmegaConf.load` reads it (its loader, its types), bounded as any file of a run is
+    data = load_yaml(path, loader=get_yaml_loader())
+    if data is not None and not isinstance(data, (list, dict, str)):
+        raise OSError(f"Invalid loaded object type: {type(data).__name__}")
+    return from_mapping(TavcConfig, OmegaConf.create() if data is None else OmegaConf.create(data))
 
 
 def from_mapping(cls: type, data: Any) -> Any:

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import re
 from collections.abc import Callable
@@ -32,6 +31,7 @@ from pathlib import Path
 from tavc_cli.analysis.experiment import TABLE_NAMES
 from tavc_cli.errors import TavcError
 from tavc_cli.io import file_digest
+from tavc_cli.readers import YAML_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig, from_yaml
 
 
@@ -183,7 +183,7 @@ def read_provenance(path: Path) -> dict:
     """A run's `provenance.json`, checked: a JSON object listing its trials, each with its
     controller, number and file."""
     try:
-        prov = json.loads(Path(path).read_text())
+        prov = load_json(path)
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise damaged(path, f"cannot be read ({_first_line(exc)})") from None
     trials = prov.get("trials") if isinstance(prov, dict) else None
@@ -208,8 +208,10 @@ def read_config(path: Path, digests: dict[str, str] | None = None,
     file that passes without a digest; the report reads nothing there."""
     path = Path(path)
     try:
-        raw = path.read_bytes()
+        raw = read_bounded(path, YAML_LIMIT)
         cfg = load(path)
+    except TavcError:
+        raise  # a refusal naming the file already
     except Exception as exc:  # any parser's or the schema's error: the file is damaged, whatever the library
         raise damaged(path, f"cannot be read ({_first_line(exc)})") from None
     if not raw.endswith(b"\n"):

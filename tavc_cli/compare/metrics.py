@@ -31,12 +31,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import yaml
 from scipy import stats
 
 from tavc_cli.analysis.trial_stats import STATE_PREFIX
 from tavc_cli.compare import FLOOR, REFERENCE
 from tavc_cli.errors import TavcError
+from tavc_cli.readers import load_yaml
 
 METRICS = {
     "score_per_s": "score per second, stable period",
@@ -89,7 +89,7 @@ def trial_metrics(folder: Path, experiment: str, controller: str, label: str,
                   allocations: Mapping[str, list[int]]) -> pd.DataFrame:
     """`TRIAL_COLUMNS` for one controller's trials (those labelled `label`) in one run folder;
     fill delays uncut, with their windows (`cut_fill_delays`)."""
-    config = yaml.safe_load((folder / "config.yaml").read_text())
+    config = load_yaml(folder / "config.yaml")
     stats_ = pd.read_csv(folder / "trial_stats.csv")
     found = sorted(set(stats_["controller"]))
     stats_ = stats_[stats_["controller"] == label].sort_values("trial")

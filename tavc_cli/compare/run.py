@@ -19,14 +19,15 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import pandas as pd
-import yaml
 
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order, trial_metrics
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.learning.informed import model_allocations
 from tavc_cli.learning.registry import LEARNS_NOTHING, controller_label
+from tavc_cli.readers import load_yaml
 from tavc_cli.settings import TavcConfig
+
 
 def controller_overrides(name: str, scale: Mapping) -> list[str]:
     """What a controller's runs add to the user's overrides: its learner, no baselines, and
@@ -90,7 +91,7 @@ def run_compare(plans: Mapping[str, Sequence[TavcConfig]], results: Path, *, con
 
 
 def _time_factor(folder: Path) -> float:
-    return float(yaml.safe_load((folder / "config.yaml").read_text())["scale"]["time_factor"])
+    return float(load_yaml(folder / "config.yaml")["scale"]["time_factor"])
 
 
 def write(results: Path, table: pd.DataFrame, trials: pd.DataFrame, folders: Mapping[str, Path], *,

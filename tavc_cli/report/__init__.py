@@ -35,12 +35,12 @@ from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import list_figures, take_report_folders
+from tavc_cli.readers import load_json
 from tavc_cli.reference import TABLES
 from tavc_cli.report import horizons
+from tavc_cli.report.compare import compare_lines
 from tavc_cli.report.figures import experiment_figures, find_model
 from tavc_cli.report.mechanism import mechanism_lines
-from tavc_cli.report.compare import compare_lines
-from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.report.runs import (
     choice_lines,
     designated_first,
@@ -52,6 +52,7 @@ from tavc_cli.report.runs import (
     study_runs,
 )
 from tavc_cli.report.studies import spatiotemporal_lines, value_ratio_lines
+from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.report.text import (
     chapter_says,
     delivery_lines,
@@ -136,6 +137,8 @@ def _read(path: Path, read):
     """`read(path)`, with any failure to parse the file as one line naming it."""
     try:
         return read(path)
+    except TavcError:
+        raise  # a refusal naming the file already
     except Exception as exc:  # any library's parse error: the file is damaged, whatever the library
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise TavcError(f"{path}: cannot be read ({detail}); rerun its experiment to rewrite it") from None
@@ -280,7 +283,7 @@ def _horizon(folder: Path, found: dict[str, list[Path]], unfinished: list[Path])
     read = {name: (_config(d / "config.yaml"), pd.read_csv(d / "state_time.csv", dtype={"state": str}))
             for name, d in experiments.items()}
     others = {name: folders[1:] for name, folders in found.items() if len(folders) > 1}
-    deliveries = {d: delivery_lines(d, json.loads((d / "provenance.json").read_text()))
+    deliveries = {d: delivery_lines(d, load_json(d / "provenance.json"))
                   for folders in found.values() for d in folders}
     return horizons.Horizon(folder, experiments, read, runs, claim_table(runs, learner=_under_test(read)), unfinished,
                             others, deliveries)
@@ -391,7 +394,7 @@ def _experiment_section(name: str, d: Path, base: horizons.Horizon, figures: dic
     """One experiment's section at the chapter's durations."""
     cfg, state_time = base.read[name]
     claims, runs = base.claims, base.runs
-    prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
+    prov = load_json(d / "provenance.json") if (d / "provenance.json").is_file() else {}
     comparison = experiment_comparison(name, state_time)
     lines = [f"## {name} (section {cfg.section or '?'})", "", chapter_says(cfg.description), ""]
     lines += choice_lines(name, [d, *base.others.get(name, [])], base.folder)

@@ -20,6 +20,7 @@ import pandas as pd
 
 from tavc_cli.analysis.claims import CLAIMS, not_a_verdict, verdict_words
 from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
+from tavc_cli.readers import load_json
 from tavc_cli.report.mechanism import mechanism, mechanism_lines, mechanism_words, vacancy_mechanism_lines
 from tavc_cli.report.text import claims_table, fmt, p_cell, performance, robot_lines, state_table
 from tavc_cli.settings import TavcConfig
@@ -482,7 +483,7 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
 
     d = long.experiments[name]
     cfg, state_time = long.read[name]
-    prov = json.loads((d / "provenance.json").read_text()) if (d / "provenance.json").is_file() else {}
+    prov = load_json(d / "provenance.json") if (d / "provenance.json").is_file() else {}
     lines = [f"### {name} at {label(long.factor)}", ""]
     lines += choice_lines(name, [d, *long.others.get(name, [])], results_dir)
     lines += long.deliveries.get(d, [])

@@ -15,11 +15,11 @@ import re
 from pathlib import Path
 
 import pandas as pd
-import yaml
 
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.ownership import COMPARE, STUDY, SURROGATE, TASKS, read
+from tavc_cli.readers import load_json, load_yaml
 from tavc_cli.reference import TABLES
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, from_yaml
@@ -130,8 +130,8 @@ def setting_differences(d: Path, base: Path, base_name: str | None = None) -> li
     ``key value (`base`: value)`` (`base_name`, the folder's name unless given); where a run
     writes is no setting of it."""
     base_name = base_name or base.name
-    ours, theirs = _flat(yaml.safe_load((d / "config.yaml").read_text())), _flat(
-        yaml.safe_load((base / "config.yaml").read_text()))
+    ours, theirs = _flat(load_yaml(d / "config.yaml")), _flat(
+        load_yaml(base / "config.yaml"))
     out = []
     for key in [*ours, *(k for k in theirs if k not in ours)]:
         if key == "output_dir" or ours.get(key, _UNSET) == theirs.get(key, _UNSET):
@@ -169,7 +169,7 @@ def other_run_lines(name: str, d: Path, cfg: TavcConfig, base: Path, results_dir
     the caller) and the command and provenance of the run. `horizon` names the horizon
     after the title."""
     state_time = pd.read_csv(d / "state_time.csv", dtype={"state": str})
-    prov = json.loads((d / "provenance.json").read_text())
+    prov = load_json(d / "provenance.json")
     diffs = setting_differences(d, base, rel(base, results_dir))
     if on_surrogate(d) and not on_surrogate(base):
         diffs = ["its engine: the surrogate of the learning dynamics (`tavc surrogate`), not the simulator", *diffs]

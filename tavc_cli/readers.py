@@ -1,0 +1,149 @@
+"""How tavc reads the files of a folder it did not necessarily write: bounded.
+
+A results folder may come from somebody else, and its `provenance.json`, `.tavc.json` and
+`config.yaml` are read before anything in them is trusted. Each is read here: only a regular
+file (a named pipe never blocks, a device such as ``/dev/zero`` is never read), at most a stated
+size, JSON at most `MAX_DEPTH` levels deep, and YAML without aliases (tavc's own files never use
+them; a document of nested aliases would expand without end). A refusal is one `TavcError` line
+naming the file and what to do, worded as `analysis.schema.damaged` words its own.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import stat
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from tavc_cli.errors import TavcError
+
+REWRITE = "rerun its experiment to rewrite it"  # what to do about a damaged file of a run (as `analysis.schema`)
+
+# tavc's largest provenance.json is 13 KB (results/breakdown: it lists every trial and table) and
+# its largest .tavc.json 1.6 KB; 4 MiB is some 300 times the first, room for runs of many more trials
+JSON_LIMIT = 4 << 20
+# tavc's largest config.yaml is 3.7 KB (results/value_change); 1 MiB is some 280 times that
+YAML_LIMIT = 1 << 20
+# tavc's JSON and YAML nest at most 4 levels (provenance.json: trials, a trial, its fields);
+# 64 is far more than any of its files needs, and far less than Python's recursion limit
+MAX_DEPTH = 64
+# tavc's config.yaml files use no YAML aliases (`to_yaml` writes none): any is refused
+MAX_ALIASES = 0
+
+
+class _Refusal(Exception):
+    """What the bounded YAML loader refuses, named by `load_yaml` with the file's path."""
+
+
+def _refused(path: Path, why: str, advice: str) -> TavcError:
+    return TavcError(f"{path}: cannot be read ({why}); {advice}")
+
+
+def read_bounded(path: Path, limit: int, advice: str = REWRITE) -> bytes:
+    """The bytes of the regular file `path`, refused (`TavcError`, naming `path` and `advice`,
+    what to do) when it is larger than `limit` bytes or not a regular file. At most `limit`+1
+    bytes are read, so a file growing meanwhile never fills memory, and the file is opened
+    without blocking, so a named pipe never hangs the reader. A missing or unreadable file
+    raises `OSError`, as `Path.read_bytes` does."""
+    path = Path(path)
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            kind = ("a named pipe (FIFO)" if stat.S_ISFIFO(st.st_mode) else "a folder" if stat.S_ISDIR(st.st_mode)
+                    else "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else "not a file")
+            raise _refused(path, f"it is {kind}, not a file", advice)
+        if st.st_size > limit:
+            raise _refused(path, f"{st.st_size} bytes, more than the {limit} tavc reads of it", advice)
+        chunks, left = [], limit + 1
+        while left > 0:
+            chunk = os.read(fd, min(left, 1 << 20))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            left -= len(chunk)
+    finally:
+        os.close(fd)
+    data = b"".join(chunks)
+    if len(data) > limit:
+        raise _refused(path, f"more than the {limit} bytes tavc reads of it", advice)
+    return data
+
+
+def read_text(path: Path, limit: int, advice: str = REWRITE) -> str:
+    """`read_bounded`, decoded as UTF-8 (a `UnicodeDecodeError`, a `ValueError`, where it is not)."""
+    return read_bounded(path, limit, advice).decode("utf-8")
+
+
+_STRING = re.compile(r'"(?:[^"\\]|\\.)*"', re.S)
+_NOT_BRACKET = re.compile(r"[^\[\]{}]+")
+
+
+def json_depth(text: str) -> int:
+    """How deep the arrays and objects of the JSON `text` nest (brackets inside strings left out)."""
+    brackets = _NOT_BRACKET.sub("", _STRING.sub("", text))
+    depth = deepest = 0
+    for opening in brackets.translate(str.maketrans("[{]}", "(())")).split(")"):
+        depth += len(opening)
+        deepest = max(deepest, depth)
+        depth -= 1
+    return deepest
+
+
+def load_json(path: Path, limit: int = JSON_LIMIT, advice: str = REWRITE) -> Any:
+    """The JSON file `path`, read by `read_bounded`, refused when nested deeper than `MAX_DEPTH`.
+    Malformed JSON raises `ValueError` (`json.JSONDecodeError`), as `json.loads` does."""
+    text = read_text(path, limit, advice)
+    if json_depth(text) > MAX_DEPTH:
+        raise _refused(path, f"nested more than {MAX_DEPTH} levels deep", advice)
+    try:
+        return json.loads(text)
+    except RecursionError:
+        raise _refused(path, f"nested more than {MAX_DEPTH} levels deep", advice) from None
+
+
+def _bounded_loader(base: type) -> type:
+    """A subclass of the YAML loader `base` that refuses an alias (more than `MAX_ALIASES`) and
+    nesting deeper than `MAX_DEPTH`, as it composes the document, before anything expands."""
+
+    class Bounded(base):
+        _aliases = 0
+        _depth = 0
+
+        def compose_node(self, parent, index):
+            if self.check_event(yaml.AliasEvent):
+                self._aliases += 1
+                if self._aliases > MAX_ALIASES:
+                    raise _Refusal(f"a YAML alias, *{self.peek_event().anchor}, on line "
+                                   f"{self.peek_event().start_mark.line + 1}; tavc's files use none")
+            self._depth += 1
+            if self._depth > MAX_DEPTH:
+                raise _Refusal(f"nested more than {MAX_DEPTH} levels deep")
+            try:
+                return super().compose_node(parent, index)
+            finally:
+                self._depth -= 1
+
+    Bounded.__name__ = f"Bounded{base.__name__}"
+    return Bounded
+
+
+_SAFE = _bounded_loader(yaml.SafeLoader)
+
+
+def load_yaml(path: Path, limit: int = YAML_LIMIT, advice: str = REWRITE, loader: type | None = None) -> Any:
+    """The YAML file `path` as `yaml.safe_load` reads it (or as `loader`, a subclass of
+    `yaml.SafeLoader`, does), read by `read_bounded`; an alias, or nesting deeper than
+    `MAX_DEPTH`, is refused in one line naming the file. Malformed YAML raises `yaml.YAMLError`, as
+    `yaml.safe_load` does."""
+    text = read_text(path, limit, advice)
+    try:
+        return yaml.load(text, Loader=_SAFE if loader is None else _bounded_loader(loader))  # noqa: S506 (a safe loader)
+    except _Refusal as exc:
+        raise _refused(path, str(exc), advice) from None
+    except RecursionError:
+        raise _refused(path, f"nested more than {MAX_DEPTH} levels deep", advice) from None
