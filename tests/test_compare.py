@@ -60,9 +60,15 @@ def test_rank_test_by_hand():
     assert above(np.array([2.0, 3]), np.array([1.0, 2])) == pytest.approx(0.875)
 
 
+class _NoAliases(yaml.SafeDumper):
+    def ignore_aliases(self, data):
+        return True
+
+
 def write_run(folder: Path, members, controller, stats_rows, vacancy_rows=None, breakdowns=0, state="circuits"):
     folder.mkdir(parents=True)
-    (folder / "config.yaml").write_text(yaml.safe_dump(config(members, breakdowns, state)))
+    # written as tavc writes a config.yaml, with no YAML aliases (a folder's config with one is refused)
+    (folder / "config.yaml").write_text(yaml.dump(config(members, breakdowns, state), Dumper=_NoAliases))
     pd.DataFrame(stats_rows).assign(controller=controller).to_csv(folder / "trial_stats.csv", index=False)
     if vacancy_rows is not None:
         pd.DataFrame(vacancy_rows).assign(controller=controller).to_csv(folder / "vacancy.csv", index=False)
