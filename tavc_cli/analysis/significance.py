@@ -236,7 +236,6 @@ def one_sample(what: str, x, mu: float, alternative: str) -> Part:
                 bool(p < ALPHA), name=what)
 
 
-
 def paired_less(what: str, a, b) -> Part:
     """Within the same trials, a significantly below b: paired t-test, one-sided."""
     return _paired(what, a, b, "less")
