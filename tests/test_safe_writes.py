@@ -61,24 +61,9 @@ def _one_line_naming(message, path):
     assert "\n" not in message and str(path) in message, message
 
 
-@pytest.mark.parametrize("how", ["link", "dangling", "fifo"])
-def test_a_lock_that_is_a_link_or_a_pipe_is_refused_and_nothing_outside_is_written(tmp_path, sibling, how):
-    run = tmp_path / "run"
-    _hostile(run / LOCK_NAME, sibling, how)
-    before = _snapshot(sibling)
-    with pytest.raises(TavcError) as refused:
-        with claim_folder(run):
-            pass
-    _one_line_naming(str(refused.value), run / LOCK_NAME)
-    assert str(refused.value).startswith("output_dir: ") and "move it away" in str(refused.value)
-    assert _snapshot(sibling) == before  # neither truncated nor created
-
-
-@pytest.mark.parametrize("how", ["link", "dangling", "fifo"])
-def test_the_lock_is_never_opened_through_a_link_even_past_the_check(tmp_path, sibling, monkeypatch, how):
-    """A link or pipe put there after the check looked: O_NOFOLLOW and the open file's type stop it."""
-    monkeypatch.setattr("tavc_cli.io.owned_path", lambda root, path, **kw: path)
-    run = tmp_path / "run"
+def _lock_refused(run, sibling, how) -> str:
+    """Claim `run` with a hostile lock in it: the one-line refusal, the sibling folder unchanged
+    (neither truncated nor created)."""
     _hostile(run / LOCK_NAME, sibling, how)
     before = _snapshot(sibling)
     with pytest.raises(TavcError) as refused:
@@ -86,6 +71,20 @@ def test_the_lock_is_never_opened_through_a_link_even_past_the_check(tmp_path, s
             pass
     _one_line_naming(str(refused.value), run / LOCK_NAME)
     assert _snapshot(sibling) == before
+    return str(refused.value)
+
+
+@pytest.mark.parametrize("how", ["link", "dangling", "fifo"])
+def test_a_lock_that_is_a_link_or_a_pipe_is_refused_and_nothing_outside_is_written(tmp_path, sibling, how):
+    message = _lock_refused(tmp_path / "run", sibling, how)
+    assert message.startswith("output_dir: ") and "move it away" in message
+
+
+@pytest.mark.parametrize("how", ["link", "dangling", "fifo"])
+def test_the_lock_is_never_opened_through_a_link_even_past_the_check(tmp_path, sibling, monkeypatch, how):
+    """A link or pipe put there after the check looked: O_NOFOLLOW and the open file's type stop it."""
+    monkeypatch.setattr("tavc_cli.io.owned_path", lambda root, path, **kw: path)
+    _lock_refused(tmp_path / "run", sibling, how)
 
 
 @pytest.mark.parametrize("how", ["link", "dangling", "fifo", "folder"])

@@ -13,7 +13,8 @@ import pandas as pd
 from scipy import stats
 
 from tavc_cli.analysis.claims import CLOSE_W, STATE_MARGIN_PCT
-from tavc_cli.analysis.significance import ALPHA, Part, close_to, equivalence, equivalent_family, holm_none_differ
+from tavc_cli.analysis.significance import (ALPHA, Part, close_to, equivalence, equivalent_family, holm_none_differ,
+                                           welch_error)
 from tavc_cli.reference import chapter_table
 
 # trials behind each of the chapter's state tables: (TAVC, random; 0 where it prints no random column)
@@ -76,9 +77,8 @@ def _no_vacancy_against_breakdown() -> dict:
     parts, differ = [], []
     for st in nv.index:
         a, b = nv.loc[st], bd.loc[st]
-        va, vb = a["tavc_std_pct"] ** 2 / n_nv, b["tavc_std_pct"] ** 2 / n_bd
-        df = (va + vb) ** 2 / (va ** 2 / (n_nv - 1) + vb ** 2 / (n_bd - 1))
-        parts.append((st, equivalence(st, float(a["tavc_mean_pct"] - b["tavc_mean_pct"]), math.sqrt(va + vb), df,
+        se, df = welch_error(a["tavc_std_pct"], n_nv, b["tavc_std_pct"], n_bd)
+        parts.append((st, equivalence(st, float(a["tavc_mean_pct"] - b["tavc_mean_pct"]), se, df,
                                       STATE_MARGIN_PCT, test="Welch TOST")))
         differ.append((st, (lambda a=a, b=b: _welch(a, n_nv, b, n_bd, "tavc", "tavc", "two-sided"))))
     return _from_part(7, equivalent_family("Table 1.4 the same as Table 1.3's TAVC distribution", parts, differ,

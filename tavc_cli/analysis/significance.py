@@ -261,9 +261,16 @@ def _difference_and_error(a, b, paired: bool) -> tuple[float, float, float, floa
     why = untestable(a, b)
     if why:
         return math.nan, math.nan, math.nan, math.nan, why
-    va, vb = a.var(ddof=1) / len(a), b.var(ddof=1) / len(b)
-    df = (va + vb) ** 2 / ((va ** 2 / (len(a) - 1) if va else 0.0) + (vb ** 2 / (len(b) - 1) if vb else 0.0))
-    return float(a.mean() - b.mean()), float(math.sqrt(va + vb)), float(df), float(b.mean()), ""
+    se, df = welch_error(a.std(ddof=1), len(a), b.std(ddof=1), len(b))
+    return float(a.mean() - b.mean()), se, df, float(b.mean()), ""
+
+
+def welch_error(sd_a: float, n_a: int, sd_b: float, n_b: int) -> tuple[float, float]:
+    """The standard error of a difference of two means and its Welch-Satterthwaite degrees of
+    freedom, from each sample's standard deviation and size."""
+    va, vb = sd_a ** 2 / n_a, sd_b ** 2 / n_b
+    df = (va + vb) ** 2 / ((va ** 2 / (n_a - 1) if va else 0.0) + (vb ** 2 / (n_b - 1) if vb else 0.0))
+    return float(math.sqrt(va + vb)), float(df)
 
 
 def equivalent(what: str, a, b, margin: float, *, paired: bool = False, relative: bool = False) -> Part:

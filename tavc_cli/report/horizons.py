@@ -20,6 +20,7 @@ import pandas as pd
 
 from tavc_cli.analysis.claims import CLAIMS, not_a_verdict, verdict_words
 from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
+from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.readers import load_json
 from tavc_cli.report.mechanism import mechanism, mechanism_lines, mechanism_words, vacancy_mechanism_lines
 from tavc_cli.report.text import claims_table, fmt, p_cell, performance, robot_lines, state_table
@@ -199,8 +200,6 @@ def claims_both_table(base: Horizon, long: Horizon) -> list[str]:
 def window_words(cfg: TavcConfig) -> str:
     """The stretch of the stable period a run's shares and rates were measured over, in words:
     its last stretch of the chapter's length, or all of it (`scale.stable_window`)."""
-    from tavc_cli.analysis.trial_stats import stable_from
-
     start, end = stable_from(cfg), float(cfg.duration_s)
     if start > float(cfg.convergence_s):
         return f"its last {(end - start) / 3600:.3g} h, the length of the chapter's stable period"
