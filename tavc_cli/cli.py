@@ -81,7 +81,7 @@ def main(
     if config_dir:
         import os
 
-        from tavc_cli.learning.registry import CONFIG_DIRS_ENV
+        from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
 
         missing = [d for d in config_dir if not d.is_dir()]
         if missing:

@@ -78,7 +78,7 @@ def test_a_learner_from_a_folder_of_ones_own_runs_with_one_yaml(tmp_path, monkey
     from typer.testing import CliRunner
 
     from tavc_cli.cli import app
-    from tavc_cli.learning.registry import CONFIG_DIRS_ENV
+    from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
 
     folder = _plugin_folder(tmp_path)
     monkeypatch.setenv(CONFIG_DIRS_ENV, "")  # restored after the test, whatever the command sets
@@ -102,7 +102,7 @@ def test_a_learner_from_a_folder_of_ones_own_runs_with_one_yaml(tmp_path, monkey
 
 def test_a_learners_settings_are_checked_against_its_signature(tmp_path, monkeypatch):
     from tavc_cli.errors import TavcError
-    from tavc_cli.learning.registry import CONFIG_DIRS_ENV
+    from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
 
     folder = _plugin_folder(tmp_path)
     monkeypatch.setenv(CONFIG_DIRS_ENV, str(folder))
@@ -136,7 +136,7 @@ def _docs_learner(tmp_path, monkeypatch) -> str:
     import re
     from pathlib import Path
 
-    from tavc_cli.learning.registry import CONFIG_DIRS_ENV
+    from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
 
     page = (Path(__file__).resolve().parent.parent / "docs" / "plugins.md").read_text()
     python = re.search(r"`mine/greedy.py`:\n\n```python\n(.*?)```", page, re.S).group(1)

@@ -318,9 +318,9 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
 
 
 def search_overrides() -> list[str]:
-    """Hydra's search path extended by the user's config folders (`registry.config_dirs`): their
+    """Hydra's search path extended by the user's config folders (`plugins.config_dirs`): their
     ``learner/``, ``experiment/``, ... options join tavc's own."""
-    from tavc_cli.learning.registry import config_dirs
+    from tavc_cli.learning.plugins import config_dirs
 
     dirs = config_dirs()
     if not dirs:

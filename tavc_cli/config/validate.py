@@ -2,6 +2,7 @@
 
 import importlib.util
 import math
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Optional
@@ -38,6 +39,7 @@ from tavc_cli.settings import (
     AVAILABLE_BACKENDS,
     BACKENDS,
     MIN_DOCK_CLEARANCE_M,
+    LearnerConfig,
     STABLE_WINDOWS,
     TIME_UNITS,
 )
@@ -243,7 +245,7 @@ def _validate_model_learner(learner: DictConfig, n_circuits: int, n_robots: int,
 def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> None:
     """Learner name and Q-learning parameters."""
     if learner.target is not None:
-        _validate_plugin(learner)
+        _validate_plugin(learner, n_circuits, n_robots)
     else:
         one_of("learner.name", learner.name, LEARNERS)
         check(learner.name in AVAILABLE_LEARNERS, "learner.name",
@@ -288,16 +290,28 @@ def _validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> No
                   f"must be a circuit index (0 to {n_circuits - 1}) or -1 to alternate, got {role!r}")
 
 
-def _validate_plugin(learner: DictConfig) -> None:
-    """A learner from outside tavc: a plain name of its own (its label and seed), a class that
-    loads and takes the parameters given."""
-    from tavc_cli.learning.registry import SEED_CODES, check_params, load_target
+def _validate_plugin(learner: DictConfig, n_circuits: int, n_robots: int) -> None:
+    """A learner from outside tavc: a plain name of its own (its label and seed) that no table
+    already gives a meaning, a class that loads, takes the parameters given, and answers a short
+    made-up run as a trial needs (`plugins.rehearse`; its warnings printed once per learner)."""
+    from tavc_cli.learning.plugins import check_params, load_target, rehearse
+    from tavc_cli.learning.registry import RESERVED_LABELS, SEED_CODES
 
     name = str(learner.name)
     check(name.isidentifier(), "learner.name", f"a learner's name is a plain word (its label in every output), got {name!r}")
     check(name not in LEARNERS and name not in SEED_CODES, "learner.name",
           f"{name!r} is a built-in learner's; give the learner from learner.target a name of its own")
+    check(name not in RESERVED_LABELS, "learner.name",
+          f"{name!r} names other rows of tavc's tables; give the learner from learner.target a name of its own")
     check_params(load_target(str(learner.target)), dict(learner.params or {}))
+    spec = LearnerConfig(name=name, target=str(learner.target), params=dict(learner.params or {}))
+    for warning in rehearse(spec, n_robots, n_circuits):
+        if warning not in _WARNED:
+            _WARNED.add(warning)
+            print(f"warning: {warning}", file=sys.stderr, flush=True)
+
+
+_WARNED: set[str] = set()  # a plugin's warnings, said once per process
 
 
 def _validate_allocation(

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.tick import (
     LOG_CHOICE,
     LOG_COLUMNS,
@@ -24,9 +25,10 @@ from tavc_cli.experiments.tick import (
     LOG_TASK_S,
     Arrivals,
 )
-from tavc_cli.experiments.trial import TrialState
+from tavc_cli.experiments.trial import TrialFault, TrialState
 from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, POLICY_SOFTMAX, POLICY_STATIC, policy_kind
 from tavc_cli.learning.draws import entry_points, same_functions
+from tavc_cli.learning.plugins import check_choice
 from tavc_cli.sim.arena import SOURCE, Arena
 
 LOG_ROWS = 1024  # arrivals compiled code may serve before Python takes them into the trials' tables
@@ -101,8 +103,12 @@ class ArrivalDesk:
 
     def assign(self, tr: TrialState, i: int, t: float) -> None:
         """Robot i of trial tr picks its next circuit and heads for that circuit's source."""
-        circuit = tr.policy.choose(i, int(tr.state[i]))
-        tr.rows.add("choices", t, i, int(tr.state[i]), circuit)
+        state = int(tr.state[i])
+        try:
+            circuit = check_choice(tr.spec.controller, i, state, tr.policy.choose(i, state), len(tr.values))
+        except TavcError as error:  # the learner's own fault: this trial's, not the batch's
+            raise TrialFault(int(self.trial_of[tr.lo]), str(error)) from None
+        tr.rows.add("choices", t, i, state, circuit)
         tr.task[i] = circuit
         tr.task_start[i] = t
         self.act_at_task[tr.lo + i] = self._act_before_tick(tr.lo + i)
@@ -130,7 +136,10 @@ class ArrivalDesk:
         tr.rows.add("deliveries", t, i, circuit, task_time, reward, value, float(tr.scores[circuit]), *spent)
         if tr.spec.t0_s + t >= 0.0:  # its time in the record is not negative
             tr.delivered += 1
-        tr.policy.learn(i, int(tr.state[i]), circuit, reward, circuit)
+        try:
+            tr.policy.learn(i, int(tr.state[i]), circuit, reward, circuit)
+        except TavcError as error:
+            raise TrialFault(int(self.trial_of[tr.lo]), str(error)) from None
         tr.state[i] = circuit
         self.assign(tr, i, t)
 

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from tavc_cli import source_digest
+from tavc_cli.learning.plugins import target_digest
 from tavc_cli.settings import ArenaConfig, LearnerConfig, RobotConfig
 from tavc_cli.sim.arena import Arena, arena_from_config
 
@@ -87,9 +88,12 @@ class TrialSpec:
         return arena_from_config(self.arena)
 
     def key(self) -> str:
-        """A digest of everything that fixes the trial's outcome, the simulator's own code
-        included, so a rerun reuses a trial only if it would come out the same."""
+        """A digest of everything that fixes the trial's outcome, the simulator's own code and a
+        learner from outside tavc's own (`plugins.target_digest`) included, so a rerun reuses a
+        trial only if it would come out the same."""
         blob = json.dumps(asdict(self), sort_keys=True, default=_jsonable) + code_digest()
+        if self.policy.target:
+            blob += target_digest(str(self.policy.target))
         return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 

@@ -242,7 +242,8 @@ def simulate_contained(specs: Sequence[TrialSpec], report: Callable[[float], Non
         groups = [[s for k, s in enumerate(specs) if k != fault.index]]
     except Exception as exc:
         if len(specs) == 1:
-            return [], [TrialFailure.of(specs[0], f"{type(exc).__name__}: {exc}", traceback.format_exc())]
+            said = str(exc) if isinstance(exc, TavcError) else f"{type(exc).__name__}: {exc}"  # a learner's, named
+            return [], [TrialFailure.of(specs[0], said, traceback.format_exc())]
         failures, groups = [], [[s] for s in specs]
     done: list[tuple[TrialSpec, TrialRecord]] = []
     for group in groups:
