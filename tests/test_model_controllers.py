@@ -13,8 +13,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tavc_cli.config.model_file import model_allocations
 from tavc_cli.errors import TavcError
-from tavc_cli.learning.informed import InformedPolicy, ModelPolicy, model_allocations, ranked
+from tavc_cli.learning.informed import InformedPolicy, ModelPolicy, ranked
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -136,3 +137,36 @@ def test_in_the_simulator_informed_fills_the_vacancy_and_model_leaves_it(tmp_pat
     vacancy = pd.read_csv(tmp_path / "informed/vacancy.csv")
     assert vacancy["filled"].all() and (vacancy["filler_from"] == 1).all()
     assert not pd.read_csv(tmp_path / "model/vacancy.csv")["filled"].any()
+
+
+@pytest.mark.parametrize(("text", "said"), [
+    ("[]", "has no `by_team_size`"),
+    ('{"by_team_size": {}}', "has no `by_team_size`"),
+    ('{"by_team_size": {"6": {}}}', "has no predicted state of counts for 6 robots"),
+    ('{"by_team_size": {"6": {"predicted_state": "4:-2"}}}', "has no predicted state of counts for 6 robots"),
+    ('{"by_team_size": {"6": {"predicted_state": "3:2"}}}', "predicts 3:2 for 6 robots: 5 robots, not 6"),
+    ('{"by_team_size": {"6": {"predicted_state": "2:2:2"}}}', "2:2:2 for 6 robots: 3 circuits, where the arena has 2"),
+    ('{"by_team_size": {"six": {"predicted_state": "3:3"}}}', "has a team size 'six'"),
+    ('{"by_team_size": {"0": {"predicted_state": "0:0"}}}', "has a team size '0'"),
+    ("[" * 100 + "]" * 100, "nested"),
+    ("{", "is not a model.json"),
+])
+def test_a_malformed_model_file_is_one_line_before_anything_runs_and_the_fixed_file_runs(tmp_path, monkeypatch, text,
+                                                                                          said):
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    model = tmp_path / "model.json"
+    model.write_text(text)
+    monkeypatch.chdir(tmp_path)
+    command = ["run", "experiment=initial_distribution", "scale=smoke", "learner=model", "baselines=[]", "trials=1",
+               "duration_s=120", f"learner.model_file={model}", "output_dir=out", "--no-progress"]
+    result = CliRunner().invoke(app, command)
+    assert result.exit_code == 1
+    line = result.output.strip().splitlines()[-1]
+    assert line.startswith(f"error: learner.model_file: {model}") or line.startswith(f"error: {model}: cannot be read")
+    assert said in line and "Traceback" not in result.output
+    assert not (tmp_path / "out").exists()  # nothing written: the fixed file runs the same command
+    write_model(model, [2200.0, 2000.0], {"5": "3:2", "6": "3:3"})
+    assert CliRunner().invoke(app, command).exit_code == 0

@@ -27,7 +27,7 @@ Rules:
 - ``tasks.values``: 1.0 per circuit; ``tasks.score_values``: ``tasks.values``.
 - ``executor.n_jobs``: ``os.cpu_count()``.
 - ``learner.allocations`` (``learner=model``, ``learner=informed``): robots per circuit by team
-  size, read from the model's output ``learner.model_file`` (`learning.informed.model_allocations`).
+  size, read from the model's output ``learner.model_file`` (`config.model_file.model_allocations`).
 """
 
 import math
@@ -37,9 +37,10 @@ from typing import Optional
 
 from omegaconf import DictConfig
 
-from tavc_cli.learning.informed import MODEL_LEARNERS, model_allocations
-from tavc_cli.settings import MemberConfig
+from tavc_cli.config.model_file import model_allocations
 from tavc_cli.io import default_root
+from tavc_cli.learning.informed import MODEL_LEARNERS
+from tavc_cli.settings import MemberConfig
 from tavc_cli.sim.arena import most_robots
 
 
@@ -92,7 +93,7 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
     if cfg.executor.n_jobs is None:
         cfg.executor.n_jobs = os.cpu_count() or 1
     if cfg.learner.name in MODEL_LEARNERS and cfg.learner.target is None and cfg.learner.allocations is None:
-        cfg.learner.allocations = model_allocations(cfg.learner.model_file)
+        cfg.learner.allocations = model_allocations(cfg.learner.model_file, len(cfg.arena.circuits))
 
 
 def default_output_dir(scale: str, experiment: str) -> Path:

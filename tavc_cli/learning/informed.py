@@ -10,7 +10,8 @@ for the chapter's claim that learners beat pre-programmed allocations.
   robots on a circuit with too many move, chosen at random, to the circuits with too few.
 
 Both learn nothing and talk to no one; what they know comes from the model's output file
-(``learner.model_file``, read once when the config is resolved into ``learner.allocations``:
+(``learner.model_file``, read and checked once when the config is resolved into ``learner.allocations``
+(`config.model_file`):
 robots per circuit by team size, the most valuable circuit first).
 
 The trial calls ``on_event(alive, values)`` once at its start and again after every event
@@ -19,9 +20,7 @@ The trial calls ``on_event(alive, values)`` once at its start and again after ev
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 
 import numpy as np
 
@@ -29,25 +28,6 @@ from tavc_cli.errors import TavcError
 from tavc_cli.learning.policies import StaticPolicy
 
 MODEL_LEARNERS = ("model", "informed")  # the learners that follow the model's allocation
-
-
-def model_allocations(path: str | Path) -> dict[str, list[int]]:
-    """Robots per circuit, the most valuable circuit first, for every team size the model file
-    predicts (``by_team_size``): e.g. ``{"5": [3, 2], "6": [3, 3]}``. Its states are written that
-    way already (`analysis.states.split_label`: most valuable circuit first)."""
-    path = Path(path)
-    try:
-        model = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise TavcError(f"learner.model_file: no model at {path}; run `tavc model` first, "
-                        "or name its model.json") from None
-    except (OSError, ValueError) as error:
-        raise TavcError(f"learner.model_file: {path} is not a model.json ({error})") from None
-    sizes = model.get("by_team_size")
-    if not isinstance(sizes, dict) or not sizes:
-        raise TavcError(f"learner.model_file: {path} has no `by_team_size`; is it tavc model's model.json?")
-    return {str(size): [int(c) for c in str(prediction["predicted_state"]).split(":")]
-            for size, prediction in sizes.items()}
 
 
 def ranked(counts_high_first: Sequence[int], values: np.ndarray) -> np.ndarray:

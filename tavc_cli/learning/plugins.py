@@ -181,6 +181,8 @@ class PluginLearner:
             raise TavcError(f"learner {label}: n_states is {_short(n_states)}; it must be a positive integer")
         self.n_states = int(n_states)
         self.shape = (n_robots, self.n_states, n_circuits)
+        if callable(getattr(learner, "on_event", None)):  # told of events, as the model's learners are
+            self.on_event = lambda alive, values: self._call("on_event", alive, values)
 
     def _call(self, method: str, *args):
         try:

@@ -1,0 +1,64 @@
+"""The vacancy-chain model's output (``learner.model_file``, `tavc model`'s ``model.json``) as the
+model's controllers read it: robots per circuit for every team size the model predicts.
+
+The file may come from another folder or another person, so it is read bounded
+(`readers.load_json`) and checked whole before any trial runs: a team size that is a positive
+integer, a predicted state of one non-negative count per circuit summing to that size. Anything
+else is one line naming the file, the entry and what to do, and nothing is written, so the same
+command runs once the file is fixed.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tavc_cli.errors import TavcError
+from tavc_cli.readers import load_json
+
+# tavc model's largest model.json is 6 KB; 1 MiB is room for many more team sizes
+MODEL_LIMIT = 1 << 20
+REMAKE = "run `tavc model` to write it, or name another with learner.model_file"
+
+
+def _bad(path: Path, what: str) -> TavcError:
+    return TavcError(f"learner.model_file: {path} {what}; {REMAKE}")
+
+
+def _counts(path: Path, size: str, prediction: object, n_circuits: int | None) -> list[int]:
+    """One team size's predicted state as robots per circuit, most valuable circuit first."""
+    state = prediction.get("predicted_state") if isinstance(prediction, dict) else None
+    parts = str(state).split(":") if isinstance(state, str) else []
+    if not parts or not all(p.isdigit() for p in parts):
+        raise _bad(path, f"has no predicted state of counts for {size} robots (by_team_size.{size}.predicted_state "
+                         f"is {state!r}, not like '3:3')")
+    counts = [int(p) for p in parts]
+    if n_circuits is not None and len(counts) != n_circuits:
+        raise _bad(path, f"predicts {state} for {size} robots: {len(counts)} circuits, where the arena has "
+                         f"{n_circuits}")
+    if sum(counts) != int(size):
+        raise _bad(path, f"predicts {state} for {size} robots: {sum(counts)} robots, not {size}")
+    return counts
+
+
+def model_allocations(path: str | Path, n_circuits: int | None = None) -> dict[str, list[int]]:
+    """Robots per circuit, the most valuable circuit first, for every team size the model file
+    predicts (``by_team_size``): e.g. ``{"5": [3, 2], "6": [3, 3]}`` (the model writes its states
+    most valuable circuit first, `analysis.states.split_label`). `n_circuits`, when given, is the
+    number of circuits every state must have."""
+    path = Path(path)
+    try:
+        model = load_json(path, MODEL_LIMIT, REMAKE)
+    except FileNotFoundError:
+        raise TavcError(f"learner.model_file: no model at {path}; run `tavc model` first, "
+                        "or name its model.json") from None
+    except OSError as error:
+        raise _bad(path, f"cannot be read ({error.strerror or error})") from None
+    except ValueError as error:
+        raise _bad(path, f"is not a model.json ({error})") from None
+    sizes = model.get("by_team_size") if isinstance(model, dict) else None
+    if not isinstance(sizes, dict) or not sizes:
+        raise _bad(path, "has no `by_team_size`; is it tavc model's model.json?")
+    for size in sizes:
+        if not (isinstance(size, str) and size.isdigit() and int(size) >= 1):
+            raise _bad(path, f"has a team size {size!r} in by_team_size (not a whole number of robots)")
+    return {size: _counts(path, size, prediction, n_circuits) for size, prediction in sizes.items()}
