@@ -92,6 +92,27 @@ def test_swapped_trial_files_are_named_and_run_again(undisturbed, tmp_path):
     _assert_healed(out, undisturbed)
 
 
+def test_a_record_with_a_member_that_is_not_an_array_is_named_and_run_again(undisturbed, tmp_path):
+    """A record whole to zip (every checksum right) with its key intact, but one member that
+    does not read as an array: named in a note, run again, healed."""
+    import zipfile
+
+    out = tmp_path / "run"
+    shutil.copytree(undisturbed, out)
+    path = trial_path(out, "random", 1)
+    with zipfile.ZipFile(path) as archive:
+        members = {m: archive.read(m) for m in archive.namelist()}
+    members["deliveries__reward.npy"] = b"not an array"
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    result = CliRunner().invoke(app, ["run", *SMOKE, f"output_dir={out}"])
+    assert result.exit_code == 0, result.output
+    assert (f"note: 1 trial files in {out / 'trials'} are damaged or unreadable (random_001.npz); running those "
+            "trials again") in result.output.splitlines()
+    _assert_healed(out, undisturbed)
+
+
 @pytest.mark.parametrize("table", ["state_time.csv", "trial_stats.csv", "performance.csv", "robots.csv"])
 def test_a_damaged_table_in_a_finished_run_is_rewritten_by_the_rerun(undisturbed, tmp_path, table):
     out = tmp_path / "run"

@@ -157,17 +157,29 @@ _MEMBERS = frozenset({"meta.npy", *(f"{name}.npy" for name in ARRAY_FIELDS),
                       *(f"{name}__{col}.npy" for name, cols in TABLES.items() for col in cols)})
 
 
+# tavc's largest record holds 43 MB of arrays (a trial of 40 times the chapter's duration); a
+# record claiming more than 100 times that is not read (its arrays would be unpacked into memory)
+RECORD_LIMIT = 4 << 30
+
+
 def _stored_key(path: Path, whole: bool = False) -> str | None:
     """The key a trial record was made with; None if the file is missing or cannot be read.
     With `whole`, every byte of the record is read and checked against the checksums the
-    archive keeps of each array (zip's CRC-32), and every array a record holds must be there:
-    a file damaged anywhere, not only in its header, gives None."""
+    archive keeps of each array (zip's CRC-32), every array a record holds must be there, and
+    every member must read as an array (one can be whole to zip yet not an array), at most
+    `RECORD_LIMIT` bytes of them: a file damaged anywhere, not only in its header, gives None."""
     try:
         with zipfile.ZipFile(path) as archive:
-            if whole and (not _MEMBERS <= set(archive.namelist()) or archive.testzip() is not None):
-                return None
+            if whole:
+                members = archive.infolist()
+                if (not _MEMBERS <= {m.filename for m in members} or sum(m.file_size for m in members) > RECORD_LIMIT
+                        or archive.testzip() is not None):
+                    return None
         with np.load(path, allow_pickle=False) as data:
-            return json.loads(str(data["meta"])).get("key")
+            key = json.loads(str(data["meta"])).get("key")
+            if whole and not all(isinstance(data[name], np.ndarray) for name in data.files):
+                return None  # a member that is not an array (NumPy hands its bytes back as they are)
+            return key
     except Exception:  # missing, truncated, damaged or foreign: the trial is simply run again
         return None
 
