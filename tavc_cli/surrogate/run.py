@@ -8,17 +8,21 @@ import json
 import time
 from collections.abc import Callable
 from dataclasses import replace
+from functools import cache
 from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli import source_digest
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.runner import Run
+from tavc_cli.experiments.spec import code_digest
 from tavc_cli.experiments.store import Executor, TrialStore, _stored_key, trial_path
-from tavc_cli.io import claim_folder, default_root, write_text_atomic
+from tavc_cli.io import claim_folder, default_root, file_digest, write_bytes_atomic, write_text_atomic
 from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_settings, take
+from tavc_cli.readers import load_json
 from tavc_cli.settings import TavcConfig
 from tavc_cli.surrogate.engine import run_trial
 from tavc_cli.surrogate.tasks import (
@@ -69,7 +73,8 @@ def measure_tasks(cfg: TavcConfig, teams: list[Team] | None = None, *, progress:
                   echo: Callable[[str], None] = print) -> TaskTimes:
     """Measure (or reuse) every make-up of the teams the experiment can have (`teams`: these
     instead) in `tasks_dir`, and return the table of the tasks of those teams. The folder's
-    `task_times.csv` keeps the tasks of every team measured there with the same settings."""
+    `task_times.csv` keeps the tasks of every team measured there with the same settings and
+    code (`kept_tasks`); a table that cannot be trusted is measured again."""
     if teams is None:
         team = Team.of(tuple(m.group for m in cfg.team.members), tuple(m.speed_mps for m in cfg.team.members))
         teams = teams_needed(team, len(cfg.events.breakdowns))
@@ -78,15 +83,9 @@ def measure_tasks(cfg: TavcConfig, teams: list[Team] | None = None, *, progress:
     trials, warmup_s, measure_s = measurement(cfg)
     record = measurement_record(cfg)
     with claim_folder(folder):
+        # every file of TASKS_FILES already there is tavc's: `take` refuses one it did not write
         owned = take(folder, TASKS, TASKS_FILES, "surrogate.tasks_dir", save=False)
-        if owned.owns("task_times.json"):
-            refuse_other_settings(folder / "task_times.json", record, "surrogate.tasks_dir", cfg.overwrite,
-                                  allow="add overwrite=true to measure them again, or choose another "
-                                        "surrogate.tasks_dir")
-        table_path = folder / "task_times.csv"
-        kept = pd.DataFrame(columns=list(COLUMNS))
-        if table_path.is_file() and owned.owns("task_times.csv") and not cfg.overwrite:
-            kept = TaskTimes.read(table_path).frame
+        kept = kept_tasks(folder, record, overwrite=cfg.overwrite, echo=echo)
         wanted = {t.name for t in teams}
         have = set(kept["team"].unique()) if len(kept) else set()
         if wanted <= have:
@@ -109,12 +108,75 @@ def measure_tasks(cfg: TavcConfig, teams: list[Team] | None = None, *, progress:
                 frames.append(tasks_of(rec, team, makeup, roles, warmup_s, measure_s))
         fresh = pd.concat(frames, ignore_index=True)
         table = pd.concat([kept[~kept["team"].isin(wanted)], fresh], ignore_index=True) if len(kept) else fresh
-        write_text_atomic(table_path, table.to_csv(index=False, float_format="%.6g"))
-        write_text_atomic(folder / "task_times_summary.csv", task_summary(table).to_csv(index=False, float_format="%.4f"))
-        write_text_atomic(folder / "task_times.json", json.dumps(
-            {**record, "teams": sorted(table["team"].unique().tolist()),
-             "makeups": {t.name: len(makeups(t)) for t in teams}}, indent=2))
-        return TaskTimes(TaskTimes.read(table_path).frame.query("team in @wanted").reset_index(drop=True))
+        write_tasks(folder, table, record, teams)
+        written = TaskTimes.read(folder / "task_times.csv").frame
+        return TaskTimes(written[written["team"].isin(wanted)].reset_index(drop=True))
+
+
+def write_tasks(folder: Path, table: pd.DataFrame, record: dict, teams: list[Team]) -> None:
+    """Write the measured tasks in `folder`, each file atomically: `task_times.csv`, its summary,
+    then `task_times.json` last, which records the settings (`record`), the code that measured
+    them (the simulator's `code_digest`, the surrogate's `surrogate_code_digest`) and the
+    SHA-256 of the `task_times.csv` written, so that a table edited, cut, or left beside the
+    record of another measurement is told from the one tavc wrote (`kept_tasks`)."""
+    data = table.to_csv(index=False, float_format="%.6g").encode()
+    write_bytes_atomic(folder / "task_times.csv", data)
+    write_text_atomic(folder / "task_times_summary.csv", task_summary(table).to_csv(index=False, float_format="%.4f"))
+    write_text_atomic(folder / "task_times.json", json.dumps(
+        {**record, "code_digest": code_digest(), "surrogate_code_digest": surrogate_code_digest(),
+         "task_times_sha256": hashlib.sha256(data).hexdigest(), "teams": sorted(table["team"].unique().tolist()),
+         "makeups": {t.name: len(makeups(t)) for t in teams}}, indent=2))
+
+
+class _Untrusted(Exception):
+    """Why the tasks a folder keeps are not drawn from (`kept_tasks`): the reason, in a few words."""
+
+
+def kept_tasks(folder: Path, record: dict, *, overwrite: bool, echo: Callable[[str], None] = print) -> pd.DataFrame:
+    """The tasks `folder` keeps that may be drawn from, else an empty table (none kept, or
+    `overwrite`). A record of other settings than `record` is refused in one line (unless
+    `overwrite`); a table that cannot be trusted (`_trusted_table`) is named in one `note:` line
+    through `echo` and not used, so that the tasks are measured again."""
+    empty = pd.DataFrame(columns=list(COLUMNS))
+    if overwrite:
+        return empty
+    try:
+        return _trusted_table(folder, record)
+    except _Untrusted as why:
+        echo(f"note: {why}; measuring the tasks again")
+        return empty
+
+
+def _trusted_table(folder: Path, record: dict) -> pd.DataFrame:
+    """The table of `task_times.csv` in `folder` (empty where there is none), once its record
+    says it was measured with these settings (else refused) and today's code, and its bytes are
+    the ones that record was written with; raises `_Untrusted` naming the file and why otherwise."""
+    table_path, record_path = folder / "task_times.csv", folder / "task_times.json"
+    if not table_path.is_file() and not record_path.is_file():
+        return pd.DataFrame(columns=list(COLUMNS))
+    if not record_path.is_file():
+        raise _Untrusted(f"{table_path} has no task_times.json beside it to say how and by which code it was measured")
+    try:
+        kept = load_json(record_path)
+    except (OSError, ValueError, TavcError):
+        kept = None
+    if not isinstance(kept, dict):
+        raise _Untrusted(f"{record_path} cannot be read as the record of the measured tasks")
+    refuse_other_settings(record_path, record, "surrogate.tasks_dir", False,
+                          allow="add overwrite=true to measure them again, or choose another surrogate.tasks_dir")
+    if not table_path.is_file():
+        return pd.DataFrame(columns=list(COLUMNS))  # a record alone (results/ keeps no table): nothing to draw from
+    for key, today in (("code_digest", code_digest()), ("surrogate_code_digest", surrogate_code_digest())):
+        recorded = kept.get(key)
+        if recorded != today:
+            said = f"no {key}" if recorded is None else f"another {key} ({recorded}; this tavc's is {today})"
+            raise _Untrusted(f"{record_path} records {said}: its tasks were measured by other code")
+    if file_digest(table_path) != kept.get("task_times_sha256"):
+        raise _Untrusted(f"{table_path} does not match the digest task_times.json recorded (edited or cut)")
+    try:
+        return TaskTimes.read(table_path).frame
+    except TavcError:
+        raise _Untrusted(f"{table_path} cannot be read as measured tasks") from None
 
 
 def task_summary(table: pd.DataFrame) -> pd.DataFrame:
@@ -135,10 +197,25 @@ def tasks_digest(times: TaskTimes) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
+_SURROGATE_CODE = ("surrogate/engine.py", "surrogate/tasks.py")  # below tavc_cli/: `surrogate_code_digest`
+
+
+@cache
+def surrogate_code_digest(root: Path = Path(__file__).resolve().parent.parent) -> str:
+    """Digest of the surrogate's own code, `_SURROGATE_CODE` under `root` (tavc_cli/): the engine
+    that draws a trial (`engine.py`) and the tasks it measures and draws them from (`tasks.py`).
+    The rest a drawn trial runs on (learners, events, the trial's book-keeping) is the
+    simulator's and in `experiments.spec.code_digest`. Named in every surrogate trial's engine
+    (`surrogate_specs`), so an edit draws the trials again, and recorded in `task_times.json`,
+    so an edit measures the tasks again (`kept_tasks`)."""
+    return source_digest(root, _SURROGATE_CODE)
+
+
 def surrogate_specs(cfg: TavcConfig, times: TaskTimes) -> list:
     """The experiment's trials (`trial_specs`: the same controllers, seeds and events), computed
-    by the surrogate: their engine names the calibration and the tasks drawn from."""
-    engine = f"surrogate:{cfg.surrogate.calibration}:{tasks_digest(times)}"
+    by the surrogate: their engine names the calibration, the tasks drawn from and the
+    surrogate's code (`surrogate_code_digest`), all three in each trial's key."""
+    engine = f"surrogate:{cfg.surrogate.calibration}:{tasks_digest(times)}:{surrogate_code_digest()}"
     return [replace(s, engine=engine) for s in trial_specs(cfg)]
 
 

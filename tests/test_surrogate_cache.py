@@ -1,0 +1,249 @@
+"""The surrogate's measured tasks are drawn from only when their record vouches for them (the same
+settings, today's code, the bytes it was written with); anything else is named in one note and
+measured again by the same command, and the surrogate's own code is in its trials' keys."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from tavc_cli import config
+from tavc_cli.errors import TavcError
+from tavc_cli.surrogate import run as surrogate_run
+from tavc_cli.surrogate.run import measure_tasks, surrogate_code_digest, surrogate_specs
+
+# two robots at the smoke scale: 6 make-ups, 2 static trials of 66 s each (about two seconds)
+OVERRIDES = ["experiment=initial_distribution", "scale=smoke", "team.n_robots=2"]
+
+
+def settings(tasks_dir: Path, *more: str):
+    return config.settings(config.load_config([*OVERRIDES, f"surrogate.tasks_dir={tasks_dir}", *more]))
+
+
+def sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory) -> Path:
+    """A folder of tasks measured once, undisturbed: what every healed folder must equal."""
+    folder = tmp_path_factory.mktemp("clean") / "tasks"
+    said: list[str] = []
+    measure_tasks(settings(folder), echo=said.append)
+    assert len(said) == 1 and said[0].startswith("surrogate: measuring 6 make-ups")  # no note on a new folder
+    return folder
+
+
+@pytest.fixture
+def copy(clean, tmp_path) -> Path:
+    """The clean folder copied (its trials/ and .tavc.json too), with a sibling folder and a file
+    of somebody else's beside the tasks, which no healing may touch."""
+    folder = tmp_path / "tasks"
+    shutil.copytree(clean, folder)
+    (tmp_path / "sibling").mkdir()
+    (tmp_path / "sibling" / "task_times.csv").write_text("somebody's table\n")
+    (folder / "notes.txt").write_text("somebody's notes\n")
+    return folder
+
+
+def _rows(folder: Path) -> list[str]:
+    return (folder / "task_times.csv").read_text().splitlines(keepends=True)
+
+
+def cut_to_whole_rows(folder: Path) -> None:
+    rows = _rows(folder)
+    (folder / "task_times.csv").write_text("".join(rows[:len(rows) // 2]))
+
+
+def cut_mid_row(folder: Path) -> None:
+    rows = _rows(folder)
+    cut = len("".join(rows[:3])) + len(rows[3]) // 2  # halfway through the third task
+    (folder / "task_times.csv").write_text("".join(rows)[:cut])
+
+
+def edit_a_time(folder: Path) -> None:
+    rows = _rows(folder)
+    fields = rows[1].split(",")
+    fields[5] = str(float(fields[5]) * 2)  # task_time_s of the first task, doubled
+    (folder / "task_times.csv").write_text("".join([rows[0], ",".join(fields), *rows[2:]]))
+
+
+def remove_the_record(folder: Path) -> None:
+    (folder / "task_times.json").unlink()
+
+
+def garbage_table(folder: Path) -> None:
+    (folder / "task_times.csv").write_bytes(b"\x00\xff not a table,\n\"unterminated")
+
+
+def garbage_record(folder: Path) -> None:
+    (folder / "task_times.json").write_text("{ not json")
+
+
+def _edit_record(folder: Path, **changes) -> None:
+    record = json.loads((folder / "task_times.json").read_text())
+    for key, value in changes.items():
+        if value is None:
+            record.pop(key)
+        else:
+            record[key] = value
+    (folder / "task_times.json").write_text(json.dumps(record, indent=2))
+
+
+def other_code(folder: Path) -> None:
+    _edit_record(folder, code_digest="0" * 16)
+
+
+def other_surrogate_code(folder: Path) -> None:
+    _edit_record(folder, surrogate_code_digest="0" * 16)
+
+
+def record_without_digests(folder: Path) -> None:
+    _edit_record(folder, code_digest=None, surrogate_code_digest=None, task_times_sha256=None)
+
+
+def wrong_columns_vouched_for(folder: Path) -> None:
+    """A table of other columns whose digest the record was edited to match."""
+    (folder / "task_times.csv").write_text("team,makeup\nall:2@0.25,all:0-0-2\n")
+    _edit_record(folder, task_times_sha256=sha(folder / "task_times.csv"))
+
+
+# each damage, and what its note says after the file it names
+DAMAGES = [
+    (cut_to_whole_rows, "task_times.csv does not match the digest task_times.json recorded (edited or cut)"),
+    (cut_mid_row, "task_times.csv does not match the digest task_times.json recorded (edited or cut)"),
+    (edit_a_time, "task_times.csv does not match the digest task_times.json recorded (edited or cut)"),
+    (garbage_table, "task_times.csv does not match the digest task_times.json recorded (edited or cut)"),
+    (remove_the_record, "task_times.csv has no task_times.json beside it"),
+    (garbage_record, "task_times.json cannot be read as the record of the measured tasks"),
+    (other_code, "task_times.json records another code_digest (0000000000000000; "),
+    (other_surrogate_code, "task_times.json records another surrogate_code_digest (0000000000000000; "),
+    (record_without_digests, "task_times.json records no code_digest: its tasks were measured by other code"),
+    (wrong_columns_vouched_for, "task_times.csv cannot be read as measured tasks"),
+]
+
+
+@pytest.mark.parametrize("damage, why", DAMAGES, ids=[d.__name__ for d, _ in DAMAGES])
+def test_a_damaged_or_stale_cache_heals_with_one_note(clean, copy, damage, why):
+    others = [copy.parent / "sibling" / "task_times.csv", copy / "notes.txt"]
+    before = [sha(p) for p in others]
+    damage(copy)
+    said: list[str] = []
+    times = measure_tasks(settings(copy), echo=said.append)
+    notes = [line for line in said if line.startswith("note:")]
+    assert len(notes) == 1 and notes[0].startswith(f"note: {copy}/{why}")  # one note, naming the file and why
+    assert notes[0].endswith("; measuring the tasks again")
+    assert len(said) == 2 and said[1].startswith("surrogate: measuring 6 make-ups")
+    assert (copy / "task_times.csv").read_bytes() == (clean / "task_times.csv").read_bytes()
+    assert (copy / "task_times_summary.csv").read_bytes() == (clean / "task_times_summary.csv").read_bytes()
+    assert (copy / "task_times.json").read_bytes() == (clean / "task_times.json").read_bytes()
+    assert len(times.frame) == len(_rows(clean)) - 1
+    again: list[str] = []
+    measure_tasks(settings(copy), echo=again.append)
+    assert again == []  # healed: read as it is
+    assert [sha(p) for p in others] == before
+
+
+def test_a_record_without_its_table_is_measured_again_quietly(clean, copy):
+    """As results/ keeps them: the record and the summary, not the table; nothing to draw from."""
+    (copy / "task_times.csv").unlink()
+    record_without_digests(copy)
+    said: list[str] = []
+    measure_tasks(settings(copy), echo=said.append)
+    assert len(said) == 1 and said[0].startswith("surrogate: measuring 6 make-ups")
+    assert (copy / "task_times.csv").read_bytes() == (clean / "task_times.csv").read_bytes()
+    assert (copy / "task_times.json").read_bytes() == (clean / "task_times.json").read_bytes()
+
+
+def test_the_record_names_the_code_and_the_tables_bytes(clean):
+    from tavc_cli.experiments.spec import code_digest
+
+    record = json.loads((clean / "task_times.json").read_text())
+    assert record["code_digest"] == code_digest()
+    assert record["surrogate_code_digest"] == surrogate_code_digest()
+    assert record["task_times_sha256"] == sha(clean / "task_times.csv")
+
+
+def test_tasks_of_other_settings_are_still_refused_in_one_line(copy):
+    before = {p.name: sha(p) for p in copy.iterdir() if p.is_file()}
+    with pytest.raises(TavcError, match="other settings") as refused:
+        measure_tasks(settings(copy, "surrogate.measure_s=2000"), echo=print)
+    assert "\n" not in str(refused.value) and "overwrite=true" in str(refused.value)
+    assert {p.name: sha(p) for p in copy.iterdir() if p.is_file()} == before
+
+
+def test_a_table_tavc_did_not_write_is_refused_not_replaced(copy):
+    manifest = json.loads((copy / ".tavc.json").read_text())
+    manifest["files"].remove("task_times.csv")
+    (copy / ".tavc.json").write_text(json.dumps(manifest))
+    remove_the_record(copy)
+    mine = sha(copy / "task_times.csv")
+    with pytest.raises(TavcError, match="task_times.csv was not written by tavc"):
+        measure_tasks(settings(copy), echo=print)
+    assert sha(copy / "task_times.csv") == mine
+
+
+def test_the_surrogates_code_is_in_its_digest_and_its_trials_keys(clean, tmp_path, monkeypatch):
+    digest = surrogate_code_digest.__wrapped__  # uncached: the same folder is digested again after an edit
+    package = Path(surrogate_run.__file__).resolve().parent.parent
+    for edit in ("none", "engine.py", "tasks.py", "compare.py"):
+        root = tmp_path / edit
+        shutil.copytree(package / "surrogate", root / "surrogate", ignore=shutil.ignore_patterns("__pycache__"))
+        if edit != "none":
+            with open(root / "surrogate" / edit, "a") as fh:
+                fh.write("# edited\n")
+        # engine.py and tasks.py decide a drawn trial; compare.py only reads finished runs
+        assert (digest(root) == surrogate_code_digest()) == (edit in ("none", "compare.py")), edit
+    cfg = settings(clean)
+    times = measure_tasks(cfg, echo=print)
+    keys = [s.key() for s in surrogate_specs(cfg, times)]
+    monkeypatch.setattr(surrogate_run, "surrogate_code_digest", lambda: "0" * 16)
+    edited_keys = [s.key() for s in surrogate_specs(cfg, times)]
+    assert len(keys) > 0 and all(a != b for a, b in zip(keys, edited_keys, strict=True))
+
+
+def test_a_surrogate_trial_drawn_by_other_surrogate_code_is_drawn_again(copy, tmp_path, monkeypatch):
+    from tavc_cli.experiments.records import TrialRecord
+    from tavc_cli.surrogate.run import run_surrogate
+
+    cfg = settings(copy, "trials=1", f"output_dir={tmp_path / 'run'}")
+    run_surrogate(cfg, echo=lambda _: None)
+    records = sorted((tmp_path / "run" / "trials").glob("*.npz"))
+    drawn = {p.name: TrialRecord.load(p).meta["key"] for p in records}
+    monkeypatch.setattr(surrogate_run, "surrogate_code_digest", lambda: "0" * 16)
+    run_surrogate(cfg, echo=lambda _: None)
+    again = {p.name: TrialRecord.load(p).meta["key"] for p in records}
+    assert len(drawn) > 0 and drawn.keys() == again.keys() and all(drawn[n] != again[n] for n in drawn)
+    assert all(TrialRecord.load(p).meta["engine"].endswith(":" + "0" * 16) for p in records)
+
+
+def test_the_surrogate_digest_covers_every_module_its_engine_runs():
+    """As the simulator's trial key covers every module its engine reaches (test_structure), the
+    surrogate's trials' keys cover every module its engine reaches: the simulator's code
+    (`code_digest`) or the surrogate's own (`surrogate_code_digest`)."""
+    import ast
+
+    from tavc_cli import COMPILED_SOURCES
+    from tavc_cli.experiments.spec import _OUTCOME_CODE
+
+    root = Path(surrogate_run.__file__).resolve().parent.parent
+    covered = {p for p in (*_OUTCOME_CODE, *surrogate_run._SURROGATE_CODE) if p.endswith(".py")}
+    covered.add("experiments/build.py")  # builds specs from settings (tasks.py's measuring trials): keyed as specs
+    dirs = [p for p in _OUTCOME_CODE if not p.endswith(".py")]
+    seen, todo = set(), ["surrogate/engine.py"]
+    while todo:
+        rel = todo.pop()
+        if rel in seen:
+            continue
+        seen.add(rel)
+        for node in ast.walk(ast.parse((root / rel).read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("tavc_cli."):
+                path = node.module.removeprefix("tavc_cli.").replace(".", "/") + ".py"
+                if path.split("/")[0] in (*COMPILED_SOURCES, "surrogate"):
+                    todo.append(path)
+    missing = sorted(p for p in seen if p not in covered and not any(p.startswith(d + "/") for d in dirs))
+    assert "surrogate/tasks.py" in seen and not missing, f"modules a surrogate trial runs, in no digest: {missing}"
