@@ -22,7 +22,7 @@ from tavc_cli.experiments.runner import (
 from tavc_cli.experiments.store import FAILURES_LOG, Executor
 from tavc_cli.io import claim_folder, file_digest, write_text_atomic
 from tavc_cli.ownership import LADDER, LADDER_FILES, RUN, SWEEP, SWEEP_FILES, Owned, config_differences, run_files, take
-from tavc_cli.readers import load_json
+from tavc_cli.readers import YAML_LIMIT, load_json, read_text
 from tavc_cli.settings import TavcConfig, to_yaml
 
 
@@ -57,10 +57,22 @@ def take_run_folder(cfg: TavcConfig, kind: str = RUN) -> Owned:
                         "another output_dir")
     owned.wrote("config.yaml")
     owned.remove_temporaries()
-    if differ:
+    if differ or _recorded_text(folder / "config.yaml") != text:
+        # the folder is a finished run only while its provenance.json vouches for the config.yaml
+        # beside it: a rerun that changes even where or how fast it runs (`executor.*`, the
+        # folder) first makes it an unfinished run, so that one stopped before its new
+        # provenance.json leaves a folder the same command resumes, not one it refuses
         owned.remove("provenance.json")
     write_text_atomic(folder / "config.yaml", text)
     return owned
+
+
+def _recorded_text(path: Path) -> str | None:
+    """The text of a run's `config.yaml`, or None if there is none or it cannot be read."""
+    try:
+        return read_text(path, YAML_LIMIT)
+    except (OSError, UnicodeDecodeError, TavcError):
+        return None
 
 
 def recorded_config_problem(folder: Path) -> str | None:

@@ -113,6 +113,29 @@ def test_a_record_with_a_member_that_is_not_an_array_is_named_and_run_again(undi
     _assert_healed(out, undisturbed)
 
 
+@pytest.mark.parametrize("change", [["executor.batch_size=1"], ["executor.n_jobs=2"], []])
+def test_a_rerun_stopped_after_writing_its_config_is_resumed_by_the_same_command(undisturbed, tmp_path, monkeypatch,
+                                                                                 change):
+    """A finished run rerun with only where or how fast it runs changed (or nothing), stopped
+    between writing config.yaml and provenance.json: the same command resumes it, not refuses
+    it as another configuration, and its tables are the undisturbed run's."""
+    out = tmp_path / "run"
+    shutil.copytree(undisturbed, out)
+    took = pipeline.take_run_folder
+
+    def take_then_stop(*args, **kwargs):
+        took(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pipeline, "take_run_folder", take_then_stop)
+    with pytest.raises(KeyboardInterrupt):
+        run_experiment(_cfg(out, *change))
+    monkeypatch.undo()
+    result = CliRunner().invoke(app, ["run", *SMOKE, *change, f"output_dir={out}"])
+    assert result.exit_code == 0, result.output
+    _assert_healed(out, undisturbed)
+
+
 @pytest.mark.parametrize("table", ["state_time.csv", "trial_stats.csv", "performance.csv", "robots.csv"])
 def test_a_damaged_table_in_a_finished_run_is_rewritten_by_the_rerun(undisturbed, tmp_path, table):
     out = tmp_path / "run"

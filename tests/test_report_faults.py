@@ -379,3 +379,34 @@ def test_any_damage_to_any_table_is_refused_or_changes_nothing(breakdown, undama
                 _refused(results, path)
 
     check()
+
+
+def test_a_report_stopped_while_drawing_lists_its_figures_and_the_next_one_heals(breakdown, tmp_path, monkeypatch):
+    """Ctrl-C after the figures are drawn and before the report is written: the figures are
+    listed as tavc's, so the same command replaces them rather than refusing them, and draws
+    the figures an undisturbed report draws, byte for byte."""
+    import tavc_cli.report as report
+
+    clean, stopped = tmp_path / "clean", tmp_path / "stopped"
+    for folder in (clean, stopped):
+        shutil.copytree(breakdown, folder / "breakdown")
+    assert runner.invoke(app, ["report", str(clean)]).exit_code == 0
+    sections = report._experiment_sections
+
+    def draw_then_stop(*args, **kwargs):
+        sections(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report, "_experiment_sections", draw_then_stop)
+    with pytest.raises(KeyboardInterrupt):
+        report.build_report(stopped)
+    monkeypatch.undo()
+    assert not (stopped / "REPORT.md").exists() and any((stopped / "figures").iterdir())
+    result = runner.invoke(app, ["report", str(stopped)])
+    assert result.exit_code == 0, result.output
+
+    def figures(folder: Path) -> dict[str, bytes]:
+        return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted((folder / "figures").rglob("*"))
+                if p.is_file()}
+
+    assert figures(stopped) == figures(clean)

@@ -208,18 +208,26 @@ def build_report(results_dir: Path) -> dict:
         lines += horizons.time_scale_lines(results_dir, long, model_json, base)
     lines += surrogate_lines(results_dir)
     lines += compare_lines(results_dir)
-    with _FigurePool() as pool:
-        # the sections that draw figures are written side by side while the rest of the text is
-        ratio = pool.submit(value_ratio_lines, results_dir, model_json)
-        figures = {name: pool.submit(spatiotemporal_lines, name, d, read[name][0], results_dir)
-                   if (d / "table_1_1.csv").is_file()
-                   else pool.submit(experiment_figures, name, d, read[name][0], read[name][1], results_dir, model_json)
-                   for name, d in experiments.items()}
-        figures.update({d: pool.submit(draw_figures, name, d, _config(d / "config.yaml"), results_dir, results_dir,
-                                       model_json)
-                        for name, ds in base.others.items() for d in ds})
-        lines += _experiment_sections(base, figures, long=long, results_dir=results_dir, model_json=model_json)
-        lines += ratio.result()
+    try:
+        with _FigurePool() as pool:
+            # the sections that draw figures are written side by side while the rest of the text is
+            ratio = pool.submit(value_ratio_lines, results_dir, model_json)
+            figures = {name: pool.submit(spatiotemporal_lines, name, d, read[name][0], results_dir)
+                       if (d / "table_1_1.csv").is_file()
+                       else pool.submit(experiment_figures, name, d, read[name][0], read[name][1], results_dir,
+                                        model_json)
+                       for name, d in experiments.items()}
+            figures.update({d: pool.submit(draw_figures, name, d, _config(d / "config.yaml"), results_dir,
+                                           results_dir, model_json)
+                            for name, ds in base.others.items() for d in ds})
+            lines += _experiment_sections(base, figures, long=long, results_dir=results_dir, model_json=model_json)
+            lines += ratio.result()
+    except BaseException:
+        # stopped while drawing (Ctrl-C, SIGTERM, an error): what is in figures/ now is this report's
+        # (`take_report_folders` refused anything else there), so it is listed as tavc's, and the
+        # next report replaces it rather than refusing it
+        list_figures(taken)
+        raise
     lines += ["## The same tests on the chapter's own tables", "",
               "Applied to the chapter's printed means, stds and trial counts (20 TAVC and 20 random trials "
               "for Table 1.2; 20 TAVC trials for Tables 1.3-1.5 and, for Table 1.3's random column, whose count "
