@@ -85,26 +85,23 @@ class Results:
     def records(self) -> list[TrialRecord]:
         """The raw record of every trial of the run, in file-name order: the files its
         `provenance.json` lists (a rerun with fewer trials leaves the others' files in
-        `trials/`, and they are not this run's). A folder without a `provenance.json` (a run
-        that did not finish) gives every file in `trials/`."""
-        files = sorted(self._trial_files())
-        if not files:
-            raise TavcError(f"{self.path}: no trial records in trials/ (tables only: rerun with tavc run to "
-                            "get the events)")
-        return [_load_record(f) for f in files]
+        `trials/`, and they are not this run's), each checked to be this run's own
+        (`analysis.schema.read_trial`: a record missing, damaged, or of another configuration
+        or seed is one line naming it). A folder without a `provenance.json` (a run that did
+        not finish) gives every file in `trials/`, unchecked: there is no list to check them
+        against."""
+        from tavc_cli.analysis.schema import load_record, read_provenance, read_trial
 
-    def _trial_files(self) -> list[Path]:
-        """The trial files of the run: those `provenance.json` lists, else all in `trials/`."""
         if not (self.path / "provenance.json").is_file():
-            return list((self.path / "trials").glob("*.npz"))
-        from tavc_cli.analysis.schema import read_provenance
+            files = sorted((self.path / "trials").glob("*.npz"))
+            if not files:
+                raise TavcError(_NO_RECORDS.format(self.path))
+            return [load_record(f) for f in files]
 
-        listed = [self.path / t["file"] for t in read_provenance(self.path / "provenance.json")["trials"]]
-        missing = [f for f in listed if not f.is_file()]
-        if missing and len(missing) < len(listed):
-            raise TavcError(f"{missing[0]}: missing, though provenance.json lists it; rerun its experiment to "
-                            "rewrite it")
-        return [] if missing else listed
+        listed = sorted(read_provenance(self.path / "provenance.json")["trials"], key=lambda t: t["file"])
+        if not any((self.path / t["file"]).is_file() for t in listed):  # a folder kept without trials/
+            raise TavcError(_NO_RECORDS.format(self.path))
+        return [read_trial(self.path, t) for t in listed]
 
     def events(self, kind: str) -> pd.DataFrame:
         """Every event of one kind (arrivals, deliveries, choices, breakdowns) of every trial, with the
@@ -120,13 +117,7 @@ class Results:
         return pd.concat(frames, ignore_index=True)
 
 
-def _load_record(path: Path) -> TrialRecord:
-    """A trial's record; a damaged file is one line naming it."""
-    try:
-        return TrialRecord.load(path)
-    except Exception as exc:  # numpy's or zipfile's error: the file is damaged, whatever the library
-        raise TavcError(f"{path}: cannot be read ({type(exc).__name__}: {exc}); rerun its experiment to "
-                        "rewrite it") from None
+_NO_RECORDS = "{}: no trial records in trials/ (tables only: rerun with tavc run to get the events)"
 
 
 def load(path: str | Path) -> Results:
@@ -279,14 +270,13 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     base = config.load_config([f"experiment={experiments[0]}", *overrides])
     scale = config.to_container(base.scale)
     plans = {}
-    for name in learners:
-        if name not in reuse:
-            try:
-                cfgs = config.load_experiments(experiments, [*overrides, *controller_overrides(name, scale)],
-                                               results / "runs" / name)
-            except TavcError as error:
-                raise TavcError(f"--learners: {name}: {error}") from None
-            plans[name] = [config.settings(cfg) for cfg in cfgs]
+    for name in learners:  # a reused controller's too: its folder is checked against them
+        try:
+            cfgs = config.load_experiments(experiments, [*overrides, *controller_overrides(name, scale)],
+                                           results / "runs" / name)
+        except TavcError as error:
+            raise TavcError(f"--learners: {name}: {error}") from None
+        plans[name] = [config.settings(cfg) for cfg in cfgs]
     return run_compare(plans, results, controllers=learners, experiments=experiments, reuse=reuse,
                        model_file=str(base.learner.model_file), scale_name=str(scale["name"]), progress=progress)
 

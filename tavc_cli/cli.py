@@ -261,7 +261,8 @@ def compare(
     reuse: Annotated[
         Optional[list[str]],
         typer.Option("--reuse", help="CONTROLLER=FOLDER: take a controller's runs from a folder holding one per "
-                                     "scenario (e.g. tavc=results/converged) instead of running them.",
+                                     "scenario (e.g. tavc=results/converged) instead of running them; each must "
+                                     "be a finished run at the comparison's settings, checked as tavc report does.",
                      show_default=False),
     ] = None,
     progress: ProgressFlag = None,

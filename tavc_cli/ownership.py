@@ -261,12 +261,12 @@ def _ours(name: str) -> bool:
     return name in (LOCK_NAME, MANIFEST) or bool(match and match[1] in (MANIFEST, *run_files()))
 
 
-def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3) -> list[str]:
+def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3, ignore: Iterable[str] = ()) -> list[str]:
     """The settings (dotted keys, ``old -> new``) in which the run recorded in `old_yaml` differs
-    from the configuration `new_yaml`, leaving out where and how fast it runs (`_NOT_RESULTS`)
-    and keys only one of them has (a setting a later version of tavc added is not another
-    configuration); empty if they would compute the same. At most `limit` of them, then how
-    many more."""
+    from the configuration `new_yaml`, leaving out where and how fast it runs (`_NOT_RESULTS`),
+    the dotted keys in `ignore` and keys only one of them has (a setting a later version of tavc
+    added is not another configuration); empty if they would compute the same. At most `limit`
+    of them, then how many more."""
     import yaml
 
     try:
@@ -275,7 +275,9 @@ def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3) -> list[st
         return [f"{Path(old_yaml).name} unreadable"]
     new = yaml.safe_load(new_yaml)
     a, b = _flat(old if isinstance(old, dict) else {}), _flat(new)
-    keys = sorted(k for k in set(a) & set(b) if a[k] != b[k] and k.split(".")[0] not in _NOT_RESULTS)
+    ignore = set(ignore)
+    keys = sorted(k for k in set(a) & set(b)
+                  if a[k] != b[k] and k.split(".")[0] not in _NOT_RESULTS and k not in ignore)
     shown = [f"{k}: {a.get(k)} -> {b.get(k)}" for k in keys[:limit]]
     return [*shown, f"{len(keys) - limit} more"] if len(keys) > limit else shown
 

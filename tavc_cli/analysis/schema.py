@@ -15,6 +15,12 @@ runs written before the digests were.
 
 A table that fails raises `TavcError("<path>: <what is wrong>; rerun its experiment to
 rewrite it")`.
+
+A trial record a reader takes from a run (`read_trial`: `api.Results.records`, the report's
+count of deliveries) must be one `provenance.json` lists, there, readable, and this run's own:
+its ``meta["key"]`` (a digest of everything that fixes the trial's outcome) is the key
+provenance.json lists for that controller and trial, so a record copied in from another
+configuration or seed is refused, naming the file.
 """
 
 from __future__ import annotations
@@ -23,13 +29,14 @@ import csv
 import io
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from itertools import product
 from pathlib import Path
 
 from tavc_cli.analysis.experiment import TABLE_NAMES
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import file_digest
 from tavc_cli.readers import YAML_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig, from_yaml
@@ -248,6 +255,29 @@ def check_run(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) -> R
         if (facts.folder / f"{name}.csv").is_file():
             check_table(facts.folder / f"{name}.csv", facts)
     return facts
+
+
+def load_record(path: Path) -> TrialRecord:
+    """The trial record at `path`; a damaged file is one line naming it."""
+    try:
+        return TrialRecord.load(path)
+    except Exception as exc:  # numpy's or zipfile's error: the file is damaged, whatever the library
+        raise damaged(path, f"cannot be read ({type(exc).__name__}: {exc})") from None
+
+
+def read_trial(folder: Path, trial: Mapping) -> TrialRecord:
+    """The record of `trial`, an entry of the ``trials`` of `folder`'s `provenance.json` (as
+    `read_provenance` checks them), checked as the module's docstring says: missing, damaged
+    or another run's, it is one line naming the file."""
+    path = Path(folder) / trial["file"]
+    if not path.is_file():
+        raise damaged(path, "missing, though provenance.json lists it")
+    record = load_record(path)
+    listed = trial.get("key")
+    if listed is not None and record.meta.get("key") != listed:  # a provenance.json without keys gives none
+        raise TavcError(f"{path} is not this run's trial (its key differs from provenance.json); rerun `tavc run` "
+                        "on the folder to recompute it")
+    return record
 
 
 def check_table(path: Path, facts: RunFacts | None = None) -> None:

@@ -7,7 +7,10 @@ baselines beside it (random is a controller of the comparison like the others). 
 every finished trial; runs of another configuration in those folders are refused as ``tavc run``
 refuses them. ``reuse`` takes a controller's runs from a folder that already holds them (one
 folder per scenario, e.g. ``results/converged`` for TAVC at 40 times the chapter's durations)
-instead of running them.
+instead of running them. Each is checked before its tables are read or anything is written
+(`check_reused`): a finished run, its files whole and unchanged as `tavc report` checks them, of
+the scenario, of the controller, at the settings the comparison would run it at, with at least
+as many trials.
 
 Outputs in RESULTS: ``compare.csv`` (`metrics.TABLE_COLUMNS`), ``compare_trials.csv`` (every
 trial's four numbers), ``compare.md`` (the table as a reader reads it) and ``compare.png/.svg``.
@@ -53,12 +56,67 @@ def parse_reuse(items: Sequence[str]) -> dict[str, Path]:
     return out
 
 
+# what a reused run may differ in from the comparison's own: its baselines (not read) and how
+# many trials it ran (a trial's seed does not depend on how many there are: `trials_short` asks
+# only for enough of them)
+REUSE_MAY_DIFFER = ("baselines", "trials", "scale.trials", "baseline_trials", "static_trials")
+REUSE_ADVICE = ("name a folder holding this controller's finished runs at the comparison's settings, or leave it "
+                "out of --reuse to run them")
+
+
+def check_reused(folder: Path, planned: TavcConfig, label: str) -> None:
+    """Refuse, in one line (``--reuse: <folder>: <what is wrong>; <what to do>``), a folder the
+    comparison would read instead of running `planned` (the run it would make of one scenario
+    for the controller whose trials are labelled `label`), unless it holds a finished run
+    (its `provenance.json` there) whose files are whole and unchanged (`analysis.schema.check_run`,
+    as `tavc report` checks a run), of that scenario, of that learner with trials of `label`,
+    at `planned`'s settings but `REUSE_MAY_DIFFER`, and with at least `planned`'s trials."""
+    from tavc_cli.analysis.schema import check_run
+    from tavc_cli.ownership import config_differences
+    from tavc_cli.settings import to_yaml
+
+    experiment = str(planned.experiment_name)
+    for name in ("provenance.json", "trial_stats.csv"):
+        if not (folder / name).is_file():
+            raise _refused(folder, f"holds no finished run of {experiment} (no {name})")
+    try:
+        facts = check_run(folder)
+    except TavcError as error:
+        raise TavcError(f"--reuse: {error}") from None
+    recorded = load_yaml(folder / "config.yaml")
+    if recorded.get("experiment_name") != experiment:
+        raise _refused(folder, f"a run of {recorded.get('experiment_name')}, not of {experiment}")
+    learner = (recorded.get("learner") or {}).get("name")
+    if learner != planned.learner.name:
+        raise _refused(folder, f"a run of learner {learner}, not of {planned.learner.name}")
+    differ = config_differences(folder / "config.yaml", to_yaml(planned), ignore=REUSE_MAY_DIFFER)
+    if differ:
+        raise _refused(folder, f"a run at other settings than the comparison's ({'; '.join(differ)})")
+    short = trials_short(facts.trials or frozenset(), label, int(planned.trials))
+    if short:
+        raise _refused(folder, short)
+
+
+def trials_short(trials: frozenset[tuple[str, int]], label: str, wanted: int) -> str:
+    """What is missing of the trials ``0..wanted-1`` labelled `label` among `trials` ((label,
+    trial) pairs, as a run's provenance.json lists them); empty where none is."""
+    missing = [k for k in range(wanted) if (label, k) not in trials]
+    if not missing:
+        return ""
+    return f"no trial {missing[0]} of {label} among those its provenance.json lists; the comparison runs {wanted}"
+
+
+def _refused(folder: Path, what: str) -> TavcError:
+    return TavcError(f"--reuse: {folder}: {what}; {REUSE_ADVICE}")
+
+
 def run_compare(plans: Mapping[str, Sequence[TavcConfig]], results: Path, *, controllers: Sequence[str],
                 experiments: Sequence[str], reuse: Mapping[str, Path], model_file: str, scale_name: str,
                 progress: bool = False) -> dict:
     """Run what is missing of `plans` (each controller's experiments, composed at the front door
-    into ``results/runs/<controller>``), then write the comparison (module docstring). Returns
-    where each output went and the table."""
+    into ``results/runs/<controller>``) but the controllers in `reuse`, whose folders are checked
+    against their plans first (`check_reused`), then write the comparison (module docstring).
+    Returns where each output went and the table."""
     from tavc_cli.ownership import COMPARE, COMPARE_FILES, take
     from tavc_cli.pipeline import run_experiments
 
@@ -66,11 +124,10 @@ def run_compare(plans: Mapping[str, Sequence[TavcConfig]], results: Path, *, con
     if unknown:
         raise TavcError(f"--reuse: {unknown[0]} is not one of the controllers compared ({', '.join(controllers)})")
     allocations = model_allocations(model_file)  # the predicted states: known before anything runs
-    for folder in reuse.values():
-        missing = [e for e in experiments if not (folder / e / "trial_stats.csv").is_file()]
-        if missing:
-            raise TavcError(f"--reuse: {folder / missing[0]} holds no finished run of {missing[0]} "
-                            "(no trial_stats.csv)")
+    for name, folder in reuse.items():
+        planned = {str(cfg.experiment_name): cfg for cfg in plans[name]}
+        for experiment in experiments:
+            check_reused(folder / experiment, planned[experiment], controller_label(name))
     results = Path(results)
     results.mkdir(parents=True, exist_ok=True)
     with claim_folder(results):  # a comparison's from the start: its runs/ are not runs of their own
