@@ -410,3 +410,37 @@ def test_a_report_stopped_while_drawing_lists_its_figures_and_the_next_one_heals
                 if p.is_file()}
 
     assert figures(stopped) == figures(clean)
+
+
+def test_links_in_a_results_tree_are_not_followed(breakdown, tmp_path):
+    """A link that loops back to the results folder, and one to a run elsewhere: the report
+    finds the run that lies in the folder once, and writes nothing through either link."""
+    from tavc_cli.report.runs import run_folders
+
+    results, elsewhere = tmp_path / "results", tmp_path / "elsewhere"
+    shutil.copytree(breakdown, results / "breakdown")
+    shutil.copytree(breakdown, elsewhere / "breakdown_seed9")
+    (results / "loop").symlink_to(results, target_is_directory=True)
+    (results / "theirs").symlink_to(elsewhere, target_is_directory=True)
+    before = {p: p.read_bytes() for p in sorted(elsewhere.rglob("*")) if p.is_file()}
+    assert run_folders(results) == [results / "breakdown"]
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    assert {p: p.read_bytes() for p in sorted(elsewhere.rglob("*")) if p.is_file()} == before
+    assert "breakdown_seed9" not in (results / "REPORT.md").read_text()
+
+
+def test_a_table_larger_than_any_tavc_writes_is_refused_unread(breakdown, tmp_path):
+    """A trial_stats.csv of 300 MiB (sparse: no disk used) is refused in one line naming it, without
+    being read into memory."""
+    from tavc_cli.analysis.schema import TABLE_LIMIT
+
+    results = tmp_path / "results"
+    shutil.copytree(breakdown, results / "breakdown")
+    with open(results / "breakdown" / "trial_stats.csv", "r+b") as fh:
+        fh.truncate(TABLE_LIMIT + (44 << 20))
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 1
+    line = result.output.strip().splitlines()[-1]
+    assert line.startswith(f"error: {results / 'breakdown' / 'trial_stats.csv'}: cannot be read (") and "bytes, more than the" in line
+    assert not (results / "REPORT.md").exists()

@@ -119,6 +119,9 @@ SECTIONS = ("arena", "robot", "team", "learner", "scale", "executor", "paper", "
             "model", "calibration")
 STATE_PREFIX = "pct_"  # trial_stats: one column of shares per state (`analysis.trial_stats`)
 REWRITE = "rerun its experiment to rewrite it"
+# tavc's largest table is 2.5 MB (a 40x spatiotemporal run's target_times.csv); 256 MiB is some
+# 100 times that: a table is read whole, only a regular file (`readers.read_bounded`) and at most this
+TABLE_LIMIT = 256 << 20
 
 
 def damaged(path: Path, what: str) -> TavcError:
@@ -287,7 +290,7 @@ def check_table(path: Path, facts: RunFacts | None = None) -> None:
     if facts is None:
         facts = run_facts(path.parent)
     try:
-        text = path.read_bytes().decode()
+        text = read_bounded(path, TABLE_LIMIT).decode()
     except UnicodeDecodeError:
         raise damaged(path, "cannot be read (not UTF-8 text)") from None
     if not text:

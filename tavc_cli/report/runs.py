@@ -55,9 +55,11 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
     """Every run folder under `folder` at any depth (`is_run_folder`), in natural order of
     their paths: a run's own folder is not searched further (its `trials/`, `model/`), nor
     `figures/`, hidden folders, or the studies read as a whole (TOP_STUDIES directly under the
-    results folder, `top`; a `ladder/` with its `ladder.csv`)."""
+    results folder, `top`; a `ladder/` with its `ladder.csv`). A link is not followed: each run
+    is found once, where it lies, and a link that loops back leads nowhere."""
     out = []
-    for d in sorted((p for p in folder.iterdir() if p.is_dir()), key=lambda p: _natural(p.name)):
+    for d in sorted((p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()),
+                    key=lambda p: _natural(p.name)):
         if d.name == "figures" or d.name.startswith(".") or (top and d.name in TOP_STUDIES) or \
                 (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
