@@ -44,6 +44,30 @@ def source_digest(root: Path, parts: Sequence[str]) -> str:
     return h.hexdigest()[:16]
 
 
+def meaning_digest(root: Path, parts: Sequence[str]) -> str:
+    """Digest of what the source files `parts` under `root` compute (as `source_digest` names
+    them): each file's syntax tree without its docstrings, comments or layout, its path relative
+    to `root` included. Rewording a docstring or rewrapping a line leaves it as it is; any change
+    to the code changes it. The tree is Python's own, so the digest is that of one minor version
+    of Python."""
+    import ast  # only for a digest: not on the command line's path to its first output
+
+    h = hashlib.sha256()
+    for part in parts:
+        path = root / part
+        for f in [path] if path.suffix == ".py" else sorted(path.rglob("*.py")):
+            tree = ast.parse(f.read_bytes(), filename=str(f))
+            for node in ast.walk(tree):
+                body = getattr(node, "body", None)
+                if (isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and body
+                        and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
+                        and isinstance(body[0].value.value, str)):
+                    node.body = body[1:] or [ast.Pass()]
+            h.update(f.relative_to(root).as_posix().encode())
+            h.update(ast.dump(tree, include_attributes=False).encode())
+    return h.hexdigest()[:16]
+
+
 def compiled_code_digest(root: Path) -> str:
     """Digest of every source file under `root`'s `COMPILED_SOURCES` packages."""
     return source_digest(root, COMPILED_SOURCES)

@@ -85,3 +85,24 @@ def test_the_trial_key_covers_every_module_a_trial_runs():
                     todo.append(path)
     missing = sorted(p for p in seen if p not in covered and not any(p.startswith(d + "/") for d in dirs))
     assert not missing, f"modules a trial runs but its key does not digest: {missing}"
+
+
+def test_the_trial_keys_code_digest_follows_code_not_words(tmp_path):
+    """Rewording a docstring, a comment or the layout of the code that decides trials keeps every
+    trial's key (and so every finished trial); changing one constant of it does not."""
+    import tavc_cli
+    from tavc_cli import meaning_digest
+    from tavc_cli.experiments.spec import _OUTCOME_CODE, code_digest
+
+    here = Path(tavc_cli.__file__).resolve().parent
+    assert meaning_digest(here, _OUTCOME_CODE) == code_digest()
+    root = tmp_path / "src"
+    shutil.copytree(here / "sim", root / "sim", ignore=shutil.ignore_patterns("__pycache__"))
+    base = meaning_digest(root, ("sim",))
+    arena = root / "sim" / "arena.py"
+    text = arena.read_text()
+    reworded = text.replace('"""', '"""Reworded. ', 1) + "\n# a comment\n"
+    arena.write_text(reworded.replace("\n\n\n", "\n\n\n\n", 1))
+    assert meaning_digest(root, ("sim",)) == base
+    arena.write_text(text + "\n_EXTRA = 1\n")
+    assert meaning_digest(root, ("sim",)) != base

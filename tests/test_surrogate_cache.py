@@ -190,14 +190,16 @@ def test_a_table_tavc_did_not_write_is_refused_not_replaced(copy):
 def test_the_surrogates_code_is_in_its_digest_and_its_trials_keys(clean, tmp_path, monkeypatch):
     digest = surrogate_code_digest.__wrapped__  # uncached: the same folder is digested again after an edit
     package = Path(surrogate_run.__file__).resolve().parent.parent
-    for edit in ("none", "engine.py", "tasks.py", "compare.py"):
-        root = tmp_path / edit
+    for edit, text in (("none", ""), ("engine.py", "_EDITED = 1\n"), ("tasks.py", "_EDITED = 1\n"),
+                       ("compare.py", "_EDITED = 1\n"), ("engine.py", "# a comment, which computes nothing\n")):
+        root = tmp_path / f"{edit}{len(text)}"
         shutil.copytree(package / "surrogate", root / "surrogate", ignore=shutil.ignore_patterns("__pycache__"))
-        if edit != "none":
+        if text:
             with open(root / "surrogate" / edit, "a") as fh:
-                fh.write("# edited\n")
-        # engine.py and tasks.py decide a drawn trial; compare.py only reads finished runs
-        assert (digest(root) == surrogate_code_digest()) == (edit in ("none", "compare.py")), edit
+                fh.write(text)
+        # code in engine.py and tasks.py decides a drawn trial; compare.py only reads finished runs
+        unchanged = edit in ("none", "compare.py") or text.startswith("#")
+        assert (digest(root) == surrogate_code_digest()) == unchanged, (edit, text)
     cfg = settings(clean)
     times = measure_tasks(cfg, echo=print)
     keys = [s.key() for s in surrogate_specs(cfg, times)]

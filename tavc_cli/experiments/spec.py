@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tavc_cli import source_digest
+from tavc_cli import meaning_digest
 from tavc_cli.learning.plugins import target_digest
 from tavc_cli.settings import ArenaConfig, LearnerConfig, RobotConfig
 from tavc_cli.sim.arena import Arena, arena_from_config
@@ -104,8 +104,9 @@ _OUTCOME_CODE = ("sim", "behaviours", "learning", "experiments/engine.py", "expe
 
 @cache
 def code_digest() -> str:
-    """Digest of the source files that decide a trial's outcome."""
-    return source_digest(Path(__file__).resolve().parent.parent, _OUTCOME_CODE)
+    """Digest of the code that decides a trial's outcome (`meaning_digest`: what it computes,
+    not its docstrings, comments or layout, which decide nothing)."""
+    return meaning_digest(Path(__file__).resolve().parent.parent, _OUTCOME_CODE)
 
 
 def _jsonable(obj):

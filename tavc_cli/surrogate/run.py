@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli import source_digest
+from tavc_cli import meaning_digest
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
@@ -202,13 +202,13 @@ _SURROGATE_CODE = ("surrogate/engine.py", "surrogate/tasks.py")  # below tavc_cl
 
 @cache
 def surrogate_code_digest(root: Path = Path(__file__).resolve().parent.parent) -> str:
-    """Digest of the surrogate's own code, `_SURROGATE_CODE` under `root` (tavc_cli/): the engine
+    """Digest of the surrogate's own code (`meaning_digest`), `_SURROGATE_CODE` under `root` (tavc_cli/): the engine
     that draws a trial (`engine.py`) and the tasks it measures and draws them from (`tasks.py`).
     The rest a drawn trial runs on (learners, events, the trial's book-keeping) is the
     simulator's and in `experiments.spec.code_digest`. Named in every surrogate trial's engine
     (`surrogate_specs`), so an edit draws the trials again, and recorded in `task_times.json`,
     so an edit measures the tasks again (`kept_tasks`)."""
-    return source_digest(root, _SURROGATE_CODE)
+    return meaning_digest(root, _SURROGATE_CODE)
 
 
 def surrogate_specs(cfg: TavcConfig, times: TaskTimes) -> list:
