@@ -12,20 +12,18 @@ a Hydra launcher.
 from tavc_cli.config.ladder import ladder_folder, load_ladder, parse_factors
 from tavc_cli.config.loading import (
     check_measurement,
-    expand_sweep,
     experiment_lines,
     find_conf_dir,
-    is_hydra_override,
     list_experiments,
     load_config,
     load_experiments,
     load_sweep,
     results_root,
     settings,
-    swept_values,
     to_container,
     to_yaml,
 )
+from tavc_cli.config.overrides import expand_sweep, is_hydra_override, swept_values
 from tavc_cli.settings import TavcConfig
 
 __all__ = [

@@ -7,7 +7,8 @@ from pathlib import Path
 
 from omegaconf import DictConfig
 
-from tavc_cli.config.loading import _override_key, load_config, results_root
+from tavc_cli.config.loading import load_config, results_root
+from tavc_cli.config.overrides import override_key as _override_key
 from tavc_cli.errors import TavcError
 
 LADDER_EXPERIMENT = "initial_distribution"

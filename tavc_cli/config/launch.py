@@ -26,8 +26,9 @@ from hydra.core.plugins import Plugins
 from hydra.types import HydraContext, RunMode
 from omegaconf import DictConfig
 
-from tavc_cli.config.loading import complete, initialize_conf, is_hydra_override, plan_sweep, search_overrides
+from tavc_cli.config.loading import complete, initialize_conf, plan_sweep, search_overrides
 from tavc_cli.config.messages import hydra_errors
+from tavc_cli.config.overrides import is_hydra_override
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder
 from tavc_cli.ownership import SWEEP, SWEEP_FILES, take

@@ -1,26 +1,25 @@
-"""Composing configs with Hydra's compose API, and expanding sweeps (`messages` turns failures into one line)."""
+"""Composing configs with Hydra's compose API, and a sweep's jobs (`overrides` reads the overrides,
+`messages` turns failures into one line)."""
 
 import itertools
-import re
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Optional
+from typing import Optional
 
 from hydra import compose, initialize_config_dir
 from hydra.core.config_store import ConfigStore
-from hydra.core.override_parser.overrides_parser import OverridesParser
-from hydra.errors import HydraException, OverrideParseException
 from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import (
     OmegaConfBaseException,
 )
 
 from tavc_cli.config.limits import sources, validate_measurement_time
-from tavc_cli.config.messages import hydra_errors, omegaconf_message, override_syntax_message
+from tavc_cli.config.messages import hydra_errors, omegaconf_message
+from tavc_cli.config.overrides import is_hydra_override, override_key, parse_overrides, slug, sweep_choices
 from tavc_cli.config.resolve import resolve
-from tavc_cli.io import default_root
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
+from tavc_cli.io import default_root
 from tavc_cli.settings import SCHEMA_NAME, TavcConfig
 
 # --------------------------------------------------------------------------------------------
@@ -66,8 +65,8 @@ def load_config(overrides: Sequence[str] = ()) -> DictConfig:
     """
     for text in overrides:
         if is_hydra_override(text):
-            raise TavcError(f"{_override_key(text)}: Hydra's own settings (its launcher) apply to sweeps; add -m")
-    for override in _parse_overrides(overrides):
+            raise TavcError(f"{override_key(text)}: Hydra's own settings (its launcher) apply to sweeps; add -m")
+    for override in parse_overrides(overrides):
         if override.is_sweep_override():
             key = override.get_key_element()
             raise TavcError(
@@ -84,47 +83,9 @@ def check_measurement(overrides: Sequence[str], group: str) -> None:
         TavcError: On a bad config, or a measurement longer than a day.
     """
     overrides = list(overrides)
-    if group == "calibration" and not any(_override_key(o).lstrip("+~") == "experiment" for o in overrides):
+    if group == "calibration" and not any(override_key(o).lstrip("+~") == "experiment" for o in overrides):
         overrides = ["experiment=initial_distribution", *overrides]  # as `api.calibrate` composes it
     validate_measurement_time(load_config(overrides), group)
-
-
-def is_hydra_override(text: str) -> bool:
-    """Whether an override sets Hydra's own config (``hydra/launcher=...``, ``hydra.x=...``)."""
-    key = text.lstrip("~+").split("=", 1)[0].strip()
-    return key == "hydra" or key.startswith(("hydra.", "hydra/"))
-
-
-def expand_sweep(overrides: Sequence[str]) -> list[list[str]]:
-    """Expand Hydra sweep syntax into the override list of every job.
-
-    Comma lists (``a=1,2``), ``range(...)`` and ``choice(...)`` are expanded into their cartesian
-    product in the order given, as Hydra's basic sweeper does; a key given twice keeps its last
-    value.
-
-    Args:
-        overrides: Overrides that may contain sweeps.
-
-    Returns:
-        One list of plain overrides per job.
-
-    Raises:
-        TavcError: On bad override syntax or a sweep that is not a discrete list of values.
-    """
-    choices = _sweep_choices(overrides)
-    return [list(job) for job in itertools.product(*choices.values())]
-
-
-def swept_values(overrides: Sequence[str]) -> list[dict[str, str]]:
-    """Each job's value of every swept key (as written), in sweep order.
-
-    Raises:
-        TavcError: On bad override syntax or a sweep that is not a discrete list of values.
-    """
-    choices = _sweep_choices(overrides)
-    swept = [key for key, values in choices.items() if len(values) > 1]
-    return [{_override_key(c): c.split("=", 1)[1] for c in job if _override_key(c) in swept}
-            for job in itertools.product(*choices.values())]
 
 
 def load_sweep(overrides: Sequence[str]) -> list[DictConfig]:
@@ -148,7 +109,7 @@ def load_sweep(overrides: Sequence[str]) -> list[DictConfig]:
 
 def plan_sweep(overrides: Sequence[str]) -> list[tuple[list[str], DictConfig]]:
     """Every job of a sweep as (its plain overrides, its resolved config); see ``load_sweep``."""
-    choices = _sweep_choices(overrides)
+    choices = sweep_choices(overrides)
     empty = [key for key, values in choices.items() if not values]
     if empty:
         raise TavcError(f"{empty[0]}: the sweep gives it no values, so there is no job to run")
@@ -157,7 +118,7 @@ def plan_sweep(overrides: Sequence[str]) -> list[tuple[list[str], DictConfig]]:
     width = len(str(len(jobs) - 1))
     plan = []
     for index, job in enumerate(jobs):
-        label = _slug(choice for choice in job if _override_key(choice) in swept)
+        label = slug(choice for choice in job if override_key(choice) in swept)
         job_dir = f"{index:0{width}d}_{label}" if label else f"{index:0{width}d}"
         try:
             plan.append((job, _load(job, job_dir=job_dir)))
@@ -189,8 +150,8 @@ def results_root(overrides: Sequence[str] = (), default_scale: str | None = None
     """The folder `tavc reproduce` and `tavc ladder` write into when none is named: ``runs/<scale>``
     (`io.default_root`), the scale as the overrides compose it (else `default_scale`, else
     the config's default)."""
-    scale = [o for o in overrides if _override_key(o).lstrip("+~").split(".")[0] == "scale"]
-    if default_scale is not None and not any(_override_key(o).lstrip("+~") == "scale" for o in scale):
+    scale = [o for o in overrides if override_key(o).lstrip("+~").split(".")[0] == "scale"]
+    if default_scale is not None and not any(override_key(o).lstrip("+~") == "scale" for o in scale):
         scale = [f"scale={default_scale}", *scale]
     return default_root(load_config(scale).scale.name)
 
@@ -217,7 +178,7 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
         raise TavcError(f"--experiments: no experiment {unknown[0] if unknown else ''!r} "
                         f"(known: {', '.join(known)})")
     for override in overrides:
-        key = _override_key(override).lstrip("+~")
+        key = override_key(override).lstrip("+~")
         if key in ("experiment", "output_dir"):
             raise TavcError(f"{key}: set for each experiment by itself; choose experiments and the results folder "
                             "instead (--experiments, --results)")
@@ -345,59 +306,5 @@ def _typed(cfg: DictConfig) -> DictConfig:
         return OmegaConf.merge(OmegaConf.structured(TavcConfig), OmegaConf.to_container(cfg))
     except OmegaConfBaseException as error:
         raise TavcError(omegaconf_message(error)) from None
-
-
-def _parse_overrides(overrides: Sequence[str]) -> list:
-    """Parse overrides one by one so that a syntax error names the override at fault (and says
-    how to quote it, `messages.override_syntax_message`)."""
-    parser = OverridesParser.create()
-    parsed = []
-    for index, text in enumerate(overrides):
-        try:
-            parsed.extend(parser.parse_overrides([text]))
-        except OverrideParseException as error:
-            raise TavcError(override_syntax_message(overrides, index, error, _parses(parser))) from None
-    return parsed
-
-
-def _parses(parser: OverridesParser) -> Callable[[str], bool]:
-    def parses(text: str) -> bool:
-        try:
-            parser.parse_overrides([text])
-        except OverrideParseException:
-            return False
-        return True
-
-    return parses
-
-
-def _sweep_choices(overrides: Sequence[str]) -> dict[str, list[str]]:
-    """Map each override key to the plain overrides it expands to (one unless swept)."""
-    choices: dict[str, list[str]] = {}
-    for text, override in zip(overrides, _parse_overrides(overrides), strict=True):
-        key = override.get_key_element()
-        if not override.is_sweep_override():
-            choices[key] = [text]
-        elif override.is_discrete_sweep():
-            try:
-                choices[key] = [f"{key}={value}" for value in override.sweep_string_iterator()]
-            except HydraException:
-                raise TavcError(
-                    f"{key}: glob() sweeps are not supported; list the options"
-                ) from None
-        else:
-            raise TavcError(f"{key}: only lists, range() and choice() can be swept, not interval()")
-    return choices
-
-
-def _override_key(text: str) -> str:
-    """The key part of an override string (everything before the first ``=``)."""
-    return text.split("=", 1)[0].strip() or text
-
-
-def _slug(choices: Any) -> str:
-    """A short, filesystem-safe folder name from ``key=value`` overrides."""
-    text = ",".join(choices)
-    return re.sub(r"[^A-Za-z0-9._=,+-]", "_", text)[:80]
 
 

@@ -1,0 +1,105 @@
+"""Overrides as Hydra's grammar reads them, one by one so that an error names the one at fault,
+and sweeps (``a=1,2``, ``range(...)``, ``choice(...)``) expanded into the jobs they stand for."""
+
+import itertools
+import re
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import HydraException, OverrideParseException
+
+from tavc_cli.config.messages import override_syntax_message
+from tavc_cli.errors import TavcError
+
+
+def is_hydra_override(text: str) -> bool:
+    """Whether an override sets Hydra's own config (``hydra/launcher=...``, ``hydra.x=...``)."""
+    key = text.lstrip("~+").split("=", 1)[0].strip()
+    return key == "hydra" or key.startswith(("hydra.", "hydra/"))
+
+
+def expand_sweep(overrides: Sequence[str]) -> list[list[str]]:
+    """Expand Hydra sweep syntax into the override list of every job.
+
+    Comma lists (``a=1,2``), ``range(...)`` and ``choice(...)`` are expanded into their cartesian
+    product in the order given, as Hydra's basic sweeper does; a key given twice keeps its last
+    value.
+
+    Args:
+        overrides: Overrides that may contain sweeps.
+
+    Returns:
+        One list of plain overrides per job.
+
+    Raises:
+        TavcError: On bad override syntax or a sweep that is not a discrete list of values.
+    """
+    choices = sweep_choices(overrides)
+    return [list(job) for job in itertools.product(*choices.values())]
+
+
+def swept_values(overrides: Sequence[str]) -> list[dict[str, str]]:
+    """Each job's value of every swept key (as written), in sweep order.
+
+    Raises:
+        TavcError: On bad override syntax or a sweep that is not a discrete list of values.
+    """
+    choices = sweep_choices(overrides)
+    swept = [key for key, values in choices.items() if len(values) > 1]
+    return [{override_key(c): c.split("=", 1)[1] for c in job if override_key(c) in swept}
+            for job in itertools.product(*choices.values())]
+
+
+def parse_overrides(overrides: Sequence[str]) -> list:
+    """Parse overrides one by one so that a syntax error names the override at fault (and says
+    how to quote it, `messages.override_syntax_message`)."""
+    parser = OverridesParser.create()
+    parsed = []
+    for index, text in enumerate(overrides):
+        try:
+            parsed.extend(parser.parse_overrides([text]))
+        except OverrideParseException as error:
+            raise TavcError(override_syntax_message(overrides, index, error, _parses(parser))) from None
+    return parsed
+
+
+def _parses(parser: OverridesParser) -> Callable[[str], bool]:
+    def parses(text: str) -> bool:
+        try:
+            parser.parse_overrides([text])
+        except OverrideParseException:
+            return False
+        return True
+
+    return parses
+
+
+def sweep_choices(overrides: Sequence[str]) -> dict[str, list[str]]:
+    """Map each override key to the plain overrides it expands to (one unless swept)."""
+    choices: dict[str, list[str]] = {}
+    for text, override in zip(overrides, parse_overrides(overrides), strict=True):
+        key = override.get_key_element()
+        if not override.is_sweep_override():
+            choices[key] = [text]
+        elif override.is_discrete_sweep():
+            try:
+                choices[key] = [f"{key}={value}" for value in override.sweep_string_iterator()]
+            except HydraException:
+                raise TavcError(
+                    f"{key}: glob() sweeps are not supported; list the options"
+                ) from None
+        else:
+            raise TavcError(f"{key}: only lists, range() and choice() can be swept, not interval()")
+    return choices
+
+
+def override_key(text: str) -> str:
+    """The key part of an override string (everything before the first ``=``)."""
+    return text.split("=", 1)[0].strip() or text
+
+
+def slug(choices: Any) -> str:
+    """A short, filesystem-safe folder name from ``key=value`` overrides."""
+    text = ",".join(choices)
+    return re.sub(r"[^A-Za-z0-9._=,+-]", "_", text)[:80]
