@@ -6,7 +6,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 # Reinstall only when the dependencies change.
 STAMP := $(VENV)/.installed-stamp
-EXPERIMENTS := initial_distribution breakdown breakdown_no_vacancy value_change heterogeneous spatiotemporal
+# One reproduce-NAME target per experiment file (conf/experiment/NAME.yaml)
+EXPERIMENTS := $(sort $(basename $(notdir $(wildcard conf/experiment/*.yaml))))
 REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
 
 .DEFAULT_GOAL := help

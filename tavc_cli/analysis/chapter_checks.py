@@ -12,13 +12,21 @@ import math
 import pandas as pd
 from scipy import stats
 
-from tavc_cli.analysis.claims import CLOSE_W, STATE_MARGIN_PCT
-from tavc_cli.analysis.significance import (ALPHA, Part, close_to, equivalence, equivalent_family, holm_none_differ,
-                                           welch_error)
+from tavc_cli.analysis.claim_rules import CLOSE_W, STATE_MARGIN_PCT
+from tavc_cli.analysis.significance import (
+    ALPHA,
+    Part,
+    close_to,
+    equivalence,
+    equivalent_family,
+    holm_none_differ,
+    welch_error,
+)
+from tavc_cli.chapter import EXPERIMENTS
 from tavc_cli.reference import chapter_table
 
 # trials behind each of the chapter's state tables: (TAVC, random; 0 where it prints no random column)
-CHAPTER_TRIALS = {"1.2": (20, 20), "1.3": (20, 20), "1.4": (20, 0), "1.5": (20, 0), "1.6": (15, 15)}
+CHAPTER_TRIALS = {e.state_table: e.chapter_trials for e in EXPERIMENTS.values() if e.state_table is not None}
 
 
 def _table(table_id: str) -> pd.DataFrame:

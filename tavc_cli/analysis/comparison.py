@@ -16,7 +16,8 @@ import math
 
 import pandas as pd
 
-from tavc_cli.reference import TABLES, chapter_table
+from tavc_cli.chapter import state_table_id
+from tavc_cli.reference import chapter_table
 
 COLUMNS = ["table", "state", "quantity", "chapter", "ours", "difference"]
 
@@ -54,5 +55,5 @@ def compare(state_time: pd.DataFrame, table_id: str) -> pd.DataFrame:
 
 def experiment_comparison(experiment: str, state_time: pd.DataFrame) -> pd.DataFrame | None:
     """The comparison for an experiment the chapter reports in a state table, else None."""
-    table_id = TABLES.get(experiment)
+    table_id = state_table_id(experiment)
     return None if table_id is None else compare(state_time, table_id)

@@ -134,12 +134,13 @@ def spatiotemporal_tables(cfg: TavcConfig, records: list[TrialRecord]) -> dict[s
 def experiment_claims(cfg: TavcConfig, tables: Mapping[str, pd.DataFrame], out_dir: Path) -> pd.DataFrame:
     """The chapter's claims about this experiment, tested on its trials (and, where a claim
     compares two experiments, on the other's `trial_stats.csv` beside this output if present)."""
-    from tavc_cli.analysis.claims import CLAIM_TABLES, CLAIMS, claim_rows
+    from tavc_cli.analysis.claims import CLAIM_TABLES, claim_rows
+    from tavc_cli.chapter import claims
 
     name = str(cfg.experiment_name or "")
     runs = {name: tables["trial_stats"]}
     runs.update({f"{name}/{t}": tables[t] for t in CLAIM_TABLES if t in tables})
-    for other in {e for e, _ in CLAIMS.values()} - {name}:
+    for other in {e for e, _ in claims()} - {name}:
         path = out_dir.parent / other / "trial_stats.csv"
         if path.is_file():
             runs[other] = pd.read_csv(path)

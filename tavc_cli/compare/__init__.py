@@ -13,6 +13,8 @@ distribution at every horizon: at a scale that runs baselines on the chapter's s
 run do, and the table says at which multiple of the chapter's durations each row ran.
 """
 
-SCENARIOS = ("initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change", "heterogeneous")
+from tavc_cli.chapter import EXPERIMENTS
+
+SCENARIOS = tuple(name for name, e in EXPERIMENTS.items() if e.compare)  # the chapter's order
 CONTROLLERS = ("tavc", "random", "model", "informed", "wolf_phc", "threshold")
 REFERENCE, FLOOR = "tavc", "random"  # every controller is tested against these two

@@ -34,6 +34,7 @@ import pandas as pd
 from scipy import stats
 
 from tavc_cli.analysis.trial_stats import STATE_PREFIX
+from tavc_cli.chapter import EXPERIMENTS
 from tavc_cli.compare import FLOOR, REFERENCE
 from tavc_cli.errors import TavcError
 from tavc_cli.readers import load_yaml
@@ -45,7 +46,7 @@ METRICS = {
     "filled_pct": "vacancy filled (% of trials)",
     "fast_high_share": "share of fast robots on the high-value circuit",
 }
-VACANCY_SCENARIOS = ("breakdown", "value_change")  # the chapter's vacancies on the high-value circuit
+VACANCY_SCENARIOS = tuple(name for name, e in EXPERIMENTS.items() if e.vacancy)  # vacancies on the high-value circuit
 TRIAL_COLUMNS = ["experiment", "controller", "trial", "metric", "value"]
 TABLE_COLUMNS = ["experiment", "metric", "controller", "time_factor", "n_trials", "mean", "std", "median",
                  "p_vs_tavc", "p_vs_random", "above_tavc", "above_random"]

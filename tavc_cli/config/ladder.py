@@ -1,5 +1,5 @@
-"""The horizon ladder's configs: initial_distribution at several multiples of the chapter's
-durations, one results folder a rung."""
+"""The horizon ladder's configs: the chapter's base case (initial_distribution) at several
+multiples of the chapter's durations, one results folder a rung."""
 
 import math
 from collections.abc import Sequence
@@ -7,11 +7,12 @@ from pathlib import Path
 
 from omegaconf import DictConfig
 
+from tavc_cli.chapter import base_case
 from tavc_cli.config.loading import load_config, results_root
 from tavc_cli.config.overrides import override_key as _override_key
 from tavc_cli.errors import TavcError
 
-LADDER_EXPERIMENT = "initial_distribution"
+LADDER_EXPERIMENT = base_case().name
 
 
 def parse_factors(text: str | None) -> list[float] | None:

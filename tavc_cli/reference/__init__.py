@@ -15,16 +15,6 @@ def chapter_world() -> dict:
     return json.loads((_HERE / "world.json").read_text())
 
 
-# the chapter's state tables (percent of the stable period), by the experiment they report
-TABLES = {
-    "initial_distribution": "1.2",
-    "breakdown": "1.3",
-    "breakdown_no_vacancy": "1.4",
-    "value_change": "1.5",
-    "heterogeneous": "1.6",
-}
-
-
 def chapter_table(table_id: str):
     """Table `table_id` ("1.1" ... "1.6") as the chapter printed it, a pandas DataFrame."""
     import pandas as pd

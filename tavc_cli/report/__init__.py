@@ -28,15 +28,15 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli import chapter
 from tavc_cli.analysis.chapter_checks import chapter_checks
-from tavc_cli.analysis.claims import CLAIM_TABLES, CLAIMS, claim_table, verdict_words
+from tavc_cli.analysis.claims import CLAIM_TABLES, claim_table, verdict_words
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import list_figures, take_report_folders
 from tavc_cli.readers import load_json
-from tavc_cli.reference import TABLES
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
 from tavc_cli.report.figures import experiment_figures, find_model
@@ -69,9 +69,6 @@ from tavc_cli.report.text import (
 )
 from tavc_cli.settings import TavcConfig, from_yaml
 
-ORDER = ["spatiotemporal", "initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change",
-         "heterogeneous"]
-
 
 def _finished_runs(results_dir: Path) -> tuple[dict[str, list[Path]], list[Path]]:
     """experiment name -> the folders of its finished runs (their `provenance.json`, written
@@ -85,7 +82,7 @@ def _finished_runs(results_dir: Path) -> tuple[dict[str, list[Path]], list[Path]
             found.setdefault(str(_read(d / "config.yaml", _config).experiment_name or d.name), []).append(d)
         else:
             unfinished.append(d)
-    ordered = sorted(found.items(), key=lambda kv: (ORDER.index(kv[0]) if kv[0] in ORDER else 99, kv[0]))
+    ordered = sorted(found.items(), key=lambda kv: chapter.order_key(kv[0]))  # the chapter's order
     return {name: designated_first(name, folders, results_dir) for name, folders in ordered}, unfinished
 
 
@@ -179,7 +176,7 @@ def build_report(results_dir: Path) -> dict:
                   f"{len(claims) - len(tested)} not tested because their experiment has not been run here).", "",
                   "| claim | experiment | verdict | p (the deciding part) |", "|---|---|---|---|"]
         for r in claims.itertuples():
-            exp = CLAIMS[r.claim_id][0]
+            exp = chapter.experiment_of(r.claim_id)
             ran = exp in runs
             verdict = verdict_words(r.verdict, base.verdicts) if ran else "not run"
             lines.append(f"| {r.claim_id} | {horizons.experiment_cell(base, exp, results_dir)} | {verdict} | "
@@ -409,7 +406,7 @@ def _experiment_section(name: str, d: Path, base: horizons.Horizon, figures: dic
     lines += base.deliveries[d]
     if (d / "table_1_1.csv").is_file():
         return [*lines, *figures[name].result(), *run_lines(name, cfg, prov, claims, runs)]
-    table = TABLES.get(name)
+    table = chapter.state_table_id(name)
     lines.append("% of the stable period in each state, mean ± std over trials"
                  + (f"; the chapter's Table {table} beside ours:" if table else ":"))
     lines += ["", *state_table(state_time, comparison), ""]

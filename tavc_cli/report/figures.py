@@ -8,13 +8,15 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.reference import TABLES
+from tavc_cli.chapter import EXPERIMENTS, base_case, state_table_id
 from tavc_cli.settings import TavcConfig
 
 
 def find_model(experiments: dict[str, Path]) -> Path | None:
-    """The model's output to draw predictions from: initial_distribution's, else any run's."""
-    folders = sorted(experiments.items(), key=lambda kv: kv[0] != "initial_distribution")
+    """The model's output to draw predictions from: the chapter's base case's (`make model` measures
+    it there), else any run's."""
+    base = base_case().name
+    folders = sorted(experiments.items(), key=lambda kv: kv[0] != base)
     for _, d in folders:
         if (d / "model" / "model.json").is_file():
             return d / "model" / "model.json"
@@ -72,18 +74,19 @@ def experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataF
     titles naming `label` (the experiment's name unless given); markdown lines that show them
     (baselines on another schedule than the learner's drawn as levels: `baseline_levels`)."""
     from tavc_cli.reference import chapter_table
-    from tavc_cli.viz.figures import FIGURES, allocation_figure, performance_figure, state_figure
+    from tavc_cli.viz.figures import allocation_figure, performance_figure, state_figure
 
     fig_dir = fig_dir or results_dir / "figures"
     link, label = figure_link(results_dir, fig_dir), label or name
-    state_fig, perf_fig = FIGURES.get(name, (None, None))
+    experiment = EXPERIMENTS.get(name)
+    state_fig, perf_fig = (experiment.state_figure, experiment.performance_figure) if experiment else (None, None)
     conv = float(cfg.convergence_s or 0.0)
     event = float(cfg.sim.warmup_s) > 0
     lines = []
     if cfg.analysis.state == "groups":
         return group_figures(name, d, cfg, state_time, fig_dir, link, label)
     if state_fig is not None:
-        table = TABLES.get(name)
+        table = state_table_id(name)
         stem = f"fig_{state_fig.replace('.', '_')}"
         state_figure(state_time, chapter_table(table) if table else None,
                      f"{label}: % of the stable period in each state (the chapter's Figure {state_fig})",
@@ -119,7 +122,7 @@ def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame,
     from tavc_cli.viz.figures import group_difference_figure, group_state_figure, specialisation_figure
 
     label = label or name
-    table = TABLES.get(name)
+    table = state_table_id(name)
     chapter = chapter_table(table) if table else None
     group_state_figure(state_time, chapter, f"{label}: % of the stable period in each state f:s (Figure 1.12's kind)",
                        fig_dir / "fig_1_12")

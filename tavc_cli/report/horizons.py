@@ -18,7 +18,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.claims import CLAIMS, not_a_verdict, verdict_words
+from tavc_cli import chapter
+from tavc_cli.analysis.claims import not_a_verdict, verdict_words
 from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
 from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.readers import load_json
@@ -57,7 +58,7 @@ class Horizon:
 
     @property
     def tested(self) -> pd.DataFrame:
-        return self.claims[[CLAIMS[c][0] in self.runs for c in self.claims["claim_id"]]]
+        return self.claims[[chapter.experiment_of(c) in self.runs for c in self.claims["claim_id"]]]
 
     @property
     def n_reproduced(self) -> int:
@@ -181,7 +182,7 @@ def claims_both_table(base: Horizon, long: Horizon) -> list[str]:
              f"{long.factor:g}x |", "|---|---|---|---|---|---|---|"]
     by_id = {int(r.claim_id): r for r in long.claims.itertuples()}
     for r in base.claims.itertuples():
-        exp = CLAIMS[r.claim_id][0]
+        exp = chapter.experiment_of(r.claim_id)
         verdict = verdict_words(r.verdict, base.verdicts) if exp in base.runs else "not run"
         other = by_id.get(int(r.claim_id))
         ran_long = other is not None and exp in long.runs
@@ -234,7 +235,7 @@ def time_scale_lines(results_dir: Path, long: Horizon, model_json: Path | None,
     return lines
 
 
-STAY_EXPERIMENT = "initial_distribution"  # the run the arithmetic and the measured policies are read from
+STAY_EXPERIMENT = chapter.base_case().name  # the run the arithmetic and the measured policies are read from
 
 
 def stay_lines(results_dir: Path, base: Horizon | None, long: Horizon, model_json: Path | None) -> list[str]:
@@ -368,7 +369,7 @@ def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
     ladder_figure(table, long.folder / "figures" / "ladder")
     deciding = {f: rung_claims(path.parent / f"x{f:g}") for f in factors}
     lines = ["### The horizon ladder", "",
-             "initial_distribution with the same seeds at several multiples of the chapter's 5 h (`tavc ladder`; "
+             f"{STAY_EXPERIMENT} with the same seeds at several multiples of the chapter's 5 h (`tavc ladder`; "
              "each rung's trials are the first part of the longer rungs'). The learner-side measures are fixed in "
              "`tavc_cli/analysis/convergence.py` and were written before any long run was looked at: the median "
              "relative change of a robot's Q-table over the last quarter of the run (`Q drift`), the share of "
@@ -412,10 +413,11 @@ def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
 
     rand = ladder_value(table, "random", "pct_3:3")
     theory = ladder_value(table, "theory", "pct_3:3")
-    chapter = chapter_table("1.2").set_index("state").loc["3:3", "tavc_mean_pct"]
+    table_id = chapter.base_case().state_table
+    printed = chapter_table(table_id).set_index("state").loc["3:3", "tavc_mean_pct"]
     lines += ["", f"Random allocation spends {fmt(float(rand.mean()))} % of the stable period in 3:3 (the same trials "
               f"at every rung), the binomial row {fmt(float(theory.mean()))} %; the chapter's learners "
-              f"{fmt(float(chapter))} % in {hours[min(factors)] / min(factors):g} h (Table 1.2). Stayers and "
+              f"{fmt(float(printed))} % in {hours[min(factors)] / min(factors):g} h (Table {table_id}). Stayers and "
               "alternators are robots per trial in the stable period (`robots.csv`'s classes).", ""]
     return lines
 
@@ -475,7 +477,6 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
     if name not in long.experiments:
         return []
     from tavc_cli.analysis.comparison import experiment_comparison
-    from tavc_cli.reference import TABLES
     from tavc_cli.report.figures import experiment_figures
     from tavc_cli.report.runs import choice_lines
     from tavc_cli.report.text import run_lines, vacancy_lines
@@ -486,13 +487,14 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
     lines = [f"### {name} at {label(long.factor)}", ""]
     lines += choice_lines(name, [d, *long.others.get(name, [])], results_dir)
     lines += long.deliveries.get(d, [])
-    if name == "spatiotemporal":
+    known = chapter.EXPERIMENTS.get(name)
+    if known is not None and known.learns == "behaviours":  # section 1.4's study, not a state table
         from tavc_cli.report.studies import spatiotemporal_lines
 
         body = spatiotemporal_lines(name, d, cfg, long.folder)
         lines += [*convergence_sentence(d), *(_relinked(line, results_dir, long.folder) for line in body)]
         return [*lines, *_claims_lines(name, long)]
-    table = TABLES.get(name)
+    table = chapter.state_table_id(name)
     lines += [f"% of the stable period ({window_words(cfg)}) in each state, mean ± std over trials"
               + (f"; the chapter's Table {table} beside ours:" if table else ":"), "",
               *state_table(state_time, experiment_comparison(name, state_time)), ""]
@@ -521,7 +523,7 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
 
 def _claims_lines(name: str, long: Horizon) -> list[str]:
     """The experiment's claims as tested at the long horizon."""
-    own = long.claims[[CLAIMS[c][0] == name for c in long.claims["claim_id"]]]
+    own = long.claims[[chapter.experiment_of(c) == name for c in long.claims["claim_id"]]]
     return [*claims_table(own, verdicts=name not in long.shortfalls), ""] if len(own) and name in long.runs else []
 
 

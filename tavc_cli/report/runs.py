@@ -18,9 +18,9 @@ import pandas as pd
 
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
+from tavc_cli.chapter import state_table_id
 from tavc_cli.ownership import COMPARE, STUDY, SURROGATE, TASKS, read
 from tavc_cli.readers import load_json, load_yaml
-from tavc_cli.reference import TABLES
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, from_yaml
 
@@ -180,7 +180,7 @@ def other_run_lines(name: str, d: Path, cfg: TavcConfig, base: Path, results_dir
              f"The claims about {name} are tested on `{rel(base, results_dir)}`, not on this run, which differs "
              "from it " + ("in " + "; ".join(diffs) if diffs else "in no setting but its folder") + ".", ""]
     lines += deliveries
-    table = TABLES.get(name)
+    table = state_table_id(name)
     lines += ["% of the stable period in each state, mean ± std over trials"
               + (f"; the chapter's Table {table} beside ours:" if table else ":"), "",
               *state_table(state_time, experiment_comparison(name, state_time)), ""]

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.claims import CLAIMS, not_a_verdict, verdict_words
+from tavc_cli.analysis.claims import not_a_verdict, verdict_words
+from tavc_cli.chapter import EXPERIMENTS, experiment_of
 from tavc_cli.settings import TavcConfig
 
 KIND_WORDS = {"stayer": "stayers", "alternator": "alternators", "mixed": "mixed", "idle": "idle (broken down or stuck)"}
@@ -153,7 +154,8 @@ def differences(cfg: TavcConfig) -> list[str]:
         ours = "none" if cfg.deliveries is None else f"{cfg.deliveries}"
         out.append(f"deliveries per trial {ours} (the chapter: {paper.deliveries})")
     values = cfg.tasks.values
-    chapter_values = cfg.experiment_name != "spatiotemporal"
+    known = EXPERIMENTS.get(cfg.experiment_name)
+    chapter_values = known is None or known.learns == "tasks"  # section 1.4's one circuit has no such pair
     if values is not None and chapter_values and [float(v) for v in values] != [2200.0, 2000.0]:
         out.append(f"task values {values} (the chapter: [2200, 2000])")
     return out
@@ -263,7 +265,7 @@ def run_lines(name: str, cfg: TavcConfig, prov: dict, claims: pd.DataFrame, runs
     that differ from the chapter's."""
     short = not_a_verdict(cfg)
     lines = [f"This run is {short}.", ""] if short else []
-    own = claims[[CLAIMS[c][0] == name for c in claims["claim_id"]]]
+    own = claims[[experiment_of(c) == name for c in claims["claim_id"]]]
     if len(own) and name in runs:
         lines += [*claims_table(own, verdicts=not short), ""]
     diffs = differences(cfg)

@@ -31,14 +31,16 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from tavc_cli.chapter import EXPERIMENTS as CHAPTER
+from tavc_cli.chapter import base_case
 from tavc_cli.errors import TavcError
-
 from tavc_cli.surrogate.compare import comparison_rows, high_share, predicted_state, run_facts
 
 if TYPE_CHECKING:
     from tavc_cli.settings import TavcConfig
 
-EXPERIMENTS = ("initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change", "heterogeneous")
+EXPERIMENTS = tuple(name for name, e in CHAPTER.items() if e.surrogate)  # the experiments the study checks
+BASE = base_case().name  # the one its ladder climbs, its phase diagram varies and its horizons measure
 HORIZONS = {"paper": 1.0, "converged": 40.0}  # the scale of each horizon and its multiple of the chapter's
 CALIBRATIONS = ("makeup", "stayers")
 LADDER = (1.0, 4.0, 10.0, 20.0, 40.0)
@@ -78,7 +80,8 @@ class Study:
     def surrogate(self, folder: Path, overrides: Sequence[str]) -> Path:
         from tavc_cli.surrogate.run import run_surrogate
 
-        cfg = self.compose([*self.overrides, *overrides, f"surrogate.tasks_dir={self.tasks_dir}", f"output_dir={folder}"])
+        cfg = self.compose([*self.overrides, *overrides, f"surrogate.tasks_dir={self.tasks_dir}",
+                            f"output_dir={folder}"])
         if not _finished_as(folder, cfg):
             run_surrogate(cfg, progress=self.progress, echo=self.echo)
         self.echo(f"surrogate: {folder}")
@@ -111,9 +114,9 @@ class Study:
         rows = []
         for f in LADDER:
             folder = self.out / "makeup" / "ladder" / f"x{f:g}"
-            self.surrogate(folder, ["experiment=initial_distribution", "scale=converged", f"scale.time_factor={f!r}"])
+            self.surrogate(folder, [f"experiment={BASE}", "scale=converged", f"scale.time_factor={f!r}"])
             simulator = self.results / "converged" / "ladder" / f"x{f:g}"
-            rows += comparison_rows("initial_distribution", f"{f:g}x", simulator, {"surrogate_makeup": folder})
+            rows += comparison_rows(BASE, f"{f:g}x", simulator, {"surrogate_makeup": folder})
         return pd.DataFrame(rows)
 
     def phase(self) -> pd.DataFrame:
@@ -125,7 +128,7 @@ class Study:
             for n in PHASE_TEAMS:
                 for ratio in PHASE_RATIOS:
                     values = [ratio * LOW_VALUE, LOW_VALUE]
-                    point = [f"experiment=initial_distribution", f"scale={scale}", f"team.n_robots={n}",
+                    point = [f"experiment={BASE}", f"scale={scale}", f"team.n_robots={n}",
                              f"tasks.values=[{values[0]!r},{values[1]!r}]", "baselines=[]", f"trials={PHASE_TRIALS}"]
                     folder = self.out / "phase" / scale / f"n{n}_r{ratio:g}"
                     self.surrogate(folder, point)
@@ -134,15 +137,14 @@ class Study:
                         checked = self.out / "phase" / "checked" / scale / f"n{n}_r{ratio:g}"
                         self.simulator(checked, [*point[:-1], f"trials={CHECKED_TRIALS[scale]}"])
                         rows.append(self._phase_row("simulator", scale, factor, n, ratio, checked))
-            chapter = self.results / "initial_distribution" if scale == "paper" else \
-                self.results / "converged" / "initial_distribution"
+            chapter = self.results / BASE if scale == "paper" else self.results / "converged" / BASE
             if (chapter / "state_time.csv").is_file():  # the chapter's own point, as committed
                 rows.append(self._phase_row("simulator", scale, factor, 6, 1.1, chapter))
         table = pd.DataFrame(rows)
         # the model's prediction, from the same static runs' stay tasks
         predicted = []
         for n in PHASE_TEAMS:
-            cfg = self.compose([*self.overrides, "experiment=initial_distribution", "scale=paper", f"team.n_robots={n}",
+            cfg = self.compose([*self.overrides, f"experiment={BASE}", "scale=paper", f"team.n_robots={n}",
                                 f"surrogate.tasks_dir={self.tasks_dir}"])
             times = measure_tasks(cfg, progress=self.progress, echo=self.echo)
             team = Team.of(["all"] * n, [float(cfg.robot.speed_mps)] * n)
@@ -170,7 +172,7 @@ class Study:
             mine = []
             for f in HORIZON_FACTORS:
                 folder = self.out / "horizon" / label / f"x{f:g}"
-                self.surrogate(folder, ["experiment=initial_distribution", "scale=converged", f"scale.time_factor={f!r}",
+                self.surrogate(folder, [f"experiment={BASE}", "scale=converged", f"scale.time_factor={f!r}",
                                         "baselines=[]", f"trials={HORIZON_TRIALS}", *setting])
                 facts = run_facts(folder)
                 mine.append({"parameter": name, "value": math.nan if value is None else value, "factor": f,

@@ -35,13 +35,7 @@ import pandas as pd  # noqa: E402
 
 from tavc_cli.io import atomic_path  # noqa: E402
 
-# the chapter's figure numbers per experiment: (state histogram, performance)
-FIGURES = {
-    "initial_distribution": ("1.6", "1.7"),
-    "breakdown": ("1.8", "1.9"),
-    "breakdown_no_vacancy": (None, "1.10"),
-    "value_change": (None, "1.11"),
-}
+
 class _Colours(dict):
     """The built-in controllers' colours; any other controller (a learner from outside tavc,
     `alternate`) its own, drawn from the colours they leave, the same for a label everywhere."""
