@@ -403,8 +403,10 @@ def _print_experiments() -> None:
     """Print one aligned line per experiment: its name, its section of the chapter, and what the
     chapter reports of it, as the chapter's report rather than as a fact (`tavc report` tests it).
     The words come from each experiment file's `description`, which a run also records in its
-    config.yaml: rewording them there would make every saved run another configuration."""
-    items = config.list_experiments()
+    config.yaml: rewording them there would make every saved run another configuration. The
+    experiments are tavc's files and those the chapter's registry adds from the user's config
+    folders (`config.describe_experiments`)."""
+    items = config.describe_experiments()
     name_width = max((len(item["name"]) for item in items), default=0)
     section_width = max((len(item["section"]) for item in items), default=0)
     for item in items:

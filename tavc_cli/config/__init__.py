@@ -9,6 +9,7 @@ result into the typed ``TavcConfig`` the library takes. ``launch`` runs a sweep'
 a Hydra launcher.
 """
 
+from tavc_cli.config.experiments import describe_experiments
 from tavc_cli.config.ladder import ladder_folder, load_ladder, parse_factors
 from tavc_cli.config.loading import (
     check_measurement,
@@ -29,6 +30,7 @@ from tavc_cli.settings import TavcConfig
 __all__ = [
     "TavcConfig",
     "check_measurement",
+    "describe_experiments",
     "expand_sweep",
     "experiment_lines",
     "find_conf_dir",
