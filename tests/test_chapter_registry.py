@@ -161,3 +161,13 @@ def test_a_name_or_a_claim_number_registered_twice_is_refused(monkeypatch):
         chapter.register(Experiment(name="mine", section="9", order=91))
     with pytest.raises(TavcError, match="claims number 3, which initial_distribution has already"):
         chapter.register(Experiment(name="other", section="9", order=92, claims=(Claim(3, "again", "x:y"),)))
+    with pytest.raises(TavcError, match="the chapter's is initial_distribution"):
+        chapter.register(Experiment(name="other", section="9", order=92, base_case=True))
+
+
+def test_a_registry_module_that_fails_is_one_line(toy):
+    (toy / "chapter" / "broken.py").write_text("raise RuntimeError('half written')\n")
+    result = CliRunner().invoke(app, ["--config-dir", str(toy), "list"])
+    assert result.exit_code == 1
+    assert result.output.strip() == (f"error: chapter: {toy / 'chapter' / 'broken.py'} failed to load: "
+                                     "RuntimeError: half written")

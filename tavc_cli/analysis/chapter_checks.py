@@ -26,7 +26,7 @@ from tavc_cli.chapter import EXPERIMENTS
 from tavc_cli.reference import chapter_table
 
 # trials behind each of the chapter's state tables: (TAVC, random; 0 where it prints no random column)
-CHAPTER_TRIALS = {e.state_table: e.chapter_trials for e in EXPERIMENTS.values() if e.state_table is not None}
+CHAPTER_TRIALS = {e.state_table: e.chapter_trials for e in EXPERIMENTS.own().values() if e.state_table is not None}
 
 
 def _table(table_id: str) -> pd.DataFrame:

@@ -3,7 +3,7 @@ runs, its parts made one verdict, and the part that decides it; the tables a run
 write of them.
 
 The claims themselves (their experiment, the chapter's words, the rule) are entries of the
-chapter's registry (`tavc_cli.chapter`); `CLAIMS` and `TESTS` are that registry's claims, by number.
+chapter's registry (`tavc_cli.chapter`); `CLAIMS` and `TESTS` hold the chapter's own, by number.
 
 A claim is `reproduced` when every one of its parts holds, `not_reproduced` when a part
 is decided against it, and `inconclusive` when no part fails but some part could not be
@@ -63,10 +63,10 @@ __all__ = ["ALPHA", "CLOSE_W", "IDENTICAL", "LEARNER", "PERFORMANCE_MARGIN", "Pa
            "greater", "holm_none_differ", "largest_relative_increase", "learner_under_test", "less", "mean_above",
            "not_different", "one_sample", "paired_greater", "paired_less", "untestable"]
 
-# claim id -> (experiment, the chapter's words), and claim id -> its rule: the registry's claims as
-# this module found them (`claim_table` reads the registry's claims, each with its rule here)
-CLAIMS = {c.id: (name, c.text) for name, c in chapter.claims()}
-TESTS: dict[int, Callable[..., list[Part]]] = {c.id: c.test() for _, c in chapter.claims()}
+# claim id -> (experiment, the chapter's words), and claim id -> its rule, for the chapter's own
+# claims (`claim_table` reads every claim of the registry, each with its rule here if it has one)
+CLAIMS = {c.id: (name, c.text) for name, c in chapter.claims(own=True)}
+TESTS: dict[int, Callable[..., list[Part]]] = {c.id: c.test() for _, c in chapter.claims(own=True)}
 COLUMNS = ["claim_id", "claim", "verdict", "statistic", "p_value", "detail"]
 # what a run's claims.csv and the report's add after COLUMNS: the observations beside each verdict
 OBSERVATION_COLUMNS = ["observations"]
@@ -143,7 +143,7 @@ def claim_table(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = 
         if only_experiment is not None and experiment != only_experiment:
             continue
         cid, text = claim.id, claim.text
-        test = TESTS[cid] if cid in TESTS else claim.test()  # a claim registered since this module was read
+        test = TESTS[cid] if cid in TESTS else claim.test()  # a claim of an experiment of the user's own
         with warnings.catch_warnings():
             # scipy warns when samples are nearly identical (a state never visited in any trial);
             # the test's result says as much, and a run's output stays free of library noise

@@ -24,9 +24,10 @@ EXPERIMENTS = Registry(__name__)  # name -> Experiment, in the report's order
 register = EXPERIMENTS.register
 
 
-def claims() -> list[tuple[str, Claim]]:
-    """Every claim, by number, with the experiment it is about."""
-    return sorted(((e.name, c) for e in EXPERIMENTS.values() for c in e.claims), key=lambda pair: pair[1].id)
+def claims(own: bool = False) -> list[tuple[str, Claim]]:
+    """Every claim (the chapter's own only, if `own`), by number, with the experiment it is about."""
+    experiments = EXPERIMENTS.own().values() if own else EXPERIMENTS.values()
+    return sorted(((e.name, c) for e in experiments for c in e.claims), key=lambda pair: pair[1].id)
 
 
 def claim(claim_id: int) -> tuple[str, Claim]:
@@ -43,8 +44,8 @@ def experiment_of(claim_id: int) -> str:
 
 
 def base_case() -> Experiment:
-    """The chapter's base case (`Experiment.base_case`): exactly one experiment is."""
-    found = [e for e in EXPERIMENTS.values() if e.base_case]
+    """The chapter's base case (`Experiment.base_case`): exactly one of its experiments is."""
+    found = [e for e in EXPERIMENTS.own().values() if e.base_case]
     if len(found) != 1:
         raise TavcError(f"chapter: one experiment is the base case, found {len(found)}")
     return found[0]

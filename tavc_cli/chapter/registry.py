@@ -111,7 +111,12 @@ class Registry(Mapping[str, Experiment]):
     """name -> `Experiment`, in the report's order (`Experiment.order`, then the name): the
     package's modules (each defines ``EXPERIMENT``), the experiments registered from code
     (`register`), and those of the ``chapter/*.py`` modules in the user's config folders
-    (``--config-dir``; read while the folder is given, each module once)."""
+    (``--config-dir``; read while the folder is given, each module once).
+
+    What other modules fix when they are imported (compare's scenarios, the ladder's experiment)
+    is read from the chapter's own experiments (`own`): a config folder is given after those
+    imports, and a module of the user's that fails to load is then one error line of the command
+    that reads it."""
 
     def __init__(self, package: str) -> None:
         self._package = package
@@ -120,10 +125,19 @@ class Registry(Mapping[str, Experiment]):
         self._from_folders: dict[Path, list[Experiment]] = {}
 
     def register(self, experiment: Experiment) -> Experiment:
-        """Add an experiment; a name or a claim number already registered for another is refused."""
-        self._check(experiment, self._entries())
+        """Add an experiment; a name or a claim number already registered for another is refused,
+        and so is a second base case (the chapter's is its own)."""
+        self._check(experiment, self._entries(), added=True)
         self._registered[experiment.name] = experiment
         return experiment
+
+    def own(self) -> dict[str, Experiment]:
+        """The chapter's experiments, the package's modules', in the report's order."""
+        if self._own is None:
+            self._own = {}
+            for found in _package_modules(self._package):
+                self._own[self._check(found, self._own).name] = found
+        return dict(sorted(self._own.items(), key=lambda kv: (kv[1].order, kv[0])))
 
     def __getitem__(self, name: str) -> Experiment:
         return self._entries()[name]
@@ -136,24 +150,23 @@ class Registry(Mapping[str, Experiment]):
         return len(self._entries())
 
     def _entries(self) -> dict[str, Experiment]:
-        if self._own is None:
-            self._own = {}
-            for found in _package_modules(self._package):
-                self._own[self._check(found, self._own).name] = found
-        entries = {**self._own, **self._registered}
+        entries = {**self.own(), **self._registered}
         for folder in _user_folders():
             if folder not in self._from_folders:
                 self._from_folders[folder] = [_module_experiment(path) for path in sorted(folder.glob("*.py"))
                                               if not path.name.startswith("_")]
             for found in self._from_folders[folder]:
-                entries[self._check(found, entries).name] = found
+                entries[self._check(found, entries, added=True).name] = found
         return entries
 
     @staticmethod
-    def _check(experiment: Experiment, entries: Mapping[str, Experiment]) -> Experiment:
+    def _check(experiment: Experiment, entries: Mapping[str, Experiment], added: bool = False) -> Experiment:
         known = entries.get(experiment.name)
         if known is not None and known != experiment:
             raise TavcError(f"chapter: experiment {experiment.name!r} is registered twice")
+        if added and experiment.base_case:
+            raise TavcError(f"chapter: {experiment.name} cannot be the base case; the chapter's is "
+                            f"{next((e.name for e in entries.values() if e.base_case), 'its own')}")
         ids = [c.id for c in experiment.claims]
         taken = {c.id: e.name for e in entries.values() if e.name != experiment.name for c in e.claims}
         clash = sorted({i for i in ids if i in taken or ids.count(i) > 1})

@@ -15,6 +15,6 @@ run do, and the table says at which multiple of the chapter's durations each row
 
 from tavc_cli.chapter import EXPERIMENTS
 
-SCENARIOS = tuple(name for name, e in EXPERIMENTS.items() if e.compare)  # the chapter's order
+SCENARIOS = tuple(name for name, e in EXPERIMENTS.own().items() if e.compare)  # the chapter's order
 CONTROLLERS = ("tavc", "random", "model", "informed", "wolf_phc", "threshold")
 REFERENCE, FLOOR = "tavc", "random"  # every controller is tested against these two

@@ -46,7 +46,7 @@ METRICS = {
     "filled_pct": "vacancy filled (% of trials)",
     "fast_high_share": "share of fast robots on the high-value circuit",
 }
-VACANCY_SCENARIOS = tuple(name for name, e in EXPERIMENTS.items() if e.vacancy)  # vacancies on the high-value circuit
+VACANCY_SCENARIOS = tuple(name for name, e in EXPERIMENTS.own().items() if e.vacancy)  # vacancy on the high circuit
 TRIAL_COLUMNS = ["experiment", "controller", "trial", "metric", "value"]
 TABLE_COLUMNS = ["experiment", "metric", "controller", "time_factor", "n_trials", "mean", "std", "median",
                  "p_vs_tavc", "p_vs_random", "above_tavc", "above_random"]

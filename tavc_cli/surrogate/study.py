@@ -39,7 +39,7 @@ from tavc_cli.surrogate.compare import comparison_rows, high_share, predicted_st
 if TYPE_CHECKING:
     from tavc_cli.settings import TavcConfig
 
-EXPERIMENTS = tuple(name for name, e in CHAPTER.items() if e.surrogate)  # the experiments the study checks
+EXPERIMENTS = tuple(name for name, e in CHAPTER.own().items() if e.surrogate)  # the experiments the study checks
 BASE = base_case().name  # the one its ladder climbs, its phase diagram varies and its horizons measure
 HORIZONS = {"paper": 1.0, "converged": 40.0}  # the scale of each horizon and its multiple of the chapter's
 CALIBRATIONS = ("makeup", "stayers")
