@@ -13,9 +13,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tavc_cli.config.model_file import model_allocations
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.informed import InformedPolicy, ModelPolicy, ranked
+from tavc_cli.model.allocations import model_allocations
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -24,10 +24,10 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order, trial_metrics
-from tavc_cli.config.model_file import model_allocations
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.learning.registry import LEARNS_NOTHING, controller_label
+from tavc_cli.model.allocations import model_allocations
 from tavc_cli.readers import load_yaml
 from tavc_cli.settings import TavcConfig
 

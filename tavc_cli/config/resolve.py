@@ -27,7 +27,7 @@ Rules:
 - ``tasks.values``: 1.0 per circuit; ``tasks.score_values``: ``tasks.values``.
 - ``executor.n_jobs``: ``os.cpu_count()``.
 - ``learner.allocations`` (``learner=model``, ``learner=informed``): robots per circuit by team
-  size, read from the model's output ``learner.model_file`` (`config.model_file.model_allocations`).
+  size, read from the model's output ``learner.model_file`` (`model.allocations.model_allocations`).
 """
 
 import math
@@ -37,9 +37,9 @@ from typing import Optional
 
 from omegaconf import DictConfig
 
-from tavc_cli.config.model_file import model_allocations
 from tavc_cli.io import default_root
 from tavc_cli.learning.informed import MODEL_LEARNERS
+from tavc_cli.model.allocations import model_allocations
 from tavc_cli.settings import MemberConfig
 from tavc_cli.sim.arena import most_robots
 

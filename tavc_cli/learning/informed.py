@@ -11,7 +11,7 @@ for the chapter's claim that learners beat pre-programmed allocations.
 
 Both learn nothing and talk to no one; what they know comes from the model's output file
 (``learner.model_file``, read and checked once when the config is resolved into ``learner.allocations``
-(`config.model_file`):
+(`model.allocations`):
 robots per circuit by team size, the most valuable circuit first).
 
 The trial calls ``on_event(alive, values)`` once at its start and again after every event

@@ -14,9 +14,9 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import TIME_UNITS_S
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder, write_text_atomic
-from tavc_cli.ownership import MODEL, MODEL_FILES, refuse_other_settings, take
 from tavc_cli.model import core
 from tavc_cli.model.measure import measure
+from tavc_cli.ownership import MODEL, MODEL_FILES, refuse_other_settings, take
 from tavc_cli.reference import chapter_world
 from tavc_cli.settings import ArenaConfig, TavcConfig
 from tavc_cli.sim.arena import arena_from_config

@@ -10,9 +10,9 @@ from pathlib import Path
 
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder
-from tavc_cli.ownership import CALIBRATION, CALIBRATION_FILES, refuse_other_settings, take
 from tavc_cli.model.report import search_text, sensitivity_text
 from tavc_cli.model.world_search import Point, one_axis_variants, point_id, run_search, run_sensitivity, save_world
+from tavc_cli.ownership import CALIBRATION, CALIBRATION_FILES, refuse_other_settings, take
 from tavc_cli.settings import TavcConfig
 
 
