@@ -1,8 +1,9 @@
 """The ``tavc`` command line.
 
-Each command parses its arguments and hands them to one function: a keyword-only one below it,
-or the Python API's (`tavc_cli.api`, which `tavc model` and `tavc calibrate` share with
-notebooks); those functions load the config, call the library, and print. There is no domain logic here. A
+Each command parses its arguments and hands them to one function: a keyword-only one of
+`tavc_cli.commands`, or the Python API's (`tavc_cli.api`, which `tavc model` and `tavc calibrate`
+share with notebooks); those functions load the config, call the library, and print. There is no
+domain logic here. A
 ``TavcError`` or an ``OSError`` anywhere becomes one ``error: ...`` line on stderr and exit status 1;
 Ctrl-C becomes exit status 130 (`console.user_errors`). Any other exception is a bug and keeps its
 traceback.
@@ -11,16 +12,13 @@ Modules that pull in the simulator are imported inside the commands that need th
 ``tavc config`` and ``tavc list`` start fast.
 """
 
-import functools
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
 import typer
 
-from tavc_cli import __version__, config
+from tavc_cli import __version__, commands, config
 from tavc_cli.compare import CONTROLLERS, SCENARIOS
-from tavc_cli.console import summary_text
 from tavc_cli.console import user_errors as _user_errors
 
 app = typer.Typer(
@@ -100,14 +98,14 @@ def main(
 def config_command(overrides: Overrides = None) -> None:
     """Print the composed, validated config as YAML and exit."""
     with _user_errors():
-        _print_config(overrides=overrides or [])
+        commands.print_config(overrides=overrides or [])
 
 
 @app.command("list")
 def list_command() -> None:
     """List the experiments: name, chapter section, what the chapter reports of each."""
     with _user_errors():
-        _print_experiments()
+        commands.print_experiments()
 
 
 @app.command()
@@ -125,7 +123,7 @@ def run(
 ) -> None:
     """Run every trial and controller an experiment needs and write its results."""
     with _user_errors(folder=lambda: config.load_config(overrides or []).output_dir):
-        _run(
+        commands.run(
             overrides=overrides or [],
             multirun=multirun,
             progress=_shown(progress),
@@ -154,7 +152,7 @@ def reproduce(
 ) -> None:
     """Run several experiments at once, the history their trials share simulated once."""
     with _user_errors(folder=lambda: results):
-        _reproduce(
+        commands.reproduce(
             overrides=overrides or [],
             names=experiments,
             results=results,
@@ -178,7 +176,7 @@ def ladder_command(
 ) -> None:
     """initial_distribution at several multiples of the chapter's durations, history shared; ladder.csv."""
     with _user_errors(folder=lambda: results):
-        _reproduce(overrides=overrides or [], names="", results=results, progress=_shown(progress),
+        commands.reproduce(overrides=overrides or [], names="", results=results, progress=_shown(progress),
                    ladder=config.parse_factors(factors))
 
 
@@ -241,7 +239,7 @@ def surrogate(
             return
         from tavc_cli.api import surrogate_summary
 
-        _print_summary(surrogate_summary(overrides or [], progress=_shown(progress), echo=typer.echo))
+        commands.print_summary(surrogate_summary(overrides or [], progress=_shown(progress), echo=typer.echo))
 
 
 @app.command()
@@ -341,7 +339,7 @@ def bench(
 ) -> None:
     """Measure simulator throughput (simulated seconds per wall second, one core)."""
     with _user_errors():
-        _bench(
+        commands.bench(
             json_output=json_output,
             scenario=scenario,
             n_robots=n_robots,
@@ -375,7 +373,7 @@ def animate(
 ) -> None:
     """Render one run (robots, markings, targets, trails) to GIF or MP4."""
     with _user_errors():
-        _animate(overrides=overrides or [], out=out, duration_s=duration_s, fps=fps, mp4=mp4)
+        commands.animate(overrides=overrides or [], out=out, duration_s=duration_s, fps=fps, mp4=mp4)
 
 
 @app.command()
@@ -386,119 +384,9 @@ def report(
 ) -> None:
     """Write RESULTS_DIR/REPORT.md and claims.csv from saved results (never simulates)."""
     with _user_errors(folder=lambda: results_dir):
-        _report(results_dir)
+        commands.report(results_dir)
 
 
 # --------------------------------------------------------------------------------------------
 # What the commands do
 # --------------------------------------------------------------------------------------------
-
-
-def _print_config(*, overrides: Sequence[str]) -> None:
-    """Print the resolved config as YAML."""
-    typer.echo(config.to_yaml(config.load_config(overrides)), nl=False)
-
-
-def _print_experiments() -> None:
-    """Print one aligned line per experiment: its name, its section of the chapter, and what the
-    chapter reports of it, as the chapter's report rather than as a fact (`tavc report` tests it).
-    The words come from each experiment file's `description`, which a run also records in its
-    config.yaml: rewording them there would make every saved run another configuration. The
-    experiments are tavc's files and those the chapter's registry adds from the user's config
-    folders (`config.describe_experiments`)."""
-    items = config.describe_experiments()
-    name_width = max((len(item["name"]) for item in items), default=0)
-    section_width = max((len(item["section"]) for item in items), default=0)
-    for item in items:
-        said = str(item["description"])
-        said = said if said[1:2].isupper() else said[:1].lower() + said[1:]  # an acronym keeps its capital
-        typer.echo(f"{item['name']:<{name_width}}  {item['section']:<{section_width}}  "
-                   f"the chapter reports that {said}")
-
-
-def _run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
-    """Run one experiment, or every job of a sweep (all validated first) through a Hydra launcher."""
-    if not multirun:
-        from tavc_cli.api import run_summary
-
-        return _print_summary(run_summary(overrides, progress=progress))
-    from tavc_cli.config.launch import launch_sweep
-
-    ours = [o for o in overrides if not config.is_hydra_override(o)]
-    launch_sweep(overrides, functools.partial(_sweep_job, progress=progress),
-                 lambda done: _write_sweep(config.swept_values(ours), [Path(f) for f in done]))
-
-
-def _reproduce(*, overrides: Sequence[str], names: str | None, results: Optional[Path], progress: bool,
-               ladder: list[float] | None = None) -> None:
-    """Compose every experiment with the same overrides (and the ladder's rungs), run them
-    together, print each summary."""
-    from tavc_cli.api import reproduce_summaries
-
-    experiments = None if names is None else [n for n in names.split(",") if n]
-    if results is None:  # runs/<scale>; the ladder alone runs at scale=converged unless told
-        results = config.results_root(overrides, "converged" if experiments == [] else None)
-    for name, summary in reproduce_summaries(overrides, experiments=experiments, results_dir=results,
-                                             progress=progress, ladder=ladder):
-        if name.startswith("ladder"):
-            typer.echo(f"{name}:")
-        _print_summary(summary)
-        typer.echo("")
-    if ladder:
-        typer.echo(f"ladder: {results / 'ladder' / 'ladder.csv'}")
-
-
-def _sweep_job(cfg: Any, *, progress: bool) -> str:
-    """One job of a sweep, wherever the launcher runs it: run, print its summary, return its folder."""
-    from tavc_cli.pipeline import run_experiment
-
-    typer.echo(f"job: {cfg.output_dir}")
-    summary = run_experiment(config.settings(cfg), progress=progress)
-    _print_summary(summary)
-    return summary["output_dir"]
-
-
-def _write_sweep(values: list[dict[str, str]], folders: list[Path]) -> None:
-    """sweep.csv and its figure beside the jobs' folders (`pipeline.write_sweep`); print where."""
-    from tavc_cli.pipeline import write_sweep
-
-    written = write_sweep(values, folders)
-    if written:
-        typer.echo(f"\nsweep: {written[0]}")
-        for path in written[1:]:
-            typer.echo(f"figure: {path}")
-
-
-def _print_summary(summary: dict[str, Any]) -> None:
-    """Print where results went, how many trials ran, the state and performance summary, and
-    whether anything was delivered (`console.summary_text`)."""
-    typer.echo(summary_text(summary))
-
-
-def _bench(*, scenario: str, n_robots: int, n_rays: Optional[int] = None, **options: Any) -> None:
-    """Run the benchmark and print its result as JSON or as aligned lines (`bench.bench_text`)."""
-    from tavc_cli.bench import bench_overrides, bench_text
-
-    def settings_for(n: int, duration: float) -> Any:
-        return config.settings(config.load_config(bench_overrides(scenario, n, duration, n_rays)))
-
-    typer.echo(bench_text(settings_for, scenario=scenario, n_robots=n_robots, n_rays=n_rays, **options))
-
-
-def _animate(
-    *, overrides: Sequence[str], out: Optional[Path], duration_s: float, fps: int, mp4: bool
-) -> None:
-    """Render a run and print the files written."""
-    settings = config.settings(config.load_config(overrides))
-    from tavc_cli.viz.animate import animate_run
-
-    paths = animate_run(settings, out=out, duration_s=duration_s, fps=fps, mp4=mp4)
-    for path in paths:
-        typer.echo(str(path))
-
-
-def _report(results_dir: Path) -> None:
-    """Build the report and print its summary line and where it went."""
-    from tavc_cli.report import build_report, summary_lines
-
-    typer.echo("\n".join(summary_lines(build_report(results_dir))))
