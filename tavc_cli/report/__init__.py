@@ -19,17 +19,12 @@ value-ratio sweep).
 from __future__ import annotations
 
 import json
-import math
-import os
-import sys
-from concurrent.futures import Future, ProcessPoolExecutor
 from functools import lru_cache
 from pathlib import Path
 
 import pandas as pd
 
 from tavc_cli import chapter
-from tavc_cli.analysis.chapter_checks import chapter_checks
 from tavc_cli.analysis.claims import CLAIM_TABLES, claim_table, verdict_words
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.analysis.schema import check_run
@@ -39,8 +34,10 @@ from tavc_cli.ownership import list_figures, take_report_folders
 from tavc_cli.readers import load_json
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
+from tavc_cli.report.drawing import FigurePool
 from tavc_cli.report.figures import experiment_figures, find_model
 from tavc_cli.report.mechanism import mechanism_lines
+from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import (
     choice_lines,
     designated_first,
@@ -56,7 +53,6 @@ from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.report.text import (
     chapter_says,
     delivery_lines,
-    fmt,
     model_lines,
     p_cell,
     performance,
@@ -67,6 +63,7 @@ from tavc_cli.report.text import (
     state_table,
     vacancy_lines,
 )
+from tavc_cli.report.time_scale import time_scale_lines
 from tavc_cli.settings import TavcConfig, from_yaml
 
 
@@ -181,32 +178,15 @@ def build_report(results_dir: Path) -> dict:
             verdict = verdict_words(r.verdict, base.verdicts) if ran else "not run"
             lines.append(f"| {r.claim_id} | {horizons.experiment_cell(base, exp, results_dir)} | {verdict} | "
                          f"{p_cell(r) if ran else ''} |")
-    lines += ["", "Tests: t-tests at 90 % (alpha 0.10), each part reading a phrase of the chapter (quoted in the "
-              "claim, and in docs/claims.md). Welch's one-sided for \"significantly higher\"/\"lower\" between "
-              "controllers, experiments, or early and late samples (section 1.4's traversal and target times), "
-              "paired one-sided within the same trials (a state against another, a period against another); "
-              "\"not significantly different\" as equivalence, two one-sided tests (TOST) within the smallest "
-              "difference of the same kind the chapter calls significant (2.5 points of a state's share; 3.8 % of "
-              "performance), which holds when both reject, fails when a two-sided test finds a difference, and is "
-              "undecided otherwise; claim 4's \"closely aligned\" as Cohen's w below 0.3, with the chapter's "
-              "\"though the differences are statistically significant\" reported beside it; claim 9's relative "
-              "increase and utilities compare means without a test, as the chapter does. What a claim's reading "
-              "needs and the chapter does not state as a finding is reported beside the verdict, never in it. A "
-              "claim holds only if every part does; the p shown is that of the part that decides the verdict, "
-              "named beside it: of a claim not reproduced, the failing part furthest from holding, of a claim "
-              "reproduced, the part closest to failing. A part whose t cannot be computed (one trial, no spread "
-              "in either sample) or an equivalence the trials show neither way leaves its claim inconclusive, "
-              "unless another part decides against it. Each claim is tested on one run of its experiment: the "
-              "folder named after it, else the first by name (*The runs in this folder* lists every run). The "
-              "rules are in `tavc_cli/analysis/claims.py`.", ""]
+    lines += method_lines()
     model_json = find_model(experiments)
     read = base.read
     if long is not None:
-        lines += horizons.time_scale_lines(results_dir, long, model_json, base)
+        lines += time_scale_lines(results_dir, long, model_json, base)
     lines += surrogate_lines(results_dir)
     lines += compare_lines(results_dir)
     try:
-        with _FigurePool() as pool:
+        with FigurePool() as pool:
             # the sections that draw figures are written side by side while the rest of the text is
             ratio = pool.submit(value_ratio_lines, results_dir, model_json)
             figures = {name: pool.submit(spatiotemporal_lines, name, d, read[name][0], results_dir)
@@ -225,38 +205,9 @@ def build_report(results_dir: Path) -> dict:
         # next report replaces it rather than refusing it
         list_figures(taken)
         raise
-    lines += ["## The same tests on the chapter's own tables", "",
-              "Applied to the chapter's printed means, stds and trial counts (20 TAVC and 20 random trials "
-              "for Table 1.2; 20 TAVC trials for Tables 1.3-1.5 and, for Table 1.3's random column, whose count "
-              "the chapter does not give, Table 1.2's 20; claim 8 is tested against Table 1.3's random, the only "
-              "five-robot random run printed; 15 and 15 for Table 1.6), the tests above say whether the "
-              "chapter's own numbers carry its claims (observations, reported beside a claim and not tested "
-              "for it, are marked):", ""]
-    for c in chapter_checks():
-        verdict = "holds" if c["holds"] else ("fails" if c["holds"] is False else
-                                              "undecided" if math.isfinite(c["p_value"]) else "not testable")
-        numbers = (f"t = {fmt(c['statistic'], '.2f')}, p = {fmt(c['p_value'], '.3g')}"
-                   if math.isfinite(c["p_value"]) else f"{c['statistic']:.3g}")
-        aside = "observation, " if c.get("observation") else ""
-        lines.append(f"- claim {c['claim_id']}, {aside}{c['test']}: {numbers}, **{verdict}**")
+    lines += chapter_check_lines()
     lines += ["", *run_list_lines(results_dir, base, long)]
-    lines += ["## How the chapter's gaps are read", "",
-              "- Layout: the sources on one long wall, the sinks in the opposite order on the other, so the two "
-              "circuits cross mid-arena (a reading of the lost Figure 1.5's labels).",
-              "- Unit of t in r = w / t: milliseconds (`tasks.time_unit`).",
-              "- Docking: reconstructed and chosen by `tavc calibrate` from static allocations only "
-              "(`conf/world/calibrated.yaml` records the choice and the search behind it).",
-              "- Runs that start from a converged state learn it within the same trial first (`sim.warmup_s`).",
-              "- Section 1.4 prints no learning parameters: its learners use sections 1.5/1.6's (alpha 0.1, "
-              "gamma 0.95, initial Q in [-0.1, 0.1], softmax tau 0.005) with the task value 2000 and t in ms; "
-              "the first bit is any bar-code in the laser's view; the state is read every control tick and a "
-              "behaviour chosen when it changes (`learner.decide_on_change`).",
-              "- Traversal (sink to source to sink) and target time (between arrivals at either kind of "
-              "target) as section 1.4 defines them, though its Table 1.1 fits one arrival per traversal.",
-              "- Table 1.6's difference columns are computed against the theory row, as every printed row is "
-              "(its header names the random runs); claim 9's relative increase likewise. Its text's optimal "
-              "state 0:3 is read as its table's 3:0 (all fast robots on the high-value circuit).",
-              ""]
+    lines += gaps_lines()
     write_text_atomic(results_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
     if long is not None:
         write_text_atomic(long.folder / "claims.csv", long.claims.to_csv(index=False, float_format="%.6g"))
@@ -423,43 +374,3 @@ def _experiment_section(name: str, d: Path, base: horizons.Horizon, figures: dic
     lines += vacancy_lines(d)
     lines += run_lines(name, cfg, prov, claims, runs)
     return lines
-
-
-class _FigurePool:
-    """Processes that draw figures while the report is written (forked, where the system
-    forks; elsewhere each figure is drawn when submitted)."""
-
-    def __enter__(self):
-        self.pool = None
-        if sys.platform.startswith("linux") and (os.cpu_count() or 1) > 1:
-            import multiprocessing as mp
-
-            self.pool = ProcessPoolExecutor(max_workers=min(2, os.cpu_count() or 1), mp_context=mp.get_context("fork"),
-                                            initializer=_figure_worker_start)
-        return self
-
-    def submit(self, fn, *args) -> Future:
-        if self.pool is not None:
-            return self.pool.submit(fn, *args)
-        done: Future = Future()
-        done.set_result(fn(*args))
-        return done
-
-    def __exit__(self, kind, *exc) -> None:
-        if self.pool is not None and kind is not None:  # Ctrl-C, SIGTERM, an error: the figures stop now
-            from tavc_cli.experiments.pool import stop_workers
-
-            stop_workers(self.pool)
-        elif self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _figure_worker_start() -> None:
-    """A figure process leaves Ctrl-C to the report (which stops it), rather than printing a
-    traceback of its own, and dies on SIGTERM and with the report."""
-    import signal
-
-    from tavc_cli.experiments.pool import worker_start
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    worker_start()
