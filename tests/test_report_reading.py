@@ -249,7 +249,7 @@ def test_two_runs_of_one_experiment_side_by_side_are_both_reported(tmp_path):
 
 
 def test_the_lane_heat_map_has_a_colour_bar_for_every_panel():
-    from tavc_cli.viz.figures import lane_fig, plt
+    from tavc_cli.viz.spatial import lane_fig, plt
 
     cells = [{"window": w, "direction": d, "x_m": x, "y_m": y, "count": 1 + x + y}
              for w in ("early", "late") for d in ("to_sink", "to_source") for x in (0.5, 1.0, 1.5) for y in (0.5, 1.0)]

@@ -119,7 +119,7 @@ def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame,
     """Fast and slow robots: the f:s grids (Figure 1.12's kind), TAVC against the theory row (1.13's),
     each speed group on the high-value circuit over time, and the Q-values of trial 0."""
     from tavc_cli.reference import chapter_table
-    from tavc_cli.viz.figures import group_difference_figure, group_state_figure, specialisation_figure
+    from tavc_cli.viz.groups import group_difference_figure, group_state_figure, specialisation_figure
 
     label = label or name
     table = state_table_id(name)

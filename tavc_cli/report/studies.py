@@ -80,7 +80,7 @@ def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path,
     from tavc_cli.analysis.spatiotemporal import target_time_curve
     from tavc_cli.reference import chapter_table
     from tavc_cli.report.figures import figure_link
-    from tavc_cli.viz.figures import lane_figure, target_time_figure
+    from tavc_cli.viz.spatial import lane_figure, target_time_figure
 
     ours = pd.read_csv(d / "table_1_1.csv")
     chapter = chapter_table("1.1")

@@ -11,9 +11,8 @@
 - the learners' Q-values over time, robot by robot, for one trial;
 - the share of robots on the high-value circuit against the learning-value ratio, per
   horizon and reading, with the model's prediction;
-- for fast and slow robots (section 1.6): f:s state shares as grids (Figure 1.12), TAVC's
-  difference from the theory row, absolute and relative (Figure 1.13), and each speed
-  group's share on the high-value circuit over time.
+- for fast and slow robots (section 1.6), in `groups`; section 1.4's target times and
+  lanes, in `spatial`.
 
 Every error bar and band says what it is and over how many trials (in its legend entry), and
 is cut where the quantity ends: a share at 0 and at 100 % (or 1), a rate, a count or a time at
@@ -176,7 +175,8 @@ def _over_time(frame: pd.DataFrame, mean: str, std: str, convergence_s: float, e
     return fig, ax
 
 
-def _finish(fig, ax, title: str, out_stem: Path) -> list[Path]:
+def finish_figure(fig, ax, title: str, out_stem: Path) -> list[Path]:
+    """Title, legend and layout of a one-panel figure, then saved (`save_figure`)."""
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -188,7 +188,7 @@ def performance_figure(perf: pd.DataFrame, convergence_s: float, event: bool, ti
     """Score per second over time (ks), mean and one-std band per controller."""
     fig, ax = _over_time(perf, "mean", "std", convergence_s, event, "score value delivered per second")
     ax.set_ylim(bottom=0.0)
-    return _finish(fig, ax, title, out_stem)
+    return finish_figure(fig, ax, title, out_stem)
 
 
 def allocation_figure(alloc: pd.DataFrame, predicted: Sequence[tuple[float, float, str, float]],
@@ -201,7 +201,7 @@ def allocation_figure(alloc: pd.DataFrame, predicted: Sequence[tuple[float, floa
         ax.hlines(value, a / 1000.0, b / 1000.0, colors="k", linestyles=":", lw=2,
                   label="the model's prediction" if k == 0 else None)
         ax.text(a / 1000.0, value + 0.05, label, fontsize=8)
-    return _finish(fig, ax, title, out_stem)
+    return finish_figure(fig, ax, title, out_stem)
 
 
 def q_value_figure(q: pd.DataFrame, robots: pd.DataFrame | None, high: int, convergence_s: float,
@@ -281,158 +281,6 @@ def value_ratio_figure(points: pd.DataFrame, predicted: pd.DataFrame | None, cha
     ax.set_title(title, fontsize=10)
     fig.tight_layout()
     return save_figure(fig, out_stem)
-
-
-def _grid(states: Sequence[str], values: Sequence[float]) -> np.ndarray:
-    """f:s states and their numbers as a 2-D array: rows f (fast robots high), columns s (slow)."""
-    pairs = [tuple(int(x) for x in s.split(":")) for s in states]
-    grid = np.full((max(f for f, _ in pairs) + 1, max(s for _, s in pairs) + 1), np.nan)
-    for (f, s), v in zip(pairs, values, strict=True):
-        grid[f, s] = v
-    return grid
-
-
-def _heat_panels(panels: Sequence[tuple[str, np.ndarray]], cmap: str, symmetric: bool, fmt: str, label: str,
-                 title: str, out_stem: Path, limit: float | None = None) -> list[Path]:
-    """Panels of f:s grids side by side, one colour scale (saturating at `limit` if given), each
-    cell annotated with its number."""
-    cols = max(1, min(2, len(panels)))
-    rows_ = max(1, -(-len(panels) // cols))
-    fig, axes = plt.subplots(rows_, cols, figsize=(4.4 * cols, 3.8 * rows_), squeeze=False, constrained_layout=True)
-    finite = np.concatenate([g[np.isfinite(g)].ravel() for _, g in panels]) if panels else np.zeros(0)
-    hi = float(np.max(np.abs(finite))) if len(finite) else 1.0
-    hi = min(hi, limit) if limit is not None else hi
-    hi = hi if hi > 0 else 1.0
-    vmin, vmax = (-hi, hi) if symmetric else (0.0, hi)
-    image = None
-    for k, (name, grid) in enumerate(panels):
-        ax = axes[k // cols][k % cols]
-        image = ax.imshow(grid, origin="lower", cmap=cmap, vmin=vmin, vmax=vmax)
-        for (f, s), v in np.ndenumerate(grid):
-            if np.isfinite(v):
-                ax.text(s, f, format(v, fmt), ha="center", va="center", fontsize=8)
-        ax.set_xticks(range(grid.shape[1]))
-        ax.set_yticks(range(grid.shape[0]))
-        ax.set_xlabel("slow robots on the high-value circuit")
-        ax.set_ylabel("fast robots on it")
-        ax.set_title(name, fontsize=9)
-    for k in range(len(panels), rows_ * cols):
-        axes[k // cols][k % cols].set_visible(False)
-    if image is not None:
-        fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.8, label=label)
-    fig.suptitle(title, fontsize=10)
-    return save_figure(fig, out_stem)
-
-
-def group_state_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: str,
-                       out_stem: Path) -> list[Path]:
-    """Figure 1.12's kind: % of the stable period in each f:s state, TAVC and random, ours and the chapter's."""
-    panels = []
-    for ctrl in ("tavc", "random"):
-        rows = state_time[state_time["controller"] == ctrl]
-        if len(rows):
-            panels.append((f"{LABELS.get(ctrl, ctrl)}, ours", _grid(rows["state"], rows["mean_pct"])))
-        if chapter is not None and f"{ctrl}_mean_pct" in chapter:
-            panels.append((f"{LABELS.get(ctrl, ctrl)}, the chapter", _grid(chapter["state"],
-                                                                              chapter[f"{ctrl}_mean_pct"])))
-    return _heat_panels(panels, "viridis", False, ".1f", "% of the stable period", title, out_stem)
-
-
-def group_difference_figure(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: str,
-                            out_stem: Path) -> list[Path]:
-    """Figure 1.13's kind: TAVC's share minus the binomial theory row's per f:s state, and that
-    difference over the theory row's share (what every row of the chapter's Table 1.6 prints,
-    though its header names the random runs), ours and the chapter's from its means."""
-    panels_abs, panels_rel = [], []
-    means = state_time.pivot_table(index="state", columns="controller", values="mean_pct", sort=False)
-    sources = []
-    if {"tavc", "theory"} <= set(means.columns):
-        sources.append(("ours", list(means.index), means["tavc"].to_numpy(float), means["theory"].to_numpy(float)))
-    if chapter is not None and {"tavc_mean_pct", "theory_pct"} <= set(chapter.columns):
-        sources.append(("the chapter", list(chapter["state"]), chapter["tavc_mean_pct"].to_numpy(float),
-                        chapter["theory_pct"].to_numpy(float)))
-    for name, states, vc, t in sources:
-        panels_abs.append((f"TAVC - theory (% points), {name}", _grid(states, vc - t)))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            panels_rel.append((f"(TAVC - theory) / theory, {name}", _grid(states, np.where(t > 0, (vc - t) / t,
-                                                                                          np.nan))))
-    stem = Path(out_stem)
-    paths = _heat_panels(panels_abs, "coolwarm", True, ".1f", "% points", title + ": difference", stem)
-    paths += _heat_panels(panels_rel, "coolwarm", True, ".2f", "relative difference (colours saturate at 1)",
-                          title + ": relative difference", stem.with_name(stem.name + "_relative"), limit=1.0)
-    return paths
-
-
-def specialisation_figure(spec: pd.DataFrame, convergence_s: float, title: str, out_stem: Path) -> list[Path]:
-    """Share of each speed group's robots on the high-value circuit over time, per controller."""
-    fig, ax = plt.subplots(figsize=(7.5, 4.0))
-    styles = ["-", "--", ":", "-."]
-    for (ctrl, group), rows in spec.groupby(["controller", "group"], sort=False):
-        t = rows["t_s"].to_numpy(float) / 1000.0
-        m, s = rows["mean_share_high"].to_numpy(float), rows["std_share_high"].to_numpy(float)
-        ls = styles[list(dict.fromkeys(spec["group"])).index(group) % len(styles)]
-        n = f" (mean, band ± std over {n_text(rows['n_trials'])})" if "n_trials" in rows else ""
-        ax.plot(t, m, color=COLOURS.get(ctrl), ls=ls, label=f"{LABELS.get(ctrl, ctrl)}, {group} robots{n}")
-        ax.fill_between(t, *clipped_band(m, s, 0.0, 1.0), color=COLOURS.get(ctrl), alpha=0.10, lw=0)
-    if convergence_s > 0:
-        ax.axvline(convergence_s / 1000.0, color="k", ls="--", lw=1, label="end of convergence period")
-    ax.axhline(0.5, color="0.6", lw=1)
-    ax.set_ylim(0.0, 1.0)
-    ax.set_xlabel("time (1000 s)")
-    ax.set_ylabel("share of the group on the high-value circuit")
-    return _finish(fig, ax, title, out_stem)
-
-
-def target_time_figure(curve: pd.DataFrame, chapter: pd.DataFrame | None, title: str, out_stem: Path) -> list[Path]:
-    """Figure 1.4's kind: the group's target time, smoothed over 10 arrivals, against arrivals,
-    mean and one-std band over trials; the chapter's Table 1.1 target-time means as stars."""
-    fig, ax = plt.subplots(figsize=(7.5, 4.0))
-    m, mu, sd = (curve[c].to_numpy(float) for c in ("m_arrivals", "mean_target_s", "std_target_s"))
-    n = n_text(curve["n_trials"]) if "n_trials" in curve else "trials"
-    ax.plot(m, mu, color=COLOURS["tavc"], label=f"TAVC: mean, band ± std over {n}")
-    ax.fill_between(m, *clipped_band(mu, sd, 0.0), color=COLOURS["tavc"], alpha=0.15, lw=0)
-    if chapter is not None:
-        ax.plot(chapter["m_arrivals"], chapter["mean_target_s"], "k*", ms=9, label="the chapter (Table 1.1)")
-    ax.set_xlabel("target arrivals of the group, m")
-    ax.set_ylabel("target time (s), mean of 10")
-    ax.set_ylim(bottom=0.0)
-    return _finish(fig, ax, title, out_stem)
-
-
-def lane_figure(occupancy: pd.DataFrame, source_xy, sink_xy, title: str, out_stem: Path) -> list[Path]:
-    """Where the robots drive: pose frames per cell (log scale), heading toward the sink and
-    toward the source, early and late in the run, each panel scaled to its own maximum and
-    given its own colour bar (`lane_fig`)."""
-    return save_figure(lane_fig(occupancy, source_xy, sink_xy, title), out_stem)
-
-
-def lane_fig(occupancy: pd.DataFrame, source_xy, sink_xy, title: str):
-    """`lane_figure`'s figure, unsaved: a panel per window and direction, each with its colour bar."""
-    windows = list(dict.fromkeys(occupancy["window"]))
-    directions = [("to_sink", "heading to the sink"), ("to_source", "heading to the source")]
-    fig, axes = plt.subplots(len(windows), 2, figsize=(9.5, 3.4 * len(windows)), squeeze=False,
-                             constrained_layout=True)
-    for i, w in enumerate(windows):
-        for j, (d, label) in enumerate(directions):
-            g = occupancy[(occupancy["window"] == w) & (occupancy["direction"] == d)]
-            xs, ys = np.sort(g["x_m"].unique()), np.sort(g["y_m"].unique())
-            grid = g.pivot_table(index="y_m", columns="x_m", values="count").reindex(index=ys, columns=xs)
-            cell = float(xs[1] - xs[0]) if len(xs) > 1 else 1.0
-            ax = axes[i][j]
-            # log scale: robots standing still pile up frames in one cell
-            image = ax.imshow(np.log1p(grid.to_numpy(float)), origin="lower", cmap="magma", aspect="equal",
-                              extent=(xs[0] - cell / 2, xs[-1] + cell / 2, ys[0] - cell / 2, ys[-1] + cell / 2))
-            # each panel has its own scale, so each has its own bar
-            fig.colorbar(image, ax=ax, shrink=0.85, label="ln(1 + pose frames in the cell)")
-            ax.plot([source_xy[0], sink_xy[0]], [source_xy[1], sink_xy[1]], color="c", ls=":", lw=1)
-            ax.annotate("", xy=(0.9, 0.08), xytext=(0.6, 0.08), xycoords="axes fraction",
-                        arrowprops={"arrowstyle": "->", "color": "w"} if d == "to_sink" else
-                        {"arrowstyle": "<-", "color": "w"})
-            ax.set_title(f"{w} tenth of the run, {label}", fontsize=9)
-            ax.set_xlabel("x (m)")
-            ax.set_ylabel("y (m)")
-    fig.suptitle(title, fontsize=10)
-    return fig
 
 
 def horizon_state_figure(base: pd.DataFrame, long: pd.DataFrame, chapter: pd.DataFrame | None, factor: float,
