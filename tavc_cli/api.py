@@ -41,6 +41,7 @@ class Results:
             raise TavcError(f"{self.path}: not a results folder of tavc run (no config.yaml in it)")
 
     def __repr__(self) -> str:
+        """``Results('<path>')``."""
         return f"Results({str(self.path)!r})"
 
     def table(self, name: str) -> pd.DataFrame:

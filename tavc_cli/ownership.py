@@ -125,6 +125,7 @@ class Owned:
                     path.unlink(missing_ok=True)
 
     def save(self) -> None:
+        """Write the manifest: the kind of folder and the files tavc wrote."""
         write_text_atomic(self.folder / MANIFEST, json.dumps(
             {"tavc": self.kind, "files": sorted(self.files)}, indent=1) + "\n")
 

@@ -107,6 +107,7 @@ def write_perf_map(dispatchers, pid: int | None = None) -> tuple[Path, int]:
 
 
 def group_of(dso: str, symbol: str) -> str:
+    """The `GROUPS` name of the first pattern matching the library and symbol, else ``other``."""
     where = f"{dso} {symbol}"
     for name, pattern in GROUPS:
         if re.search(pattern, where):

@@ -7,7 +7,6 @@ import re
 import numpy as np
 import pandas as pd
 import pytest
-
 from scipy import stats
 
 from tavc_cli.analysis import claims as C

@@ -21,8 +21,6 @@ from tavc_cli.experiments.records import TrialRecord
 from tests.records import greedy_snapshots, table
 
 
-
-
 def _record(*, n_robots=2, values=(2.0, 1.0), duration_s=100.0, arrivals=(), breakdowns=(), deliveries=(),
             choices=(), q_t=(), q=None, groups=None, controller="tavc", trial=0):
     """A TrialRecord: arrivals (t, robot, circuit), breakdowns (t, robot), deliveries as dicts

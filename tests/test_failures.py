@@ -103,7 +103,8 @@ def test_a_pose_that_is_not_a_number_stops_only_its_trial(tmp_path, monkeypatch,
     assert line.startswith(f"error: trial random_001 (seed {list(seed)}) failed: robot 0 has no valid pose at t = ")
     assert f"the other 3 trials are kept in {tmp_path / 'trials'}" in line
     # the other trials are kept, nothing of the run's analysis is written
-    assert _files(tmp_path) == [MANIFEST, "config.yaml", FAILURES_LOG, *[f"trials/random_{j:03d}.npz" for j in (0, 2, 3)]]
+    assert _files(tmp_path) == [MANIFEST, "config.yaml", FAILURES_LOG,
+                                *[f"trials/random_{j:03d}.npz" for j in (0, 2, 3)]]
     assert "random_001" in (tmp_path / FAILURES_LOG).read_text()
     monkeypatch.undo()
     _assert_recovers(tmp_path, reference, n_reused=3)

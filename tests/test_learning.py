@@ -267,8 +267,8 @@ def test_the_registry_keeps_every_learners_label_and_seed_code():
     from tavc_cli.learning.registry import AVAILABLE, BASELINES, LEARNERS, SEED_CODES, controller_label
 
     # the seed codes are part of every trial's seed: these values are what finished trials were run with
-    assert SEED_CODES == {"tavc": 0, "random": 1, "static": 2, "behaviour": 3, "alternate": 4, "wolf_phc": 5, "threshold": 6,
-                          "model": 7, "informed": 8}
+    assert SEED_CODES == {"tavc": 0, "random": 1, "static": 2, "behaviour": 3, "alternate": 4, "wolf_phc": 5,
+                          "threshold": 6, "model": 7, "informed": 8}
     assert controller_label("tavc_softmax") == controller_label("tavc_egreedy") == "tavc"
     assert BASELINES == ("random", "static", "alternate")
     assert set(AVAILABLE) <= set(LEARNERS)

@@ -22,8 +22,6 @@ from tavc_cli.experiments.records import TrialRecord
 from tests.records import table
 
 
-
-
 def _record(*, n_robots=3, values=(2.0, 1.0), duration_s=100.0, breakdowns=(), deliveries=(), choices=(),
             value_changes=(), q_t=(), q=None, controller="tavc", trial=0):
     """A TrialRecord: breakdowns (t, robot), deliveries as dicts, choices (t, robot, state, circuit),

@@ -192,7 +192,8 @@ def test_a_folder_that_only_looks_like_a_run_is_not_taken_for_one(tmp_path):
 
 def test_only_tavcs_own_half_written_files_are_removed(finished, tmp_path):
     out = _copy(finished, tmp_path)
-    for name in (".notes.tmp", "trials/.keep.tmp", ".state_time.csv.abcd1234.tmp", "trials/.random_000.npz.x1y2z3_4.tmp"):
+    for name in (".notes.tmp", "trials/.keep.tmp", ".state_time.csv.abcd1234.tmp",
+                 "trials/.random_000.npz.x1y2z3_4.tmp"):
         (out / name).write_text("half\n")
     run_experiment(_cfg(out))
     assert (out / ".notes.tmp").is_file() and (out / "trials/.keep.tmp").is_file()  # somebody else's
@@ -246,10 +247,10 @@ def test_the_api_says_when_a_run_did_not_finish_or_its_config_is_damaged(finishe
     (out / "provenance.json").unlink()  # as an interrupted overwrite=true run leaves it
     with pytest.raises(TavcError, match=r"its run did not finish \(no provenance.json\), so its tables may be "
                                         r"another run's"):
-        api.load(out).state_time
+        _ = api.load(out).state_time
     (out / "config.yaml").write_text("seed: [0\n")
     with pytest.raises(TavcError, match=r"config.yaml: cannot be read \("):
-        api.load(out).config
+        _ = api.load(out).config
 
 
 def test_the_report_never_replaces_a_figure_it_did_not_draw(finished, tmp_path):

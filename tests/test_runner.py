@@ -10,8 +10,8 @@ from typer.testing import CliRunner
 from tavc_cli.analysis.states import state_intervals, theory_pct
 from tavc_cli.cli import app
 from tavc_cli.config import load_config, settings
-from tavc_cli.experiments.build import trial_specs
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord, records_differ
 from tavc_cli.experiments.store import trial_path
 from tavc_cli.pipeline import run_experiment

@@ -16,7 +16,6 @@ from pathlib import Path
 
 import pytest
 import yaml
-
 from typer.testing import CliRunner
 
 from tavc_cli import config
@@ -24,7 +23,6 @@ from tavc_cli.cli import app
 from tavc_cli.errors import TavcError
 from tavc_cli.model.api import model_identity
 from tavc_cli.ownership import recorded_differences, refuse_other_settings
-
 
 REPO = Path(__file__).resolve().parent.parent
 SMOKE = yaml.safe_load((REPO / "conf" / "scale" / "smoke.yaml").read_text())
@@ -180,8 +178,9 @@ def test_the_quickstart_runs_as_printed_and_leaves_git_status_clean(tmp_path):
             pattern = re.sub(r"<[^>]+>", "*", folder.rstrip(",.;:").rstrip("/"))
             assert list(clone.glob(pattern)), f"tavc {' '.join(args)} did not write {folder} as the README says"
     # the three ways an earlier version replaced committed results, each refused in one line
-    refused = [tavc("run", "experiment=initial_distribution", "scale=smoke", "output_dir=results/initial_distribution"),
-               tavc("model", "experiment=initial_distribution", "scale=smoke", "output_dir=results/initial_distribution"),
+    into = "output_dir=results/initial_distribution"
+    refused = [tavc("run", "experiment=initial_distribution", "scale=smoke", into),
+               tavc("model", "experiment=initial_distribution", "scale=smoke", into),
                tavc("calibrate", "scale=smoke", "--save")]
     for done in refused:
         assert done.returncode == 1 and done.stderr.strip().startswith("error: ") and "overwrite=true" in done.stderr

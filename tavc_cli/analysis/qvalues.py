@@ -35,6 +35,7 @@ THIN_TOL_S = 1e-6
 
 
 def q_columns(n_states: int, n_actions: int) -> list[str]:
+    """The Q-value columns of `q_value_table`, `q_<state>_<action>`, state by state."""
     return [f"q_{s}_{a}" for s in range(n_states) for a in range(n_actions)]
 
 

@@ -24,6 +24,10 @@ COLUMNS = ["controller", "trial", "robot", "kind", "circuit", "n_choices", "shar
 
 
 def robot_rows(rec: TrialRecord, t_from: float, t_to: float) -> list[dict]:
+    """One row per robot of `rec` (`COLUMNS`) over its choices in [t_from, t_to): how many, the
+    share of the circuit it chose most, how often its choice left the circuit it had served, and its
+    kind (idle below `MIN_CHOICES` choices, else stayer, alternator or mixed; a stayer's
+    circuit)."""
     c = rec.table("choices")
     rows = []
     for robot in range(int(rec.meta["n_robots"])):

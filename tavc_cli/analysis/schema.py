@@ -74,6 +74,8 @@ class RunFacts:
 
     @classmethod
     def of(cls, cfg: TavcConfig, provenance: dict | None, folder: Path) -> RunFacts:
+        """The facts of the run in `folder` from its config and its `provenance.json` (None where it
+        has none)."""
         from tavc_cli.analysis.states import group_order
 
         members = cfg.team.members or []

@@ -52,9 +52,11 @@ class Part:
 
     @property
     def question(self) -> str:
+        """The claim's part this outcome answers: its `name`, else what was compared."""
         return self.name or self.what
 
     def text(self) -> str:
+        """One line for the report: the statistic, p and the verdict (or why there is none)."""
         if self.holds is None and math.isfinite(self.p_value):  # tested, but the trials decide nothing
             return (f"{self.what}: t = {self.statistic:.3f}, p = {self.p_value:.4g} (undecided"
                     + (f": {self.reason})" if self.reason else ")"))

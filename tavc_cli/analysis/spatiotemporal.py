@@ -122,6 +122,7 @@ def policy_rows(rec: TrialRecord) -> list[dict]:
 
 
 def policy_table(records: Iterable[TrialRecord]) -> pd.DataFrame:
+    """`policy_rows` of every record, one row per robot."""
     return pd.DataFrame([r for rec in records for r in policy_rows(rec)])
 
 

@@ -226,6 +226,7 @@ def theory_pct(n_robots: int, n_circuits: int, scheme: str, group_sizes: Sequenc
 
 
 def alive_at_end(rec: TrialRecord) -> np.ndarray:
+    """Whether each robot of `rec` is still working at the end of its trial (not broken down)."""
     alive = np.ones(int(rec.meta["n_robots"]), dtype=bool)
     alive[rec.table("breakdowns")["robot"].astype(int)] = False
     return alive

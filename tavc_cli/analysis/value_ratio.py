@@ -43,6 +43,7 @@ def _runs(root: Path) -> list[Path]:
 
 
 def horizon_label(duration_s: float) -> str:
+    """A duration in hours as the tables label a horizon (`18000` -> ``5 h``)."""
     return f"{duration_s / 3600.0:g} h"
 
 

@@ -214,6 +214,9 @@ def build_laser(fov_deg: float, n_rays: int) -> Laser:
 
 
 def laser_from_angles(angle_rad: np.ndarray) -> Laser:
+    """A `Laser` with rays at `angle_rad` (relative to the heading, evenly spaced, ascending): their
+    cosines and sines, both numpy's and the C library's, and the fan's spacing, half-width and
+    whether it closes round the robot."""
     ang = np.asarray(angle_rad, dtype=np.float64)
     n = len(ang)
     spacing = float(ang[n - 1] - ang[0]) / (n - 1) if n > 1 else 1.0
@@ -224,6 +227,8 @@ def laser_from_angles(angle_rad: np.ndarray) -> Laser:
 
 
 def empty_scan(n_robots: int, n_rays: int) -> Scan:
+    """The readings before the first scan, one row per robot: ranges and kinds 0, no hit id, no
+    robot in view."""
     return Scan(np.zeros((n_robots, n_rays)), np.zeros((n_robots, n_rays), dtype=np.int8),
                 np.full((n_robots, n_rays), -1, dtype=np.int32), np.tile(np.array([0, 0, 0, -1]), (n_robots, 1)),
                 np.zeros((n_robots, 2)))

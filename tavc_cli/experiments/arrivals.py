@@ -45,6 +45,8 @@ class ArrivalDesk:
 
     def __init__(self, trials: Sequence[TrialState], arena: Arena, robots: np.ndarray, act_s: np.ndarray,
                  dt: float) -> None:
+        """The desk of the batch's `trials` in `arena`, its robots `robots` (their `act_s` the
+        activity seconds), on a control period of `dt` seconds."""
         self.trials, self.dt, self.act_s = trials, dt, act_s
         n = len(robots)
         self.act_at_task = np.zeros_like(act_s)  # each robot's activity seconds as its task began

@@ -33,6 +33,7 @@ class Batch:
 
     @property
     def sim_seconds(self) -> float:
+        """The seconds the batch's trials simulate, added up: its weight in the progress shown."""
         return sum(s.span_s for s in self.specs)
 
 

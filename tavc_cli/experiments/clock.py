@@ -45,10 +45,13 @@ class Schedule:
     anything next falls due in the batch (those, or a scheduled event)."""
 
     def __init__(self, trials: Sequence[TrialState]) -> None:
+        """The first snapshot and pose frame of each trial that takes them, due at 0 on its clock;
+        `next_due` is set by `update`."""
         # on the trials' clock, which starts at 0 with the warm-up
         self.next_q = [0.0 if tr.spec.q_snapshot_every_s > 0 else math.inf for tr in trials]
         self.next_pose = [0.0 if tr.spec.pose_every_s > 0 else math.inf for tr in trials]
         self.next_due = -math.inf
 
     def update(self, trials: Sequence[TrialState]) -> None:
+        """Set `next_due` to the earliest of the trials' next snapshots, pose frames and events."""
         self.next_due = min(min(self.next_q), min(self.next_pose), min(tr.next_event_time() for tr in trials))

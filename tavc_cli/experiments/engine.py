@@ -70,6 +70,8 @@ class BatchEngine:
     """Runs trials of one arena and robot model side by side, tick by tick."""
 
     def __init__(self, specs: Sequence[TrialSpec]) -> None:
+        """A batch of `specs`, which must share the arena, the robot model and the time step: their
+        trials' book-keeping, one physics world and the kernel's arrays."""
         if not specs:
             raise ValueError("a batch needs at least one trial")
         first = specs[0]

@@ -5,6 +5,7 @@ from enum import IntEnum
 
 
 class EventKind(IntEnum):
+    """An event's kind, numbered in the order events of one instant apply."""
     BREAKDOWN = 0     # a robot is removed
     VALUE_CHANGE = 1  # the circuits' learning values change
     ARRIVAL = 2       # a robot reaches a source or sink (its last circuit changes)

@@ -26,7 +26,7 @@ from tavc_cli.experiments.store import BatchResult, simulate_contained
 
 def probe(backend: str, address: str | None, timeout_s: float = 5.0) -> None:
     """Stop with one line if `address` names a host and port nobody answers on; called before
-    a run writes anything. (``auto`` and other addresses without a port are left to the backend.)"""
+    a run writes anything; ``auto`` and other addresses without a port are left to the backend."""
     if not address:
         return
     parts = urlsplit(address if "://" in address else f"tcp://{address}")

@@ -58,6 +58,7 @@ class Progress:
                       "(about 20 s); later runs load them from the cache")
 
     def __init__(self, batches: list[Batch], shown: bool) -> None:
+        """Progress over `batches`, shown only if `shown` and there is something to simulate."""
         self.weights = {(b.controller, b.index): b.sim_seconds for b in batches}
         self.total = total_s = sum(self.weights.values())
         self.done: dict = {}
@@ -88,6 +89,7 @@ class Progress:
             print(line, flush=True)
 
     def update(self, key, frac: float) -> None:
+        """Batch `key` is `frac` done: move the bar, or print a line if the last is old enough."""
         self.done[key] = frac * self.weights[key]
         if not self.shown:
             return
@@ -113,6 +115,7 @@ class Progress:
         return f"{text}, eta {left:,.0f} s"
 
     def close(self) -> None:
+        """Stop the compiling notice and the bar."""
         if self.notice is not None:
             self.notice.cancel()
         if self.bar is not None:
@@ -289,6 +292,7 @@ def die_with_parent(parent: int | None = None) -> None:
 
 
 def batch_names(batch: Batch) -> str:
+    """The batch's trials by name, ``tavc_000`` or ``tavc_000 to tavc_003``, for messages."""
     first, last = batch.specs[0], batch.specs[-1]
     return f"{first.controller}_{first.trial:03d}" + (f" to {last.controller}_{last.trial:03d}"
                                                      if len(batch.specs) > 1 else "")

@@ -70,6 +70,7 @@ class TrialRecord:
     derived: dict = field(default_factory=dict, repr=False, compare=False)
 
     def table(self, name: str) -> dict[str, np.ndarray]:
+        """The columns of table `name` (one of `TABLES`)."""
         return self.tables[name]
 
     @property
@@ -98,6 +99,7 @@ class TrialRecord:
 
     @classmethod
     def load(cls, path: Path) -> TrialRecord:
+        """The record saved at `path` (`save`)."""
         with np.load(path, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             tables: dict[str, dict[str, np.ndarray]] = {}
@@ -115,12 +117,15 @@ class TableBuilder:
     """Appends rows to named tables during a run; arrays are made once at the end."""
 
     def __init__(self) -> None:
+        """Every table of `TABLES`, empty."""
         self.rows: dict[str, list[tuple]] = {name: [] for name in TABLES}
 
     def add(self, name: str, *row) -> None:
+        """Append `row` (one value per column) to table `name`."""
         self.rows[name].append(row)
 
     def build(self) -> dict[str, dict[str, np.ndarray]]:
+        """Every table as columns of arrays (float64 or int64 as `TABLES` types them)."""
         out = {}
         for name, cols in TABLES.items():
             rows = self.rows[name]

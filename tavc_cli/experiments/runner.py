@@ -19,9 +19,9 @@ from pathlib import Path
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec, code_digest
-from tavc_cli.learning.plugins import target_digest, target_files
 from tavc_cli.experiments.store import Executor, TrialStore, trial_path
 from tavc_cli.io import file_digest, write_text_atomic
+from tavc_cli.learning.plugins import target_digest, target_files
 from tavc_cli.settings import TavcConfig
 
 _PACKAGES = ("numpy", "scipy", "pandas", "pymunk", "numba", "hydra-core", "omegaconf", "typer", "matplotlib")

@@ -34,6 +34,7 @@ class Breakdown:
 
 @dataclass(frozen=True)
 class ValueChange:
+    """The circuits' learning values become `values` at `time_s`."""
     time_s: float
     values: tuple[float, ...]
 
@@ -70,6 +71,7 @@ class TrialSpec:
 
     @property
     def n_robots(self) -> int:
+        """The team's size: one robot per speed."""
         return len(self.speeds_mps)
 
     @property
@@ -85,6 +87,7 @@ class TrialSpec:
         return self.duration_s - self.t0_s
 
     def build_arena(self) -> Arena:
+        """The arena the trial runs in, built from its config."""
         return arena_from_config(self.arena)
 
     def key(self) -> str:

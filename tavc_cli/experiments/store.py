@@ -75,6 +75,7 @@ class TrialStore:
         self.executor = executor
 
     def path(self, spec: TrialSpec) -> Path:
+        """Where the record of `spec`'s trial is saved."""
         return trial_path(self.folder, spec.controller, spec.trial)
 
     def done(self, spec: TrialSpec) -> bool:
@@ -124,8 +125,8 @@ class TrialStore:
 
     def settle(self, failures: list[TrialFailure], n_specs: int) -> None:
         """Record the failed trials in `failures.log` and stop with one line naming the first.
-        (With none, the log an earlier run left is removed by whoever knows it is tavc's: the
-        pipeline, through `ownership`.)"""
+        With none, the log an earlier run left is removed by whoever knows it is tavc's: the
+        pipeline, through `ownership`."""
         log = self.folder / FAILURES_LOG
         if not failures:
             return
@@ -149,6 +150,7 @@ def _stands(path: Path, what: str) -> TavcError:
 
 
 def trial_path(out_dir: Path, controller: str, trial: int) -> Path:
+    """Where the record of `controller`'s trial number `trial` is saved below `out_dir`."""
     return out_dir / "trials" / f"{controller}_{trial:03d}.npz"
 
 
@@ -224,10 +226,12 @@ class TrialFailure:
 
     @classmethod
     def of(cls, spec: TrialSpec, message: str, detail: str = "") -> TrialFailure:
+        """The failure of `spec`'s trial, its message on one line."""
         return cls(spec.controller, spec.trial, tuple(spec.seed), " ".join(message.split()), detail)
 
     @property
     def name(self) -> str:
+        """The trial's name, as its record file is named: ``<controller>_<trial>``."""
         return f"{self.controller}_{self.trial:03d}"
 
     def report(self) -> str:

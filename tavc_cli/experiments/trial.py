@@ -24,6 +24,7 @@ class TrialFault(Exception):
     outside the walls): `index` is its place in the batch, the message says what and when."""
 
     def __init__(self, index: int, message: str) -> None:
+        """The fault of the batch's trial number `index`, told by `message`."""
         super().__init__(message)
         self.index = index
 
@@ -54,6 +55,8 @@ class TrialState:
     """Book-keeping of one trial inside a batch: tasks, policy, events, records."""
 
     def __init__(self, spec: TrialSpec, arena: Arena, lo: int) -> None:
+        """The state of `spec`'s trial in `arena`, its robots the batch's rows from `lo`: its seeded
+        streams, start poses, policy, tasks and tables."""
         self.spec = spec
         self.lo, self.hi = lo, lo + spec.n_robots
         ss = seed_sequence(spec.seed)

@@ -75,6 +75,9 @@ class BehaviourPolicy:
     def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, gamma: float, tau: float,
                  q_init: tuple[float, float], decision_period_s: float, rng: np.random.Generator,
                  decide_on_change: bool = True) -> None:
+        """Learners for `n_robots` robots, Q-tables drawn uniformly in `q_init`, each reading its
+        state every `decision_period_s` and deciding when it differs from its last choice's (every
+        time, without `decide_on_change`)."""
         self.n_states = n_circuits  # the task level's states: the circuit last served
         self.n_circuits = n_circuits
         self.alpha, self.gamma, self.tau = alpha, gamma, tau
@@ -91,12 +94,15 @@ class BehaviourPolicy:
 
     # --- the task level ------------------------------------------------------
     def choose(self, robot: int, state: int) -> int:
+        """A circuit drawn uniformly: these learners choose behaviours, not circuits."""
         return 0 if self.n_circuits == 1 else int(self.rng.integers(self.n_circuits))
 
     def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        """Nothing: the reward is learnt at the behaviour level (`arrived`)."""
         return None
 
     def q_tables(self) -> np.ndarray:
+        """A copy of the behaviour Q-tables, (n_robots, states, behaviours)."""
         return self.q.copy()
 
     # --- the behaviour level -------------------------------------------------

@@ -45,6 +45,8 @@ class ModelPolicy(StaticPolicy):
 
     def __init__(self, allocations: Mapping[str, Sequence[int]], n_robots: int, n_circuits: int,
                  rng: np.random.Generator) -> None:
+        """The allocations the model gives each team size (robots per circuit, most valuable circuit
+        first), for `n_robots` robots on `n_circuits` circuits."""
         super().__init__([], n_circuits)
         self.allocations = {int(k): list(v) for k, v in allocations.items()}
         self.n_circuits = n_circuits
@@ -73,6 +75,8 @@ class InformedPolicy(ModelPolicy):
     fewest robots."""
 
     def on_event(self, alive: np.ndarray, values: np.ndarray) -> None:
+        """At the start as `ModelPolicy`; after, move the fewest robots (drawn at random from the
+        circuits over their share) to the circuits short of the live team's allocation."""
         if self.assignment is None:
             super().on_event(alive, values)
             return

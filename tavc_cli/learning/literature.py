@@ -31,6 +31,7 @@ class WolfPhcPolicy:
 
     def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, gamma: float, epsilon: float,
                  delta_win: float, delta_lose: float, rng: np.random.Generator) -> None:
+        """Learners for `n_robots` robots over `n_circuits` circuits (states and actions alike)."""
         self.n_states = n_circuits
         self.alpha, self.gamma, self.epsilon = alpha, gamma, epsilon
         self.delta_win, self.delta_lose = delta_win, delta_lose
@@ -41,6 +42,7 @@ class WolfPhcPolicy:
         self.visits = np.zeros((n_robots, n_circuits), dtype=np.int64)
 
     def choose(self, robot: int, state: int) -> int:
+        """An action drawn from pi(state), or uniformly with probability epsilon."""
         n = self.pi.shape[2]
         if self.rng.random() < self.epsilon:
             return int(self.rng.integers(n))
@@ -52,6 +54,7 @@ class WolfPhcPolicy:
         return n - 1
 
     def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        """The Q-update, then the average policy and the policy's step towards the greedy action."""
         q, pi, avg = self.q[robot], self.pi[robot], self.pi_avg[robot]
         q[state, action] += self.alpha * (reward + self.gamma * q[next_state].max() - q[state, action])
         self.visits[robot, state] += 1
@@ -69,6 +72,7 @@ class WolfPhcPolicy:
         pi[state, best] += given
 
     def q_tables(self) -> np.ndarray:
+        """A copy of the Q-tables, (n_robots, n_circuits, n_circuits)."""
         return self.q.copy()
 
 
@@ -86,6 +90,7 @@ class ThresholdPolicy:
 
     def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, theta_low: float, theta_high: float,
                  steepness: float, rng: np.random.Generator) -> None:
+        """Learners for `n_robots` robots, thresholds drawn uniformly in [theta_low, theta_high]."""
         self.n_states = n_circuits
         self.alpha, self.n = alpha, steepness
         self.rng = rng
@@ -94,16 +99,21 @@ class ThresholdPolicy:
         self.started = np.zeros(n_robots, dtype=bool)
 
     def stimulus(self, robot: int, circuit: int) -> float:
+        """The stimulus of `circuit` for `robot`: its running mean there over the mean of its
+        running means (1 while it has seen fewer than two, or has seen nothing there)."""
         seen = self.mean[robot][~np.isnan(self.mean[robot])]
         if len(seen) < 2 or np.isnan(self.mean[robot, circuit]) or seen.mean() <= 0:
             return 1.0
         return float(self.mean[robot, circuit] / seen.mean())
 
     def stay_probability(self, robot: int, circuit: int) -> float:
+        """T(s) = s^n / (s^n + theta^n): the chance that `robot` stays on `circuit`."""
         s, theta = self.stimulus(robot, circuit) ** self.n, float(self.theta[robot, circuit]) ** self.n
         return s / (s + theta) if s + theta > 0 else 0.5
 
     def choose(self, robot: int, state: int) -> int:
+        """The first task drawn uniformly; after, stay on `state` with the probability
+        `stay_probability`, else another circuit drawn uniformly."""
         n_circuits = self.mean.shape[1]
         if not self.started[robot]:
             self.started[robot] = True
@@ -114,8 +124,11 @@ class ThresholdPolicy:
         return int(others[self.rng.integers(len(others))])
 
     def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        """Move the running mean of the circuit served towards `reward` (the first reward taken
+        whole)."""
         m = self.mean[robot, action]
         self.mean[robot, action] = reward if np.isnan(m) else m + self.alpha * (reward - m)
 
     def q_tables(self) -> None:
+        """None: the model keeps no Q-table."""
         return None

@@ -175,6 +175,8 @@ class PluginLearner:
     a `KeyboardInterrupt` is the user's and passes), and its `q_tables()` checked for shape."""
 
     def __init__(self, learner: object, label: str, n_robots: int, n_circuits: int) -> None:
+        """Wrap `learner` (labelled `label` in messages) for `n_robots` robots on `n_circuits`
+        circuits; its `n_states` must be a positive integer."""
         self.learner, self.label = learner, label
         n_states = getattr(learner, "n_states", n_circuits)
         if isinstance(n_states, bool) or not isinstance(n_states, (int, np.integer)) or n_states < 1:
@@ -195,9 +197,11 @@ class PluginLearner:
                             f"{': ' + str(error) if str(error) else ''}") from None
 
     def choose(self, robot: int, state: int) -> object:
+        """The learner's own `choose`, its errors as one line."""
         return self._call("choose", robot, state)
 
     def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        """The learner's own `learn`, its errors as one line."""
         self._call("learn", robot, state, action, reward, next_state)
 
     def q_tables(self) -> np.ndarray | None:

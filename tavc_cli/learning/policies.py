@@ -21,28 +21,38 @@ class TaskPolicy(Protocol):
 
     n_states: int
 
-    def choose(self, robot: int, state: int) -> int: ...
+    def choose(self, robot: int, state: int) -> int:
+        """The circuit `robot` serves next, having last served `state`."""
+        ...
 
-    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None: ...
+    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        """The reward earned for taking `action` in `state`, which led to `next_state`."""
+        ...
 
-    def q_tables(self) -> np.ndarray | None: ...
+    def q_tables(self) -> np.ndarray | None:
+        """The Q-tables, (n_robots, n_states, n_circuits), or None without them."""
+        ...
 
 
 class RandomPolicy:
     """A uniformly random circuit for every task."""
 
     def __init__(self, n_circuits: int, rng: np.random.Generator) -> None:
+        """A random policy over `n_circuits` circuits."""
         self.n_states = n_circuits
         self.n_circuits = n_circuits
         self.rng = rng
 
     def choose(self, robot: int, state: int) -> int:
+        """A circuit drawn uniformly."""
         return int(self.rng.integers(self.n_circuits))
 
     def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        """Nothing: a random policy learns nothing."""
         return None
 
     def q_tables(self) -> None:
+        """None: no Q-table."""
         return None
 
 
@@ -50,16 +60,20 @@ class StaticPolicy:
     """A fixed allocation: robot i always serves circuit `assignment[i]`."""
 
     def __init__(self, assignment: Sequence[int], n_circuits: int) -> None:
+        """Robot i serves circuit `assignment[i]`."""
         self.assignment = np.asarray(assignment, dtype=np.int64)
         self.n_states = n_circuits
 
     def choose(self, robot: int, state: int) -> int:
+        """The robot's circuit in the assignment."""
         return int(self.assignment[robot])
 
     def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        """Nothing: a static policy learns nothing."""
         return None
 
     def q_tables(self) -> None:
+        """None: no Q-table."""
         return None
 
 
@@ -72,18 +86,22 @@ class AlternatePolicy:
     ALTERNATE = -1
 
     def __init__(self, roles: Sequence[int], n_circuits: int) -> None:
+        """Robot i keeps to circuit `roles[i]`, or alternates where it is `ALTERNATE`."""
         self.roles = np.asarray(roles, dtype=np.int64)
         self.n_states = n_circuits
         self.n_circuits = n_circuits
 
     def choose(self, robot: int, state: int) -> int:
+        """The robot's circuit, or the one after `state` for an alternating robot."""
         role = int(self.roles[robot])
         return (state + 1) % self.n_circuits if role == self.ALTERNATE else role
 
     def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        """Nothing: fixed roles learn nothing."""
         return None
 
     def q_tables(self) -> None:
+        """None: no Q-table."""
         return None
 
 
@@ -103,6 +121,9 @@ class TavcPolicy:
     def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, gamma: float,
                  selection: str, epsilon: float, tau: float, q_init: tuple[float, float],
                  rng: np.random.Generator) -> None:
+        """Learners for `n_robots` robots over `n_circuits` circuits, Q-tables drawn uniformly in
+        `q_init`, choosing by `selection` (``softmax`` at temperature `tau`, else
+        epsilon-greedy)."""
         self.n_states = n_circuits
         self.alpha, self.gamma = alpha, gamma
         self.selection, self.epsilon, self.tau = selection, epsilon, tau
@@ -110,15 +131,18 @@ class TavcPolicy:
         self.q = rng.uniform(q_init[0], q_init[1], size=(n_robots, n_circuits, n_circuits))
 
     def choose(self, robot: int, state: int) -> int:
+        """A circuit from the robot's Q-row for `state`, softmax or epsilon-greedy."""
         row = self.q[robot, state]
         if self.selection == "softmax":
             return softmax_choice(row, self.tau, self.rng)
         return epsilon_greedy(row, self.epsilon, self.rng)
 
     def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        """One Q-learning update of the robot's table (`q_update`)."""
         q_update(self.q[robot], state, action, reward, next_state, self.alpha, self.gamma)
 
     def q_tables(self) -> np.ndarray:
+        """A copy of the Q-tables, (n_robots, n_circuits, n_circuits)."""
         return self.q.copy()
 
 

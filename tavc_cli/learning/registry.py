@@ -40,6 +40,8 @@ Builder = Callable[[Mapping, int, int, np.random.Generator], TaskPolicy]
 
 @dataclass(frozen=True)
 class Learner:
+    """A learner tavc knows: its config name, the label of its trials, its seed code and its
+    builder."""
     name: str
     label: str
     seed_code: int

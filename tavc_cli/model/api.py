@@ -41,6 +41,8 @@ def team_sizes(n_robots: int, values) -> tuple[int, int]:
 
 
 def predictions(table: core.CTable, n_robots: int, values) -> dict:
+    """What the model predicts for `n_robots` robots at `values` from `table`: the predicted,
+    optimal and slot-fill states, the equilibria and every split's value per second."""
     pred = core.predicted_split(table, n_robots, values)
     opt = core.optimal_split(table, n_robots, values)
     fill = core.slot_fill(table, n_robots, values)

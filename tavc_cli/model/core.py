@@ -61,12 +61,15 @@ class CTable:
     arrivals_per_h: dict[Split, float] = field(default_factory=dict)  # whole group, sources and sinks
 
     def c(self, n: Split, i: int) -> float:
+        """c_i(n): circuit i's deliveries per second in split n (0 with nobody on it)."""
         return 0.0 if n[i] == 0 else self.cells[n][i].c
 
     def t(self, n: Split, i: int) -> float:
+        """t_i(n): the mean task time on circuit i in split n."""
         return self.cells[n][i].t
 
     def has(self, n: Split) -> bool:
+        """Whether split n was measured (the empty split always is)."""
         return sum(n) == 0 or n in self.cells
 
 
@@ -82,6 +85,7 @@ def splits_up_to(n_robots: int, n_circuits: int) -> list[Split]:
 
 
 def add_robot(n: Split, i: int, d: int = 1) -> Split:
+    """Split n with `d` robots more on circuit i."""
     return tuple(v + d if k == i else v for k, v in enumerate(n))
 
 
@@ -145,6 +149,7 @@ def is_equilibrium(table: CTable, n: Split, values: Sequence[float]) -> bool:
 
 
 def equilibria(table: CTable, n_robots: int, values: Sequence[float]) -> list[Split]:
+    """Every split of `n_robots` that is an equilibrium (`is_equilibrium`)."""
     return [n for n in splits(n_robots, table.n_circuits) if is_equilibrium(table, n, values)]
 
 

@@ -31,6 +31,7 @@ MODEL_CONTROLLER_CODE = 10
 
 
 def split_name(n: Split) -> str:
+    """The name of split n's measurements, ``split_<n_0>_<n_1>...``."""
     return "split_" + "_".join(str(v) for v in n)
 
 

@@ -66,6 +66,7 @@ def point_id(point: Point) -> str:
 
 
 def point_overrides(point: Point) -> list[str]:
+    """The grid point as config overrides, ``key=value``."""
     return [f"{k}={v}" for k, v in point.items()]
 
 

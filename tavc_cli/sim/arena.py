@@ -73,6 +73,7 @@ class Arena:
 
     @property
     def n_circuits(self) -> int:
+        """How many circuits the arena has."""
         return len(self.circuits)
 
     @property
@@ -82,10 +83,12 @@ class Arena:
 
     @property
     def target_normals(self) -> np.ndarray:
+        """(n_targets, 2) unit normals of the targets, pointing into the arena."""
         return np.array([t.normal for t in self.targets], dtype=np.float64)
 
     @property
     def target_barcodes(self) -> np.ndarray:
+        """(n_targets,) each target's bar code."""
         return np.array([t.barcode for t in self.targets], dtype=np.int64)
 
     @property

@@ -205,6 +205,10 @@ class PhysicsWorld:
         substeps: int = 1,
         iterations: int = 10,
     ) -> None:
+        """One space per entry of `start_poses` (the slots' robots at their poses), with the arena's
+        walls and a disc of `radius_m` and `mass_kg` per robot, driven by `drive_force_n` and
+        `drive_torque_nm`, stepped `substeps` times per `dt_s` with `iterations` solver
+        iterations."""
         self.spaces = [self._space(iterations) for _ in start_poses]
         self.h = dt_s / substeps
         self.substeps = substeps

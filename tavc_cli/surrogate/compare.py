@@ -100,6 +100,8 @@ def stayer_table(times, team_name: str, n_robots: int):
 
 
 def predicted_state(times, team_name: str, n_robots: int, values: Sequence[float]) -> str:
+    """The model's predicted state for `n_robots` robots of team `team_name` at `values`, from the
+    measured stayers' task times (`stayer_table`)."""
     from tavc_cli.model import core
 
     return core.state_label(core.predicted_split(stayer_table(times, team_name, n_robots), n_robots, values), values)

@@ -11,7 +11,9 @@ with that delivery's tick. The task-time draws come from a stream of their own, 
 trial's seed after the simulator's four, so everything else draws what the simulator draws.
 """
 
-from __future__ import annotations
+# The order of the imports below is in the surrogate's code digest (`run.surrogate_code_digest`):
+# sorting them would draw every surrogate trial again.
+from __future__ import annotations  # noqa: I001
 
 import heapq
 import math
@@ -38,6 +40,8 @@ class SurrogateTrial:
     """A trial of `spec` drawing its tasks from `times` (`stayers`: by robots per circuit only)."""
 
     def __init__(self, spec: TrialSpec, times: TaskTimes, *, stayers: bool = False) -> None:
+        """The trial of `spec` (two circuits) drawing from `times`: the simulator's book-keeping and
+        seeds, and the stream of its task-time draws."""
         self.spec, self.times, self.stayers = spec, times, stayers
         self.arena = arena_from_config(spec.arena)
         if self.arena.n_circuits != 2:
@@ -86,6 +90,8 @@ class SurrogateTrial:
             self.draw(i, tick)
 
     def draw(self, i: int, tick: int) -> None:
+        """Draw robot i's task at `tick` from its make-up's measured tasks: its source and sink
+        arrivals scheduled, its time split among the activities."""
         tr, spec = self.tr, self.spec
         team, makeup = self.makeup()
         kind = SWITCH if (self.switching[i] and not self.stayers) else STAY
@@ -99,6 +105,7 @@ class SurrogateTrial:
         self.push(tick + task_ticks, SINK, i)
 
     def push(self, tick: int, kind: int, i: int) -> None:
+        """Schedule robot i's arrival of `kind` at `tick`."""
         # at one tick, robots arrive in their index order, sources before sinks
         heapq.heappush(self.heap, (tick, kind, i, self.order))
         self.order += 1
@@ -125,6 +132,7 @@ class SurrogateTrial:
 
     # --- the run -------------------------------------------------------------
     def run(self) -> TrialRecord:
+        """Run the trial to its end (its duration, or its n-th delivery) and return its record."""
         tr, spec, dt = self.tr, self.spec, self.dt
         n_ticks = end_tick(spec.t0_s, spec.duration_s, dt)
         for i in range(spec.n_robots):  # every robot chooses at the start, then the tasks are drawn

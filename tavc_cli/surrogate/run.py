@@ -198,10 +198,11 @@ def tasks_digest(times: TaskTimes) -> str:
 
 
 _SURROGATE_CODE = ("surrogate/engine.py", "surrogate/tasks.py")  # below tavc_cli/: `surrogate_code_digest`
+_TAVC_CLI = Path(__file__).resolve().parent.parent
 
 
 @cache
-def surrogate_code_digest(root: Path = Path(__file__).resolve().parent.parent) -> str:
+def surrogate_code_digest(root: Path = _TAVC_CLI) -> str:
     """Digest of the surrogate's own code (`meaning_digest`), `_SURROGATE_CODE` under `root` (tavc_cli/): the engine
     that draws a trial (`engine.py`) and the tasks it measures and draws them from (`tasks.py`).
     The rest a drawn trial runs on (learners, events, the trial's book-keeping) is the

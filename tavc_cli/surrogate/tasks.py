@@ -50,6 +50,8 @@ class Team:
 
     @classmethod
     def of(cls, groups: Sequence[str], speeds: Sequence[float]) -> Team:
+        """The team of members in `groups`, moving at `speeds`; a group's members must share one
+        speed."""
         out: dict[str, list] = {}
         for g, v in zip(groups, speeds, strict=True):
             if g in out and out[g][1] != float(v):
@@ -60,10 +62,12 @@ class Team:
 
     @property
     def name(self) -> str:
+        """The team as its tables name it: ``group:size@speed`` for each group."""
         return ",".join(f"{g}:{n}@{v:g}" for g, n, v in self.groups)
 
     @property
     def size(self) -> int:
+        """How many robots the team has."""
         return sum(n for _, n, _ in self.groups)
 
     def without(self, group: str) -> Team:
@@ -78,6 +82,7 @@ def makeups(team: Team) -> list[Makeup]:
 
 
 def makeup_name(team: Team, makeup: Makeup) -> str:
+    """A make-up as its tables name it: ``group:s0-s1-a`` for each group."""
     return " ".join(f"{g}:{s0}-{s1}-{a}" for (g, _, _), (s0, s1, a) in zip(team.groups, makeup, strict=True))
 
 
@@ -180,6 +185,7 @@ class TaskTimes:
     """The measured tasks, by (team, make-up, group, kind, circuit), to draw from."""
 
     def __init__(self, frame: pd.DataFrame) -> None:
+        """The tasks of `frame` (`COLUMNS`), grouped by cell."""
         missing = [c for c in COLUMNS if c not in frame.columns]
         if missing:
             raise TavcError(f"task_times.csv: no column {missing[0]!r}; measure again (tavc surrogate)")
@@ -191,6 +197,7 @@ class TaskTimes:
 
     @classmethod
     def read(cls, path: Path) -> TaskTimes:
+        """The tasks measured in `path`; one line naming it if it cannot be read."""
         try:
             return cls(pd.read_csv(path, dtype={"team": str, "makeup": str, "group": str, "kind": str}))
         except (OSError, ValueError, pd.errors.ParserError) as error:

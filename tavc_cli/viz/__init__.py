@@ -1,0 +1,1 @@
+"""Figures and animations, drawn from saved tables and trial records only."""
