@@ -15,8 +15,8 @@ from typer.testing import CliRunner
 
 from tavc_cli import __version__
 from tavc_cli.cli import app
+from tests.helpers import REPO
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
 runner = CliRunner()
 
 
@@ -41,7 +41,7 @@ def test_version():
 def test_python_dash_m_works():
     completed = subprocess.run(
         [sys.executable, "-m", "tavc_cli", "--help"],
-        cwd=REPO_ROOT,
+        cwd=REPO,
         capture_output=True,
         text=True,
         timeout=60,
@@ -296,7 +296,7 @@ def test_a_real_full_disk_is_one_line(tmp_path):
     out = tmp_path / "out"
     command = " ".join([sys.executable, "-m", "tavc_cli", *SMALL_RUN, "trials=8", f"output_dir={out}", "--no-progress"])
     result = subprocess.run(["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size=100k tmpfs {tmp_path} && "
-                             f"cd {REPO_ROOT} && {command}; echo rc=$?; ls {out / 'trials'}"],
+                             f"cd {REPO} && {command}; echo rc=$?; ls {out / 'trials'}"],
                             capture_output=True, text=True, timeout=300)
     assert "rc=1" in result.stdout, result.stdout + result.stderr
     lines = result.stderr.strip().splitlines()
@@ -311,7 +311,7 @@ def test_ctrl_c_at_any_moment_is_one_line_and_exit_130(tmp_path):
     interrupted = 0
     for args, delay in ((["config", "scale=smoke"], 0.1), (["config", "scale=smoke"], 0.25),
                         (["config", "scale=smoke"], 0.5), ([*SMALL_RUN, "trials=8", f"output_dir={tmp_path}"], 1.5)):
-        process = subprocess.Popen([sys.executable, "-m", "tavc_cli", *args], cwd=REPO_ROOT, stdout=subprocess.PIPE,
+        process = subprocess.Popen([sys.executable, "-m", "tavc_cli", *args], cwd=REPO, stdout=subprocess.PIPE,
                                    stderr=subprocess.PIPE, text=True, start_new_session=True)
         time.sleep(delay)
         os.killpg(process.pid, signal.SIGINT)  # as the terminal sends Ctrl-C: to every process of the group

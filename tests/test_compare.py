@@ -4,8 +4,6 @@ add to the user's settings, and the command end to end."""
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +22,8 @@ from tavc_cli.compare.metrics import (
 )
 from tavc_cli.compare.run import controller_overrides, parse_reuse
 from tavc_cli.errors import TavcError
+from tests.helpers import tavc
 
-REPO = Path(__file__).resolve().parent.parent
 SAME = [{"speed_mps": 0.25, "group": "all"}] * 6
 MIXED = [{"speed_mps": 0.3, "group": "fast"}] * 3 + [{"speed_mps": 0.2, "group": "slow"}] * 3
 
@@ -128,10 +126,6 @@ def test_reuse_pairs_are_checked(tmp_path):
         parse_reuse(["tavc"])
     with pytest.raises(TavcError, match="no folder"):
         parse_reuse([f"tavc={tmp_path / 'nowhere'}"])
-
-
-def tavc(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "tavc_cli", *args], cwd=cwd, capture_output=True, text=True)
 
 
 @pytest.mark.slow

@@ -17,32 +17,7 @@ from tavc_cli.analysis.convergence import (
 )
 from tavc_cli.analysis.qvalues import q_value_table
 from tavc_cli.analysis.states import alive_at_end
-from tavc_cli.experiments.records import TrialRecord
-from tests.records import greedy_snapshots, table
-
-
-def _record(*, n_robots=2, values=(2.0, 1.0), duration_s=100.0, arrivals=(), breakdowns=(), deliveries=(),
-            choices=(), q_t=(), q=None, groups=None, controller="tavc", trial=0):
-    """A TrialRecord: arrivals (t, robot, circuit), breakdowns (t, robot), deliveries as dicts
-    (t_s, robot, circuit, task_time_s, reward), choices (t, robot, state, circuit), Q snapshots."""
-    groups = list(groups or ["all"] * n_robots)
-    rec = TrialRecord(
-        meta={"n_robots": n_robots, "n_circuits": len(values), "groups": groups,
-              "speeds_mps": [0.3 if g == "fast" else 0.2 for g in groups], "values": list(values),
-              "duration_s": duration_s, "warmup_s": 0.0, "controller": controller, "trial": trial},
-        tables={"arrivals": table("arrivals", [{"t_s": a[0], "robot": a[1], "circuit": a[2]} for a in arrivals]),
-                "breakdowns": table("breakdowns", [{"t_s": b[0], "robot": b[1]} for b in breakdowns]),
-                "deliveries": table("deliveries", list(deliveries)),
-                "choices": table("choices", [dict(zip(("t_s", "robot", "state", "circuit"), c, strict=True))
-                                              for c in choices])},
-    )
-    rec.value_changes = np.zeros((0, len(values)))
-    if q is not None:
-        rec.q_t, rec.q = np.asarray(q_t, float), np.asarray(q, float)
-    return rec
-
-
-
+from tests.records import greedy_snapshots, record
 
 # --- Q drift -------------------------------------------------------------------------------------
 
@@ -59,7 +34,7 @@ def test_q_drift_is_the_median_over_live_robots_of_the_relative_change_over_the_
     q[-1, 0] = 1.1 * base
     q[-1, 2] = 2 * base
     q[1, 0] = 0.2 * base  # a change before the quarter does not count
-    rec = _record(n_robots=3, breakdowns=[(50.0, 2)], q_t=[0, 25, 50, 75, 100], q=q)
+    rec = record(n_robots=3, breakdowns=[(50.0, 2)], q_t=[0, 25, 50, 75, 100], q=q)
     live = alive_at_end(rec)
     assert q_drift(rec, 75.0, live) == pytest.approx(0.5 * 0.1 / 1.1)
     assert q_drift(rec, 75.0, np.array([True, False, False])) == pytest.approx(0.1 / 1.1)
@@ -77,7 +52,7 @@ def test_q_drift_without_a_snapshot_before_the_quarter_starts_from_the_first():
     # snapshots at 80 and 100 only: robot 0 goes from 1 to 1.25 -> 0.25 / 1.25 = 0.2
     q = np.ones((2, 1, 2, 2))
     q[1] *= 1.25
-    rec = _record(n_robots=1, q_t=[80.0, 100.0], q=q)
+    rec = record(n_robots=1, q_t=[80.0, 100.0], q=q)
     assert q_drift(rec, 75.0, alive_at_end(rec)) == pytest.approx(0.2)
 
 
@@ -91,7 +66,7 @@ def test_policy_changed_share_counts_flips_inside_the_quarter_only():
     # robot 2 flips inside too, but has broken down: not counted
     # -> 1 of the 2 live robots: 0.5
     snaps = [[(0, 1), (0, 1), (0, 1)]] * 3 + [[(1, 1), (0, 1), (0, 1)], [(1, 1), (1, 1), (1, 1)]]
-    rec = _record(n_robots=3, breakdowns=[(10.0, 2)], q_t=[0, 25, 50, 75, 100], q=greedy_snapshots(snaps))
+    rec = record(n_robots=3, breakdowns=[(10.0, 2)], q_t=[0, 25, 50, 75, 100], q=greedy_snapshots(snaps))
     live = alive_at_end(rec)
     assert policy_changed_share(rec, 75.0, 100.0, live) == 0.5
     # the whole run from 0: both live robots changed
@@ -116,7 +91,7 @@ def test_td_error_of_one_delivery_by_hand():
     q[1, 0] = [[1.0, 0.5], [0.8, 0.2]]
     q[2, 0] = [[1.0, 2.0], [3.0, 4.0]]
     q[2, 1] = 100.0
-    rec = _record(
+    rec = record(
         breakdowns=[(50.0, 1)],
         choices=[(0.0, 0, 0, 0), (30.0, 0, 0, 1), (60.0, 0, 1, 0), (90.0, 0, 0, 0), (65.0, 1, 0, 0)],
         deliveries=[{"t_s": 30.0, "robot": 0, "circuit": 0, "task_time_s": 30.0, "reward": 1.0},
@@ -150,22 +125,22 @@ def test_allocation_halves_by_hand():
     # first half: 1 for 20 s (30-50), 2 for 10 s (50-60), 30 s defined: 40 / 30 = 1.3333
     # second half: 2 for 20 s (60-80), 1 for 20 s (80-100): 60 / 40 = 1.5; drift 0.16667
     arrivals = [(0.0, 0, 0), (30.0, 1, 1), (50.0, 1, 0), (80.0, 0, 1)]
-    rec = _record(arrivals=arrivals)
+    rec = record(arrivals=arrivals)
     assert alloc_halves(rec, 20.0) == pytest.approx((40 / 30, 1.5))
     # a heterogeneous team (analysed in the groups scheme) gets the same from the circuits states
-    mixed = _record(arrivals=arrivals, groups=["fast", "slow"], q_t=[0.0, 100.0], q=np.ones((2, 2, 2, 2)))
+    mixed = record(arrivals=arrivals, groups=["fast", "slow"], q_t=[0.0, 100.0], q=np.ones((2, 2, 2, 2)))
     row = convergence_table([mixed], 20.0, 0.95).iloc[0]
     assert (row["alloc_first_half"], row["alloc_second_half"]) == pytest.approx((40 / 30, 1.5))
     assert row["alloc_drift"] == pytest.approx(1.5 - 40 / 30)
     # no stable period, or no defined state in a half: NaN
     assert all(math.isnan(x) for x in alloc_halves(rec, 100.0))
-    assert math.isnan(alloc_halves(_record(arrivals=[(0.0, 0, 0)]), 20.0)[0])
+    assert math.isnan(alloc_halves(record(arrivals=[(0.0, 0, 0)]), 20.0)[0])
 
 
 def test_convergence_table_keeps_only_records_with_two_snapshots():
-    one = _record(q_t=[100.0], q=np.ones((1, 2, 2, 2)))
-    none = _record(controller="random")
-    two = _record(q_t=[0.0, 100.0], q=np.ones((2, 2, 2, 2)), trial=4)
+    one = record(q_t=[100.0], q=np.ones((1, 2, 2, 2)))
+    none = record(controller="random")
+    two = record(q_t=[0.0, 100.0], q=np.ones((2, 2, 2, 2)), trial=4)
     table = convergence_table([one, none, two], 20.0, 0.95)
     assert table["trial"].tolist() == [4]
     assert convergence_table([one, none], 20.0, 0.95).columns.tolist() == COLUMNS
@@ -224,7 +199,7 @@ def test_verdict_nan_allocation_drift():
 
 def _snapshot_record(q_t):
     rng = np.random.default_rng(0)
-    return _record(q_t=q_t, q=rng.uniform(-1, 1, (len(q_t), 2, 2, 2)), trial=1)
+    return record(q_t=q_t, q=rng.uniform(-1, 1, (len(q_t), 2, 2, 2)), trial=1)
 
 
 def test_q_value_table_thinning_keeps_multiples_and_the_last_snapshot():

@@ -14,23 +14,23 @@ import yaml
 
 from tavc_cli import __version__
 from tavc_cli.analysis.claims import CLAIMS
+from tests.helpers import REPO
 
-ROOT = Path(__file__).resolve().parents[1]
-README = ROOT / "README.md"
-DOCS = ROOT / "docs"
+README = REPO / "README.md"
+DOCS = REPO / "docs"
 PAGES = [README, *sorted(DOCS.glob("*.md"))]
 # the verdict columns of the README's table (and docs/claims.md's), and the claims files they report
-HORIZONS = {"at the chapter's durations": ROOT / "results" / "claims.csv",
-            "at 40x": ROOT / "results" / "converged" / "claims.csv"}
+HORIZONS = {"at the chapter's durations": REPO / "results" / "claims.csv",
+            "at 40x": REPO / "results" / "converged" / "claims.csv"}
 
 
 def test_the_site_builds_in_strict_mode(tmp_path):
     # strict: a broken link or anchor between pages, or a page missing from the files, fails the build
     done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
-                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+                          cwd=REPO, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
     assert (tmp_path / "site" / "index.html").is_file()
-    nav = yaml.safe_load((ROOT / "mkdocs.yml").read_text())["nav"]
+    nav = yaml.safe_load((REPO / "mkdocs.yml").read_text())["nav"]
     listed = {page for entry in nav for page in entry.values()}
     assert listed == {p.name for p in DOCS.glob("*.md")}, "every page in docs/ is in mkdocs.yml's nav, and only those"
 
@@ -57,7 +57,7 @@ def _slugs(path: Path) -> set[str]:
     return slugs
 
 
-@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(REPO)))
 def test_every_relative_link_and_image_resolves(page):
     broken = []
     for target in _links(page.read_text()):
@@ -129,8 +129,8 @@ def test_the_headline_counts_the_committed_verdicts():
 
 
 def test_license_and_citation():
-    assert "the tavc authors" in (ROOT / "LICENSE").read_text()
-    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text())
+    assert "the tavc authors" in (REPO / "LICENSE").read_text()
+    cff = yaml.safe_load((REPO / "CITATION.cff").read_text())
     assert cff["cff-version"] == "1.2.0"
     assert cff["title"] and cff["authors"] and cff["message"]
     assert str(cff["version"]) == __version__

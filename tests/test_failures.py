@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import time
+from functools import partial
 
 import pytest
 from typer.testing import CliRunner
@@ -26,13 +27,13 @@ from tavc_cli.experiments.store import FAILURES_LOG, trial_path
 from tavc_cli.io import LOCK_NAME, claim_folder
 from tavc_cli.ownership import MANIFEST
 from tavc_cli.pipeline import run_experiment
+from tests.helpers import run_settings
 
 SMOKE = ["scale=smoke", "duration_s=120", "convergence_s=20", "arena=two_circuits", "learner=random",
          "executor.n_jobs=1"]
 
 
-def _cfg(out_dir, *extra):
-    return settings(load_config([*SMOKE, f"output_dir={out_dir}", *extra]))
+_cfg = partial(run_settings, SMOKE)  # the settings of a smoke run into a folder, then more overrides
 
 
 def _cli(out_dir, *extra):

@@ -13,6 +13,7 @@ import subprocess
 import sys
 import threading
 import time
+from functools import partial
 
 import pytest
 from hypothesis import HealthCheck, given
@@ -23,18 +24,17 @@ from typer.testing import CliRunner
 from tavc_cli import io as tavc_io
 from tavc_cli import pipeline
 from tavc_cli.cli import app
-from tavc_cli.config import load_config, settings
 from tavc_cli.errors import Terminated, sigterm_raises
 from tavc_cli.experiments.records import TrialRecord, records_differ
 from tavc_cli.experiments.store import trial_path
 from tavc_cli.pipeline import run_experiment
+from tests.helpers import run_settings
 
 SMOKE = ["scale=smoke", "duration_s=120", "convergence_s=20", "arena=two_circuits", "learner=random",
          "executor.n_jobs=1", "trials=3"]
 
 
-def _cfg(out_dir, *extra):
-    return settings(load_config([*SMOKE, f"output_dir={out_dir}", *extra]))
+_cfg = partial(run_settings, SMOKE)  # the settings of a smoke run into a folder, then more overrides
 
 
 def _tables(folder):

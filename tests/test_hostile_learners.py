@@ -4,7 +4,6 @@ the run's folder changes. Every expectation below was written before the case wa
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 
 import pytest
@@ -15,6 +14,7 @@ from tavc_cli.cli import app
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.learning.plugins import CONFIG_DIRS_ENV, check_choice, target_digest
+from tests.helpers import file_digests
 
 # A learner whose choose() answers `ANSWER` from its `bad_from`-th instance on (the made-up run
 # before the trials builds two; a trial run in this process builds the third), and 0 before.
@@ -54,24 +54,19 @@ def _folder(tmp_path: Path, answer: str) -> Path:
     return folder
 
 
-def _digests(folder: Path) -> dict[str, str]:
-    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
-
-
 def _run(tmp_path, monkeypatch, answer: str, *overrides: str):
     folder = _folder(tmp_path, answer)
     sibling = tmp_path / "sibling"
     sibling.mkdir(exist_ok=True)
     (sibling / "keep.txt").write_text("the user's")
-    before = _digests(sibling)
+    before = file_digests(sibling)
     monkeypatch.setenv(CONFIG_DIRS_ENV, "")
     monkeypatch.chdir(tmp_path)
     result = CliRunner().invoke(app, ["--config-dir", str(folder), "run", "experiment=initial_distribution",
                                       "scale=smoke", "learner=bad", "baselines=[]", "trials=1", "duration_s=300",
                                       "executor.n_jobs=1", f"output_dir={tmp_path / 'run'}", "--no-progress",
                                       *overrides])
-    assert _digests(sibling) == before  # nothing outside the run's folder changed
+    assert file_digests(sibling) == before  # nothing outside the run's folder changed
     return result
 
 

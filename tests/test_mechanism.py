@@ -1,6 +1,7 @@
 """How the group is made (tavc_cli.analysis.mechanism), on hand-made records."""
 
 import math
+from functools import partial
 
 import numpy as np
 import pandas as pd
@@ -18,29 +19,9 @@ from tavc_cli.analysis.mechanism import (
     task_kinds,
     task_means,
 )
-from tavc_cli.experiments.records import TrialRecord
-from tests.records import table
+from tests.records import record
 
-
-def _record(*, n_robots=3, values=(2.0, 1.0), duration_s=100.0, breakdowns=(), deliveries=(), choices=(),
-            value_changes=(), q_t=(), q=None, controller="tavc", trial=0):
-    """A TrialRecord: breakdowns (t, robot), deliveries as dicts, choices (t, robot, state, circuit),
-    value changes (t, values), Q snapshots."""
-    rec = TrialRecord(
-        meta={"n_robots": n_robots, "n_circuits": len(values), "groups": ["all"] * n_robots,
-              "speeds_mps": [0.25] * n_robots, "values": list(values), "duration_s": duration_s,
-              "warmup_s": 0.0, "controller": controller, "trial": trial},
-        tables={"arrivals": table("arrivals", []),
-                "breakdowns": table("breakdowns", [{"t_s": b[0], "robot": b[1]} for b in breakdowns]),
-                "deliveries": table("deliveries", list(deliveries)),
-                "choices": table("choices", [dict(zip(("t_s", "robot", "state", "circuit"), c, strict=True))
-                                              for c in choices])},
-    )
-    rec.value_changes_t = np.array([v[0] for v in value_changes], dtype=float)
-    rec.value_changes = np.array([v[1] for v in value_changes], dtype=float).reshape(len(value_changes), len(values))
-    if q is not None:
-        rec.q_t, rec.q = np.asarray(q_t, float), np.asarray(q, float)
-    return rec
+_record = partial(record, n_robots=3)  # three robots unless a test says otherwise
 
 
 # --- stay and switch tasks -----------------------------------------------------------------------

@@ -5,8 +5,6 @@ and both in the simulator."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,8 +14,7 @@ import pytest
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.informed import InformedPolicy, ModelPolicy, ranked
 from tavc_cli.model.allocations import model_allocations
-
-REPO = Path(__file__).resolve().parent.parent
+from tests.helpers import REPO, tavc
 
 
 def write_model(path: Path, values: list[float], states: dict[str, str]) -> Path:
@@ -95,10 +92,6 @@ def test_robots_are_drawn_onto_the_allocation_not_taken_in_order():
         policy.on_event(np.ones(6, dtype=bool), np.array([2200.0, 2000.0]))
         firsts.add(int(policy.assignment[0]))
     assert firsts == {0, 1}
-
-
-def tavc(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "tavc_cli", *args], cwd=REPO, capture_output=True, text=True)
 
 
 def test_a_team_the_model_has_not_predicted_is_refused_in_one_line(tmp_path):

@@ -4,6 +4,7 @@ refused with one line, and nothing in it changes."""
 
 import json
 import shutil
+from functools import partial
 
 import pytest
 from typer.testing import CliRunner
@@ -14,13 +15,13 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import LOCK_NAME
 from tavc_cli.ownership import MANIFEST, REPORT_TITLE, config_differences, read
 from tavc_cli.pipeline import run_experiment, write_ladder, write_sweep
+from tests.helpers import run_settings
 
 SMOKE = ["scale=smoke", "duration_s=60", "convergence_s=20", "arena=two_circuits", "learner=random",
          "executor.n_jobs=1", "trials=1"]
 
 
-def _cfg(out_dir, *extra):
-    return settings(load_config([*SMOKE, f"output_dir={out_dir}", *extra]))
+_cfg = partial(run_settings, SMOKE)  # the settings of a smoke run into a folder, then more overrides
 
 
 def _snapshot(folder):

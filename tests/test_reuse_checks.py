@@ -6,7 +6,6 @@ one line, exit 1, nothing written and nothing of the folders read changed."""
 
 from __future__ import annotations
 
-import hashlib
 import shutil
 from pathlib import Path
 
@@ -19,6 +18,7 @@ from tavc_cli.config import load_config
 from tavc_cli.config import settings as to_settings
 from tavc_cli.errors import TavcError
 from tavc_cli.pipeline import run_experiment
+from tests.helpers import file_digests
 
 SETTINGS = {"scale": "smoke", "duration_s": "120", "convergence_s": "20", "trials": "1", "executor.n_jobs": "1"}
 SMOKE = [f"{key}={value}" for key, value in SETTINGS.items()]
@@ -37,12 +37,6 @@ def _compare(results: Path, *reuse: str, overrides: dict[str, str] | None = None
     for item in reuse:
         args += ["--reuse", item]
     return runner.invoke(app, args)
-
-
-def _digests(folder: Path) -> dict[str, str]:
-    """Every file under `folder` by its path, with its SHA-256."""
-    return {p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
 @pytest.fixture(scope="module")
@@ -75,25 +69,25 @@ def _copy_runs(compared: Path, tmp_path: Path, controller: str = "tavc") -> tupl
 def _refused(tmp_path: Path, line: str, *reuse: str, overrides: dict[str, str] | None = None) -> None:
     """The comparison with `reuse` refuses in the one line `line` (without its ``error: ``),
     exit 1, and writes nothing; the folders under tmp_path/reused are left as they were."""
-    before = _digests(tmp_path / "reused") if (tmp_path / "reused").is_dir() else {}
+    before = file_digests(tmp_path / "reused") if (tmp_path / "reused").is_dir() else {}
     result = _compare(tmp_path / "out", *reuse, overrides=overrides)
     assert result.exit_code == 1, result.output
     assert result.output.strip().splitlines() == [f"error: {line}"]
     assert not (tmp_path / "out").exists()
     if before:
-        assert _digests(tmp_path / "reused") == before
+        assert file_digests(tmp_path / "reused") == before
 
 
 # --- compare --reuse --------------------------------------------------------------------------------
 
 
 def test_a_genuine_reuse_gives_the_same_table_byte_for_byte(compared, tmp_path):
-    before = _digests(compared / "runs")
+    before = file_digests(compared / "runs")
     result = _compare(tmp_path / "again", f"tavc={compared / 'runs' / 'tavc'}")
     assert result.exit_code == 0, result.output
     assert (tmp_path / "again" / "compare.csv").read_bytes() == (compared / "compare.csv").read_bytes()
     assert not (tmp_path / "again" / "runs" / "tavc").exists()  # read, not run again
-    assert _digests(compared / "runs") == before  # the folder reused and its sibling untouched
+    assert file_digests(compared / "runs") == before  # the folder reused and its sibling untouched
 
 
 def test_swapped_scenario_folders_are_refused(compared, tmp_path):
@@ -161,11 +155,11 @@ def test_a_record_of_another_seed_is_refused(compared, seed3, tmp_path):
     results = tmp_path / "results"
     results.mkdir()
     folder.rename(results / "breakdown")
-    before = _digests(results)
+    before = file_digests(results)
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 1, result.output
     assert result.output.strip().splitlines() == ["error: " + line.replace(str(folder), str(results / "breakdown"))]
-    assert _digests(results) == before
+    assert file_digests(results) == before
 
 
 def test_a_record_provenance_lists_but_missing_is_named(seed3, tmp_path):

@@ -15,6 +15,7 @@ from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord, records_differ
 from tavc_cli.experiments.store import trial_path
 from tavc_cli.pipeline import run_experiment
+from tests.helpers import run_settings
 
 SMOKE = [
     "scale=smoke",
@@ -33,7 +34,7 @@ LOW_CROWDING_WORLD = ["robot.behaviour.arrive_dist_m=0.30", "robot.dock.dwell_s=
                       "robot.laser.n_rays=31"]
 
 def _run(out_dir, *extra):
-    return run_experiment(settings(load_config([*SMOKE, f"output_dir={out_dir}", *extra])))
+    return run_experiment(run_settings(SMOKE, out_dir, *extra))
 
 
 def _tmp_files(out_dir):

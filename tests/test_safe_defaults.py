@@ -12,6 +12,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+from functools import partial
 from pathlib import Path
 
 import pytest
@@ -23,8 +24,9 @@ from tavc_cli.cli import app
 from tavc_cli.errors import TavcError
 from tavc_cli.model.api import model_identity
 from tavc_cli.ownership import recorded_differences, refuse_other_settings
+from tests import helpers
+from tests.helpers import REPO
 
-REPO = Path(__file__).resolve().parent.parent
 SMOKE = yaml.safe_load((REPO / "conf" / "scale" / "smoke.yaml").read_text())
 
 
@@ -162,9 +164,7 @@ def test_the_quickstart_runs_as_printed_and_leaves_git_status_clean(tmp_path):
     _copy_of_repository(clone)
     env = {**os.environ, "PYTHONPATH": str(clone)}
 
-    def tavc(*args: str) -> subprocess.CompletedProcess:
-        return subprocess.run([sys.executable, "-m", "tavc_cli", *args], cwd=clone, env=env, capture_output=True,
-                              text=True, timeout=900)
+    tavc = partial(helpers.tavc, cwd=clone, env=env, timeout=900)
 
     where = subprocess.run([sys.executable, "-c", "import tavc_cli; print(tavc_cli.__file__)"], cwd=clone, env=env,
                            capture_output=True, text=True, check=True).stdout
