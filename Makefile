@@ -20,7 +20,7 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help venv test test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged $(REPRODUCE) clean
+.PHONY: help venv lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -34,10 +34,20 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -e '.[test]'
 	touch $@
 
-test: venv ## Run the whole test suite
-	$(BIN)/python -m pytest -q
+lint: venv ## Check the code with ruff (its rules are in pyproject.toml)
+	$(BIN)/ruff check tavc_cli tests
 
-test-fast: venv ## Run the tests not marked slow
+# Test files are spread over the cores whole (--dist loadfile), so each file's module-scoped
+# runs are made once; `make test` and `make test-slow` together run every test.
+PYTEST_PARALLEL ?= -n auto --dist loadfile
+
+test: venv lint ## Lint, then run the tests not marked slow, in parallel
+	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL) -m "not slow"
+
+test-slow: venv ## Run the tests marked slow (long end-to-end runs), in parallel
+	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL) -m slow
+
+test-fast: venv ## Run the tests not marked slow in one process, without the lint
 	$(BIN)/python -m pytest -q -m "not slow"
 
 bench: venv ## Print simulator throughput as one JSON object

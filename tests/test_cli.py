@@ -129,6 +129,7 @@ def test_a_sweep_writes_its_jobs_side_by_side(tmp_path):
     assert (out / "sweep.png").is_file() and (out / "sweep.svg").is_file()
 
 
+@pytest.mark.slow
 def test_sweep_jobs_run_through_hydras_joblib_launcher_with_the_basic_launchers_results(tmp_path):
     """The launcher decides where jobs run, never what they compute."""
     sweep = ["run", "-m", "experiment=initial_distribution", "scale=smoke", "learner.epsilon=0.05,0.3"]

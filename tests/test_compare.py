@@ -159,6 +159,7 @@ def test_compare_end_to_end_reruns_nothing_and_reuses_runs(tmp_path):
         table.set_index(["controller", "metric"]).loc[("tavc", "score_per_s"), "mean"])
 
 
+@pytest.mark.slow
 def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_path):
     run = tmp_path / "run"
     assert tavc("run", "experiment=initial_distribution", "scale=smoke", "trials=1", "baselines=[]",

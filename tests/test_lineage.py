@@ -206,6 +206,7 @@ def test_a_branch_that_fails_in_its_forked_copy_is_run_alone(tmp_path, monkeypat
 runner = CliRunner()
 
 
+@pytest.mark.slow
 def test_reproduce_writes_what_run_writes_for_each_experiment(tmp_path):
     common = ["scale=smoke", "trials=2", "baseline_trials=1", "executor.n_jobs=2"]
     result = runner.invoke(app, ["reproduce", "--experiments", "initial_distribution,breakdown",

@@ -332,7 +332,7 @@ def test_a_missing_cluster_package_is_one_line(monkeypatch):
         run_on_cluster("dask", [], lambda b, r: None, 1, None)
 
 
-def test_runs_started_together_compile_their_kernels_one_at_a_time(monkeypatch):
+def test_runs_started_together_compile_their_kernels_one_at_a_time(monkeypatch, tmp_path):
     """While a run compiles its kernels (`load_kernels`), another process cannot take the
     lock it holds; once it is done, it can: a second run started beside it then loads what
     the first wrote to numba's cache instead of compiling the same code at the same time."""
@@ -351,6 +351,9 @@ def test_runs_started_together_compile_their_kernels_one_at_a_time(monkeypatch):
         return subprocess.run([sys.executable, "-c", probe, str(pool.kernel_lock_path())], capture_output=True,
                               text=True, check=True).stdout.strip()
 
+    # a lock file of this test's own: the installation's is also taken by every other run of tavc
+    # started meanwhile (the other tests, run in parallel)
+    monkeypatch.setattr(pool, "kernel_lock_path", lambda: tmp_path / "kernels.lock")
     seen = []
     monkeypatch.setattr(pool, "run_trials", lambda specs: seen.append(lock_state()))
     spec = trial_specs(settings(load_config(["experiment=initial_distribution", "scale=smoke"])))[0]

@@ -102,6 +102,7 @@ def test_a_smoke_model_is_refused_over_a_model_of_other_settings(tmp_path):
     assert _bytes((folder / "model").iterdir()) == before  # nothing written, not even the list
 
 
+@pytest.mark.slow
 def test_save_calibration_of_other_settings_leaves_conf_untouched():
     kept = _bytes([*(REPO / "conf" / "tasks").rglob("*.*"), *(REPO / "conf" / "world").rglob("*.*")])
     model = invoke(["model", "experiment=initial_distribution", "scale=smoke", "--save-calibration",

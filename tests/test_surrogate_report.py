@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import pandas as pd
+import pytest
 
 from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.viz.surrogate import study_figures
@@ -105,6 +106,7 @@ def test_the_study_figures_say_what_they_show_with_a_colour_bar_per_heat_map(tmp
     assert len(heat_maps) == 4 and len(colour_bars) == 4
 
 
+@pytest.mark.slow
 def test_a_surrogate_run_is_reported_as_such_and_never_in_the_simulators_place(tmp_path, monkeypatch):
     from typer.testing import CliRunner
 

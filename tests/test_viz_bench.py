@@ -76,6 +76,7 @@ def test_bench_overhead_is_the_median_of_back_to_back_pairs(monkeypatch):
     assert result["overhead_ratio"] == 2.0
 
 
+@pytest.mark.slow
 def test_bench_scaling_covers_robot_counts_and_processes():
     result = runner.invoke(app, ["bench", "--json", "--duration-s", "10", "--repeats", "1", "--batch", "1"])
     assert result.exit_code == 0, result.output
