@@ -19,7 +19,6 @@ def _readme_example() -> str:
     return match.group(1)
 
 
-@pytest.mark.slow
 def test_the_readme_example_runs(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(README.parent)  # it reads the committed results/ by relative path
     code = _readme_example().replace("/tmp/tavc-demo", str(tmp_path / "demo"))

@@ -164,6 +164,7 @@ def test_every_accepted_config_runs_a_short_trial(overrides, tmp_path_factory):
     assert (out / "state_time.csv").is_file() and (out / "config.yaml").is_file()
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None, database=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(overrides=configs(bad_percent=15))

@@ -57,6 +57,7 @@ def _assert_healed(out, undisturbed):
     assert (out / "provenance.json").is_file()
 
 
+@pytest.mark.slow
 @hyp_settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(trial=st.integers(0, 2), where=st.floats(0.0, 0.999), length=st.integers(1, 64), xor=st.integers(1, 255))
 def test_a_trial_file_damaged_anywhere_is_named_and_run_again(undisturbed, tmp_path_factory, trial, where, length,
