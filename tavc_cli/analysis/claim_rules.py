@@ -126,6 +126,8 @@ def _against(runs: Mapping[str, pd.DataFrame], claim_id: int) -> tuple[str, pd.D
 
 
 def claim_3(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
+    """Claim 3's parts, read from the runs of its experiment (`chapter` names it and quotes
+    the chapter's words), each on `learner`'s trials."""
     name, s = _run(runs, 3)
     if s is None:
         return [_missing(f"{name} not run")]
@@ -136,6 +138,8 @@ def claim_3(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
 
 def claim_4(runs: Mapping[str, pd.DataFrame], theory: Mapping[str, float] | None = None,
             learner: str = LEARNER) -> list[Part]:
+    """Claim 4's parts, read from the runs of its experiment (`chapter` names it and quotes
+    the chapter's words), each on `learner`'s trials."""
     name, s = _run(runs, 4)
     if s is None:
         return [_missing(f"{name} not run")]
@@ -153,6 +157,8 @@ def claim_4(runs: Mapping[str, pd.DataFrame], theory: Mapping[str, float] | None
 
 
 def claim_5(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
+    """Claim 5's parts, read from the runs of its experiment (`chapter` names it and quotes
+    the chapter's words), each on `learner`'s trials."""
     name, s = _run(runs, 5)
     if s is None:
         return [_missing(f"{name} not run")]
@@ -161,6 +167,8 @@ def claim_5(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
 
 
 def claim_6(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
+    """Claim 6's parts, read from the runs of its experiment (`chapter` names it and quotes
+    the chapter's words), each on `learner`'s trials."""
     name, s = _run(runs, 6)
     if s is None:
         return [_missing(f"{name} not run")]
@@ -177,6 +185,8 @@ def claim_6(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
 
 
 def claim_7(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
+    """Claim 7's parts, read from the runs of its experiment (`chapter` names it and quotes
+    the chapter's words), each on `learner`'s trials."""
     name, s = _run(runs, 7)
     if s is None:
         return [_missing(f"{name} not run")]
@@ -207,6 +217,8 @@ def claim_7(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
 
 
 def claim_8(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
+    """Claim 8's parts, read from the runs of its experiment (`chapter` names it and quotes
+    the chapter's words), each on `learner`'s trials."""
     name, s = _run(runs, 8)
     if s is None:
         return [_missing(f"{name} not run")]
@@ -270,6 +282,8 @@ def _group_theory(stats_: pd.DataFrame) -> dict[str, float]:
 
 
 def claim_9(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
+    """Claim 9's parts, read from the runs of its experiment (`chapter` names it and quotes
+    the chapter's words), each on `learner`'s trials."""
     name, s = _run(runs, 9)
     if s is None:
         return [_missing(f"{name} not run")]
@@ -295,6 +309,8 @@ def claim_9(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
 
 
 def claim_1(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
+    """Claim 1's parts, read from the runs of its experiment (`chapter` names it and quotes
+    the chapter's words), each on `learner`'s trials."""
     from tavc_cli.analysis.spatiotemporal import ARRIVAL_ROWS, TRAVERSAL_ROWS
 
     (name, trav), (_, targ) = _run(runs, 1, "traversals"), _run(runs, 1, "target_times")
@@ -313,6 +329,8 @@ def claim_1(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
 
 
 def claim_2(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
+    """Claim 2's parts, read from the runs of its experiment (`chapter` names it and quotes
+    the chapter's words), each on `learner`'s trials."""
     (name, pol), (_, lanes) = _run(runs, 2, "policy"), _run(runs, 2, "lanes")
     if pol is None or lanes is None:
         return [_missing(f"{name} not run")]

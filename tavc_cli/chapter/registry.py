@@ -91,6 +91,7 @@ class Experiment:
     vacancy: bool = False
 
     def __post_init__(self) -> None:
+        """Refuse, in one line, a declaration that contradicts itself."""
         if self.learns not in LEARNS:
             raise TavcError(f"chapter: {self.name}.learns must be one of {', '.join(LEARNS)}, got {self.learns!r}")
         if (self.state_table is None) != (self.chapter_trials is None):
@@ -119,6 +120,7 @@ class Registry(Mapping[str, Experiment]):
     that reads it."""
 
     def __init__(self, package: str) -> None:
+        """A registry of the experiment modules of `package`, read when first asked."""
         self._package = package
         self._own: dict[str, Experiment] | None = None
         self._registered: dict[str, Experiment] = {}
@@ -140,13 +142,16 @@ class Registry(Mapping[str, Experiment]):
         return dict(sorted(self._own.items(), key=lambda kv: (kv[1].order, kv[0])))
 
     def __getitem__(self, name: str) -> Experiment:
+        """The experiment named `name`."""
         return self._entries()[name]
 
     def __iter__(self) -> Iterator[str]:
+        """The experiments' names, in the report's order."""
         entries = self._entries()
         return iter(sorted(entries, key=lambda name: (entries[name].order, name)))
 
     def __len__(self) -> int:
+        """How many experiments there are."""
         return len(self._entries())
 
     def _entries(self) -> dict[str, Experiment]:

@@ -12,6 +12,7 @@ class FigurePool:
     forks; elsewhere each figure is drawn when submitted)."""
 
     def __enter__(self):
+        """Start the processes (none where the system does not fork, or has one core)."""
         self.pool = None
         if sys.platform.startswith("linux") and (os.cpu_count() or 1) > 1:
             import multiprocessing as mp
@@ -21,6 +22,7 @@ class FigurePool:
         return self
 
     def submit(self, fn, *args) -> Future:
+        """`fn(*args)` in a figure process; at once, here, without one."""
         if self.pool is not None:
             return self.pool.submit(fn, *args)
         done: Future = Future()
@@ -28,6 +30,7 @@ class FigurePool:
         return done
 
     def __exit__(self, kind, *exc) -> None:
+        """Wait for every figure; on an error or an interrupt, stop the processes at once."""
         if self.pool is not None and kind is not None:  # Ctrl-C, SIGTERM, an error: the figures stop now
             from tavc_cli.experiments.pool import stop_workers
 

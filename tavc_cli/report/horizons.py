@@ -58,10 +58,12 @@ class Horizon:
 
     @property
     def tested(self) -> pd.DataFrame:
+        """The claims whose experiment was run at this horizon."""
         return self.claims[[chapter.experiment_of(c) in self.runs for c in self.claims["claim_id"]]]
 
     @property
     def n_reproduced(self) -> int:
+        """How many of the tested claims are reproduced."""
         return int((self.tested["verdict"] == "reproduced").sum())
 
     @property
@@ -89,6 +91,7 @@ class Horizon:
 
 
 def label(factor: float) -> str:
+    """A horizon in words: "40 times the chapter's durations"."""
     return f"{factor:g} times the chapter's durations"
 
 

@@ -4,7 +4,6 @@ prediction, its claims, and the command, seeds and versions of its run."""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -12,6 +11,8 @@ import pandas as pd
 
 from tavc_cli.analysis.claims import not_a_verdict, verdict_words
 from tavc_cli.chapter import EXPERIMENTS, experiment_of
+from tavc_cli.model.allocations import MODEL_LIMIT
+from tavc_cli.readers import load_json
 from tavc_cli.settings import TavcConfig
 
 KIND_WORDS = {"stayer": "stayers", "alternator": "alternators", "mixed": "mixed", "idle": "idle (broken down or stuck)"}
@@ -19,6 +20,7 @@ CONTROLLER_NAMES = {"tavc": "TAVC", "random": "random", "static": "static", "the
 
 
 def fmt(x, spec=".1f") -> str:
+    """`x` in the format `spec`; empty for a number that is missing or not finite."""
     return "" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
 
 
@@ -112,6 +114,7 @@ def claims_table(claims: pd.DataFrame, verdicts: bool = True) -> list[str]:
 
 
 def performance(stats: pd.DataFrame) -> str:
+    """Each controller's score per second over the stable period, mean and spread over trials."""
     parts = []
     for ctrl, g in stats.groupby("controller", sort=False):
         x = g["value_rate_stable"].dropna()
@@ -121,9 +124,11 @@ def performance(stats: pd.DataFrame) -> str:
 
 
 def model_lines(model_json: Path, state_time: pd.DataFrame) -> list[str]:
+    """The model's prediction from `model_json` (every team size it predicts) beside the learners'
+    most frequent state; nothing without a model file."""
     if not model_json.is_file():
         return []
-    m = json.loads(model_json.read_text())
+    m = load_json(model_json, MODEL_LIMIT)  # bounded, as every file of a folder tavc reads
     tavc = state_time[state_time["controller"] == "tavc"]
     top = tavc.sort_values("mean_pct", ascending=False).iloc[0] if len(tavc) else None
     lines = [f"The model (`tavc model`, {m['measurement']['trials_per_split']} static trials per split) predicts "

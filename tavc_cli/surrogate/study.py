@@ -73,11 +73,15 @@ class Study:
 
     def __init__(self, out: Path, results: Path, overrides: Sequence[str], compose: Compose, *, progress: bool,
                  echo: Echo) -> None:
+        """The study into `out`, comparing with the simulator's runs in `results`; `compose` makes settings
+        from overrides, `echo` prints."""
         self.out, self.results, self.overrides, self.compose = Path(out), Path(results), list(overrides), compose
         self.progress, self.echo = progress, echo
         self.tasks_dir = self.out / "tasks"
 
     def surrogate(self, folder: Path, overrides: Sequence[str]) -> Path:
+        """A surrogate run of `overrides` into `folder` (its tasks measured in the study's own tasks folder),
+        resumed where finished; returns the folder."""
         from tavc_cli.surrogate.run import run_surrogate
 
         cfg = self.compose([*self.overrides, *overrides, f"surrogate.tasks_dir={self.tasks_dir}",
@@ -88,6 +92,8 @@ class Study:
         return folder
 
     def simulator(self, folder: Path, overrides: Sequence[str]) -> Path:
+        """A run of `overrides` in the physical simulator into `folder`, unless it is finished there as
+        configured; returns the folder."""
         from tavc_cli.pipeline import run_experiment
 
         cfg = self.compose([*self.overrides, *overrides, f"output_dir={folder}"])
@@ -98,6 +104,7 @@ class Study:
 
     # -- the parts
     def compare(self) -> pd.DataFrame:
+        """The side-by-side comparison: every served experiment, both horizons, both calibrations."""
         rows = []
         for scale, factor in HORIZONS.items():
             for experiment in EXPERIMENTS:
@@ -111,6 +118,7 @@ class Study:
         return pd.DataFrame(rows)
 
     def ladder(self) -> pd.DataFrame:
+        """The surrogate's horizon ladder of the base case."""
         rows = []
         for f in LADDER:
             folder = self.out / "makeup" / "ladder" / f"x{f:g}"
@@ -120,6 +128,7 @@ class Study:
         return pd.DataFrame(rows)
 
     def phase(self) -> pd.DataFrame:
+        """The phase diagram over team size and value ratio, with the model and the checked points."""
         from tavc_cli.surrogate.run import measure_tasks
         from tavc_cli.surrogate.tasks import Team
 
@@ -163,6 +172,7 @@ class Study:
                                                        "switch_share", "regime", "converged")}}
 
     def horizon(self) -> pd.DataFrame:
+        """The convergence horizon for each learning parameter around the chapter's values."""
         rows = []
         chapter = {"epsilon": 0.1, "alpha": 0.1, "gamma": 0.95}
         points = [("chapter", None)] + [(k, v) for k, vs in HORIZON_PARAMETERS.items() for v in vs if v != chapter[k]]
