@@ -29,6 +29,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.errors import TavcError
 from tavc_cli.io import LOCK_NAME, owned_path, write_text_atomic
 from tavc_cli.readers import load_json, load_yaml
@@ -75,8 +76,6 @@ _TEMPORARY = re.compile(r"\.(.+)\.[a-z0-9_]{8}\.tmp")  # `tempfile.mkstemp(prefi
 
 def run_files() -> tuple[str, ...]:
     """Every file a run may write in its folder, trial records apart."""
-    from tavc_cli.analysis.experiment import TABLE_NAMES
-
     return (*RUN_FILES, *(f"{name}.csv" for name in TABLE_NAMES))
 
 

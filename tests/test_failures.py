@@ -16,7 +16,7 @@ from functools import partial
 import pytest
 from typer.testing import CliRunner
 
-from tavc_cli.analysis.experiment import TABLE_NAMES
+from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.cli import app
 from tavc_cli.config import load_config, settings
 from tavc_cli.errors import TavcError

@@ -15,6 +15,7 @@ from tavc_cli.analysis.performance import performance_table
 from tavc_cli.analysis.qvalues import q_value_table
 from tavc_cli.analysis.robots import robot_table
 from tavc_cli.analysis.states import allocation_table, specialisation_table, state_time_table
+from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.analysis.trial_stats import stable_from, trial_stats
 from tavc_cli.analysis.vacancy import vacancy_table
 from tavc_cli.experiments.records import TrialRecord
@@ -23,9 +24,6 @@ from tavc_cli.ownership import Owned
 from tavc_cli.settings import TavcConfig
 
 # Every table an experiment may write (which ones depends on its controllers and events)
-TABLE_NAMES = ("state_time", "performance", "trial_stats", "allocation", "specialisation", "robots", "q_values",
-               "convergence", "mechanism", "vacancy", "table_1_1", "traversals", "target_times", "policy", "lanes",
-               "occupancy", "comparison", "claims")
 
 
 def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord],

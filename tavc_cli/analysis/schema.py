@@ -33,8 +33,7 @@ from dataclasses import dataclass
 from itertools import product
 from pathlib import Path
 
-from tavc_cli.analysis.experiment import TABLE_NAMES
-from tavc_cli.analysis.table_schemas import TABLES, TableSchema
+from tavc_cli.analysis.table_schemas import TABLE_NAMES, TABLES, TableSchema
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import file_digest

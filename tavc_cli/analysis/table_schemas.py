@@ -1,4 +1,4 @@
-"""The tables a run writes, column by column (`TABLES`): which columns each has, which hold
+"""The tables a run writes (`TABLE_NAMES`), column by column (`TABLES`): which columns each has, which hold
 numbers, which are never empty, which values a column may take. `schema` checks a table
 against its entry before a reader trusts it."""
 
@@ -6,6 +6,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+# every table a run may write in its folder (`analysis.experiment.write_analysis`), by file stem
+TABLE_NAMES = ("state_time", "performance", "trial_stats", "allocation", "specialisation", "robots", "q_values",
+               "convergence", "mechanism", "vacancy", "table_1_1", "traversals", "target_times", "policy", "lanes",
+               "occupancy", "comparison", "claims")
 
 @dataclass(frozen=True)
 class TableSchema:

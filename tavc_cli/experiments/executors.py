@@ -21,7 +21,7 @@ from urllib.parse import urlsplit
 
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch
-from tavc_cli.experiments.store import BatchResult, simulate_contained
+from tavc_cli.experiments.contained import BatchResult, simulate_contained
 
 
 def probe(backend: str, address: str | None, timeout_s: float = 5.0) -> None:

@@ -23,19 +23,12 @@ from dataclasses import replace
 from pathlib import Path
 
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.contained import TrialFailure, simulate_contained
 from tavc_cli.experiments.engine import BatchEngine
 from tavc_cli.experiments.lineage import Item, Node, TreeBatch, plan
 from tavc_cli.experiments.pool import batch_names, die_with_parent, run_pool
 from tavc_cli.experiments.spec import TrialSpec
-from tavc_cli.experiments.store import (
-    Executor,
-    TrialFailure,
-    TrialStore,
-    pending_batches,
-    save_record,
-    simulate_contained,
-    trial_done,
-)
+from tavc_cli.experiments.store import Executor, TrialStore, pending_batches, save_record, trial_done
 
 CAN_FORK = hasattr(os, "fork") and sys.platform.startswith("linux")
 

@@ -30,7 +30,7 @@ from tavc_cli.experiments.engine import BatchEngine, run_trials
 from tavc_cli.experiments.tick import NOISE_BLOCK_TICKS
 
 if TYPE_CHECKING:
-    from tavc_cli.experiments.store import TrialFailure
+    from tavc_cli.experiments.contained import TrialFailure
 
 
 class _QueueReporter:

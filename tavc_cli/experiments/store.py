@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import json
 import time
-import traceback
 import zipfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -30,11 +29,11 @@ import numpy as np
 
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, make_batches
-from tavc_cli.experiments.engine import run_trials
+from tavc_cli.experiments.contained import BatchResult, TrialFailure, simulate_contained
+from tavc_cli.experiments.executors import run_on_cluster
 from tavc_cli.experiments.pool import Progress, run_pool
 from tavc_cli.experiments.records import ARRAY_FIELDS, TABLES, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
-from tavc_cli.experiments.trial import TrialFault
 from tavc_cli.io import owned_path, write_text_atomic
 from tavc_cli.settings import ExecutorConfig
 
@@ -212,64 +211,6 @@ def pending_batches(out_dir: Path, specs: list[TrialSpec], batch_size: int,
     return make_batches(todo, batch_size, workers), len(specs) - len(todo), redone
 
 
-@dataclass(frozen=True)
-class TrialFailure:
-    """A trial that stopped with an error: which one, its seed, what went wrong and, for an
-    exception, its traceback."""
-
-    controller: str
-    trial: int
-    seed: tuple[int, ...]
-    message: str
-    detail: str = ""
-    folder: str = ""  # the results folder, where trials of several are run together
-
-    @classmethod
-    def of(cls, spec: TrialSpec, message: str, detail: str = "") -> TrialFailure:
-        """The failure of `spec`'s trial, its message on one line."""
-        return cls(spec.controller, spec.trial, tuple(spec.seed), " ".join(message.split()), detail)
-
-    @property
-    def name(self) -> str:
-        """The trial's name, as its record file is named: ``<controller>_<trial>``."""
-        return f"{self.controller}_{self.trial:03d}"
-
-    def report(self) -> str:
-        """The failure as it goes into `failures.log`."""
-        return f"trial {self.name} (seed {list(self.seed)}): {self.message}" + (
-            f"\n{self.detail.rstrip()}" if self.detail else "")
-
-
-BatchResult = tuple[list[tuple[TrialSpec, TrialRecord]], list[TrialFailure]]
-
-
-def simulate_contained(specs: Sequence[TrialSpec], report: Callable[[float], None] | None = None) -> BatchResult:
-    """Run trials side by side; a trial that fails is named and left out, the others finish.
-
-    A fault the engine pins on one trial (`TrialFault`) drops that trial and the others run
-    again without it; any other exception runs each trial alone to find the ones at fault.
-    The others' records are those of an uneventful run: a trial computes the same alone as
-    in any batch.
-    """
-    try:
-        return list(zip(specs, run_trials(specs, report), strict=True)), []
-    except TrialFault as fault:
-        failures = [TrialFailure.of(specs[fault.index], str(fault))]
-        groups = [[s for k, s in enumerate(specs) if k != fault.index]]
-    except Exception as exc:
-        if len(specs) == 1:
-            said = str(exc) if isinstance(exc, TavcError) else f"{type(exc).__name__}: {exc}"  # a learner's, named
-            return [], [TrialFailure.of(specs[0], said, traceback.format_exc())]
-        failures, groups = [], [[s] for s in specs]
-    done: list[tuple[TrialSpec, TrialRecord]] = []
-    for group in groups:
-        if group:
-            ok, failed = simulate_contained(group)
-            done += ok
-            failures += failed
-    return done, failures
-
-
 def run_batch(batch: Batch, out_dir: str | Path,
               report: Callable[[float], None] | None = None) -> tuple[float, list[TrialFailure]]:
     """Simulate one batch and write the files of its trials that finished; returns the wall
@@ -304,8 +245,6 @@ def execute(pending: list[Batch], out_dir: Path, n_jobs: int, shown: bool) -> li
 def _execute_on_cluster(ex: Executor, pending: list[Batch], out_dir: Path, shown: bool) -> list[TrialFailure]:
     """Run pending batches on a Dask or Ray cluster (`executors`); this process writes the files.
     Returns the trials that failed."""
-    from tavc_cli.experiments.executors import run_on_cluster
-
     if not pending:
         return []
     prog = Progress(pending, shown)
