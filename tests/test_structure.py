@@ -6,7 +6,7 @@ import shutil
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "tavc_cli"
-FRONT_DOORS = {"cli.py", "api.py", "__main__.py"}
+FRONT_DOORS = {"cli.py", "commands.py", "api.py", "__main__.py"}  # commands.py: what each command of cli.py does
 
 
 def _imports(path: Path) -> set[str]:
