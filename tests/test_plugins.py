@@ -256,3 +256,17 @@ def test_the_response_threshold_by_hand():
     stays = sum(p.choose(0, 1) == 1 for _ in range(4000)) / 4000
     # stimulus of circuit 1: 1 / 1.5; T = (4/9) / (4/9 + 1) = 4/13
     assert abs(stays - 4 / 13) < 0.03
+
+
+def test_a_parameter_the_learners_yaml_does_not_list_says_how_to_add_it(tmp_path, monkeypatch):
+    from tavc_cli.errors import TavcError
+    from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
+
+    monkeypatch.setenv(CONFIG_DIRS_ENV, str(_plugin_folder(tmp_path)))
+    base = ["experiment=initial_distribution", "scale=smoke", "learner=stubborn"]
+    said = (r"^learner.params.other: the learner's config lists no such parameter; to give one it does not "
+            r"list, add it with a plus: \+learner.params.other=\.\.\.$")
+    with pytest.raises(TavcError, match=said):
+        config.load_config([*base, "learner.params.other=1"])
+    with pytest.raises(TavcError, match=r"learner.params.other: Stubborn takes no parameter 'other'"):
+        config.load_config([*base, "+learner.params.other=1"])  # with the plus, the class's signature decides

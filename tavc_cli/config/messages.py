@@ -198,6 +198,11 @@ def omegaconf_message(error: OmegaConfBaseException, context: Optional[str] = No
     nested = bool(context) and not full_key.startswith(context.split(".")[0])
     where = context if nested or not full_key else full_key
     if isinstance(error, (ConfigKeyError, ConfigAttributeError)):
+        if where.startswith("learner.params.") and where.count(".") == 2:
+            # a learner's parameters are what its YAML lists; one more is added with `+`, then
+            # checked against the class's signature (`learning.plugins.check_params`)
+            return (f"{where}: the learner's config lists no such parameter; to give one it does not list, "
+                    f"add it with a plus: +{where}=...")
         unknown = f"unknown key {error.key!r}" if nested else "unknown key"
         return f"{where}: {unknown}{_key_hint(error)}"
     if isinstance(error, ValidationError):
