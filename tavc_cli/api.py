@@ -290,7 +290,7 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, prog
     from tavc_cli import config
     from tavc_cli.model.api import calibration_record, model_identity, run_model
     from tavc_cli.model.api import save_calibration as save
-    from tavc_cli.model.report import model_text
+    from tavc_cli.model.report import measurement_shortfall, model_text
     from tavc_cli.ownership import refuse_other_settings
 
     config.check_measurement(list(overrides), "model")  # its time on this machine, before anything runs
@@ -301,7 +301,8 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, prog
                               cfg.overwrite, allow=f"add overwrite=true to replace {tasks_dir / 'calibrated.yaml'} "
                                                    "with this model's values, or leave out --save-calibration")
     result = run_model(cfg, progress=progress)
-    echo(model_text(result))
+    echo(model_text(result, measurement_shortfall(result["model"]["measurement"], cfg.model.trials_per_split,
+                                                  cfg.model.measure_s, cfg.scale.name)))
     if save_calibration:
         echo(f"calibrated values saved as {save(result, tasks_dir)}")
     return result

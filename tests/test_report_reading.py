@@ -315,3 +315,22 @@ def test_the_report_tests_the_claims_on_the_learner_its_runs_are_of():
     assert _under_test({"a": cfg("wolf_phc"), "b": cfg("threshold")}) == "tavc"  # mixed: the chapter's learner
     # a controller that learns nothing is what the claims compare learners with, not a learner under test
     assert _under_test({"a": cfg("random")}) == "tavc" and _under_test({"a": cfg("informed")}) == "tavc"
+
+
+def test_a_model_measured_below_its_own_settings_is_headed_not_a_verdict():
+    from tavc_cli.model.report import measurement_shortfall, model_text
+
+    # scale=smoke: at most 2 trials per split (its scale.trials), times x 0.02 (its time_factor): 3000 s -> 60 s
+    short = measurement_shortfall({"trials_per_split": 2, "measure_s": 60.0}, 12, 3000.0, "smoke")
+    assert short == "scale=smoke measures 2 of 12 static trials per split, 60 of 3,000 s each"
+    assert measurement_shortfall({"trials_per_split": 12, "measure_s": 3000.0}, 12, 3000.0, "paper") == ""
+    assert measurement_shortfall({"trials_per_split": 12, "measure_s": 120000.0}, 12, 3000.0, "converged") == ""
+    table = pd.DataFrame([{"n_robots": 2, "state": "1:1", "circuit": c, "n_on_circuit": 1, "c_per_s": 0.01,
+                           "c_lo": 0.005, "c_hi": 0.03, "task_time_s": 100.0, "reward_per_task": 0.02,
+                           "slot_value": 0.02} for c in (0, 1)])
+    model = {"arena": "two_circuits", "n_robots": 2, "values": [2200, 2000], "time_unit": "ms", "equilibria": ["1:1"],
+             "predicted_state": "1:1", "optimal_state": "1:1", "slot_fill_state": "1:1", "predictions_differ": False,
+             "by_team_size": {}}
+    result = {"model": model, "table": table, "output_dir": "out", "n_reused": 0}
+    assert model_text(result, short).splitlines()[0].startswith("not a verdict: scale=smoke measures 2 of 12")
+    assert model_text(result).splitlines()[0].startswith("TAVC model:")

@@ -20,16 +20,32 @@ def _interval(lo: float, hi: float) -> tuple[str, bool]:
     return f"[{'0*' if clipped else _fmt(lo)}, {_fmt(hi)}]", clipped
 
 
-def model_text(result: dict) -> str:
+def measurement_shortfall(measured: dict, trials_per_split: int, measure_s: float, scale: str) -> str:
+    """Where a model's `measured` measurement (its ``measurement`` record) falls below the
+    model's own settings (`trials_per_split` static trials of `measure_s` each, as `scale=paper`
+    measures them), in words ("2 of 12 static trials per split, 60 of 3,000 s each"); "" where it
+    does not. A scale shrinks the measurement as it shrinks every run."""
+    out = []
+    if int(measured["trials_per_split"]) < int(trials_per_split):
+        out.append(f"{int(measured['trials_per_split'])} of {int(trials_per_split)} static trials per split")
+    if float(measured["measure_s"]) < float(measure_s):
+        out.append(f"{float(measured['measure_s']):,.0f} of {float(measure_s):,.0f} s each")
+    return f"scale={scale} measures {', '.join(out)}" if out else ""
+
+
+def model_text(result: dict, shortfall: str = "") -> str:
     """Per split of the full team: c_i, t_i and reward per task by circuit, total value, and
-    which splits are individual equilibria; then predictions, constraints and calibration."""
+    which splits are individual equilibria; then predictions, constraints and calibration.
+    Headed "not a verdict" with the `shortfall` (`measurement_shortfall`) where there is one."""
     m = result["model"]
     frame = result["table"]
     n = m["n_robots"]
     values = m["values"]
     eq = set(m["equilibria"])
-    lines = [f"TAVC model: {m['arena']}, {n} robots, task values {values} (t in {m['time_unit']})",
-             f"written to {result['output_dir']} ({result['n_reused']} measurement trials reused)", ""]
+    lines = [f"not a verdict: {shortfall}; its predictions and constraints are a first look, not the model's "
+             "(results/initial_distribution/model/ holds the model at scale=paper)"] if shortfall else []
+    lines += [f"TAVC model: {m['arena']}, {n} robots, task values {values} (t in {m['time_unit']})",
+              f"written to {result['output_dir']} ({result['n_reused']} measurement trials reused)", ""]
     full = frame[frame["n_robots"] == n]
     head = f"{'state':>7}  {'circuit':>7}  {'robots':>6}  {'c (1/s)':>9}  {'90% CI':>19}  {'t (s)':>7}  " \
            f"{'w/t':>9}  {'slot value':>10}"
