@@ -45,6 +45,7 @@ ProgressFlag = Annotated[
         help="Show progress while simulating: a bar on a terminal, a line every 10 s otherwise (the default); "
              "--no-progress prints results only.",
         show_default=False,
+        metavar="",  # a flag takes no value: no type label beside it
     ),
 ]
 
@@ -66,7 +67,7 @@ def main(
         bool,
         typer.Option(
             "--version", help="Print the version and exit.", callback=_show_version, is_eager=True
-        ),
+        , metavar=""),
     ] = False,
     config_dir: Annotated[
         Optional[list[Path]],
@@ -117,6 +118,7 @@ def run(
             "--multirun",
             "-m",
             help="Sweep comma lists, range() and choice(); one output folder per job.",
+            metavar="",
         ),
     ] = False,
     progress: ProgressFlag = None,
@@ -188,6 +190,7 @@ def model(
         typer.Option(
             "--save-calibration",
             help="Record the calibrated values as the config option tasks=calibrated (conf/tasks/).",
+            metavar="",
         ),
     ] = False,
     progress: ProgressFlag = None,
@@ -205,7 +208,8 @@ def surrogate(
     overrides: _overrides("experiment=breakdown scale=converged surrogate.calibration=stayers") = None,
     study: Annotated[
         bool, typer.Option("--study", help="Check the surrogate against the simulator's runs and map what it "
-                                            "answers: comparison, ladder, phase diagram, convergence horizon, speed.")
+                                            "answers: comparison, ladder, phase diagram, convergence horizon, speed.",
+                           metavar="")
     ] = False,
     results: Annotated[
         Optional[Path],
@@ -247,10 +251,12 @@ def compare(
     overrides: _overrides("scale=converged scale.trials=8") = None,
     learners: Annotated[
         str, typer.Option("--learners", help="Comma-separated learner configs to compare (tavc: each scenario's "
-                                             "own; a learner of your own: its config's name, with --config-dir).")
+                                             "own; a learner of your own: its config's name, with --config-dir); "
+                                             f"by default {', '.join(CONTROLLERS)}.", show_default=False)
     ] = ",".join(CONTROLLERS),
     experiments: Annotated[
-        str, typer.Option("--experiments", help="Comma-separated scenarios.")
+        str, typer.Option("--experiments", help=f"Comma-separated scenarios; by default {', '.join(SCENARIOS)}.",
+                          show_default=False)
     ] = ",".join(SCENARIOS),
     results: Annotated[
         Optional[Path],
@@ -289,6 +295,7 @@ def calibrate(
         typer.Option(
             "--save",
             help="Record the chosen world as the config option world=calibrated (conf/world/).",
+            metavar="",
         ),
     ] = False,
     progress: ProgressFlag = None,
@@ -304,7 +311,7 @@ def calibrate(
 @app.command()
 def bench(
     json_output: Annotated[
-        bool, typer.Option("--json", help="Print one JSON object and nothing else.")
+        bool, typer.Option("--json", help="Print one JSON object and nothing else.", metavar="")
     ] = False,
     scenario: Annotated[str, typer.Option(help="Arena to simulate.")] = "two_circuits",
     n_robots: Annotated[int, typer.Option("--n-robots", min=1, help="Robots in the arena.")] = 6,
@@ -325,7 +332,7 @@ def bench(
         typer.Option("--n-rays", min=1, help="Laser rays (default: the configured world's).", show_default=False),
     ] = None,
     scaling: Annotated[
-        bool, typer.Option(help="Also measure 2, 6, 12, 24 robots and 1, 2, all processes.")
+        bool, typer.Option(help="Also measure 2, 6, 12, 24 robots and 1, 2, all processes.", metavar="")
     ] = True,
     against: Annotated[
         Optional[str],
@@ -333,9 +340,11 @@ def bench(
     ] = None,
     profile: Annotated[
         bool, typer.Option(help="Instead, where one batch's time goes, by kernel and library (needs Linux's "
-                                "perf; at least 5,000 simulated s per trial).")
+                                "perf; at least 5,000 simulated s per trial).", metavar="")
     ] = False,
-    force: Annotated[bool, typer.Option("--force", help="Run it even if estimated to take over a day.")] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Run it even if estimated to take over a day.", metavar="")
+    ] = False,
 ) -> None:
     """Measure simulator throughput (simulated seconds per wall second, one core)."""
     with _user_errors():
@@ -368,7 +377,7 @@ def animate(
     ] = 300.0,
     fps: Annotated[int, typer.Option(min=1, help="Frames per second of the animation.")] = 10,
     mp4: Annotated[
-        bool, typer.Option("--mp4/--no-mp4", help="Also write an MP4 (needs ffmpeg).")
+        bool, typer.Option("--mp4/--no-mp4", help="Also write an MP4 (needs ffmpeg).", metavar="")
     ] = False,
 ) -> None:
     """Render one run (robots, markings, targets, trails) to GIF or MP4."""
