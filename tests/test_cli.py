@@ -355,3 +355,17 @@ def test_animate_into_a_folder_names_the_folder_not_the_suffix(tmp_path):
     assert result.output.strip() == (f"error: --out: {tmp_path} is a folder; give the file to write in it, e.g. "
                                      f"--out {tmp_path / 'animation.gif'}")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_compare_help_lists_every_default_at_eighty_columns():
+    """At 80 columns the help of `tavc compare` names every default learner and scenario in full
+    (none cut off with an ellipsis), and its flags carry no type label."""
+    from tavc_cli.cli import app
+    from tavc_cli.compare import CONTROLLERS, SCENARIOS
+
+    text = CliRunner().invoke(app, ["compare", "--help"], env={"COLUMNS": "80", "TERM": "dumb"}).output
+    flat = " ".join(re.sub(r"[│╭╮╰╯─]", " ", text).split())
+    for name in (*CONTROLLERS, *SCENARIOS):
+        assert re.search(rf"\b{name}[,.]", flat), name
+    assert "…" not in text
+    assert not re.search(r"--no-progress\s+<bool>", flat)
