@@ -5,8 +5,9 @@ Typer would print a mistyped option or command as a framed usage box; here it is
 turn tavc's own errors into one line, `console.user_errors`).
 
 Ctrl-C is one line and exit status 130 at any moment: the command line (Typer, Hydra, the
-simulator's modules) is imported inside `main`, so that an interrupt while it loads is caught
-as any other is, and once the command is done a second Ctrl-C during the interpreter's exit
+simulator's modules) is imported inside `main`, still under the handler `tavc_cli` installs
+while it loads (one line, and out), so that an interrupt never lands inside a library's
+half-built state; once the command is done a second Ctrl-C during the interpreter's exit
 ends it at once rather than printing a traceback from the middle of its clean-up.
 """
 
@@ -20,22 +21,31 @@ from tavc_cli.errors import interrupts_not_swallowed
 def main() -> None:
     """Run the command line; a usage error (unknown option or command, a value the option's
     type refuses) is one line, and so is Ctrl-C however early it comes."""
-    signal.signal(signal.SIGINT, signal.default_int_handler)  # after tavc_cli's own while it loaded
     interrupts_not_swallowed()
     try:
-        code = _run()
+        # loaded under tavc_cli's own handler, where it installed one: an interrupt is then one line
+        # and out at once, never an exception raised inside a library's half-built state
+        loaded = _load()
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        code = _run(*loaded)
     except KeyboardInterrupt:
         code = _interrupted()
     signal.signal(signal.SIGINT, _exit_interrupted)
     sys.exit(code)
 
 
-def _run() -> int:
+def _load() -> tuple:
+    """The command line's modules: Typer, the console, the app (Hydra and the simulator's modules
+    with it)."""
     import typer
 
     from tavc_cli import console
     from tavc_cli.cli import app
 
+    return typer, console, app
+
+
+def _run(typer, console, app) -> int:
     # click's UsageError, wherever this Typer keeps click (its own copy, in recent versions)
     usage_error = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
     try:
