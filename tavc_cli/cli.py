@@ -13,11 +13,11 @@ Modules that pull in the simulator are imported inside the commands that need th
 """
 
 from pathlib import Path
-from typing import Annotated, Any, Optional
+from typing import Annotated, Optional
 
 import typer
 
-from tavc_cli import __version__, commands, config
+from tavc_cli import __version__, commands, config, options
 from tavc_cli.compare import CONTROLLERS, SCENARIOS
 from tavc_cli.console import user_errors as _user_errors
 
@@ -29,31 +29,6 @@ app = typer.Typer(
     # A bug's traceback is for developers; the locals (whole configs) would drown it.
     pretty_exceptions_show_locals=False,
 )
-
-def _overrides(example: str) -> Any:
-    """The type of a command's Hydra overrides, its help showing `example`."""
-    return Annotated[Optional[list[str]], typer.Argument(help=f"Hydra overrides, e.g. {example}.", show_default=False)]
-
-
-Overrides = _overrides("experiment=initial_distribution scale=paper team.n_robots=5")
-
-
-ProgressFlag = Annotated[
-    Optional[bool],
-    typer.Option(
-        "--progress/--no-progress",
-        help="Show progress while simulating: a bar on a terminal, a line every 10 s otherwise (the default); "
-             "--no-progress prints results only.",
-        show_default=False,
-        metavar="",  # a flag takes no value: no type label beside it
-    ),
-]
-
-
-def _shown(progress: Optional[bool]) -> bool:
-    """Whether to show progress: as asked, else yes (`pool.Progress` picks a bar or lines)."""
-    return True if progress is None else progress
-
 
 def _show_version(value: bool) -> None:
     if value:
@@ -96,7 +71,7 @@ def main(
 
 
 @app.command("config")
-def config_command(overrides: Overrides = None) -> None:
+def config_command(overrides: options.Overrides = None) -> None:
     """Print the composed, validated config as YAML and exit."""
     with _user_errors():
         commands.print_config(overrides=overrides or [])
@@ -111,7 +86,7 @@ def list_command() -> None:
 
 @app.command()
 def run(
-    overrides: Overrides = None,
+    overrides: options.Overrides = None,
     multirun: Annotated[
         bool,
         typer.Option(
@@ -121,20 +96,20 @@ def run(
             metavar="",
         ),
     ] = False,
-    progress: ProgressFlag = None,
+    progress: options.ProgressFlag = None,
 ) -> None:
     """Run every trial and controller an experiment needs and write its results."""
     with _user_errors(folder=lambda: config.load_config(overrides or []).output_dir):
         commands.run(
             overrides=overrides or [],
             multirun=multirun,
-            progress=_shown(progress),
+            progress=options.shown(progress),
         )
 
 
 @app.command()
 def reproduce(
-    overrides: _overrides("scale=paper seed=3, for every experiment") = None,
+    overrides: options.overrides_of("scale=paper seed=3, for every experiment") = None,
     experiments: Annotated[
         Optional[str],
         typer.Option("--experiments", help="Comma-separated experiment names (default: every one).",
@@ -150,7 +125,7 @@ def reproduce(
         typer.Option("--ladder", help="Also the horizon ladder at these multiples of the chapter's durations "
                                       "(e.g. 1,4,10,20,40), into RESULTS/ladder/.", show_default=False),
     ] = None,
-    progress: ProgressFlag = None,
+    progress: options.ProgressFlag = None,
 ) -> None:
     """Run several experiments at once, the history their trials share simulated once."""
     with _user_errors(folder=lambda: results):
@@ -158,14 +133,14 @@ def reproduce(
             overrides=overrides or [],
             names=experiments,
             results=results,
-            progress=_shown(progress),
+            progress=options.shown(progress),
             ladder=config.parse_factors(ladder),
         )
 
 
 @app.command("ladder")
 def ladder_command(
-    overrides: _overrides("seed=3 trials=8") = None,
+    overrides: options.overrides_of("seed=3 trials=8") = None,
     factors: Annotated[
         str, typer.Option("--factors", help="Multiples of the chapter's durations, comma-separated.")
     ] = "1,4,10,20,40",
@@ -174,17 +149,17 @@ def ladder_command(
         typer.Option("--results", help="Folder whose ladder/ gets one folder per rung (default: runs/<scale>, "
                                        "runs/converged unless a scale is given).", show_default=False),
     ] = None,
-    progress: ProgressFlag = None,
+    progress: options.ProgressFlag = None,
 ) -> None:
     """initial_distribution at several multiples of the chapter's durations, history shared; ladder.csv."""
     with _user_errors(folder=lambda: results):
-        commands.reproduce(overrides=overrides or [], names="", results=results, progress=_shown(progress),
+        commands.reproduce(overrides=overrides or [], names="", results=results, progress=options.shown(progress),
                    ladder=config.parse_factors(factors))
 
 
 @app.command()
 def model(
-    overrides: Overrides = None,
+    overrides: options.Overrides = None,
     save_calibration: Annotated[
         bool,
         typer.Option(
@@ -193,19 +168,19 @@ def model(
             metavar="",
         ),
     ] = False,
-    progress: ProgressFlag = None,
+    progress: options.ProgressFlag = None,
 ) -> None:
     """Measure c_i(n) in the simulator and apply the TAVC model: slot values, predicted
     allocation, constraints (1.3)/(1.4) and calibrated task values."""
     with _user_errors(folder=lambda: config.load_config(overrides or []).output_dir):
         from tavc_cli.api import model as run_model
 
-        run_model(overrides or [], save_calibration=save_calibration, progress=_shown(progress), echo=typer.echo)
+        run_model(overrides or [], save_calibration=save_calibration, progress=options.shown(progress), echo=typer.echo)
 
 
 @app.command()
 def surrogate(
-    overrides: _overrides("experiment=breakdown scale=converged surrogate.calibration=stayers") = None,
+    overrides: options.overrides_of("experiment=breakdown scale=converged surrogate.calibration=stayers") = None,
     study: Annotated[
         bool, typer.Option("--study", help="Check the surrogate against the simulator's runs and map what it "
                                             "answers: comparison, ladder, phase diagram, convergence horizon, speed.",
@@ -224,7 +199,7 @@ def surrogate(
         typer.Option("--parts", help="Only these parts of the study: compare,ladder,phase,horizon,speed.",
                      show_default=False),
     ] = None,
-    progress: ProgressFlag = None,
+    progress: options.ProgressFlag = None,
 ) -> None:
     """Run an experiment on the surrogate of the learning dynamics: the same learners, seeds,
     events and tables, with each task drawn from tasks measured in the simulator by the group's
@@ -237,18 +212,18 @@ def surrogate(
             out = results if results is not None else Path("runs") / "surrogate-study"  # both horizons: no one scale
             chosen = None if parts is None else [p.strip() for p in parts.split(",") if p.strip()]
             run_study(out, simulator, overrides or [], lambda o: config.settings(config.load_config(o)), parts=chosen,
-                      progress=_shown(progress), echo=typer.echo)
+                      progress=options.shown(progress), echo=typer.echo)
             for line in summary_lines(out):
                 typer.echo(line)
             return
         from tavc_cli.api import surrogate_summary
 
-        commands.print_summary(surrogate_summary(overrides or [], progress=_shown(progress), echo=typer.echo))
+        commands.print_summary(surrogate_summary(overrides or [], progress=options.shown(progress), echo=typer.echo))
 
 
 @app.command()
 def compare(
-    overrides: _overrides("scale=converged scale.trials=8") = None,
+    overrides: options.overrides_of("scale=converged scale.trials=8") = None,
     learners: Annotated[
         str, typer.Option("--learners", help="Comma-separated learner configs to compare (tavc: each scenario's "
                                              "own; a learner of your own: its config's name, with --config-dir); "
@@ -269,7 +244,7 @@ def compare(
                                      "be a finished run at the comparison's settings, checked as tavc report does.",
                      show_default=False),
     ] = None,
-    progress: ProgressFlag = None,
+    progress: options.ProgressFlag = None,
 ) -> None:
     """Learners side by side on the chapter's scenarios: score per second, time in the model's
     predicted state, time to fill a vacancy, fast robots on the valuable circuit, each tested
@@ -280,7 +255,7 @@ def compare(
 
         written = compare_summary(overrides or [], learners=[n for n in learners.split(",") if n],
                                   experiments=[n for n in experiments.split(",") if n], results_dir=results,
-                                  reuse=parse_reuse(reuse or []), progress=_shown(progress))
+                                  reuse=parse_reuse(reuse or []), progress=options.shown(progress))
         for name in ("compare.csv", "compare.md", "compare_trials.csv"):
             typer.echo(f"{name}: {Path(written['results']) / name}")
         for path in written["figures"]:
@@ -289,7 +264,7 @@ def compare(
 
 @app.command()
 def calibrate(
-    overrides: Overrides = None,
+    overrides: options.Overrides = None,
     save: Annotated[
         bool,
         typer.Option(
@@ -298,14 +273,14 @@ def calibrate(
             metavar="",
         ),
     ] = False,
-    progress: ProgressFlag = None,
+    progress: options.ProgressFlag = None,
 ) -> None:
     """Search the reconstructed docking world (calibration.grid) for the settings under which
     the chapter's task values meet its constraints (1.3)/(1.4); static allocations only."""
     with _user_errors():
         from tavc_cli.api import calibrate as search_world
 
-        search_world(overrides or [], save=save, progress=_shown(progress), echo=typer.echo)
+        search_world(overrides or [], save=save, progress=options.shown(progress), echo=typer.echo)
 
 
 @app.command()
@@ -365,7 +340,7 @@ def bench(
 
 @app.command()
 def animate(
-    overrides: Overrides = None,
+    overrides: options.Overrides = None,
     out: Annotated[
         Optional[Path],
         typer.Option(

@@ -14,6 +14,9 @@ from typing import Any, Dict, List, Optional
 
 from omegaconf import MISSING, OmegaConf
 
+# the study commands' groups, part of TavcConfig (and imported from here as every group is)
+from tavc_cli.settings_studies import CalibrationConfig, GridAxis, ModelConfig, SurrogateConfig  # noqa: F401
+
 SCHEMA_NAME = "tavc_schema"
 AVAILABLE_BACKENDS = ("local", "ray", "dask")
 BACKENDS = ("local", "ray", "dask")
@@ -297,48 +300,6 @@ class AnalysisConfig:
     state: str = "circuits"
     performance_bin_s: float = 600.0
     before_s: Optional[float] = None
-
-
-@dataclass
-class ModelConfig:
-    """How `tavc model` measures task-processing frequencies (times scale with `scale`)."""
-
-    trials_per_split: int = 12
-    warmup_s: float = 300.0
-    measure_s: float = 3000.0
-    confidence: float = 0.9
-    max_robots: Optional[int] = None
-
-
-@dataclass
-class SurrogateConfig:
-    """`tavc surrogate`: the learners on tasks measured in the simulator (`tavc_cli.surrogate`)."""
-
-    # where the measured tasks and the static trials that measured them are kept; null:
-    # runs/<scale>/surrogate/tasks
-    tasks_dir: Optional[str] = None
-    trials_per_makeup: int = 4     # static trials per make-up of the group (capped by the scale)
-    warmup_s: float = 300.0        # left out of each measurement; times shortened by a scale below 1
-    measure_s: float = 3000.0
-    calibration: str = "makeup"    # makeup: by stayers and alternators; stayers: by robots per circuit only
-
-
-@dataclass
-class GridAxis:
-    """One axis of the world search: a config key and the values it takes."""
-
-    key: str = MISSING
-    values: List[Any] = MISSING
-
-
-@dataclass
-class CalibrationConfig:
-    """How `tavc calibrate` searches the reconstructed world (times scale with `scale`)."""
-
-    trials_per_split: int = 6
-    warmup_s: float = 300.0
-    measure_s: float = 3000.0
-    grid: List[GridAxis] = field(default_factory=list)
 
 
 @dataclass

@@ -31,3 +31,31 @@ def file_digests(folder: Path) -> dict[str, str]:
 def run_settings(overrides: Sequence[str], out_dir: Path | str, *extra: str) -> TavcConfig:
     """The settings of `overrides`, the run written into `out_dir`, then `extra` overrides."""
     return settings(load_config([*overrides, f"output_dir={out_dir}", *extra]))
+
+
+def modules_reached(root: Path, start: str, packages: Sequence[str]) -> set[str]:
+    """Every module (a path below `root`, tavc_cli/) that `start` reaches through its `from
+    tavc_cli... import` lines, following only modules of `packages` (top-level folders)."""
+    import ast
+
+    seen, todo = set(), [start]
+    while todo:
+        rel = todo.pop()
+        if rel in seen:
+            continue
+        seen.add(rel)
+        for node in ast.walk(ast.parse((root / rel).read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("tavc_cli."):
+                path = node.module.removeprefix("tavc_cli.").replace(".", "/") + ".py"
+                if path.split("/")[0] in packages:
+                    todo.append(path)
+    return seen
+
+
+def then_interrupted(fn):
+    """`fn` that, once done, raises KeyboardInterrupt: Ctrl-C right after it."""
+    def done_then_stop(*args, **kwargs):
+        fn(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    return done_then_stop

@@ -28,7 +28,7 @@ from tavc_cli.errors import Terminated, sigterm_raises
 from tavc_cli.experiments.records import TrialRecord, records_differ
 from tavc_cli.experiments.store import trial_path
 from tavc_cli.pipeline import run_experiment
-from tests.helpers import run_settings
+from tests.helpers import run_settings, then_interrupted
 
 SMOKE = ["scale=smoke", "duration_s=120", "convergence_s=20", "arena=two_circuits", "learner=random",
          "executor.n_jobs=1", "trials=3"]
@@ -124,13 +124,7 @@ def test_a_rerun_stopped_after_writing_its_config_is_resumed_by_the_same_command
     it as another configuration, and its tables are the undisturbed run's."""
     out = tmp_path / "run"
     shutil.copytree(undisturbed, out)
-    took = pipeline.take_run_folder
-
-    def take_then_stop(*args, **kwargs):
-        took(*args, **kwargs)
-        raise KeyboardInterrupt
-
-    monkeypatch.setattr(pipeline, "take_run_folder", take_then_stop)
+    monkeypatch.setattr(pipeline, "take_run_folder", then_interrupted(pipeline.take_run_folder))
     with pytest.raises(KeyboardInterrupt):
         run_experiment(_cfg(out, *change))
     monkeypatch.undo()

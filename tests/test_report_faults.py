@@ -24,6 +24,7 @@ from tavc_cli.config import settings as to_settings
 from tavc_cli.errors import TavcError
 from tavc_cli.io import file_digest
 from tavc_cli.pipeline import run_experiment
+from tests.helpers import then_interrupted
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 SMOKE = ["scale=smoke", "duration_s=120", "convergence_s=20", "executor.n_jobs=1"]
@@ -391,13 +392,7 @@ def test_a_report_stopped_while_drawing_lists_its_figures_and_the_next_one_heals
     for folder in (clean, stopped):
         shutil.copytree(breakdown, folder / "breakdown")
     assert runner.invoke(app, ["report", str(clean)]).exit_code == 0
-    sections = report._experiment_sections
-
-    def draw_then_stop(*args, **kwargs):
-        sections(*args, **kwargs)
-        raise KeyboardInterrupt
-
-    monkeypatch.setattr(report, "_experiment_sections", draw_then_stop)
+    monkeypatch.setattr(report, "_experiment_sections", then_interrupted(report._experiment_sections))
     with pytest.raises(KeyboardInterrupt):
         report.build_report(stopped)
     monkeypatch.undo()

@@ -5,6 +5,8 @@ import os
 import shutil
 from pathlib import Path
 
+from tests.helpers import modules_reached
+
 PACKAGE = Path(__file__).resolve().parent.parent / "tavc_cli"
 FRONT_DOORS = {"cli.py", "commands.py", "api.py", "__main__.py"}  # commands.py: what each command of cli.py does
 
@@ -72,17 +74,7 @@ def test_the_trial_key_covers_every_module_a_trial_runs():
     root = Path(__file__).resolve().parent.parent / "tavc_cli"
     covered = {p for p in _OUTCOME_CODE if p.endswith(".py")}
     dirs = [p for p in _OUTCOME_CODE if not p.endswith(".py")]
-    seen, todo = set(), ["experiments/engine.py"]
-    while todo:
-        rel = todo.pop()
-        if rel in seen:
-            continue
-        seen.add(rel)
-        for node in ast.walk(ast.parse((root / rel).read_text())):
-            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("tavc_cli."):
-                path = node.module.removeprefix("tavc_cli.").replace(".", "/") + ".py"
-                if path.split("/")[0] in COMPILED_SOURCES:
-                    todo.append(path)
+    seen = modules_reached(root, "experiments/engine.py", COMPILED_SOURCES)
     missing = sorted(p for p in seen if p not in covered and not any(p.startswith(d + "/") for d in dirs))
     assert not missing, f"modules a trial runs but its key does not digest: {missing}"
 

@@ -15,6 +15,7 @@ from tavc_cli import config
 from tavc_cli.errors import TavcError
 from tavc_cli.surrogate import run as surrogate_run
 from tavc_cli.surrogate.run import measure_tasks, surrogate_code_digest, surrogate_specs
+from tests.helpers import modules_reached
 
 # two robots at the smoke scale: 6 make-ups, 2 static trials of 66 s each (about two seconds)
 OVERRIDES = ["experiment=initial_distribution", "scale=smoke", "team.n_robots=2"]
@@ -227,8 +228,6 @@ def test_the_surrogate_digest_covers_every_module_its_engine_runs():
     """As the simulator's trial key covers every module its engine reaches (test_structure), the
     surrogate's trials' keys cover every module its engine reaches: the simulator's code
     (`code_digest`) or the surrogate's own (`surrogate_code_digest`)."""
-    import ast
-
     from tavc_cli import COMPILED_SOURCES
     from tavc_cli.experiments.spec import _OUTCOME_CODE
 
@@ -236,16 +235,6 @@ def test_the_surrogate_digest_covers_every_module_its_engine_runs():
     covered = {p for p in (*_OUTCOME_CODE, *surrogate_run._SURROGATE_CODE) if p.endswith(".py")}
     covered.add("experiments/build.py")  # builds specs from settings (tasks.py's measuring trials): keyed as specs
     dirs = [p for p in _OUTCOME_CODE if not p.endswith(".py")]
-    seen, todo = set(), ["surrogate/engine.py"]
-    while todo:
-        rel = todo.pop()
-        if rel in seen:
-            continue
-        seen.add(rel)
-        for node in ast.walk(ast.parse((root / rel).read_text())):
-            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("tavc_cli."):
-                path = node.module.removeprefix("tavc_cli.").replace(".", "/") + ".py"
-                if path.split("/")[0] in (*COMPILED_SOURCES, "surrogate"):
-                    todo.append(path)
+    seen = modules_reached(root, "surrogate/engine.py", (*COMPILED_SOURCES, "surrogate"))
     missing = sorted(p for p in seen if p not in covered and not any(p.startswith(d + "/") for d in dirs))
     assert "surrogate/tasks.py" in seen and not missing, f"modules a surrogate trial runs, in no digest: {missing}"

@@ -23,13 +23,15 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.schema import check_run
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order, trial_metrics
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.learning.registry import LEARNS_NOTHING, controller_label
 from tavc_cli.model.allocations import model_allocations
+from tavc_cli.ownership import config_differences
 from tavc_cli.readers import load_yaml
-from tavc_cli.settings import TavcConfig
+from tavc_cli.settings import TavcConfig, to_yaml
 
 
 def controller_overrides(name: str, scale: Mapping) -> list[str]:
@@ -71,10 +73,6 @@ def check_reused(folder: Path, planned: TavcConfig, label: str) -> None:
     (its `provenance.json` there) whose files are whole and unchanged (`analysis.schema.check_run`,
     as `tavc report` checks a run), of that scenario, of that learner with trials of `label`,
     at `planned`'s settings but `REUSE_MAY_DIFFER`, and with at least `planned`'s trials."""
-    from tavc_cli.analysis.schema import check_run
-    from tavc_cli.ownership import config_differences
-    from tavc_cli.settings import to_yaml
-
     experiment = str(planned.experiment_name)
     for name in ("provenance.json", "trial_stats.csv"):
         if not (folder / name).is_file():

@@ -8,8 +8,10 @@ from collections.abc import Sequence
 from omegaconf import DictConfig
 
 from tavc_cli.config.checks import at_least, check, finite, one_of, per_circuit, positive, unit
+from tavc_cli.learning.plugins import check_params, load_target, rehearse
 from tavc_cli.learning.registry import AVAILABLE as AVAILABLE_LEARNERS
 from tavc_cli.learning.registry import NAMES as LEARNERS
+from tavc_cli.learning.registry import RESERVED_LABELS, SEED_CODES
 from tavc_cli.settings import LearnerConfig
 
 
@@ -84,9 +86,6 @@ def _validate_plugin(learner: DictConfig, n_circuits: int, n_robots: int) -> Non
     """A learner from outside tavc: a plain name of its own (its label and seed) that no table
     already gives a meaning, a class that loads, takes the parameters given, and answers a short
     made-up run as a trial needs (`plugins.rehearse`; its warnings printed once per learner)."""
-    from tavc_cli.learning.plugins import check_params, load_target, rehearse
-    from tavc_cli.learning.registry import RESERVED_LABELS, SEED_CODES
-
     name = str(learner.name)
     check(name.isidentifier(), "learner.name",
           f"a learner's name is a plain word (its label in every output), got {name!r}")

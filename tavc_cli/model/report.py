@@ -42,8 +42,8 @@ def model_text(result: dict, shortfall: str = "") -> str:
     n = m["n_robots"]
     values = m["values"]
     eq = set(m["equilibria"])
-    lines = [f"not a verdict: {shortfall}; its predictions and constraints are a first look, not the model's "
-             "(results/initial_distribution/model/ holds the model at scale=paper)"] if shortfall else []
+    lines = [f"not a verdict: {shortfall}; its predictions and constraints are a first look, not the model "
+             "measured as its settings say (scale=paper)"] if shortfall else []
     lines += [f"TAVC model: {m['arena']}, {n} robots, task values {values} (t in {m['time_unit']})",
               f"written to {result['output_dir']} ({result['n_reused']} measurement trials reused)", ""]
     full = frame[frame["n_robots"] == n]
