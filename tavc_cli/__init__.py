@@ -1,35 +1,16 @@
 """tavc: a reproduction of task allocation through vacancy chains in multi-robot transportation."""
 
-import _signal  # the interpreter's own: `signal` itself takes long enough to load to be interrupted
+import hashlib
 import os
-import sys
-
-
-def _interrupted_while_loading(signum, frame) -> None:
-    """Ctrl-C or SIGTERM before the command line has loaded: nothing is written yet, so one
-    line and out."""
-    terminated = signum == _signal.SIGTERM
-    os.write(2, b"error: terminated\n" if terminated else b"error: interrupted\n")
-    os._exit(143 if terminated else 130)
-
-
-# Started as the command line (`tavc`, `python -m tavc_cli`): Ctrl-C and SIGTERM are one line from
-# here on, until `__main__.main` (Ctrl-C) and each command (SIGTERM, `console.user_errors`) take over.
-if os.path.basename(sys.argv[0] if sys.argv else "") == "tavc" or getattr(sys, "orig_argv", [])[1:3] == [
-        "-m", "tavc_cli"]:
-    _signal.signal(_signal.SIGINT, _interrupted_while_loading)
-    _signal.signal(_signal.SIGTERM, _interrupted_while_loading)
-
-import hashlib  # noqa: E402 - after the handler: an interrupt while these load is one line too
-import shutil  # noqa: E402
-from collections.abc import Sequence  # noqa: E402
-from pathlib import Path  # noqa: E402
+import shutil
+from collections.abc import Sequence
+from pathlib import Path
 
 __version__ = "0.1.0"
 
 # The packages whose source compiled (numba) code is made from: the kernels themselves and
 # the modules whose constants and record layouts they freeze in when compiled.
-COMPILED_SOURCES = ("sim", "behaviours", "learning", "experiments")
+COMPILED_SOURCES = ("kernel.py", "vocabulary.py", "sim", "behaviours", "learning", "experiments")
 
 
 def source_digest(root: Path, parts: Sequence[str]) -> str:
@@ -75,34 +56,23 @@ def compiled_code_digest(root: Path) -> str:
 
 def compiled_code_cache(root: Path, home: Path) -> Path:
     """The folder under `home` for the compiled kernels of the source under `root`, named by
-    `compiled_code_digest`; the folders of other versions of the source are removed."""
-    where = home / compiled_code_digest(root)
+    `compiled_code_digest`."""
+    return home / compiled_code_digest(root)
+
+
+def compiled_code_home(root: Path) -> Path:
+    """Where the compiled kernels of the source under `root` are kept, one folder per version of
+    that source: beside the source, or in the user's cache for an installed, read-only copy."""
+    if os.access(root, os.W_OK):
+        return root / "__pycache__" / "numba"
+    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tavc" / "numba"
+
+
+def prune_compiled_code(root: Path, home: Path) -> None:
+    """Remove the folders under `home` of other versions of the source under `root` (the command
+    line does it when it starts; nothing does it on import)."""
+    keep = compiled_code_cache(root, home)
     if home.is_dir():
         for old in home.iterdir():
-            if old != where:
+            if old != keep:
                 shutil.rmtree(old, ignore_errors=True)
-    return where
-
-
-def _use_compiled_code_cache() -> None:
-    """Point numba's cache of compiled kernels at `compiled_code_cache`.
-
-    numba checks a cached function against its own file only. A kernel that inlined a
-    function, or froze a constant, from another file would otherwise be loaded from the
-    cache unchanged after that file changed, and run the old code. With one folder per
-    version of the source, any change compiles everything afresh. A NUMBA_CACHE_DIR set
-    by the user is left alone.
-    """
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return
-    root = Path(__file__).resolve().parent
-    home = root / "__pycache__" / "numba"
-    if not os.access(root, os.W_OK):  # an installed, read-only copy
-        home = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tavc" / "numba"
-    where = str(compiled_code_cache(root, home))
-    os.environ["NUMBA_CACHE_DIR"] = where
-    if "numba.core.config" in sys.modules:  # numba came first and has read its settings already
-        sys.modules["numba.core.config"].CACHE_DIR = where
-
-
-_use_compiled_code_cache()

@@ -5,23 +5,44 @@ Typer would print a mistyped option or command as a framed usage box; here it is
 turn tavc's own errors into one line, `console.user_errors`).
 
 Ctrl-C is one line and exit status 130 at any moment: the command line (Typer, Hydra, the
-simulator's modules) is imported inside `main`, still under the handler `tavc_cli` installs
-while it loads (one line, and out), so that an interrupt never lands inside a library's
+simulator's modules) is imported inside `main`, still under the handler this module installs
+first (one line, and out), so that an interrupt never lands inside a library's
 half-built state; once the command is done a second Ctrl-C during the interpreter's exit
 ends it at once rather than printing a traceback from the middle of its clean-up.
 """
 
+import _signal  # the interpreter's own: `signal` itself takes long enough to load to be interrupted
 import os
-import signal
-import sys
 
-from tavc_cli.errors import interrupts_not_swallowed
+
+def _interrupted_while_loading(signum, frame) -> None:
+    """Ctrl-C or SIGTERM before the command line has loaded: nothing is written yet, so one
+    line and out."""
+    terminated = signum == _signal.SIGTERM
+    os.write(2, b"error: terminated\n" if terminated else b"error: interrupted\n")
+    os._exit(143 if terminated else 130)
+
+
+# Ctrl-C and SIGTERM are one line from here on, until `main` (Ctrl-C) and each command (SIGTERM,
+# `console.user_errors`) take over. Only the command line runs this module.
+_signal.signal(_signal.SIGINT, _interrupted_while_loading)
+_signal.signal(_signal.SIGTERM, _interrupted_while_loading)
+
+import signal  # noqa: E402 - after the handler: an interrupt while these load is one line too
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from tavc_cli import compiled_code_home, prune_compiled_code  # noqa: E402
+from tavc_cli.errors import interrupts_not_swallowed  # noqa: E402
 
 
 def main() -> None:
     """Run the command line; a usage error (unknown option or command, a value the option's
     type refuses) is one line, and so is Ctrl-C however early it comes."""
     interrupts_not_swallowed()
+    root = Path(__file__).resolve().parent
+    if not os.environ.get("NUMBA_CACHE_DIR"):  # a folder of the user's own is theirs to keep
+        prune_compiled_code(root, compiled_code_home(root))
     try:
         # loaded under tavc_cli's own handler, where it installed one: an interrupt is then one line
         # and out at once, never an exception raised inside a library's half-built state

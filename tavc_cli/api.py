@@ -28,6 +28,7 @@ import yaml
 
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.records import TABLES, TrialRecord
+from tavc_cli.learning.parameters import ModelSettings
 from tavc_cli.readers import load_yaml
 
 
@@ -278,8 +279,11 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
         except TavcError as error:
             raise TavcError(f"--learners: {name}: {error}") from None
         plans[name] = [config.settings(cfg) for cfg in cfgs]
+    # the predicted states come from the model file the model's controllers read, else the shipped one
+    model_file = next((cfg.learner.model_file for runs in plans.values() for cfg in runs
+                       if isinstance(cfg.learner, ModelSettings)), ModelSettings().model_file)
     return run_compare(plans, results, controllers=learners, experiments=experiments, reuse=reuse,
-                       model_file=str(base.learner.model_file), scale_name=str(scale["name"]), progress=progress)
+                       model_file=str(model_file), scale_name=str(scale["name"]), progress=progress)
 
 
 def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, progress: bool = False,

@@ -7,12 +7,16 @@ dataclasses, never a DictConfig or nested dicts. `from_yaml` reads a results fol
 ``config.yaml`` back into them.
 """
 
+import copy
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 from typing import Any, Dict, List, Optional
 
 from omegaconf import MISSING, OmegaConf
+
+from tavc_cli.learning.parameters import recorded_learner, settings_mapping
+from tavc_cli.learning.registry import SETTINGS, settings_of
 
 # the study commands' groups, part of TavcConfig (and imported from here as every group is)
 from tavc_cli.settings_studies import CalibrationConfig, GridAxis, ModelConfig, SurrogateConfig  # noqa: F401
@@ -165,39 +169,11 @@ class TeamConfig:
     members: Optional[List[MemberConfig]] = None
 
 
-@dataclass
-class LearnerConfig:
-    """Every learner's parameters in one schema; each learner reads the fields it needs."""
-
-    name: str = "random"
-    alpha: float = 0.1
-    gamma: float = 0.95
-    epsilon: float = 0.1
-    tau: float = 0.005
-    q_init_low: float = -0.1
-    q_init_high: float = 0.1
-    decision_period_s: float = 0.1
-    decide_on_change: bool = True
-    allocation: Optional[List[int]] = None
-    # wolf_phc: the policy's step while winning and while losing (Bowling and Veloso 2002)
-    delta_win: float = 0.01
-    delta_lose: float = 0.04
-    # threshold: each robot's thresholds drawn in [theta_low, theta_high], the response's steepness n
-    # (Bonabeau, Theraulaz and Deneubourg 1996)
-    theta_low: float = 0.5
-    theta_high: float = 1.5
-    steepness: float = 2.0
-    # alternate: each robot's role, the circuit it stays on or -1 to alternate; null: `allocation`
-    # robots stay on each circuit (the first robots first) and the rest alternate
-    roles: Optional[List[int]] = None
-    # a learner from outside tavc: the class (package.module.Class or path/to/file.py:Class) and
-    # the keyword arguments it is built with beside n_robots, n_circuits and rng (docs/plugins.md)
-    target: Optional[str] = None
-    params: Dict[str, Any] = field(default_factory=dict)
-    # model, informed: the model whose allocation they follow, read into `allocations` (robots per
-    # circuit by team size, the most valuable circuit first) when the config is resolved
-    model_file: str = "results/initial_distribution/model/model.json"
-    allocations: Optional[Dict[str, List[int]]] = None
+def _learner_node() -> dict:
+    """The ``learner:`` node before a learner group fills it: the slots of a learner from outside
+    tavc (so that ``learner.target=...`` and ``learner.params`` need no ``+``); every other key is
+    the chosen learner's own, declared by its settings class (`learning.parameters`)."""
+    return {"name": "random", "target": None, "params": {}}
 
 
 @dataclass
@@ -309,7 +285,9 @@ class TavcConfig:
     arena: ArenaConfig = field(default_factory=ArenaConfig)
     robot: RobotConfig = field(default_factory=RobotConfig)
     team: TeamConfig = field(default_factory=TeamConfig)
-    learner: LearnerConfig = field(default_factory=LearnerConfig)
+    # the chosen learner's settings: composed as an open node, read into the class the learner
+    # declares (`learning.parameters`), which refuses any key it does not take
+    learner: Dict[str, Any] = field(default_factory=_learner_node)
     scale: ScaleConfig = field(default_factory=ScaleConfig)
     executor: ExecutorConfig = field(default_factory=ExecutorConfig)
     experiment_name: str = "default"
@@ -338,10 +316,16 @@ class TavcConfig:
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
     surrogate: SurrogateConfig = field(default_factory=SurrogateConfig)
 
+    def __post_init__(self) -> None:
+        """The learner's node read into its typed settings (`registry.settings_of`)."""
+        self.learner = settings_of(self.learner)
+
 
 def to_yaml(settings: TavcConfig) -> str:
     """The settings as the YAML ``config.yaml`` holds."""
-    return OmegaConf.to_yaml(OmegaConf.structured(settings))
+    plain = copy.copy(settings)  # the learner as the plain node it is composed as (no __post_init__)
+    plain.learner = settings_mapping(settings.learner)
+    return OmegaConf.to_yaml(OmegaConf.structured(plain))
 
 
 def from_yaml(path: Path) -> TavcConfig:
@@ -354,6 +338,8 @@ def from_yaml(path: Path) -> TavcConfig:
     data = load_yaml(path, loader=get_yaml_loader())
     if data is not None and not isinstance(data, (list, dict, str)):
         raise OSError(f"Invalid loaded object type: {type(data).__name__}")
+    if isinstance(data, dict) and isinstance(data.get("learner"), dict):
+        data["learner"] = recorded_learner(data["learner"], SETTINGS)
     return from_mapping(TavcConfig, OmegaConf.create() if data is None else OmegaConf.create(data))
 
 

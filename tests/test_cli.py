@@ -91,7 +91,8 @@ def test_list_prints_one_line_per_experiment():
         (["run", "learner.epsilon=0.1,0.2"], "learner.epsilon"),
         (["run", "-m", "learner=tavc_egreedy", "learner.epsilon=0.1,1.5"], "learner.epsilon"),
         (["animate", "team.n_robots=0"], "team.n_robots"),
-        (["run", "-m", "scale=smoke", "learner.epsilon=0.1,0.2", "hydra/launcher=nope"], "hydra/launcher"),
+        (["run", "-m", "scale=smoke", "learner=tavc_egreedy", "learner.epsilon=0.1,0.2", "hydra/launcher=nope"],
+         "hydra/launcher"),
         (["run", "-m", "scale=smoke", "hydra/launcher=joblib", "hydra.launcher.n_jobs=two"], "hydra.launcher.n_jobs"),
         (["run", "scale=smoke", "hydra/launcher=joblib"], "hydra/launcher"),
         (["config", "robot.dock.patience_s=-5"], "robot.dock.patience_s"),
@@ -149,7 +150,8 @@ def test_sweep_jobs_run_through_hydras_joblib_launcher_with_the_basic_launchers_
 
 def test_a_refused_launcher_writes_nothing(tmp_path):
     out = tmp_path / "never"
-    result = runner.invoke(app, ["run", "-m", "scale=smoke", "learner.epsilon=0.1,0.2", "hydra/launcher=nope",
+    result = runner.invoke(app, ["run", "-m", "scale=smoke", "learner=tavc_egreedy", "learner.epsilon=0.1,0.2",
+                                 "hydra/launcher=nope",
                                  f"output_dir={out}"])
     assert result.exit_code == 1
     assert "basic" in result.output  # the message lists the launchers there are

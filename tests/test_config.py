@@ -248,7 +248,10 @@ def test_n_jobs_defaults_to_all_cores():
 def test_learner_defaults_fill_fields_an_option_does_not_set():
     cfg = load_config(["learner=tavc_egreedy"])
     assert (cfg.learner.alpha, cfg.learner.gamma, cfg.learner.epsilon) == (0.1, 0.95, 0.1)
-    assert cfg.learner.tau == 0.005
+    # the node holds exactly the parameters tavc_egreedy declares: no softmax temperature, no slots
+    assert list(cfg.learner) == ["name", "alpha", "gamma", "epsilon", "q_init_low", "q_init_high"]
+    soft = load_config(["learner=tavc_softmax"])
+    assert (soft.learner.tau, "epsilon" in soft.learner) == (0.005, False)
 
 
 def test_config_is_read_only():
@@ -470,3 +473,21 @@ def test_a_path_hydra_cannot_read_unquoted_gets_the_quoting_that_reads_it(overri
                                               ('output_dir="/tmp/résultats"', "/tmp/résultats")])
 def test_the_suggested_quoting_reads_the_path(override, folder):
     assert load_config([override]).output_dir == folder
+
+
+def test_a_record_listing_every_learners_parameters_reads_as_the_learner_that_ran(tmp_path):
+    """A results folder whose config.yaml lists every learner's parameters (as records once did)
+    reads as its learner's own settings; a key no learner ever had is still refused."""
+    from tavc_cli.errors import TavcError
+    from tavc_cli.learning.parameters import TavcEgreedySettings
+    from tavc_cli.settings import from_yaml, to_yaml
+
+    text = to_yaml(settings(load_config(["experiment=initial_distribution", "scale=smoke"])))
+    flat = ("  tau: 0.005\n  decision_period_s: 0.1\n  decide_on_change: true\n  allocation: null\n"
+            "  delta_win: 0.01\n  roles: null\n  target: null\n  params: {}\n  model_file: m.json\n"
+            "  allocations: null\nscale:")
+    (tmp_path / "config.yaml").write_text(text.replace("\nscale:", "\n" + flat, 1))
+    assert from_yaml(tmp_path / "config.yaml").learner == TavcEgreedySettings(name="tavc_egreedy")
+    (tmp_path / "config.yaml").write_text(text.replace("\nscale:", "\n  alpah: 0.2\nscale:", 1))
+    with pytest.raises(TavcError, match="learner.alpah: the learner tavc_egreedy takes no parameter alpah"):
+        from_yaml(tmp_path / "config.yaml")

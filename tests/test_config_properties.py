@@ -190,8 +190,17 @@ def test_every_refused_config_is_one_line_and_writes_nothing(overrides, tmp_path
 # are 0.6 m wide; smoke scales times by 0.02.
 REFUSED = [
     (["learner=tavc_egreedy", "learner.q_init_high=inf"], "learner.q_init_high: must be a finite number, got inf"),
-    (["learner.q_init_low=-1e308", "learner.q_init_high=1e308"],
-     "learner.q_init_high: the range [-1e+308, 1e+308] is too wide to draw initial Q-values from"),
+    (["learner=tavc_egreedy", "learner.q_init_low=-1e308", "learner.q_init_high=1e308"],
+     "learner.q_init_high: the range [-1e+308, 1e+308] is too wide (the initial Q-values are drawn from "
+     "[q_init_low, q_init_high])"),
+    # a learner's node holds its own parameters only: random has none
+    (["learner=random", "+learner.alpha=0.2"],
+     "learner.alpha: the learner random takes no parameter alpha (it takes no parameters)"),
+    (["learner=random", "learner.alpha=0.2"],
+     "learner.alpha: the chosen learner takes no such parameter (`tavc config learner=<name>` shows a learner's "
+     "parameters)"),
+    (["learner=random", "+learner.params.a=1"],
+     "learner.params: only a learner from learner.target takes params; set random's parameters as learner.<name>"),
     # the warm-up is checked as written (before smoke's 0.02 would make it -0.1)
     (["sim.warmup_s=-5"], "sim.warmup_s: must be >= 0, got -5.0"),
     (["arena.width_m=1"],

@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.config import load_config, settings
 from tavc_cli.experiments import trial
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine, run_trials
+from tavc_cli.vocabulary import ACTIVITIES
 
 ORIGINAL_START_POSES = trial.start_poses
 RADIUS_M, READ_M, LATERAL_TOL_M, HEADING_TOL = 0.22, 0.30, 0.10, math.radians(20.0)

@@ -1,13 +1,17 @@
 """Q-learning and task-selection policies (tavc_cli.learning)."""
 
+import importlib
 import math
 
 import numpy as np
 import pytest
 from scipy import stats
 
+from tavc_cli.errors import TavcError
+from tavc_cli.kernel import kernel
 from tavc_cli.learning.compiled import egreedy, q_learn, softmax
 from tavc_cli.learning.draws import NEXT_DOUBLE, below, entry_points, uniform
+from tavc_cli.learning.parameters import LearnerSettings
 from tavc_cli.learning.policies import (
     RandomPolicy,
     StaticPolicy,
@@ -15,9 +19,7 @@ from tavc_cli.learning.policies import (
     even_allocation,
 )
 from tavc_cli.learning.qlearning import epsilon_greedy, q_update, softmax_choice, softmax_probs
-from tavc_cli.learning.registry import make_policy
-from tavc_cli.settings import LearnerConfig
-from tavc_cli.sim.kernel import kernel
+from tavc_cli.learning.registry import make_policy, settings_of
 
 N_DRAWS = 20_000
 
@@ -237,24 +239,26 @@ def test_even_allocation_by_hand():
 
 def test_make_policy_static_splits_evenly_or_as_told():
     rng = np.random.default_rng(8)
-    even = make_policy(LearnerConfig(name="static"), 5, 2, rng)
+    even = make_policy(settings_of({"name": "static"}), 5, 2, rng)
     assert [even.choose(i, 0) for i in range(5)] == [0, 0, 0, 1, 1]
-    told = make_policy(LearnerConfig(name="static", allocation=[1, 4]), 5, 2, rng)
+    told = make_policy(settings_of({"name": "static", "allocation": [1, 4]}), 5, 2, rng)
     assert [told.choose(i, 0) for i in range(5)] == [0, 1, 1, 1, 1]
 
 
 def test_make_policy_builds_each_learner():
     rng = np.random.default_rng(9)
-    assert isinstance(make_policy(LearnerConfig(name="random"), 3, 2, rng), RandomPolicy)
+    assert isinstance(make_policy(settings_of({"name": "random"}), 3, 2, rng), RandomPolicy)
     soft = make_policy(
-        LearnerConfig(name="tavc_softmax", tau=0.01, q_init_low=0.0, q_init_high=0.5), 3, 2, rng
+        settings_of({"name": "tavc_softmax", "tau": 0.01, "q_init_low": 0.0, "q_init_high": 0.5}), 3, 2, rng
     )
     assert isinstance(soft, TavcPolicy) and soft.selection == "softmax" and soft.tau == 0.01
     assert np.all((soft.q >= 0.0) & (soft.q <= 0.5))
-    greedy = make_policy(LearnerConfig(name="tavc_egreedy", epsilon=0.2), 3, 2, rng)
+    greedy = make_policy(settings_of({"name": "tavc_egreedy", "epsilon": 0.2}), 3, 2, rng)
     assert greedy.selection == "egreedy" and greedy.epsilon == 0.2
     with pytest.raises(ValueError, match="no task policy"):
-        make_policy(LearnerConfig(name="nope"), 3, 2, rng)
+        make_policy(LearnerSettings(name="nope"), 3, 2, rng)
+    with pytest.raises(TavcError, match="learner.name: must be one of"):
+        settings_of({"name": "nope"})
 
 
 def test_random_policy_is_uniform_over_circuits():
@@ -264,14 +268,17 @@ def test_random_policy_is_uniform_over_circuits():
 
 
 def test_the_registry_keeps_every_learners_label_and_seed_code():
-    from tavc_cli.learning.registry import AVAILABLE, BASELINES, LEARNERS, SEED_CODES, controller_label
+    from tavc_cli.learning.registry import BASELINES, LEARNERS, SEED_CODES, controller_label
 
     # the seed codes are part of every trial's seed: these values are what finished trials were run with
     assert SEED_CODES == {"tavc": 0, "random": 1, "static": 2, "behaviour": 3, "alternate": 4, "wolf_phc": 5,
                           "threshold": 6, "model": 7, "informed": 8}
     assert controller_label("tavc_softmax") == controller_label("tavc_egreedy") == "tavc"
     assert BASELINES == ("random", "static", "alternate")
-    assert set(AVAILABLE) <= set(LEARNERS)
+    # every entry's policy class loads and declares the constructor the registry calls
+    for entry in LEARNERS.values():
+        module, cls = entry.policy.split(":")
+        assert callable(getattr(importlib.import_module(f"tavc_cli.learning.{module}"), cls).from_settings)
 
 
 # --- the same draws and choices in compiled code (deliveries served there) -----------------------

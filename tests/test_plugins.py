@@ -9,7 +9,7 @@ import pytest
 from tavc_cli import config
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import run_trials
-from tavc_cli.learning import registry
+from tavc_cli.learning import policies
 from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, policy_kind
 from tavc_cli.learning.policies import TavcPolicy
 
@@ -29,13 +29,8 @@ def test_a_subclass_of_a_built_in_policy_runs_its_own_code(monkeypatch):
                         rng=rng)
     assert policy_kind(always) == POLICY_PYTHON
 
-    def build(spec, n_robots, n_circuits, rng):
-        return AlwaysZero(n_robots, n_circuits, selection="egreedy", epsilon=float(spec.epsilon), rng=rng,
-                          **registry._q_learning(spec))
-
-    entry = registry.LEARNERS["tavc_egreedy"]
-    monkeypatch.setitem(registry.LEARNERS, "tavc_egreedy", registry.Learner(entry.name, entry.label,
-                                                                            entry.seed_code, build))
+    # the registry builds tavc_egreedy from the class its entry names, looked up when a trial starts
+    monkeypatch.setattr(policies, "TavcPolicy", AlwaysZero)
     cfg = config.settings(config.load_config(["experiment=initial_distribution", "scale=smoke", "trials=1",
                                               "baselines=[]", "duration_s=600"]))
     record = run_trials(trial_specs(cfg))[0]

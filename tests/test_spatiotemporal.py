@@ -14,7 +14,7 @@ from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.learning import behaviour
 from tavc_cli.learning.behaviour import BehaviourPolicy, sensed_states, state_bits, state_index
-from tavc_cli.sim.arena import SINK, SOURCE
+from tavc_cli.vocabulary import SINK, SOURCE
 
 
 def test_sensed_states_are_the_five_bits_and_pick_the_changed_live_robots():

@@ -3,6 +3,8 @@
 import ast
 import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 from tests.helpers import modules_reached
@@ -45,13 +47,16 @@ def test_compiled_kernels_are_cached_per_version_of_their_source(tmp_path):
     """numba's own cache would keep a kernel compiled against an older copy of a function it
     inlined from another file; tavc keeps one cache folder per version of the compiled source."""
     import tavc_cli
-    from tavc_cli import compiled_code_cache, compiled_code_digest
+    import tavc_cli.kernel  # noqa: F401 - sets numba's cache folder before its first kernel
+    from tavc_cli import compiled_code_cache, compiled_code_digest, prune_compiled_code
 
     here = Path(tavc_cli.__file__).resolve().parent
     assert os.environ["NUMBA_CACHE_DIR"].endswith(compiled_code_digest(here))
     root = tmp_path / "src"
     for part in ("sim", "report"):
         shutil.copytree(here / part, root / part, ignore=shutil.ignore_patterns("__pycache__"))
+    for part in ("kernel.py", "vocabulary.py"):
+        shutil.copy(here / part, root / part)
     home = tmp_path / "cache"
     first = compiled_code_cache(root, home)
     first.mkdir(parents=True)
@@ -60,8 +65,9 @@ def test_compiled_kernels_are_cached_per_version_of_their_source(tmp_path):
     sensors = root / "sim" / "sensors.py"
     sensors.write_text(sensors.read_text() + "\n# changed\n")
     second = compiled_code_cache(root, home)
-    assert second != first
-    assert not first.exists()  # the old version's kernels are gone
+    assert second != first and first.exists()  # finding the folder removes nothing
+    prune_compiled_code(root, home)
+    assert not first.exists()  # the old version's kernels are gone when the command line starts
 
 
 def test_the_trial_key_covers_every_module_a_trial_runs():
@@ -98,3 +104,87 @@ def test_the_trial_keys_code_digest_follows_code_not_words(tmp_path):
     assert meaning_digest(root, ("sim",)) == base
     arena.write_text(text + "\n_EXTRA = 1\n")
     assert meaning_digest(root, ("sim",)) != base
+
+
+def test_importing_the_package_changes_nothing_in_the_process():
+    """`import tavc_cli` (and its settings and API) installs no signal handler, sets no
+    environment variable and removes no cache folder: the command line does those when it starts,
+    numba's cache folder is set when the first kernel module loads."""
+    script = ("import os, signal, sys; env = dict(os.environ); "
+              "handlers = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)]; "
+              "import tavc_cli, tavc_cli.settings, tavc_cli.api, tavc_cli.learning.registry; "
+              "assert dict(os.environ) == env, set(os.environ) ^ set(env); "
+              "assert [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)] == handlers; "
+              "assert 'numba' not in sys.modules; print('ok')")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=120)
+    assert done.stdout.strip() == "ok", done.stderr
+
+
+def _module_graph() -> dict[str, set[str]]:
+    """tavc's modules and the modules of tavc each imports, wherever in the file (inside functions
+    too), but for the imports only a type checker reads (`if TYPE_CHECKING:`)."""
+    def name(path: Path) -> str:
+        parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+        return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+    modules = {name(p): p for p in PACKAGE.rglob("*.py")}
+
+    def known(dotted: str) -> str:
+        while dotted not in modules:
+            dotted = dotted.rpartition(".")[0]
+        return dotted
+
+    graph = {}
+    for module, path in modules.items():
+        tree = ast.parse(path.read_text())
+        typing_only = {id(n) for node in ast.walk(tree) if isinstance(node, ast.If)
+                       and "TYPE_CHECKING" in ast.dump(node.test) for n in ast.walk(node)}
+        deps = set()
+        for node in ast.walk(tree):
+            if id(node) in typing_only:
+                continue
+            if isinstance(node, ast.Import):
+                deps.update(known(a.name) for a in node.names if a.name.startswith("tavc_cli"))
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("tavc_cli"):
+                deps.update(known(f"{node.module}.{a.name}") for a in node.names)
+        graph[module] = deps - {module}
+    return graph
+
+
+def test_no_module_imports_its_way_back_to_itself():
+    graph = _module_graph()
+
+    def reaches(start: str) -> set[str]:
+        seen, todo = set(), list(graph[start])
+        while todo:
+            module = todo.pop()
+            if module not in seen:
+                seen.add(module)
+                todo.extend(graph[module])
+        return seen
+
+    circles = sorted(m for m in graph if m in reaches(m))
+    assert circles == []
+
+
+def test_each_layer_imports_only_the_layers_below_it():
+    """The vocabulary imports nothing of tavc's; the compiled kernels' set-up only the package's
+    digests; the simulator and behaviours no learner or trial code; the learners no simulator
+    internals; the analysis no simulator; the model no analysis."""
+    forbidden = {
+        "tavc_cli.vocabulary": ("tavc_cli",),
+        "tavc_cli.kernel": ("tavc_cli.",),
+        "tavc_cli.sim": ("tavc_cli.learning", "tavc_cli.experiments", "tavc_cli.settings", "tavc_cli.analysis"),
+        "tavc_cli.behaviours": ("tavc_cli.learning", "tavc_cli.experiments", "tavc_cli.settings"),
+        "tavc_cli.learning": ("tavc_cli.sim", "tavc_cli.experiments", "tavc_cli.settings", "tavc_cli.analysis"),
+        "tavc_cli.analysis": ("tavc_cli.sim",),
+        "tavc_cli.model": ("tavc_cli.analysis",),
+    }
+    broken = []
+    for module, deps in _module_graph().items():
+        for layer, below in forbidden.items():
+            if module == layer or module.startswith(layer + "."):
+                broken += [f"{module} -> {d}" for d in deps
+                           if any(d == b or d.startswith(b if b.endswith(".") else b + ".") for b in below)]
+    assert broken == []

@@ -10,12 +10,12 @@ import pandas as pd
 import pytest
 
 from tavc_cli import config
-from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.learning.policies import AlternatePolicy, alternate_roles
 from tavc_cli.surrogate.engine import SurrogateTrial, run_trial
 from tavc_cli.surrogate.tasks import COLUMNS, STAY, SWITCH, TaskTimes, Team, makeup_name, makeups, teams_needed
+from tavc_cli.vocabulary import ACTIVITIES
 
 TEAM2 = Team.of(["all", "all"], [0.25, 0.25])
 # by hand: a stay on circuit 0 takes 100 s, on circuit 1 50 s; a switch to 0 takes 200 s, to 1 100 s

@@ -20,6 +20,7 @@ from tavc_cli.analysis.trial_stats import stable_from, trial_stats
 from tavc_cli.analysis.vacancy import vacancy_table
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import write_text_atomic
+from tavc_cli.learning.parameters import CHAPTER_GAMMA
 from tavc_cli.ownership import Owned
 from tavc_cli.settings import TavcConfig
 
@@ -97,7 +98,7 @@ def _analyse(cfg: TavcConfig, records: list[TrialRecord], with_theory: bool = Tr
     q_values = q_value_table(records, every_s=float(cfg.sim.q_snapshot_every_s) * float(cfg.scale.time_factor))
     if q_values is not None:
         tables["q_values"] = q_values
-    convergence = convergence_table(records, t_from, float(cfg.learner.gamma))
+    convergence = convergence_table(records, t_from, float(getattr(cfg.learner, "gamma", CHAPTER_GAMMA)))
     if len(convergence):
         tables["convergence"] = convergence
     mechanism = mechanism_table(records, t_from)

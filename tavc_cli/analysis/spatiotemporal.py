@@ -29,7 +29,7 @@ import pandas as pd
 
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.learning.behaviour import ACTION_NAMES, N_STATES, state_bits
-from tavc_cli.sim.arena import SINK
+from tavc_cli.vocabulary import SINK
 
 TRAVERSAL_ROWS = (0, 25, 50, 75, 100, 150, 200)
 ARRIVAL_ROWS = (0, 125, 250, 375, 500, 750, 1000)

@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.series import bin_edges, over_trials
-from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.vocabulary import EventKind
 
 
 def _events(rec: TrialRecord) -> list[tuple[float, int, object]]:
@@ -56,12 +56,6 @@ def group_order(groups: Sequence[str], speeds: Sequence[float]) -> list[str]:
     names = list(dict.fromkeys(groups))
     mean = {g: np.mean([s for s, gg in zip(speeds, groups, strict=True) if gg == g]) for g in names}
     return sorted(names, key=lambda g: (-mean[g], names.index(g)))
-
-
-def split_label(counts: Sequence[int], values: Sequence[float]) -> str:
-    """Robots per circuit in the tables' notation: most valuable circuit first (`3:2`)."""
-    rank = np.argsort(-np.asarray(values, dtype=np.float64), kind="stable")
-    return ":".join(str(int(counts[c])) for c in rank)
 
 
 def state_label(last: np.ndarray, alive: np.ndarray, values: Sequence[float], scheme: str,

@@ -21,12 +21,12 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.trial_stats import STATE_PREFIX
+from tavc_cli.learning.parameters import CHAPTER_GAMMA
 from tavc_cli.settings import from_yaml
 
 POINT_COLUMNS = ["reading", "horizon", "ratio", "values", "mean", "std", "n_trials", "policy_changes_per_trial",
                  "run"]
 READINGS = {"ms": "t in ms (the default)", "s": "t in s"}
-CHAPTER_GAMMA = 0.95
 
 
 def high_share(stats: pd.DataFrame) -> np.ndarray:
@@ -63,7 +63,7 @@ def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
             continue
         unit = str(cfg.tasks.time_unit)
         reading = READINGS.get(unit, f"t in {unit}")
-        gamma = float(cfg.learner.gamma)
+        gamma = float(getattr(cfg.learner, "gamma", CHAPTER_GAMMA))
         if gamma != CHAPTER_GAMMA:
             reading += f", gamma {gamma:g} (diagnostic)"
         changes = stats["policy_changes"].to_numpy(float) if "policy_changes" in stats else np.full(len(stats), np.nan)

@@ -9,11 +9,11 @@ import math
 
 import numpy as np
 
-from tavc_cli.behaviours.activities import ACT_DOCK
 from tavc_cli.behaviours.layout import MODE_APPROACH, MODE_SERVICE, MODE_UNDOCK
 from tavc_cli.behaviours.motion import free_distance
-from tavc_cli.sim.kernel import kernel
+from tavc_cli.kernel import kernel
 from tavc_cli.sim.sensors import HIT_ROBOT, wrap_angle
+from tavc_cli.vocabulary import ACT_DOCK
 
 # the final approach runs along the code's normal toward a point this far ahead of the robot
 DOCK_LOOKAHEAD_M = 0.35

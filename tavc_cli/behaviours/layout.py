@@ -24,13 +24,15 @@ them from the config and the arena.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from tavc_cli.settings import RobotConfig
 from tavc_cli.sim.arena import N_OUTER_WALLS, Arena
 from tavc_cli.sim.sensors import ray_angles
+
+if TYPE_CHECKING:  # the settings are read, never imported, by the simulator's lowest layers
+    from tavc_cli.settings import RobotConfig
 
 ROBOT = np.dtype([
     # robots of one trial are rows first..last-1 of every per-robot array, and see only each other

@@ -10,10 +10,10 @@ import math
 
 import numpy as np
 
-from tavc_cli.behaviours.activities import ACT_AVOID, ACT_DRIVE
 from tavc_cli.behaviours.layout import MODE_APPROACH, MODE_ESCAPE
-from tavc_cli.sim.kernel import kernel
+from tavc_cli.kernel import kernel
 from tavc_cli.sim.sensors import HIT_ROBOT, HIT_TARGET, HIT_WALL, wrap_angle
+from tavc_cli.vocabulary import ACT_AVOID, ACT_DRIVE
 
 _CORRIDOR_MARGIN_M = 0.05
 

@@ -32,7 +32,6 @@ import math
 import numba
 import numpy as np
 
-from tavc_cli.behaviours.activities import ACT_DOCK, ACT_ESCAPE, ACT_IDLE, ACT_SEARCH, ACT_WAIT
 from tavc_cli.behaviours.docking import (
     BACKOUT_SPEED,
     GIVEWAY_SPEED,
@@ -57,8 +56,9 @@ from tavc_cli.behaviours.layout import (
     MODE_WALLFOLLOW,
 )
 from tavc_cli.behaviours.motion import should_see_target, steer_to, track_progress, wall_follow
-from tavc_cli.sim.kernel import kernel
+from tavc_cli.kernel import kernel
 from tavc_cli.sim.sensors import HIT_TARGET, camera_nearest, cast_laser, odometry_update
+from tavc_cli.vocabulary import ACT_DOCK, ACT_ESCAPE, ACT_IDLE, ACT_SEARCH, ACT_WAIT
 
 
 @kernel

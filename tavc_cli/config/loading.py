@@ -20,6 +20,8 @@ from tavc_cli.config.resolve import resolve
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
+from tavc_cli.learning.parameters import settings_mapping
+from tavc_cli.learning.registry import settings_of
 from tavc_cli.settings import SCHEMA_NAME, TavcConfig
 
 # --------------------------------------------------------------------------------------------
@@ -261,6 +263,8 @@ def complete(cfg: DictConfig, *, job_dir: Optional[str] = None) -> DictConfig:
         named = sources(cfg)  # the keys resolution derives, for messages
         resolve(cfg, job_dir=job_dir)
         validate(cfg, named)
+        # the learner's node as its settings class declares it: its own parameters, typed, no others
+        cfg.learner = settings_mapping(settings_of(OmegaConf.to_container(cfg.learner)))
     except OmegaConfBaseException as error:
         raise TavcError(omegaconf_message(error)) from None
     OmegaConf.set_readonly(cfg, True)

@@ -203,6 +203,10 @@ def omegaconf_message(error: OmegaConfBaseException, context: Optional[str] = No
             # checked against the class's signature (`learning.plugins.check_params`)
             return (f"{where}: the learner's config lists no such parameter; to give one it does not list, "
                     f"add it with a plus: +{where}=...")
+        if where.startswith("learner.") and where.count(".") == 1:
+            # a learner's node holds exactly the parameters its settings class declares
+            return (f"{where}: the chosen learner takes no such parameter (`tavc config learner=<name>` "
+                    "shows a learner's parameters)")
         unknown = f"unknown key {error.key!r}" if nested else "unknown key"
         return f"{where}: {unknown}{_key_hint(error)}"
     if isinstance(error, ValidationError):

@@ -38,7 +38,7 @@ from typing import Optional
 from omegaconf import DictConfig
 
 from tavc_cli.io import default_root
-from tavc_cli.learning.informed import MODEL_LEARNERS
+from tavc_cli.learning.registry import MODEL_LEARNERS
 from tavc_cli.model.allocations import model_allocations
 from tavc_cli.settings import MemberConfig
 from tavc_cli.sim.arena import most_robots

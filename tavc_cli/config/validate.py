@@ -28,8 +28,7 @@ from tavc_cli.config.validate_world import (
     validate_start,
 )
 from tavc_cli.experiments.clock import due_tick, end_tick
-from tavc_cli.learning.informed import MODEL_LEARNERS
-from tavc_cli.learning.registry import BASELINES
+from tavc_cli.learning.registry import BASELINES, MODEL_LEARNERS
 from tavc_cli.settings import (
     ANALYSIS_STATES,
     AVAILABLE_BACKENDS,

@@ -5,14 +5,23 @@ import math
 import sys
 from collections.abc import Sequence
 
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
-from tavc_cli.config.checks import at_least, check, finite, one_of, per_circuit, positive, unit
+from tavc_cli.config.checks import at_least, check, finite, per_circuit, positive, unit
+from tavc_cli.learning.parameters import (
+    ALLOCATION,
+    FINITE,
+    POSITIVE,
+    ROLES,
+    STAYERS,
+    UNIT,
+    LearnerSettings,
+    PluginSettings,
+    parameters,
+)
 from tavc_cli.learning.plugins import check_params, load_target, rehearse
-from tavc_cli.learning.registry import AVAILABLE as AVAILABLE_LEARNERS
 from tavc_cli.learning.registry import NAMES as LEARNERS
-from tavc_cli.learning.registry import RESERVED_LABELS, SEED_CODES
-from tavc_cli.settings import LearnerConfig
+from tavc_cli.learning.registry import RESERVED_LABELS, SEED_CODES, settings_of
 
 
 def validate_model_learner(learner: DictConfig, n_circuits: int, n_robots: int, n_breakdowns: int) -> None:
@@ -34,55 +43,43 @@ def validate_model_learner(learner: DictConfig, n_circuits: int, n_robots: int, 
                   "with that team, or use learner=model")
 
 
-def validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> None:
-    """Learner name and Q-learning parameters."""
-    if learner.target is not None:
-        _validate_plugin(learner, n_circuits, n_robots)
-    else:
-        one_of("learner.name", learner.name, LEARNERS)
-        check(learner.name in AVAILABLE_LEARNERS, "learner.name",
-              f"'{learner.name}' is not available in this version; use one of {', '.join(AVAILABLE_LEARNERS)}")
-    for name in ("alpha", "gamma", "epsilon"):
-        unit(f"learner.{name}", learner[name])
-    positive("learner.tau", learner.tau)
-    for name in ("delta_win", "delta_lose"):
-        unit(f"learner.{name}", learner[name])
-    positive("learner.theta_low", learner.theta_low)
-    check(learner.theta_low <= learner.theta_high, "learner.theta_low",
-          f"must be <= learner.theta_high ({learner.theta_high!r}), got {learner.theta_low!r}")
-    positive("learner.steepness", learner.steepness)
-    check(learner.delta_win <= learner.delta_lose, "learner.delta_win",
-          f"must be <= learner.delta_lose ({learner.delta_lose!r}): WoLF learns fast when losing")
-    positive("learner.decision_period_s", learner.decision_period_s)
-    finite("learner.q_init_low", learner.q_init_low)
-    finite("learner.q_init_high", learner.q_init_high)
-    check(
-        math.isfinite(learner.q_init_high - learner.q_init_low),
-        "learner.q_init_high",
-        f"the range [{learner.q_init_low!r}, {learner.q_init_high!r}] is too wide to draw initial Q-values from",
-    )
-    check(
-        learner.q_init_low <= learner.q_init_high,
-        "learner.q_init_low",
-        f"must be <= learner.q_init_high ({learner.q_init_high!r}), got {learner.q_init_low!r}",
-    )
-    if learner.allocation is not None and learner.name == "alternate":
-        per_circuit("learner.allocation", learner.allocation, n_circuits, "robot count")
-        for index, count in enumerate(learner.allocation):
-            at_least(f"learner.allocation[{index}]", count, 0)
-        check(sum(learner.allocation) <= n_robots, "learner.allocation",
-              f"stayers must number at most team.n_robots ({n_robots}), got {sum(learner.allocation)}")
-    elif learner.allocation is not None:
-        validate_allocation("learner.allocation", learner.allocation, n_circuits, n_robots)
-    if learner.roles is not None:
-        check(len(learner.roles) == n_robots, "learner.roles",
-              f"needs one role per robot ({n_robots}), got {len(learner.roles)}")
-        for index, role in enumerate(learner.roles):
-            check(role == -1 or 0 <= role < n_circuits, f"learner.roles[{index}]",
-                  f"must be a circuit index (0 to {n_circuits - 1}) or -1 to alternate, got {role!r}")
+def validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> LearnerSettings:
+    """The learner's settings read into the class it declares (a key it does not take, a value of
+    the wrong type: one line), then each parameter checked by the rule its declaration names and
+    each ordered pair in order (`learning.parameters`). Returns the typed settings."""
+    settings = settings_of(OmegaConf.to_container(learner, resolve=True))
+    if isinstance(settings, PluginSettings):
+        _validate_plugin(settings, n_circuits, n_robots)
+        return settings
+    for name, _, rule in parameters(type(settings)):
+        value = getattr(settings, name)
+        key = f"learner.{name}"
+        if rule in _NUMBER_RULES:
+            _NUMBER_RULES[rule](key, value)
+        elif rule == ALLOCATION and value is not None:
+            validate_allocation(key, value, n_circuits, n_robots)
+        elif rule == STAYERS and value is not None:
+            per_circuit(key, value, n_circuits, "robot count")
+            for index, count in enumerate(value):
+                at_least(f"{key}[{index}]", count, 0)
+            check(sum(value) <= n_robots, key,
+                  f"stayers must number at most team.n_robots ({n_robots}), got {sum(value)}")
+        elif rule == ROLES and value is not None:
+            check(len(value) == n_robots, key, f"needs one role per robot ({n_robots}), got {len(value)}")
+            for index, role in enumerate(value):
+                check(role == -1 or 0 <= role < n_circuits, f"{key}[{index}]",
+                      f"must be a circuit index (0 to {n_circuits - 1}) or -1 to alternate, got {role!r}")
+    for low, high, why in type(settings).ORDERED:
+        a, b = getattr(settings, low), getattr(settings, high)
+        check(math.isfinite(b - a), f"learner.{high}", f"the range [{a!r}, {b!r}] is too wide ({why})")
+        check(a <= b, f"learner.{low}", f"must be <= learner.{high} ({b!r}), got {a!r}: {why}")
+    return settings
 
 
-def _validate_plugin(learner: DictConfig, n_circuits: int, n_robots: int) -> None:
+_NUMBER_RULES = {UNIT: unit, POSITIVE: positive, FINITE: finite}
+
+
+def _validate_plugin(learner: PluginSettings, n_circuits: int, n_robots: int) -> None:
     """A learner from outside tavc: a plain name of its own (its label and seed) that no table
     already gives a meaning, a class that loads, takes the parameters given, and answers a short
     made-up run as a trial needs (`plugins.rehearse`; its warnings printed once per learner)."""
@@ -94,8 +91,7 @@ def _validate_plugin(learner: DictConfig, n_circuits: int, n_robots: int) -> Non
     check(name not in RESERVED_LABELS, "learner.name",
           f"{name!r} names other rows of tavc's tables; give the learner from learner.target a name of its own")
     check_params(load_target(str(learner.target)), dict(learner.params or {}))
-    spec = LearnerConfig(name=name, target=str(learner.target), params=dict(learner.params or {}))
-    for warning in rehearse(spec, n_robots, n_circuits):
+    for warning in rehearse(learner, n_robots, n_circuits):
         if warning not in _WARNED:
             _WARNED.add(warning)
             print(f"warning: {warning}", file=sys.stderr, flush=True)

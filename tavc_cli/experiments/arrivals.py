@@ -29,7 +29,8 @@ from tavc_cli.experiments.trial import TrialFault, TrialState
 from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, POLICY_SOFTMAX, POLICY_STATIC, policy_kind
 from tavc_cli.learning.draws import entry_points, same_functions
 from tavc_cli.learning.plugins import check_choice
-from tavc_cli.sim.arena import SOURCE, Arena
+from tavc_cli.sim.arena import Arena
+from tavc_cli.vocabulary import SOURCE
 
 LOG_ROWS = 1024  # arrivals compiled code may serve before Python takes them into the trials' tables
 

@@ -17,8 +17,9 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from tavc_cli.experiments.spec import Breakdown, TrialSpec, ValueChange
-from tavc_cli.learning.registry import controller_label, seed_code
-from tavc_cli.settings import LearnerConfig, TavcConfig
+from tavc_cli.learning.parameters import LearnerSettings
+from tavc_cli.learning.registry import controller_label, seed_code, settings_of
+from tavc_cli.settings import TavcConfig
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}  # unit of t in r = w / t, in seconds
 
@@ -37,16 +38,17 @@ class Batch:
         return sum(s.span_s for s in self.specs)
 
 
-def controllers(cfg: TavcConfig) -> list[tuple[str, LearnerConfig, int]]:
+def controllers(cfg: TavcConfig) -> list[tuple[str, LearnerSettings, int]]:
     """(label, learner settings, number of trials) for the learner and each baseline."""
     out = [(controller_label(cfg.learner.name), cfg.learner, int(cfg.trials))]
     n_base = int(cfg.baseline_trials or cfg.trials)
     for name in cfg.baselines or []:
         if any(label == name for label, _, _ in out):
             continue
-        allocation = cfg.static_allocation if name == "static" else None
-        n = int(cfg.static_trials or n_base) if name == "static" else n_base
-        out.append((name, LearnerConfig(name=name, allocation=allocation), n))
+        static = name == "static"
+        n = int(cfg.static_trials or n_base) if static else n_base
+        out.append((name, settings_of({"name": name, "allocation": cfg.static_allocation} if static
+                                      else {"name": name}), n))
     return out
 
 

@@ -10,10 +10,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
-if TYPE_CHECKING:
-    from tavc_cli.experiments.trial import TrialState
+
+class Scheduled(Protocol):
+    """What the schedule reads of a trial (`trial.TrialState`): its spec's snapshot and pose
+    periods and the time of its next scheduled event."""
+
+    spec: Any
+
+    def next_event_time(self) -> float:
+        """Seconds on the trial's clock of its next scheduled event (inf: none)."""
 
 
 def due_tick(clock_s: float, dt_s: float) -> int:
@@ -44,7 +51,7 @@ class Schedule:
     """When each trial of a batch next takes a Q-table snapshot or a pose frame, and when
     anything next falls due in the batch (those, or a scheduled event)."""
 
-    def __init__(self, trials: Sequence[TrialState]) -> None:
+    def __init__(self, trials: Sequence[Scheduled]) -> None:
         """The first snapshot and pose frame of each trial that takes them, due at 0 on its clock;
         `next_due` is set by `update`."""
         # on the trials' clock, which starts at 0 with the warm-up
@@ -52,6 +59,6 @@ class Schedule:
         self.next_pose = [0.0 if tr.spec.pose_every_s > 0 else math.inf for tr in trials]
         self.next_due = -math.inf
 
-    def update(self, trials: Sequence[TrialState]) -> None:
+    def update(self, trials: Sequence[Scheduled]) -> None:
         """Set `next_due` to the earliest of the trials' next snapshots, pose frames and events."""
         self.next_due = min(min(self.next_q), min(self.next_pose), min(tr.next_event_time() for tr in trials))

@@ -36,7 +36,6 @@ from functools import cached_property
 
 import numpy as np
 
-from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.layout import build_arena, build_laser, build_params, build_robots, empty_scan, empty_work
 from tavc_cli.behaviours.navigation import behave, compiled
 from tavc_cli.experiments.arrivals import ArrivalDesk
@@ -64,6 +63,7 @@ from tavc_cli.sim.world import (
     write_and_step,
     write_commands,
 )
+from tavc_cli.vocabulary import N_ACT
 
 
 class BatchEngine:

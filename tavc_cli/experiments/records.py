@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.io import atomic_path
+from tavc_cli.vocabulary import ACTIVITIES
 
 TABLES = {
     "arrivals": {"t_s": float, "robot": int, "target": int, "circuit": int, "kind": int},

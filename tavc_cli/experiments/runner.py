@@ -21,6 +21,7 @@ from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec, code_digest
 from tavc_cli.experiments.store import Executor, TrialStore, trial_path
 from tavc_cli.io import file_digest, write_text_atomic
+from tavc_cli.learning.parameters import PluginSettings
 from tavc_cli.learning.plugins import target_digest, target_files
 from tavc_cli.settings import TavcConfig
 
@@ -37,7 +38,7 @@ def provenance(cfg: TavcConfig, specs: list[TrialSpec], wall_time_s: float, n_re
             versions[pkg] = metadata.version(pkg)
         except metadata.PackageNotFoundError:
             versions[pkg] = None
-    targets = sorted({str(s.policy.target) for s in specs if s.policy.target})
+    targets = sorted({str(s.policy.target) for s in specs if isinstance(s.policy, PluginSettings)})
     learners = {t: {"digest": target_digest(t), "files": [p.name for p in target_files(t)]} for t in targets}
     return {
         "tavc_version": __version__,

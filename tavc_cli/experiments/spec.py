@@ -17,8 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from tavc_cli import meaning_digest
+from tavc_cli.learning.parameters import LearnerSettings, PluginSettings
 from tavc_cli.learning.plugins import target_digest
-from tavc_cli.settings import ArenaConfig, LearnerConfig, RobotConfig
+from tavc_cli.settings import ArenaConfig, RobotConfig
 from tavc_cli.sim.arena import Arena, arena_from_config
 
 
@@ -47,7 +48,7 @@ class TrialSpec:
     robot: RobotConfig
     speeds_mps: tuple[float, ...]
     groups: tuple[str, ...]
-    policy: LearnerConfig
+    policy: LearnerSettings
     values: tuple[float, ...]
     score_values: tuple[float, ...]
     time_unit_s: float
@@ -95,13 +96,13 @@ class TrialSpec:
         learner from outside tavc's own (`plugins.target_digest`) included, so a rerun reuses a
         trial only if it would come out the same."""
         blob = json.dumps(asdict(self), sort_keys=True, default=_jsonable) + code_digest()
-        if self.policy.target:
+        if isinstance(self.policy, PluginSettings):
             blob += target_digest(str(self.policy.target))
         return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 
-_OUTCOME_CODE = ("sim", "behaviours", "learning", "experiments/engine.py", "experiments/arrivals.py",
-                 "experiments/events.py", "experiments/clock.py", "experiments/spec.py", "experiments/tick.py",
+_OUTCOME_CODE = ("kernel.py", "vocabulary.py", "sim", "behaviours", "learning", "experiments/engine.py",
+                 "experiments/arrivals.py", "experiments/clock.py", "experiments/spec.py", "experiments/tick.py",
                  "experiments/trial.py", "experiments/records.py")
 
 

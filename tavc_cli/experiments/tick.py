@@ -18,8 +18,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from tavc_cli.behaviours.activities import N_ACT
 from tavc_cli.behaviours.navigation import control_tick
+from tavc_cli.kernel import kernel
 from tavc_cli.learning.compiled import (
     POLICY_EGREEDY,
     POLICY_PYTHON,
@@ -30,9 +30,8 @@ from tavc_cli.learning.compiled import (
     softmax,
 )
 from tavc_cli.learning.draws import below
-from tavc_cli.sim.arena import SOURCE
-from tavc_cli.sim.kernel import kernel
 from tavc_cli.sim.world import read_bodies, read_poses, write_and_step, write_commands
+from tavc_cli.vocabulary import N_ACT, SOURCE
 
 NOISE_BLOCK_TICKS = 512  # odometry noise is drawn a block of ticks at a time; poses are checked as often
 

@@ -11,12 +11,12 @@ import numpy as np
 
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.clock import due_tick
-from tavc_cli.experiments.events import EventKind
 from tavc_cli.experiments.records import TableBuilder, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.learning.policies import TaskPolicy
 from tavc_cli.learning.registry import make_policy
 from tavc_cli.sim.arena import START_GAP_M, START_WALL_MARGIN_M, Arena, clear_to_start
+from tavc_cli.vocabulary import EventKind
 
 
 class TrialFault(Exception):

@@ -72,6 +72,14 @@ def state_bits(s: int) -> dict[str, int]:
 class BehaviourPolicy:
     """Independent Q-learners over (5-bit state, behaviour), Boltzmann softmax, one per robot."""
 
+    @classmethod
+    def from_settings(cls, settings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> BehaviourPolicy:
+        """The policy of `behaviour_softmax`'s settings (`parameters.BehaviourSettings`)."""
+        return cls(n_robots, n_circuits, alpha=float(settings.alpha), gamma=float(settings.gamma),
+                   tau=float(settings.tau), q_init=(float(settings.q_init_low), float(settings.q_init_high)),
+                   decision_period_s=float(settings.decision_period_s),
+                   decide_on_change=bool(settings.decide_on_change), rng=rng)
+
     def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, gamma: float, tau: float,
                  q_init: tuple[float, float], decision_period_s: float, rng: np.random.Generator,
                  decide_on_change: bool = True) -> None:

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import math
 
+from tavc_cli.kernel import kernel
 from tavc_cli.learning.draws import below, uniform
 from tavc_cli.learning.policies import RandomPolicy, StaticPolicy, TaskPolicy, TavcPolicy
-from tavc_cli.sim.kernel import kernel
 
 # which policy a trial's deliveries are served by in compiled code
 POLICY_PYTHON, POLICY_EGREEDY, POLICY_RANDOM, POLICY_STATIC, POLICY_SOFTMAX = range(5)

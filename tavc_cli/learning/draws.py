@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from tavc_cli.sim.kernel import kernel
+from tavc_cli.kernel import kernel
 
 # the bit generator's entry points, called with the address of its state (as an integer)
 NEXT_UINT32 = ctypes.CFUNCTYPE(ctypes.c_uint32, ctypes.c_size_t)

@@ -27,8 +27,6 @@ import numpy as np
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.policies import StaticPolicy
 
-MODEL_LEARNERS = ("model", "informed")  # the learners that follow the model's allocation
-
 
 def ranked(counts_high_first: Sequence[int], values: np.ndarray) -> np.ndarray:
     """Robots per circuit index from counts listed most valuable circuit first (ties: the lower
@@ -42,6 +40,11 @@ class ModelPolicy(StaticPolicy):
     """The model's allocation for the starting team, kept through every event: a static
     allocation (choosing and learning as `StaticPolicy` does, in Python: the compiled paths serve
     only the exact built-in classes) whose assignment is drawn when the trial starts."""
+
+    @classmethod
+    def from_settings(cls, settings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> ModelPolicy:
+        """The policy of `model`'s or `informed`'s settings: the allocations resolved from its model file."""
+        return cls(settings.allocations or {}, n_robots, n_circuits, rng)
 
     def __init__(self, allocations: Mapping[str, Sequence[int]], n_robots: int, n_circuits: int,
                  rng: np.random.Generator) -> None:

@@ -29,6 +29,13 @@ class WolfPhcPolicy:
     uniform.
     """
 
+    @classmethod
+    def from_settings(cls, settings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> WolfPhcPolicy:
+        """The policy of `wolf_phc`'s settings (`parameters.WolfPhcSettings`)."""
+        return cls(n_robots, n_circuits, alpha=float(settings.alpha), gamma=float(settings.gamma),
+                   epsilon=float(settings.epsilon), delta_win=float(settings.delta_win),
+                   delta_lose=float(settings.delta_lose), rng=rng)
+
     def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, gamma: float, epsilon: float,
                  delta_win: float, delta_lose: float, rng: np.random.Generator) -> None:
         """Learners for `n_robots` robots over `n_circuits` circuits (states and actions alike)."""
@@ -87,6 +94,12 @@ class ThresholdPolicy:
     circuit, are drawn once, uniformly in [theta_low, theta_high]: a low threshold makes a
     robot keep to a circuit, a high one makes it leave unless the circuit pays more than the
     rest. No Q-table: `q_tables` gives the running means."""
+
+    @classmethod
+    def from_settings(cls, settings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> ThresholdPolicy:
+        """The policy of `threshold`'s settings (`parameters.ThresholdSettings`)."""
+        return cls(n_robots, n_circuits, alpha=float(settings.alpha), theta_low=float(settings.theta_low),
+                   theta_high=float(settings.theta_high), steepness=float(settings.steepness), rng=rng)
 
     def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, theta_low: float, theta_high: float,
                  steepness: float, rng: np.random.Generator) -> None:

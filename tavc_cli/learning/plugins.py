@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from tavc_cli.errors import TavcError
-from tavc_cli.settings import LearnerConfig
+from tavc_cli.learning.parameters import PluginSettings
 
 CONFIG_DIRS_ENV = "TAVC_CONFIG_DIRS"  # folders of the user's own configs and learners (`--config-dir`)
 PLUGIN_ARGUMENTS = ("n_robots", "n_circuits", "rng")  # what every learner from outside tavc is built with
@@ -222,7 +222,7 @@ class PluginLearner:
         return q
 
 
-def plugin_policy(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> PluginLearner:
+def plugin_policy(spec: PluginSettings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> PluginLearner:
     """A learner from outside tavc: `spec.target` built with `spec.params`, behind `PluginLearner`;
     one without `q_tables` has none to show, one without `n_states` has one state a circuit."""
     cls = load_target(str(spec.target))
@@ -253,7 +253,7 @@ def _same_states(a: tuple, b: tuple) -> bool:
         np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y for x, y in zip(numpy_a, numpy_b, strict=True))
 
 
-def rehearse(spec: LearnerConfig, n_robots: int, n_circuits: int) -> list[str]:
+def rehearse(spec: PluginSettings, n_robots: int, n_circuits: int) -> list[str]:
     """Drive the learner through a short made-up run (each robot `REHEARSAL_TASKS` tasks, rewards
     that depend on the circuit), twice from the same seed, before any trial: an answer a trial
     would refuse is refused here (`TavcError`, one line). Returns warnings: a learner that draws

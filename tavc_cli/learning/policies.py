@@ -37,6 +37,11 @@ class TaskPolicy(Protocol):
 class RandomPolicy:
     """A uniformly random circuit for every task."""
 
+    @classmethod
+    def from_settings(cls, settings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> RandomPolicy:
+        """The policy of `random`'s settings (`parameters.RandomSettings`)."""
+        return cls(n_circuits, rng)
+
     def __init__(self, n_circuits: int, rng: np.random.Generator) -> None:
         """A random policy over `n_circuits` circuits."""
         self.n_states = n_circuits
@@ -58,6 +63,13 @@ class RandomPolicy:
 
 class StaticPolicy:
     """A fixed allocation: robot i always serves circuit `assignment[i]`."""
+
+    @classmethod
+    def from_settings(cls, settings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> StaticPolicy:
+        """The policy of `static`'s settings: `allocation` robots per circuit, the first robots on
+        the first circuit (an even split without one)."""
+        counts = settings.allocation or even_allocation(n_robots, n_circuits)
+        return cls(np.repeat(np.arange(n_circuits), counts), n_circuits)
 
     def __init__(self, assignment: Sequence[int], n_circuits: int) -> None:
         """Robot i serves circuit `assignment[i]`."""
@@ -84,6 +96,12 @@ class AlternatePolicy:
     measure what a task takes by the group's make-up (`tavc surrogate`)."""
 
     ALTERNATE = -1
+
+    @classmethod
+    def from_settings(cls, settings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> AlternatePolicy:
+        """The policy of `alternate`'s settings: its `roles`, or roles from its stayers per circuit."""
+        roles = settings.roles if settings.roles is not None else alternate_roles(settings.allocation, n_robots)
+        return cls(roles, n_circuits)
 
     def __init__(self, roles: Sequence[int], n_circuits: int) -> None:
         """Robot i keeps to circuit `roles[i]`, or alternates where it is `ALTERNATE`."""
@@ -117,6 +135,16 @@ class TavcPolicy:
 
     Exploration never decays, so the group stays able to fill new vacancies.
     """
+
+    @classmethod
+    def from_settings(cls, settings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TavcPolicy:
+        """The policy of `tavc_egreedy`'s or `tavc_softmax`'s settings (the one's `tau` and the
+        other's `epsilon`, which its selection never reads, at their defaults)."""
+        softmax = hasattr(settings, "tau")
+        return cls(n_robots, n_circuits, alpha=float(settings.alpha), gamma=float(settings.gamma),
+                   selection="softmax" if softmax else "egreedy",
+                   epsilon=0.1 if softmax else float(settings.epsilon), tau=float(settings.tau) if softmax else 0.005,
+                   q_init=(float(settings.q_init_low), float(settings.q_init_high)), rng=rng)
 
     def __init__(self, n_robots: int, n_circuits: int, *, alpha: float, gamma: float,
                  selection: str, epsilon: float, tau: float, q_init: tuple[float, float],

@@ -1,125 +1,97 @@
 """Every learner tavc knows, in one table: the name a config gives (`learner.name`,
-`baselines`), the controller label its trials carry in every output, the code that enters
-each trial's seed, and how its policy is built.
+`baselines`), the class declaring its parameters (`learning.parameters`), the controller label
+its trials carry in every output, its title and colour in figures, the code that enters each
+trial's seed, and the class its policy is built from.
 
-Adding a built-in learner is adding one entry here. A seed code is part of every trial's seed
+Adding a built-in learner is its policy class (with a ``from_settings`` constructor), its
+settings class and one entry here. The built-ins are named by a class path as a learner from
+outside tavc is (``learner.target``): the entry holds ``module:Class``, loaded when a policy is
+built, so reading the table loads no numerical code. A seed code is part of every trial's seed
 and key: changing one reruns (and changes) every trial of that learner.
 
-A learner from outside tavc is a class named by ``learner.target`` (``package.module.Class``,
-or ``path/to/file.py:Class``), built with ``learner.params`` as keyword arguments beside
-``n_robots``, ``n_circuits`` and ``rng`` (`plugin_policy`): its label is its ``learner.name``,
-its seed code one drawn from that name (`seed_code`); `learning.plugins` loads, builds and
-guards it. docs/plugins.md shows one.
+A learner from outside tavc is built with ``learner.params`` as keyword arguments beside
+``n_robots``, ``n_circuits`` and ``rng`` (`plugins.plugin_policy`): its label is its
+``learner.name``, its seed code one drawn from that name (`seed_code`); `learning.plugins`
+loads, builds and guards it. docs/plugins.md shows one.
 """
 
 from __future__ import annotations
 
+import importlib
 import zlib
-from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Optional
 
-import numpy as np
-
-from tavc_cli.learning.behaviour import BehaviourPolicy
-from tavc_cli.learning.informed import MODEL_LEARNERS, InformedPolicy, ModelPolicy
-from tavc_cli.learning.literature import ThresholdPolicy, WolfPhcPolicy
-from tavc_cli.learning.plugins import plugin_policy
-from tavc_cli.learning.policies import (
-    AlternatePolicy,
-    RandomPolicy,
-    StaticPolicy,
-    TaskPolicy,
-    TavcPolicy,
-    alternate_roles,
-    even_allocation,
+from tavc_cli.learning.parameters import (
+    AlternateSettings,
+    BehaviourSettings,
+    LearnerSettings,
+    ModelSettings,
+    PluginSettings,
+    RandomSettings,
+    StaticSettings,
+    TavcEgreedySettings,
+    TavcSoftmaxSettings,
+    ThresholdSettings,
+    WolfPhcSettings,
+    learner_settings,
 )
-from tavc_cli.settings import LearnerConfig
 
-Builder = Callable[[Mapping, int, int, np.random.Generator], TaskPolicy]
+if TYPE_CHECKING:
+    import numpy as np
+
+    from tavc_cli.learning.policies import TaskPolicy
 
 
 @dataclass(frozen=True)
 class Learner:
-    """A learner tavc knows: its config name, the label of its trials, its seed code and its
-    builder."""
+    """A learner tavc knows: its config name, settings class, label, seed code and policy class."""
+
     name: str
+    settings: type[LearnerSettings]
     label: str
     seed_code: int
-    build: Builder | None  # None: named by the chapter but not built in this version
-    baseline: bool = False  # may run beside the main learner (`baselines: [...]`)
-
-
-def _random(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    return RandomPolicy(n_circuits, rng)
-
-
-def _static(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    counts = spec.allocation or even_allocation(n_robots, n_circuits)
-    return StaticPolicy(np.repeat(np.arange(n_circuits), counts), n_circuits)
-
-
-def _alternate(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    roles = spec.roles if spec.roles is not None else alternate_roles(spec.allocation, n_robots)
-    return AlternatePolicy(roles, n_circuits)
-
-
-def _wolf_phc(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    return WolfPhcPolicy(n_robots, n_circuits, alpha=float(spec.alpha), gamma=float(spec.gamma),
-                         epsilon=float(spec.epsilon), delta_win=float(spec.delta_win),
-                         delta_lose=float(spec.delta_lose), rng=rng)
-
-
-def _threshold(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    return ThresholdPolicy(n_robots, n_circuits, alpha=float(spec.alpha), theta_low=float(spec.theta_low),
-                           theta_high=float(spec.theta_high), steepness=float(spec.steepness), rng=rng)
-
-
-def _model(informed: bool) -> Builder:
-    def build(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-        cls = InformedPolicy if informed else ModelPolicy
-        return cls(spec.allocations or {}, n_robots, n_circuits, rng)
-
-    return build
-
-
-def _q_learning(spec: LearnerConfig) -> dict:
-    """The Q-learning parameters every learner of the chapter shares."""
-    return {"alpha": float(spec.alpha), "gamma": float(spec.gamma), "tau": float(spec.tau),
-            "q_init": (float(spec.q_init_low), float(spec.q_init_high))}
-
-
-def _tavc(selection: str) -> Builder:
-    def build(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-        return TavcPolicy(n_robots, n_circuits, selection=selection, epsilon=float(spec.epsilon),
-                          rng=rng, **_q_learning(spec))
-
-    return build
-
-
-def _behaviour(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    return BehaviourPolicy(n_robots, n_circuits, decision_period_s=float(spec.decision_period_s),
-                           decide_on_change=bool(spec.decide_on_change), rng=rng, **_q_learning(spec))
+    policy: str                     # ``module:Class`` under tavc_cli.learning, built by its ``from_settings``
+    title: Optional[str] = None     # its name in figures' legends (None: its label)
+    colour: Optional[str] = None    # its colour in figures (None: one drawn from its label)
+    baseline: bool = False          # may run beside the main learner (`baselines: [...]`)
+    follows_model: bool = False     # takes the model's allocation (`model_file`)
 
 
 LEARNERS: dict[str, Learner] = {entry.name: entry for entry in (
-    Learner("random", "random", 1, _random, baseline=True),
-    Learner("static", "static", 2, _static, baseline=True),
-    Learner("alternate", "alternate", 4, _alternate, baseline=True),
-    Learner("wolf_phc", "wolf_phc", 5, _wolf_phc),
-    Learner("threshold", "threshold", 6, _threshold),
-    Learner("model", "model", 7, _model(informed=False)),
-    Learner("informed", "informed", 8, _model(informed=True)),
-    Learner("tavc_egreedy", "tavc", 0, _tavc("egreedy")),
-    Learner("tavc_softmax", "tavc", 0, _tavc("softmax")),
-    Learner("behaviour_softmax", "behaviour", 3, _behaviour),
+    Learner("random", RandomSettings, "random", 1, "policies:RandomPolicy", colour="tab:orange", baseline=True),
+    Learner("static", StaticSettings, "static", 2, "policies:StaticPolicy", colour="tab:green", baseline=True),
+    Learner("alternate", AlternateSettings, "alternate", 4, "policies:AlternatePolicy", baseline=True),
+    Learner("wolf_phc", WolfPhcSettings, "wolf_phc", 5, "literature:WolfPhcPolicy", "WoLF-PHC", "tab:purple"),
+    Learner("threshold", ThresholdSettings, "threshold", 6, "literature:ThresholdPolicy", "response threshold",
+            "tab:brown"),
+    Learner("model", ModelSettings, "model", 7, "informed:ModelPolicy", "model's allocation", "tab:olive",
+            follows_model=True),
+    Learner("informed", ModelSettings, "informed", 8, "informed:InformedPolicy", "model, informed", "tab:cyan",
+            follows_model=True),
+    Learner("tavc_egreedy", TavcEgreedySettings, "tavc", 0, "policies:TavcPolicy", "TAVC", "tab:blue"),
+    Learner("tavc_softmax", TavcSoftmaxSettings, "tavc", 0, "policies:TavcPolicy", "TAVC", "tab:blue"),
+    Learner("behaviour_softmax", BehaviourSettings, "behaviour", 3, "behaviour:BehaviourPolicy"),
 )}
 NAMES = tuple(LEARNERS)
-AVAILABLE = tuple(name for name, entry in LEARNERS.items() if entry.build is not None)
 BASELINES = tuple(name for name, entry in LEARNERS.items() if entry.baseline)
+MODEL_LEARNERS = tuple(name for name, entry in LEARNERS.items() if entry.follows_model)
 LEARNS_NOTHING = (*BASELINES, *MODEL_LEARNERS)  # fixed controllers: their distribution has no horizon
 SEED_CODES = {entry.label: entry.seed_code for entry in LEARNERS.values()}
-# labels tavc's tables give rows that are no learner's trials (`state_time.csv`'s model row)
-RESERVED_LABELS = ("theory",)
+SETTINGS = {name: entry.settings for name, entry in LEARNERS.items()}
+# labels tavc's tables give rows that are no learner's trials (`state_time.csv`'s model row), with
+# their titles and colours in figures
+RESERVED_LABELS = {"theory": ("theory", "0.4")}
+# each controller label's title and colour in figures (a label not here: its own name, a colour drawn from it)
+TITLES = {entry.label: entry.title or entry.label for entry in LEARNERS.values()} | {
+    label: title for label, (title, _) in RESERVED_LABELS.items()}
+COLOURS = {entry.label: entry.colour for entry in LEARNERS.values() if entry.colour} | {
+    label: colour for label, (_, colour) in RESERVED_LABELS.items()}
+
+
+def settings_of(node) -> LearnerSettings:
+    """The typed settings of a ``learner:`` node (`parameters.learner_settings` over this table)."""
+    return learner_settings(node, SETTINGS)
 
 
 def controller_label(name: str) -> str:
@@ -136,11 +108,16 @@ def seed_code(label: str) -> int:
     return code if code is not None else 1000 + zlib.crc32(label.encode()) % 1_000_000
 
 
-def make_policy(spec: LearnerConfig, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
-    """Build the policy named by `spec.name` (or `spec.target`) with its settings."""
-    if getattr(spec, "target", None):
-        return plugin_policy(spec, n_robots, n_circuits, rng)
-    entry = LEARNERS.get(spec.name)
-    if entry is None or entry.build is None:
-        raise ValueError(f"no task policy named {spec.name!r}")
-    return entry.build(spec, n_robots, n_circuits, rng)
+def make_policy(settings: LearnerSettings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
+    """Build the policy `settings` name (a built-in's, or the class its ``target`` names)."""
+    if isinstance(settings, PluginSettings):
+        from tavc_cli.learning.plugins import plugin_policy  # loads numpy and the learner's own code
+
+        return plugin_policy(settings, n_robots, n_circuits, rng)
+    entry = LEARNERS.get(settings.name)
+    if entry is None:
+        raise ValueError(f"no task policy named {settings.name!r}")
+    module, cls = entry.policy.split(":")
+    # the policies are numba-compiled: loaded when one is built, not when the table is read
+    policy = getattr(importlib.import_module(f"tavc_cli.learning.{module}"), cls)
+    return policy.from_settings(settings, n_robots, n_circuits, rng)

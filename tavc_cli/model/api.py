@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import TIME_UNITS_S
 from tavc_cli.experiments.store import Executor
@@ -20,6 +19,7 @@ from tavc_cli.ownership import MODEL, MODEL_FILES, refuse_other_settings, take
 from tavc_cli.reference import chapter_world
 from tavc_cli.settings import ArenaConfig, TavcConfig
 from tavc_cli.sim.arena import arena_from_config
+from tavc_cli.vocabulary import ACTIVITIES
 
 
 def _scaled_measurement(cfg: TavcConfig) -> tuple[int, float, float]:

@@ -29,7 +29,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from itertools import product
 
-from tavc_cli.analysis.states import split_label
+from tavc_cli.vocabulary import split_label
 
 Split = tuple[int, ...]
 

@@ -19,13 +19,14 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.experiments.build import base_spec
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.store import Executor, TrialStore
+from tavc_cli.learning.parameters import StaticSettings
 from tavc_cli.model.core import Cell, CTable, Split, splits_up_to
-from tavc_cli.settings import LearnerConfig, TavcConfig
+from tavc_cli.settings import TavcConfig
+from tavc_cli.vocabulary import ACTIVITIES
 
 MODEL_CONTROLLER_CODE = 10
 
@@ -54,7 +55,7 @@ def measurement_specs(cfg: TavcConfig, n_max: int, trials: int, warmup_s: float,
         m = sum(n)
         out[n] = [
             replace(base, speeds_mps=(speed,) * m, groups=("all",) * m, values=(1.0,) * k, score_values=(1.0,) * k,
-                    policy=LearnerConfig(name="static", allocation=list(n)), controller=prefix + split_name(n), trial=j,
+                    policy=StaticSettings(allocation=list(n)), controller=prefix + split_name(n), trial=j,
                     seed=(int(cfg.seed), MODEL_CONTROLLER_CODE, *n, j), duration_s=warmup_s + measure_s,
                     warmup_s=0.0, deliveries=None, breakdowns=(), value_changes=(), q_snapshot_every_s=0.0,
                     pose_every_s=0.0)

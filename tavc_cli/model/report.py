@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from tavc_cli.behaviours.activities import ACTIVITIES
+from tavc_cli.vocabulary import ACTIVITIES
 
 
 def _fmt(x: float, spec: str = ".4g") -> str:

@@ -42,7 +42,6 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.store import Executor, TrialStore
 from tavc_cli.io import write_text_atomic
@@ -50,6 +49,7 @@ from tavc_cli.model import core
 from tavc_cli.model.api import dock_spots, json_safe
 from tavc_cli.model.measure import measurement_specs, table_from
 from tavc_cli.settings import GridAxis, TavcConfig
+from tavc_cli.vocabulary import ACTIVITIES
 
 Point = dict[str, object]
 

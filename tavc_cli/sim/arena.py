@@ -11,12 +11,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tavc_cli.settings import ArenaConfig
+from tavc_cli.vocabulary import SINK, SOURCE
 
-SOURCE, SINK = 0, 1
+if TYPE_CHECKING:  # the settings are read, never imported, by the simulator's lowest layers
+    from tavc_cli.settings import ArenaConfig
+
 _BARCODE_INSET_M = 1e-3
 # the outer rectangle is always the first rows of `Arena.walls`: bottom, right, top, left
 N_OUTER_WALLS = 4

@@ -27,8 +27,8 @@ import math
 
 import numpy as np
 
+from tavc_cli.kernel import fma, kernel
 from tavc_cli.sim.arena import N_OUTER_WALLS
-from tavc_cli.sim.kernel import fma, kernel
 
 HIT_NONE, HIT_WALL, HIT_ROBOT, HIT_TARGET = 0, 1, 2, 3
 # rays this much outside an object's angular extent (as `_fast_atan2` bounds it) are not

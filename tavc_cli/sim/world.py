@@ -30,8 +30,8 @@ import pymunk
 import pymunk.batch as pb
 from pymunk._chipmunk_cffi import ffi, lib
 
+from tavc_cli.kernel import kernel
 from tavc_cli.sim.arena import Arena
-from tavc_cli.sim.kernel import kernel
 
 _FIELDS_READ = pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
 _FIELDS_WRITE = pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY

@@ -20,12 +20,13 @@ import math
 
 import numpy as np
 
-from tavc_cli.behaviours.activities import ACTIVITIES
+from tavc_cli.vocabulary import ACTIVITIES
 from tavc_cli.experiments.clock import due_tick, end_tick
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.trial import TrialState, seed_sequence
-from tavc_cli.sim.arena import SINK, SOURCE, arena_from_config
+from tavc_cli.sim.arena import arena_from_config
+from tavc_cli.vocabulary import SINK, SOURCE
 from tavc_cli.surrogate.tasks import STAY, SWITCH, Team, TaskTimes, makeup_name
 
 N_STREAMS = 5  # the simulator's trial streams (start, noise, policy, events), then the surrogate's

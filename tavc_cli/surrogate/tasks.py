@@ -23,14 +23,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tavc_cli.behaviours.activities import ACTIVITIES
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import base_spec
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.learning.parameters import AlternateSettings
 from tavc_cli.learning.policies import AlternatePolicy
-from tavc_cli.settings import LearnerConfig, TavcConfig
-from tavc_cli.sim.arena import SOURCE
+from tavc_cli.settings import TavcConfig
+from tavc_cli.vocabulary import ACTIVITIES, SOURCE
 
 SURROGATE_CODE = 11  # enters the seeds of the measuring trials (the model's are 10)
 STAY, SWITCH = "stay", "switch"
@@ -132,7 +132,7 @@ def measurement_specs(cfg: TavcConfig, teams: Sequence[Team]) -> dict[tuple[str,
                 label += f"_t{t_index}"
             out[(team.name, makeup)] = [
                 replace(base, speeds_mps=tuple(speeds), groups=tuple(groups), values=(1.0,) * k,
-                        score_values=(1.0,) * k, policy=LearnerConfig(name="alternate", roles=roles),
+                        score_values=(1.0,) * k, policy=AlternateSettings(roles=roles),
                         controller=label, trial=j,
                         seed=(int(cfg.seed), SURROGATE_CODE, team.size, t_index, m_index, j),
                         duration_s=warmup_s + measure_s, warmup_s=0.0, start_s=0.0, deliveries=None, breakdowns=(),

@@ -29,8 +29,9 @@ from tavc_cli.experiments.engine import run_trials  # noqa: E402
 from tavc_cli.experiments.records import TrialRecord  # noqa: E402
 from tavc_cli.io import atomic_path, owned_path  # noqa: E402
 from tavc_cli.settings import TavcConfig  # noqa: E402
-from tavc_cli.sim.arena import SOURCE, Arena, arena_from_config  # noqa: E402
+from tavc_cli.sim.arena import Arena, arena_from_config  # noqa: E402
 from tavc_cli.viz.figures import write_figure  # noqa: E402
+from tavc_cli.vocabulary import SOURCE
 
 CIRCUIT_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2"]
 MARKINGS = [(90.0, "#d62728"), (-90.0, "#2ca02c"), (180.0, "#e6c619")]  # left red, right green, rear yellow

@@ -21,6 +21,7 @@ is cut where the quantity ends: a share at 0 and at 100 % (or 1), a rate, a coun
 
 from __future__ import annotations
 
+import zlib
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -33,27 +34,26 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from tavc_cli.io import atomic_path  # noqa: E402
+from tavc_cli.learning.registry import COLOURS as REGISTRY_COLOURS  # noqa: E402
+from tavc_cli.learning.registry import TITLES  # noqa: E402
 
 
 class _Colours(dict):
-    """The built-in controllers' colours; any other controller (a learner from outside tavc,
-    `alternate`) its own, drawn from the colours they leave, the same for a label everywhere."""
+    """Each controller label's colour (`registry.COLOURS`); any other controller (a learner from
+    outside tavc, `alternate`) its own, drawn from the colours they leave, the same for a label
+    everywhere."""
 
     SPARE = ("tab:pink", "tab:red", "tab:gray", "gold", "teal", "navy", "maroon")
 
     def __missing__(self, label: str) -> str:
-        import zlib
-
         return self.SPARE[zlib.crc32(str(label).encode()) % len(self.SPARE)]
 
     def get(self, label, default=None):
         return self[label]
 
 
-COLOURS = _Colours({"tavc": "tab:blue", "random": "tab:orange", "static": "tab:green", "theory": "0.4",
-                    "model": "tab:olive", "informed": "tab:cyan", "wolf_phc": "tab:purple", "threshold": "tab:brown"})
-LABELS = {"tavc": "TAVC", "random": "random", "static": "static", "theory": "theory", "model": "model's allocation",
-          "informed": "model, informed", "wolf_phc": "WoLF-PHC", "threshold": "response threshold"}
+COLOURS = _Colours(REGISTRY_COLOURS)
+LABELS = TITLES
 
 
 def save_figure(fig, out_stem: Path) -> list[Path]:

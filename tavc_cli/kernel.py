@@ -10,11 +10,38 @@ operations are slow ones. Allocating inside a `@kernel` fails to compile, which 
 
 from __future__ import annotations
 
+import os
+import sys
 from functools import partial
+from pathlib import Path
 
-from llvmlite import ir
-from numba import njit, types
-from numba.core.extending import intrinsic
+from tavc_cli import compiled_code_cache, compiled_code_home
+
+
+def use_compiled_code_cache() -> None:
+    """Point numba's cache of compiled kernels at this version's folder (`compiled_code_cache`),
+    before any kernel is compiled or loaded.
+
+    numba checks a cached function against its own file only. A kernel that inlined a
+    function, or froze a constant, from another file would otherwise be loaded from the
+    cache unchanged after that file changed, and run the old code. With one folder per
+    version of the source, any change compiles everything afresh. A NUMBA_CACHE_DIR set
+    by the user is left alone.
+    """
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    root = Path(__file__).resolve().parent
+    where = str(compiled_code_cache(root, compiled_code_home(root)))
+    os.environ["NUMBA_CACHE_DIR"] = where
+    if "numba.core.config" in sys.modules:  # numba came first and has read its settings already
+        sys.modules["numba.core.config"].CACHE_DIR = where
+
+
+use_compiled_code_cache()  # the kernels below are the first numba compiles: their cache is decided here
+
+from llvmlite import ir  # noqa: E402 - numba reads its cache folder when it loads
+from numba import njit, types  # noqa: E402
+from numba.core.extending import intrinsic  # noqa: E402
 
 kernel = partial(njit, cache=True, _nrt=False)
 
