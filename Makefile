@@ -4,8 +4,11 @@
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
-# Reinstall only when the dependencies change.
+# The resolved versions every install is constrained to (requirements.lock, `make lock`)
+LOCK := requirements.lock
+# Reinstall only when the dependencies change: the tool, then the test tools beside it.
 STAMP := $(VENV)/.installed-stamp
+TEST_STAMP := $(VENV)/.test-installed-stamp
 # One reproduce-NAME target per experiment file (conf/experiment/NAME.yaml)
 EXPERIMENTS := $(sort $(basename $(notdir $(wildcard conf/experiment/*.yaml))))
 REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
@@ -20,41 +23,57 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help venv lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged $(REPRODUCE) clean
+.PHONY: help venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
 	@echo "  reproduce-NAME  Run one experiment at paper scale ($(EXPERIMENTS))"
 
-venv: $(STAMP) ## Create .venv and install tavc with its test dependencies
+venv: $(STAMP) ## Create .venv and install tavc at the locked versions (requirements.lock)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --upgrade pip
-	$(BIN)/python -m pip install -e '.[test]'
+	$(BIN)/python -m pip install -c $(LOCK) -e .
 	touch $@
 
-lint: venv ## Check the code with ruff (its rules are in pyproject.toml)
+venv-test: $(TEST_STAMP) ## Add the test, lint, docs and cluster tools to .venv, at the locked versions
+
+$(TEST_STAMP): $(STAMP)
+	$(BIN)/python -m pip install -c $(LOCK) -e '.[test]'
+	touch $@
+
+LOCK_VENV ?= /tmp/tavc-lock-venv
+lock: ## Resolve the newest versions pyproject.toml allows in a scratch venv and write them to requirements.lock
+	rm -rf $(LOCK_VENV)
+	$(PYTHON) -m venv $(LOCK_VENV)
+	$(LOCK_VENV)/bin/python -m pip install -q --upgrade pip
+	$(LOCK_VENV)/bin/python -m pip install -q -e '.[test]'
+	head -3 $(LOCK) > $(LOCK).new
+	$(LOCK_VENV)/bin/python -m pip freeze --exclude-editable >> $(LOCK).new
+	mv $(LOCK).new $(LOCK)
+
+lint: venv-test ## Check the code with ruff (its rules are in pyproject.toml)
 	$(BIN)/ruff check tavc_cli tests
 
 # Test files are spread over the cores whole (--dist loadfile), so each file's module-scoped
 # runs are made once; `make test` and `make test-slow` together run every test.
 PYTEST_PARALLEL ?= -n auto --dist loadfile
 
-test: venv lint ## Lint, then run the tests not marked slow, in parallel
+test: venv-test lint ## Lint, then run the tests not marked slow, in parallel
 	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL) -m "not slow"
 
-test-slow: venv ## Run the tests marked slow (long end-to-end runs), in parallel
+test-slow: venv-test ## Run the tests marked slow (long end-to-end runs), in parallel
 	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL) -m slow
 
-test-fast: venv ## Run the tests not marked slow in one process, without the lint
+test-fast: venv-test ## Run the tests not marked slow in one process, without the lint
 	$(BIN)/python -m pytest -q -m "not slow"
 
 bench: venv ## Print simulator throughput as one JSON object
 	$(BIN)/tavc bench --json
 
 .PHONY: docs
-docs: venv ## Build the documentation site offline into site/
+docs: venv-test ## Build the documentation site offline into site/
 	$(BIN)/mkdocs build --strict
 
 # Where verify-outcomes recomputes; the committed tables it must match byte for byte

@@ -27,6 +27,7 @@ import pandas as pd
 import yaml
 
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.experiments.records import TABLES, TrialRecord
 from tavc_cli.learning.parameters import ModelSettings
 from tavc_cli.readers import load_yaml
@@ -83,6 +84,14 @@ class Results:
         if not isinstance(config, dict):
             raise TavcError(f"{path}: holds no settings; rerun its experiment to rewrite it")
         return config
+
+    @cached_property
+    def plan(self) -> RunPlan:
+        """The run's plan (`plan.json`): each controller's label, learner settings, trial count, seed
+        code and schedule (its periods on the record's clock, when its trials start)."""
+        from tavc_cli.settings import from_yaml
+
+        return read_plan(self.path, from_yaml(self.path / "config.yaml"))
 
     def records(self) -> list[TrialRecord]:
         """The raw record of every trial of the run, in file-name order: the files its

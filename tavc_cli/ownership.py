@@ -51,7 +51,7 @@ _WHAT = {RUN: "a tavc run's folder", SURROGATE: "a surrogate run's folder (tavc 
 REPORT_TITLE = "# tavc: the reproduction report"
 
 # what each kind of folder holds of tavc's, by name (a run's tables are added by `run_files`)
-RUN_FILES = ("config.yaml", "provenance.json", "failures.log")
+RUN_FILES = ("config.yaml", "plan.json", "provenance.json", "failures.log")
 SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
 LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
 RESULTS_FILES = ("REPORT.md", "claims.csv", "value_ratio.csv")

@@ -12,6 +12,7 @@ from pathlib import Path
 from tavc_cli.analysis.experiment import write_analysis
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.joint import CAN_FORK
+from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, plan_run, write_plan
 from tavc_cli.experiments.runner import (
     Run,
     load_records,
@@ -31,16 +32,17 @@ def run_experiment(cfg: TavcConfig, *, progress: bool = False) -> dict:
     with the tables and claims."""
     Executor.from_config(cfg.executor).check()
     with claim_folder(cfg.output_dir):
-        owned = take_run_folder(cfg)
+        plan = plan_run(cfg)
+        owned = take_run_folder(cfg, plan)
         with _failures_listed([owned]):
-            run = run_experiment_trials(cfg, progress=progress)
+            run = run_experiment_trials(cfg, plan, progress=progress)
         return _finish(cfg, run, owned)
 
 
-def take_run_folder(cfg: TavcConfig, kind: str = RUN) -> Owned:
+def take_run_folder(cfg: TavcConfig, plan: RunPlan, kind: str = RUN) -> Owned:
     """Check that the run may write its folder (`ownership.take`: new, empty or tavc's, nothing
     of anybody else's in the way, not another configuration's run unless ``overwrite``) and
-    write its `config.yaml`; return what tavc owns there. Replacing another configuration's
+    write its `config.yaml` and its `plan.json`; return what tavc owns there. Replacing another configuration's
     run, the folder stops being a finished run (its `provenance.json` goes) before anything
     of the new one is written."""
     folder = Path(cfg.output_dir)
@@ -55,7 +57,7 @@ def take_run_folder(cfg: TavcConfig, kind: str = RUN) -> Owned:
                 f"of another configuration ({'; '.join(differ)})")
         raise TavcError(f"output_dir: {folder} holds {state} {what}; add overwrite=true to replace it, or choose "
                         "another output_dir")
-    owned.wrote("config.yaml")
+    owned.wrote("config.yaml", PLAN_FILE)
     owned.remove_temporaries()
     if differ or _recorded_text(folder / "config.yaml") != text:
         # the folder is a finished run only while its provenance.json vouches for the config.yaml
@@ -64,6 +66,7 @@ def take_run_folder(cfg: TavcConfig, kind: str = RUN) -> Owned:
         # provenance.json leaves a folder the same command resumes, not one it refuses
         owned.remove("provenance.json")
     write_text_atomic(folder / "config.yaml", text)
+    write_plan(plan, folder)
     return owned
 
 
@@ -109,9 +112,10 @@ def run_experiments(cfgs: list[TavcConfig], *, progress: bool = False) -> list[d
     with ExitStack() as held:
         for cfg in cfgs:
             held.enter_context(claim_folder(cfg.output_dir))
-        owned = [take_run_folder(cfg) for cfg in cfgs]
+        plans = [plan_run(cfg) for cfg in cfgs]
+        owned = [take_run_folder(cfg, plan) for cfg, plan in zip(cfgs, plans, strict=True)]
         with _failures_listed(owned):
-            runs = run_trials_together(cfgs, progress=progress)
+            runs = run_trials_together(cfgs, plans, progress=progress)
         return _finish_all(cfgs, runs, owned)
 
 
@@ -160,9 +164,9 @@ def _finish_loaded(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
 
 def _finish(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
     """An experiment's tables, claims and provenance from its trials; its summary."""
-    tables, claims = write_analysis(cfg, run.output_dir, run.records, owned)
+    tables, claims = write_analysis(cfg, run.plan, run.output_dir, run.records, owned)
     owned.wrote("provenance.json")
-    written = [n for n in owned.files if n.endswith(".csv") or n == "config.yaml"]
+    written = [n for n in owned.files if n.endswith(".csv") or n in ("config.yaml", PLAN_FILE)]
     write_provenance(cfg, run, sorted(n for n in written if (run.output_dir / n).is_file()))
     return {"output_dir": str(run.output_dir), "n_trials": len(run.specs), "n_reused": run.n_reused,
             "wall_time_s": run.wall_time_s, "tables": tables, "claims": claims}

@@ -104,7 +104,7 @@ def test_a_pose_that_is_not_a_number_stops_only_its_trial(tmp_path, monkeypatch,
     assert line.startswith(f"error: trial random_001 (seed {list(seed)}) failed: robot 0 has no valid pose at t = ")
     assert f"the other 3 trials are kept in {tmp_path / 'trials'}" in line
     # the other trials are kept, nothing of the run's analysis is written
-    assert _files(tmp_path) == [MANIFEST, "config.yaml", FAILURES_LOG,
+    assert _files(tmp_path) == [MANIFEST, "config.yaml", FAILURES_LOG, "plan.json",
                                 *[f"trials/random_{j:03d}.npz" for j in (0, 2, 3)]]
     assert "random_001" in (tmp_path / FAILURES_LOG).read_text()
     monkeypatch.undo()
@@ -137,7 +137,7 @@ def test_an_exception_inside_a_trial_is_named_and_the_others_finish(tmp_path, mo
     assert "ZeroDivisionError: a made-up fault in the simulation; the other 2 trials are kept" in result.output
     log = (tmp_path / FAILURES_LOG).read_text()
     assert "trial random_002" in log and "Traceback" in log  # the details are kept for a bug report
-    assert _files(tmp_path) == [MANIFEST, "config.yaml", FAILURES_LOG, "trials/random_001.npz",
+    assert _files(tmp_path) == [MANIFEST, "config.yaml", FAILURES_LOG, "plan.json", "trials/random_001.npz",
                                 "trials/random_003.npz"]
     monkeypatch.undo()
     _assert_recovers(tmp_path, reference, n_reused=2)

@@ -177,7 +177,7 @@ def test_a_full_disk_is_one_line_and_the_rerun_heals(undisturbed, tmp_path, monk
 
     def fsync(fd):
         calls.append(fd)
-        if len(calls) > 3:  # the folder's list, config.yaml and one trial's record, then nothing fits
+        if len(calls) > 4:  # the folder's list, config.yaml, plan.json and one trial's record, then nothing fits
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         real_fsync(fd)
 

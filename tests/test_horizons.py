@@ -17,7 +17,8 @@ import pytest
 
 from tavc_cli import config
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.build import baseline_settings, trial_specs
+from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.plan import plan_run
 from tavc_cli.settings import to_yaml
 
 # experiment -> (duration, convergence, warm-up, lead, event times) at the chapter's scale
@@ -47,14 +48,14 @@ def test_converged_multiplies_every_time_by_40_and_keeps_the_chapters_trial_coun
     assert (cfg.trials, cfg.baseline_trials, cfg.static_trials) == (paper.trials, paper.baseline_trials,
                                                                     paper.static_trials)
     # the baselines run the chapter's own schedule: the same times as scale=paper's
-    assert _times(baseline_settings(cfg)) == _times(paper)
+    assert _times(_baselines(cfg)) == _times(paper)
 
 
 def test_converged_values_by_hand():
     cfg = config.settings(config.load_config(["experiment=value_change", "scale=converged"]))
     assert cfg.duration_s == 720_000.0 and cfg.sim.warmup_s == 1_440_000.0
     assert [b.time_s for b in cfg.events.breakdowns] == [-720_000.0]
-    theirs = baseline_settings(cfg)
+    theirs = _baselines(cfg)
     assert theirs.duration_s == 18_000.0 and theirs.sim.warmup_s == 36_000.0 and theirs.baseline_lead_s == 1800.0
     assert [b.time_s for b in theirs.events.breakdowns] == [-18_000.0]
     # the window before the swap is not a time the scale multiplies: 9000 s for both
@@ -80,9 +81,15 @@ def test_converged_baselines_are_the_paper_scales_trials():
     assert {(s.duration_s, s.warmup_s) for s in learner} == {(1_080_000.0, 720_000.0)}
 
 
-def test_baseline_settings_is_the_config_itself_where_the_factors_agree():
+def test_the_plan_gives_every_controller_the_learners_schedule_where_the_factors_agree():
     cfg = config.settings(config.load_config(["experiment=breakdown", "scale=paper"]))
-    assert baseline_settings(cfg) is cfg
+    plan = plan_run(cfg)
+    assert plan.shared_schedule and plan.settings_for(cfg, "tavc") is cfg
+    assert _times(plan.settings_for(cfg, "random")) == _times(cfg)
+    # the learners warm up 18000 s; the baselines start 1800 s before the breakdown at 0 (baseline_lead_s)
+    random = plan.controller("random").schedule
+    assert (random.start_s, random.trial_warmup_s, random.starts_at) == (0.0, 1800.0, "the first event")
+    assert (plan.controllers[0].schedule.start_s, plan.controllers[0].schedule.trial_warmup_s) == (0.0, 18000.0)
 
 
 @pytest.mark.parametrize(("override", "key"), [("scale.baseline_time_factor=0", "scale.baseline_time_factor"),
@@ -260,7 +267,12 @@ def test_the_stable_window_at_40x_is_the_chapters_length_at_the_end():
     bd = config.settings(config.load_config(["experiment=breakdown", "scale=converged"]))
     assert stable_from(bd) == 1_080_000.0 - 18_000.0
     # a baseline on the chapter's schedule inside a 40x run: its stable period is the chapter's already
-    assert stable_from(baseline_settings(bd)) == 9_000.0
+    assert stable_from(_baselines(bd)) == 9_000.0
     # anything else is refused naming the key
     with pytest.raises(TavcError, match=r"scale\.stable_window"):
         config.load_config(["experiment=breakdown", "scale.stable_window=last"])
+
+
+def _baselines(cfg):
+    """The settings the run's plan gives its random baseline."""
+    return plan_run(cfg).settings_for(cfg, "random")

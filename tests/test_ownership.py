@@ -46,9 +46,10 @@ def test_a_run_lists_what_it_wrote(finished):
     manifest = json.loads((finished / MANIFEST).read_text())
     assert manifest["tavc"] == "run"
     tables = sorted(p.name for p in finished.glob("*.csv"))
-    assert set(manifest["files"]) >= {"config.yaml", "provenance.json", *tables}
+    assert set(manifest["files"]) >= {"config.yaml", "plan.json", "provenance.json", *tables}
     provenance = json.loads((finished / "provenance.json").read_text())
-    assert sorted(provenance["tables"]) == sorted([*tables, "config.yaml"])  # every table, with its digest
+    # every table, the config and the plan, each with its digest
+    assert sorted(provenance["tables"]) == sorted([*tables, "config.yaml", "plan.json"])
     assert all(len(d) == 64 for d in provenance["tables"].values())
 
 

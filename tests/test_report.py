@@ -216,15 +216,19 @@ def test_a_run_folder_given_for_the_results_folder_says_which_to_give(one_run):
 
 def test_the_report_says_when_the_baselines_started_late():
     from tavc_cli.config import load_config, settings
+    from tavc_cli.experiments.plan import plan_run
     from tavc_cli.report.text import late_start_lines
 
-    cfg = settings(load_config(["experiment=heterogeneous", "scale=paper"]))
-    (line, blank) = late_start_lines(cfg)
+    def lines(*overrides):
+        cfg = settings(load_config(list(overrides)))
+        return late_start_lines(cfg, plan_run(cfg))
+
+    (line, blank) = lines("experiment=heterogeneous", "scale=paper")
     assert "(random)" in line and "from 52,200 s, 1,800 s before the stable period" in line and "to 72,000 s" in line
     assert "rather than from 0 s" in line
-    assert late_start_lines(settings(load_config(["experiment=heterogeneous", "baseline_lead_s=null"]))) == []
-    assert late_start_lines(settings(load_config(["experiment=initial_distribution"]))) == []
-    (line, _) = late_start_lines(settings(load_config(["experiment=breakdown", "scale=paper"])))
+    assert lines("experiment=heterogeneous", "baseline_lead_s=null") == []
+    assert lines("experiment=initial_distribution") == []
+    (line, _) = lines("experiment=breakdown", "scale=paper")
     assert "(random and static)" in line and "from -1,800 s, 1,800 s before the first event" in line
     assert "rather than from -18,000 s" in line
 

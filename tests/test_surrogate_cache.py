@@ -195,6 +195,8 @@ def test_the_surrogates_code_is_in_its_digest_and_its_trials_keys(clean, tmp_pat
                        ("compare.py", "_EDITED = 1\n"), ("engine.py", "# a comment, which computes nothing\n")):
         root = tmp_path / f"{edit}{len(text)}"
         shutil.copytree(package / "surrogate", root / "surrogate", ignore=shutil.ignore_patterns("__pycache__"))
+        (root / "experiments").mkdir()
+        shutil.copy(package / "experiments" / "plan.py", root / "experiments" / "plan.py")
         if text:
             with open(root / "surrogate" / edit, "a") as fh:
                 fh.write(text)

@@ -18,6 +18,7 @@ from tavc_cli.analysis.states import allocation_table, specialisation_table, sta
 from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.analysis.trial_stats import stable_from, trial_stats
 from tavc_cli.analysis.vacancy import vacancy_table
+from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import write_text_atomic
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
@@ -27,13 +28,13 @@ from tavc_cli.settings import TavcConfig
 # Every table an experiment may write (which ones depends on its controllers and events)
 
 
-def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord],
+def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[TrialRecord],
                    owned: Owned | None = None) -> tuple[dict[str, pd.DataFrame], pd.DataFrame]:
     """Compute and write (atomically) every table, the comparison with the chapter and the
     claims, and remove the tables of an earlier run in the folder that this one does not
     write (another experiment's, or one without the event), where `owned` says tavc wrote
     them; return the tables and the claims."""
-    tables = analyse(cfg, records)
+    tables = analyse(cfg, plan, records)
     if owned is not None:  # listed before they are written: a run stopped midway still owns them
         owned.wrote(*(f"{name}.csv" for name in [*tables, "comparison", "claims"]))
     written_tables = {}
@@ -60,20 +61,19 @@ def write_analysis(cfg: TavcConfig, out_dir: Path, records: list[TrialRecord],
     return tables, claims
 
 
-def analyse(cfg: TavcConfig, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:
+def analyse(cfg: TavcConfig, plan: RunPlan, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:
     """The tables every experiment shares, from saved records only. Where the baselines ran
-    another schedule than the learner (`scale.baseline_time_factor`), each controller's records
-    are summarised over its own periods and the rows put together, the learner's first."""
-    from tavc_cli.experiments.build import baseline_settings, settings_for
-
-    if baseline_settings(cfg) is cfg:
+    another schedule than the learner (`scale.baseline_time_factor`, as the run's `plan` records),
+    each controller's records are summarised over its own periods and the rows put together, the
+    learner's first."""
+    if plan.shared_schedule:
         return _analyse(cfg, records)
     parts: dict[str, list[TrialRecord]] = {}
     for rec in records:
         parts.setdefault(str(rec.meta["controller"]), []).append(rec)
     tables: dict[str, list[pd.DataFrame]] = {}
     for k, (controller, mine) in enumerate(parts.items()):
-        for name, df in _analyse(settings_for(cfg, controller), mine, with_theory=k == len(parts) - 1).items():
+        for name, df in _analyse(plan.settings_for(cfg, controller), mine, with_theory=k == len(parts) - 1).items():
             tables.setdefault(name, []).append(df)
     return {name: pd.concat(dfs, ignore_index=True) for name, dfs in tables.items()}
 

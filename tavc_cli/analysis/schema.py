@@ -35,6 +35,7 @@ from pathlib import Path
 
 from tavc_cli.analysis.table_schemas import TABLE_NAMES, TABLES, TableSchema
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.plan import PLAN_FILE
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import file_digest
 from tavc_cli.readers import YAML_LIMIT, load_json, read_bounded
@@ -181,6 +182,11 @@ def check_run(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) -> R
     for name in sorted(facts.digests or {}):
         if not (facts.folder / name).is_file():
             raise damaged(facts.folder / name, "missing, though provenance.json lists it")
+    plan = facts.folder / PLAN_FILE
+    if plan.is_file() and facts.digests is not None:
+        if PLAN_FILE not in facts.digests:
+            raise damaged(plan, "not among the files provenance.json lists (left by another run?)")
+        _check_digest(plan, facts.digests)
     for name in TABLE_NAMES:
         if (facts.folder / f"{name}.csv").is_file():
             check_table(facts.folder / f"{name}.csv", facts)

@@ -108,19 +108,19 @@ def sources(cfg: DictConfig) -> dict[str, str]:
 def run_trials(cfg: DictConfig, named: dict[str, str] | None = None) -> list[Trials]:
     """`tavc run`'s trials, as `experiments.build.trial_specs` will plan them (without planning them);
     their keys as `named` (`sources`) says."""
-    from tavc_cli.experiments.build import baseline_settings, baseline_start, controllers
+    from tavc_cli.experiments.plan import plan_run  # the simulator's modules, only once a config is checked
 
     named = named or {}
-
-    settings = OmegaConf.to_object(cfg)
-    theirs = baseline_settings(settings)
-    start_s, _ = baseline_start(theirs)
+    plan = plan_run(OmegaConf.to_object(cfg))
     n_robots = int(cfg.team.n_robots)
     duration_s, warmup_s = float(cfg.duration_s), float(cfg.sim.warmup_s)
     longer = named.get("duration_s", "duration_s") if duration_s >= warmup_s else "sim.warmup_s"
-    slower = theirs is not settings and float(cfg.scale.baseline_time_factor) > float(cfg.scale.time_factor)
+    slower = (cfg.scale.baseline_time_factor is not None
+              and float(cfg.scale.baseline_time_factor) > float(cfg.scale.time_factor))
     out = []
-    for k, (label, _, count) in enumerate(controllers(settings)):
+    for k, entry in enumerate(plan.controllers):
+        label, count, theirs = entry.label, entry.trials, entry.schedule
+        start_s = theirs.start_s - theirs.trial_warmup_s
         if k == 0:
             learns = cfg.learner.name not in BASELINES  # the baselines keep no Q-tables
             out.append(Trials(named.get("trials", "trials"), label, count, duration_s + warmup_s, n_robots, longer,

@@ -19,7 +19,7 @@ Rules:
   ``events.value_changes[*].time_s``) are ALWAYS multiplied by ``scale.time_factor``, also when
   set on the command line, so that an experiment keeps its shape at every scale.
 - ``scale.baseline_time_factor``: ``scale.time_factor`` when null. The baselines then run every
-  time above at that factor instead (`experiments.build.baseline_settings`).
+  time above at that factor instead (`experiments.plan.plan_run`).
 - ``output_dir``: ``runs/<scale.name>/<experiment_name>`` (`default_output_dir`). Outside
   ``results/``, which holds the committed reproduction and is written only where named, and
   apart by scale, so that a smoke run never meets a quick or a paper run of the same experiment.

@@ -17,6 +17,7 @@ from importlib import metadata
 from pathlib import Path
 
 from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec, code_digest
 from tavc_cli.experiments.store import Executor, TrialStore, trial_path
@@ -81,27 +82,28 @@ class Run:
     """An experiment's trials, run or reused, with their records."""
 
     output_dir: Path
+    plan: RunPlan
     specs: list[TrialSpec]
     records: list[TrialRecord]
     n_reused: int
     wall_time_s: float
 
 
-def run_experiment_trials(cfg: TavcConfig, *, progress: bool = False) -> Run:
-    """Run (or reuse) every trial of the experiment into its `output_dir`. The caller holds the
-    folder (`io.claim_folder`) and has written its `config.yaml`; a `provenance.json` already
+def run_experiment_trials(cfg: TavcConfig, plan: RunPlan, *, progress: bool = False) -> Run:
+    """Run (or reuse) every trial of the experiment's `plan` into its `output_dir`. The caller holds
+    the folder (`io.claim_folder`) and has written its `config.yaml` and `plan.json`; a `provenance.json` already
     there (the same configuration's finished run) stays until `write_provenance` replaces it,
     so an interrupted rerun leaves the folder as finished as it found it."""
     out_dir = Path(cfg.output_dir)
     start = time.perf_counter()
-    specs = trial_specs(cfg)
+    specs = trial_specs(cfg, plan)
     store = TrialStore(out_dir, Executor.from_config(cfg.executor))
     n_reused = store.run(specs, progress, announce=True)
     wall = time.perf_counter() - start
-    return Run(out_dir, specs, store.load(specs), n_reused, wall)
+    return Run(out_dir, plan, specs, store.load(specs), n_reused, wall)
 
 
-def run_trials_together(cfgs: list[TavcConfig], *, progress: bool = False) -> list[Run]:
+def run_trials_together(cfgs: list[TavcConfig], plans: list[RunPlan], *, progress: bool = False) -> list[Run]:
     """Run (or reuse) every trial of several experiments at once (`joint.run_together`: the
     history their trials share is simulated once) and write each one's `config.yaml`. The
     caller holds every folder; the first config's `executor` runs them all. A run's wall time
@@ -112,15 +114,15 @@ def run_trials_together(cfgs: list[TavcConfig], *, progress: bool = False) -> li
 
     start = time.perf_counter()
     folders = [Path(cfg.output_dir) for cfg in cfgs]
-    specs = [trial_specs(cfg) for cfg in cfgs]
+    specs = [trial_specs(cfg, plan) for cfg, plan in zip(cfgs, plans, strict=True)]
     executor = Executor.from_config(cfgs[0].executor)
     for folder, sp in zip(folders, specs, strict=True):
         TrialStore(folder, executor).check_paths(sp)
     reused = run_together(list(zip(folders, specs, strict=True)), executor, progress)
     wall = time.perf_counter() - start
     runs = []
-    for folder, sp in zip(folders, specs, strict=True):
-        runs.append(Run(folder, sp, [], reused[folder], wall))
+    for folder, plan, sp in zip(folders, plans, specs, strict=True):
+        runs.append(Run(folder, plan, sp, [], reused[folder], wall))
     return runs
 
 

@@ -356,7 +356,7 @@ def _experiment_section(name: str, d: Path, base: horizons.Horizon, figures: dic
     lines += choice_lines(name, [d, *base.others.get(name, [])], base.folder)
     lines += base.deliveries[d]
     if (d / "table_1_1.csv").is_file():
-        return [*lines, *figures[name].result(), *run_lines(name, cfg, prov, claims, runs)]
+        return [*lines, *figures[name].result(), *run_lines(name, d, cfg, prov, claims, runs)]
     table = chapter.state_table_id(name)
     lines.append("% of the stable period in each state, mean ± std over trials"
                  + (f"; the chapter's Table {table} beside ours:" if table else ":"))
@@ -372,5 +372,5 @@ def _experiment_section(name: str, d: Path, base: horizons.Horizon, figures: dic
     lines += mechanism_lines(d)
     lines += robot_lines(d)
     lines += vacancy_lines(d)
-    lines += run_lines(name, cfg, prov, claims, runs)
+    lines += run_lines(name, d, cfg, prov, claims, runs)
     return lines

@@ -9,6 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.chapter import EXPERIMENTS, base_case, state_table_id
+from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.settings import TavcConfig
 
 
@@ -42,24 +43,21 @@ def predicted_segments(cfg: TavcConfig, model_json: Path | None) -> list[tuple[f
     return out
 
 
-def baseline_levels(frame: pd.DataFrame, cfg: TavcConfig, mean: str, std: str) -> pd.DataFrame:
+def baseline_levels(frame: pd.DataFrame, cfg: TavcConfig, plan: RunPlan, mean: str, std: str) -> pd.DataFrame:
     """`frame` (a table over time) with each baseline that ran another schedule than the learner
     (`scale.baseline_time_factor`) drawn as its stable-period level: its mean and std over its
     own stable period (the std: its bins' mean spread over trials), at every time of the
-    learner's stable period. A time series of the
+    learner's stable period (each controller's periods: the run's `plan`). A time series of the
     chapter's length would otherwise sit in the first per cent of a long run's axis."""
-    from tavc_cli.experiments.build import baseline_settings, settings_for
-
-    theirs = baseline_settings(cfg)
-    if theirs is cfg:
+    if plan.shared_schedule:
         return frame
     learner = frame["controller"] == "tavc"
     mine = frame[learner]
     times = mine.loc[mine["t_s"] >= float(cfg.convergence_s), "t_s"].drop_duplicates()
     parts = [mine]
     for controller, rows in frame[~learner].groupby("controller", sort=False):
-        own = settings_for(cfg, str(controller))
-        stable = rows[(rows["t_s"] >= float(own.convergence_s)) & (rows["t_s"] < float(own.duration_s))]
+        own = plan.controller(str(controller)).schedule
+        stable = rows[(rows["t_s"] >= own.convergence_s) & (rows["t_s"] < own.duration_s)]
         level = pd.DataFrame({"t_s": times.to_numpy(float), "controller": controller,
                               mean: stable[mean].mean(), std: stable[std].mean()})
         if "n_trials" in rows:
@@ -82,6 +80,7 @@ def experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataF
     state_fig, perf_fig = (experiment.state_figure, experiment.performance_figure) if experiment else (None, None)
     conv = float(cfg.convergence_s or 0.0)
     event = float(cfg.sim.warmup_s) > 0
+    plan = read_plan(d, cfg)
     lines = []
     if cfg.analysis.state == "groups":
         return group_figures(name, d, cfg, state_time, fig_dir, link, label)
@@ -94,11 +93,11 @@ def experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataF
         lines.append(f"![Figure {state_fig}, tavc]({link}/{stem}.png)")
     if perf_fig is not None and (d / "performance.csv").is_file():
         stem = f"fig_{perf_fig.replace('.', '_')}"
-        performance_figure(baseline_levels(pd.read_csv(d / "performance.csv"), cfg, "mean", "std"), conv, event,
+        performance_figure(baseline_levels(pd.read_csv(d / "performance.csv"), cfg, plan, "mean", "std"), conv, event,
                            f"{label}: performance over time (the chapter's Figure {perf_fig})", fig_dir / stem)
         lines.append(f"![Figure {perf_fig}, tavc]({link}/{stem}.png)")
     if (d / "allocation.csv").is_file():
-        allocation_figure(baseline_levels(pd.read_csv(d / "allocation.csv"), cfg, "mean_high", "std_high"),
+        allocation_figure(baseline_levels(pd.read_csv(d / "allocation.csv"), cfg, plan, "mean_high", "std_high"),
                           predicted_segments(cfg, model_json), conv, event,
                           f"{label}: robots on the high-value circuit over time", fig_dir / f"allocation_{name}")
         lines.append(f"![robots on the high-value circuit, {label}]({link}/allocation_{name}.png)")
@@ -131,7 +130,7 @@ def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame,
     lines = [f"![Figure 1.12, tavc]({link}/fig_1_12.png)", f"![Figure 1.13, tavc]({link}/fig_1_13.png)",
              f"![Figure 1.13, relative, tavc]({link}/fig_1_13_relative.png)"]
     if (d / "specialisation.csv").is_file():
-        specialisation_figure(_group_levels(pd.read_csv(d / "specialisation.csv"), cfg),
+        specialisation_figure(_group_levels(pd.read_csv(d / "specialisation.csv"), cfg, read_plan(d, cfg)),
                               float(cfg.convergence_s or 0.0),
                               f"{label}: each speed group's share on the high-value circuit",
                               fig_dir / f"specialisation_{name}")
@@ -140,13 +139,11 @@ def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame,
     return [*lines, ""]
 
 
-def _group_levels(spec: pd.DataFrame, cfg: TavcConfig) -> pd.DataFrame:
+def _group_levels(spec: pd.DataFrame, cfg: TavcConfig, plan: RunPlan) -> pd.DataFrame:
     """`baseline_levels` for each speed group's share on the high-value circuit."""
-    from tavc_cli.experiments.build import baseline_settings
-
-    if baseline_settings(cfg) is cfg:
+    if plan.shared_schedule:
         return spec
-    parts = [baseline_levels(rows, cfg, "mean_share_high", "std_share_high").assign(group=group)
+    parts = [baseline_levels(rows, cfg, plan, "mean_share_high", "std_share_high").assign(group=group)
              for group, rows in spec.groupby("group", sort=False)]
     return pd.concat(parts, ignore_index=True)[list(spec.columns)] if parts else spec
 

@@ -281,7 +281,7 @@ def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Pa
     lines += vacancy_lines(d)
     lines += vacancy_mechanism_lines(d)
     lines += _claims_lines(name, long)
-    lines += run_lines(name, cfg, prov, long.claims.iloc[0:0], long.runs)  # its claims are above
+    lines += run_lines(name, d, cfg, prov, long.claims.iloc[0:0], long.runs)  # its claims are above
     return lines
 
 

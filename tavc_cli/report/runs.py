@@ -15,14 +15,15 @@ import re
 from pathlib import Path
 
 import pandas as pd
+import yaml
 
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.chapter import state_table_id
 from tavc_cli.ownership import COMPARE, STUDY, SURROGATE, TASKS, read
-from tavc_cli.readers import load_json, load_yaml
+from tavc_cli.readers import load_json
 from tavc_cli.report.text import performance, run_lines, state_table
-from tavc_cli.settings import TavcConfig, from_yaml
+from tavc_cli.settings import TavcConfig, from_yaml, to_yaml
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
 # folders directly under the results folder that the report reads otherwise than run by run:
@@ -132,8 +133,7 @@ def setting_differences(d: Path, base: Path, base_name: str | None = None) -> li
     ``key value (`base`: value)`` (`base_name`, the folder's name unless given); where a run
     writes is no setting of it."""
     base_name = base_name or base.name
-    ours, theirs = _flat(load_yaml(d / "config.yaml")), _flat(
-        load_yaml(base / "config.yaml"))
+    ours, theirs = _settings(d), _settings(base)
     out = []
     for key in [*ours, *(k for k in theirs if k not in ours)]:
         if key == "output_dir" or ours.get(key, _UNSET) == theirs.get(key, _UNSET):
@@ -143,6 +143,13 @@ def setting_differences(d: Path, base: Path, base_name: str | None = None) -> li
 
 
 _UNSET = object()
+
+
+def _settings(d: Path) -> dict:
+    """Run `d`'s settings as today's tavc reads its config.yaml (`from_yaml`: a record written
+    before a key existed reads with its default, and its learner's node as the learner declares
+    it), as dotted keys."""
+    return _flat(yaml.safe_load(to_yaml(from_yaml(d / "config.yaml"))))
 
 
 def _flat(data, prefix: str = "") -> dict:
@@ -187,7 +194,7 @@ def other_run_lines(name: str, d: Path, cfg: TavcConfig, base: Path, results_dir
     if (d / "trial_stats.csv").is_file():
         lines += [performance(pd.read_csv(d / "trial_stats.csv")), ""]
     lines += figure_lines
-    lines += run_lines(name, cfg, prov, pd.DataFrame({"claim_id": []}), {})
+    lines += run_lines(name, d, cfg, prov, pd.DataFrame({"claim_id": []}), {})
     return lines
 
 

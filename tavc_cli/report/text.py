@@ -11,6 +11,7 @@ import pandas as pd
 
 from tavc_cli.analysis.claims import not_a_verdict, verdict_words
 from tavc_cli.chapter import EXPERIMENTS, experiment_of
+from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.model.allocations import MODEL_LIMIT
 from tavc_cli.readers import load_json
 from tavc_cli.settings import TavcConfig
@@ -265,9 +266,9 @@ def q_gap_lines(stats: pd.DataFrame) -> list[str]:
             "trials: " + "; ".join(parts) + ".", ""]
 
 
-def run_lines(name: str, cfg: TavcConfig, prov: dict, claims: pd.DataFrame, runs: dict) -> list[str]:
-    """An experiment's claims table, the command and provenance of its run, and its settings
-    that differ from the chapter's."""
+def run_lines(name: str, d: Path, cfg: TavcConfig, prov: dict, claims: pd.DataFrame, runs: dict) -> list[str]:
+    """An experiment's claims table, the command and provenance of its run (in folder `d`), when
+    its controllers ran (its plan), and its settings that differ from the chapter's."""
     short = not_a_verdict(cfg)
     lines = [f"This run is {short}.", ""] if short else []
     own = claims[[experiment_of(c) == name for c in claims["claim_id"]]]
@@ -282,24 +283,23 @@ def run_lines(name: str, cfg: TavcConfig, prov: dict, claims: pd.DataFrame, runs
               f"{prov.get('git_commit') or 'no git commit'}; {len(prov.get('trials', []))} trials "
               f"({prov.get('n_trials_reused', 0)} reused from an earlier run), "
               f"{fmt(prov.get('wall_time_s'), '.0f')} s wall time for this invocation.", ""]
-    lines += late_start_lines(cfg)
+    lines += late_start_lines(cfg, read_plan(d, cfg))
     if diffs:
         lines += ["Differs from the chapter: " + "; ".join(diffs) + ".", ""]
     return lines
 
 
-def late_start_lines(cfg: TavcConfig) -> list[str]:
-    """When the baselines started, where they started after the learner (`baseline_lead_s`), and
-    their schedule where it is not the learner's (`scale.baseline_time_factor`)."""
-    from tavc_cli.experiments.build import baseline_settings, baseline_start
-
-    theirs = baseline_settings(cfg)
-    start, what = baseline_start(theirs)
-    learner_start = 0.0 - float(cfg.sim.warmup_s)
-    if not cfg.baselines:
+def late_start_lines(cfg: TavcConfig, plan: RunPlan) -> list[str]:
+    """When the baselines started, as the run's `plan` records: where they started after the learner
+    (`baseline_lead_s`), and their schedule where it is not the learner's
+    (`scale.baseline_time_factor`)."""
+    if len(plan.controllers) < 2:
         return []
-    names = " and ".join(CONTROLLER_NAMES.get(b, b) for b in cfg.baselines)
-    if theirs is not cfg:
+    theirs = plan.controllers[1].schedule
+    start, what = theirs.start_s - theirs.trial_warmup_s, theirs.starts_at
+    learner_start = 0.0 - float(cfg.sim.warmup_s)
+    names = " and ".join(CONTROLLER_NAMES.get(b.label, b.label) for b in plan.controllers[1:])
+    if not plan.shared_schedule:
         return [f"The baselines ({names}) learn nothing, so their distribution does not depend on the horizon: "
                 f"they ran the chapter's own schedule ({float(cfg.scale.baseline_time_factor):g} times its "
                 f"durations; the learners {float(cfg.scale.time_factor):g} times), from {start:,.0f} s to "

@@ -16,6 +16,7 @@ import pandas as pd
 from tavc_cli import meaning_digest
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.plan import RunPlan, plan_run
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.runner import Run
 from tavc_cli.experiments.spec import code_digest
@@ -197,7 +198,8 @@ def tasks_digest(times: TaskTimes) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
-_SURROGATE_CODE = ("surrogate/engine.py", "surrogate/tasks.py")  # below tavc_cli/: `surrogate_code_digest`
+# below tavc_cli/: `surrogate_code_digest` (the plan decides a drawn trial's seeds and schedule)
+_SURROGATE_CODE = ("surrogate/engine.py", "surrogate/tasks.py", "experiments/plan.py")
 _TAVC_CLI = Path(__file__).resolve().parent.parent
 
 
@@ -212,12 +214,12 @@ def surrogate_code_digest(root: Path = _TAVC_CLI) -> str:
     return meaning_digest(root, _SURROGATE_CODE)
 
 
-def surrogate_specs(cfg: TavcConfig, times: TaskTimes) -> list:
-    """The experiment's trials (`trial_specs`: the same controllers, seeds and events), computed
+def surrogate_specs(cfg: TavcConfig, times: TaskTimes, plan: RunPlan | None = None) -> list:
+    """The experiment's trials (`trial_specs` of its `plan`: the same controllers, seeds and events), computed
     by the surrogate: their engine names the calibration, the tasks drawn from and the
     surrogate's code (`surrogate_code_digest`), all three in each trial's key."""
     engine = f"surrogate:{cfg.surrogate.calibration}:{tasks_digest(times)}:{surrogate_code_digest()}"
-    return [replace(s, engine=engine) for s in trial_specs(cfg)]
+    return [replace(s, engine=engine) for s in trial_specs(cfg, plan)]
 
 
 def run_surrogate(cfg: TavcConfig, *, progress: bool = False, echo: Callable[[str], None] = print) -> dict:
@@ -228,18 +230,19 @@ def run_surrogate(cfg: TavcConfig, *, progress: bool = False, echo: Callable[[st
 
     surrogate_supports(cfg)
     times = measure_tasks(cfg, progress=progress, echo=echo)
-    specs = surrogate_specs(cfg, times)
+    plan = plan_run(cfg)
+    specs = surrogate_specs(cfg, times, plan)
     folder = Path(cfg.output_dir)
     stayers = cfg.surrogate.calibration == "stayers"
     with claim_folder(folder):
-        owned = take_run_folder(cfg, SURROGATE)
+        owned = take_run_folder(cfg, plan, SURROGATE)
         start = time.perf_counter()
         paths = [trial_path(folder, spec.controller, spec.trial) for spec in specs]
         pending = [(spec, path) for spec, path in zip(specs, paths, strict=True)
                    if _stored_key(path, whole=True) != spec.key()]
         _draw_trials(pending, times, stayers, int(Executor.from_config(cfg.executor).n_jobs))
         records = [TrialRecord.load(path) for path in paths]
-        run = Run(folder, specs, records, len(specs) - len(pending), time.perf_counter() - start)
+        run = Run(folder, plan, specs, records, len(specs) - len(pending), time.perf_counter() - start)
         summary = _finish(cfg, run, owned)
     return {**summary, "engine": f"the surrogate (surrogate.calibration={cfg.surrogate.calibration}; "
                                  f"tasks measured in the simulator: {tasks_dir(cfg)})"}
