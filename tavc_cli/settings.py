@@ -113,6 +113,12 @@ class BehaviourConfig:
     avoid_dist_m: float = 0.7
     stop_dist_m: float = 0.25
     arrive_dist_m: float = 0.30
+    # readings of what the chapter leaves unsaid (conf/arrival/, conf/passing/; docs/readings.md):
+    # arrival `dock` (into the dock spot) or `range` (on reading the code within read_range_m);
+    # passing `nearest` (the free heading nearest the goal's), `left` or `right` (that side first)
+    arrival: str = "dock"
+    read_range_m: float = 1.5
+    passing: str = "nearest"
     wall_dist_m: float = 0.5
     visible_margin_m: float = 0.5
     relocalise_dist_m: float = 2.0
@@ -229,6 +235,9 @@ class TasksConfig:
     values: Optional[List[float]] = None
     score_values: Optional[List[float]] = None
     time_unit: str = "ms"
+    # a reading of "the last task processing time" (conf/reward_time/): from the robot's choice at the
+    # sink, the empty leg included (choice), or from its loading at the source (source)
+    time_from: str = "choice"
 
 
 @dataclass

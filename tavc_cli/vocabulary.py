@@ -24,6 +24,14 @@ N_ACT = len(ACTIVITIES)
 # a target's kind: a robot loads at a source and delivers at a sink
 SOURCE, SINK = 0, 1
 
+# readings of what the chapter leaves unsaid (docs/readings.md), today's world first:
+# how a robot arrives at a target (`robot.behaviour.arrival`): into its dock spot, or on reading its code at range
+ARRIVALS = ("dock", "range")
+# how it passes a robot ahead (`robot.behaviour.passing`): the free heading nearest its goal's, or one side first
+PASSINGS = ("nearest", "left", "right")
+# where the time t of r = w / t starts (`tasks.time_from`): the choice at the sink, or the loading at the source
+TIME_FROM = ("choice", "source")
+
 
 class EventKind(IntEnum):
     """An event's kind, one numbering for the simulator and the analysis, in the order the events

@@ -30,6 +30,7 @@ import numpy as np
 
 from tavc_cli.sim.arena import N_OUTER_WALLS, Arena
 from tavc_cli.sim.sensors import ray_angles
+from tavc_cli.vocabulary import ARRIVALS, PASSINGS
 
 if TYPE_CHECKING:  # the settings are read, never imported, by the simulator's lowest layers
     from tavc_cli.settings import RobotConfig
@@ -69,6 +70,9 @@ PARAMS = np.dtype([
     # behaviours
     ("avoid_dist_m", np.float64), ("stop_dist_m", np.float64), ("arrive_dist_m", np.float64),
     ("wall_dist_m", np.float64), ("visible_margin_m", np.float64), ("relocalise_dist_m", np.float64),
+    ("arrival", np.int64),             # ARRIVE_DOCK or ARRIVE_RANGE (`robot.behaviour.arrival`)
+    ("read_range_m", np.float64),      # ARRIVE_RANGE: a robot arrives on reading its code this near
+    ("pass_side", np.int64),           # PASS_NEAREST, PASS_LEFT or PASS_RIGHT (`robot.behaviour.passing`)
     ("stall_limit_s", np.float64),     # this long without getting progress_m closer: escape ...
     ("escape_duration_s", np.float64),  # ... by following the wall this long
     ("progress_m", np.float64),
@@ -138,6 +142,14 @@ class Work(NamedTuple):
 
 
 MODE_APPROACH, MODE_WALLFOLLOW, MODE_ESCAPE, MODE_DOCK, MODE_SERVICE, MODE_UNDOCK = range(6)
+# how a robot arrives at a target (`robot.behaviour.arrival`): into the dock spot, reading the code
+# at `arrive_dist_m` (dock); or wherever it stands when it reads its code within `read_range_m` (range)
+ARRIVE_DOCK, ARRIVE_RANGE = 0, 1
+ARRIVAL_CODES = dict(zip(ARRIVALS, (ARRIVE_DOCK, ARRIVE_RANGE), strict=True))
+# how a robot passes a robot ahead (`robot.behaviour.passing`): by the free heading nearest its goal's,
+# either side (nearest); or by the free heading nearest its goal's on its left (right) side first
+PASS_NEAREST, PASS_LEFT, PASS_RIGHT = 0, 1, -1
+PASS_CODES = dict(zip(PASSINGS, (PASS_NEAREST, PASS_LEFT, PASS_RIGHT), strict=True))
 BEH_AUTO, BEH_DIRECT, BEH_WALL, BEH_STOP = -1, 0, 1, 2
 
 
@@ -176,6 +188,9 @@ def build_params(robot: RobotConfig, arena: Arena, dt_s: float, camera_on: bool)
     for key in ("avoid_dist_m", "stop_dist_m", "arrive_dist_m", "wall_dist_m", "visible_margin_m",
                 "relocalise_dist_m", "progress_m"):
         p[key] = getattr(beh, key)
+    p["arrival"] = ARRIVAL_CODES[beh.arrival]
+    p["read_range_m"] = beh.read_range_m
+    p["pass_side"] = PASS_CODES[beh.passing]
     p["stall_limit_s"], p["escape_duration_s"] = beh.stall_s, beh.escape_s
     p["laser_range_m"] = laser.range_m
     p["barcode_width_m"] = arena.barcode_width_m

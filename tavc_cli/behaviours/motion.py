@@ -10,12 +10,14 @@ import math
 
 import numpy as np
 
-from tavc_cli.behaviours.layout import MODE_APPROACH, MODE_ESCAPE
+from tavc_cli.behaviours.layout import MODE_APPROACH, MODE_ESCAPE, PASS_NEAREST
 from tavc_cli.kernel import kernel
 from tavc_cli.sim.sensors import HIT_ROBOT, HIT_TARGET, HIT_WALL, wrap_angle
 from tavc_cli.vocabulary import ACT_AVOID, ACT_DRIVE
 
 _CORRIDOR_MARGIN_M = 0.05
+# a robot in view within this angle of the goal's bearing, and within reach, is one to pass
+_AHEAD_RAD = math.pi / 4
 
 
 @kernel
@@ -85,12 +87,25 @@ def free_distance(r, heading, radius, scan, laser, skip_barcode, skip_wall, reac
 
 
 @kernel
+def robot_ahead(r, bearing, reach, scan, laser):
+    """Whether robot r's laser shows another robot within `reach` metres and `_AHEAD_RAD` of the
+    bearing `bearing` (robot frame)."""
+    for j in range(scan.range_m.shape[1]):
+        if (scan.kind[r, j] == HIT_ROBOT and scan.range_m[r, j] < reach
+                and abs(wrap_angle(laser.angle_rad[j] - bearing)) < _AHEAD_RAD):
+            return True
+    return False
+
+
+@kernel
 def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, work):
     """Head for `bearing` (robot frame), detouring around whatever the laser sees.
 
     The heading taken is the free direction nearest the goal's: candidates are
     tried outward from the goal bearing, and the first along which the robot's
-    disc can travel `need` metres wins. Speed falls as the free distance ahead
+    disc can travel `need` metres wins. Where the passing reading keeps to one side
+    (`pass_side`) and a robot stands ahead, the candidates on that side are tried
+    first, all of them, then the other side's. Speed falls as the free distance ahead
     shrinks toward `stop_dist`. Sets the tick's activity to avoiding whenever an
     obstacle bends the path or slows the robot.
     """
@@ -125,8 +140,14 @@ def steer_to(r, bearing, dist, own_barcode, robots, scan, laser, params, cmd, wo
         heading = bearing
     else:
         j0 = int(round((bearing - ray_ang[0]) / max(spacing, 1e-9)))
+        side = params.pass_side
+        if side != PASS_NEAREST and not robot_ahead(r, bearing, avoid + radius, scan, laser):
+            side = PASS_NEAREST
         for step in range(1, 2 * n):
-            off = (step + 1) // 2 if step % 2 == 1 else -(step // 2)
+            if side == PASS_NEAREST:
+                off = (step + 1) // 2 if step % 2 == 1 else -(step // 2)
+            else:
+                off = side * step if step < n else -side * (step - n + 1)
             j = j0 + off
             if j < 0 or j >= n:
                 continue

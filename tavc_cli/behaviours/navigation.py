@@ -45,6 +45,7 @@ from tavc_cli.behaviours.docking import (
     to_frame,
 )
 from tavc_cli.behaviours.layout import (
+    ARRIVE_RANGE,
     BEH_AUTO,
     BEH_STOP,
     BEH_WALL,
@@ -70,6 +71,8 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd, work):
     from its centre, within the lateral and heading tolerances. It then stands for
     `dwell` seconds and backs out `backout` metres before heading for its next target. A
     robot that finds its dock spot taken by another robot holds back until it is free.
+    Where arrival is read at range (`ARRIVE_RANGE`), a robot arrives as soon as it reads its
+    code within `read_range`, wherever it stands, and heads on (after its dwell, if any).
     """
     rob = robots[r]
     tgt = rob.target
@@ -106,6 +109,17 @@ def behave(r, robots, pose, params, arena, laser, scan, cmd, work):
         cmd[r, 0] = 0.0
         cmd[r, 1] = 0.0
         rob.activity = ACT_IDLE
+        return
+    if params.arrival == ARRIVE_RANGE and own_cnt > 0 and own_min <= params.read_range_m:
+        # the code read within range: arrived wherever the robot stands, no dock spot to take
+        rob.arrived = True
+        rob.waited_s = 0.0
+        if params.dwell_s > 0.0:  # it stands for the loading or unloading, then backs away as from a dock
+            rob.mode = MODE_SERVICE
+            rob.timer_s = params.dwell_s
+        cmd[r, 0] = 0.0
+        cmd[r, 1] = 0.0
+        rob.activity = ACT_DOCK
         return
     # where the dock spot is: from the bar-code reading while the code is in view (the
     # reader gives its range, bearing and orientation), else from the dead-reckoned pose

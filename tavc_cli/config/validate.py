@@ -38,6 +38,7 @@ from tavc_cli.settings import (
     TIME_UNITS,
 )
 from tavc_cli.sim.arena import START_GAP_M, START_WALL_MARGIN_M, most_robots
+from tavc_cli.vocabulary import ARRIVALS, PASSINGS, TIME_FROM
 
 # The laser needs a ray ahead and one to either side: to read codes, avoid robots, follow walls.
 MIN_LASER_RAYS = 3
@@ -178,6 +179,13 @@ def _validate_robot(robot: DictConfig) -> None:
         positive(f"robot.behaviour.{name}", robot.behaviour[name])
     for name in ("stop_dist_m", "visible_margin_m"):
         at_least(f"robot.behaviour.{name}", robot.behaviour[name], 0)
+    one_of("robot.behaviour.arrival", robot.behaviour.arrival, ARRIVALS)
+    one_of("robot.behaviour.passing", robot.behaviour.passing, PASSINGS)
+    positive("robot.behaviour.read_range_m", robot.behaviour.read_range_m)
+    if robot.behaviour.arrival == "range":
+        check(robot.behaviour.read_range_m <= robot.laser.range_m, "robot.behaviour.read_range_m",
+              f"must be within the laser's range, robot.laser.range_m = {robot.laser.range_m:g} m (the code is read "
+              f"by the laser), got {robot.behaviour.read_range_m:g}")
     check(robot.behaviour.avoid_dist_m > robot.behaviour.stop_dist_m, "robot.behaviour.avoid_dist_m",
           f"must exceed robot.behaviour.stop_dist_m ({robot.behaviour.stop_dist_m:g}), "
           f"got {robot.behaviour.avoid_dist_m:g}")
@@ -253,6 +261,7 @@ def _validate_tasks(tasks: DictConfig, n_circuits: int) -> None:
             else:
                 at_least(f"{key}[{index}]", value, 0)
     one_of("tasks.time_unit", tasks.time_unit, TIME_UNITS)
+    one_of("tasks.time_from", tasks.time_from, TIME_FROM)
 
 
 def _learning_value(key: str, value: float) -> None:

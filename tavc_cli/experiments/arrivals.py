@@ -68,10 +68,11 @@ class ArrivalDesk:
         of the bundle's arrays."""
         trials = self.trials
         task, last_circuit = np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64)
-        state, task_start = np.zeros(n, dtype=np.int64), np.zeros(n)
+        state, task_start, loaded_at = np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros(n)
         q, assignment = np.zeros((n, n_c, n_c)), np.zeros(n, dtype=np.int64)
         values, scores = np.zeros((len(trials), n_c)), np.zeros((len(trials), n_c))
         time_unit_s = np.array([tr.spec.time_unit_s for tr in trials], dtype=np.float64)
+        from_source = np.array([tr.spec.time_from_source for tr in trials], dtype=np.bool_)
         policy = np.array([policy_kind(tr.policy) for tr in trials], dtype=np.int64)
         learning = np.zeros((4, len(trials)))  # epsilon, alpha, gamma, tau of each TAVC trial
         points = [entry_points(tr.policy_rng) for tr in trials]
@@ -82,6 +83,8 @@ class ArrivalDesk:
             tr.task, tr.last_circuit = task[lo:hi], last_circuit[lo:hi]
             state[lo:hi] = tr.state
             tr.state, tr.task_start = state[lo:hi], task_start[lo:hi]
+            loaded_at[lo:hi] = tr.loaded_at
+            tr.loaded_at = loaded_at[lo:hi]
             values[b], scores[b] = tr.values, tr.scores
             tr.values, tr.scores = values[b], scores[b]
             if policy[b] in (POLICY_EGREEDY, POLICY_SOFTMAX):
@@ -91,8 +94,8 @@ class ArrivalDesk:
             elif policy[b] == POLICY_STATIC:
                 assignment[lo:hi] = tr.policy.assignment
         bundle = Arrivals(
-            task, last_circuit, state, task_start, self.act_at_task, q, assignment, self.kind_of, self.source_of,
-            self.sink_of, policy, *learning, time_unit_s, values, scores,
+            task, last_circuit, state, task_start, loaded_at, self.act_at_task, q, assignment, self.kind_of,
+            self.source_of, self.sink_of, policy, *learning, time_unit_s, from_source, values, scores,
             np.array([p.state for p in points], dtype=np.uint64),
             np.zeros((LOG_ROWS, LOG_COLUMNS)), np.zeros(1, dtype=np.int64))
         return bundle, (points[0].next_uint32, points[0].next_double)
@@ -130,11 +133,13 @@ class ArrivalDesk:
             tr.policy.arrived(i, float(tr.values[circuit]) / ((t - tr.last_arrival[i]) / tr.spec.time_unit_s))
             tr.last_arrival[i] = t
         if kind == SOURCE:
+            tr.loaded_at[i] = t
             self.target[g] = self.sink_of[circuit]
             return
         task_time = t - tr.task_start[i]
         value = float(tr.values[circuit])
-        reward = value / (task_time / tr.spec.time_unit_s)
+        # the reward's t: the whole task, or from the loading on (`TrialSpec.time_from_source`)
+        reward = value / ((t - tr.loaded_at[i] if tr.spec.time_from_source else task_time) / tr.spec.time_unit_s)
         spent = self._act_before_tick(g) - self.act_at_task[g]
         tr.rows.add("deliveries", t, i, circuit, task_time, reward, value, float(tr.scores[circuit]), *spent)
         if tr.spec.t0_s + t >= 0.0:  # its time in the record is not negative

@@ -51,6 +51,7 @@ def base_spec(cfg: TavcConfig) -> TrialSpec:
         values=tuple(float(v) for v in tasks.values),
         score_values=tuple(float(v) for v in tasks.score_values),
         time_unit_s=TIME_UNITS_S[tasks.time_unit],
+        time_from_source=tasks.time_from == "source",
         duration_s=float(cfg.duration_s),
         warmup_s=float(sim.warmup_s),
         deliveries=None if cfg.deliveries is None else int(cfg.deliveries),

@@ -63,6 +63,9 @@ class TrialSpec:
     value_changes: tuple[ValueChange, ...] = ()
     q_snapshot_every_s: float = 600.0
     pose_every_s: float = 0.0
+    # the time t of r = w / t runs from the robot's choice at the sink (the empty leg counts) or,
+    # where true, from its loading at the source (`tasks.time_from`)
+    time_from_source: bool = False
     controller: str = "main"
     trial: int = 0
     seed: tuple[int, ...] = (0,)

@@ -63,6 +63,7 @@ class Arrivals(NamedTuple):
     last_circuit: np.ndarray  # (n,) int64: each robot's circuit at its last arrival
     state: np.ndarray         # (n,) int64: each robot's learning state (the circuit it last served)
     task_start: np.ndarray    # (n,) float64: when each robot's task began, on the clock
+    loaded_at: np.ndarray     # (n,) float64: when each robot last reached its source, on the clock
     act_at_task: np.ndarray   # (n, N_ACT): its activity seconds as its task began
     q: np.ndarray             # (n, n_circuits, n_circuits): each robot's Q-table (TAVC trials)
     assignment: np.ndarray    # (n,) int64: each robot's circuit under a static policy
@@ -75,6 +76,7 @@ class Arrivals(NamedTuple):
     gamma: np.ndarray
     tau: np.ndarray
     time_unit_s: np.ndarray   # (n_trials,) float64: the unit of t in r = w / t
+    from_source: np.ndarray   # (n_trials,) bool: t runs from the loading at the source, not the choice
     values: np.ndarray        # (n_trials, n_circuits): learning values as they stand
     scores: np.ndarray        # (n_trials, n_circuits): score per delivery as they stand
     rng: np.ndarray           # (n_trials,) uint64: address of each trial's policy generator's state
@@ -113,12 +115,13 @@ def serve_arrivals(robots, arr, tick, dt_s, act_s, next_uint32, next_double):
         log[row, LOG_KIND] = kind
         arr.last_circuit[g] = circuit
         if kind == SOURCE:
+            arr.loaded_at[g] = t
             rob.target = arr.sink_of[circuit]
             continue
         b = rob.trial
         task_s = t - arr.task_start[g]
         value = arr.values[b, circuit]
-        reward = value / (task_s / arr.time_unit_s[b])
+        reward = value / (((t - arr.loaded_at[g]) if arr.from_source[b] else task_s) / arr.time_unit_s[b])
         log[row, LOG_TASK_S] = task_s
         log[row, LOG_REWARD] = reward
         log[row, LOG_VALUE] = value

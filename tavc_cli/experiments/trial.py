@@ -73,6 +73,7 @@ class TrialState:
         self.state = self.policy_rng.integers(arena.n_circuits, size=n)  # class "last serviced"
         self.task = np.full(n, -1, dtype=np.int64)
         self.task_start = np.zeros(n)
+        self.loaded_at = np.zeros(n)  # when each robot last reached its source, on the clock
         self.last_arrival = np.zeros(n)  # on the clock, for behaviour learners' r = w / t per arrival
         self.learns_behaviours = hasattr(self.policy, "decide")
         self.decide_ticks = (max(1, int(round(self.policy.decision_period_s / spec.dt_s)))

@@ -50,6 +50,9 @@ def surrogate_supports(cfg: TavcConfig) -> None:
     if len(cfg.arena.circuits) != 2:
         raise TavcError("surrogate: models task choices between two circuits; this arena has "
                         f"{len(cfg.arena.circuits)} (section 1.4's experiment learns behaviours, not tasks)")
+    if cfg.tasks.time_from != "choice":
+        raise TavcError("surrogate: draws whole tasks and rewards them over the whole task (tasks.time_from=choice); "
+                        f"tasks.time_from={cfg.tasks.time_from} is not modelled")
     if cfg.learner.name == "behaviour_softmax":
         raise TavcError("surrogate: learner behaviour_softmax learns behaviours, not tasks; the surrogate draws "
                         "whole tasks")
