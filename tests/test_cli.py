@@ -131,6 +131,29 @@ def test_a_sweep_writes_its_jobs_side_by_side(tmp_path):
 
 
 @pytest.mark.slow
+def test_sweep_jobs_run_through_submitit_as_on_slurm_with_the_basic_launchers_results(tmp_path):
+    """Slurm's launcher (hydra-submitit-launcher) has a local twin that runs each job as a
+    submitit job in a process of its own, pickled and unpickled as on a cluster: its tables are
+    the basic launcher's byte for byte."""
+    sweep = ["run", "-m", "experiment=initial_distribution", "scale=smoke", "trials=1", "baselines=[]",
+             "duration_s=300", "learner.epsilon=0.05,0.3"]
+    basic = CliRunner().invoke(app, [*sweep, f"output_dir={tmp_path / 'basic'}"])
+    assert basic.exit_code == 0, basic.output
+    local = CliRunner().invoke(app, [*sweep, f"output_dir={tmp_path / 'submitit'}", "hydra/launcher=submitit_local",
+                                     "hydra.launcher.timeout_min=20"])
+    assert local.exit_code == 0, local.output
+    for job in ("0_learner.epsilon=0.05", "1_learner.epsilon=0.3"):
+        for table in ("state_time.csv", "performance.csv", "trial_stats.csv"):
+            assert (tmp_path / "basic" / job / table).read_bytes() == (
+                tmp_path / "submitit" / job / table).read_bytes()
+    # the sweep's table names each job's folder: the same table but for the folder's name
+    assert (tmp_path / "submitit" / "sweep.csv").read_text().replace("submitit", "basic") == (
+        tmp_path / "basic" / "sweep.csv").read_text()
+    # submitit keeps its jobs' logs in the sweep's folder, under .submitit/ (documented)
+    assert (tmp_path / "submitit" / ".submitit").is_dir()
+
+
+@pytest.mark.slow
 def test_sweep_jobs_run_through_hydras_joblib_launcher_with_the_basic_launchers_results(tmp_path):
     """The launcher decides where jobs run, never what they compute."""
     sweep = ["run", "-m", "experiment=initial_distribution", "scale=smoke", "learner.epsilon=0.05,0.3"]
