@@ -19,6 +19,7 @@ line that names the problem.
 
 from __future__ import annotations
 
+import io
 from collections.abc import Callable, Mapping, Sequence
 from functools import cached_property
 from pathlib import Path
@@ -31,6 +32,10 @@ from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.experiments.records import TABLES, TrialRecord
 from tavc_cli.learning.parameters import ModelSettings
 from tavc_cli.readers import load_yaml
+from tavc_cli.user_configs import using_config_dirs
+
+SWEEP_LIMIT = 64 * 2**20  # sweep.csv read bounded, as every table is
+ConfigDirs = str | Path | Sequence[str | Path] | None  # a folder of the user's configs, or several
 
 
 class Results:
@@ -40,6 +45,9 @@ class Results:
         """Open the folder at `path`; fails in one line unless it holds a run's `config.yaml`."""
         self.path = Path(path)
         if not (self.path / "config.yaml").is_file():
+            if (self.path / "sweep.csv").is_file():
+                raise TavcError(f"{self.path}: a sweep's folder (sweep.csv, one folder per job): open it with "
+                                "api.load_sweep, or one job's folder with api.load")
             raise TavcError(f"{self.path}: not a results folder of tavc run (no config.yaml in it)")
 
     def __repr__(self) -> str:
@@ -70,7 +78,6 @@ class Results:
     state_time = property(lambda self: self.table("state_time"), doc="% of the stable period in each state.")
     performance = property(lambda self: self.table("performance"), doc="Score delivered per second over time.")
     trial_stats = property(lambda self: self.table("trial_stats"), doc="One row per trial.")
-    claims = property(lambda self: self.table("claims"), doc="Every part of the chapter's claims, tested.")
 
     @cached_property
     def config(self) -> dict:
@@ -84,6 +91,22 @@ class Results:
         if not isinstance(config, dict):
             raise TavcError(f"{path}: holds no settings; rerun its experiment to rewrite it")
         return config
+
+    @cached_property
+    def not_a_verdict(self) -> str:
+        """Why the run's claims are no verdict ("not a verdict: scale=quick (...)": fewer trials or
+        less time than the chapter's), or "" for a run at the chapter's scale or beyond. `claims`
+        carries the same in its column ``not_a_verdict``."""
+        from tavc_cli.analysis.claims import not_a_verdict
+        from tavc_cli.settings import from_yaml
+
+        return not_a_verdict(from_yaml(self.path / "config.yaml"))
+
+    @property
+    def claims(self) -> pd.DataFrame:
+        """Every part of the chapter's claims, tested (claims.csv), with the column ``not_a_verdict``:
+        why these verdicts are none, or "" where they are."""
+        return self.table("claims").assign(not_a_verdict=self.not_a_verdict)
 
     @cached_property
     def plan(self) -> RunPlan:
@@ -136,22 +159,60 @@ def load(path: str | Path) -> Results:
     return Results(path)
 
 
-def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, progress: bool = False) -> Results:
+class Sweep:
+    """A sweep's folder (as `tavc run -m` writes it): its table `sweep.csv` and each job's results."""
+
+    def __init__(self, path: str | Path) -> None:
+        """Open the sweep at `path`; fails in one line unless it holds a `sweep.csv`."""
+        self.path = Path(path)
+        if not (self.path / "sweep.csv").is_file():
+            raise TavcError(f"{self.path}: not a sweep's folder of tavc run -m (no sweep.csv in it)")
+
+    def __repr__(self) -> str:
+        """``Sweep('<path>')``."""
+        return f"Sweep({str(self.path)!r})"
+
+    @cached_property
+    def table(self) -> pd.DataFrame:
+        """`sweep.csv`: one row per job and state: the job's index, its swept values, its folder
+        (`output_dir`), its time in each state and its score."""
+        from tavc_cli.readers import read_text
+
+        return pd.read_csv(io.StringIO(read_text(self.path / "sweep.csv", SWEEP_LIMIT)))
+
+    @property
+    def jobs(self) -> dict[str, Results]:
+        """Each job's results, by its folder's name (``0_learner.epsilon=0.05`` ...), in sweep order."""
+        names = list(dict.fromkeys(Path(str(folder)).name for folder in self.table["output_dir"]))
+        return {name: Results(self.path / name) for name in names}
+
+
+def load_sweep(path: str | Path) -> Sweep:
+    """Open a sweep's folder (`tavc run -m`): `Sweep.table` is its sweep.csv, `Sweep.jobs` each job's results."""
+    return Sweep(path)
+
+
+def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, progress: bool = False,
+        config_dir: ConfigDirs = None) -> Results:
     """Run an experiment as `tavc run` does (finished trials in the folder are reused) and open its results.
 
     Args:
         overrides: Hydra overrides, e.g. ``["experiment=breakdown", "scale=quick", "seed=3"]``.
         output_dir: Where to write; by default the config's (``runs/<scale>/<experiment>``).
         progress: Show a progress bar.
+        config_dir: A folder of your own configs and learners (or several), searched besides
+            tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
     overrides = list(overrides)
     if output_dir is not None:
         overrides.append(f"output_dir={Path(output_dir)}")
-    return Results(run_summary(overrides, progress=progress)["output_dir"])
+    with using_config_dirs(config_dir):
+        return Results(run_summary(overrides, progress=progress)["output_dir"])
 
 
 def reproduce(overrides: Sequence[str] = (), *, experiments: Sequence[str] | None = None,
-              results_dir: str | Path | None = None, progress: bool = False) -> dict[str, Results]:
+              results_dir: str | Path | None = None, progress: bool = False,
+              config_dir: ConfigDirs = None) -> dict[str, Results]:
     """Run several experiments together as `tavc reproduce` does (the history their trials share
     simulated once) and open each one's results, by experiment name.
 
@@ -160,14 +221,17 @@ def reproduce(overrides: Sequence[str] = (), *, experiments: Sequence[str] | Non
         experiments: Experiment names; by default every one.
         results_dir: The folder that gets one folder per experiment; by default ``runs/<scale>``.
         progress: Show a progress bar.
+        config_dir: A folder of your own configs and learners (or several), searched besides
+            tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
-    return {name: Results(summary["output_dir"])
-            for name, summary in reproduce_summaries(overrides, experiments=experiments, results_dir=results_dir,
-                                                     progress=progress)}
+    with using_config_dirs(config_dir):
+        return {name: Results(summary["output_dir"])
+                for name, summary in reproduce_summaries(overrides, experiments=experiments,
+                                                         results_dir=results_dir, progress=progress)}
 
 
 def surrogate(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None,
-              progress: bool = False) -> Results:
+              progress: bool = False, config_dir: ConfigDirs = None) -> Results:
     """Run an experiment on the surrogate of the learning dynamics as `tavc surrogate` does and
     open its results (the same tables as `run`'s).
 
@@ -175,11 +239,14 @@ def surrogate(overrides: Sequence[str] = (), *, output_dir: str | Path | None = 
         overrides: Hydra overrides, e.g. ``["experiment=breakdown", "scale=converged"]``.
         output_dir: Where to write; by default ``runs/<scale>/surrogate/<experiment>``.
         progress: Show progress while the tasks are measured.
+        config_dir: A folder of your own configs and learners (or several), searched besides
+            tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
     overrides = list(overrides)
     if output_dir is not None:
         overrides.append(f"output_dir={Path(output_dir)}")
-    return Results(surrogate_summary(overrides, progress=progress, echo=lambda _: None)["output_dir"])
+    with using_config_dirs(config_dir):
+        return Results(surrogate_summary(overrides, progress=progress, echo=lambda _: None)["output_dir"])
 
 
 def surrogate_summary(overrides: Sequence[str] = (), *, progress: bool = False,
@@ -242,7 +309,8 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
 
 def compare(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = None,
             experiments: Sequence[str] | None = None, results_dir: str | Path | None = None,
-            reuse: Mapping[str, str | Path] | None = None, progress: bool = False) -> pd.DataFrame:
+            reuse: Mapping[str, str | Path] | None = None, progress: bool = False,
+            config_dir: ConfigDirs = None) -> pd.DataFrame:
     """Learners side by side on the chapter's scenarios as `tavc compare` does; returns compare.csv's table.
 
     Args:
@@ -253,9 +321,12 @@ def compare(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = N
         results_dir: The comparison's folder; by default ``runs/<scale>/compare``.
         reuse: Controller name -> a folder holding its runs, one per scenario, to read instead of running.
         progress: Show progress while simulating.
+        config_dir: A folder of your own configs and learners (or several), searched besides
+            tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
-    return compare_summary(overrides, learners=learners, experiments=experiments, results_dir=results_dir,
-                           reuse=reuse, progress=progress)["table"]
+    with using_config_dirs(config_dir):
+        return compare_summary(overrides, learners=learners, experiments=experiments, results_dir=results_dir,
+                               reuse=reuse, progress=progress)["table"]
 
 
 def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = None,
@@ -296,10 +367,15 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
 
 
 def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, progress: bool = False,
-          echo: Callable[[str], None] = print) -> dict:
+          echo: Callable[[str], None] = print, config_dir: ConfigDirs = None) -> dict:
     """Measure c_i(n) and apply the TAVC model as `tavc model` does, printing its summary through
     `echo`; with `save_calibration`, record the calibrated values as tasks=calibrated. Returns
-    the model's result."""
+    the model's result. `config_dir`: folders of your own configs, as ``--config-dir``."""
+    with using_config_dirs(config_dir):
+        return _model(overrides, save_calibration, progress, echo)
+
+
+def _model(overrides: Sequence[str], save_calibration: bool, progress: bool, echo: Callable[[str], None]) -> dict:
     from tavc_cli import config
     from tavc_cli.model.api import calibration_record, model_identity, run_model
     from tavc_cli.model.api import save_calibration as save
@@ -322,10 +398,16 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, prog
 
 
 def calibrate(overrides: Sequence[str] = (), *, save: bool = False, progress: bool = False,
-              echo: Callable[[str], None] = print) -> None:
+              echo: Callable[[str], None] = print, config_dir: ConfigDirs = None) -> None:
     """Search the reconstructed docking world over `calibration.grid` as `tavc calibrate` does
     (initial_distribution's six robots and the chapter's values unless an experiment is
-    given), printing through `echo`; with `save`, record the choice as world=calibrated."""
+    given), printing through `echo`; with `save`, record the choice as world=calibrated.
+    `config_dir`: folders of your own configs, as ``--config-dir``."""
+    with using_config_dirs(config_dir):
+        _calibrate(overrides, save, progress, echo)
+
+
+def _calibrate(overrides: Sequence[str], save: bool, progress: bool, echo: Callable[[str], None]) -> None:
     from tavc_cli import config
     from tavc_cli.model.calibrate import calibrate_world
     from tavc_cli.model.world_search import grid_points, point_overrides

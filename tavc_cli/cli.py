@@ -55,14 +55,15 @@ def main(
     if config_dir:
         import os
 
+        from tavc_cli.errors import TavcError
         from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
+        from tavc_cli.user_configs import extended_config_dirs
 
-        missing = [d for d in config_dir if not d.is_dir()]
-        if missing:
-            typer.echo(f"error: --config-dir: {missing[0]} is not a folder", err=True)
-            raise typer.Exit(code=1)
-        known = [p for p in os.environ.get(CONFIG_DIRS_ENV, "").split(os.pathsep) if p]
-        os.environ[CONFIG_DIRS_ENV] = os.pathsep.join([*known, *(str(d.resolve()) for d in config_dir)])
+        try:
+            os.environ[CONFIG_DIRS_ENV] = extended_config_dirs(config_dir)
+        except TavcError as error:
+            typer.echo(f"error: {error}", err=True)
+            raise typer.Exit(code=1) from None
 
 
 # --------------------------------------------------------------------------------------------

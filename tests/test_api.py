@@ -67,3 +67,74 @@ def test_reproduce_opens_each_experiments_results(tmp_path):
     with pytest.raises(TavcError, match="no experiment 'nope'"):
         api.reproduce(["scale=smoke"], experiments=["nope"], results_dir=tmp_path / "x")
     assert not (tmp_path / "x").exists()
+
+
+SMOKE_SWEEP = ["experiment=initial_distribution", "scale=smoke", "trials=1", "baselines=[]", "duration_s=120",
+               "convergence_s=20"]
+
+
+def test_config_dir_gives_the_api_a_folder_of_the_users_own(tmp_path, monkeypatch):
+    """`config_dir=` is `--config-dir`: an experiment from the user's folder runs, and the process's
+    config folders are as they were afterwards; a folder that is not one is one line."""
+    from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
+
+    monkeypatch.delenv(CONFIG_DIRS_ENV, raising=False)
+    mine = tmp_path / "mine"
+    (mine / "experiment").mkdir(parents=True)
+    (mine / "experiment" / "tiny.yaml").write_text(
+        "# @package _global_\ndefaults:\n  - override /learner: tavc_egreedy\nexperiment_name: tiny\n"
+        "team:\n  n_robots: 2\n")
+    with pytest.raises(TavcError, match="^experiment=tiny: no such option"):  # not without its folder
+        api.run(["experiment=tiny", "scale=smoke"], output_dir=tmp_path / "no")
+    run = api.run(["experiment=tiny", "scale=smoke", "trials=1", "duration_s=60", "convergence_s=10"],
+                  output_dir=tmp_path / "tiny", config_dir=mine)
+    assert run.config["experiment_name"] == "tiny" and run.config["team"]["n_robots"] == 2
+    assert CONFIG_DIRS_ENV not in __import__("os").environ
+    with pytest.raises(TavcError, match=r"^config_dir: .*nowhere is not a folder$"):
+        api.run(["scale=smoke"], config_dir=tmp_path / "nowhere")
+
+
+def test_a_sweep_opens_as_a_sweep_with_its_jobs(tmp_path):
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    out = tmp_path / "eps"
+    result = CliRunner().invoke(app, ["run", "-m", *SMOKE_SWEEP, "learner.epsilon=0.05,0.3", f"output_dir={out}"])
+    assert result.exit_code == 0, result.output
+    with pytest.raises(TavcError, match="a sweep's folder .* api.load_sweep"):
+        api.load(out)
+    sweep = api.load_sweep(out)
+    assert list(sweep.jobs) == ["0_learner.epsilon=0.05", "1_learner.epsilon=0.3"]
+    assert sorted(sweep.table["learner.epsilon"].unique()) == [0.05, 0.3]
+    job = sweep.jobs["1_learner.epsilon=0.3"]
+    assert job.config["learner"]["epsilon"] == 0.3
+    with pytest.raises(TavcError, match="no sweep.csv"):
+        api.load_sweep(out / "0_learner.epsilon=0.05")
+
+
+def test_results_say_in_their_data_whether_they_are_a_verdict(tmp_path):
+    quick = api.run([*SMOKE_SWEEP], output_dir=tmp_path / "quick")
+    assert quick.not_a_verdict.startswith("not a verdict: scale=smoke (")
+    assert set(quick.claims["not_a_verdict"]) == {quick.not_a_verdict}
+    committed = api.load(README.parent / "results" / "initial_distribution")
+    assert committed.not_a_verdict == "" and set(committed.claims["not_a_verdict"]) == {""}
+
+
+def test_a_learner_from_outside_tavc_replaces_an_experiments_own_from_the_overrides_alone(tmp_path):
+    """`learner=plugin` with a name and a class: the experiment's learner (and its parameters) is
+    replaced, the class's keyword arguments given as params; the run's trials are the plugin's."""
+    (tmp_path / "mine.py").write_text(
+        "class Mine:\n"
+        "    def __init__(self, n_robots, n_circuits, rng, circuit=0):\n"
+        "        self.circuit = circuit\n"
+        "    def choose(self, robot, state):\n"
+        "        return self.circuit\n"
+        "    def learn(self, robot, state, action, reward, next_state):\n"
+        "        pass\n")
+    run = api.run([*SMOKE_SWEEP, "learner=plugin", "learner.name=mine", f"learner.target={tmp_path / 'mine.py'}:Mine",
+                   "+learner.params.circuit=1"], output_dir=tmp_path / "run")
+    assert run.config["learner"] == {"name": "mine", "target": f"{tmp_path / 'mine.py'}:Mine",
+                                     "params": {"circuit": 1}}
+    choices = run.events("choices")
+    assert set(choices["controller"]) == {"mine"} and set(choices["circuit"]) == {1}  # every choice its own

@@ -24,7 +24,7 @@ EXPERIMENTS = sorted(path.stem for path in (CONF_DIR / "experiment").glob("*.yam
 SCALES = sorted(path.stem for path in (CONF_DIR / "scale").glob("*.yaml"))
 GROUP_OPTIONS = sorted(
     f"{path.parent.name}={path.stem}"
-    for group in ("arena", "robot", "team", "learner", "scale", "executor")
+    for group in ("arena", "robot", "team", "learner", "scale", "executor", "arrival", "passing", "reward_time")
     for path in (CONF_DIR / group).glob("*.yaml")
 )
 
@@ -59,8 +59,18 @@ def test_every_experiment_composes_and_validates(experiment, scale):
 
 
 @pytest.mark.parametrize("option", GROUP_OPTIONS)
-def test_every_group_option_composes(option):
-    load_config([option])
+def test_every_group_option_composes(option, tmp_path):
+    if option != "learner=plugin":
+        load_config([option])
+        return
+    # the slot for a learner from outside tavc composes once it is given a name and a class
+    with pytest.raises(TavcError, match="^learner.name: a learner needs a name, got None$"):
+        load_config([option])
+    (tmp_path / "mine.py").write_text("class Mine:\n    def __init__(self, n_robots, n_circuits, rng):\n"
+                                      "        pass\n    def choose(self, robot, state):\n        return 0\n"
+                                      "    def learn(self, *args):\n        pass\n")
+    cfg = load_config([option, "learner.name=mine", f"learner.target={tmp_path / 'mine.py'}:Mine"])
+    assert dict(cfg.learner) == {"name": "mine", "target": f"{tmp_path / 'mine.py'}:Mine", "params": {}}
 
 
 def test_default_config_composes():
