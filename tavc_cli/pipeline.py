@@ -177,7 +177,10 @@ def write_sweep(values: list[dict[str, str]], folders: list[Path]) -> list[Path]
     `values[k]` are job k's swept keys and values. Returns the files written: sweep.csv first
     (none for a single job, or jobs without state tables, and then an earlier sweep's
     sweep.csv and figure there are removed: they would describe jobs this sweep did not run)."""
+    from tavc_cli.analysis.claims import not_a_verdict
     from tavc_cli.analysis.sweep import sweep_table
+    from tavc_cli.settings import from_yaml
+    from tavc_cli.viz.figures import marked
     from tavc_cli.viz.sweep import sweep_figure
 
     parent = folders[0].parent
@@ -189,7 +192,9 @@ def write_sweep(values: list[dict[str, str]], folders: list[Path]) -> list[Path]
         return []
     owned.wrote(*SWEEP_FILES)
     write_text_atomic(parent / "sweep.csv", table.to_csv(index=False, float_format="%.4f"))
-    return [parent / "sweep.csv", *sweep_figure(table, next(iter(values[0])), parent / "sweep")]
+    # the jobs' scale is one (a sweep over scale= would mix verdicts): the first job's says it
+    with marked(not_a_verdict(from_yaml(folders[0] / "config.yaml"))):
+        return [parent / "sweep.csv", *sweep_figure(table, next(iter(values[0])), parent / "sweep")]
 
 
 def write_ladder(ladder_dir: Path, folders: list[Path]) -> list[Path]:

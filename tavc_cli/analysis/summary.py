@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
@@ -14,7 +15,9 @@ def run_summary_text(summary: dict[str, Any]) -> str:
     together = " (for every experiment of the invocation together)" if summary.get("together") else ""
     lines = [f"results: {summary['output_dir']}",
              *([f"engine: {summary['engine']}"] if summary.get("engine") else []),
-             f"trials: {n_trials} ({n_reused} reused) in {summary['wall_time_s']:.1f} s wall time{together}"]
+             f"trials: {n_trials} ({n_reused} reused) in {summary['wall_time_s']:.1f} s wall time{together}",
+             f"figures: tavc report {Path(summary['output_dir']).parent} draws them, with REPORT.md, into its "
+             "figures/ folder"]
     tables = summary.get("tables") or {}
     if "table_1_1" in tables:  # one circuit: the group's state says nothing; Table 1.1 does
         lines += ["\ntraversal time after n traversals (over robots), target time after m arrivals (over trials)",

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.claims import not_a_verdict
 from tavc_cli.analysis.schema import check_run
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order, trial_metrics
 from tavc_cli.errors import TavcError
@@ -142,7 +143,9 @@ def run_compare(plans: Mapping[str, Sequence[TavcConfig]], results: Path, *, con
             factors.setdefault(name, _time_factor(folder))
     trials_frame = cut_fill_delays(pd.concat(trials, ignore_index=True))
     table = order(comparison_table(trials_frame, factors), experiments, controllers)
-    return write(results, table, trials_frame, folders, scale_name=scale_name)
+    # runs below the chapter's scale make a comparison that is no verdict: its figure says so
+    mark = next((m for runs in plans.values() for cfg in runs if (m := not_a_verdict(cfg))), "")
+    return write(results, table, trials_frame, folders, scale_name=scale_name, mark=mark)
 
 
 def _time_factor(folder: Path) -> float:
@@ -150,10 +153,12 @@ def _time_factor(folder: Path) -> float:
 
 
 def write(results: Path, table: pd.DataFrame, trials: pd.DataFrame, folders: Mapping[str, Path], *,
-          scale_name: str) -> dict:
-    """The comparison's files in `results` (tavc's own only, `ownership`)."""
+          scale_name: str, mark: str = "") -> dict:
+    """The comparison's files in `results` (tavc's own only, `ownership`); `mark` on its figure
+    (`viz.figures.marked`)."""
     from tavc_cli.compare.figures import comparison_figure
     from tavc_cli.ownership import COMPARE, COMPARE_FILES, take
+    from tavc_cli.viz.figures import marked
 
     results.mkdir(parents=True, exist_ok=True)
     with claim_folder(results):
@@ -161,7 +166,8 @@ def write(results: Path, table: pd.DataFrame, trials: pd.DataFrame, folders: Map
         write_text_atomic(results / "compare.csv", table[TABLE_COLUMNS].to_csv(index=False, float_format="%.6g"))
         write_text_atomic(results / "compare_trials.csv", trials.to_csv(index=False, float_format="%.6g"))
         write_text_atomic(results / "compare.md", markdown(table, folders, scale_name))
-        figures = comparison_figure(table, results / "compare")
+        with marked(mark):
+            figures = comparison_figure(table, results / "compare")
         for name in COMPARE_FILES:
             owned.wrote(name)
     return {"results": str(results), "table": table, "figures": [str(p) for p in figures]}

@@ -70,7 +70,17 @@ def experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataF
                        model_json: Path | None, fig_dir: Path | None = None, label: str | None = None) -> list[str]:
     """Draw this experiment's figures under `fig_dir` (results_dir/figures unless given), their
     titles naming `label` (the experiment's name unless given); markdown lines that show them
-    (baselines on another schedule than the learner's drawn as levels: `baseline_levels`)."""
+    (baselines on another schedule than the learner's drawn as levels: `baseline_levels`). A run
+    below the chapter's scale marks each of its figures "not a verdict" (`viz.figures.marked`)."""
+    from tavc_cli.analysis.claims import not_a_verdict
+    from tavc_cli.viz.figures import marked
+
+    with marked(not_a_verdict(cfg)):
+        return _experiment_figures(name, d, cfg, state_time, results_dir, model_json, fig_dir, label)
+
+
+def _experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame, results_dir: Path,
+                        model_json: Path | None, fig_dir: Path | None, label: str | None) -> list[str]:
     from tavc_cli.reference import chapter_table
     from tavc_cli.viz.figures import allocation_figure, performance_figure, state_figure
 

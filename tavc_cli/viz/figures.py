@@ -22,7 +22,9 @@ is cut where the quantity ends: a share at 0 and at 100 % (or 1), a rate, a coun
 from __future__ import annotations
 
 import zlib
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 
 import matplotlib
@@ -56,8 +58,32 @@ COLOURS = _Colours(REGISTRY_COLOURS)
 LABELS = TITLES
 
 
+# what the figures drawn in this context are not: "not a verdict: scale=quick (...)" for runs below the
+# chapter's scale (`marked`), stamped on each one `save_figure` writes; "" for none
+_MARK: ContextVar[str] = ContextVar("figure_mark", default="")
+
+
+@contextmanager
+def marked(mark: str) -> Iterator[None]:
+    """Every figure saved within the block carries `mark` in its lower right corner (nothing for "")."""
+    token = _MARK.set(mark)
+    try:
+        yield
+    finally:
+        _MARK.reset(token)
+
+
+def outside_legend(ax, fontsize: float = 8) -> None:
+    """The axes' legend to their right, off the data (`tight_layout` keeps room for it)."""
+    ax.legend(fontsize=fontsize, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+
+
 def save_figure(fig, out_stem: Path) -> list[Path]:
-    """Write the figure as PNG and SVG beside each other (`write_figure`) and close it."""
+    """Write the figure as PNG and SVG beside each other (`write_figure`) and close it; within
+    `marked`, with its mark."""
+    if _MARK.get():
+        fig.text(0.995, 0.005, _MARK.get(), ha="right", va="bottom", fontsize=7, color="firebrick",
+                 bbox={"facecolor": "white", "edgecolor": "firebrick", "boxstyle": "round,pad=0.2"})
     paths = [out_stem.with_suffix(f".{ext}") for ext in ("png", "svg")]
     try:
         for path in paths:
@@ -122,7 +148,7 @@ def state_fig(state_time: pd.DataFrame, chapter: pd.DataFrame | None, title: str
     ctrls = [c for c in dict.fromkeys(state_time["controller"])]
     x = np.arange(len(states))
     width = 0.8 / max(len(ctrls), 1)
-    fig, ax = plt.subplots(figsize=(7.5, 4.0))
+    fig, ax = plt.subplots(figsize=(10.5, 4.2))
     for k, ctrl in enumerate(ctrls):
         rows = state_time[state_time["controller"] == ctrl].set_index("state").reindex(states)
         mean = rows["mean_pct"].to_numpy(float)
@@ -151,7 +177,7 @@ def _finish_states(fig, ax, x: np.ndarray, states: Sequence[str], title: str) ->
     ax.set_ylabel("% of the stable period")
     ax.set_ylim(bottom=0.0)
     ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8)
+    outside_legend(ax)
     fig.tight_layout()
 
 
@@ -160,7 +186,7 @@ def _over_time(frame: pd.DataFrame, mean: str, std: str, convergence_s: float, e
     """A figure of one quantity over time (ks): per controller its mean and a one-std band over
     trials (cut at 0 and at `hi`), the event at t = 0 and the end of the convergence period
     marked."""
-    fig, ax = plt.subplots(figsize=(7.5, 4.0))
+    fig, ax = plt.subplots(figsize=(10.5, 4.2))
     for ctrl, rows in frame.groupby("controller", sort=False):
         t = rows["t_s"].to_numpy(float) / 1000.0
         m, s = rows[mean].to_numpy(float), rows[std].to_numpy(float)
@@ -178,7 +204,7 @@ def _over_time(frame: pd.DataFrame, mean: str, std: str, convergence_s: float, e
 def finish_figure(fig, ax, title: str, out_stem: Path) -> list[Path]:
     """Title, legend and layout of a one-panel figure, then saved (`save_figure`)."""
     ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8)
+    outside_legend(ax)
     fig.tight_layout()
     return save_figure(fig, out_stem)
 
@@ -294,7 +320,7 @@ def horizon_state_figure(base: pd.DataFrame, long: pd.DataFrame, chapter: pd.Dat
     series = [s for s in series if (s[1]["controller"] == s[0]).any()]
     x = np.arange(len(states))
     width = 0.8 / max(len(series), 1)
-    fig, ax = plt.subplots(figsize=(7.5, 4.0))
+    fig, ax = plt.subplots(figsize=(10.5, 4.2))
     for k, (ctrl, table, label, colour) in enumerate(series):
         rows = table[table["controller"] == ctrl].set_index("state").reindex(states)
         mean = rows["mean_pct"].to_numpy(float)
