@@ -366,10 +366,16 @@ def report(
     results_dir: Annotated[
         Path, typer.Argument(help="Folder holding one folder per experiment run.", show_default=True)
     ] = Path("results"),
+    progress: Annotated[
+        Optional[bool],
+        typer.Option("--progress/--no-progress", help="A line at each stage while it works (reading, drawing, "
+                                                      "written); by default on a terminal only.",
+                     show_default=False),
+    ] = None,
 ) -> None:
     """Write RESULTS_DIR/REPORT.md and claims.csv from saved results (never simulates)."""
     with _user_errors(folder=lambda: results_dir):
-        commands.report(results_dir)
+        commands.report(results_dir, progress)
 
 
 # --------------------------------------------------------------------------------------------

@@ -3,6 +3,7 @@ call the library, print. Modules that pull in the simulator are imported inside 
 that need them, so that ``tavc config`` and ``tavc list`` start fast."""
 
 import functools
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Optional
@@ -116,8 +117,11 @@ def animate(
         typer.echo(str(path))
 
 
-def report(results_dir: Path) -> None:
-    """Build the report and print its summary line and where it went."""
+def report(results_dir: Path, progress: bool | None = None) -> None:
+    """Build the report and print its summary line and where it went; with `progress` (by
+    default on a terminal), a line on stderr at each stage while it works."""
     from tavc_cli.report import build_report, summary_lines
 
-    typer.echo("\n".join(summary_lines(build_report(results_dir))))
+    show = sys.stderr.isatty() if progress is None else progress
+    say = (lambda line: typer.echo(line, err=True)) if show else None
+    typer.echo("\n".join(summary_lines(build_report(results_dir, say))))

@@ -252,3 +252,21 @@ def test_one_trial_has_no_spread_in_its_table_nor_in_the_report(tmp_path):
     row = next(line for line in report.splitlines() if line.startswith("| 3:3 |"))
     assert f"{tavc.set_index('state').loc['3:3', 'mean_pct']:.1f} (one trial)" in row
     assert "± |" not in report and "± nan" not in report
+
+
+def test_the_report_says_what_it_is_doing_when_asked_and_is_quiet_otherwise(tmp_path):
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+    from tavc_cli.config import load_config, settings
+    from tavc_cli.pipeline import run_experiment
+
+    run_experiment(settings(load_config(["experiment=initial_distribution", "scale=smoke", "trials=1",
+                                         "baseline_trials=1", f"output_dir={tmp_path / 'initial_distribution'}"])))
+    shown = CliRunner().invoke(app, ["report", str(tmp_path), "--progress"])
+    assert shown.exit_code == 0, shown.output
+    stages = [line.split(" ")[1] for line in shown.stderr.splitlines()]
+    assert stages == ["reading", "drawing", "written"], shown.stderr
+    quiet = CliRunner().invoke(app, ["report", str(tmp_path)])  # not a terminal: no progress by default
+    assert quiet.exit_code == 0 and quiet.stderr == "", quiet.stderr
+    assert quiet.stdout.splitlines()[-1] == str(tmp_path / "REPORT.md")

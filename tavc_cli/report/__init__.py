@@ -19,6 +19,8 @@ value-ratio sweep).
 from __future__ import annotations
 
 import json
+import time
+from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
 
@@ -138,11 +140,15 @@ def _read(path: Path, read):
         raise TavcError(f"{path}: cannot be read ({detail}); rerun its experiment to rewrite it") from None
 
 
-def build_report(results_dir: Path) -> dict:
-    """Write `claims.csv` and `REPORT.md` under results_dir; return what was found."""
+def build_report(results_dir: Path, progress: Callable[[str], None] | None = None) -> dict:
+    """Write `claims.csv` and `REPORT.md` under results_dir; return what was found. `progress`
+    hears what the report is doing, a line at each stage (reading, drawing, written)."""
+    say = progress or (lambda _: None)
+    start = time.perf_counter()
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise TavcError(f"RESULTS_DIR: {results_dir} is not a directory")
+    say(f"report: reading the runs under {results_dir}")
     found, unfinished = _finished_runs(results_dir)
     long_dir = results_dir / horizons.CONVERGED_DIR
     found_long, unfinished_long = _finished_runs(long_dir) if long_dir.is_dir() else ({}, [])
@@ -185,6 +191,9 @@ def build_report(results_dir: Path) -> dict:
         lines += time_scale_lines(results_dir, long, model_json, base)
     lines += surrogate_lines(results_dir)
     lines += compare_lines(results_dir)
+    n_runs = len(experiments) + sum(len(ds) for ds in base.others.values())
+    say(f"report: drawing the figures of {n_runs} runs and the studies "
+        f"({time.perf_counter() - start:.0f} s so far; this takes up to a minute or two)")
     try:
         with FigurePool() as pool:
             # the sections that draw figures are written side by side while the rest of the text is
@@ -213,6 +222,7 @@ def build_report(results_dir: Path) -> dict:
         write_text_atomic(long.folder / "claims.csv", long.claims.to_csv(index=False, float_format="%.6g"))
     write_text_atomic(results_dir / "REPORT.md", "\n".join(lines))
     list_figures(taken)
+    say(f"report: written in {time.perf_counter() - start:.0f} s")
     out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
            "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished],
            "runs": _run_names(found, results_dir), "not_a_verdict": base.shortfalls,
