@@ -72,9 +72,16 @@ test-fast: venv-test ## Run the tests not marked slow in one process, without th
 bench: venv ## Print simulator throughput as one JSON object
 	$(BIN)/tavc bench --json
 
-.PHONY: docs
-docs: venv-test ## Build the documentation site offline into site/
+.PHONY: docs report-html
+docs: venv-test ## Build the documentation site offline into site/, the report's page under site/report/
 	$(BIN)/mkdocs build --strict
+	mkdir -p site/report/converged
+	cp results/REPORT.html site/report/index.html
+	cp -r results/figures site/report/
+	cp -r results/converged/figures site/report/converged/
+
+report-html: venv ## Write results/REPORT.md and its web page results/REPORT.html (offline, a table of contents)
+	$(BIN)/tavc report results --html
 
 # Where verify-outcomes recomputes; the committed tables it must match byte for byte
 VERIFY_DIR ?= /tmp/tavc-verify
@@ -99,7 +106,7 @@ reproduce-all: venv ## Run every experiment and the model at paper scale, then w
 	@date +%s > $(VENV)/.reproduce-start
 	$(MAKE) -j$(REPRODUCE_JOBS) --output-sync=target --no-print-directory reproduce-experiments model \
 		MODEL_NICE="$$(command -v nice >/dev/null && echo nice -n 19)"
-	$(BIN)/tavc report results
+	$(BIN)/tavc report results --html
 	@echo "reproduce-all: $$(( $$(date +%s) - $$(cat $(VENV)/.reproduce-start) )) s wall time"
 
 reproduce-experiments: venv ## Every experiment at paper scale in one run: the history their trials share simulated once
@@ -108,7 +115,7 @@ reproduce-experiments: venv ## Every experiment at paper scale in one run: the h
 reproduce-converged: venv ## Every experiment and the horizon ladder at 40x the chapter's durations into results/converged/, then the report; prints the wall time
 	@date +%s > $(VENV)/.converged-start
 	$(BIN)/tavc reproduce scale=converged executor.batch_size=$(CONVERGED_BATCH) --results results/converged --ladder $(LADDER)
-	$(BIN)/tavc report results
+	$(BIN)/tavc report results --html
 	@echo "reproduce-converged: $$(( $$(date +%s) - $$(cat $(VENV)/.converged-start) )) s wall time"
 
 ladder: venv ## initial_distribution at 1x to 40x the chapter's durations (results/converged/ladder/), the rungs' history shared

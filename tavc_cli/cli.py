@@ -372,10 +372,14 @@ def report(
                                                       "written); by default on a terminal only.",
                      show_default=False),
     ] = None,
+    html: Annotated[
+        bool, typer.Option("--html", help="Also write RESULTS_DIR/REPORT.html: the report as a web page with a table "
+                                          "of contents, readable offline.")
+    ] = False,
 ) -> None:
     """Write RESULTS_DIR/REPORT.md and claims.csv from saved results (never simulates)."""
     with _user_errors(folder=lambda: results_dir):
-        commands.report(results_dir, progress)
+        commands.report(results_dir, progress, html)
 
 
 # --------------------------------------------------------------------------------------------

@@ -117,11 +117,11 @@ def animate(
         typer.echo(str(path))
 
 
-def report(results_dir: Path, progress: bool | None = None) -> None:
-    """Build the report and print its summary line and where it went; with `progress` (by
-    default on a terminal), a line on stderr at each stage while it works."""
+def report(results_dir: Path, progress: bool | None = None, page: bool = False) -> None:
+    """Build the report (with `page`, its web page too) and print its summary line and where it
+    went; with `progress` (by default on a terminal), a line on stderr at each stage while it works."""
     from tavc_cli.report import build_report, summary_lines
 
     show = sys.stderr.isatty() if progress is None else progress
     say = (lambda line: typer.echo(line, err=True)) if show else None
-    typer.echo("\n".join(summary_lines(build_report(results_dir, say))))
+    typer.echo("\n".join(summary_lines(build_report(results_dir, say, page))))

@@ -54,7 +54,7 @@ REPORT_TITLE = "# tavc: the reproduction report"
 RUN_FILES = ("config.yaml", "plan.json", "provenance.json", "failures.log")
 SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
 LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
-RESULTS_FILES = ("REPORT.md", "claims.csv", "value_ratio.csv")
+RESULTS_FILES = ("REPORT.md", "REPORT.html", "claims.csv", "value_ratio.csv")
 MODEL_FILES = ("model.csv", "model.json")
 COMPARE_FILES = ("compare.csv", "compare_trials.csv", "compare.md", "compare.png", "compare.svg")
 TASKS_FILES = ("task_times.csv", "task_times.json", "task_times_summary.csv")
@@ -318,12 +318,13 @@ def _flat(tree, prefix: str = "") -> dict[str, object]:
     return {prefix.rstrip("."): tree}
 
 
-def take_report_folders(results_dir: Path, long_dir: Path | None) -> list:
+def take_report_folders(results_dir: Path, long_dir: Path | None, page: bool = False) -> list:
     """Check, before anything is written, that `tavc report` may write its files (`take`):
     REPORT.md, claims.csv and figures/ on top, the long horizon's claims.csv and figures/, the
     value-ratio table; a folder that is a run's, or a file there that tavc did not write, is
-    refused. Returns what tavc owns in the folders whose figures/ the report draws."""
-    roots = [(results_dir, ("REPORT.md", "claims.csv"))]
+    refused. With `page`, REPORT.html on top too. Returns what tavc owns in the folders whose
+    figures/ the report draws."""
+    roots = [(results_dir, ("REPORT.md", "claims.csv", *(["REPORT.html"] if page else [])))]
     if long_dir is not None:
         roots.append((long_dir, ("claims.csv",)))
     if (results_dir / "value_ratio").is_dir():

@@ -38,6 +38,7 @@ from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
 from tavc_cli.report.drawing import FigurePool
 from tavc_cli.report.figures import experiment_figures, find_model
+from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.mechanism import mechanism_lines
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import (
@@ -140,9 +141,10 @@ def _read(path: Path, read):
         raise TavcError(f"{path}: cannot be read ({detail}); rerun its experiment to rewrite it") from None
 
 
-def build_report(results_dir: Path, progress: Callable[[str], None] | None = None) -> dict:
-    """Write `claims.csv` and `REPORT.md` under results_dir; return what was found. `progress`
-    hears what the report is doing, a line at each stage (reading, drawing, written)."""
+def build_report(results_dir: Path, progress: Callable[[str], None] | None = None, page: bool = False) -> dict:
+    """Write `claims.csv` and `REPORT.md` under results_dir (with `page`, `REPORT.html` too:
+    `report.html`); return what was found. `progress` hears what the report is doing, a line at
+    each stage (reading, drawing, written)."""
     say = progress or (lambda _: None)
     start = time.perf_counter()
     results_dir = Path(results_dir)
@@ -163,7 +165,8 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     runs, claims = base.runs, base.claims
     tested, n_ok = base.tested, base.n_reproduced
     long = _horizon(long_dir, found_long, unfinished_long) if found_long else None
-    taken = take_report_folders(results_dir, long_dir if found_long else None)  # everything read: now the first write
+    # everything read: now the first write
+    taken = take_report_folders(results_dir, long_dir if found_long else None, page)
     lines = ["# tavc: the reproduction report", "",
              *horizons.not_a_verdict_lines(base, long),
              "Built by `tavc report` from the saved results in this folder; nothing here was simulated "
@@ -221,9 +224,12 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     if long is not None:
         write_text_atomic(long.folder / "claims.csv", long.claims.to_csv(index=False, float_format="%.6g"))
     write_text_atomic(results_dir / "REPORT.md", "\n".join(lines))
+    if page:
+        write_report_html(results_dir)
     list_figures(taken)
     say(f"report: written in {time.perf_counter() - start:.0f} s")
     out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
+           **({"page": str(results_dir / HTML_FILE)} if page else {}),
            "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished],
            "runs": _run_names(found, results_dir), "not_a_verdict": base.shortfalls,
            "studies": {what: [rel(d, results_dir) for d in folders] for what, folders in study_runs(results_dir)}}
@@ -281,7 +287,7 @@ def summary_lines(result: dict) -> list[str]:
                               "durations", f" at {result['factor']:g} times the chapter's durations")
     lines += [f"read as a whole, not run by run: {_common(folders)} ({len(folders)} runs: {what})"
               for what, folders in result.get("studies", {}).items()]
-    return [*lines, result["report"]]
+    return [*lines, result["report"], *([result["page"]] if "page" in result else [])]
 
 
 def _common(folders: list[str]) -> str:
