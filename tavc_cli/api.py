@@ -337,9 +337,14 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     from tavc_cli import config
     from tavc_cli.compare import CONTROLLERS, SCENARIOS
     from tavc_cli.compare.run import controller_overrides, run_compare
+    from tavc_cli.learning.registry import MODEL_LEARNERS
     from tavc_cli.ownership import COMPARE, expect
 
-    overrides = list(overrides)
+    # learner.model_file is the comparison's: the model its predicted states come from, and the one the
+    # model's controllers follow; every other controller's learner has no such key
+    model_keys = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") == "learner.model_file"]
+    overrides = [o for o in overrides if o not in model_keys]
+    model_file = model_keys[-1].split("=", 1)[1] if model_keys else ModelSettings().model_file
     learners = list(CONTROLLERS if learners is None else learners)
     experiments = list(SCENARIOS if experiments is None else experiments)
     if not experiments:
@@ -354,14 +359,11 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     plans = {}
     for name in learners:  # a reused controller's too: its folder is checked against them
         try:
-            cfgs = config.load_experiments(experiments, [*overrides, *controller_overrides(name, scale)],
-                                           results / "runs" / name)
+            own = [*overrides, *controller_overrides(name, scale), *(model_keys if name in MODEL_LEARNERS else [])]
+            cfgs = config.load_experiments(experiments, own, results / "runs" / name)
         except TavcError as error:
             raise TavcError(f"--learners: {name}: {error}") from None
         plans[name] = [config.settings(cfg) for cfg in cfgs]
-    # the predicted states come from the model file the model's controllers read, else the shipped one
-    model_file = next((cfg.learner.model_file for runs in plans.values() for cfg in runs
-                       if isinstance(cfg.learner, ModelSettings)), ModelSettings().model_file)
     return run_compare(plans, results, controllers=learners, experiments=experiments, reuse=reuse,
                        model_file=str(model_file), scale_name=str(scale["name"]), progress=progress)
 
