@@ -9,7 +9,6 @@ from concurrent.futures import ProcessPoolExecutor
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
-from tavc_cli.analysis.experiment import write_analysis
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.joint import CAN_FORK
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, plan_run, write_plan
@@ -22,6 +21,7 @@ from tavc_cli.experiments.runner import (
 )
 from tavc_cli.experiments.store import FAILURES_LOG, Executor
 from tavc_cli.io import claim_folder, file_digest, write_text_atomic
+from tavc_cli.outputs import write_analysis
 from tavc_cli.ownership import LADDER, LADDER_FILES, RUN, SWEEP, SWEEP_FILES, Owned, config_differences, run_files, take
 from tavc_cli.readers import YAML_LIMIT, load_json, read_text
 from tavc_cli.settings import TavcConfig, to_yaml

@@ -1,7 +1,8 @@
 """The settings every command runs on: one typed dataclass per config group.
 
 The config package composes and validates them with Hydra (registered in its ConfigStore,
-they make a misspelled key or a value of the wrong type fail at compose time) and hands the
+they make a misspelled key or a value of the wrong type fail at compose time; the learner's
+node, when its own settings class reads it, before anything runs) and hands the
 result to the library as a `TavcConfig`; everything below the CLI reads attributes of these
 dataclasses, never a DictConfig or nested dicts. `from_yaml` reads a results folder's
 ``config.yaml`` back into them.

@@ -1,11 +1,10 @@
 """An experiment's tables and claims, from its saved trial records: what `tavc run` writes
-after the trials (`state_time.csv`, `performance.csv`, ..., `comparison.csv`, `claims.csv`)."""
+after the trials (`state_time.csv`, `performance.csv`, ..., `comparison.csv`, `claims.csv`;
+`outputs.write_analysis` writes them). Reads and writes no file."""
 
 from __future__ import annotations
 
-import io
 from collections.abc import Mapping
-from pathlib import Path
 
 import pandas as pd
 
@@ -15,50 +14,12 @@ from tavc_cli.analysis.performance import performance_table
 from tavc_cli.analysis.qvalues import q_value_table
 from tavc_cli.analysis.robots import robot_table
 from tavc_cli.analysis.states import allocation_table, specialisation_table, state_time_table
-from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.analysis.trial_stats import stable_from, trial_stats
 from tavc_cli.analysis.vacancy import vacancy_table
 from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
-from tavc_cli.io import write_text_atomic
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
-from tavc_cli.ownership import Owned
 from tavc_cli.settings import TavcConfig
-
-# Every table an experiment may write (which ones depends on its controllers and events)
-
-
-def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[TrialRecord],
-                   owned: Owned | None = None) -> tuple[dict[str, pd.DataFrame], pd.DataFrame]:
-    """Compute and write (atomically) every table, the comparison with the chapter and the
-    claims, and remove the tables of an earlier run in the folder that this one does not
-    write (another experiment's, or one without the event), where `owned` says tavc wrote
-    them; return the tables and the claims."""
-    tables = analyse(cfg, plan, records)
-    if owned is not None:  # listed before they are written: a run stopped midway still owns them
-        owned.wrote(*(f"{name}.csv" for name in [*tables, "comparison", "claims"]))
-    written_tables = {}
-    for name, df in tables.items():
-        # Q-values span the reward's scale (about 0.05 per task with t in ms, 50 with t in s): significant digits
-        fmt = "%.6g" if name == "q_values" else "%.4f"
-        text = df.to_csv(index=False, float_format=fmt)
-        write_text_atomic(out_dir / f"{name}.csv", text)
-        # the comparison and the claims are made from the tables as written, which is what
-        # `tavc report` reads back: both then give the same numbers
-        written_tables[name] = pd.read_csv(io.StringIO(text), dtype={"state": str} if name == "state_time" else None)
-    from tavc_cli.analysis.comparison import experiment_comparison
-
-    comparison = experiment_comparison(str(cfg.experiment_name or ""), written_tables["state_time"])
-    if comparison is not None:
-        write_text_atomic(out_dir / "comparison.csv", comparison.to_csv(index=False, float_format="%.4f"))
-    claims = experiment_claims(cfg, written_tables, out_dir)
-    if len(claims):
-        write_text_atomic(out_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
-    written = {*tables, *(["comparison"] if comparison is not None else []), *(["claims"] if len(claims) else [])}
-    for name in sorted(set(TABLE_NAMES) - written):
-        if owned is not None:
-            owned.remove(f"{name}.csv")
-    return tables, claims
 
 
 def analyse(cfg: TavcConfig, plan: RunPlan, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:
@@ -130,19 +91,16 @@ def spatiotemporal_tables(cfg: TavcConfig, records: list[TrialRecord]) -> dict[s
                                             windows)}
 
 
-def experiment_claims(cfg: TavcConfig, tables: Mapping[str, pd.DataFrame], out_dir: Path) -> pd.DataFrame:
+def experiment_claims(cfg: TavcConfig, tables: Mapping[str, pd.DataFrame],
+                      others: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     """The chapter's claims about this experiment, tested on its trials (and, where a claim
-    compares two experiments, on the other's `trial_stats.csv` beside this output if present)."""
+    compares two experiments, on the other's `trial_stats` in `others`, by experiment name)."""
     from tavc_cli.analysis.claims import CLAIM_TABLES, claim_rows
-    from tavc_cli.chapter import claims
 
     name = str(cfg.experiment_name or "")
     runs = {name: tables["trial_stats"]}
     runs.update({f"{name}/{t}": tables[t] for t in CLAIM_TABLES if t in tables})
-    for other in {e for e, _ in claims()} - {name}:
-        path = out_dir.parent / other / "trial_stats.csv"
-        if path.is_file():
-            runs[other] = pd.read_csv(path)
+    runs.update({other: table for other, table in others.items() if other != name})
     from tavc_cli.analysis.claims import learner_under_test
     from tavc_cli.learning.registry import controller_label
 

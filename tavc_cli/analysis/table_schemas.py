@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-# every table a run may write in its folder (`analysis.experiment.write_analysis`), by file stem
+# every table a run may write in its folder (`outputs.write_analysis`), by file stem
 TABLE_NAMES = ("state_time", "performance", "trial_stats", "allocation", "specialisation", "robots", "q_values",
                "convergence", "mechanism", "vacancy", "table_1_1", "traversals", "target_times", "policy", "lanes",
                "occupancy", "comparison", "claims")

@@ -1,0 +1,63 @@
+"""An experiment's outputs written: its tables, the comparison with the chapter and its claims,
+computed by `analysis.experiment` from the run's records and written into its folder (the one
+module of a run's analysis that touches files)."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.analysis.experiment import analyse, experiment_claims
+from tavc_cli.analysis.table_schemas import TABLE_NAMES
+from tavc_cli.experiments.plan import RunPlan
+from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.io import write_text_atomic
+from tavc_cli.ownership import Owned
+from tavc_cli.settings import TavcConfig
+
+
+def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[TrialRecord],
+                   owned: Owned | None = None) -> tuple[dict[str, pd.DataFrame], pd.DataFrame]:
+    """Compute and write (atomically) every table, the comparison with the chapter and the
+    claims, and remove the tables of an earlier run in the folder that this one does not
+    write (another experiment's, or one without the event), where `owned` says tavc wrote
+    them; return the tables and the claims."""
+    tables = analyse(cfg, plan, records)
+    if owned is not None:  # listed before they are written: a run stopped midway still owns them
+        owned.wrote(*(f"{name}.csv" for name in [*tables, "comparison", "claims"]))
+    written_tables = {}
+    for name, df in tables.items():
+        # Q-values span the reward's scale (about 0.05 per task with t in ms, 50 with t in s): significant digits
+        fmt = "%.6g" if name == "q_values" else "%.4f"
+        text = df.to_csv(index=False, float_format=fmt)
+        write_text_atomic(out_dir / f"{name}.csv", text)
+        # the comparison and the claims are made from the tables as written, which is what
+        # `tavc report` reads back: both then give the same numbers
+        written_tables[name] = pd.read_csv(io.StringIO(text), dtype={"state": str} if name == "state_time" else None)
+    from tavc_cli.analysis.comparison import experiment_comparison
+
+    comparison = experiment_comparison(str(cfg.experiment_name or ""), written_tables["state_time"])
+    if comparison is not None:
+        write_text_atomic(out_dir / "comparison.csv", comparison.to_csv(index=False, float_format="%.4f"))
+    claims = experiment_claims(cfg, written_tables, _other_experiments(cfg, out_dir))
+    if len(claims):
+        write_text_atomic(out_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
+    written = {*tables, *(["comparison"] if comparison is not None else []), *(["claims"] if len(claims) else [])}
+    for name in sorted(set(TABLE_NAMES) - written):
+        if owned is not None:
+            owned.remove(f"{name}.csv")
+    return tables, claims
+
+
+
+
+def _other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, pd.DataFrame]:
+    """The `trial_stats.csv` of each other experiment of the chapter's claims beside this run's
+    folder, where there is one (claim 7 compares breakdown_no_vacancy with breakdown)."""
+    from tavc_cli.chapter import claims
+
+    name = str(cfg.experiment_name or "")
+    paths = {other: out_dir.parent / other / "trial_stats.csv" for other in {e for e, _ in claims()} - {name}}
+    return {other: pd.read_csv(path) for other, path in paths.items() if path.is_file()}
