@@ -377,3 +377,20 @@ def test_the_claims_about_learning_test_the_learner_they_are_told():
     ours = C.claim_rows(runs, "initial_distribution").set_index("claim_id")
     assert ours.loc[3, "verdict"] == "not_reproduced" and ours.loc[5, "verdict"] == "not_reproduced"
     assert "TAVC above random" in ours.loc[5, "detail"]
+
+
+def test_a_relative_increase_over_no_trials_is_missing_without_a_warning():
+    """A learner with no trial of a state (compare's random runs, say) gives no mean and says
+    so: no `Mean of empty slice` warning leaks into the command's output."""
+    import warnings
+
+    import pandas as pd
+
+    from tavc_cli.analysis.claim_rules import largest_relative_increase
+
+    empty = pd.DataFrame({"controller": pd.Series([], dtype=str), "pct_3:0": pd.Series([], dtype=float),
+                          "pct_2:1": pd.Series([], dtype=float)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        part = largest_relative_increase(empty, {"3:0": 12.5, "2:1": 37.5}, "3:0")
+    assert part.holds is False or part.holds is None

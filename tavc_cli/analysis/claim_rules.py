@@ -261,7 +261,10 @@ def largest_relative_increase(tavc: pd.DataFrame, theory: Mapping[str, float], s
     distribution. A comparison of means, as the chapter's, with no test; the statistic is state's."""
     rel = {}
     for st in states_of(tavc):
-        mu_t, t = np.nanmean(_share(tavc, st)), theory.get(st, math.nan)
+        share = np.asarray(_share(tavc, st), dtype=float)
+        # no trial of the learner with this state (none at all, or all NaN): no mean, and no warning
+        mu_t = float(np.nanmean(share)) if np.isfinite(share).any() else math.nan
+        t = theory.get(st, math.nan)
         if np.isfinite(mu_t) and np.isfinite(t) and t > 0:
             rel[st] = (mu_t - t) / t
     what = f"relative increase over the theory row (mu_TAVC - T) / T largest in {state}"
