@@ -90,3 +90,21 @@ def test_the_contents_reach_every_section(browser):
     sections = browser.execute_script(
         "return Array.from(document.querySelectorAll('main h2[id], main h3[id]')).map(h => h.id)")
     assert targets == sections and len(sections) > 20
+
+
+def test_a_page_the_report_wrote_is_kept_in_step_by_a_report_without_html(tmp_path):
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+    from tavc_cli.config import load_config, settings
+    from tavc_cli.pipeline import run_experiment
+
+    run_experiment(settings(load_config(["experiment=initial_distribution", "scale=smoke", "trials=1",
+                                         "baseline_trials=1", f"output_dir={tmp_path / 'initial_distribution'}"])))
+    assert CliRunner().invoke(app, ["report", str(tmp_path)]).exit_code == 0
+    assert not (tmp_path / "REPORT.html").exists()  # no page unless asked for
+    assert CliRunner().invoke(app, ["report", str(tmp_path), "--html"]).exit_code == 0
+    (tmp_path / "REPORT.html").write_text("an old page")  # as if REPORT.md had changed since
+    # an edit of tavc's own page is tavc's to replace: the next report, without --html, rewrites it
+    assert CliRunner().invoke(app, ["report", str(tmp_path)]).exit_code == 0
+    assert (tmp_path / "REPORT.html").read_text() == report_html((tmp_path / "REPORT.md").read_text())

@@ -33,6 +33,7 @@ from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import list_figures, take_report_folders
+from tavc_cli.ownership import read as read_owned
 from tavc_cli.readers import load_json
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
@@ -142,12 +143,14 @@ def _read(path: Path, read):
 
 
 def build_report(results_dir: Path, progress: Callable[[str], None] | None = None, page: bool = False) -> dict:
-    """Write `claims.csv` and `REPORT.md` under results_dir (with `page`, `REPORT.html` too:
-    `report.html`); return what was found. `progress` hears what the report is doing, a line at
-    each stage (reading, drawing, written)."""
+    """Write `claims.csv` and `REPORT.md` under results_dir (with `page`, or where a page tavc
+    wrote is there already, `REPORT.html` too: `report.html`); return what was found. `progress`
+    hears what the report is doing, a line at each stage (reading, drawing, written)."""
     say = progress or (lambda _: None)
     start = time.perf_counter()
     results_dir = Path(results_dir)
+    owned = read_owned(results_dir) if results_dir.is_dir() else None
+    page = page or (owned is not None and owned.owns(HTML_FILE))  # a page tavc wrote there stays in step
     if not results_dir.is_dir():
         raise TavcError(f"RESULTS_DIR: {results_dir} is not a directory")
     say(f"report: reading the runs under {results_dir}")
