@@ -10,8 +10,8 @@ DataFrames, for notebooks and scripts.
 
 `run` takes the same overrides as `tavc run` and writes the same folder; `reproduce` runs
 several experiments together as `tavc reproduce` does; `model` and `calibrate` measure the
-model and search the docking world as `tavc model` and `tavc calibrate` do; `load` only
-reads. The command line runs through the same functions (`run_summary`,
+model and search the docking world as `tavc model` and `tavc calibrate` do; `load` and
+`load_sweep` only read (`tavc_cli.reading`). The command line runs through the same functions (`run_summary`,
 `reproduce_summaries`, `model`, `calibrate`).
 Errors a user can make (a bad override, a folder without results) raise `TavcError` with one
 line that names the problem.
@@ -19,177 +19,17 @@ line that names the problem.
 
 from __future__ import annotations
 
-import io
 from collections.abc import Callable, Mapping, Sequence
-from functools import cached_property
 from pathlib import Path
 
 import pandas as pd
-import yaml
 
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.plan import RunPlan, read_plan
-from tavc_cli.experiments.records import TABLES, TrialRecord
 from tavc_cli.learning.parameters import ModelSettings
-from tavc_cli.readers import load_yaml
+from tavc_cli.reading import Results, Sweep, load, load_sweep  # noqa: F401 - the API reads through these
 from tavc_cli.user_configs import using_config_dirs
 
-SWEEP_LIMIT = 64 * 2**20  # sweep.csv read bounded, as every table is
 ConfigDirs = str | Path | Sequence[str | Path] | None  # a folder of the user's configs, or several
-
-
-class Results:
-    """One experiment's results folder (as `tavc run` writes it), read lazily."""
-
-    def __init__(self, path: str | Path) -> None:
-        """Open the folder at `path`; fails in one line unless it holds a run's `config.yaml`."""
-        self.path = Path(path)
-        if not (self.path / "config.yaml").is_file():
-            if (self.path / "sweep.csv").is_file():
-                raise TavcError(f"{self.path}: a sweep's folder (sweep.csv, one folder per job): open it with "
-                                "api.load_sweep, or one job's folder with api.load")
-            raise TavcError(f"{self.path}: not a results folder of tavc run (no config.yaml in it)")
-
-    def __repr__(self) -> str:
-        """``Results('<path>')``."""
-        return f"Results({str(self.path)!r})"
-
-    def table(self, name: str) -> pd.DataFrame:
-        """The run's table `name`.csv (state_time, performance, trial_stats, claims, ...), checked
-        as `tavc report` checks it first (`analysis.schema.check_table`: a damaged table is one
-        line naming it)."""
-        from tavc_cli.analysis.schema import check_table
-
-        path = self.path / f"{name}.csv"
-        if not path.is_file():
-            have = ", ".join(sorted(p.stem for p in self.path.glob("*.csv"))) or "none"
-            raise TavcError(f"{self.path}: no table {name!r} (tables here: {have})")
-        if not (self.path / "provenance.json").is_file():  # its tables may be an earlier run's
-            raise TavcError(f"{self.path}: its run did not finish (no provenance.json), so its tables may be "
-                            "another run's; run it again to complete it")
-        check_table(path)
-        return pd.read_csv(path)
-
-    @property
-    def tables(self) -> list[str]:
-        """Names of the tables in the folder."""
-        return sorted(p.stem for p in self.path.glob("*.csv"))
-
-    state_time = property(lambda self: self.table("state_time"), doc="% of the stable period in each state.")
-    performance = property(lambda self: self.table("performance"), doc="Score delivered per second over time.")
-    trial_stats = property(lambda self: self.table("trial_stats"), doc="One row per trial.")
-
-    @cached_property
-    def config(self) -> dict:
-        """The composed config the run used (a damaged config.yaml is one line naming it)."""
-        path = self.path / "config.yaml"
-        try:
-            config = load_yaml(path)
-        except (OSError, yaml.YAMLError) as exc:
-            raise TavcError(f"{path}: cannot be read ({str(exc).splitlines()[0]}); rerun its experiment to rewrite "
-                            "it") from None
-        if not isinstance(config, dict):
-            raise TavcError(f"{path}: holds no settings; rerun its experiment to rewrite it")
-        return config
-
-    @cached_property
-    def not_a_verdict(self) -> str:
-        """Why the run's claims are no verdict ("not a verdict: scale=quick (...)": fewer trials or
-        less time than the chapter's), or "" for a run at the chapter's scale or beyond. `claims`
-        carries the same in its column ``not_a_verdict``."""
-        from tavc_cli.analysis.claims import not_a_verdict
-        from tavc_cli.settings import from_yaml
-
-        return not_a_verdict(from_yaml(self.path / "config.yaml"))
-
-    @property
-    def claims(self) -> pd.DataFrame:
-        """Every part of the chapter's claims, tested (claims.csv), with the column ``not_a_verdict``:
-        why these verdicts are none, or "" where they are."""
-        return self.table("claims").assign(not_a_verdict=self.not_a_verdict)
-
-    @cached_property
-    def plan(self) -> RunPlan:
-        """The run's plan (`plan.json`): each controller's label, learner settings, trial count, seed
-        code and schedule (its periods on the record's clock, when its trials start)."""
-        from tavc_cli.settings import from_yaml
-
-        return read_plan(self.path, from_yaml(self.path / "config.yaml"))
-
-    def records(self) -> list[TrialRecord]:
-        """The raw record of every trial of the run, in file-name order: the files its
-        `provenance.json` lists (a rerun with fewer trials leaves the others' files in
-        `trials/`, and they are not this run's), each checked to be this run's own
-        (`analysis.schema.read_trial`: a record missing, damaged, or of another configuration
-        or seed is one line naming it). A folder without a `provenance.json` (a run that did
-        not finish) gives every file in `trials/`, unchecked: there is no list to check them
-        against."""
-        from tavc_cli.analysis.schema import load_record, read_provenance, read_trial
-
-        if not (self.path / "provenance.json").is_file():
-            files = sorted((self.path / "trials").glob("*.npz"))
-            if not files:
-                raise TavcError(_NO_RECORDS.format(self.path))
-            return [load_record(f) for f in files]
-
-        listed = sorted(read_provenance(self.path / "provenance.json")["trials"], key=lambda t: t["file"])
-        if not any((self.path / t["file"]).is_file() for t in listed):  # a folder kept without trials/
-            raise TavcError(_NO_RECORDS.format(self.path))
-        return [read_trial(self.path, t) for t in listed]
-
-    def events(self, kind: str) -> pd.DataFrame:
-        """Every event of one kind (arrivals, deliveries, choices, breakdowns) of every trial, with the
-        trial's controller and number as the first columns."""
-        if kind not in TABLES:
-            raise TavcError(f"events: no kind {kind!r}; one of {', '.join(TABLES)}")
-        frames = []
-        for rec in self.records():
-            frame = pd.DataFrame(rec.table(kind))
-            frame.insert(0, "trial", rec.meta["trial"])
-            frame.insert(0, "controller", rec.meta["controller"])
-            frames.append(frame)
-        return pd.concat(frames, ignore_index=True)
-
-
-_NO_RECORDS = "{}: no trial records in trials/ (tables only: rerun with tavc run to get the events)"
-
-
-def load(path: str | Path) -> Results:
-    """Open a results folder (one experiment's, as `tavc run` writes it)."""
-    return Results(path)
-
-
-class Sweep:
-    """A sweep's folder (as `tavc run -m` writes it): its table `sweep.csv` and each job's results."""
-
-    def __init__(self, path: str | Path) -> None:
-        """Open the sweep at `path`; fails in one line unless it holds a `sweep.csv`."""
-        self.path = Path(path)
-        if not (self.path / "sweep.csv").is_file():
-            raise TavcError(f"{self.path}: not a sweep's folder of tavc run -m (no sweep.csv in it)")
-
-    def __repr__(self) -> str:
-        """``Sweep('<path>')``."""
-        return f"Sweep({str(self.path)!r})"
-
-    @cached_property
-    def table(self) -> pd.DataFrame:
-        """`sweep.csv`: one row per job and state: the job's index, its swept values, its folder
-        (`output_dir`), its time in each state and its score."""
-        from tavc_cli.readers import read_text
-
-        return pd.read_csv(io.StringIO(read_text(self.path / "sweep.csv", SWEEP_LIMIT)))
-
-    @property
-    def jobs(self) -> dict[str, Results]:
-        """Each job's results, by its folder's name (``0_learner.epsilon=0.05`` ...), in sweep order."""
-        names = list(dict.fromkeys(Path(str(folder)).name for folder in self.table["output_dir"]))
-        return {name: Results(self.path / name) for name in names}
-
-
-def load_sweep(path: str | Path) -> Sweep:
-    """Open a sweep's folder (`tavc run -m`): `Sweep.table` is its sweep.csv, `Sweep.jobs` each job's results."""
-    return Sweep(path)
 
 
 def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, progress: bool = False,

@@ -11,6 +11,7 @@ import pandas as pd
 
 from tavc_cli.analysis.experiment import analyse, experiment_claims
 from tavc_cli.analysis.table_schemas import TABLE_NAMES
+from tavc_cli.chapter import claims
 from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import write_text_atomic
@@ -56,8 +57,6 @@ def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[
 def _other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, pd.DataFrame]:
     """The `trial_stats.csv` of each other experiment of the chapter's claims beside this run's
     folder, where there is one (claim 7 compares breakdown_no_vacancy with breakdown)."""
-    from tavc_cli.chapter import claims
-
     name = str(cfg.experiment_name or "")
     paths = {other: out_dir.parent / other / "trial_stats.csv" for other in {e for e, _ in claims()} - {name}}
     return {other: pd.read_csv(path) for other, path in paths.items() if path.is_file()}

@@ -9,15 +9,17 @@ dataclasses, never a DictConfig or nested dicts. `from_yaml` reads a results fol
 """
 
 import copy
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from functools import cache
 from pathlib import Path
 from typing import Any, Dict, List, Optional
 
 from omegaconf import MISSING, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
 
-from tavc_cli.learning.parameters import recorded_learner, settings_mapping
-from tavc_cli.learning.registry import SETTINGS, settings_of
+from tavc_cli.errors import TavcError
+from tavc_cli.learning.parameters import LearnerSettings, PluginSettings, recorded_learner, settings_mapping
+from tavc_cli.learning.registry import SETTINGS
 
 # the study commands' groups, part of TavcConfig (and imported from here as every group is)
 from tavc_cli.settings_studies import CalibrationConfig, GridAxis, ModelConfig, SurrogateConfig  # noqa: F401
@@ -327,8 +329,47 @@ class TavcConfig:
     surrogate: SurrogateConfig = field(default_factory=SurrogateConfig)
 
     def __post_init__(self) -> None:
-        """The learner's node read into its typed settings (`registry.settings_of`)."""
+        """The learner's node read into its typed settings (`settings_of`)."""
         self.learner = settings_of(self.learner)
+
+
+def settings_of(node: Any) -> LearnerSettings:
+    """The typed settings of a ``learner:`` node (a mapping, or settings already typed), read into
+    the class its name gives in the registry (`registry.SETTINGS`), or `PluginSettings` where it
+    names a ``target``.
+
+    A key the learner does not declare, a missing name and a value of the wrong type are one
+    `TavcError` line naming the key. The config's slots ``target: null`` and ``params: {}`` (kept
+    so that ``learner.target=...`` needs no ``+``) belong to no built-in learner and are dropped.
+    """
+    if isinstance(node, LearnerSettings):
+        return node
+    data = dict(node)
+    name = data.get("name")
+    if not isinstance(name, str) or not name:
+        raise TavcError(f"learner.name: a learner needs a name, got {name!r}")
+    if data.get("target") is not None:
+        cls: type[LearnerSettings] = PluginSettings
+    else:
+        params = data.pop("params", None)
+        if params:
+            raise TavcError("learner.params: only a learner from learner.target takes params; "
+                            f"set {name}'s parameters as learner.<name>")
+        data.pop("target", None)
+        if name not in SETTINGS:
+            raise TavcError(f"learner.name: must be one of {', '.join(SETTINGS)}; got {name!r}")
+        cls = SETTINGS[name]
+    declared = [f.name for f in fields(cls)]
+    for key in data:
+        if key not in declared:
+            takes = ", ".join(p for p in declared if p != "name") or "no parameters"
+            raise TavcError(f"learner.{key}: the learner {name} takes no parameter {key} (it takes {takes})")
+    try:
+        return OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(cls), data))
+    except OmegaConfBaseException as error:
+        key = getattr(error, "key", None) or "name"
+        raise TavcError(f"learner.{key}: {str(error).splitlines()[0]}") from None
+
 
 
 def to_yaml(settings: TavcConfig) -> str:

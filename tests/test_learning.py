@@ -19,7 +19,8 @@ from tavc_cli.learning.policies import (
     even_allocation,
 )
 from tavc_cli.learning.qlearning import epsilon_greedy, q_update, softmax_choice, softmax_probs
-from tavc_cli.learning.registry import make_policy, settings_of
+from tavc_cli.learning.registry import make_policy
+from tavc_cli.settings import settings_of
 
 N_DRAWS = 20_000
 

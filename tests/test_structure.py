@@ -188,3 +188,12 @@ def test_each_layer_imports_only_the_layers_below_it():
                 broken += [f"{module} -> {d}" for d in deps
                            if any(d == b or d.startswith(b if b.endswith(".") else b + ".") for b in below)]
     assert broken == []
+
+
+def test_the_simulation_core_imports_neither_hydra_nor_omegaconf():
+    """The core reads typed settings only: the config's machinery stays above it."""
+    core = ("sim", "behaviours", "learning", "model", "analysis")
+    found = [f"{path.relative_to(PACKAGE)}: {name}" for part in core for path in sorted((PACKAGE / part).rglob("*.py"))
+             for name in _imports(path) if name.split(".")[0] in ("hydra", "omegaconf")]
+    assert found == []
+

@@ -21,8 +21,7 @@ from tavc_cli.config.validate import check_no_missing, validate, validate_scalin
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import settings_mapping
-from tavc_cli.learning.registry import settings_of
-from tavc_cli.settings import SCHEMA_NAME, TavcConfig
+from tavc_cli.settings import SCHEMA_NAME, TavcConfig, settings_of
 
 # --------------------------------------------------------------------------------------------
 # Public API

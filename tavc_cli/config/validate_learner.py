@@ -21,7 +21,8 @@ from tavc_cli.learning.parameters import (
 )
 from tavc_cli.learning.plugins import check_params, load_target, rehearse
 from tavc_cli.learning.registry import NAMES as LEARNERS
-from tavc_cli.learning.registry import RESERVED_LABELS, SEED_CODES, settings_of
+from tavc_cli.learning.registry import RESERVED_LABELS, SEED_CODES
+from tavc_cli.settings import settings_of
 
 
 def validate_model_learner(learner: DictConfig, n_circuits: int, n_robots: int, n_breakdowns: int) -> None:

@@ -19,8 +19,7 @@ from dataclasses import dataclass, replace
 
 from tavc_cli.experiments.plan import RunPlan, plan_run
 from tavc_cli.experiments.spec import Breakdown, TrialSpec, ValueChange
-from tavc_cli.learning.registry import settings_of
-from tavc_cli.settings import TavcConfig
+from tavc_cli.settings import TavcConfig, settings_of
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}  # unit of t in r = w / t, in seconds
 

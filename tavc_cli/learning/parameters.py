@@ -2,25 +2,20 @@
 
 A learner's settings are the ``learner:`` node of a config: its ``name`` and the parameters its
 class declares here, nothing else. The declaration is the whole of what tavc knows about them:
-the config reads them into it (`learner_settings`, which refuses a key the learner does not take
-and a value of the wrong type), `config.validate_learner` checks each field by the rule its
+the config reads them into it (`settings.settings_of`, which refuses a key the learner does not
+take and a value of the wrong type), `config.validate_learner` checks each field by the rule its
 metadata names (`CHECK`) and each ordered pair in `ORDERED`, ``config.yaml`` writes them, and a
 trial's key digests them. A learner from outside tavc declares its parameters by its class's
 signature instead (`PluginSettings`, `plugins.check_params`).
 
-This module imports nothing of tavc's but the error type, and no numerical library, so the
-settings can be read without loading the simulator.
+This module imports nothing of tavc's and no library, so the settings can be read without
+loading the simulator or the config's own machinery.
 """
 
 from __future__ import annotations
 
 from dataclasses import MISSING, asdict, dataclass, field, fields
 from typing import Any, ClassVar, Dict, List, Optional
-
-from omegaconf import OmegaConf
-from omegaconf.errors import OmegaConfBaseException
-
-from tavc_cli.errors import TavcError
 
 # the rules a field's metadata may name (`CHECK`), applied by `config.validate_learner`
 UNIT = "unit"              # in [0, 1]
@@ -165,43 +160,6 @@ class PluginSettings(LearnerSettings):
     params: Dict[str, Any] = field(default_factory=dict)
 
 
-def learner_settings(node: Any, classes: dict[str, type[LearnerSettings]]) -> LearnerSettings:
-    """The typed settings of a ``learner:`` node (a mapping, or settings already typed), read into
-    the class its name gives in `classes` (or `PluginSettings` where it names a ``target``).
-
-    A key the learner does not declare, a missing name and a value of the wrong type are one
-    `TavcError` line naming the key. The config's slots ``target: null`` and ``params: {}`` (kept
-    so that ``learner.target=...`` needs no ``+``) belong to no built-in learner and are dropped.
-    """
-    if isinstance(node, LearnerSettings):
-        return node
-    data = dict(node)
-    name = data.get("name")
-    if not isinstance(name, str) or not name:
-        raise TavcError(f"learner.name: a learner needs a name, got {name!r}")
-    if data.get("target") is not None:
-        cls: type[LearnerSettings] = PluginSettings
-    else:
-        params = data.pop("params", None)
-        if params:
-            raise TavcError("learner.params: only a learner from learner.target takes params; "
-                            f"set {name}'s parameters as learner.<name>")
-        data.pop("target", None)
-        if name not in classes:
-            raise TavcError(f"learner.name: must be one of {', '.join(classes)}; got {name!r}")
-        cls = classes[name]
-    declared = [f.name for f in fields(cls)]
-    for key in data:
-        if key not in declared:
-            takes = ", ".join(p for p in declared if p != "name") or "no parameters"
-            raise TavcError(f"learner.{key}: the learner {name} takes no parameter {key} (it takes {takes})")
-    try:
-        return OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(cls), data))
-    except OmegaConfBaseException as error:
-        key = getattr(error, "key", None) or "name"
-        raise TavcError(f"learner.{key}: {str(error).splitlines()[0]}") from None
-
-
 # every key a config.yaml's learner node has held: records written before each learner declared its
 # own parameters list them all, whichever learner ran
 RECORDED_KEYS = ("name", "alpha", "gamma", "epsilon", "tau", "q_init_low", "q_init_high", "decision_period_s",
@@ -212,7 +170,7 @@ RECORDED_KEYS = ("name", "alpha", "gamma", "epsilon", "tau", "q_init_low", "q_in
 def recorded_learner(node: dict, classes: dict[str, type[LearnerSettings]]) -> dict:
     """A results folder's ``learner:`` node as the learner that ran declares it: a record that lists
     every learner's parameters (see `RECORDED_KEYS`) keeps the ones its built-in learner takes. Any
-    other key stays, for `learner_settings` to refuse."""
+    other key stays, for `settings.settings_of` to refuse."""
     cls = classes.get(node.get("name")) if node.get("target") is None else None
     if cls is None:
         return node

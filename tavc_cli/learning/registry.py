@@ -34,7 +34,6 @@ from tavc_cli.learning.parameters import (
     TavcSoftmaxSettings,
     ThresholdSettings,
     WolfPhcSettings,
-    learner_settings,
 )
 
 if TYPE_CHECKING:
@@ -87,11 +86,6 @@ TITLES = {entry.label: entry.title or entry.label for entry in LEARNERS.values()
     label: title for label, (title, _) in RESERVED_LABELS.items()}
 COLOURS = {entry.label: entry.colour for entry in LEARNERS.values() if entry.colour} | {
     label: colour for label, (_, colour) in RESERVED_LABELS.items()}
-
-
-def settings_of(node) -> LearnerSettings:
-    """The typed settings of a ``learner:`` node (`parameters.learner_settings` over this table)."""
-    return learner_settings(node, SETTINGS)
 
 
 def controller_label(name: str) -> str:
