@@ -25,7 +25,7 @@ from __future__ import annotations
 import json
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -318,20 +318,20 @@ def _flat(tree, prefix: str = "") -> dict[str, object]:
     return {prefix.rstrip("."): tree}
 
 
-def take_report_folders(results_dir: Path, long_dir: Path | None, page: bool = False) -> list:
+def take_report_folders(results_dir: Path, horizon_dirs: Sequence[Path] = (), page: bool = False) -> list:
     """Check, before anything is written, that `tavc report` may write its files (`take`):
-    REPORT.md, claims.csv and figures/ on top, the long horizon's claims.csv and figures/, the
-    value-ratio table; a folder that is a run's, or a file there that tavc did not write, is
-    refused. With `page`, REPORT.html on top too. Returns what tavc owns in the folders whose
-    figures/ the report draws."""
-    roots = [(results_dir, ("REPORT.md", "claims.csv", *(["REPORT.html"] if page else [])))]
-    if long_dir is not None:
-        roots.append((long_dir, ("claims.csv",)))
+    REPORT.md, claims.csv and figures/ on top, each longer horizon's claims.csv and figures/,
+    the value-ratio table; a folder that is a run's, or a file there that tavc did not write,
+    is refused. With `page`, REPORT.html on top too. Returns what tavc owns in the folders
+    whose figures/ the report draws."""
+    roots = [(results_dir, ("REPORT.md", "claims.csv", *(["REPORT.html"] if page else []))),
+             *((d, ("claims.csv",)) for d in horizon_dirs)]
+    drawn = len(roots)
     if (results_dir / "value_ratio").is_dir():
         roots.append((results_dir / "value_ratio", ("value_ratio.csv",)))
     for folder, files in roots:
         check_inside(folder, RESULTS, files, what="RESULTS_DIR")
-    for folder, _ in roots[:2]:
+    for folder, _ in roots[:drawn]:
         owned = read(folder)
         figures = sorted(p for p in (folder / "figures").rglob("*") if p.is_file()) if (
             folder / "figures").is_dir() else []
@@ -343,7 +343,7 @@ def take_report_folders(results_dir: Path, long_dir: Path | None, page: bool = F
     for folder, files in roots:
         taken.append(take(folder, RESULTS, files, what="RESULTS_DIR"))
         taken[-1].wrote(*files)
-    return taken[:2]
+    return taken[:drawn]
 
 
 def list_figures(taken: list) -> None:

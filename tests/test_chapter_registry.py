@@ -133,7 +133,7 @@ def test_an_experiment_of_ones_own_is_listed_ordered_and_tested(toy, tmp_path):
     assert set(CHAPTER) | {"toy"} == set(lines)
     assert lines["toy"].split()[1] == "1.5.5" and "four TAVC learners share two circuits (a toy)" in lines["toy"]
     # the report's order: the toy's place among the chapter's, read from runs found in a results folder
-    from tavc_cli.report import _finished_runs
+    from tavc_cli.report.runs import finished_runs
 
     results = tmp_path / "results"
     for name in ("breakdown", "toy", "initial_distribution"):
@@ -141,7 +141,7 @@ def test_an_experiment_of_ones_own_is_listed_ordered_and_tested(toy, tmp_path):
         (results / name / "config.yaml").write_text(to_yaml(load_config([f"experiment={name}", "scale=quick"])))
         (results / name / "state_time.csv").write_text("")
         (results / name / "provenance.json").write_text("{}")
-    assert list(_finished_runs(results)[0]) == ["initial_distribution", "toy", "breakdown"]
+    assert list(finished_runs(results)[0]) == ["initial_distribution", "toy", "breakdown"]
     assert list(EXPERIMENTS)[2] == "toy"
     from tavc_cli.analysis.claims import claim_table
 

@@ -212,6 +212,51 @@ def test_without_a_long_horizon_the_report_has_one_count(two_horizons, tmp_path)
     assert "**Claims reproduced: " in report and " of 3 tested**" in report and "times them" not in report
 
 
+def test_every_horizon_folder_is_reported_in_order_of_its_factor(two_horizons, tmp_path):
+    """A third horizon beside the second (`x10/`, made as `converged/` is, at 10x): three counts,
+    three verdicts per claim, a subsection of each experiment at each horizon, a claims.csv in
+    each horizon's folder; the horizons ordered by factor, so x10 is the second and converged/
+    the third; a folder named like a horizon that holds a run is a run, not a horizon."""
+    import shutil
+
+    from tavc_cli.report import build_report
+
+    results = tmp_path / "results"
+    shutil.copytree(two_horizons, results, ignore=shutil.ignore_patterns("REPORT.md", "claims.csv", "figures",
+                                                                         ".tavc.json", ".tavc.lock"))
+    _run_folder(results / "x10" / "initial_distribution", "converged", 10.0, 60.0, seed=3)
+    result = build_report(results)
+    assert [(h["folder"], h["factor"]) for h in result["horizons"]] == [("x10", 10.0), ("converged", 40.0)]
+    assert result["factor"] == 10.0  # the first longer horizon keeps the keys a second horizon had
+    report = (results / "REPORT.md").read_text()
+    # claim 3 fails at 1x (3:3 at 20 %) and holds at both longer horizons (3:3 at 60 %)
+    row = next(line for line in report.splitlines() if line.startswith("| 3 | initial_distribution |"))
+    cells = [c.strip() for c in row.split("|")[1:-1]]
+    assert (cells[2], cells[4], cells[7]) == ("not reproduced", "reproduced", "reproduced")
+    assert len(cells) == 10  # claim, experiment, then verdict and p at 1x; verdict, p and how at 10x and 40x
+    assert f"; {result['horizons'][0]['n_reproduced']} of 3 at 10 times them (" in report
+    assert f"; {result['horizons'][1]['n_reproduced']} of 3 at 40 times them (" in report
+    for words in ("### initial_distribution at 10 times the chapter's durations",
+                  "### initial_distribution at 40 times the chapter's durations",
+                  "### The second horizon", "### The third horizon",
+                  "the claims about initial_distribution at the third horizon are tested on it"):
+        assert words in report, words
+    assert report.index("at 10 times the chapter's durations") < report.index("at 40 times the chapter's durations")
+    assert (results / "x10" / "claims.csv").is_file() and (results / "converged" / "claims.csv").is_file()
+    assert (results / "figures" / "horizons_initial_distribution_x10.png").is_file()
+    assert (results / "figures" / "horizons_initial_distribution.png").is_file()
+
+
+def test_a_folder_named_like_a_horizon_that_holds_a_run_is_a_run(tmp_path):
+    from tavc_cli.report.runs import finished_runs, horizon_folders
+
+    results = tmp_path / "results"
+    _run_folder(results / "initial_distribution", "paper", 1.0, 20.0, seed=1)
+    _run_folder(results / "x4", "paper", 1.0, 20.0, seed=4)  # a run someone named x4
+    assert horizon_folders(results) == []
+    assert [d.name for d in finished_runs(results)[0]["initial_distribution"]] == ["initial_distribution", "x4"]
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["ladder", "--factors", "1,x"], "error: ladder factors: '1,x' is not a comma-separated list of numbers"),
     (["ladder", "--factors", "1,1"], "error: ladder factors: a factor is given twice"),

@@ -155,7 +155,7 @@ def test_smoke_run_of_the_spatiotemporal_experiment_through_report(tmp_path):
 
 
 def test_a_run_that_did_not_finish_is_left_out_and_named(tmp_path):
-    from tavc_cli.report import _experiments
+    from tavc_cli.report.runs import finished_runs
 
     (tmp_path / "killed" / "trials").mkdir(parents=True)  # trials, no tables yet
     failed = tmp_path / "failed"  # the tables of an earlier run, but this run wrote no provenance.json
@@ -163,7 +163,7 @@ def test_a_run_that_did_not_finish_is_left_out_and_named(tmp_path):
     (failed / "state_time.csv").write_text("state,controller,mean_pct,std_pct,n_trials\n")
     (failed / "config.yaml").write_text("experiment_name: failed\n")
     (tmp_path / "figures").mkdir()  # not a run at all
-    found, unfinished = _experiments(tmp_path)
+    found, unfinished = finished_runs(tmp_path)
     assert found == {}
     assert unfinished == [failed, tmp_path / "killed"]
 

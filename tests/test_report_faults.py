@@ -392,7 +392,7 @@ def test_a_report_stopped_while_drawing_lists_its_figures_and_the_next_one_heals
     for folder in (clean, stopped):
         shutil.copytree(breakdown, folder / "breakdown")
     assert runner.invoke(app, ["report", str(clean)]).exit_code == 0
-    monkeypatch.setattr(report, "_experiment_sections", then_interrupted(report._experiment_sections))
+    monkeypatch.setattr(report, "experiment_sections", then_interrupted(report.experiment_sections))
     with pytest.raises(KeyboardInterrupt):
         report.build_report(stopped)
     monkeypatch.undo()

@@ -304,7 +304,7 @@ def test_the_model_summary_marks_an_interval_below_zero():
 def test_the_report_tests_the_claims_on_the_learner_its_runs_are_of():
     from types import SimpleNamespace
 
-    from tavc_cli.report import _under_test
+    from tavc_cli.report.horizons import under_test as _under_test
 
     def cfg(name):
         return SimpleNamespace(learner=SimpleNamespace(name=name)), None

@@ -131,7 +131,7 @@ def test_a_reports_figures_folder_that_is_a_link_is_refused(tmp_path, sibling):
     (results / "figures").symlink_to(sibling, target_is_directory=True)
     before = _snapshot(sibling)
     with pytest.raises(TavcError) as refused:
-        take_report_folders(results, None)
+        take_report_folders(results)
     _one_line_naming(str(refused.value), results / "figures")
     assert "is a symbolic link" in str(refused.value)
     assert _snapshot(sibling) == before and not (results / "REPORT.md").exists()

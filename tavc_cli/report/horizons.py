@@ -1,12 +1,14 @@
-"""The report's second horizon: the same experiments at a multiple of the chapter's durations
-(`scale=converged`, saved under `<results>/converged/`), beside the chapter's durations.
+"""The report's horizons: the chapter's durations (the headline), and any number of longer
+ones, each a folder directly under the results folder that holds the same experiments at a
+multiple of the chapter's durations (`converged/`, from `scale=converged`; `x10/`, ...:
+`runs.horizon_folders`).
 
-The chapter's durations stay the headline; this module writes what the longer runs add:
-the summary's second count, the claims' second verdicts with how the group was made, and
-each experiment's subsection at the long horizon
-(its state table beside the chapter's, the mechanism, the vacancy chains, the model's
-prediction beside the learners, and the figures). The section on the time scale is
-`time_scale`'s. Everything is read from saved tables.
+A `Horizon` is one horizon's runs as read (`read_horizon`); this module writes what the
+horizons say together: the summary's counts, the claims' verdicts at every horizon with how
+the group was made, and the parts of an experiment's section that only a longer horizon has
+(how its window was chosen, the learners' convergence, the model beside the learners). An
+experiment's section itself is `sections`', the section on the time scale `time_scale`'s.
+Everything is read from saved tables.
 """
 
 from __future__ import annotations
@@ -19,27 +21,31 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli import chapter
-from tavc_cli.analysis.claims import not_a_verdict, verdict_words
+from tavc_cli.analysis.claims import CLAIM_TABLES, claim_table, learner_under_test, not_a_verdict, verdict_words
 from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
 from tavc_cli.analysis.trial_stats import stable_from
+from tavc_cli.learning.registry import controller_label
 from tavc_cli.readers import load_json
-from tavc_cli.report.mechanism import mechanism, mechanism_lines, mechanism_words, vacancy_mechanism_lines
-from tavc_cli.report.text import claims_table, fmt, p_cell, performance, robot_lines, state_table
+from tavc_cli.report.files import config_of
+from tavc_cli.report.mechanism import mechanism, mechanism_words
+from tavc_cli.report.runs import CONVERGED_DIR, on_surrogate
+from tavc_cli.report.text import delivery_lines, fmt, p_cell
 from tavc_cli.settings import TavcConfig
 
 # the claims whose chapter's mechanism is persistence: robots staying on one circuit, a vacancy
 # filled by one robot that moves (section 1.5), fast robots staying on the high-value circuit (1.6)
 PERSISTENCE_CLAIMS = (3, 5, 6, 7, 8, 9)
-CONVERGED_DIR = "converged"
 AT_CHAPTER = "at the chapter's durations"
+_ORDINALS = ("first", "second", "third", "fourth", "fifth", "sixth", "seventh", "eighth", "ninth", "tenth")
 
 
 @dataclass
 class Horizon:
     """One horizon's saved runs: the folder, its experiments (name -> the folder of the run
     the claims are tested on), each one's settings and state table, the per-trial tables the
-    claims read, the claims, the runs that did not finish, each experiment's other runs, and
-    what the report says of every run's deliveries (`text.delivery_lines`, by folder)."""
+    claims read, the claims, the runs that did not finish, each experiment's other runs,
+    what the report says of every run's deliveries (`text.delivery_lines`, by folder), and
+    its place among the report's horizons."""
 
     folder: Path
     experiments: dict[str, Path]
@@ -49,6 +55,22 @@ class Horizon:
     unfinished: list[Path] = field(default_factory=list)
     others: dict[str, list[Path]] = field(default_factory=dict)
     deliveries: dict[Path, list[str]] = field(default_factory=dict)
+    index: int = 0  # 0: the chapter's durations; 1, 2, ...: the longer horizons by their factors
+
+    @property
+    def headline(self) -> bool:
+        """Whether this is the chapter's durations, the report's headline."""
+        return self.index == 0
+
+    @property
+    def ordinal(self) -> str:
+        """"second" for the first longer horizon, and so on."""
+        return _ORDINALS[self.index] if self.index < len(_ORDINALS) else f"{self.index + 1}th"
+
+    @property
+    def named(self) -> str:
+        """The horizon in the list of runs: "at the chapter's durations", "at the second horizon"."""
+        return AT_CHAPTER if self.headline else f"at the {self.ordinal} horizon"
 
     @property
     def factor(self) -> float:
@@ -70,8 +92,6 @@ class Horizon:
     def shortfalls(self) -> dict[str, str]:
         """experiment -> "not a verdict: scale=... (...)" for each run the claims are tested on
         that is below the chapter's scale (`analysis.claims.not_a_verdict`)."""
-        from tavc_cli.report.runs import on_surrogate
-
         out = {name: not_a_verdict(cfg) for name, (cfg, _) in self.read.items()}
         for name, d in self.experiments.items():
             if on_surrogate(d):  # a model's answer, whatever its scale
@@ -93,6 +113,38 @@ class Horizon:
 def label(factor: float) -> str:
     """A horizon in words: "40 times the chapter's durations"."""
     return f"{factor:g} times the chapter's durations"
+
+
+def horizons_stem(name: str, h: Horizon) -> str:
+    """The name of the figure of an experiment's states at the chapter's durations and at the
+    longer horizon `h` (under the report's `figures/`)."""
+    return f"horizons_{name}" if h.folder.name == CONVERGED_DIR else f"horizons_{name}_{h.folder.name}"
+
+
+def read_horizon(folder: Path, found: dict[str, list[Path]], unfinished: list[Path], index: int = 0) -> Horizon:
+    """One horizon's runs, read (`runs.finished_runs`; its folders already checked, and a
+    damaged trial record that `text.delivery_lines` reads is refused here, before anything is
+    written): settings, state tables, the per-trial tables the claims read, and the claims
+    tested on them together, for the run of each experiment they are tested on; the other
+    runs' folders beside, and what every run delivered."""
+    experiments = {name: folders[0] for name, folders in found.items()}
+    runs = {name: pd.read_csv(d / "trial_stats.csv") for name, d in experiments.items()
+            if (d / "trial_stats.csv").is_file()}
+    runs.update({f"{name}/{t}": pd.read_csv(d / f"{t}.csv") for name, d in experiments.items()
+                 for t in CLAIM_TABLES if (d / f"{t}.csv").is_file()})
+    read = {name: (config_of(d / "config.yaml"), pd.read_csv(d / "state_time.csv", dtype={"state": str}))
+            for name, d in experiments.items()}
+    others = {name: folders[1:] for name, folders in found.items() if len(folders) > 1}
+    deliveries = {d: delivery_lines(d, load_json(d / "provenance.json"))
+                  for folders in found.values() for d in folders}
+    return Horizon(folder, experiments, read, runs, claim_table(runs, learner=under_test(read)), unfinished, others,
+                   deliveries, index)
+
+
+def under_test(read: dict) -> str:
+    """The learner the claims about learning test: the task learner every run's trials are of
+    (TAVC's runs: `tavc`), else TAVC (`claims.learner_under_test`)."""
+    return learner_under_test(controller_label(str(cfg.learner.name)) for cfg, _ in read.values())
 
 
 def convergence(d: Path, controller: str | None = None) -> dict | None:
@@ -140,27 +192,32 @@ def count_words(h: Horizon, where: str) -> str:
     return f"{h.n_reproduced} of {len(h.tested)} would be reproduced at scale={', scale='.join(h.scale_names())}"
 
 
-def summary_lines(base: Horizon, long: Horizon | None) -> list[str]:
-    """The report's opening count: claims reproduced at the chapter's durations, and at the
-    long horizon with whether its learners converged; "not a verdict" where a horizon's runs
-    are below the chapter's scale."""
-    if long is None or not long.experiments:
-        return []
-    learners = [(name, convergence(d)) for name, d in long.experiments.items()]
+def _how(h: Horizon) -> str:
+    """Whether a longer horizon's learners converged, in words."""
+    learners = [(name, convergence(d)) for name, d in h.experiments.items()]
     judged = [(name, v) for name, v in learners if v is not None]
     done = [name for name, v in judged if v["converged"]]
     if judged and len(done) == len(judged):
-        how = "the learning rule converged in every experiment, by measures fixed before the runs"
-    elif judged:
-        how = (f"the learning rule converged, by measures fixed before the runs, in {len(done)} of {len(judged)} "
-               "experiments: see *The time scale*")
-    else:
-        how = "no convergence measures saved"
-    head = "Claims reproduced" if base.verdicts and long.verdicts else "Claims (not a verdict)"
-    return [f"**{head}: {count_words(base, AT_CHAPTER)}; "
-            f"{count_words(long, f'at {long.factor:g} times them')} ({how}).** The chapter's durations are its "
-            "inputs and stay the headline; the second verdict says whether its findings hold under its own world "
-            "and rule given time, and by which mechanism.", ""]
+        return "the learning rule converged in every experiment, by measures fixed before the runs"
+    if judged:
+        return (f"the learning rule converged, by measures fixed before the runs, in {len(done)} of {len(judged)} "
+                "experiments: see *The time scale*")
+    return "no convergence measures saved"
+
+
+def summary_lines(horizons: list[Horizon]) -> list[str]:
+    """The report's opening count where there are longer horizons: claims reproduced at the
+    chapter's durations, and at each longer horizon with whether its learners converged; "not
+    a verdict" where a horizon's runs are below the chapter's scale."""
+    base, longer = horizons[0], [h for h in horizons[1:] if h.experiments]
+    if not longer:
+        return []
+    head = "Claims reproduced" if all(h.verdicts for h in [base, *longer]) else "Claims (not a verdict)"
+    counts = "; ".join([count_words(base, AT_CHAPTER),
+                        *(f"{count_words(h, f'at {h.factor:g} times them')} ({_how(h)})" for h in longer)])
+    return [f"**{head}: {counts}.** The chapter's durations are its inputs and stay the headline; the "
+            f"{'second verdict says' if len(longer) == 1 else 'other verdicts say'} whether its findings hold under "
+            "its own world and rule given time, and by which mechanism.", ""]
 
 
 def _column(h: Horizon, where: str) -> str:
@@ -169,35 +226,40 @@ def _column(h: Horizon, where: str) -> str:
 
 def experiment_cell(h: Horizon, exp: str, results_dir: Path) -> str:
     """The experiment a claim is about, with the folder of the run it was tested on where that
-    is not the folder named after it."""
+    is not the folder named after it in its horizon's folder."""
     d = h.experiments.get(exp)
-    if d is None:
+    if d is None or d.relative_to(h.folder).as_posix() == exp:
         return exp
-    rel = d.relative_to(results_dir).as_posix()
-    return exp if rel in (exp, f"{CONVERGED_DIR}/{exp}") else f"{exp} (`{rel}`)"
+    return f"{exp} (`{d.relative_to(results_dir).as_posix()}`)"
 
 
-def claims_both_table(base: Horizon, long: Horizon) -> list[str]:
-    """Every claim with its verdict at both horizons, the p of the part that decides each and
-    which part that is (`analysis.claims.deciding`), and how the group was made at the long one."""
-    lines = [f"| claim | experiment | {_column(base, AT_CHAPTER)} | p (the deciding part) | "
-             f"{_column(long, f'at {long.factor:g}x')} | p (the deciding part) | how the group is made at "
-             f"{long.factor:g}x |", "|---|---|---|---|---|---|---|"]
-    by_id = {int(r.claim_id): r for r in long.claims.itertuples()}
+def claims_by_horizon_table(horizons: list[Horizon]) -> list[str]:
+    """Every claim with its verdict at each horizon, the p of the part that decides each and
+    which part that is (`analysis.claims.deciding`), and how the group was made at each longer
+    one."""
+    base, longer = horizons[0], horizons[1:]
+    head = f"| claim | experiment | {_column(base, AT_CHAPTER)} | p (the deciding part) |"
+    for h in longer:
+        head += (f" {_column(h, f'at {h.factor:g}x')} | p (the deciding part) | how the group is made at "
+                 f"{h.factor:g}x |")
+    lines = [head, "|---|---|---|---|" + "---|---|---|" * len(longer)]
+    by_id = [{int(r.claim_id): r for r in h.claims.itertuples()} for h in longer]
     for r in base.claims.itertuples():
         exp = chapter.experiment_of(r.claim_id)
         verdict = verdict_words(r.verdict, base.verdicts) if exp in base.runs else "not run"
-        other = by_id.get(int(r.claim_id))
-        ran_long = other is not None and exp in long.runs
-        verdict_long = verdict_words(other.verdict, long.verdicts) if ran_long else "not run"
-        m = mechanism(long.experiments[exp]) if exp in long.experiments else None
-        words = mechanism_words(m) if int(r.claim_id) not in CLAIM_CONTROLLER else ""  # a claim about random
-        if other is not None and other.verdict == "reproduced" and m is not None and \
-                int(r.claim_id) in PERSISTENCE_CLAIMS and m["regime"] != "persistence":
-            words = f"**the test holds, but not by the chapter's persistence**; {words}"
-        lines.append(f"| {r.claim_id} | {experiment_cell(base, exp, base.folder)} | {verdict} | "
-                     f"{p_cell(r) if exp in base.runs else ''} | {verdict_long} | "
-                     f"{p_cell(other) if ran_long else ''} | {words} |")
+        line = f"| {r.claim_id} | {experiment_cell(base, exp, base.folder)} | {verdict} | " \
+               f"{p_cell(r) if exp in base.runs else ''} |"
+        for h, claims in zip(longer, by_id, strict=True):
+            other = claims.get(int(r.claim_id))
+            ran = other is not None and exp in h.runs
+            m = mechanism(h.experiments[exp]) if exp in h.experiments else None
+            words = mechanism_words(m) if int(r.claim_id) not in CLAIM_CONTROLLER else ""  # a claim about random
+            if other is not None and other.verdict == "reproduced" and m is not None and \
+                    int(r.claim_id) in PERSISTENCE_CLAIMS and m["regime"] != "persistence":
+                words = f"**the test holds, but not by the chapter's persistence**; {words}"
+            line += (f" {verdict_words(other.verdict, h.verdicts) if ran else 'not run'} | "
+                     f"{p_cell(other) if ran else ''} | {words} |")
+        lines.append(line)
     return lines
 
 
@@ -233,64 +295,6 @@ def never_changed(d: Path) -> tuple[int, int]:
     return int((mine == 0).sum()), len(mine)
 
 
-def experiment_lines(name: str, results_dir: Path, long: Horizon, model_json: Path | None,
-                     base_state: pd.DataFrame | None = None) -> list[str]:
-    """An experiment's subsection at the long horizon: the chapter's table beside ours, the
-    learners' convergence, how the group is made, the model beside the learners, the
-    vacancy chains, the figures and the claims."""
-    if name not in long.experiments:
-        return []
-    from tavc_cli.analysis.comparison import experiment_comparison
-    from tavc_cli.report.figures import experiment_figures
-    from tavc_cli.report.runs import choice_lines
-    from tavc_cli.report.text import run_lines, vacancy_lines
-
-    d = long.experiments[name]
-    cfg, state_time = long.read[name]
-    prov = load_json(d / "provenance.json") if (d / "provenance.json").is_file() else {}
-    lines = [f"### {name} at {label(long.factor)}", ""]
-    lines += choice_lines(name, [d, *long.others.get(name, [])], results_dir)
-    lines += long.deliveries.get(d, [])
-    known = chapter.EXPERIMENTS.get(name)
-    if known is not None and known.learns == "behaviours":  # section 1.4's study, not a state table
-        from tavc_cli.report.studies import spatiotemporal_lines
-
-        body = spatiotemporal_lines(name, d, cfg, long.folder)
-        lines += [*convergence_sentence(d), *(_relinked(line, results_dir, long.folder) for line in body)]
-        return [*lines, *_claims_lines(name, long)]
-    table = chapter.state_table_id(name)
-    lines += [f"% of the stable period ({window_words(cfg)}) in each state, mean ± std over trials"
-              + (f"; the chapter's Table {table} beside ours:" if table else ":"), "",
-              *state_table(state_time, experiment_comparison(name, state_time)), ""]
-    if name in long.runs:
-        lines += [performance(long.runs[name]), ""]
-    lines += convergence_sentence(d)
-    lines += mechanism_lines(d)
-    lines += model_lines(name, d, cfg, model_json)
-    if base_state is not None and cfg.analysis.state == "circuits":
-        from tavc_cli.reference import chapter_table
-        from tavc_cli.viz.figures import horizon_state_figure
-
-        stem = results_dir / "figures" / f"horizons_{name}"
-        horizon_state_figure(base_state, state_time, chapter_table(table) if table else None, long.factor,
-                             f"{name}: % of the stable period in each state at both horizons", stem)
-        lines += [f"![{name} at both horizons](figures/{stem.name}.png)", ""]
-    figures = experiment_figures(name, d, cfg, state_time, long.folder, model_json)
-    lines += [_relinked(line, results_dir, long.folder) for line in figures]
-    lines += robot_lines(d)
-    lines += vacancy_lines(d)
-    lines += vacancy_mechanism_lines(d)
-    lines += _claims_lines(name, long)
-    lines += run_lines(name, d, cfg, prov, long.claims.iloc[0:0], long.runs)  # its claims are above
-    return lines
-
-
-def _claims_lines(name: str, long: Horizon) -> list[str]:
-    """The experiment's claims as tested at the long horizon."""
-    own = long.claims[[chapter.experiment_of(c) == name for c in long.claims["claim_id"]]]
-    return [*claims_table(own, verdicts=name not in long.shortfalls), ""] if len(own) and name in long.runs else []
-
-
 def convergence_sentence(d: Path) -> list[str]:
     """The learners' convergence measures and verdict, in a sentence."""
     v = convergence(d)
@@ -303,21 +307,13 @@ def convergence_sentence(d: Path) -> list[str]:
             f"drifted by {fmt(v['alloc_drift'], '.2f')} between the halves of the stable period: "
             + ("**converged**" if v["converged"] else f"**not converged** ({', '.join(v['failed'])})"))
     if n and frozen * 2 >= n:
-        from tavc_cli.settings import from_yaml
-
-        if float(from_yaml(d / "config.yaml").sim.warmup_s) > 0:
+        if float(config_of(d / "config.yaml").sim.warmup_s) > 0:
             text += (f"; in {frozen} of {n} trials no robot's greedy policy changed after the event: the "
                      "policies the group had before it served after it too")
         else:
             text += (f"; but in {frozen} of {n} trials no robot's greedy policy changed at all over the whole run, "
                      "so the group settled where its initial tables put it rather than learning an allocation")
     return [text + ".", ""]
-
-
-def _relinked(line: str, results_dir: Path, folder: Path) -> str:
-    """A markdown line written for `folder`'s own report, its links made relative to `results_dir`."""
-    rel = folder.relative_to(results_dir)
-    return line.replace("](figures/", f"]({rel}/figures/")
 
 
 def model_lines(name: str, d: Path, cfg: TavcConfig, model_json: Path | None) -> list[str]:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.report.files import config_of
 from tavc_cli.report.text import CONTROLLER_NAMES, fmt
 
 
@@ -66,9 +67,7 @@ def mechanism_lines(d: Path) -> list[str]:
             f"Q(stay) - Q(switch), over states and robots, is {fmt(m.get('q_gap_stay_switch'), '.3g')}")
     needed = math.nan
     if (d / "config.yaml").is_file():
-        from tavc_cli.settings import from_yaml
-
-        needed = persistence_ratio(from_yaml(d / "config.yaml").tasks.values)
+        needed = persistence_ratio(config_of(d / "config.yaml").tasks.values)
     ratio = float(m.get("task_s_switch", math.nan)) / float(m.get("task_s_stay", math.nan))
     if math.isfinite(needed) and math.isfinite(ratio):
         text += (f". A robot on the low-value circuit earns more per task by staying than by alternating only if a "

@@ -19,18 +19,36 @@ import yaml
 
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
-from tavc_cli.chapter import state_table_id
+from tavc_cli.chapter import order_key, state_table_id
 from tavc_cli.ownership import COMPARE, STUDY, SURROGATE, TASKS, read
 from tavc_cli.readers import load_json
+from tavc_cli.report.files import config_of, read_or_refuse
 from tavc_cli.report.text import performance, run_lines, state_table
-from tavc_cli.settings import TavcConfig, from_yaml, to_yaml
+from tavc_cli.settings import TavcConfig, to_yaml
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
 # folders directly under the results folder that the report reads otherwise than run by run:
-# the second horizon (`horizons`, its runs found there in turn) and the value-ratio sweep
-# (`studies.value_ratio_lines`); under a horizon, the horizon ladder (`horizons.ladder_lines`)
-TOP_STUDIES = ("converged", "value_ratio")
+# the longer horizons (`horizon_folders`, their runs found there in turn) and the value-ratio
+# sweep (`studies.value_ratio_lines`); under a horizon, the horizon ladder (`time_scale.ladder_lines`)
+CONVERGED_DIR = "converged"  # `make reproduce-converged`'s horizon
+VALUE_RATIO = "value_ratio"
 LADDER = "ladder"
+# a longer horizon's folder directly under the results folder: `converged/`, or `x<factor>/` (`x10`,
+# `x2.5`) as the horizon ladder names its rungs, holding that horizon's run folders
+_HORIZON_NAME = re.compile(r"x\d+(\.\d+)?")
+
+
+def is_horizon_folder(d: Path) -> bool:
+    """Whether `d`, directly under a results folder, holds a longer horizon's runs: named
+    `converged` or `x<factor>`, a folder (not a link) that is not itself a run's."""
+    return (d.name == CONVERGED_DIR or _HORIZON_NAME.fullmatch(d.name) is not None) and d.is_dir() \
+        and not d.is_symlink() and not is_run_folder(d)
+
+
+def horizon_folders(results_dir: Path) -> list[Path]:
+    """The folders of the longer horizons directly under results_dir (`is_horizon_folder`), in
+    natural order of their names."""
+    return sorted((d for d in results_dir.iterdir() if is_horizon_folder(d)), key=lambda p: _natural(p.name))
 
 
 def folder_kind(d: Path) -> str | None:
@@ -55,14 +73,15 @@ def is_run_folder(d: Path) -> bool:
 def run_folders(folder: Path, top: bool = True) -> list[Path]:
     """Every run folder under `folder` at any depth (`is_run_folder`), in natural order of
     their paths: a run's own folder is not searched further (its `trials/`, `model/`), nor
-    `figures/`, hidden folders, or the studies read as a whole (TOP_STUDIES directly under the
-    results folder, `top`; a `ladder/` with its `ladder.csv`). A link is not followed: each run
-    is found once, where it lies, and a link that loops back leads nowhere."""
+    `figures/`, hidden folders, or what the report reads otherwise (directly under the results
+    folder, `top`: the longer horizons and the value-ratio sweep; a `ladder/` with its
+    `ladder.csv`). A link is not followed: each run is found once, where it lies, and a link
+    that loops back leads nowhere."""
     out = []
     for d in sorted((p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()),
                     key=lambda p: _natural(p.name)):
-        if d.name == "figures" or d.name.startswith(".") or (top and d.name in TOP_STUDIES) or \
-                (d.name == LADDER and (d / "ladder.csv").is_file()):
+        if d.name == "figures" or d.name.startswith(".") or (top and (d.name == VALUE_RATIO or is_horizon_folder(d))) \
+                or (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
         if folder_kind(d) in (STUDY, TASKS, COMPARE):  # read as a whole: the surrogate's study, its tasks, a comparison
             continue
@@ -70,17 +89,34 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
     return out
 
 
+def finished_runs(results_dir: Path) -> tuple[dict[str, list[Path]], list[Path]]:
+    """experiment name -> the folders of its finished runs (their `provenance.json`, written
+    last, is there) at any depth under results_dir (`run_folders`: not a longer horizon's nor a
+    study's), the one its claims are tested on first (`designated_first`), in the chapter's
+    order; and the folders of runs that did not finish."""
+    found: dict[str, list[Path]] = {}
+    unfinished = []
+    for d in run_folders(results_dir):
+        if (d / "state_time.csv").is_file() and (d / "config.yaml").is_file() and (d / "provenance.json").is_file():
+            found.setdefault(str(read_or_refuse(d / "config.yaml", config_of).experiment_name or d.name), []).append(d)
+        else:
+            unfinished.append(d)
+    ordered = sorted(found.items(), key=lambda kv: order_key(kv[0]))
+    return {name: designated_first(name, folders, results_dir) for name, folders in ordered}, unfinished
+
+
 def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
     """(what reads them, run folders) for the studies the report reads as a whole: the
     horizon ladder's rungs and the value-ratio sweep's runs."""
     out = []
-    ladder = results_dir / TOP_STUDIES[0] / LADDER
-    if (ladder / "ladder.csv").is_file():
-        rungs = [d for d in sorted(ladder.iterdir(), key=lambda p: _natural(p.name)) if d.is_dir() and
-                 is_run_folder(d)]
-        if rungs:
-            out.append(("the horizon ladder, in *The time scale*", rungs))
-    ratio = results_dir / TOP_STUDIES[1]
+    for horizon in horizon_folders(results_dir):
+        ladder = horizon / LADDER
+        if (ladder / "ladder.csv").is_file():
+            rungs = [d for d in sorted(ladder.iterdir(), key=lambda p: _natural(p.name)) if d.is_dir() and
+                     is_run_folder(d)]
+            if rungs:
+                out.append(("the horizon ladder, in *The time scale*", rungs))
+    ratio = results_dir / VALUE_RATIO
     if ratio.is_dir():
         found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: _natural(p.as_posix()))
         if found:
@@ -149,7 +185,7 @@ def _settings(d: Path) -> dict:
     """Run `d`'s settings as today's tavc reads its config.yaml (`from_yaml`: a record written
     before a key existed reads with its default, and its learner's node as the learner declares
     it), as dotted keys."""
-    return _flat(yaml.safe_load(to_yaml(from_yaml(d / "config.yaml"))))
+    return _flat(yaml.safe_load(to_yaml(config_of(d / "config.yaml"))))
 
 
 def _flat(data, prefix: str = "") -> dict:
@@ -213,17 +249,15 @@ def draw_figures(name: str, d: Path, cfg: TavcConfig, horizon: Path, results_dir
     return experiment_figures(name, d, cfg, state_time, results_dir, model_json, fig_dir, label)
 
 
-def run_list_lines(results_dir: Path, base, long=None) -> list[str]:
+def run_list_lines(results_dir: Path, horizons: list) -> list[str]:
     """*The runs in this folder*: every run folder under results_dir, finished or not, with
     its experiment, scale and trials, and where the report uses it: the run a claim is tested
-    on, a section of its own, a study read as a whole, or left out (and why). `base` and
-    `long` are the horizons (`horizons.Horizon`)."""
+    on, a section of its own, a study read as a whole, or left out (and why). `horizons` are
+    the report's (`horizons.Horizon`), the chapter's durations first."""
     rows = []
-    for h, where in ((base, "at the chapter's durations"), (long, "at the second horizon")):
-        if h is None:
-            continue
+    for h in horizons:
         for name, d in h.experiments.items():
-            rows.append((d, f"the claims about {name} {where} are tested on it"))
+            rows.append((d, f"the claims about {name} {h.named} are tested on it"))
             rows += [(o, f"a section of its own, under {name}") for o in h.others.get(name, [])]
         rows += [(d, "left out: the run did not finish (no provenance.json)") for d in h.unfinished]
     lines = ["## The runs in this folder", "",
@@ -247,7 +281,7 @@ def _facts(d: Path, several: int = 1) -> str:
     trials, as three table cells; for `several` runs of a study, the first one's experiment
     and scale and how many runs."""
     try:
-        cfg = from_yaml(d / "config.yaml")
+        cfg = config_of(d / "config.yaml")
     except Exception:  # an unfinished run's settings may be missing or half-written: name what is known
         return " |  | "
     short = scale_shortfall(cfg)

@@ -1,7 +1,8 @@
 """The report's section on the time scale: why the learners stay where they start at the
 chapter's durations (the arithmetic of the learning rule and the policies measured in the runs),
-the second horizon, the horizon ladder's rungs and the learner-side convergence measures. Read
-from saved tables, as the rest of the report is (`horizons` holds the two horizons themselves).
+then each longer horizon: how it was run, the horizon ladder's rungs where it has a ladder, and
+the learner-side convergence measures. Read from saved tables, as the rest of the report is
+(`horizons` holds the horizons themselves).
 """
 
 from __future__ import annotations
@@ -13,44 +14,54 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli import chapter
-from tavc_cli.report.horizons import CONVERGED_DIR, Horizon, convergence, never_changed, window_lines
+from tavc_cli.report.files import config_of
+from tavc_cli.report.horizons import Horizon, convergence, horizons_stem, never_changed, window_lines
+from tavc_cli.report.runs import LADDER
 from tavc_cli.report.text import fmt
 
 
-def time_scale_lines(results_dir: Path, long: Horizon, model_json: Path | None,
-                     base: Horizon | None = None) -> list[str]:
+def time_scale_lines(results_dir: Path, horizons: list[Horizon], model_json: Path | None) -> list[str]:
     """The section on the time scale: why the learners stay where they start at the chapter's
-    durations (`stay_lines`), the second horizon, the ladder, the convergence measures."""
+    durations (`stay_lines`), then each longer horizon, its ladder, its convergence measures."""
+    base, longer = horizons[0], horizons[1:]
     lines = ["## The time scale: where the chapter's learning rule converges", ""]
-    lines += stay_lines(results_dir, base, long, model_json)
-    lines += ["### The second horizon", "",
-              f"The second horizon runs every experiment at {long.factor:g} times the chapter's durations, "
-              "convergence periods, warm-ups and event times, at the chapter's trial counts (`scale=converged`); "
-              "section 1.4's trials at ten times its traversals. The baselines learn nothing, so their "
-              "distribution does not depend on the horizon: they run the chapter's own schedule (the same trials "
-              "as at the chapter's durations) and are compared over its stable periods.", ""]
-    lines += window_lines(long)
-    lines += ladder_lines(results_dir, long)
-    lines += convergence_lines(long)
+    lines += stay_lines(results_dir, base, longer, model_json)
+    for h in longer:
+        scale = sorted({str(cfg.scale.name) for cfg, _ in h.read.values()})
+        if scale == ["converged"]:
+            how = (f"The {h.ordinal} horizon runs every experiment at {h.factor:g} times the chapter's durations, "
+                   "convergence periods, warm-ups and event times, at the chapter's trial counts (`scale=converged`); "
+                   "section 1.4's trials at ten times its traversals. The baselines learn nothing, so their "
+                   "distribution does not depend on the horizon: they run the chapter's own schedule (the same "
+                   "trials as at the chapter's durations) and are compared over its stable periods.")
+        else:
+            how = (f"The {h.ordinal} horizon (`{h.folder.relative_to(results_dir).as_posix()}/`) runs its experiments "
+                   f"at {h.factor:g} times the chapter's durations (`scale={', scale='.join(scale)}`).")
+        lines += [f"### The {h.ordinal} horizon", "", how, ""]
+        lines += window_lines(h)
+        lines += ladder_lines(results_dir, h)
+        lines += convergence_lines(h)
     return lines
+
+
+def _ladder(h: Horizon) -> Path:
+    return h.folder / LADDER / "ladder.csv"
 
 
 STAY_EXPERIMENT = chapter.base_case().name  # the run the arithmetic and the measured policies are read from
 
 
-def stay_lines(results_dir: Path, base: Horizon | None, long: Horizon, model_json: Path | None) -> list[str]:
+def stay_lines(results_dir: Path, base: Horizon, longer: list[Horizon], model_json: Path | None) -> list[str]:
     """Why the learners stay where their initial tables put them at the chapter's durations:
     the learning rule's arithmetic, every number of it read from initial_distribution's
     `config.yaml` (alpha, gamma, epsilon, the chapter's duration) and the model's `model.json`
     (seconds per task), then the greedy policies as measured in the saved tables, and where the
     figures show it."""
-    run = (base.experiments.get(STAY_EXPERIMENT) if base is not None else None) \
-        or long.experiments.get(STAY_EXPERIMENT)
+    run = base.experiments.get(STAY_EXPERIMENT) or next(
+        (h.experiments[STAY_EXPERIMENT] for h in longer if STAY_EXPERIMENT in h.experiments), None)
     if run is None:
         return []
-    from tavc_cli.settings import from_yaml
-
-    cfg = from_yaml(run / "config.yaml")
+    cfg = config_of(run / "config.yaml")
     alpha, gamma, eps = float(cfg.learner.alpha), float(cfg.learner.gamma), float(cfg.learner.epsilon)
     rate = alpha * (1.0 - gamma)
     chapter_s = float(cfg.paper.duration_s)
@@ -78,15 +89,17 @@ def stay_lines(results_dir: Path, base: Horizon | None, long: Horizon, model_jso
                  f"other's moves on one choice in {2 / eps:.0f}: within the chapter's {chapter_s / 3600:g} h a robot's "
                  "greedy policy (its preferred next circuit after each circuit) mostly stays where its random initial "
                  "table put it.")
-    items += _measured_policies(results_dir, run, long)
+    items += _measured_policies(results_dir, run, longer)
     # each drawn by this report from saved tables: the Q-values with the experiment's section, the
-    # two horizons with its second-horizon section, the ladder from its ladder.csv (`ladder_lines`)
+    # horizons with its sections at the longer horizons, the ladder from its ladder.csv (`ladder_lines`)
+    both = [h for h in longer if STAY_EXPERIMENT in h.experiments and STAY_EXPERIMENT in base.experiments]
     figures = [(f"figures/q_values_{STAY_EXPERIMENT}.png", "the Q-values of trial 0, robot by robot",
                 (run / "q_values.csv").is_file()),
-               (f"figures/horizons_{STAY_EXPERIMENT}.png", "the states at both horizons",
-                STAY_EXPERIMENT in long.experiments and base is not None and STAY_EXPERIMENT in base.experiments),
-               (f"{CONVERGED_DIR}/figures/ladder.png", "the horizon ladder",
-                (long.folder / "ladder" / "ladder.csv").is_file())]
+               *((f"figures/{horizons_stem(STAY_EXPERIMENT, h)}.png",
+                  "the states at both horizons" if len(longer) == 1 else f"the states at 1x and {h.factor:g}x", True)
+                 for h in both),
+               *((f"{h.folder.relative_to(results_dir).as_posix()}/figures/ladder.png", "the horizon ladder",
+                  _ladder(h).is_file()) for h in longer)]
     shown = [f"[{what}]({path})" for path, what, drawn in figures if drawn]
     if shown:
         items.append("Figures: " + ", ".join(shown) + ".")
@@ -103,10 +116,10 @@ def _task_time_3_3(model_json: Path | None) -> float | None:
     return sum(times) / len(times) if times else None
 
 
-def _measured_policies(results_dir: Path, run: Path, long: Horizon) -> list[str]:
+def _measured_policies(results_dir: Path, run: Path, longer: list[Horizon]) -> list[str]:
     """The greedy policies as measured: robots and trials of `run` whose greedy policy never
     changed (its `q_values.csv`, `trial_stats.csv`), the ladder's share of robots whose policy
-    changed in the last quarter, and the long horizon's trials in which none changed."""
+    changed in the last quarter, and each longer horizon's trials in which none changed."""
     from tavc_cli.analysis.qvalues import policy_changes
 
     out = []
@@ -133,30 +146,37 @@ def _measured_policies(results_dir: Path, run: Path, long: Horizon) -> list[str]
         out[-1:] = [f"{out[-1]}; {text}."] if out else [f"Measured at the chapter's durations: {text}."]
     elif out:
         out[-1] += "."
-    path = long.folder / "ladder" / "ladder.csv"
-    if path.is_file():
-        from tavc_cli.analysis.ladder import ladder_value
-
-        share = ladder_value(pd.read_csv(path), "tavc", "policy_changed_share").dropna()
-        if len(share):
-            top = float(share.idxmax())
-            first = float(share.index.min())
-            out.append(f"The horizon ladder: the share of robots whose greedy policy changed in the last quarter of "
-                       f"the run is {share[first]:.2f} at {first:g}x and at most {share[top]:.2f} (at {top:g}x) "
-                       f"(`{path.relative_to(results_dir).as_posix()}`).")
-    d = long.experiments.get(STAY_EXPERIMENT)
-    if d is not None:
-        frozen, n = never_changed(d)
+    for h in longer:
+        out += _ladder_policies(results_dir, h)
+    for h in longer:
+        d = h.experiments.get(STAY_EXPERIMENT)
+        frozen, n = never_changed(d) if d is not None else (0, 0)
         if n:
-            out.append(f"At {long.factor:g} times the chapter's durations, in {frozen} of {n} trials no robot's "
+            out.append(f"At {h.factor:g} times the chapter's durations, in {frozen} of {n} trials no robot's "
                        f"greedy policy changed from t = 0 on (`{d.relative_to(results_dir).as_posix()}/"
                        "trial_stats.csv`).")
     return out
 
 
-def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
-    """The ladder's figure and table, where `<long>/ladder/ladder.csv` is saved."""
-    path = long.folder / "ladder" / "ladder.csv"
+def _ladder_policies(results_dir: Path, h: Horizon) -> list[str]:
+    """The share of robots whose greedy policy changed in the last quarter, over the ladder's rungs."""
+    path = _ladder(h)
+    if not path.is_file():
+        return []
+    from tavc_cli.analysis.ladder import ladder_value
+
+    share = ladder_value(pd.read_csv(path), "tavc", "policy_changed_share").dropna()
+    if not len(share):
+        return []
+    top, first = float(share.idxmax()), float(share.index.min())
+    return [f"The horizon ladder: the share of robots whose greedy policy changed in the last quarter of the run is "
+            f"{share[first]:.2f} at {first:g}x and at most {share[top]:.2f} (at {top:g}x) "
+            f"(`{path.relative_to(results_dir).as_posix()}`)."]
+
+
+def ladder_lines(results_dir: Path, h: Horizon) -> list[str]:
+    """The ladder's figure and table, where `<horizon>/ladder/ladder.csv` is saved."""
+    path = _ladder(h)
     if not path.is_file():
         return []
     from tavc_cli.analysis.ladder import ladder_value
@@ -166,7 +186,7 @@ def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
     rel = path.parent.relative_to(results_dir)
     factors = sorted(set(table["factor"]))
     # redrawn from ladder.csv with the report's figures (its bars cut at 0 and 100 %, n named)
-    ladder_figure(table, long.folder / "figures" / "ladder")
+    ladder_figure(table, h.folder / "figures" / "ladder")
     deciding = {f: rung_claims(path.parent / f"x{f:g}") for f in factors}
     lines = ["### The horizon ladder", "",
              f"{STAY_EXPERIMENT} with the same seeds at several multiples of the chapter's 5 h (`tavc ladder`; "
@@ -175,7 +195,7 @@ def ladder_lines(results_dir: Path, long: Horizon) -> list[str]:
              "relative change of a robot's Q-table over the last quarter of the run (`Q drift`), the share of "
              "robots whose greedy policy changed in that quarter, and the drift of the robots on the high-value "
              "circuit between the two halves of the stable period; converged means all three are small.", "",
-             f"![the horizon ladder]({long.folder.relative_to(results_dir).as_posix()}/figures/ladder.png)", "",
+             f"![the horizon ladder]({h.folder.relative_to(results_dir).as_posix()}/figures/ladder.png)", "",
              f"(Drawn from `{rel}/ladder.csv`. The claims' p is that of the part that decides each verdict, as in "
              "the claims table above.)", "",
              "| horizon | h | 2:4 | 3:3 | 4:2 | claim 3 (p) | claim 5 (p) | Q drift | policies changed | "
@@ -233,19 +253,19 @@ def rung_claims(d: Path) -> pd.DataFrame | None:
     return claim_table({STAY_EXPERIMENT: pd.read_csv(path)}, STAY_EXPERIMENT).set_index("claim_id")
 
 
-def convergence_lines(long: Horizon) -> list[str]:
-    """Each experiment's convergence measures at the long horizon."""
-    rows = [(name, convergence(d)) for name, d in long.experiments.items()]
+def convergence_lines(h: Horizon) -> list[str]:
+    """Each experiment's convergence measures at a longer horizon."""
+    rows = [(name, convergence(d)) for name, d in h.experiments.items()]
     rows = [(name, v) for name, v in rows if v is not None]
     if not rows:
         return []
-    lines = [f"### Did the learners converge at {long.factor:g}x?", "",
+    lines = [f"### Did the learners converge at {h.factor:g}x?", "",
              "| experiment | trials | Q drift (median) | policies changed | alloc. drift | TD error / Q | converged | "
              "trials in which no greedy policy changed from t = 0 on |",
              "|---|---|---|---|---|---|---|---|"]
     for name, v in rows:
         failed = ", ".join(v.get("failed", []))
-        frozen, n = never_changed(long.experiments[name])
+        frozen, n = never_changed(h.experiments[name])
         lines.append(f"| {name} | {v['n_trials']} | {fmt(v['q_drift'], '.3f')} | "
                      f"{fmt(v['policy_changed_share'], '.2f')} | {fmt(v['alloc_drift'], '.2f')} | "
                      f"{fmt(v['td_error_rel'], '.3g')} | {'yes' if v['converged'] else 'no (' + failed + ')'} | "
