@@ -16,13 +16,38 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
+from typer.core import TyperArgument, TyperCommand, TyperGroup, TyperOption
 
 from tavc_cli import __version__, commands, config, options
 from tavc_cli.compare import CONTROLLERS, SCENARIOS
 from tavc_cli.console import user_errors as _user_errors
 
+
+def _untyped(params: list) -> list:
+    """The parameters as the help lists them, without type labels (`<bool>`, `<list[str]>`): each
+    option's help says what it takes, and an argument is shown by its name."""
+    for p in params:
+        if isinstance(p, TyperOption) and p.metavar is None:
+            p.metavar = ""
+        elif isinstance(p, TyperArgument) and p.metavar is None:
+            p.metavar = p.name.upper()
+            p.display_type_rich = lambda ctx: None  # its name says what it is
+    return params
+
+
+class _Group(TyperGroup):
+    def get_params(self, ctx) -> list:
+        return _untyped(super().get_params(ctx))
+
+
+class _Command(TyperCommand):
+    def get_params(self, ctx) -> list:
+        return _untyped(super().get_params(ctx))
+
+
 app = typer.Typer(
     name="tavc",
+    cls=_Group,
     help="Reproduce task allocation through vacancy chains in multi-robot transportation.",
     no_args_is_help=True,
     add_completion=False,
@@ -380,6 +405,10 @@ def report(
     """Write RESULTS_DIR/REPORT.md and claims.csv from saved results (never simulates)."""
     with _user_errors(folder=lambda: results_dir):
         commands.report(results_dir, progress, html)
+
+
+for _info in app.registered_commands:  # every command's help without type labels
+    _info.cls = _Command if _info.cls in (None, TyperCommand) else _info.cls
 
 
 # --------------------------------------------------------------------------------------------

@@ -394,3 +394,15 @@ def test_compare_help_lists_every_default_at_eighty_columns():
         assert re.search(rf"\b{name}[,.]", flat), name
     assert "…" not in text
     assert not re.search(r"--no-progress\s+<bool>", flat)
+
+
+@pytest.mark.parametrize("command", [[], *([c.name or c.callback.__name__] for c in app.registered_commands)])
+def test_no_help_carries_a_type_label(command):
+    """Every command's help says what an option takes in words: no `<bool>`, `<str>`,
+    `<list[str]>` or `<path>` beside the options and arguments, and an argument is named in
+    capitals (`OVERRIDES`, `RESULTS_DIR`) in the usage line and its panel."""
+    text = runner.invoke(app, [*command, "--help"], env={"COLUMNS": "100", "TERM": "dumb"}).output
+    assert "Usage" in text
+    assert not re.search(r"<(bool|str|int|float|path|list\[\w+\])>", text), text
+    usage = next(line for line in text.splitlines() if "Usage" in line)
+    assert not re.search(r"\[[a-z_]+\]", usage), usage  # `[overrides]...` was lower case
