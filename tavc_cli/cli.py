@@ -183,6 +183,30 @@ def ladder_command(
                    ladder=config.parse_factors(factors))
 
 
+@app.command("stay-switch")
+def stay_switch_command(
+    overrides: options.overrides_of("seed=3 surrogate.trials_per_makeup=8") = None,
+    results: Annotated[
+        Path, typer.Option("--results", help="The study's folder: one folder per reading with its measured tasks, "
+                                             "stay_switch.csv and its figure beside them.")
+    ] = Path("runs/stay_switch"),
+    progress: options.ProgressFlag = None,
+) -> None:
+    """What each reading of the world does to staying and switching: static robots in every
+    make-up of the team, per reading (arrival, passing, layout); stay_switch.csv."""
+    with _user_errors(folder=lambda: results):
+        from tavc_cli.stay_switch import run_stay_switch, summary_lines
+
+        written = run_stay_switch(results, overrides or [], lambda o: config.settings(config.load_config(o)),
+                                  progress=options.shown(progress), echo=typer.echo)
+        import pandas as pd
+
+        for line in summary_lines(pd.read_csv(written[0])):
+            typer.echo(line)
+        for path in written:
+            typer.echo(f"written: {path}")
+
+
 @app.command()
 def model(
     overrides: options.Overrides = None,

@@ -39,10 +39,12 @@ RUN, SWEEP, LADDER, RESULTS, MODEL, CALIBRATION = "run", "sweep", "ladder", "res
 ANIMATION = "animation"
 SURROGATE, TASKS, STUDY = "surrogate", "surrogate-tasks", "surrogate-study"
 COMPARE = "compare"
+READINGS = "readings"
 _WHAT = {RUN: "a tavc run's folder", SURROGATE: "a surrogate run's folder (tavc surrogate)",
          TASKS: "the folder of the surrogate's measured tasks (task_times.csv)",
          STUDY: "the folder of the surrogate's study (comparison.csv, phase.csv)",
          COMPARE: "a comparison's folder (tavc compare: compare.csv and runs/)",
+         READINGS: "the folder of a study of the readings (tavc stay-switch: stay_switch.csv)",
          SWEEP: "a tavc sweep's folder (the jobs' folders and sweep.csv)",
          MODEL: "the folder of a tavc model (model.json)", CALIBRATION: "a tavc calibration's folder (search.csv)",
          ANIMATION: "a folder of tavc animations",
@@ -58,6 +60,7 @@ RESULTS_FILES = ("REPORT.md", "REPORT.html", "claims.csv", "value_ratio.csv")
 MODEL_FILES = ("model.csv", "model.json")
 COMPARE_FILES = ("compare.csv", "compare_trials.csv", "compare.md", "compare.png", "compare.svg")
 TASKS_FILES = ("task_times.csv", "task_times.json", "task_times_summary.csv")
+STAY_SWITCH_FILES = ("stay_switch.csv", "stay_switch.json", "stay_switch.png", "stay_switch.svg")
 CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
     f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))
 _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODEL: MODEL_FILES,

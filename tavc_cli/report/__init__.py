@@ -44,7 +44,7 @@ from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import LADDER, finished_runs, horizon_folders, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
-from tavc_cli.report.studies import value_ratio_lines
+from tavc_cli.report.studies import stay_switch_lines, value_ratio_lines
 from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
@@ -130,6 +130,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     model_json = find_model(experiments)
     if longer:
         lines += time_scale_lines(results_dir, every, model_json)
+    lines += stay_switch_lines(results_dir)
     lines += surrogate_lines(results_dir)
     lines += compare_lines(results_dir)
     n_runs = sum(len(h.experiments) + sum(len(ds) for ds in h.others.values()) for h in every)

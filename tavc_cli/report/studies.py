@@ -150,3 +150,44 @@ def trial_length_lines(d: Path, cfg: TavcConfig) -> list[str]:
             f"{cfg.paper.deliveries}), at most {float(cfg.duration_s):,.0f} s: its trials ran "
             f"{x.min():,.0f} to {x.max():,.0f} s (mean {x.mean():,.0f} s)"
             + (f"; {capped} of {len(x)} reached the limit first" if capped else "") + ".", ""]
+
+
+STAY_SWITCH_DIR = "stay_switch"
+
+
+def stay_switch_lines(results_dir: Path) -> list[str]:
+    """What each reading does to staying and switching (`tavc stay-switch`, `make stay-switch`),
+    if it was run into results_dir/stay_switch: per reading, a low-value stayer's t_switch /
+    t_stay over the make-ups that have both, and in how many of them staying pays; the figure."""
+    path = results_dir / STAY_SWITCH_DIR / "stay_switch.csv"
+    if not path.is_file():
+        return []
+    from tavc_cli.report.files import read_or_refuse
+
+    table = read_or_refuse(path, pd.read_csv)
+    rel = path.parent.relative_to(results_dir).as_posix()
+    both = table.dropna(subset=["ratio_low"])
+    if not len(both):
+        return []
+    threshold = float(both["threshold_low"].iloc[0])
+    record_path = path.parent / "stay_switch.json"
+    record = read_or_refuse(record_path, lambda p: json.loads(p.read_text())) if record_path.is_file() else {}
+    m = record.get("measurement", {}) if isinstance(record, dict) else {}
+    how = (f" Each make-up: {m['trials_per_makeup']} static trials, {m['measure_s']:g} s measured after "
+           f"{m['warmup_s']:g} s (scale={record.get('scale', '?')})." if {"trials_per_makeup", "measure_s", "warmup_s"}
+           <= set(m) else "")
+    lines = ["## The readings: what staying and switching cost", "",
+             "Static robots held to their roles (staying on the high-value circuit, staying on the low-value one, "
+             "alternating) in every make-up of the team of six, in each reading of the world the chapter leaves "
+             f"unsaid (`tavc stay-switch`, `{rel}/stay_switch.csv`). A robot on the low-value circuit gains by staying "
+             f"there where a switching task takes more than {threshold:.3f} times a staying one (the values' "
+             "(w_h + w_l) / 2 w_l); the vacancy chains the chapter describes need it to. No learner and no claim "
+             "enters: this is what the world offers the learners, measured." + how, "",
+             f"![stay and switch in each reading]({rel}/stay_switch.png)", "",
+             "| reading | make-ups with both | t_switch / t_stay (min, median, max) | staying pays in | "
+             "timed from the source: pays in |", "|---|---|---|---|---|"]
+    for reading, rows in both.groupby("reading", sort=False):
+        r = rows["ratio_low"]
+        lines.append(f"| {reading} | {len(rows)} | {r.min():.3f}, {r.median():.3f}, {r.max():.3f} | "
+                     f"{int(rows['stay_pays_low'].sum())} | {int(rows['stay_pays_low_source'].sum())} |")
+    return [*lines, ""]

@@ -1,0 +1,122 @@
+"""`tavc stay-switch`: what each reading of the world does to staying and switching.
+
+For every reading on a grid fixed here before any run (`GRID`: arrival at the dock or the code
+read at range, passing by the nearest free heading or keeping left, crossing or parallel
+circuits), the static `alternate` robots of the surrogate's measurement
+(`surrogate.run.measure_tasks`) run every make-up of the experiment's team (robots staying
+high, staying low, alternating), and `analysis.stay_switch` turns their tasks into the
+stay/switch times, where the time goes, and whether staying pays. What t covers (the whole task
+or from the source on) needs no runs of its own: both are read from the same tasks.
+
+Each reading's tasks are kept in `<results>/<reading>/tasks/` (`dock-nearest-two_circuits/`),
+guarded as the surrogate's are (other settings refused, other code measured again), so a
+rerun measures only what is missing.
+The study writes `stay_switch.csv`, `stay_switch.json` (the grid, the settings, the tasks'
+digests) and the figure `stay_switch.png`/`.svg`. Static robots learn nothing, and the readings
+are measured at their defaults: no learner's table and no claim enters.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.analysis.stay_switch import stay_switch_table
+from tavc_cli.errors import TavcError
+from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.ownership import READINGS, STAY_SWITCH_FILES, take
+from tavc_cli.settings import TavcConfig
+
+# the readings measured, each a config group with today's world first (docs/readings.md)
+GRID: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("arrival", ("dock", "range")),
+    ("passing", ("nearest", "left")),
+    ("arena", ("two_circuits", "two_circuits_parallel")),
+)
+DEFAULT_EXPERIMENT = "initial_distribution"  # the chapter's team of six, no events
+SET_BY_THE_STUDY = ("arrival", "passing", "arena", "surrogate.tasks_dir", "output_dir")
+
+Compose = Callable[[list[str]], TavcConfig]
+
+
+def readings() -> list[dict[str, str]]:
+    """Every combination of the grid's readings, today's world first."""
+    keys = [k for k, _ in GRID]
+    return [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*(v for _, v in GRID))]
+
+
+def reading_name(reading: dict[str, str]) -> str:
+    """A reading as the table names it, its overrides: ``arrival=dock passing=nearest arena=two_circuits``."""
+    return " ".join(f"{k}={v}" for k, v in reading.items())
+
+
+def reading_folder(reading: dict[str, str]) -> str:
+    """A reading's folder under the study's: its values, ``dock-nearest-two_circuits``."""
+    return "-".join(reading.values())
+
+
+def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, progress: bool = False,
+                    echo: Callable[[str], None] = print) -> list[Path]:
+    """Measure every reading of `GRID` into `out` and write the study's table, record and
+    figure; returns the files written, the table first. `overrides` apply to every reading
+    (e.g. `seed=3`, `surrogate.trials_per_makeup=8`, `experiment=...` of a one-group team)."""
+    from tavc_cli.surrogate.run import measure_tasks, measurement_record, tasks_digest
+    from tavc_cli.surrogate.tasks import Team
+
+    set_here = [o.split("=", 1)[0].lstrip("+~") for o in overrides
+                if o.split("=", 1)[0].lstrip("+~") in SET_BY_THE_STUDY]
+    if set_here:
+        raise TavcError(f"{set_here[0]}: set by the study for each reading (its grid: "
+                        + "; ".join(f"{k} {', '.join(v)}" for k, v in GRID) + ")")
+    out = Path(out)
+    with claim_folder(out):
+        owned = take(out, READINGS, STAY_SWITCH_FILES, "--results")
+    base = [f"experiment={DEFAULT_EXPERIMENT}", *overrides]
+    frames, record = [], {"grid": {k: list(v) for k, v in GRID}, "overrides": list(overrides), "readings": {}}
+    for reading in readings():
+        name, folder = reading_name(reading), reading_folder(reading)
+        cfg = compose([*base, *name.split(), f"surrogate.tasks_dir={out / folder / 'tasks'}"])
+        groups = tuple(m.group for m in cfg.team.members)
+        if len(set(groups)) != 1:
+            raise TavcError(f"experiment={cfg.experiment_name}: stay and switch are measured on a team of one group; "
+                            f"this team has {len(set(groups))} ({', '.join(dict.fromkeys(groups))})")
+        if len(cfg.tasks.values) != 2:
+            raise TavcError(f"arena: stay and switch need two circuits; {cfg.arena.name} has {len(cfg.tasks.values)}")
+        team = Team.of(groups, tuple(m.speed_mps for m in cfg.team.members))
+        echo(f"stay-switch: {name}")
+        times = measure_tasks(cfg, [team], progress=progress, echo=echo)
+        frames.append(stay_switch_table(times.frame, [float(v) for v in cfg.tasks.values], name))
+        record.setdefault("scale", str(cfg.scale.name))
+        record.setdefault("measurement", measurement_record(cfg)["measurement"])
+        record["readings"][name] = {"tasks": f"{folder}/tasks/task_times.csv", "tasks_digest": tasks_digest(times),
+                                    "values": [float(v) for v in cfg.tasks.values], "team": team.name}
+    table = pd.concat(frames, ignore_index=True)
+    from tavc_cli.viz.stay_switch import stay_switch_figure  # matplotlib: loaded only where a figure is drawn
+
+    with claim_folder(out):
+        owned.wrote(*STAY_SWITCH_FILES)
+        write_text_atomic(out / "stay_switch.csv", table.to_csv(index=False, float_format="%.4f"))
+        write_text_atomic(out / "stay_switch.json", json.dumps(record, indent=2))
+        figures = stay_switch_figure(table, out / "stay_switch")
+    return [out / "stay_switch.csv", out / "stay_switch.json", *figures]
+
+
+def summary_lines(table: pd.DataFrame) -> list[str]:
+    """Per reading: the range of t_switch / t_stay on the low-value circuit over the make-ups
+    with both, against the threshold, and in how many make-ups staying pays (whole task; from
+    the source on)."""
+    lines = []
+    for name, rows in table.groupby("reading", sort=False):
+        both = rows.dropna(subset=["ratio_low"])
+        if not len(both):
+            lines.append(f"{name}: no make-up with both a low-value stayer and an alternator")
+            continue
+        lines.append(f"{name}: t_switch / t_stay,low {both['ratio_low'].min():.3f} to {both['ratio_low'].max():.3f} "
+                     f"(staying pays above {both['threshold_low'].iloc[0]:.3f}) in {len(both)} make-ups; "
+                     f"pays in {int(both['stay_pays_low'].sum())}, timed from the source in "
+                     f"{int(both['stay_pays_low_source'].sum())}")
+    return lines

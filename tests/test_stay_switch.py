@@ -1,0 +1,124 @@
+"""`tavc stay-switch`: what each reading does to staying and switching.
+
+The table from a hand-made task table, every number worked out by hand; the grid's readings;
+refusals in one line; one reading end to end at smoke scale (slow)."""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from tavc_cli.analysis.stay_switch import stay_switch_table, thresholds
+from tavc_cli.cli import app
+from tavc_cli.surrogate.tasks import COLUMNS
+from tavc_cli.vocabulary import ACTIVITIES
+
+
+def _task(makeup: str, kind: str, circuit: int, t: float, source: float, drive: float = 0.0, wait: float = 0.0):
+    row = {"team": "all:6@0.25", "makeup": makeup, "group": "all", "kind": kind, "circuit": circuit,
+           "task_time_s": t, "source_s": source, **{f"{a}_s": 0.0 for a in ACTIVITIES}}
+    row.update(drive_s=drive, wait_s=wait)
+    return row
+
+
+def test_the_thresholds_are_the_values_ratio():
+    # (2200 + 2000) / (2 * 2000) = 1.05 on the low-value circuit, 4200 / 4400 = 0.9545... on the high one
+    low, high, h, lo = thresholds([2200.0, 2000.0])
+    assert (low, high, h, lo) == (pytest.approx(1.05), pytest.approx(4200 / 4400), 0, 1)
+    assert thresholds([2000.0, 2200.0])[2:] == (1, 0)  # the high-value circuit is the one of the larger value
+
+
+def test_stay_and_switch_times_and_whether_staying_pays_by_hand():
+    tasks = pd.DataFrame([
+        # make-up 2-2-2: stayers high (circuit 0) 80 s, stayers low (circuit 1) 80 and 90 s, switches 90 and 96 s
+        _task("all:2-2-2", "stay", 0, 80.0, 30.0), _task("all:2-2-2", "stay", 1, 80.0, 30.0, drive=50.0),
+        _task("all:2-2-2", "stay", 1, 90.0, 40.0, drive=60.0, wait=4.0),
+        _task("all:2-2-2", "switch", 0, 90.0, 40.0, drive=70.0), _task("all:2-2-2", "switch", 1, 96.0, 36.0),
+        # make-up 6-0-0: no low stayer, no alternator: no ratio
+        _task("all:6-0-0", "stay", 0, 100.0, 50.0),
+    ], columns=list(COLUMNS))
+    table = stay_switch_table(tasks, [2200.0, 2000.0], "today").set_index("makeup")
+    r = table.loc["all:2-2-2"]
+    assert (r["high_stayers"], r["low_stayers"], r["alternators"]) == (2, 2, 2)
+    assert (r["n_stay_low"], r["n_stay_high"], r["n_switch"]) == (2, 1, 2)
+    assert (r["t_stay_low_s"], r["t_stay_high_s"], r["t_switch_s"]) == (85.0, 80.0, 93.0)
+    assert (r["drive_stay_low_s"], r["wait_stay_low_s"], r["drive_switch_s"]) == (55.0, 2.0, 35.0)
+    # whole task: 93 / 85 = 1.094 > 1.05 pays on the low circuit; 93 / 80 = 1.1625 > 0.9545 on the high one
+    assert r["ratio_low"] == pytest.approx(93 / 85) and bool(r["stay_pays_low"])
+    assert r["ratio_high"] == pytest.approx(93 / 80) and bool(r["stay_pays_high"])
+    # from the source on: switches (50 + 60) / 2 = 55 s, low stayers (50 + 50) / 2 = 50 s: 1.10 > 1.05, pays
+    assert r["ratio_low_source"] == pytest.approx(55 / 50) and bool(r["stay_pays_low_source"])
+    assert r["ratio_high_source"] == pytest.approx(55 / 50)
+    none = table.loc["all:6-0-0"]
+    assert math.isnan(none["ratio_low"]) and not bool(none["stay_pays_low"])
+    assert list(table.index) == ["all:6-0-0", "all:2-2-2"]  # by alternators, then low-value stayers
+
+
+def test_a_switch_that_is_quicker_than_a_stay_does_not_pay():
+    tasks = pd.DataFrame([_task("all:3-2-1", "stay", 1, 100.0, 40.0), _task("all:3-2-1", "switch", 0, 100.0, 40.0),
+                          _task("all:3-2-1", "stay", 0, 100.0, 40.0)], columns=list(COLUMNS))
+    r = stay_switch_table(tasks, [2200.0, 2000.0]).iloc[0]
+    assert r["ratio_low"] == 1.0 and not bool(r["stay_pays_low"]) and bool(r["stay_pays_high"])  # 1 > 0.9545
+
+
+def test_the_grid_is_every_combination_with_todays_world_first():
+    from tavc_cli.stay_switch import reading_folder, reading_name, readings
+
+    grid = readings()
+    assert len(grid) == 8 and grid[0] == {"arrival": "dock", "passing": "nearest", "arena": "two_circuits"}
+    assert len({reading_name(r) for r in grid}) == 8
+    assert reading_name(grid[0]) == "arrival=dock passing=nearest arena=two_circuits"
+    assert reading_folder(grid[-1]) == "range-left-two_circuits_parallel"
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["arrival=range"], "error: arrival: set by the study for each reading"),
+    (["experiment=heterogeneous", "scale=smoke"], "error: experiment=heterogeneous: stay and switch are measured on a "
+                                                  "team of one group; this team has 2"),
+])
+def test_what_the_study_sets_or_cannot_measure_is_one_line(tmp_path, args, message):
+    result = CliRunner().invoke(app, ["stay-switch", *args, "--results", str(tmp_path / "out"), "--no-progress"])
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert lines[-1].startswith(message), result.output
+    assert not (tmp_path / "out" / "stay_switch.csv").exists()
+
+
+@pytest.mark.slow
+def test_the_study_end_to_end_at_smoke_scale_and_again_from_its_tasks(tmp_path):
+    """Every reading measured, the table and figure written; the same command again measures
+    nothing and writes the same table, byte for byte."""
+    out = tmp_path / "study"
+    args = ["stay-switch", "scale=smoke", "surrogate.trials_per_makeup=2", "--results", str(out), "--no-progress"]
+    first = CliRunner().invoke(app, args)
+    assert first.exit_code == 0, first.output
+    table = pd.read_csv(out / "stay_switch.csv")
+    assert table["reading"].nunique() == 8 and table.groupby("reading").size().max() <= 28  # make-ups of six robots
+    tasks = pd.read_csv(out / "dock-nearest-two_circuits" / "tasks" / "task_times.csv")
+    today = table[table["reading"] == "arrival=dock passing=nearest arena=two_circuits"].reset_index(drop=True)
+    mine = stay_switch_table(tasks, [2200.0, 2000.0], today["reading"].iloc[0])  # the table is its tasks', read again
+    pd.testing.assert_frame_equal(today, mine, check_dtype=False, atol=1e-3)
+    assert (out / "stay_switch.png").is_file()
+    before = (out / "stay_switch.csv").read_bytes()
+    again = CliRunner().invoke(app, args)
+    assert again.exit_code == 0 and "measuring" not in again.output
+    assert (out / "stay_switch.csv").read_bytes() == before
+
+
+def test_the_reports_section_reads_the_studys_table(tmp_path):
+    from tavc_cli.report.studies import stay_switch_lines
+
+    assert stay_switch_lines(tmp_path) == []  # no study: no section
+    tasks = pd.DataFrame([_task("all:2-2-2", "stay", 1, 80.0, 30.0), _task("all:2-2-2", "switch", 0, 92.0, 40.0),
+                          _task("all:3-2-1", "stay", 1, 100.0, 30.0), _task("all:3-2-1", "switch", 0, 100.0, 40.0)],
+                         columns=list(COLUMNS))
+    (tmp_path / "stay_switch").mkdir()
+    stay_switch_table(tasks, [2200.0, 2000.0], "arrival=dock").to_csv(tmp_path / "stay_switch" / "stay_switch.csv",
+                                                                      index=False)
+    text = "\n".join(stay_switch_lines(tmp_path))
+    # 92 / 80 = 1.15 pays, 100 / 100 = 1.0 does not: one of two; from the source 52 / 50 = 1.04 and 60 / 70: none
+    assert "| arrival=dock | 2 | 1.000, 1.075, 1.150 | 1 | 0 |" in text
+    assert "![stay and switch in each reading](stay_switch/stay_switch.png)" in text
