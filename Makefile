@@ -131,7 +131,7 @@ model: venv ## Measure the vacancy-chain model in the chapter's world (results/i
 	$(MODEL_NICE) $(BIN)/tavc model experiment=initial_distribution scale=paper output_dir=results/initial_distribution
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
-	$(BIN)/tavc stay-switch --results results/stay_switch
+	$(BIN)/tavc stay-switch scale=paper --results results/stay_switch
 
 value-ratio: venv ## Share of time on the high-value circuit against the value ratio: 5 h and 50 h, t in ms and s; gamma 0 at 5 h
 	$(BIN)/tavc run -m experiment=initial_distribution scale=paper 'baselines=[]' tasks.time_unit=ms,s \
