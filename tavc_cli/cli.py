@@ -201,7 +201,7 @@ def stay_switch_command(
                                   progress=options.shown(progress), echo=typer.echo)
         import pandas as pd
 
-        for line in summary_lines(pd.read_csv(written[0])):
+        for line in summary_lines(pd.read_csv(written[0]), pd.read_csv(written[1])):
             typer.echo(line)
         for path in written:
             typer.echo(f"written: {path}")

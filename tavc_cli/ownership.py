@@ -60,7 +60,8 @@ RESULTS_FILES = ("REPORT.md", "REPORT.html", "claims.csv", "value_ratio.csv")
 MODEL_FILES = ("model.csv", "model.json")
 COMPARE_FILES = ("compare.csv", "compare_trials.csv", "compare.md", "compare.png", "compare.svg")
 TASKS_FILES = ("task_times.csv", "task_times.json", "task_times_summary.csv")
-STAY_SWITCH_FILES = ("stay_switch.csv", "stay_switch.json", "stay_switch.png", "stay_switch.svg")
+STAY_SWITCH_FILES = ("stay_switch.csv", "stay_switch_model.csv", "stay_switch.json", "stay_switch.png",
+                     "stay_switch.svg")
 CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
     f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))
 _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODEL: MODEL_FILES,

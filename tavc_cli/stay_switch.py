@@ -5,13 +5,15 @@ read at range, passing by the nearest free heading or keeping left, crossing or 
 circuits), the static `alternate` robots of the surrogate's measurement
 (`surrogate.run.measure_tasks`) run every make-up of the experiment's team (robots staying
 high, staying low, alternating), and `analysis.stay_switch` turns their tasks into the
-stay/switch times, where the time goes, and whether staying pays. What t covers (the whole task
+stay/switch times, where the time goes, and whether staying pays; and `analysis.makeup_model`
+into the make-ups of stayers and alternators that are rest points, and which one the learners
+reach from random tables. What t covers (the whole task
 or from the source on) needs no runs of its own: both are read from the same tasks.
 
 Each reading's tasks are kept in `<results>/<reading>/tasks/` (`dock-nearest-two_circuits/`),
 guarded as the surrogate's are (other settings refused, other code measured again), so a
 rerun measures only what is missing.
-The study writes `stay_switch.csv`, `stay_switch.json` (the grid, the settings, the tasks'
+The study writes `stay_switch.csv`, `stay_switch_model.csv`, `stay_switch.json` (the grid, the settings, the tasks'
 digests) and the figure `stay_switch.png`/`.svg`. Static robots learn nothing, and the readings
 are measured at their defaults: no learner's table and no claim enters.
 """
@@ -25,6 +27,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.makeup_model import expected_high, predict, predicted_regime, times_of, values_high_low
 from tavc_cli.analysis.stay_switch import stay_switch_table
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
@@ -76,7 +79,8 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
     with claim_folder(out):
         owned = take(out, READINGS, STAY_SWITCH_FILES, "--results")
     base = [f"experiment={DEFAULT_EXPERIMENT}", *overrides]
-    frames, record = [], {"grid": {k: list(v) for k, v in GRID}, "overrides": list(overrides), "readings": {}}
+    frames, models = [], []
+    record: dict = {"grid": {k: list(v) for k, v in GRID}, "overrides": list(overrides), "readings": {}}
     for reading in readings():
         name, folder = reading_name(reading), reading_folder(reading)
         cfg = compose([*base, *name.split(), f"surrogate.tasks_dir={out / folder / 'tasks'}"])
@@ -90,25 +94,33 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
         echo(f"stay-switch: {name}")
         times = measure_tasks(cfg, [team], progress=progress, echo=echo)
         frames.append(stay_switch_table(times.frame, [float(v) for v in cfg.tasks.values], name))
+        values, high = values_high_low(cfg.tasks.values)
+        epsilon = float(getattr(cfg.learner, "epsilon", 0.0))
+        prediction = predict(times_of(times.frame, high), len(groups), values, epsilon)
+        models.append(prediction.assign(reading=name, epsilon=epsilon))
         record.setdefault("scale", str(cfg.scale.name))
         record.setdefault("measurement", measurement_record(cfg)["measurement"])
         record["readings"][name] = {"tasks": f"{folder}/tasks/task_times.csv", "tasks_digest": tasks_digest(times),
                                     "values": [float(v) for v in cfg.tasks.values], "team": team.name}
     table = pd.concat(frames, ignore_index=True)
+    model = pd.concat(models, ignore_index=True)
+    model = model[["reading", *(c for c in model.columns if c != "reading")]]
     from tavc_cli.viz.stay_switch import stay_switch_figure  # matplotlib: loaded only where a figure is drawn
 
     with claim_folder(out):
         owned.wrote(*STAY_SWITCH_FILES)
         write_text_atomic(out / "stay_switch.csv", table.to_csv(index=False, float_format="%.4f"))
+        write_text_atomic(out / "stay_switch_model.csv", model.to_csv(index=False, float_format="%.4f"))
         write_text_atomic(out / "stay_switch.json", json.dumps(record, indent=2))
         figures = stay_switch_figure(table, out / "stay_switch")
-    return [out / "stay_switch.csv", out / "stay_switch.json", *figures]
+    return [out / "stay_switch.csv", out / "stay_switch_model.csv", out / "stay_switch.json", *figures]
 
 
-def summary_lines(table: pd.DataFrame) -> list[str]:
+def summary_lines(table: pd.DataFrame, model: pd.DataFrame | None = None) -> list[str]:
     """Per reading: the range of t_switch / t_stay on the low-value circuit over the make-ups
     with both, against the threshold, and in how many make-ups staying pays (whole task; from
-    the source on)."""
+    the source on); with `model` (`stay_switch_model.csv`), the regime the make-up model
+    predicts and the robots it puts on the high-value circuit."""
     lines = []
     for name, rows in table.groupby("reading", sort=False):
         both = rows.dropna(subset=["ratio_low"])
@@ -119,4 +131,8 @@ def summary_lines(table: pd.DataFrame) -> list[str]:
                      f"(staying pays above {both['threshold_low'].iloc[0]:.3f}) in {len(both)} make-ups; "
                      f"pays in {int(both['stay_pays_low'].sum())}, timed from the source in "
                      f"{int(both['stay_pays_low_source'].sum())}")
+        if model is not None and (model["reading"] == name).any():
+            mine = model[model["reading"] == name]
+            regime, basin = predicted_regime(mine)
+            lines[-1] += f"; the make-up model: {regime} ({basin:.0%} of starts), {expected_high(mine):.2f} robots high"
     return lines

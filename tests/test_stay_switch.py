@@ -122,3 +122,84 @@ def test_the_reports_section_reads_the_studys_table(tmp_path):
     # 92 / 80 = 1.15 pays, 100 / 100 = 1.0 does not: one of two; from the source 52 / 50 = 1.04 and 60 / 70: none
     assert "| arrival=dock | 2 | 1.000, 1.075, 1.150 | 1 | 0 |" in text
     assert "![stay and switch in each reading](stay_switch/stay_switch.png)" in text
+
+
+# ---- the make-up model (analysis.makeup_model), on task times set by hand ------------------------
+
+def _times(stay_high, stay_low, switch):
+    """Times for every make-up of two robots: stay_high(h), stay_low(l) by robots on the circuit,
+    switch a constant."""
+    from tavc_cli.analysis.makeup_model import Times
+
+    out = {}
+    for h in range(3):
+        for low in range(3 - h):
+            out[(h, low, 2 - h - low)] = {"stay_high": stay_high(h) if h else math.nan,
+                                          "stay_low": stay_low(low) if low else math.nan,
+                                          "switch_high": switch if 2 - h - low else math.nan,
+                                          "switch_low": switch if 2 - h - low else math.nan}
+    return Times(out)
+
+
+def test_the_start_is_multinomial_over_a_random_tables_greedy_policies():
+    from tavc_cli.analysis.makeup_model import start_probability
+
+    # 3/8 high, 3/8 low, 1/4 alternate: two robots both alternating 1/16, one high one low 2 * 9/64
+    assert start_probability((0, 0, 2)) == pytest.approx(1 / 16)
+    assert start_probability((1, 1, 0)) == pytest.approx(2 * 9 / 64)
+    total = sum(start_probability((h, low, 6 - h - low)) for h in range(7) for low in range(7 - h))
+    assert total == pytest.approx(1.0)
+
+
+def test_a_switch_quicker_than_a_stay_makes_everyone_alternate():
+    from tavc_cli.analysis.makeup_model import predict, predicted_regime, rate
+
+    times = _times(lambda h: 100.0, lambda low: 100.0, 90.0)
+    # epsilon 0: high 2200 / 100 = 22, low 20, alternate 2100 / 90 = 23.33 per second
+    assert rate(times, (1, 1, 0), "high", (2200.0, 2000.0), 0.0) == pytest.approx(22.0)
+    assert rate(times, (0, 0, 2), "alternate", (2200.0, 2000.0), 0.0) == pytest.approx(2100 / 90)
+    prediction = predict(times, 2, (2200.0, 2000.0), 0.0)
+    assert list(prediction["makeup"]) == ["0-0-2"] and prediction["basin"].iloc[0] == pytest.approx(1.0)
+    assert predicted_regime(prediction) == ("turn-taking", pytest.approx(1.0))
+
+
+def test_crowding_on_the_high_circuit_makes_one_robot_stay_low():
+    from tavc_cli.analysis.makeup_model import best_change, expected_high, predict
+
+    # two on the high circuit take 120 s a task (2200 / 120 = 18.3 < 2000 / 100 = 20 alone on the low one);
+    # switching costs 130 s (2100 / 130 = 16.2): from every start the drift ends at one high, one low
+    times = _times(lambda h: 100.0 * (1 + 0.2 * (h - 1)), lambda low: 100.0 * (1 + 0.2 * (low - 1)), 130.0)
+    values = (2200.0, 2000.0)
+    gain, where = best_change(times, (2, 0, 0), values, 0.0)
+    assert where == (1, 1, 0) and gain == pytest.approx(20.0 / (2200 / 120) - 1)
+    assert best_change(times, (1, 1, 0), values, 0.0) == (0.0, None)  # a rest point
+    # from both alternating: to the high circuit gains 22 / 16.15 - 1, the most; then the other goes low
+    assert best_change(times, (0, 0, 2), values, 0.0)[1] == (1, 0, 1)
+    prediction = predict(times, 2, values, 0.0)
+    assert list(prediction["makeup"]) == ["1-1-0"] and prediction["regime"].iloc[0] == "persistence"
+    assert expected_high(prediction) == pytest.approx(1.0)
+
+
+def test_exploration_mixes_the_other_task_into_a_strategys_rate():
+    from tavc_cli.analysis.makeup_model import rate
+
+    times = _times(lambda h: 100.0, lambda low: 110.0, 130.0)
+    # a low stayer with epsilon 0.1: 95 % low tasks (2000, 110 s), 5 % switches to high (2200, 130 s)
+    expected = (0.95 * 2000 + 0.05 * 2200) / (0.95 * 110 + 0.05 * 130)
+    assert rate(times, (1, 1, 0), "low", (2200.0, 2000.0), 0.1) == pytest.approx(expected)
+
+
+def test_the_reports_section_gives_the_make_up_models_regime(tmp_path):
+    from tavc_cli.analysis.makeup_model import predict
+    from tavc_cli.report.studies import stay_switch_lines
+
+    tasks = pd.DataFrame([_task("all:1-0-1", "stay", 1, 80.0, 30.0), _task("all:1-0-1", "switch", 0, 92.0, 40.0),
+                          _task("all:0-1-1", "stay", 1, 80.0, 30.0), _task("all:0-1-1", "switch", 0, 92.0, 40.0)],
+                         columns=list(COLUMNS))
+    (tmp_path / "stay_switch").mkdir()
+    stay_switch_table(tasks, [2200.0, 2000.0], "today").to_csv(tmp_path / "stay_switch" / "stay_switch.csv",
+                                                               index=False)
+    model = predict(_times(lambda h: 100.0, lambda low: 100.0, 90.0), 2, (2200.0, 2000.0), 0.0).assign(reading="today")
+    model.to_csv(tmp_path / "stay_switch" / "stay_switch_model.csv", index=False)
+    text = "\n".join(stay_switch_lines(tmp_path))
+    assert "| turn-taking (100 %) | 1.00 |" in text  # both alternate: one robot's worth on each circuit

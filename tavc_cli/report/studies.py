@@ -185,9 +185,47 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
              "enters: this is what the world offers the learners, measured." + how, "",
              f"![stay and switch in each reading]({rel}/stay_switch.png)", "",
              "| reading | make-ups with both | t_switch / t_stay (min, median, max) | staying pays in | "
-             "timed from the source: pays in |", "|---|---|---|---|---|"]
+             "timed from the source: pays in | the make-up model: regime (share of starts) | robots on the high-value "
+             "circuit |", "|---|---|---|---|---|---|---|"]
+    model_path = path.parent / "stay_switch_model.csv"
+    model = read_or_refuse(model_path, pd.read_csv) if model_path.is_file() else None
     for reading, rows in both.groupby("reading", sort=False):
         r = rows["ratio_low"]
-        lines.append(f"| {reading} | {len(rows)} | {r.min():.3f}, {r.median():.3f}, {r.max():.3f} | "
-                     f"{int(rows['stay_pays_low'].sum())} | {int(rows['stay_pays_low_source'].sum())} |")
+        line = (f"| {reading} | {len(rows)} | {r.min():.3f}, {r.median():.3f}, {r.max():.3f} | "
+                f"{int(rows['stay_pays_low'].sum())} | {int(rows['stay_pays_low_source'].sum())} |")
+        mine = model[model["reading"] == reading] if model is not None else None
+        if mine is not None and len(mine):
+            from tavc_cli.analysis.makeup_model import expected_high, predicted_regime
+
+            regime, basin = predicted_regime(mine)
+            line += f" {regime} ({100 * basin:.0f} %) | {expected_high(mine):.2f} |"
+        else:
+            line += "  |  |"
+        lines.append(line)
+    if model is not None:
+        lines += ["", "The make-up model (`analysis/makeup_model.py`, `stay_switch_model.csv`) gives each robot one of "
+                  "the strategies a two-state Q-learner holds greedily (stay high, stay low, alternate), rates each by "
+                  "the measured tasks of its make-up with epsilon-greedy exploration, and follows the make-up from "
+                  "random initial tables, one robot's most gainful change at a time, to where no robot gains. It is "
+                  "fitted to nothing the learners did.", *_learners_beside_the_model(results_dir, model)]
     return [*lines, ""]
+
+
+def _learners_beside_the_model(results_dir: Path, model: pd.DataFrame) -> list[str]:
+    """Where the learners ran long enough to converge in today's world (`converged/initial_distribution`),
+    how their group was made beside what the make-up model predicts for that world."""
+    from tavc_cli.report.mechanism import mechanism
+
+    d = results_dir / "converged" / "initial_distribution"
+    today = "arrival=dock passing=nearest arena=two_circuits"
+    m = mechanism(d) if (d / "mechanism.csv").is_file() else None
+    mine = model[model["reading"] == today]
+    if m is None or not len(mine):
+        return []
+    from tavc_cli.analysis.makeup_model import predicted_regime
+
+    regime, basin = predicted_regime(mine)
+    return ["", f"Beside the learners: in today's world at 40 times the chapter's durations "
+            f"(`converged/initial_distribution`) the learners' group is made by **{m['regime']}**; the make-up model "
+            f"predicts **{regime}** ({100 * basin:.0f} % of starts). One point of the checks the model needs; the "
+            "others (the chapter's scenarios, the value ratios, team sizes, each reading) are not run yet."]
