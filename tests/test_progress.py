@@ -76,3 +76,14 @@ def test_lines_are_printed_every_ten_seconds_off_a_terminal(capsys, monkeypatch)
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == 2  # at 12 s and 24 s: more than ten seconds apart
     assert lines[0].strip().startswith("12.0% of 1,000 simulated s, 12 s elapsed")
+
+
+def test_no_compiling_notice_once_the_kernels_are_loaded(capsys, monkeypatch):
+    """A pool whose kernels are loaded (a later pool of the same run: they are in memory) says
+    nothing of compiling, however long its first report takes."""
+    monkeypatch.setattr(Progress, "COMPILE_NOTICE_S", 0.05)
+    prog = Progress(_batches(1000.0), shown=True)
+    prog.kernels_ready()
+    prog.notice.join(timeout=5.0)  # cancelled: it ends without firing
+    prog.close()
+    assert "compiles" not in capsys.readouterr().out

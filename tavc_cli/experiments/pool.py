@@ -47,7 +47,8 @@ class Progress:
     """What a run shows while it simulates, over the simulated seconds of its batches (each
     batch reports the fraction of itself that is done): nothing unless `shown`; a rich bar on a
     terminal; plain lines every `LINE_EVERY_S` otherwise. Until the first report it says, once,
-    what the wait is most likely for: kernels compiling (`COMPILE_NOTICE_S`). The time left is
+    what the wait is most likely for: kernels compiling (`COMPILE_NOTICE_S`), and not once they
+    are loaded (`kernels_ready`). The time left is
     the work left at the throughput measured since the first report, so the compiling is not
     taken for slow simulation; none is given before `ETA_AFTER_S` of measuring."""
 
@@ -55,7 +56,7 @@ class Progress:
     COMPILE_NOTICE_S = 3.0
     ETA_AFTER_S = 5.0
     COMPILE_NOTICE = ("  preparing: the first run after installing or changing tavc compiles the simulator's kernels "
-                      "(about 20 s); later runs load them from the cache")
+                      "(about 20 s of computing, longer on a busy machine); later runs load them from the cache")
 
     def __init__(self, batches: list[Batch], shown: bool) -> None:
         """Progress over `batches`, shown only if `shown` and there is something to simulate."""
@@ -87,6 +88,12 @@ class Progress:
             self.bar.console.print(line, highlight=False, markup=False)
         else:
             print(line, flush=True)
+
+    def kernels_ready(self) -> None:
+        """The kernels are compiled or loaded (`load_kernels` returned): nothing is left for the
+        compiling notice to explain, so it is not shown from here on."""
+        if self.notice is not None:
+            self.notice.cancel()
 
     def update(self, key, frac: float) -> None:
         """Batch `key` is `frac` done: move the bar, or print a line if the last is old enough."""
@@ -141,6 +148,7 @@ def run_pool(units: list[tuple], n_jobs: int, shown: bool) -> list[TrialFailure]
 
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
         load_kernels(pending)
+        prog.kernels_ready()  # a pool after the first loads them at once: no notice in its bar
         from multiprocessing.managers import SyncManager
 
         manager = SyncManager(ctx=ctx)
