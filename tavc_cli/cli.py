@@ -3,10 +3,9 @@
 Each command parses its arguments and hands them to one function: a keyword-only one of
 `tavc_cli.commands`, or the Python API's (`tavc_cli.api`, which `tavc model` and `tavc calibrate`
 share with notebooks); those functions load the config, call the library, and print. There is no
-domain logic here. A
-``TavcError`` or an ``OSError`` anywhere becomes one ``error: ...`` line on stderr and exit status 1;
-Ctrl-C becomes exit status 130 (`console.user_errors`). Any other exception is a bug and keeps its
-traceback.
+domain logic here. A ``TavcError`` or an ``OSError`` anywhere becomes one ``error: ...`` line on
+stderr and exit status 1; Ctrl-C becomes exit status 130 (`console.user_errors`). Any other
+exception is a bug and keeps its traceback.
 
 Modules that pull in the simulator are imported inside the commands that need them, so that
 ``tavc config`` and ``tavc list`` start fast.
@@ -16,44 +15,21 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from typer.core import TyperArgument, TyperCommand, TyperGroup, TyperOption
 
 from tavc_cli import __version__, commands, config, options
 from tavc_cli.compare import CONTROLLERS, SCENARIOS
 from tavc_cli.console import user_errors as _user_errors
 
-
-def _untyped(params: list) -> list:
-    """The parameters as the help lists them, without type labels (`<bool>`, `<list[str]>`): each
-    option's help says what it takes, and an argument is shown by its name."""
-    for p in params:
-        if isinstance(p, TyperOption) and p.metavar is None:
-            p.metavar = ""
-        elif isinstance(p, TyperArgument) and p.metavar is None:
-            p.metavar = p.name.upper()
-            p.display_type_rich = lambda ctx: None  # its name says what it is
-    return params
-
-
-class _Group(TyperGroup):
-    def get_params(self, ctx) -> list:
-        return _untyped(super().get_params(ctx))
-
-
-class _Command(TyperCommand):
-    def get_params(self, ctx) -> list:
-        return _untyped(super().get_params(ctx))
-
-
 app = typer.Typer(
     name="tavc",
-    cls=_Group,
+    cls=options.UntypedGroup,
     help="Reproduce task allocation through vacancy chains in multi-robot transportation.",
     no_args_is_help=True,
     add_completion=False,
     # A bug's traceback is for developers; the locals (whole configs) would drown it.
     pretty_exceptions_show_locals=False,
 )
+
 
 def _show_version(value: bool) -> None:
     if value:
@@ -64,10 +40,7 @@ def _show_version(value: bool) -> None:
 @app.callback()
 def main(
     version: Annotated[
-        bool,
-        typer.Option(
-            "--version", help="Print the version and exit.", callback=_show_version, is_eager=True
-        , metavar=""),
+        bool, typer.Option("--version", help="Print the version and exit.", callback=_show_version, is_eager=True),
     ] = False,
     config_dir: Annotated[
         Optional[list[Path]],
@@ -119,7 +92,6 @@ def run(
             "--multirun",
             "-m",
             help="Sweep comma lists, range() and choice(); one output folder per job.",
-            metavar="",
         ),
     ] = False,
     progress: options.ProgressFlag = None,
@@ -195,16 +167,7 @@ def stay_switch_command(
     """What each reading of the world does to staying and switching: static robots in every
     make-up of the team, per reading (arrival, passing, layout); stay_switch.csv."""
     with _user_errors(folder=lambda: results):
-        from tavc_cli.stay_switch import run_stay_switch, summary_lines
-
-        written = run_stay_switch(results, overrides or [], lambda o: config.settings(config.load_config(o)),
-                                  progress=options.shown(progress), echo=typer.echo)
-        import pandas as pd
-
-        for line in summary_lines(pd.read_csv(written[0]), pd.read_csv(written[1])):
-            typer.echo(line)
-        for path in written:
-            typer.echo(f"written: {path}")
+        commands.stay_switch(results, overrides or [], options.shown(progress))
 
 
 @app.command()
@@ -215,7 +178,6 @@ def model(
         typer.Option(
             "--save-calibration",
             help="Record the calibrated values as the config option tasks=calibrated (conf/tasks/).",
-            metavar="",
         ),
     ] = False,
     progress: options.ProgressFlag = None,
@@ -233,8 +195,7 @@ def surrogate(
     overrides: options.overrides_of("experiment=breakdown scale=converged surrogate.calibration=stayers") = None,
     study: Annotated[
         bool, typer.Option("--study", help="Check the surrogate against the simulator's runs and map what it "
-                                            "answers: comparison, ladder, phase diagram, convergence horizon, speed.",
-                           metavar="")
+                                            "answers: comparison, ladder, phase diagram, convergence horizon, speed.")
     ] = False,
     results: Annotated[
         Optional[Path],
@@ -320,7 +281,6 @@ def calibrate(
         typer.Option(
             "--save",
             help="Record the chosen world as the config option world=calibrated (conf/world/).",
-            metavar="",
         ),
     ] = False,
     progress: options.ProgressFlag = None,
@@ -336,7 +296,7 @@ def calibrate(
 @app.command()
 def bench(
     json_output: Annotated[
-        bool, typer.Option("--json", help="Print one JSON object and nothing else.", metavar="")
+        bool, typer.Option("--json", help="Print one JSON object and nothing else.")
     ] = False,
     scenario: Annotated[str, typer.Option(help="Arena to simulate.")] = "two_circuits",
     n_robots: Annotated[int, typer.Option("--n-robots", min=1, help="Robots in the arena.")] = 6,
@@ -357,7 +317,7 @@ def bench(
         typer.Option("--n-rays", min=1, help="Laser rays (default: the configured world's).", show_default=False),
     ] = None,
     scaling: Annotated[
-        bool, typer.Option(help="Also measure 2, 6, 12, 24 robots and 1, 2, all processes.", metavar="")
+        bool, typer.Option(help="Also measure 2, 6, 12, 24 robots and 1, 2, all processes.")
     ] = True,
     against: Annotated[
         Optional[str],
@@ -365,10 +325,10 @@ def bench(
     ] = None,
     profile: Annotated[
         bool, typer.Option(help="Instead, where one batch's time goes, by kernel and library (needs Linux's "
-                                "perf; at least 5,000 simulated s per trial).", metavar="")
+                                "perf; at least 5,000 simulated s per trial).")
     ] = False,
     force: Annotated[
-        bool, typer.Option("--force", help="Run it even if estimated to take over a day.", metavar="")
+        bool, typer.Option("--force", help="Run it even if estimated to take over a day.")
     ] = False,
 ) -> None:
     """Measure simulator throughput (simulated seconds per wall second, one core)."""
@@ -402,7 +362,7 @@ def animate(
     ] = 300.0,
     fps: Annotated[int, typer.Option(min=1, help="Frames per second of the animation.")] = 10,
     mp4: Annotated[
-        bool, typer.Option("--mp4/--no-mp4", help="Also write an MP4 (needs ffmpeg).", metavar="")
+        bool, typer.Option("--mp4/--no-mp4", help="Also write an MP4 (needs ffmpeg).")
     ] = False,
 ) -> None:
     """Render one run (robots, markings, targets, trails) to GIF or MP4."""
@@ -431,10 +391,5 @@ def report(
         commands.report(results_dir, progress, html)
 
 
-for _info in app.registered_commands:  # every command's help without type labels
-    _info.cls = _Command if _info.cls in (None, TyperCommand) else _info.cls
+options.untyped_help(app)
 
-
-# --------------------------------------------------------------------------------------------
-# What the commands do
-# --------------------------------------------------------------------------------------------

@@ -125,3 +125,17 @@ def report(results_dir: Path, progress: bool | None = None, page: bool = False) 
     show = sys.stderr.isatty() if progress is None else progress
     say = (lambda line: typer.echo(line, err=True)) if show else None
     typer.echo("\n".join(summary_lines(build_report(results_dir, say, page))))
+
+
+def stay_switch(results: Path, overrides: list[str], progress: bool) -> None:
+    """Run the readings' stay/switch study into `results` and print its summary and files."""
+    import pandas as pd
+
+    from tavc_cli.stay_switch import run_stay_switch, summary_lines
+
+    written = run_stay_switch(results, overrides, lambda o: config.settings(config.load_config(o)), progress=progress,
+                              echo=typer.echo)
+    for line in summary_lines(pd.read_csv(written[0]), pd.read_csv(written[1])):
+        typer.echo(line)
+    for path in written:
+        typer.echo(f"written: {path}")

@@ -1,8 +1,10 @@
-"""The arguments several commands of ``tavc`` share: their Hydra overrides and the progress flag."""
+"""The arguments several commands of ``tavc`` share (their Hydra overrides, the progress flag)
+and how every command's help lists them: without type labels."""
 
 from typing import Annotated, Any, Optional
 
 import typer
+from typer.core import TyperArgument, TyperCommand, TyperGroup, TyperOption
 
 
 def overrides_of(example: str) -> Any:
@@ -28,3 +30,37 @@ ProgressFlag = Annotated[
 def shown(progress: Optional[bool]) -> bool:
     """Whether to show progress: as asked, else yes (`pool.Progress` picks a bar or lines)."""
     return True if progress is None else progress
+
+
+def _untyped(params: list) -> list:
+    """The parameters as the help lists them, without type labels (`<bool>`, `<list[str]>`): each
+    option's help says what it takes, and an argument is shown by its name."""
+    for p in params:
+        if isinstance(p, TyperOption) and p.metavar is None:
+            p.metavar = ""
+        elif isinstance(p, TyperArgument) and p.metavar is None:
+            p.metavar = p.name.upper()
+            p.display_type_rich = lambda ctx: None  # its name says what it is
+    return params
+
+
+class UntypedGroup(TyperGroup):
+    """The app's group, its help without type labels (`_untyped`)."""
+
+    def get_params(self, ctx) -> list:
+        """The parameters, as the help lists them (`_untyped`)."""
+        return _untyped(super().get_params(ctx))
+
+
+class UntypedCommand(TyperCommand):
+    """A command whose help has no type labels (`_untyped`)."""
+
+    def get_params(self, ctx) -> list:
+        """The parameters, as the help lists them (`_untyped`)."""
+        return _untyped(super().get_params(ctx))
+
+
+def untyped_help(app: typer.Typer) -> None:
+    """Every command of `app` registered so far lists its help without type labels."""
+    for info in app.registered_commands:
+        info.cls = UntypedCommand if info.cls in (None, TyperCommand) else info.cls

@@ -1,12 +1,9 @@
 """The settings every command runs on: one typed dataclass per config group.
 
-The config package composes and validates them with Hydra (registered in its ConfigStore,
-they make a misspelled key or a value of the wrong type fail at compose time; the learner's
-node, when its own settings class reads it, before anything runs) and hands the
-result to the library as a `TavcConfig`; everything below the CLI reads attributes of these
-dataclasses, never a DictConfig or nested dicts. `from_yaml` reads a results folder's
-``config.yaml`` back into them.
-"""
+The config package composes and validates them with Hydra (registered in its ConfigStore, they
+make a misspelled key or a wrong type fail at compose time; the learner's node when its own
+settings class reads it, before anything runs) and hands the library a `TavcConfig`, whose
+attributes everything below the CLI reads. `from_yaml` reads a run's ``config.yaml`` back."""
 
 import copy
 from dataclasses import dataclass, field, fields
@@ -20,9 +17,7 @@ from omegaconf.errors import OmegaConfBaseException
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.parameters import LearnerSettings, PluginSettings, recorded_learner, settings_mapping
 from tavc_cli.learning.registry import SETTINGS
-
-# the study commands' groups, part of TavcConfig (and imported from here as every group is)
-from tavc_cli.settings_studies import CalibrationConfig, GridAxis, ModelConfig, SurrogateConfig  # noqa: F401
+from tavc_cli.settings_studies import CalibrationConfig, GridAxis, ModelConfig, SurrogateConfig  # noqa: F401 (groups)
 
 SCHEMA_NAME = "tavc_schema"
 AVAILABLE_BACKENDS = ("local", "ray", "dask")
@@ -32,10 +27,8 @@ ANALYSIS_STATES = ("circuits", "groups")
 STABLE_WINDOWS = ("whole", "chapter")
 TARGET_KINDS = ("source", "sink")
 TIME_UNITS = ("s", "ms")
-# A target must sit on a wall (bar-codes are mounted on walls); this is how close counts as on.
-WALL_TOLERANCE_M = 1e-6
-# A docked robot's front must stay at least this far from the wall.
-MIN_DOCK_CLEARANCE_M = 0.03
+WALL_TOLERANCE_M = 1e-6  # a target must sit on a wall (bar-codes are mounted on walls): how close counts as on
+MIN_DOCK_CLEARANCE_M = 0.03  # a docked robot's front stays at least this far from the wall
 
 
 # --------------------------------------------------------------------------------------------

@@ -197,3 +197,10 @@ def test_the_simulation_core_imports_neither_hydra_nor_omegaconf():
              for name in _imports(path) if name.split(".")[0] in ("hydra", "omegaconf")]
     assert found == []
 
+
+
+def test_no_module_is_over_400_lines():
+    """A module past 400 lines holds more than one idea: split it where the ideas part."""
+    long = {p.relative_to(PACKAGE).as_posix(): n for p in PACKAGE.rglob("*.py")
+            if (n := len(p.read_text().splitlines())) > 400}
+    assert long == {}
