@@ -58,6 +58,7 @@ def main() -> None:
 def _load() -> tuple:
     """The command line's modules: Typer, the console, the app (Hydra and the simulator's modules
     with it)."""
+    # deferred: loaded after the interrupt handler is in place (`main`)
     import typer
 
     from tavc_cli import console

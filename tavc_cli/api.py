@@ -24,8 +24,14 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli import config
+from tavc_cli.compare import CONTROLLERS, SCENARIOS
 from tavc_cli.errors import TavcError
+from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import ModelSettings
+from tavc_cli.learning.registry import MODEL_LEARNERS
+from tavc_cli.model.report import measurement_shortfall, model_text
+from tavc_cli.ownership import COMPARE, LADDER, RESULTS, expect, refuse_other_settings
 from tavc_cli.reading import Results, Sweep, load, load_sweep  # noqa: F401 - the API reads through these
 from tavc_cli.user_configs import using_config_dirs
 
@@ -92,8 +98,7 @@ def surrogate(overrides: Sequence[str] = (), *, output_dir: str | Path | None = 
 def surrogate_summary(overrides: Sequence[str] = (), *, progress: bool = False,
                       echo: Callable[[str], None] = print) -> dict:
     """`surrogate`'s work, returning the run's summary as `tavc surrogate` prints it."""
-    from tavc_cli import config
-    from tavc_cli.io import default_root
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.surrogate.run import run_surrogate
 
     overrides = list(overrides)
@@ -107,7 +112,7 @@ def surrogate_summary(overrides: Sequence[str] = (), *, progress: bool = False,
 def run_summary(overrides: Sequence[str] = (), *, progress: bool = False) -> dict:
     """`run`'s work, returning the run's summary (where it went, its tables and claims) as
     `tavc run` prints it."""
-    from tavc_cli import config
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.pipeline import run_experiment
 
     return run_experiment(config.settings(config.load_config(list(overrides))), progress=progress)
@@ -120,8 +125,7 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
     them. With `ladder` (multiples of the chapter's durations), the horizon ladder's rungs run
     in the same job, their history shared with the experiments' trials (`config.load_ladder`),
     and follow the experiments as ``ladder x<factor>``; ``experiments=[]`` runs the ladder alone."""
-    from tavc_cli import config
-    from tavc_cli.ownership import LADDER, RESULTS, expect
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.pipeline import run_experiments
 
     names = [experiments] if isinstance(experiments, str) else experiments
@@ -139,6 +143,7 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
         summary["together"] = len(summaries) > 1  # one wall time, the invocation's
     out = [(str(cfg.experiment_name), summary) for cfg, summary in zip(cfgs, summaries, strict=False)]
     if rungs:
+        # deferred: loads the simulator's compiled kernels
         from tavc_cli.pipeline import write_ladder
 
         write_ladder(Path(results_dir) / "ladder", [Path(str(cfg.output_dir)) for cfg in rungs])
@@ -174,11 +179,8 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
                     reuse: Mapping[str, str | Path] | None = None, progress: bool = False) -> dict:
     """`compare`'s work: each controller's runs composed here (the config stays at the front
     doors), run and read by `compare.run.run_compare`; returns its summary."""
-    from tavc_cli import config
-    from tavc_cli.compare import CONTROLLERS, SCENARIOS
+    # deferred: loads scipy
     from tavc_cli.compare.run import controller_overrides, run_compare
-    from tavc_cli.learning.registry import MODEL_LEARNERS
-    from tavc_cli.ownership import COMPARE, expect
 
     # learner.model_file is the comparison's: the model its predicted states come from, and the one the
     # model's controllers follow; every other controller's learner has no such key
@@ -218,11 +220,9 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, prog
 
 
 def _model(overrides: Sequence[str], save_calibration: bool, progress: bool, echo: Callable[[str], None]) -> dict:
-    from tavc_cli import config
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.model.api import calibration_record, model_identity, run_model
     from tavc_cli.model.api import save_calibration as save
-    from tavc_cli.model.report import measurement_shortfall, model_text
-    from tavc_cli.ownership import refuse_other_settings
 
     config.check_measurement(list(overrides), "model")  # its time on this machine, before anything runs
     cfg = config.settings(config.load_config(list(overrides)))
@@ -250,7 +250,7 @@ def calibrate(overrides: Sequence[str] = (), *, save: bool = False, progress: bo
 
 
 def _calibrate(overrides: Sequence[str], save: bool, progress: bool, echo: Callable[[str], None]) -> None:
-    from tavc_cli import config
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.model.calibrate import calibrate_world
     from tavc_cli.model.world_search import grid_points, point_overrides
 

@@ -24,9 +24,11 @@ from dataclasses import replace
 import numpy as np
 
 from tavc_cli import estimates
+from tavc_cli.bench_enki import build_enki_bench, run_enki
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import BatchEngine
+from tavc_cli.profiling import run_profile
 from tavc_cli.settings import ExecutorConfig, TavcConfig
 from tavc_cli.sim.world import CP_STEP, step_only
 
@@ -135,8 +137,6 @@ def bench_lines(result: dict) -> list[str]:
 def profile_bench(settings: TavcConfig, batch: int | None) -> tuple[dict, list[str]]:
     """`tavc bench --profile`: where one batch's time goes (`profiling.run_profile`), and the
     lines that show it."""
-    from tavc_cli.profiling import run_profile
-
     specs = _batch_specs(settings, int(batch or settings.executor.batch_size))
     result = run_profile(specs)
     lines = [f"{len(specs)} trials of {specs[0].n_robots} robots, {specs[0].duration_s:,.0f} simulated s each: "
@@ -233,8 +233,6 @@ def run_bench(settings_for: SettingsFor, *, scenario: str = "two_circuits", n_ro
     if against not in (None, "enki"):
         raise TavcError(f"--against: the only reference simulator is 'enki', got {against!r}")
     if against == "enki":
-        from tavc_cli.bench_enki import build_enki_bench
-
         build_enki_bench()  # before anything is measured: says in one line what is missing
     if repeats < 1:
         raise TavcError(f"--repeats: must be >= 1, got {repeats}")
@@ -276,8 +274,6 @@ def run_bench(settings_for: SettingsFor, *, scenario: str = "two_circuits", n_ro
         result["scaling_robots"] = _robots_scaling(settings_for, (2, 6, 12, 24), short, batch, repeats)
         result["scaling_processes"] = _cores_scaling(specs, sorted({1, 2, os.cpu_count() or 1}))
     if against == "enki":
-        from tavc_cli.bench_enki import run_enki
-
         enki = run_enki(duration_s, repeats, n_robots)
         one = _full_loop_best(specs[:1], repeats)
         result["enki"] = enki

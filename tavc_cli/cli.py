@@ -11,6 +11,7 @@ Modules that pull in the simulator are imported inside the commands that need th
 ``tavc config`` and ``tavc list`` start fast.
 """
 
+import os
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -19,6 +20,9 @@ import typer
 from tavc_cli import __version__, commands, config, options
 from tavc_cli.compare import CONTROLLERS, SCENARIOS
 from tavc_cli.console import user_errors as _user_errors
+from tavc_cli.errors import TavcError
+from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
+from tavc_cli.user_configs import extended_config_dirs
 
 app = typer.Typer(
     name="tavc",
@@ -51,12 +55,6 @@ def main(
 ) -> None:
     """Reproduce task allocation through vacancy chains in multi-robot transportation."""
     if config_dir:
-        import os
-
-        from tavc_cli.errors import TavcError
-        from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
-        from tavc_cli.user_configs import extended_config_dirs
-
         try:
             os.environ[CONFIG_DIRS_ENV] = extended_config_dirs(config_dir)
         except TavcError as error:
@@ -185,6 +183,7 @@ def model(
     """Measure c_i(n) in the simulator and apply the TAVC model: slot values, predicted
     allocation, constraints (1.3)/(1.4) and calibrated task values."""
     with _user_errors(folder=lambda: config.load_config(overrides or []).output_dir):
+        # deferred: loads pandas
         from tavc_cli.api import model as run_model
 
         run_model(overrides or [], save_calibration=save_calibration, progress=options.shown(progress), echo=typer.echo)
@@ -218,6 +217,7 @@ def surrogate(
     checked against the simulator and what it answers beyond it."""
     with _user_errors(folder=lambda: results):
         if study:
+            # deferred: loads pandas
             from tavc_cli.surrogate.study import run_study, summary_lines
 
             out = results if results is not None else Path("runs") / "surrogate-study"  # both horizons: no one scale
@@ -227,6 +227,7 @@ def surrogate(
             for line in summary_lines(out):
                 typer.echo(line)
             return
+        # deferred: loads pandas
         from tavc_cli.api import surrogate_summary
 
         commands.print_summary(surrogate_summary(overrides or [], progress=options.shown(progress), echo=typer.echo))
@@ -261,6 +262,7 @@ def compare(
     predicted state, time to fill a vacancy, fast robots on the valuable circuit, each tested
     against TAVC and random (compare.csv, compare.md, compare.png)."""
     with _user_errors(folder=lambda: results):
+        # deferred: loads pandas
         from tavc_cli.api import compare_summary
         from tavc_cli.compare.run import parse_reuse
 
@@ -288,6 +290,7 @@ def calibrate(
     """Search the reconstructed docking world (calibration.grid) for the settings under which
     the chapter's task values meet its constraints (1.3)/(1.4); static allocations only."""
     with _user_errors():
+        # deferred: loads pandas
         from tavc_cli.api import calibrate as search_world
 
         search_world(overrides or [], save=save, progress=options.shown(progress), echo=typer.echo)

@@ -11,6 +11,7 @@ from typing import Any, Optional
 import typer
 
 from tavc_cli import config
+from tavc_cli.config.launch import launch_sweep
 from tavc_cli.console import summary_text
 
 
@@ -39,10 +40,10 @@ def print_experiments() -> None:
 def run(*, overrides: Sequence[str], multirun: bool, progress: bool) -> None:
     """Run one experiment, or every job of a sweep (all validated first) through a Hydra launcher."""
     if not multirun:
+        # deferred: loads pandas
         from tavc_cli.api import run_summary
 
         return print_summary(run_summary(overrides, progress=progress))
-    from tavc_cli.config.launch import launch_sweep
 
     ours = [o for o in overrides if not config.is_hydra_override(o)]
     launch_sweep(overrides, functools.partial(sweep_job, progress=progress),
@@ -53,6 +54,7 @@ def reproduce(*, overrides: Sequence[str], names: str | None, results: Optional[
                ladder: list[float] | None = None) -> None:
     """Compose every experiment with the same overrides (and the ladder's rungs), run them
     together, print each summary."""
+    # deferred: loads pandas
     from tavc_cli.api import reproduce_summaries
 
     experiments = None if names is None else [n for n in names.split(",") if n]
@@ -70,6 +72,7 @@ def reproduce(*, overrides: Sequence[str], names: str | None, results: Optional[
 
 def sweep_job(cfg: Any, *, progress: bool) -> str:
     """One job of a sweep, wherever the launcher runs it: run, print its summary, return its folder."""
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.pipeline import run_experiment
 
     typer.echo(f"job: {cfg.output_dir}")
@@ -80,6 +83,7 @@ def sweep_job(cfg: Any, *, progress: bool) -> str:
 
 def write_sweep(values: list[dict[str, str]], folders: list[Path]) -> None:
     """sweep.csv and its figure beside the jobs' folders (`pipeline.write_sweep`); print where."""
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.pipeline import write_sweep
 
     written = write_sweep(values, folders)
@@ -97,6 +101,7 @@ def print_summary(summary: dict[str, Any]) -> None:
 
 def bench(*, scenario: str, n_robots: int, n_rays: Optional[int] = None, **options: Any) -> None:
     """Run the benchmark and print its result as JSON or as aligned lines (`bench.bench_text`)."""
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.bench import bench_overrides, bench_text
 
     def settings_for(n: int, duration: float) -> Any:
@@ -110,6 +115,7 @@ def animate(
 ) -> None:
     """Render a run and print the files written."""
     settings = config.settings(config.load_config(overrides))
+    # deferred: loads the simulator's compiled kernels and matplotlib
     from tavc_cli.viz.animate import animate_run
 
     paths = animate_run(settings, out=out, duration_s=duration_s, fps=fps, mp4=mp4)
@@ -120,6 +126,7 @@ def animate(
 def report(results_dir: Path, progress: bool | None = None, page: bool = False) -> None:
     """Build the report (with `page`, its web page too) and print its summary line and where it
     went; with `progress` (by default on a terminal), a line on stderr at each stage while it works."""
+    # deferred: loads scipy and pandas
     from tavc_cli.report import build_report, summary_lines
 
     show = sys.stderr.isatty() if progress is None else progress
@@ -129,6 +136,7 @@ def report(results_dir: Path, progress: bool | None = None, page: bool = False) 
 
 def stay_switch(results: Path, overrides: list[str], progress: bool) -> None:
     """Run the readings' stay/switch study into `results` and print its summary and files."""
+    # deferred: loads pandas
     import pandas as pd
 
     from tavc_cli.stay_switch import run_stay_switch, summary_lines

@@ -13,6 +13,7 @@ that one trial has no spread (its std is shown as nan, not 0).
 from __future__ import annotations
 
 import errno
+import json
 import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -22,6 +23,7 @@ from typing import Any, Optional
 import typer
 
 from tavc_cli.errors import TavcError, Terminated, sigterm_raises
+from tavc_cli.settings import from_yaml
 
 RESUME = "finished trials are kept: rerun the same command to resume"
 # what to do about an OSError, by its errno
@@ -100,6 +102,7 @@ def summary_text(summary: dict[str, Any]) -> str:
     (one trial has no spread), its claims headed "not a verdict" where the run is below the
     chapter's scale (its `config.yaml` beside the chapter's trials and duration:
     `analysis.claims.not_a_verdict`), and a line when no robot delivered anything."""
+    # deferred: loads pandas
     from tavc_cli.analysis.summary import run_summary_text
 
     tables = dict(summary.get("tables") or {})
@@ -112,8 +115,8 @@ def summary_text(summary: dict[str, Any]) -> str:
     short = ""
     settings_path = Path(summary["output_dir"]) / "config.yaml"
     if settings_path.is_file():
+        # deferred: loads scipy and pandas
         from tavc_cli.analysis.claims import not_a_verdict
-        from tavc_cli.settings import from_yaml
 
         try:
             short = not_a_verdict(from_yaml(settings_path))
@@ -129,8 +132,7 @@ def summary_text(summary: dict[str, Any]) -> str:
 def undelivered(folder: Path) -> str:
     """A line saying that no robot delivered anything in any trial of the run in `folder`, or
     naming the controllers of which none did; empty when every controller delivered."""
-    import json
-
+    # deferred: loads numpy
     import numpy as np
 
     delivered: dict[str, int] = {}

@@ -6,7 +6,9 @@ with status 1. Any other exception is a bug and keeps its traceback.
 """
 
 import signal
+import sys
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -53,8 +55,8 @@ def interrupts_not_swallowed() -> None:
     Python cannot raise from a finalizer: it prints the exception as "ignored", with a
     traceback, and carries on, so the interrupt would be lost. Here it is passed on, quietly,
     to the main thread, as the same signal again."""
+    # deferred: the interrupt a worker sends its parent
     import _thread
-    import sys
 
     default = sys.unraisablehook
 
@@ -70,7 +72,5 @@ def interrupts_not_swallowed() -> None:
 
 
 def _interrupt_later(interrupt, signum: int) -> None:
-    import time
-
     time.sleep(0.02)
     interrupt(signum)

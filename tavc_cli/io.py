@@ -7,6 +7,7 @@ inside the folder a command holds (`owned_path`).
 
 from __future__ import annotations
 
+import hashlib
 import os
 import socket
 import stat
@@ -127,8 +128,6 @@ def write_text_atomic(path: Path, text: str, root: Path | None = None) -> None:
 def file_digest(path: Path) -> str:
     """SHA-256 of the file's bytes, in hex: what `provenance.json` records of every table a run
     wrote (its ``tables`` map), so that a reader can tell a table tavc wrote from a damaged one."""
-    import hashlib
-
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):
@@ -167,6 +166,7 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
     `ownership.take`, which knows which files are tavc's. `what` names the setting behind the
     folder.
     """
+    # deferred: POSIX only
     import fcntl
 
     folder = Path(folder)

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.analysis.experiment import analyse, experiment_claims
 from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.chapter import claims
@@ -37,7 +38,6 @@ def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[
         # the comparison and the claims are made from the tables as written, which is what
         # `tavc report` reads back: both then give the same numbers
         written_tables[name] = pd.read_csv(io.StringIO(text), dtype={"state": str} if name == "state_time" else None)
-    from tavc_cli.analysis.comparison import experiment_comparison
 
     comparison = experiment_comparison(str(cfg.experiment_name or ""), written_tables["state_time"])
     if comparison is not None:

@@ -29,6 +29,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
+
 from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.errors import TavcError
 from tavc_cli.io import LOCK_NAME, owned_path, write_text_atomic
@@ -271,8 +273,6 @@ def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3, ignore: It
     the dotted keys in `ignore` and keys only one of them has (a setting a later version of tavc
     added is not another configuration); empty if they would compute the same. At most `limit`
     of them, then how many more."""
-    import yaml
-
     try:
         old = load_yaml(old_yaml)
     except (OSError, UnicodeDecodeError, yaml.YAMLError, TavcError):

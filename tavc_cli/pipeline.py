@@ -4,14 +4,20 @@ folder held by this run alone for the whole time."""
 
 from __future__ import annotations
 
+import multiprocessing as mp
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
+from tavc_cli.analysis.claims import not_a_verdict
+from tavc_cli.analysis.ladder import ladder_table
+from tavc_cli.analysis.schema import SECTIONS
+from tavc_cli.analysis.sweep import sweep_table
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.joint import CAN_FORK
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, plan_run, write_plan
+from tavc_cli.experiments.pool import stop_workers, worker_start
 from tavc_cli.experiments.runner import (
     Run,
     load_records,
@@ -24,7 +30,7 @@ from tavc_cli.io import claim_folder, file_digest, write_text_atomic
 from tavc_cli.outputs import write_analysis
 from tavc_cli.ownership import LADDER, LADDER_FILES, RUN, SWEEP, SWEEP_FILES, Owned, config_differences, run_files, take
 from tavc_cli.readers import YAML_LIMIT, load_json, read_text
-from tavc_cli.settings import TavcConfig, to_yaml
+from tavc_cli.settings import TavcConfig, from_yaml, to_yaml
 
 
 def run_experiment(cfg: TavcConfig, *, progress: bool = False) -> dict:
@@ -82,8 +88,6 @@ def recorded_config_problem(folder: Path) -> str | None:
     """Why a finished run's `config.yaml` cannot say which configuration the run was (missing,
     changed since the run wrote it, cut short), or None if it can or the folder holds no
     finished run."""
-    from tavc_cli.analysis.schema import SECTIONS
-
     if not (folder / "provenance.json").is_file():
         return None
     path = folder / "config.yaml"
@@ -141,9 +145,7 @@ def _finish_all(cfgs: list[TavcConfig], runs: list[Run], owned: list[Owned]) -> 
     jobs = list(zip(cfgs, runs, owned, strict=True))
     if n_jobs <= 1 or not CAN_FORK:
         return [_finish_loaded(*job) for job in jobs]
-    import multiprocessing as mp
 
-    from tavc_cli.experiments.pool import stop_workers, worker_start
 
     pool = ProcessPoolExecutor(max_workers=n_jobs, mp_context=mp.get_context("fork"), initializer=worker_start)
     try:
@@ -177,9 +179,7 @@ def write_sweep(values: list[dict[str, str]], folders: list[Path]) -> list[Path]
     `values[k]` are job k's swept keys and values. Returns the files written: sweep.csv first
     (none for a single job, or jobs without state tables, and then an earlier sweep's
     sweep.csv and figure there are removed: they would describe jobs this sweep did not run)."""
-    from tavc_cli.analysis.claims import not_a_verdict
-    from tavc_cli.analysis.sweep import sweep_table
-    from tavc_cli.settings import from_yaml
+    # deferred: loads matplotlib
     from tavc_cli.viz.figures import marked
     from tavc_cli.viz.sweep import sweep_figure
 
@@ -200,7 +200,7 @@ def write_sweep(values: list[dict[str, str]], folders: list[Path]) -> list[Path]
 def write_ladder(ladder_dir: Path, folders: list[Path]) -> list[Path]:
     """`ladder.csv` and its figure (`ladder.png`, `.svg`) in `ladder_dir`, from the horizon
     ladder's rung folders; returns the paths written, the table first."""
-    from tavc_cli.analysis.ladder import ladder_table
+    # deferred: loads matplotlib
     from tavc_cli.viz.ladder import ladder_figure
 
     owned = take(Path(ladder_dir), LADDER, LADDER_FILES, what="the ladder's folder")

@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments import tick
 
 # (share of the samples, symbol) rows are grouped by the first rule that matches their object
 # file or their function's qualified name
@@ -59,6 +60,7 @@ def readable(mangled: str) -> str:
 
 def _tavc_dispatchers() -> list:
     """Every compiled kernel (numba dispatcher) of the loaded tavc modules."""
+    # deferred: loads the simulator's compiled kernels
     from numba.core.dispatcher import Dispatcher
 
     found = {}
@@ -73,6 +75,7 @@ def _tavc_dispatchers() -> list:
 def compile_afresh() -> None:
     """Make every tavc kernel not compiled yet in this process compile here instead of loading
     from numba's cache (and leave the cache as it is)."""
+    # deferred: loads the simulator's compiled kernels
     from numba.core.caching import NullCache
 
     for dispatcher in _tavc_dispatchers():
@@ -140,7 +143,7 @@ def run_profile(specs, perf: str | None = None) -> dict:
     perf = perf or shutil.which("perf")
     if perf is None:
         raise TavcError("--profile: needs Linux's perf on the PATH (Debian: apt-get install linux-perf)")
-    from tavc_cli.experiments import tick
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.experiments.engine import BatchEngine
 
     compile_afresh()

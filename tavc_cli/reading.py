@@ -11,10 +11,12 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
+from tavc_cli.analysis.schema import check_table, load_record, read_provenance, read_trial
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.experiments.records import TABLES, TrialRecord
-from tavc_cli.readers import load_yaml
+from tavc_cli.readers import load_yaml, read_text
+from tavc_cli.settings import from_yaml
 
 SWEEP_LIMIT = 64 * 2**20  # sweep.csv read bounded, as every table is
 
@@ -39,8 +41,6 @@ class Results:
         """The run's table `name`.csv (state_time, performance, trial_stats, claims, ...), checked
         as `tavc report` checks it first (`analysis.schema.check_table`: a damaged table is one
         line naming it)."""
-        from tavc_cli.analysis.schema import check_table
-
         path = self.path / f"{name}.csv"
         if not path.is_file():
             have = ", ".join(sorted(p.stem for p in self.path.glob("*.csv"))) or "none"
@@ -78,8 +78,8 @@ class Results:
         """Why the run's claims are no verdict ("not a verdict: scale=quick (...)": fewer trials or
         less time than the chapter's), or "" for a run at the chapter's scale or beyond. `claims`
         carries the same in its column ``not_a_verdict``."""
+        # deferred: loads scipy
         from tavc_cli.analysis.claims import not_a_verdict
-        from tavc_cli.settings import from_yaml
 
         return not_a_verdict(from_yaml(self.path / "config.yaml"))
 
@@ -93,8 +93,6 @@ class Results:
     def plan(self) -> RunPlan:
         """The run's plan (`plan.json`): each controller's label, learner settings, trial count, seed
         code and schedule (its periods on the record's clock, when its trials start)."""
-        from tavc_cli.settings import from_yaml
-
         return read_plan(self.path, from_yaml(self.path / "config.yaml"))
 
     def records(self) -> list[TrialRecord]:
@@ -105,8 +103,6 @@ class Results:
         or seed is one line naming it). A folder without a `provenance.json` (a run that did
         not finish) gives every file in `trials/`, unchecked: there is no list to check them
         against."""
-        from tavc_cli.analysis.schema import load_record, read_provenance, read_trial
-
         if not (self.path / "provenance.json").is_file():
             files = sorted((self.path / "trials").glob("*.npz"))
             if not files:
@@ -157,8 +153,6 @@ class Sweep:
     def table(self) -> pd.DataFrame:
         """`sweep.csv`: one row per job and state: the job's index, its swept values, its folder
         (`output_dir`), its time in each state and its score."""
-        from tavc_cli.readers import read_text
-
         return pd.read_csv(io.StringIO(read_text(self.path / "sweep.csv", SWEEP_LIMIT)))
 
     @property

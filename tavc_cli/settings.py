@@ -12,11 +12,13 @@ from pathlib import Path
 from typing import Any, Dict, List, Optional
 
 from omegaconf import MISSING, OmegaConf
+from omegaconf._utils import get_yaml_loader
 from omegaconf.errors import OmegaConfBaseException
 
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.parameters import LearnerSettings, PluginSettings, recorded_learner, settings_mapping
 from tavc_cli.learning.registry import SETTINGS
+from tavc_cli.readers import load_yaml
 from tavc_cli.settings_studies import CalibrationConfig, GridAxis, ModelConfig, SurrogateConfig  # noqa: F401 (groups)
 
 SCHEMA_NAME = "tavc_schema"
@@ -374,10 +376,6 @@ def to_yaml(settings: TavcConfig) -> str:
 
 def from_yaml(path: Path) -> TavcConfig:
     """A results folder's ``config.yaml`` read back as typed settings."""
-    from omegaconf._utils import get_yaml_loader
-
-    from tavc_cli.readers import load_yaml
-
     # as `OmegaConf.load` reads it (its loader, its types), bounded as any file of a run is
     data = load_yaml(path, loader=get_yaml_loader())
     if data is not None and not isinstance(data, (list, dict, str)):

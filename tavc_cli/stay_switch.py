@@ -29,10 +29,12 @@ import pandas as pd
 
 from tavc_cli.analysis.makeup_model import expected_high, predict, predicted_regime, times_of, values_high_low
 from tavc_cli.analysis.stay_switch import stay_switch_table
+from tavc_cli.chapter import base_case
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.ownership import READINGS, STAY_SWITCH_FILES, take
 from tavc_cli.settings import TavcConfig
+from tavc_cli.surrogate.tasks import Team
 
 # the readings measured, each a config group with today's world first (docs/readings.md)
 GRID: tuple[tuple[str, tuple[str, ...]], ...] = (
@@ -40,7 +42,7 @@ GRID: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("passing", ("nearest", "left")),
     ("arena", ("two_circuits", "two_circuits_parallel")),
 )
-DEFAULT_EXPERIMENT = "initial_distribution"  # the chapter's team of six, no events
+DEFAULT_EXPERIMENT = base_case().name  # the chapter's base case: its team of six, no events
 SET_BY_THE_STUDY = ("arrival", "passing", "arena", "surrogate.tasks_dir", "output_dir")
 
 Compose = Callable[[list[str]], TavcConfig]
@@ -67,8 +69,8 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
     """Measure every reading of `GRID` into `out` and write the study's table, record and
     figure; returns the files written, the table first. `overrides` apply to every reading
     (e.g. `seed=3`, `surrogate.trials_per_makeup=8`, `experiment=...` of a one-group team)."""
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.surrogate.run import measure_tasks, measurement_record, tasks_digest
-    from tavc_cli.surrogate.tasks import Team
 
     set_here = [o.split("=", 1)[0].lstrip("+~") for o in overrides
                 if o.split("=", 1)[0].lstrip("+~") in SET_BY_THE_STUDY]

@@ -203,3 +203,20 @@ def test_the_reports_section_gives_the_make_up_models_regime(tmp_path):
     model.to_csv(tmp_path / "stay_switch" / "stay_switch_model.csv", index=False)
     text = "\n".join(stay_switch_lines(tmp_path))
     assert "| turn-taking (100 %) | 1.00 |" in text  # both alternate: one robot's worth on each circuit
+
+
+def test_the_committed_report_sets_the_learners_at_40x_beside_the_model():
+    """Where the committed results hold learners at 40x in a reading, the section names their
+    regime beside the model's, one row a reading, the base case standing for today's world."""
+    from tavc_cli.report.studies import stay_switch_lines
+    from tests.helpers import REPO
+
+    results = REPO / "results"
+    if not (results / "stay_switch" / "stay_switch_model.csv").is_file():
+        pytest.skip("no committed stay-switch study")
+    rows = [line for line in stay_switch_lines(results) if line.startswith("| arrival=") and "` (" in line]
+    runs = {line.split("|")[2].strip().split("`")[1] for line in rows}
+    assert "converged/initial_distribution" in runs  # today's world: the base case's own 40x run
+    for line in rows:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[6] == ("yes" if cells[2] == cells[4].split(" (")[0] else "**no**")

@@ -204,3 +204,33 @@ def test_no_module_is_over_400_lines():
     long = {p.relative_to(PACKAGE).as_posix(): n for p in PACKAGE.rglob("*.py")
             if (n := len(p.read_text().splitlines())) > 400}
     assert long == {}
+
+
+def _reasoned(lines: list[str], i: int) -> bool:
+    """Whether the import on line i (0-based) says why it is inside a function: a comment on it,
+    or above it or above the run of imports it belongs to."""
+    if "#" in lines[i]:
+        return True
+    j = i - 1
+    while j >= 0:
+        text = lines[j].strip()
+        if text.startswith("#"):
+            return True
+        if not text or text.startswith(("from ", "import ")) or text.endswith(",") or text == ")":
+            j -= 1
+            continue
+        return False
+    return False
+
+
+def test_every_import_inside_a_function_says_why_it_is_there():
+    """An import belongs at the top of its module unless an optional dependency or the cost of
+    loading it says otherwise (`# deferred: loads matplotlib`); each one inside a function says so."""
+    silent = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        lines = path.read_text().splitlines()
+        for fn in ast.walk(ast.parse("\n".join(lines))):
+            if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                silent += [f"{path.relative_to(PACKAGE)}:{node.lineno}" for node in ast.walk(fn)
+                           if isinstance(node, (ast.Import, ast.ImportFrom)) and not _reasoned(lines, node.lineno - 1)]
+    assert sorted(set(silent)) == []

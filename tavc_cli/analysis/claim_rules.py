@@ -51,7 +51,9 @@ from tavc_cli.analysis.significance import (
     paired_greater,
     paired_less,
 )
+from tavc_cli.analysis.states import theory_pct
 from tavc_cli.analysis.trial_stats import Q_GAP_PREFIX, STATE_PREFIX, states_of
+from tavc_cli.learning.registry import LEARNS_NOTHING
 
 # The margin within which two shares of a state (% of the stable period) are the same: the smallest
 # difference between two of the chapter's learners' tables that it calls significant (3:2 in Table
@@ -73,8 +75,6 @@ def learner_under_test(labels: Iterable[str]) -> str:
     """The learner the claims about learning test among the task learners of some runs: the one
     they all share, unless it learns nothing (random, the static allocations, the model's: the
     claims compare a learner with those), else TAVC."""
-    from tavc_cli.learning.registry import LEARNS_NOTHING
-
     found = set(labels) - {"behaviour"}
     if len(found) == 1 and not found & set(LEARNS_NOTHING):
         return found.pop()
@@ -145,8 +145,6 @@ def claim_4(runs: Mapping[str, pd.DataFrame], theory: Mapping[str, float] | None
         return [_missing(f"{name} not run")]
     rnd = _ctrl(s, "random")
     if theory is None:
-        from tavc_cli.analysis.states import theory_pct
-
         n = len(states_of(s)) - 1
         theory = theory_pct(n, 2, "circuits")
     means = {st: _mean(_share(rnd, st)) for st in states_of(s)}
@@ -277,8 +275,6 @@ def largest_relative_increase(tavc: pd.DataFrame, theory: Mapping[str, float], s
 
 def _group_theory(stats_: pd.DataFrame) -> dict[str, float]:
     """Eq. 1.7 for the f:s states of a trial_stats table (group sizes: the largest f and s)."""
-    from tavc_cli.analysis.states import theory_pct
-
     pairs = [tuple(int(x) for x in st.split(":")) for st in states_of(stats_)]
     sizes = [max(f for f, _ in pairs), max(s for _, s in pairs)]
     return theory_pct(sum(sizes), 2, "groups", sizes)
@@ -314,6 +310,7 @@ def claim_9(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
 def claim_1(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     """Claim 1's parts, read from the runs of its experiment (`chapter` names it and quotes
     the chapter's words), each on `learner`'s trials."""
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.analysis.spatiotemporal import ARRIVAL_ROWS, TRAVERSAL_ROWS
 
     (name, trav), (_, targ) = _run(runs, 1, "traversals"), _run(runs, 1, "target_times")

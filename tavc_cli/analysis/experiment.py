@@ -8,6 +8,7 @@ from collections.abc import Mapping
 
 import pandas as pd
 
+from tavc_cli.analysis import spatiotemporal as st
 from tavc_cli.analysis.convergence import convergence_table
 from tavc_cli.analysis.mechanism import mechanism_table
 from tavc_cli.analysis.performance import performance_table
@@ -19,6 +20,7 @@ from tavc_cli.analysis.vacancy import vacancy_table
 from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
+from tavc_cli.learning.registry import controller_label
 from tavc_cli.settings import TavcConfig
 
 
@@ -76,8 +78,6 @@ def _analyse(cfg: TavcConfig, records: list[TrialRecord], with_theory: bool = Tr
 def spatiotemporal_tables(cfg: TavcConfig, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:
     """Section 1.4's tables for the behaviour learners' trials: Table 1.1 and the samples behind
     it, the learned policies, and the lanes (offsets and a heat map, first and last tenth)."""
-    from tavc_cli.analysis import spatiotemporal as st
-
     mine = [rec for rec in records if rec.meta["controller"] == "behaviour"]
     arena = cfg.arena
     xy = {t.name: (float(t.x), float(t.y)) for t in arena.targets}
@@ -95,14 +95,15 @@ def experiment_claims(cfg: TavcConfig, tables: Mapping[str, pd.DataFrame],
                       others: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     """The chapter's claims about this experiment, tested on its trials (and, where a claim
     compares two experiments, on the other's `trial_stats` in `others`, by experiment name)."""
+    # deferred: loads scipy
     from tavc_cli.analysis.claims import CLAIM_TABLES, claim_rows
 
     name = str(cfg.experiment_name or "")
     runs = {name: tables["trial_stats"]}
     runs.update({f"{name}/{t}": tables[t] for t in CLAIM_TABLES if t in tables})
     runs.update({other: table for other, table in others.items() if other != name})
+    # deferred: loads scipy
     from tavc_cli.analysis.claims import learner_under_test
-    from tavc_cli.learning.registry import controller_label
 
     # the claims about learning test this run's own learner (TAVC's runs: TAVC)
     return claim_rows(runs, only_experiment=name, learner=learner_under_test([controller_label(cfg.learner.name)]))

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.convergence import convergence_verdict
 from tavc_cli.settings import from_yaml
 
 LADDER_COLUMNS = ["factor", "duration_s", "controller", "quantity", "mean", "std", "n_trials"]
@@ -72,7 +73,6 @@ def _convergence_rows(folder: Path, factor: float, duration: float) -> list[dict
     path = folder / "convergence.csv"
     if not path.is_file():
         return []
-    from tavc_cli.analysis.convergence import convergence_verdict
 
     table = pd.read_csv(path)
     rows = []

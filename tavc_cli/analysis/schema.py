@@ -76,6 +76,7 @@ class RunFacts:
     def of(cls, cfg: TavcConfig, provenance: dict | None, folder: Path) -> RunFacts:
         """The facts of the run in `folder` from its config and its `provenance.json` (None where it
         has none)."""
+        # deferred: loads pandas
         from tavc_cli.analysis.states import group_order
 
         members = cfg.team.members or []

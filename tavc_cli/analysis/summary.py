@@ -69,6 +69,7 @@ def claims_text(claims: pd.DataFrame, verdicts: bool = True) -> str:
     chapter's scale), the statistic and p-value of the part that decides it (where the frame
     carries them: `analysis.claims.claim_rows`' ``attrs["deciding"]``; else the headline part's)
     and which part that is, or why the claim could not be tested; then every part."""
+    # deferred: loads scipy
     from tavc_cli.analysis.claims import verdict_words
 
     deciding = claims.attrs.get("deciding", {})

@@ -22,6 +22,7 @@ import pandas as pd
 
 from tavc_cli.analysis.trial_stats import STATE_PREFIX
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
+from tavc_cli.model import core
 from tavc_cli.settings import from_yaml
 
 POINT_COLUMNS = ["reading", "horizon", "ratio", "values", "mean", "std", "n_trials", "policy_changes_per_trial",
@@ -84,7 +85,7 @@ def predicted_shares(model_csv: Path, n_robots: int, ratios: Sequence[float],
                      low_value: float = 2000.0) -> pd.DataFrame:
     """`ratio,share,state`: the model's predicted split (the individual equilibrium) of n_robots at
     each ratio, as the share of robots on the high-value circuit (circuit 0 gets the high value)."""
-    from tavc_cli.model import core
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.model.api import table_from_rows
 
     table = table_from_rows(pd.read_csv(model_csv, dtype={"split": str, "state": str}))

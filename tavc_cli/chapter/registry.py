@@ -192,6 +192,7 @@ def _package_modules(package: str) -> list[Experiment]:
 
 def _user_folders() -> list[Path]:
     """The ``chapter/`` folders of the user's config folders, where there are any."""
+    # deferred: loads numpy
     from tavc_cli.learning.plugins import config_dirs
 
     return [d / USER_FOLDER for d in config_dirs() if (d / USER_FOLDER).is_dir()]

@@ -25,12 +25,13 @@ import pandas as pd
 
 from tavc_cli.analysis.claims import not_a_verdict
 from tavc_cli.analysis.schema import check_run
+from tavc_cli.compare.figures import comparison_figure
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order, trial_metrics
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.learning.registry import LEARNS_NOTHING, controller_label
 from tavc_cli.model.allocations import model_allocations
-from tavc_cli.ownership import config_differences
+from tavc_cli.ownership import COMPARE, COMPARE_FILES, config_differences, take
 from tavc_cli.readers import load_yaml
 from tavc_cli.settings import TavcConfig, to_yaml
 
@@ -116,7 +117,7 @@ def run_compare(plans: Mapping[str, Sequence[TavcConfig]], results: Path, *, con
     into ``results/runs/<controller>``) but the controllers in `reuse`, whose folders are checked
     against their plans first (`check_reused`), then write the comparison (module docstring).
     Returns where each output went and the table."""
-    from tavc_cli.ownership import COMPARE, COMPARE_FILES, take
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.pipeline import run_experiments
 
     unknown = [name for name in reuse if name not in controllers]
@@ -156,8 +157,7 @@ def write(results: Path, table: pd.DataFrame, trials: pd.DataFrame, folders: Map
           scale_name: str, mark: str = "") -> dict:
     """The comparison's files in `results` (tavc's own only, `ownership`); `mark` on its figure
     (`viz.figures.marked`)."""
-    from tavc_cli.compare.figures import comparison_figure
-    from tavc_cli.ownership import COMPARE, COMPARE_FILES, take
+    # deferred: loads matplotlib
     from tavc_cli.viz.figures import marked
 
     results.mkdir(parents=True, exist_ok=True)

@@ -42,6 +42,7 @@ from tavc_cli.estimates import (
     speed_note,
     trial_cost_s,
 )
+from tavc_cli.experiments.plan import plan_run  # the simulator's modules, only once a config is checked
 from tavc_cli.learning.registry import BASELINES
 from tavc_cli.settings import CalibrationConfig, ModelConfig, PaperConfig
 from tavc_cli.sim.arena import most_robots
@@ -108,8 +109,6 @@ def sources(cfg: DictConfig) -> dict[str, str]:
 def run_trials(cfg: DictConfig, named: dict[str, str] | None = None) -> list[Trials]:
     """`tavc run`'s trials, as `experiments.build.trial_specs` will plan them (without planning them);
     their keys as `named` (`sources`) says."""
-    from tavc_cli.experiments.plan import plan_run  # the simulator's modules, only once a config is checked
-
     named = named or {}
     plan = plan_run(OmegaConf.to_object(cfg))
     n_robots = int(cfg.team.n_robots)

@@ -21,6 +21,7 @@ from tavc_cli.config.validate import check_no_missing, validate, validate_scalin
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import settings_mapping
+from tavc_cli.learning.plugins import config_dirs
 from tavc_cli.settings import SCHEMA_NAME, TavcConfig, settings_of
 
 # --------------------------------------------------------------------------------------------
@@ -284,8 +285,6 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
 def search_overrides() -> list[str]:
     """Hydra's search path extended by the user's config folders (`plugins.config_dirs`): their
     ``learner/``, ``experiment/``, ... options join tavc's own."""
-    from tavc_cli.learning.plugins import config_dirs
-
     dirs = config_dirs()
     if not dirs:
         return []

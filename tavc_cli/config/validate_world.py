@@ -10,6 +10,8 @@ from omegaconf import DictConfig, OmegaConf
 
 from tavc_cli.config.checks import at_least, check, fail, one_of, plain, positive, unique
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.trial import TrialState
 from tavc_cli.settings import MIN_DOCK_CLEARANCE_M, TARGET_KINDS, WALL_TOLERANCE_M, SimConfig
 from tavc_cli.sim.arena import (
     N_OUTER_WALLS,
@@ -150,6 +152,7 @@ def validate_reachable(arena: DictConfig, robot: DictConfig) -> None:
     xs, ys = np.arange(cell / 2, width, cell), np.arange(cell / 2, height, cell)
     x, y = np.meshgrid(xs, ys)
     free = wall_distance(model.walls, x, y) > radius
+    # deferred: loads scipy
     from scipy import ndimage
 
     pieces, _ = ndimage.label(free)
@@ -190,8 +193,6 @@ def validate_start(cfg: DictConfig) -> None:
     if n_robots <= always and not arena.walls:  # interior walls take start area the bound does not count
         return
     # imported here: the engine loads numba, which `tavc config` need not wait for
-    from tavc_cli.experiments.build import trial_specs
-    from tavc_cli.experiments.trial import TrialState
 
     specs = trial_specs(OmegaConf.to_object(cfg))
     model = specs[0].build_arena()

@@ -70,6 +70,7 @@ def run_on_cluster(backend: str, pending: list[Batch], save: Callable[[Batch, Ba
 
 
 def _run_dask(pending, save, n_jobs, address) -> None:
+    # deferred: loads Dask (optional)
     from distributed import Client, LocalCluster, as_completed
 
     cluster = None
@@ -93,6 +94,7 @@ def _run_dask(pending, save, n_jobs, address) -> None:
 
 
 def _run_ray(pending, save, n_jobs, address) -> None:
+    # deferred: loads Ray (optional)
     import ray
 
     started = False

@@ -10,16 +10,19 @@ will run, once. Workers (and anything they fork) die with the run that started t
 from __future__ import annotations
 
 import hashlib
+import multiprocessing as mp
 import os
 import signal
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import replace
+from multiprocessing.managers import SyncManager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -71,13 +74,13 @@ class Progress:
         if not self.shown:
             return
         if sys.stdout.isatty():
+            # deferred: loads rich
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
             self.bar = Progress(TextColumn("simulating"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
                                 TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), transient=True)
             self.task = self.bar.add_task("run", total=total_s)
             self.bar.start()
-        import threading
 
         self.notice = threading.Timer(self.COMPILE_NOTICE_S, self._say, (self.COMPILE_NOTICE,))
         self.notice.daemon = True
@@ -144,12 +147,10 @@ def run_pool(units: list[tuple], n_jobs: int, shown: bool) -> list[TrialFailure]
                 key = (b.controller, b.index)
                 failures += fn(*args, lambda f, k=key: prog.update(k, f))[1]
             return failures
-        import multiprocessing as mp
 
         ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
         load_kernels(pending)
         prog.kernels_ready()  # a pool after the first loads them at once: no notice in its bar
-        from multiprocessing.managers import SyncManager
 
         manager = SyncManager(ctx=ctx)
         manager.start(worker_start)  # the progress queue's server process: gone with the run too
@@ -254,6 +255,7 @@ def _compiling_alone() -> Iterator[None]:
     tavc takes to compile its kernels (`kernel_lock_path`). Released when the block ends, or
     with the process."""
     try:
+        # deferred: POSIX only
         import fcntl
     except ImportError:  # no flock: each run compiles for itself, as numba does by default
         yield
@@ -289,6 +291,7 @@ def die_with_parent(parent: int | None = None) -> None:
     parent's pid, it also exits at once if that parent died before this could be asked."""
     if not sys.platform.startswith("linux"):
         return
+    # deferred: only to read the processor's features
     import ctypes
 
     try:

@@ -16,7 +16,9 @@ from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
 
+from tavc_cli import __version__
 from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.joint import run_together
 from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec, code_digest
@@ -31,8 +33,6 @@ _PACKAGES = ("numpy", "scipy", "pandas", "pymunk", "numba", "hydra-core", "omega
 
 def provenance(cfg: TavcConfig, specs: list[TrialSpec], wall_time_s: float, n_reused: int) -> dict:
     """Who, what and where of a run: versions, seeds, command line, machine."""
-    from tavc_cli import __version__
-
     versions = {}
     for pkg in _PACKAGES:
         try:
@@ -110,8 +110,6 @@ def run_trials_together(cfgs: list[TavcConfig], plans: list[RunPlan], *, progres
     is that of the whole invocation. The runs come without their records (`Run.records` is
     empty: load them one experiment at a time, `load_records`). As `run_experiment_trials`,
     every folder's `config.yaml` is the caller's."""
-    from tavc_cli.experiments.joint import run_together
-
     start = time.perf_counter()
     folders = [Path(cfg.output_dir) for cfg in cfgs]
     specs = [trial_specs(cfg, plan) for cfg, plan in zip(cfgs, plans, strict=True)]

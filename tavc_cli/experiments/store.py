@@ -30,7 +30,7 @@ import numpy as np
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, make_batches
 from tavc_cli.experiments.contained import BatchResult, TrialFailure, simulate_contained
-from tavc_cli.experiments.executors import run_on_cluster
+from tavc_cli.experiments.executors import probe, run_on_cluster
 from tavc_cli.experiments.pool import Progress, run_pool
 from tavc_cli.experiments.records import ARRAY_FIELDS, TABLES, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
@@ -60,8 +60,6 @@ class Executor:
         """Stop with one line, before anything is written, if the cluster at `address` does not
         answer."""
         if self.backend != "local":
-            from tavc_cli.experiments.executors import probe
-
             probe(self.backend, self.address)
 
 

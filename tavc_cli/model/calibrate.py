@@ -51,6 +51,7 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
 
 def _search_and_measure(base: TavcConfig, points, out_dir: Path, world_dir: Path, measurement: dict, *, save: bool,
                         echo: Callable[[str], None]) -> None:
+    # deferred: loads matplotlib
     from tavc_cli.viz.sensitivity import sensitivity_figure, task_time_figure
 
     axes = base.calibration.grid

@@ -17,6 +17,7 @@ def chapter_world() -> dict:
 
 def chapter_table(table_id: str):
     """Table `table_id` ("1.1" ... "1.6") as the chapter printed it, a pandas DataFrame."""
+    # deferred: loads pandas
     import pandas as pd
 
     return pd.read_csv(_HERE / f"table_{table_id.replace('.', '_')}.csv", dtype={"state": str})

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import multiprocessing as mp
 import os
+import signal
 import sys
 from concurrent.futures import Future, ProcessPoolExecutor
 
@@ -15,8 +17,6 @@ class FigurePool:
         """Start the processes (none where the system does not fork, or has one core)."""
         self.pool = None
         if sys.platform.startswith("linux") and (os.cpu_count() or 1) > 1:
-            import multiprocessing as mp
-
             self.pool = ProcessPoolExecutor(max_workers=min(2, os.cpu_count() or 1), mp_context=mp.get_context("fork"),
                                             initializer=figure_worker_start)
         return self
@@ -32,6 +32,7 @@ class FigurePool:
     def __exit__(self, kind, *exc) -> None:
         """Wait for every figure; on an error or an interrupt, stop the processes at once."""
         if self.pool is not None and kind is not None:  # Ctrl-C, SIGTERM, an error: the figures stop now
+            # deferred: loads the simulator's compiled kernels
             from tavc_cli.experiments.pool import stop_workers
 
             stop_workers(self.pool)
@@ -42,8 +43,7 @@ class FigurePool:
 def figure_worker_start() -> None:
     """A figure process leaves Ctrl-C to the report (which stops it), rather than printing a
     traceback of its own, and dies on SIGTERM and with the report."""
-    import signal
-
+    # deferred: loads the simulator's compiled kernels
     from tavc_cli.experiments.pool import worker_start
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from urllib.parse import quote
 
 import pandas as pd
 
+from tavc_cli.analysis.claims import not_a_verdict
 from tavc_cli.chapter import EXPERIMENTS, base_case, state_table_id
 from tavc_cli.experiments.plan import RunPlan, read_plan
+from tavc_cli.reference import chapter_table
 from tavc_cli.settings import TavcConfig
 
 
@@ -72,7 +75,7 @@ def experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataF
     titles naming `label` (the experiment's name unless given); markdown lines that show them
     (baselines on another schedule than the learner's drawn as levels: `baseline_levels`). A run
     below the chapter's scale marks each of its figures "not a verdict" (`viz.figures.marked`)."""
-    from tavc_cli.analysis.claims import not_a_verdict
+    # deferred: loads matplotlib
     from tavc_cli.viz.figures import marked
 
     with marked(not_a_verdict(cfg)):
@@ -81,7 +84,7 @@ def experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataF
 
 def _experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame, results_dir: Path,
                         model_json: Path | None, fig_dir: Path | None, label: str | None) -> list[str]:
-    from tavc_cli.reference import chapter_table
+    # deferred: loads matplotlib
     from tavc_cli.viz.figures import allocation_figure, performance_figure, state_figure
 
     fig_dir = fig_dir or results_dir / "figures"
@@ -118,8 +121,6 @@ def _experiment_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.Data
 def figure_link(results_dir: Path, fig_dir: Path) -> str:
     """`fig_dir` as a markdown link from REPORT.md in results_dir (each part URL-quoted: a
     run's folder may be named `1_tasks.values=_2200,2000_`)."""
-    from urllib.parse import quote
-
     return "/".join(quote(part) for part in fig_dir.relative_to(results_dir).parts)
 
 
@@ -127,7 +128,7 @@ def group_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame,
                   link: str = "figures", label: str | None = None) -> list[str]:
     """Fast and slow robots: the f:s grids (Figure 1.12's kind), TAVC against the theory row (1.13's),
     each speed group on the high-value circuit over time, and the Q-values of trial 0."""
-    from tavc_cli.reference import chapter_table
+    # deferred: loads matplotlib
     from tavc_cli.viz.groups import group_difference_figure, group_state_figure, specialisation_figure
 
     label = label or name
@@ -173,6 +174,7 @@ def q_figure(name: str, d: Path, cfg: TavcConfig, fig_dir: Path, link: str = "fi
     path = d / "q_values.csv"
     if not path.is_file():
         return []
+    # deferred: loads matplotlib
     from tavc_cli.viz.figures import q_value_figure
 
     q = pd.read_csv(path)

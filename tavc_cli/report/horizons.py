@@ -22,6 +22,7 @@ import pandas as pd
 
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import CLAIM_TABLES, claim_table, learner_under_test, not_a_verdict, verdict_words
+from tavc_cli.analysis.convergence import convergence_verdict
 from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
 from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.learning.registry import controller_label
@@ -153,7 +154,6 @@ def convergence(d: Path, controller: str | None = None) -> dict | None:
     path = d / "convergence.csv"
     if not path.is_file():
         return None
-    from tavc_cli.analysis.convergence import convergence_verdict
 
     table = pd.read_csv(path)
     if controller is None and len(table):

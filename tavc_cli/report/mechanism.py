@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.mechanism import mechanism_summary
 from tavc_cli.report.files import config_of
 from tavc_cli.report.text import CONTROLLER_NAMES, fmt
 
@@ -20,7 +21,6 @@ def mechanism(d: Path, controller: str = "tavc") -> dict | None:
     path = d / "mechanism.csv"
     if not path.is_file():
         return None
-    from tavc_cli.analysis.mechanism import mechanism_summary
 
     table = pd.read_csv(path)
     if not ((table["controller"] == controller) & (table["window"] == "stable")).any():

@@ -22,7 +22,9 @@ from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.chapter import order_key, state_table_id
 from tavc_cli.ownership import COMPARE, READINGS, STUDY, SURROGATE, TASKS, read
 from tavc_cli.readers import load_json
+from tavc_cli.report.figures import experiment_figures
 from tavc_cli.report.files import config_of, read_or_refuse
+from tavc_cli.report.studies import spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, to_yaml
 
@@ -238,9 +240,6 @@ def draw_figures(name: str, d: Path, cfg: TavcConfig, horizon: Path, results_dir
                  model_json: Path | None) -> list[str]:
     """The figures of a run beside the designated one, under `figure_dir`, with the markdown
     lines that show them from results_dir's REPORT.md (run in the report's figure pool)."""
-    from tavc_cli.report.figures import experiment_figures
-    from tavc_cli.report.studies import spatiotemporal_lines
-
     fig_dir = figure_dir(d, horizon)
     label = f"{name} ({rel(d, results_dir)})"
     if (d / "table_1_1.csv").is_file():

@@ -16,6 +16,7 @@ import pandas as pd
 from tavc_cli import chapter
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.readers import load_json
+from tavc_cli.reference import chapter_table
 from tavc_cli.report.drawing import FigurePool
 from tavc_cli.report.figures import experiment_figures
 from tavc_cli.report.files import config_of
@@ -75,7 +76,7 @@ def run_figures(name: str, d: Path, cfg: TavcConfig, state_time: pd.DataFrame, f
         return [_relinked(line, results_dir, folder) for line in spatiotemporal_lines(name, d, cfg, folder)]
     lines = []
     if both is not None and cfg.analysis.state == "circuits":
-        from tavc_cli.reference import chapter_table
+        # deferred: loads matplotlib
         from tavc_cli.viz.figures import horizon_state_figure
 
         base_state, stem, factor = both

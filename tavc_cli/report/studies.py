@@ -7,10 +7,19 @@ import json
 from pathlib import Path
 
 import pandas as pd
+from scipy import stats
 
+from tavc_cli.analysis.makeup_model import expected_high, predicted_regime
+from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
+from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
+from tavc_cli.reference import chapter_table
+from tavc_cli.report.figures import figure_link
+from tavc_cli.report.files import config_of, read_or_refuse
+from tavc_cli.report.mechanism import mechanism
 from tavc_cli.report.text import fmt
 from tavc_cli.settings import TavcConfig
+from tavc_cli.stay_switch import reading_folder, readings
 
 
 def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
@@ -19,7 +28,7 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     root = results_dir / "value_ratio"
     if not root.is_dir():
         return []
-    from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
+    # deferred: loads matplotlib
     from tavc_cli.viz.figures import value_ratio_figure
 
     points = ratio_points(root)
@@ -77,9 +86,8 @@ def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path,
     """Section 1.4: Table 1.1 beside the chapter's, Figure 1.4's kind, the learned policies, the
     lanes; the figures under `fig_dir` (results_dir/figures unless given), their titles naming
     `label` (the experiment's name unless given)."""
+    # deferred: loads the simulator's compiled kernels; loads matplotlib
     from tavc_cli.analysis.spatiotemporal import target_time_curve
-    from tavc_cli.reference import chapter_table
-    from tavc_cli.report.figures import figure_link
     from tavc_cli.viz.spatial import lane_figure, target_time_figure
 
     ours = pd.read_csv(d / "table_1_1.csv")
@@ -121,8 +129,6 @@ def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path,
                 "axis away from its ends, per trial (mean ± std over trials): " + "; ".join(parts) + ".")
         wide = lanes.pivot_table(index="trial", columns="window", values="mean_left_m")
         if {"early", "late"} <= set(wide.columns) and len(wide.dropna()) >= 2:
-            from scipy import stats
-
             both = wide.dropna()
             res = stats.ttest_rel(both["late"], both["early"])
             text += (f" Late against early, paired two-sided over {len(both)} trials (reported, not part of a "
@@ -162,7 +168,6 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
     path = results_dir / STAY_SWITCH_DIR / "stay_switch.csv"
     if not path.is_file():
         return []
-    from tavc_cli.report.files import read_or_refuse
 
     table = read_or_refuse(path, pd.read_csv)
     rel = path.parent.relative_to(results_dir).as_posix()
@@ -195,8 +200,6 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
                 f"{int(rows['stay_pays_low'].sum())} | {int(rows['stay_pays_low_source'].sum())} |")
         mine = model[model["reading"] == reading] if model is not None else None
         if mine is not None and len(mine):
-            from tavc_cli.analysis.makeup_model import expected_high, predicted_regime
-
             regime, basin = predicted_regime(mine)
             line += f" {regime} ({100 * basin:.0f} %) | {expected_high(mine):.2f} |"
         else:
@@ -211,21 +214,37 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
     return [*lines, ""]
 
 
+READINGS_RUNS = "converged/readings"  # the base case at 40x in a reading: <folder>/<arrival>-<passing>-<arena>
+
+
 def _learners_beside_the_model(results_dir: Path, model: pd.DataFrame) -> list[str]:
-    """Where the learners ran long enough to converge in today's world (`converged/initial_distribution`),
-    how their group was made beside what the make-up model predicts for that world."""
-    from tavc_cli.report.mechanism import mechanism
-
-    d = results_dir / "converged" / "initial_distribution"
-    today = "arrival=dock passing=nearest arena=two_circuits"
-    m = mechanism(d) if (d / "mechanism.csv").is_file() else None
-    mine = model[model["reading"] == today]
-    if m is None or not len(mine):
+    """Where learners ran at 40x in a reading the model was measured in (today's world:
+    `converged/<the base case>`; any other: `converged/readings/<arrival>-<passing>-<arena>`),
+    how their group was made beside what the make-up model predicts for that world: the
+    regime and the robots on the high-value circuit in the stable period."""
+    rows = []
+    for reading, mine in model.groupby("reading", sort=False):
+        parts = dict(p.split("=", 1) for p in str(reading).split() if "=" in p)
+        folder = reading_folder(parts)
+        d = results_dir / (f"converged/{base_case().name}" if folder == reading_folder(readings()[0])  # today's world
+                           else f"{READINGS_RUNS}/{folder}")
+        m = mechanism(d) if (d / "mechanism.csv").is_file() else None
+        if m is None or not (d / "allocation.csv").is_file():
+            continue
+        cfg = config_of(d / "config.yaml")
+        alloc = pd.read_csv(d / "allocation.csv")
+        tavc = alloc[(alloc["controller"] == "tavc") & (alloc["t_s"] >= float(cfg.convergence_s))
+                     & (alloc["t_s"] < float(cfg.duration_s))]
+        regime, basin = predicted_regime(mine)
+        hit = "yes" if regime == m["regime"] else "**no**"
+        rows.append(f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({cfg.trials} trials) | {m['regime']} | "
+                    f"{tavc['mean_high'].mean():.2f} | {regime} ({100 * basin:.0f} %) | {expected_high(mine):.2f} | "
+                    f"{hit} |")
+    if not rows:
         return []
-    from tavc_cli.analysis.makeup_model import predicted_regime
-
-    regime, basin = predicted_regime(mine)
-    return ["", f"Beside the learners: in today's world at 40 times the chapter's durations "
-            f"(`converged/initial_distribution`) the learners' group is made by **{m['regime']}**; the make-up model "
-            f"predicts **{regime}** ({100 * basin:.0f} % of starts). One point of the checks the model needs; the "
-            "others (the chapter's scenarios, the value ratios, team sizes, each reading) are not run yet."]
+    return ["", "Beside the learners at 40 times the chapter's durations, where they were run in a reading (the "
+            "model's predictions were committed before these runs): how their group was made in the stable period "
+            "and the robots on the high-value circuit there, against the model. The other checks the model needs "
+            "(the chapter's scenarios, the value ratios, team sizes, the remaining readings) are not run yet.", "",
+            "| reading | the learners' run | their regime | robots on the high-value circuit | the model | its robots "
+            "on the high-value circuit | the same regime |", "|---|---|---|---|---|---|---|", *rows]

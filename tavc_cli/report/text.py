@@ -10,6 +10,10 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.claims import not_a_verdict, verdict_words
+from tavc_cli.analysis.robots import ALTERNATOR_RATE, STAYER_SHARE, robot_summary
+from tavc_cli.analysis.schema import read_trial
+from tavc_cli.analysis.trial_stats import Q_GAP_PREFIX, SETTLE_TOL
+from tavc_cli.analysis.vacancy import SETTLE_TASKS, vacancy_summary
 from tavc_cli.chapter import EXPERIMENTS, experiment_of
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.model.allocations import MODEL_LIMIT
@@ -171,7 +175,6 @@ def settle_lines(stats: pd.DataFrame, cfg: TavcConfig) -> list[str]:
     """When the trials' allocations settled, beside the chapter's convergence period."""
     if "settle_s" not in stats or not stats["settle_s"].notna().any():
         return []
-    from tavc_cli.analysis.trial_stats import SETTLE_TOL
 
     parts = []
     for ctrl, g in stats.groupby("controller", sort=False):
@@ -216,7 +219,6 @@ def robot_lines(d: Path) -> list[str]:
     path = d / "robots.csv"
     if not path.is_file():
         return []
-    from tavc_cli.analysis.robots import ALTERNATOR_RATE, STAYER_SHARE, robot_summary
 
     parts = []
     for ctrl, kinds in robot_summary(pd.read_csv(path)).items():
@@ -231,7 +233,6 @@ def vacancy_lines(d: Path) -> list[str]:
     path = d / "vacancy.csv"
     if not path.is_file():
         return []
-    from tavc_cli.analysis.vacancy import SETTLE_TASKS, vacancy_summary
 
     table = pd.read_csv(path)
     lines = [f"Vacancy chains. The event leaves one circuit short: the broken robot's, or the one that became "
@@ -254,8 +255,6 @@ def vacancy_lines(d: Path) -> list[str]:
 
 def q_gap_lines(stats: pd.DataFrame) -> list[str]:
     """Mean final Q(high) - Q(low) per speed group (heterogeneous teams)."""
-    from tavc_cli.analysis.trial_stats import Q_GAP_PREFIX
-
     cols = [c for c in stats.columns if c.startswith(Q_GAP_PREFIX)]
     tavc = stats[stats["controller"] == "tavc"]
     if len(cols) < 2 or not len(tavc):
@@ -347,7 +346,6 @@ def _delivered_by_records(d: Path, prov: dict) -> dict[str, bool] | None:
     trials = prov.get("trials", [])
     if not trials or not all((d / t["file"]).is_file() for t in trials):
         return None
-    from tavc_cli.analysis.schema import read_trial
 
     delivered: dict[str, bool] = {}
     for t in trials:

@@ -14,6 +14,10 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli import chapter
+from tavc_cli.analysis.claims import claim_table
+from tavc_cli.analysis.ladder import ladder_value
+from tavc_cli.analysis.qvalues import policy_changes
+from tavc_cli.reference import chapter_table
 from tavc_cli.report.files import config_of
 from tavc_cli.report.horizons import Horizon, convergence, horizons_stem, never_changed, window_lines
 from tavc_cli.report.runs import LADDER
@@ -120,8 +124,6 @@ def _measured_policies(results_dir: Path, run: Path, longer: list[Horizon]) -> l
     """The greedy policies as measured: robots and trials of `run` whose greedy policy never
     changed (its `q_values.csv`, `trial_stats.csv`), the ladder's share of robots whose policy
     changed in the last quarter, and each longer horizon's trials in which none changed."""
-    from tavc_cli.analysis.qvalues import policy_changes
-
     out = []
     rel = run.relative_to(results_dir).as_posix()
     q_path = run / "q_values.csv"
@@ -163,7 +165,6 @@ def _ladder_policies(results_dir: Path, h: Horizon) -> list[str]:
     path = _ladder(h)
     if not path.is_file():
         return []
-    from tavc_cli.analysis.ladder import ladder_value
 
     share = ladder_value(pd.read_csv(path), "tavc", "policy_changed_share").dropna()
     if not len(share):
@@ -179,7 +180,7 @@ def ladder_lines(results_dir: Path, h: Horizon) -> list[str]:
     path = _ladder(h)
     if not path.is_file():
         return []
-    from tavc_cli.analysis.ladder import ladder_value
+    # deferred: loads matplotlib
     from tavc_cli.viz.ladder import ladder_figure
 
     table = pd.read_csv(path)
@@ -229,7 +230,6 @@ def ladder_lines(results_dir: Path, h: Horizon) -> list[str]:
                      f"{fmt(float(std33.get(f)))} | {cell('pct_4:2', f)} | {verdict(3, f)} | {verdict(5, f)} | "
                      f"{cell('q_drift', f, '.3f')} | {cell('policy_changed_share', f, '.2f')} | "
                      f"{cell('alloc_drift', f, '.2f')} | {conv_word} | {fmt(stayers)} | {cell('n_alternators', f)} |")
-    from tavc_cli.reference import chapter_table
 
     rand = ladder_value(table, "random", "pct_3:3")
     theory = ladder_value(table, "theory", "pct_3:3")
@@ -248,7 +248,6 @@ def rung_claims(d: Path) -> pd.DataFrame | None:
     path = d / "trial_stats.csv"
     if not path.is_file():
         return None
-    from tavc_cli.analysis.claims import claim_table
 
     return claim_table({STAY_EXPERIMENT: pd.read_csv(path)}, STAY_EXPERIMENT).set_index("claim_id")
 

@@ -9,14 +9,16 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.convergence import convergence_verdict
+from tavc_cli.analysis.mechanism import mechanism_summary
+from tavc_cli.model import core
+from tavc_cli.surrogate.tasks import STAY
+
 
 def run_facts(folder: Path, controller: str = "tavc") -> dict:
     """What the comparison reads of a run's folder (simulator's or surrogate's): the state
     shares, the modal state, the make-up and convergence of `controller`, its score rate in
     the stable period, and the claims' verdicts."""
-    from tavc_cli.analysis.convergence import convergence_verdict
-    from tavc_cli.analysis.mechanism import mechanism_summary
-
     folder = Path(folder)
     states = pd.read_csv(folder / "state_time.csv", dtype={"state": str})
     mine = states[states["controller"] == controller]
@@ -81,9 +83,6 @@ def stayer_table(times, team_name: str, n_robots: int):
     """The model's c_i(n), t_i(n) table for every split of the team from the measured stay tasks
     of the make-ups without alternators: t_i the mean time of a stay task on circuit i,
     c_i = n_i / t_i."""
-    from tavc_cli.model import core
-    from tavc_cli.surrogate.tasks import STAY
-
     table = core.CTable(2)
     frame = times.frame
     frame = frame[(frame["team"] == team_name) & (frame["kind"] == STAY)]
@@ -102,8 +101,6 @@ def stayer_table(times, team_name: str, n_robots: int):
 def predicted_state(times, team_name: str, n_robots: int, values: Sequence[float]) -> str:
     """The model's predicted state for `n_robots` robots of team `team_name` at `values`, from the
     measured stayers' task times (`stayer_table`)."""
-    from tavc_cli.model import core
-
     return core.state_label(core.predicted_split(stayer_table(times, team_name, n_robots), n_robots, values), values)
 
 

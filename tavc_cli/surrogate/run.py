@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import hashlib
 import json
+import multiprocessing as mp
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, is_dataclass, replace
 from functools import cache
 from pathlib import Path
 
@@ -17,12 +19,14 @@ from tavc_cli import meaning_digest
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.plan import RunPlan, plan_run
+from tavc_cli.experiments.pool import stop_workers, worker_start
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.runner import Run
 from tavc_cli.experiments.spec import code_digest
 from tavc_cli.experiments.store import Executor, TrialStore, _stored_key, trial_path
 from tavc_cli.io import claim_folder, default_root, file_digest, write_bytes_atomic, write_text_atomic
 from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_settings, take
+from tavc_cli.pipeline import CAN_FORK, _finish, take_run_folder
 from tavc_cli.readers import load_json
 from tavc_cli.settings import TavcConfig
 from tavc_cli.surrogate.engine import run_trial
@@ -68,8 +72,6 @@ def measurement_record(cfg: TavcConfig) -> dict:
 
 
 def _plain(obj) -> object:
-    from dataclasses import asdict, is_dataclass
-
     return json.loads(json.dumps(asdict(obj) if is_dataclass(obj) else obj, default=str))
 
 
@@ -229,8 +231,6 @@ def run_surrogate(cfg: TavcConfig, *, progress: bool = False, echo: Callable[[st
     """An experiment on the surrogate into `cfg.output_dir`: tasks measured or reused, trials
     drawn (a finished one of the same key reused), then the tables, claims and provenance of
     `tavc run`. Returns the run's summary, as `pipeline.run_experiment` does."""
-    from tavc_cli.pipeline import _finish, take_run_folder
-
     surrogate_supports(cfg)
     times = measure_tasks(cfg, progress=progress, echo=echo)
     plan = plan_run(cfg)
@@ -265,18 +265,13 @@ def _draw_trials(pending: list, times: TaskTimes, stayers: bool, n_jobs: int) ->
     """Draw and save the pending trials: in this process, or in `n_jobs` forked ones where
     the system forks and there are trials for more than one (each trial is its own seed's, so
     the processes change nothing but the time)."""
-    from tavc_cli.pipeline import CAN_FORK
-
     _SHARED.update(pending=pending, times=times, stayers=stayers)
     try:
         if n_jobs <= 1 or len(pending) <= 1 or not CAN_FORK:
             for k in range(len(pending)):
                 _draw_one(k)
             return
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
 
-        from tavc_cli.experiments.pool import stop_workers, worker_start
 
         pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=mp.get_context("fork"),
                                    initializer=worker_start)

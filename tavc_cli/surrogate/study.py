@@ -34,7 +34,13 @@ import pandas as pd
 from tavc_cli.chapter import EXPERIMENTS as CHAPTER
 from tavc_cli.chapter import base_case
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import trial_specs
+from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.ownership import STUDY, take
+from tavc_cli.settings import to_yaml
 from tavc_cli.surrogate.compare import comparison_rows, high_share, predicted_state, run_facts
+from tavc_cli.surrogate.engine import run_trial
+from tavc_cli.surrogate.tasks import Team
 
 if TYPE_CHECKING:
     from tavc_cli.settings import TavcConfig
@@ -82,6 +88,7 @@ class Study:
     def surrogate(self, folder: Path, overrides: Sequence[str]) -> Path:
         """A surrogate run of `overrides` into `folder` (its tasks measured in the study's own tasks folder),
         resumed where finished; returns the folder."""
+        # deferred: loads the simulator's compiled kernels
         from tavc_cli.surrogate.run import run_surrogate
 
         cfg = self.compose([*self.overrides, *overrides, f"surrogate.tasks_dir={self.tasks_dir}",
@@ -94,6 +101,7 @@ class Study:
     def simulator(self, folder: Path, overrides: Sequence[str]) -> Path:
         """A run of `overrides` in the physical simulator into `folder`, unless it is finished there as
         configured; returns the folder."""
+        # deferred: loads the simulator's compiled kernels
         from tavc_cli.pipeline import run_experiment
 
         cfg = self.compose([*self.overrides, *overrides, f"output_dir={folder}"])
@@ -129,8 +137,8 @@ class Study:
 
     def phase(self) -> pd.DataFrame:
         """The phase diagram over team size and value ratio, with the model and the checked points."""
+        # deferred: loads the simulator's compiled kernels
         from tavc_cli.surrogate.run import measure_tasks
-        from tavc_cli.surrogate.tasks import Team
 
         rows = []
         for scale, factor in HORIZONS.items():
@@ -215,9 +223,8 @@ class Study:
         """Simulated seconds per wall second of one core: the first learner trial of every
         experiment, on the simulator at the chapter's durations and on the surrogate at both
         horizons (kernels compiled and tasks measured beforehand: not timed)."""
-        from tavc_cli.experiments.build import trial_specs
+        # deferred: loads the simulator's compiled kernels
         from tavc_cli.experiments.engine import run_trials
-        from tavc_cli.surrogate.engine import run_trial
         from tavc_cli.surrogate.run import measure_tasks, surrogate_specs
 
         rows = []
@@ -244,8 +251,6 @@ class Study:
 def _finished_as(folder: Path, cfg) -> bool:
     """Whether `folder` holds a finished run (its provenance.json, written last) of exactly this
     configuration: then the study reads it as it is instead of analysing it again."""
-    from tavc_cli.settings import to_yaml
-
     config = folder / "config.yaml"
     return (folder / "provenance.json").is_file() and config.is_file() and config.read_text() == to_yaml(cfg)
 
@@ -255,9 +260,6 @@ def run_study(out: Path, results: Path, overrides: Sequence[str], compose: Compo
     """Run the study (or only `parts` of it: compare, ladder, phase, horizon, speed) into `out`,
     composing each run's settings with `compose`, and write its tables and figures; returns the
     files written."""
-    from tavc_cli.io import claim_folder, write_text_atomic
-    from tavc_cli.ownership import STUDY, take
-
     set_here = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") in STUDY_KEYS]
     if set_here:
         raise TavcError(f"{set_here[0].split('=', 1)[0].lstrip('+~')}: set by the study for each of its runs; "
@@ -281,6 +283,7 @@ def run_study(out: Path, results: Path, overrides: Sequence[str], compose: Compo
             write_text_atomic(out / f"{name}.csv", table.to_csv(index=False, float_format="%.4f"))
         written.append(out / f"{name}.csv")
         echo(f"{part}: {out / f'{name}.csv'}")
+    # deferred: loads matplotlib
     from tavc_cli.viz.surrogate import study_figures
 
     figures = study_figures(out)

@@ -28,6 +28,7 @@ from tavc_cli.experiments.build import trial_specs  # noqa: E402
 from tavc_cli.experiments.engine import run_trials  # noqa: E402
 from tavc_cli.experiments.records import TrialRecord  # noqa: E402
 from tavc_cli.io import atomic_path, owned_path  # noqa: E402
+from tavc_cli.ownership import ANIMATION, Owned, read
 from tavc_cli.settings import TavcConfig  # noqa: E402
 from tavc_cli.sim.arena import Arena, arena_from_config  # noqa: E402
 from tavc_cli.viz.figures import write_figure  # noqa: E402
@@ -186,8 +187,6 @@ def _owned_beside(out: Path, mp4: bool):
     """What tavc owns in the animation's folder (`ownership`): a run's, or one of animations
     (listed there from now on); refuses, before anything is simulated, a file the animation
     would replace that tavc did not write."""
-    from tavc_cli.ownership import ANIMATION, Owned, read
-
     owned = read(out.parent) or Owned(out.parent, ANIMATION)
     names = [out.name, *([out.with_suffix(".mp4").name] if mp4 else []), "trajectories.png"]
     for name in names:  # a link, a pipe or a device where a picture goes: refused now, not after simulating

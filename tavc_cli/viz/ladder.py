@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from tavc_cli.reference import chapter_table
 from tavc_cli.viz.figures import clipped_err, n_text, plt, save_figure
 
 STATE_COLOURS = {"2:4": "tab:green", "3:3": "tab:blue", "4:2": "tab:red"}
@@ -28,8 +29,6 @@ def ladder_figure(table: pd.DataFrame, out_stem: Path, chapter: pd.DataFrame | N
     and the binomial row's 3:3 as horizontal lines; (bottom) the convergence measures and the
     share of robots that are stayers and alternators."""
     if chapter is None:
-        from tavc_cli.reference import chapter_table
-
         chapter = chapter_table("1.2")
     states = [q[4:] for q in dict.fromkeys(table.loc[table["controller"] == "tavc", "quantity"])
               if q.startswith("pct_")]

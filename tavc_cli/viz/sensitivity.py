@@ -8,6 +8,8 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
+import json
+
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
@@ -58,8 +60,6 @@ def task_time_figure(sensitivity_csv: Path, sensitivity_json: Path, out_stem: Pa
     one panel per grid axis: the chosen world in black, the worlds that differ from it on
     that axis alone in colour, each labelled with its crowding ratio and the allocations
     the model predicts for N and N-1 robots with the chapter's values."""
-    import json
-
     frame = pd.read_csv(sensitivity_csv)
     worlds = {w["world"]: w for w in json.loads(Path(sensitivity_json).read_text())["worlds"]}
     axes_varied = [v for v in dict.fromkeys(frame["varied"]) if v != "chosen"]

@@ -10,12 +10,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from tavc_cli.viz.figures import clipped_err, n_text, write_figure
+
 
 def _trials(table: pd.DataFrame) -> str:
     """The trials behind each point, as "n trials" (its range over jobs): the table's
     `n_trials` if it has one, else each job's state_time.csv (`output_dir`)."""
-    from tavc_cli.viz.figures import n_text
-
     if "n_trials" in table:
         return n_text(table["n_trials"])
     counts = []
@@ -30,8 +30,6 @@ def _trials(table: pd.DataFrame) -> str:
 def sweep_figure(table: pd.DataFrame, key: str, out: Path) -> list[Path]:
     """% of the stable period in each state against `key`'s values, one panel per controller;
     error bars one std over each job's trials, cut at 0 and 100 %."""
-    from tavc_cli.viz.figures import clipped_err, write_figure
-
     n = _trials(table)
     controllers = list(dict.fromkeys(table["controller"]))
     fig, axes = plt.subplots(1, len(controllers), figsize=(5.0 * len(controllers), 3.6), squeeze=False)
