@@ -97,7 +97,10 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
         times = measure_tasks(cfg, [team], progress=progress, echo=echo)
         frames.append(stay_switch_table(times.frame, [float(v) for v in cfg.tasks.values], name))
         values, high = values_high_low(cfg.tasks.values)
-        epsilon = float(getattr(cfg.learner, "epsilon", 0.0))
+        if not hasattr(cfg.learner, "epsilon"):
+            raise TavcError(f"learner={cfg.learner.name}: the make-up model takes an epsilon-greedy learner's "
+                            "exploration (learner.epsilon); this learner has none")
+        epsilon = float(cfg.learner.epsilon)
         prediction = predict(times_of(times.frame, high), len(groups), values, epsilon)
         models.append(prediction.assign(reading=name, epsilon=epsilon))
         record.setdefault("scale", str(cfg.scale.name))
@@ -107,7 +110,7 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
     table = pd.concat(frames, ignore_index=True)
     model = pd.concat(models, ignore_index=True)
     model = model[["reading", *(c for c in model.columns if c != "reading")]]
-    from tavc_cli.viz.stay_switch import stay_switch_figure  # matplotlib: loaded only where a figure is drawn
+    from tavc_cli.viz.stay_switch import stay_switch_figure  # deferred: loads matplotlib
 
     with claim_folder(out):
         owned.wrote(*STAY_SWITCH_FILES)

@@ -205,18 +205,57 @@ def test_the_reports_section_gives_the_make_up_models_regime(tmp_path):
     assert "| turn-taking (100 %) | 1.00 |" in text  # both alternate: one robot's worth on each circuit
 
 
-def test_the_committed_report_sets_the_learners_at_40x_beside_the_model():
-    """Where the committed results hold learners at 40x in a reading, the section names their
-    regime beside the model's, one row a reading, the base case standing for today's world."""
+def test_the_learners_beside_the_model_say_whether_they_agree_and_whether_it_is_a_check(tmp_path):
+    """The report's rows of learners beside the make-up model, on two committed 40x runs copied
+    into a folder with a model written by hand: a converged run of turn-taking against a model
+    of persistence is a disagreement; against a model of turn-taking an agreement; a run whose
+    learners did not converge is no check, whatever the model says."""
+    import shutil
+
     from tavc_cli.report.studies import stay_switch_lines
     from tests.helpers import REPO
 
-    results = REPO / "results"
-    if not (results / "stay_switch" / "stay_switch_model.csv").is_file():
-        pytest.skip("no committed stay-switch study")
-    rows = [line for line in stay_switch_lines(results) if line.startswith("| arrival=") and "` (" in line]
-    runs = {line.split("|")[2].strip().split("`")[1] for line in rows}
-    assert "converged/initial_distribution" in runs  # today's world: the base case's own 40x run
-    for line in rows:
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        assert cells[6] == ("yes" if cells[2] == cells[4].split(" (")[0] else "**no**")
+    committed = REPO / "results" / "converged"
+    today, other = committed / "initial_distribution", committed / "readings" / "range-left-two_circuits_parallel"
+    if not (today / "mechanism.csv").is_file() or not (other / "mechanism.csv").is_file():
+        pytest.skip("the committed 40x runs are not here")
+    for src, dst in ((today, tmp_path / "converged" / "initial_distribution"),
+                     (other, tmp_path / "converged" / "readings" / "range-left-two_circuits_parallel")):
+        dst.mkdir(parents=True)
+        for name in ("config.yaml", "mechanism.csv", "allocation.csv", "convergence.csv"):
+            shutil.copy(src / name, dst / name)
+    (tmp_path / "stay_switch").mkdir()
+    tasks = pd.DataFrame([_task("all:2-2-2", "stay", 1, 80.0, 30.0), _task("all:2-2-2", "switch", 0, 92.0, 40.0)],
+                         columns=list(COLUMNS))
+    readings = ("arrival=dock passing=nearest arena=two_circuits",
+                "arrival=range passing=left arena=two_circuits_parallel")
+    pd.concat([stay_switch_table(tasks, [2200.0, 2000.0], r) for r in readings]).to_csv(
+        tmp_path / "stay_switch" / "stay_switch.csv", index=False)
+
+    def rows(model_makeup: str) -> dict:
+        h, low, a = (int(x) for x in model_makeup.split("-"))
+        model = pd.DataFrame([{"reading": r, "makeup": model_makeup, "high_stayers": h, "low_stayers": low,
+                               "alternators": a, "rest_point": True, "regime": regime, "robots_high": h + a / 2,
+                               "basin": 1.0} for r, regime in zip(readings, [model_regime] * 2, strict=True)])
+        model.to_csv(tmp_path / "stay_switch" / "stay_switch_model.csv", index=False)
+        lines = [x for x in stay_switch_lines(tmp_path) if x.startswith("| arrival=") and "` (" in x]
+        return {x.split("|")[1].strip(): [c.strip() for c in x.strip("|").split("|")] for x in lines}
+
+    model_regime = "persistence"
+    found = rows("3-3-0")
+    assert found[readings[0]][2] == "yes" and found[readings[0]][3] == "turn-taking"  # converged, took turns
+    assert found[readings[0]][7] == "**no**"
+    assert found[readings[1]][2].startswith("no (") and found[readings[1]][7].endswith("(not a check: the learners did "
+                                                                                        "not converge)")
+    model_regime = "turn-taking"
+    assert rows("0-0-6")[readings[0]][7] == "yes"
+
+
+def test_from_the_source_counts_only_tasks_whose_source_arrival_is_known():
+    # two low stays: 100 s with 40 s to the source, 200 s with no source arrival recorded: 60 s from the source
+    # (not 150 - 40 = 110); one switch of 90 s with 30 s to the source: 60 s; 60 / 60 = 1.0
+    tasks = pd.DataFrame([_task("all:4-1-1", "stay", 1, 100.0, 40.0), _task("all:4-1-1", "stay", 1, 200.0, math.nan),
+                          _task("all:4-1-1", "switch", 0, 90.0, 30.0)], columns=list(COLUMNS))
+    r = stay_switch_table(tasks, [2200.0, 2000.0]).iloc[0]
+    assert r["ratio_low_source"] == pytest.approx(1.0)
+    assert r["ratio_low"] == pytest.approx(90 / 150)

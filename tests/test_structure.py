@@ -207,15 +207,15 @@ def test_no_module_is_over_400_lines():
 
 
 def _reasoned(lines: list[str], i: int) -> bool:
-    """Whether the import on line i (0-based) says why it is inside a function: a comment on it,
-    or above it or above the run of imports it belongs to."""
-    if "#" in lines[i]:
+    """Whether the import on line i (0-based) says why it is inside a function: a `# deferred:`
+    comment on it, or above it or above the run of imports it belongs to."""
+    if "# deferred:" in lines[i]:
         return True
     j = i - 1
     while j >= 0:
         text = lines[j].strip()
         if text.startswith("#"):
-            return True
+            return text.startswith("# deferred:")
         if not text or text.startswith(("from ", "import ")) or text.endswith(",") or text == ")":
             j -= 1
             continue

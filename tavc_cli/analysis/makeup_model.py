@@ -21,6 +21,12 @@ robots on the high-value circuit (h + a / 2).
 
 Every number comes from the measured tasks and the chapter's values and epsilon; nothing is
 fitted to the learners. Pure functions; `stay_switch` applies them to each reading.
+
+Two simplifications to keep in mind when reading its predictions. A stayer's exploratory task
+to the other circuit is counted, but not its way back (the greedy switch home that follows);
+and a strategy is rated by its long-run value per second (the mean value of its tasks over
+their mean time), while a learner's reward is per task (w / t), so its Q-values weigh a
+strategy by the mean of w / t; the two differ where a strategy's tasks differ in length.
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ from math import comb
 import pandas as pd
 
 from tavc_cli.analysis.mechanism import regime as mechanism_regime
+from tavc_cli.analysis.stay_switch import thresholds
 
 STRATEGIES = ("high", "low", "alternate")
 START = {"high": 3 / 8, "low": 3 / 8, "alternate": 1 / 4}  # a random 2x2 table's greedy policy
@@ -177,6 +184,7 @@ def expected_high(prediction: pd.DataFrame) -> float:
 
 
 def values_high_low(values: Sequence[float]) -> tuple[tuple[float, float], int]:
-    """((w_high, w_low), the high-value circuit's index) of two circuits' values."""
-    high = 0 if float(values[0]) >= float(values[1]) else 1
+    """((w_high, w_low), the high-value circuit's index) of two circuits' values
+    (`stay_switch.thresholds` picks the circuit)."""
+    high = thresholds(values)[2]
     return (float(values[high]), float(values[1 - high])), high

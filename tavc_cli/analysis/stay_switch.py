@@ -75,7 +75,8 @@ def stay_switch_table(tasks: pd.DataFrame, values: Sequence[float], reading: str
                "t_switch_s": _mean(switch, "task_time_s")}
         row.update({f"{a}_stay_low_s": _mean(stay_low, f"{a}_s") for a in SPLIT})
         row.update({f"{a}_switch_s": _mean(switch, f"{a}_s") for a in SPLIT})
-        loaded = {name: _mean(rows_, "task_time_s") - _mean(rows_, "source_s")
+        # from the source on: each task's time less its empty leg, over the tasks whose source arrival is known
+        loaded = {name: float((rows_["task_time_s"] - rows_["source_s"]).dropna().mean()) if len(rows_) else math.nan
                   for name, rows_ in (("low", stay_low), ("high", stay_high), ("switch", switch))}
         row["ratio_low"] = _ratio(row["t_switch_s"], row["t_stay_low_s"])
         row["ratio_high"] = _ratio(row["t_switch_s"], row["t_stay_high_s"])

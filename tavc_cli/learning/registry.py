@@ -105,7 +105,7 @@ def seed_code(label: str) -> int:
 def make_policy(settings: LearnerSettings, n_robots: int, n_circuits: int, rng: np.random.Generator) -> TaskPolicy:
     """Build the policy `settings` name (a built-in's, or the class its ``target`` names)."""
     if isinstance(settings, PluginSettings):
-        from tavc_cli.learning.plugins import plugin_policy  # loads numpy and the learner's own code
+        from tavc_cli.learning.plugins import plugin_policy  # deferred: loads numpy and the learner's own code
 
         return plugin_policy(settings, n_robots, n_circuits, rng)
     entry = LEARNERS.get(settings.name)

@@ -22,13 +22,12 @@ import pandas as pd
 
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import CLAIM_TABLES, claim_table, learner_under_test, not_a_verdict, verdict_words
-from tavc_cli.analysis.convergence import convergence_verdict
 from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
 from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.learning.registry import controller_label
 from tavc_cli.readers import load_json
 from tavc_cli.report.files import config_of
-from tavc_cli.report.mechanism import mechanism, mechanism_words
+from tavc_cli.report.mechanism import convergence, mechanism, mechanism_words
 from tavc_cli.report.runs import CONVERGED_DIR, on_surrogate
 from tavc_cli.report.text import delivery_lines, fmt, p_cell
 from tavc_cli.settings import TavcConfig
@@ -146,21 +145,6 @@ def under_test(read: dict) -> str:
     """The learner the claims about learning test: the task learner every run's trials are of
     (TAVC's runs: `tavc`), else TAVC (`claims.learner_under_test`)."""
     return learner_under_test(controller_label(str(cfg.learner.name)) for cfg, _ in read.values())
-
-
-def convergence(d: Path, controller: str | None = None) -> dict | None:
-    """The convergence verdict of an experiment's learners (`analysis.convergence`; by default
-    the first controller of its table, the learner), or None."""
-    path = d / "convergence.csv"
-    if not path.is_file():
-        return None
-
-    table = pd.read_csv(path)
-    if controller is None and len(table):
-        controller = str(table["controller"].iloc[0])
-    if controller is None or not (table["controller"] == controller).any():
-        return None
-    return convergence_verdict(table, controller=controller)
 
 
 def not_a_verdict_lines(*horizons: Horizon | None) -> list[str]:

@@ -36,7 +36,7 @@ h1, h2, h3 { scroll-margin-top: 1rem; }
 def report_html(markdown_text: str, title: str = "tavc: the reproduction report") -> str:
     """The page for a report's Markdown: its sections (headings of levels 2 and 3) in a table of
     contents beside it."""
-    import markdown  # loaded only where a page is asked for
+    import markdown  # deferred: loaded only where a page is asked for
 
     renderer = markdown.Markdown(extensions=["tables", "toc", "fenced_code"],
                                  extension_configs={"toc": {"toc_depth": "2-3"}})

@@ -11,7 +11,9 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.convergence import convergence_verdict
 from tavc_cli.analysis.mechanism import mechanism_summary
+from tavc_cli.analysis.stay_switch import thresholds
 from tavc_cli.report.files import config_of
 from tavc_cli.report.text import CONTROLLER_NAMES, fmt
 
@@ -46,12 +48,12 @@ def _secs(x) -> str:
 
 def persistence_ratio(values) -> float:
     """How much longer than a stay task a switch task must take for a robot on the low-value
-    circuit to earn more per task by staying (w_low / t_stay) than by alternating (the mean of
-    the two values over t_switch): t_switch / t_stay > (w_high + w_low) / (2 w_low)."""
-    if values is None or len(values) != 2:
+    circuit to earn more per task by staying than by alternating (`analysis.stay_switch.thresholds`),
+    or NaN where the values are not two positive ones."""
+    try:
+        return thresholds([float(v) for v in values])[0] if values is not None else math.nan
+    except ValueError:
         return math.nan
-    high, low = max(float(v) for v in values), min(float(v) for v in values)
-    return (high + low) / (2.0 * low) if low > 0 else math.nan
 
 
 def mechanism_lines(d: Path) -> list[str]:
@@ -112,3 +114,17 @@ def vacancy_mechanism_lines(d: Path) -> list[str]:
             "circuit and the group kept to its circuits (most robots stayers: the chapter's vacancy chain); in "
             f"{absorbed} the group was mostly alternators, so the vacancy was absorbed by turn-taking; "
             f"{other} neither.", ""]
+
+
+def convergence(d: Path, controller: str | None = None) -> dict | None:
+    """The convergence verdict of an experiment's learners (`analysis.convergence`; by default
+    the first controller of its table, the learner), or None."""
+    path = d / "convergence.csv"
+    if not path.is_file():
+        return None
+    table = pd.read_csv(path)
+    if controller is None and len(table):
+        controller = str(table["controller"].iloc[0])
+    if controller is None or not (table["controller"] == controller).any():
+        return None
+    return convergence_verdict(table, controller=controller)

@@ -10,13 +10,14 @@ import pandas as pd
 from scipy import stats
 
 from tavc_cli.analysis.makeup_model import expected_high, predicted_regime
+from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
 from tavc_cli.reference import chapter_table
 from tavc_cli.report.figures import figure_link
 from tavc_cli.report.files import config_of, read_or_refuse
-from tavc_cli.report.mechanism import mechanism
+from tavc_cli.report.mechanism import convergence, mechanism
 from tavc_cli.report.text import fmt
 from tavc_cli.settings import TavcConfig
 from tavc_cli.stay_switch import reading_folder, readings
@@ -218,10 +219,12 @@ READINGS_RUNS = "converged/readings"  # the base case at 40x in a reading: <fold
 
 
 def _learners_beside_the_model(results_dir: Path, model: pd.DataFrame) -> list[str]:
-    """Where learners ran at 40x in a reading the model was measured in (today's world:
+    """Where learners ran the base case in a reading the model was measured in (today's world:
     `converged/<the base case>`; any other: `converged/readings/<arrival>-<passing>-<arena>`),
     how their group was made beside what the make-up model predicts for that world: the
-    regime and the robots on the high-value circuit in the stable period."""
+    regime and the robots on the high-value circuit over the run's measured stretch of its
+    stable period (`stable_from`), whether its learners converged, and whether the regimes agree
+    (a run whose learners did not converge is no check of where they settle)."""
     rows = []
     for reading, mine in model.groupby("reading", sort=False):
         parts = dict(p.split("=", 1) for p in str(reading).split() if "=" in p)
@@ -233,18 +236,24 @@ def _learners_beside_the_model(results_dir: Path, model: pd.DataFrame) -> list[s
             continue
         cfg = config_of(d / "config.yaml")
         alloc = pd.read_csv(d / "allocation.csv")
-        tavc = alloc[(alloc["controller"] == "tavc") & (alloc["t_s"] >= float(cfg.convergence_s))
+        tavc = alloc[(alloc["controller"] == "tavc") & (alloc["t_s"] >= stable_from(cfg))
                      & (alloc["t_s"] < float(cfg.duration_s))]
         regime, basin = predicted_regime(mine)
-        hit = "yes" if regime == m["regime"] else "**no**"
-        rows.append(f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({cfg.trials} trials) | {m['regime']} | "
-                    f"{tavc['mean_high'].mean():.2f} | {regime} ({100 * basin:.0f} %) | {expected_high(mine):.2f} | "
-                    f"{hit} |")
+        v = convergence(d)
+        converged = "?" if v is None else ("yes" if v["converged"] else f"no ({', '.join(v['failed'])})")
+        same = "yes" if regime == m["regime"] else "**no**"
+        if v is None or not v["converged"]:
+            same += " (not a check: the learners did not converge)"
+        high = tavc["mean_high"].mean()
+        rows.append(f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({cfg.trials} trials, "
+                    f"{float(cfg.scale.time_factor):g}x) | {converged} | {m['regime']} | {high:.2f} | "
+                    f"{regime} ({100 * basin:.0f} %) | {expected_high(mine):.2f} | {same} |")
     if not rows:
         return []
-    return ["", "Beside the learners at 40 times the chapter's durations, where they were run in a reading (the "
-            "model's predictions were committed before these runs): how their group was made in the stable period "
-            "and the robots on the high-value circuit there, against the model. The other checks the model needs "
-            "(the chapter's scenarios, the value ratios, team sizes, the remaining readings) are not run yet.", "",
-            "| reading | the learners' run | their regime | robots on the high-value circuit | the model | its robots "
-            "on the high-value circuit | the same regime |", "|---|---|---|---|---|---|---|", *rows]
+    return ["", "Beside the learners, where they ran the base case in a reading: whether they converged (by the "
+            "measures of *The time scale*), how their group was made over the measured stretch of the stable period "
+            "and the robots on the high-value circuit there, against the model, which is fitted to none of these "
+            "runs. The other checks the model needs (the chapter's scenarios, the value ratios, team sizes, the "
+            "remaining readings) are not run yet.", "",
+            "| reading | the learners' run | converged | their regime | robots on the high-value circuit | the model | "
+            "its robots on the high-value circuit | the same regime |", "|---|---|---|---|---|---|---|---|", *rows]
