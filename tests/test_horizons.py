@@ -321,3 +321,15 @@ def test_the_stable_window_at_40x_is_the_chapters_length_at_the_end():
 def _baselines(cfg):
     """The settings the run's plan gives its random baseline."""
     return plan_run(cfg).settings_for(cfg, "random")
+
+
+def test_a_longer_horizon_below_the_chapters_scale_is_named_in_the_not_a_verdict_line(tmp_path):
+    """The chapter's durations at paper scale (a verdict), the longer horizon at scale=quick (not
+    one): the report's first words name the longer horizon's run by its folder."""
+    from tavc_cli.report import build_report
+
+    _run_folder(tmp_path / "initial_distribution", "paper", 1.0, 20.0, seed=1)
+    _run_folder(tmp_path / "converged" / "initial_distribution", "quick", 40.0, 60.0, seed=2)
+    build_report(tmp_path)
+    first = next(line for line in (tmp_path / "REPORT.md").read_text().splitlines() if "not a verdict" in line)
+    assert "initial_distribution in converged:" in first

@@ -159,7 +159,7 @@ def not_a_verdict_lines(*horizons: Horizon | None) -> list[str]:
     for h in found:
         for name, text in h.shortfalls.items():
             reason = text[text.index("(") + 1:-1]
-            where = name if h is found[0] and h.folder == found[0].folder else f"{name} in {h.folder.name}"
+            where = name if h.headline else f"{name} in {h.folder.name}"
             why.setdefault(reason, []).append(where)
     reasons = "; ".join(f"{', '.join(names)}: {reason}" for reason, names in why.items())
     return [f"**This report is not a verdict: scale={', scale='.join(scales)}.** The runs the claims are tested on "
