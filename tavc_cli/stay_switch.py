@@ -1,6 +1,6 @@
 """`tavc stay-switch`: what each reading of the world does to staying and switching.
 
-For every reading on a grid fixed here before any run (`GRID`: arrival at the dock or the code
+For every reading on a grid fixed before any run (`analysis.stay_switch.GRID`: arrival at the dock or the code
 read at range, passing by the nearest free heading or keeping left, crossing or parallel
 circuits), the static `alternate` robots of the surrogate's measurement
 (`surrogate.run.measure_tasks`) run every make-up of the experiment's team (robots staying
@@ -20,7 +20,6 @@ are measured at their defaults: no learner's table and no claim enters.
 
 from __future__ import annotations
 
-import itertools
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -28,7 +27,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.makeup_model import expected_high, predict, predicted_regime, times_of, values_high_low
-from tavc_cli.analysis.stay_switch import stay_switch_table
+from tavc_cli.analysis.stay_switch import GRID, reading_folder, reading_name, readings, stay_switch_table
 from tavc_cli.chapter import base_case
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
@@ -36,32 +35,10 @@ from tavc_cli.ownership import READINGS, STAY_SWITCH_FILES, take
 from tavc_cli.settings import TavcConfig
 from tavc_cli.surrogate.tasks import Team
 
-# the readings measured, each a config group with today's world first (docs/readings.md)
-GRID: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("arrival", ("dock", "range")),
-    ("passing", ("nearest", "left")),
-    ("arena", ("two_circuits", "two_circuits_parallel")),
-)
 DEFAULT_EXPERIMENT = base_case().name  # the chapter's base case: its team of six, no events
 SET_BY_THE_STUDY = ("arrival", "passing", "arena", "surrogate.tasks_dir", "output_dir")
 
 Compose = Callable[[list[str]], TavcConfig]
-
-
-def readings() -> list[dict[str, str]]:
-    """Every combination of the grid's readings, today's world first."""
-    keys = [k for k, _ in GRID]
-    return [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*(v for _, v in GRID))]
-
-
-def reading_name(reading: dict[str, str]) -> str:
-    """A reading as the table names it, its overrides: ``arrival=dock passing=nearest arena=two_circuits``."""
-    return " ".join(f"{k}={v}" for k, v in reading.items())
-
-
-def reading_folder(reading: dict[str, str]) -> str:
-    """A reading's folder under the study's: its values, ``dock-nearest-two_circuits``."""
-    return "-".join(reading.values())
 
 
 def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, progress: bool = False,

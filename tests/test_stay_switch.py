@@ -65,13 +65,14 @@ def test_a_switch_that_is_quicker_than_a_stay_does_not_pay():
 
 
 def test_the_grid_is_every_combination_with_todays_world_first():
-    from tavc_cli.stay_switch import reading_folder, reading_name, readings
+    from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, reading_name, readings
 
     grid = readings()
     assert len(grid) == 8 and grid[0] == {"arrival": "dock", "passing": "nearest", "arena": "two_circuits"}
     assert len({reading_name(r) for r in grid}) == 8
     assert reading_name(grid[0]) == "arrival=dock passing=nearest arena=two_circuits"
     assert reading_folder(grid[-1]) == "range-left-two_circuits_parallel"
+    assert all(parse_reading(reading_name(r)) == r for r in grid)
 
 
 @pytest.mark.parametrize(("args", "message"), [

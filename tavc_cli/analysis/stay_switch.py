@@ -12,16 +12,24 @@ and for a robot on the high-value circuit where t_switch / t_stay,high > (w_h + 
 The chapter's vacancy chains need the first: a robot that moved to the low-value circuit must
 keep to it. Each ratio is given twice: with t the whole task (from the choice at the sink to the
 next delivery, `tasks.time_from=choice`) and from the source on (`time_from=source`, the task
-less its empty leg). Pure functions of the task table; the measuring is `stay_switch`'s.
+less its empty leg). Pure functions of the task table, and the readings' grid (`GRID`, fixed here
+before any run, with their names); the measuring is `tavc_cli.stay_switch`'s.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
 import pandas as pd
 
+# the readings measured, each a config group with today's world first (docs/readings.md)
+GRID: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("arrival", ("dock", "range")),
+    ("passing", ("nearest", "left")),
+    ("arena", ("two_circuits", "two_circuits_parallel")),
+)
 STAY, SWITCH = "stay", "switch"
 SPLIT = ("drive", "avoid", "wait", "dock")  # where a task's time goes, in the table (the rest: search, escape)
 COLUMNS = ("reading", "makeup", "high_stayers", "low_stayers", "alternators",
@@ -89,4 +97,25 @@ def stay_switch_table(tasks: pd.DataFrame, values: Sequence[float], reading: str
         rows.append(row)
     out = pd.DataFrame(rows, columns=list(COLUMNS))
     return out.sort_values(["alternators", "low_stayers"], kind="stable").reset_index(drop=True)
+
+
+def readings() -> list[dict[str, str]]:
+    """Every combination of the grid's readings, today's world first."""
+    keys = [k for k, _ in GRID]
+    return [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*(v for _, v in GRID))]
+
+
+def reading_name(reading: dict[str, str]) -> str:
+    """A reading as the table names it, its overrides: ``arrival=dock passing=nearest arena=two_circuits``."""
+    return " ".join(f"{k}={v}" for k, v in reading.items())
+
+
+def reading_folder(reading: dict[str, str]) -> str:
+    """A reading's folder under the study's: its values, ``dock-nearest-two_circuits``."""
+    return "-".join(reading.values())
+
+
+def parse_reading(name: str) -> dict[str, str]:
+    """`reading_name`'s words back into the reading: ``{"arrival": "dock", ...}``."""
+    return dict(part.split("=", 1) for part in name.split() if "=" in part)
 

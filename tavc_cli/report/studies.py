@@ -10,6 +10,7 @@ import pandas as pd
 from scipy import stats
 
 from tavc_cli.analysis.makeup_model import expected_high, predicted_regime
+from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, readings
 from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
 from tavc_cli.chapter import base_case
@@ -20,7 +21,6 @@ from tavc_cli.report.files import config_of, read_or_refuse
 from tavc_cli.report.mechanism import convergence, mechanism
 from tavc_cli.report.text import fmt
 from tavc_cli.settings import TavcConfig
-from tavc_cli.stay_switch import reading_folder, readings
 
 
 def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
@@ -227,8 +227,7 @@ def _learners_beside_the_model(results_dir: Path, model: pd.DataFrame) -> list[s
     (a run whose learners did not converge is no check of where they settle)."""
     rows = []
     for reading, mine in model.groupby("reading", sort=False):
-        parts = dict(p.split("=", 1) for p in str(reading).split() if "=" in p)
-        folder = reading_folder(parts)
+        folder = reading_folder(parse_reading(str(reading)))
         d = results_dir / (f"converged/{base_case().name}" if folder == reading_folder(readings()[0])  # today's world
                            else f"{READINGS_RUNS}/{folder}")
         m = mechanism(d) if (d / "mechanism.csv").is_file() else None

@@ -9,13 +9,14 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.stay_switch import parse_reading
 from tavc_cli.viz.figures import plt, save_figure
 
 KIND = {"arrival=dock": "-", "arrival=range": "--"}  # line style by arrival, colour by passing and layout
 
 
 def _style(reading: str, i: int) -> dict:
-    parts = dict(p.split("=", 1) for p in reading.split() if "=" in p)
+    parts = parse_reading(reading)
     return {"linestyle": KIND.get(f"arrival={parts.get('arrival', 'dock')}", "-"), "color": f"C{i % 10}",
             "marker": "o" if parts.get("arena", "two_circuits") == "two_circuits" else "s"}
 
