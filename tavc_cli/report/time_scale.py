@@ -14,12 +14,18 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli import chapter
-from tavc_cli.analysis.claims import claim_table
 from tavc_cli.analysis.ladder import ladder_value
 from tavc_cli.analysis.qvalues import policy_changes
 from tavc_cli.reference import chapter_table
 from tavc_cli.report.files import config_of
-from tavc_cli.report.horizons import Horizon, convergence, horizons_stem, never_changed, window_lines
+from tavc_cli.report.horizons import (
+    Horizon,
+    convergence,
+    horizons_stem,
+    never_changed,
+    read_horizon,
+    window_lines,
+)
 from tavc_cli.report.runs import LADDER
 from tavc_cli.report.text import fmt
 
@@ -243,13 +249,14 @@ def ladder_lines(results_dir: Path, h: Horizon) -> list[str]:
 
 
 def rung_claims(d: Path) -> pd.DataFrame | None:
-    """Claims 3-5 tested on a ladder rung's own trials (`analysis.claims.claim_table`, indexed
-    by claim), or None where the rung's folder or its `trial_stats.csv` is not there."""
-    path = d / "trial_stats.csv"
-    if not path.is_file():
+    """The claims about the base case tested on a ladder rung's own trials, indexed by claim: the
+    rung read as a horizon of its own (`horizons.read_horizon`), as every horizon's claims are;
+    None where the rung's folder or its `trial_stats.csv` is not there."""
+    if not (d / "trial_stats.csv").is_file() or not (d / "provenance.json").is_file():
         return None
-
-    return claim_table({STAY_EXPERIMENT: pd.read_csv(path)}, STAY_EXPERIMENT).set_index("claim_id")
+    rung = read_horizon(d.parent, {STAY_EXPERIMENT: [d]}, [])
+    own = [chapter.experiment_of(c) == STAY_EXPERIMENT for c in rung.claims["claim_id"]]
+    return rung.claims[own].set_index("claim_id")
 
 
 def convergence_lines(h: Horizon) -> list[str]:
