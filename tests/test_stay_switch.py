@@ -260,3 +260,22 @@ def test_from_the_source_counts_only_tasks_whose_source_arrival_is_known():
     r = stay_switch_table(tasks, [2200.0, 2000.0]).iloc[0]
     assert r["ratio_low_source"] == pytest.approx(1.0)
     assert r["ratio_low"] == pytest.approx(90 / 150)
+
+
+def test_a_damaged_stay_switch_table_stops_the_report_before_it_writes(tmp_path):
+    """The report checks the readings' table with every file it reads, before its first write."""
+    import shutil
+
+    from tavc_cli.errors import TavcError
+    from tavc_cli.report import build_report
+    from tests.helpers import REPO
+
+    run = REPO / "results" / "initial_distribution"
+    if not (run / "state_time.csv").is_file():
+        pytest.skip("the committed run is not here")
+    shutil.copytree(run, tmp_path / "initial_distribution", ignore=shutil.ignore_patterns("trials", "model"))
+    (tmp_path / "stay_switch").mkdir()
+    (tmp_path / "stay_switch" / "stay_switch.csv").write_bytes(b"\x00\xff not a table \"")
+    with pytest.raises(TavcError, match="stay_switch.csv: cannot be read"):
+        build_report(tmp_path)
+    assert not (tmp_path / "REPORT.md").exists() and not (tmp_path / ".tavc.json").exists()

@@ -44,7 +44,7 @@ from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import LADDER, finished_runs, horizon_folders, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
-from tavc_cli.report.studies import stay_switch_lines, value_ratio_lines
+from tavc_cli.report.studies import STAY_SWITCH_DIR, stay_switch_lines, value_ratio_lines
 from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
@@ -54,7 +54,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     """Check every file the report reads, and where it writes, before writing anything: a
     damaged file is one line naming it, not a half-built report. Every run of every horizon
     and of the value-ratio sweep (`schema.check_run`: its config.yaml, provenance.json and
-    tables), the models' outputs, the ladders' tables."""
+    tables), the models' outputs, the ladders' tables, the readings' study's tables."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")
@@ -72,6 +72,9 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
             read_or_refuse(d / "model" / "model.json", lambda p: json.loads(p.read_text()))
     for ladder in ladders:
         read_or_refuse(ladder, pd.read_csv)
+    for name in ("stay_switch.csv", "stay_switch_model.csv"):  # the readings' study, read as a whole
+        if (results_dir / STAY_SWITCH_DIR / name).is_file():
+            read_or_refuse(results_dir / STAY_SWITCH_DIR / name, pd.read_csv)
 
 
 def build_report(results_dir: Path, progress: Callable[[str], None] | None = None, page: bool = False) -> dict:
