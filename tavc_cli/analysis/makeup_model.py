@@ -69,6 +69,8 @@ def times_of(tasks: pd.DataFrame, high: int) -> Times:
     high-value circuit's index `high`."""
     out: dict[tuple[int, int, int], dict[str, float]] = {}
     for makeup, rows in tasks.groupby("makeup", sort=False):
+        if len(str(makeup).split()) != 1:
+            raise ValueError(f"make-up {makeup!r}: the make-up model is of one-group teams")
         counts = [int(x) for x in str(makeup).rsplit(":", 1)[1].split("-")]
         key = (counts[high], counts[1 - high], counts[2])
         on_high = rows["circuit"] == high
