@@ -87,3 +87,28 @@ def test_no_compiling_notice_once_the_kernels_are_loaded(capsys, monkeypatch):
     prog.notice.join(timeout=5.0)  # cancelled: it ends without firing
     prog.close()
     assert "compiles" not in capsys.readouterr().out
+
+
+def test_time_left_is_measured_from_when_every_worker_was_simulating(monkeypatch):
+    """Two workers, the second starting 5 s after the first: measuring from the first report would
+    take half the throughput for the whole (the first estimate about twice too high); it starts
+    again when a batch first reports, until one finishes."""
+    clock = Clock()
+    monkeypatch.setattr(pool.time, "perf_counter", clock)
+    monkeypatch.setattr(Progress, "COMPILE_NOTICE_S", 60.0)
+    prog = Progress(_batches(1000.0, 1000.0, 1000.0), shown=True)  # 3,000 simulated s, 2 workers
+    clock.now += 10.0
+    prog.update(("tavc", 0), 0.05)  # 50 s done at t = 10
+    clock.now += 5.0
+    prog.update(("tavc", 0), 0.30)  # the second worker starts here: 300 + 0 s done at t = 15
+    prog.update(("tavc", 1), 0.0)
+    clock.now += 10.0  # both simulate 50 s per wall second for 10 s: 500 s more each
+    prog.update(("tavc", 0), 0.80)
+    prog.update(("tavc", 1), 0.50)
+    # by hand: 1,300 s done, 1,000 simulated in the 10 s since t = 15: 100 per second; 1,700 left: 17 s
+    assert prog.line(1300.0, clock.now).endswith("eta 17 s")
+    clock.now += 4.0
+    prog.update(("tavc", 0), 1.0)  # the first batch finishes; the third starts: measuring goes on
+    prog.update(("tavc", 2), 0.0)
+    assert prog.first == (115.0, 300.0)
+    prog.close()

@@ -51,9 +51,11 @@ class Progress:
     batch reports the fraction of itself that is done): nothing unless `shown`; a rich bar on a
     terminal; plain lines every `LINE_EVERY_S` otherwise. Until the first report it says, once,
     what the wait is most likely for: kernels compiling (`COMPILE_NOTICE_S`), and not once they
-    are loaded (`kernels_ready`). The time left is
-    the work left at the throughput measured since the first report, so the compiling is not
-    taken for slow simulation; none is given before `ETA_AFTER_S` of measuring."""
+    are loaded (`kernels_ready`). The time left is the work left at the throughput measured
+    since every worker was simulating: from the first report of the last batch to start before
+    any batch finished (so neither the compiling nor workers still starting are taken for slow
+    simulation); none is given before `ETA_AFTER_S` of measuring. The bar shows the same
+    estimate as the lines."""
 
     LINE_EVERY_S = 10.0
     COMPILE_NOTICE_S = 3.0
@@ -66,8 +68,10 @@ class Progress:
         self.weights = {(b.controller, b.index): b.sim_seconds for b in batches}
         self.total = total_s = sum(self.weights.values())
         self.done: dict = {}
+        self.seen: set = set()
         self.start = self.last_line = time.perf_counter()
-        self.first: tuple[float, float] | None = None  # (time, simulated seconds done) at the first report
+        self.first: tuple[float, float] | None = None  # (time, simulated seconds done) where measuring began
+        self.finished_one = False  # a batch has finished: every worker has been simulating since
         self.shown = shown and total_s > 0
         self.bar = None
         self.notice = None
@@ -75,11 +79,11 @@ class Progress:
             return
         if sys.stdout.isatty():
             # deferred: loads rich
-            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
             self.bar = Progress(TextColumn("simulating"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
-                                TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), transient=True)
-            self.task = self.bar.add_task("run", total=total_s)
+                                TimeElapsedColumn(), TextColumn("{task.fields[eta]}"), transient=True)
+            self.task = self.bar.add_task("run", total=total_s, eta="eta: measuring")
             self.bar.start()
 
         self.notice = threading.Timer(self.COMPILE_NOTICE_S, self._say, (self.COMPILE_NOTICE,))
@@ -103,12 +107,16 @@ class Progress:
         self.done[key] = frac * self.weights[key]
         if not self.shown:
             return
+        new = key not in self.seen
+        self.seen.add(key)
         done, now = sum(self.done.values()), time.perf_counter()
         if self.first is None:
             self.notice.cancel()
+        if self.first is None or (new and not self.finished_one):  # a worker began: measure from here
             self.first = (now, done)
+        self.finished_one = self.finished_one or frac >= 1.0
         if self.bar is not None:
-            self.bar.update(self.task, completed=done)
+            self.bar.update(self.task, completed=done, eta=self.eta(done, now))
         elif now - self.last_line > self.LINE_EVERY_S:
             self.last_line = now
             print(f"  {self.line(done, now)}", flush=True)
@@ -117,12 +125,14 @@ class Progress:
         """``<share> of <total> simulated s, <elapsed> s elapsed, eta <left> s`` (the time left
         from the throughput since the first report; ``eta: measuring`` until it is known)."""
         pct = 100.0 * done / self.total
-        text = f"{pct:5.1f}% of {self.total:,.0f} simulated s, {now - self.start:,.0f} s elapsed"
+        return f"{pct:5.1f}% of {self.total:,.0f} simulated s, {now - self.start:,.0f} s elapsed, {self.eta(done, now)}"
+
+    def eta(self, done: float, now: float) -> str:
+        """``eta <left> s`` from the throughput since measuring began, or ``eta: measuring``."""
         t0, done0 = self.first if self.first is not None else (now, done)
         if now - t0 < self.ETA_AFTER_S or done <= done0:
-            return f"{text}, eta: measuring"
-        left = (self.total - done) * (now - t0) / (done - done0)
-        return f"{text}, eta {left:,.0f} s"
+            return "eta: measuring"
+        return f"eta {(self.total - done) * (now - t0) / (done - done0):,.0f} s"
 
     def close(self) -> None:
         """Stop the compiling notice and the bar."""
