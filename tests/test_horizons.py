@@ -248,7 +248,8 @@ def test_every_horizon_folder_is_reported_in_order_of_its_factor(two_horizons, t
 
 
 def test_a_folder_named_like_a_horizon_that_holds_a_run_is_a_run(tmp_path):
-    from tavc_cli.report.runs import finished_runs, horizon_folders
+    from tavc_cli.report.files import horizon_folders
+    from tavc_cli.report.runs import finished_runs
 
     results = tmp_path / "results"
     _run_folder(results / "initial_distribution", "paper", 1.0, 20.0, seed=1)

@@ -39,10 +39,10 @@ from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
 from tavc_cli.report.drawing import FigurePool
 from tavc_cli.report.figures import find_model
-from tavc_cli.report.files import config_of, read_or_refuse
+from tavc_cli.report.files import config_of, horizon_folders, read_or_refuse
 from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
-from tavc_cli.report.runs import LADDER, finished_runs, horizon_folders, rel, run_list_lines, study_runs
+from tavc_cli.report.runs import LADDER, finished_runs, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
 from tavc_cli.report.studies import STAY_SWITCH_DIR, stay_switch_lines, value_ratio_lines
 from tavc_cli.report.surrogate import surrogate_lines

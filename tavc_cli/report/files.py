@@ -1,9 +1,10 @@
 """Reading a run's files for the report: each `config.yaml` parsed once per version of the
-file (the report reads every run's settings several times), and a file no library can parse
-refused in one line naming it."""
+file (the report reads every run's settings several times), a file no library can parse
+refused in one line naming it; and telling folders apart: a run's, a longer horizon's."""
 
 from __future__ import annotations
 
+import re
 from functools import lru_cache
 from pathlib import Path
 
@@ -33,3 +34,33 @@ def read_or_refuse(path: Path, read):
     except Exception as exc:  # any library's parse error: the file is damaged, whatever the library
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise TavcError(f"{path}: cannot be read ({detail}); rerun its experiment to rewrite it") from None
+
+
+CONVERGED_DIR = "converged"  # `make reproduce-converged`'s horizon
+# a longer horizon's folder directly under the results folder: `converged/`, or `x<factor>/` (`x10`,
+# `x2.5`) as the horizon ladder names its rungs, holding that horizon's run folders
+_HORIZON_NAME = re.compile(r"x\d+(\.\d+)?")
+
+
+def is_horizon_folder(d: Path) -> bool:
+    """Whether `d`, directly under a results folder, holds a longer horizon's runs: named
+    `converged` or `x<factor>`, a folder (not a link) that is not itself a run's."""
+    return (d.name == CONVERGED_DIR or _HORIZON_NAME.fullmatch(d.name) is not None) and d.is_dir() \
+        and not d.is_symlink() and not is_run_folder(d)
+
+
+def horizon_folders(results_dir: Path) -> list[Path]:
+    """The folders of the longer horizons directly under results_dir (`is_horizon_folder`), in
+    natural order of their names."""
+    return sorted((d for d in results_dir.iterdir() if is_horizon_folder(d)), key=lambda p: natural(p.name))
+
+
+def is_run_folder(d: Path) -> bool:
+    """Whether `d` is a run's folder, finished or not: what `tavc run` writes first (its
+    `config.yaml`, its `trials/`) or last (its tables) is there."""
+    return (d / "config.yaml").is_file() or (d / "state_time.csv").is_file() or (d / "trials").is_dir()
+
+
+def natural(text: str) -> list:
+    """A sort key that orders "2_seed=3" before "10_seed=11"."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", text)]

@@ -1,7 +1,7 @@
 """The report's horizons: the chapter's durations (the headline), and any number of longer
 ones, each a folder directly under the results folder that holds the same experiments at a
 multiple of the chapter's durations (`converged/`, from `scale=converged`; `x10/`, ...:
-`runs.horizon_folders`).
+`files.horizon_folders`).
 
 A `Horizon` is one horizon's runs as read (`read_horizon`); this module writes what the
 horizons say together: the summary's counts, the claims' verdicts at every horizon with how
@@ -26,9 +26,9 @@ from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
 from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.learning.registry import controller_label
 from tavc_cli.readers import load_json
-from tavc_cli.report.files import config_of
+from tavc_cli.report.files import CONVERGED_DIR, config_of
 from tavc_cli.report.mechanism import convergence, mechanism, mechanism_words
-from tavc_cli.report.runs import CONVERGED_DIR, on_surrogate
+from tavc_cli.report.runs import on_surrogate
 from tavc_cli.report.text import delivery_lines, fmt, p_cell
 from tavc_cli.settings import TavcConfig
 

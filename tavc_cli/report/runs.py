@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from pathlib import Path
 
 import pandas as pd
@@ -23,7 +22,14 @@ from tavc_cli.chapter import order_key, state_table_id
 from tavc_cli.ownership import COMPARE, READINGS, STUDY, SURROGATE, TASKS, read
 from tavc_cli.readers import load_json
 from tavc_cli.report.figures import experiment_figures
-from tavc_cli.report.files import config_of, read_or_refuse
+from tavc_cli.report.files import (
+    config_of,
+    horizon_folders,
+    is_horizon_folder,
+    is_run_folder,
+    natural,
+    read_or_refuse,
+)
 from tavc_cli.report.studies import spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, to_yaml
@@ -32,27 +38,8 @@ RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run b
 # folders directly under the results folder that the report reads otherwise than run by run:
 # the longer horizons (`horizon_folders`, their runs found there in turn) and the value-ratio
 # sweep (`studies.value_ratio_lines`); under a horizon, the horizon ladder (`time_scale.ladder_lines`)
-CONVERGED_DIR = "converged"  # `make reproduce-converged`'s horizon
 VALUE_RATIO = "value_ratio"
 LADDER = "ladder"
-# a longer horizon's folder directly under the results folder: `converged/`, or `x<factor>/` (`x10`,
-# `x2.5`) as the horizon ladder names its rungs, holding that horizon's run folders
-_HORIZON_NAME = re.compile(r"x\d+(\.\d+)?")
-
-
-def is_horizon_folder(d: Path) -> bool:
-    """Whether `d`, directly under a results folder, holds a longer horizon's runs: named
-    `converged` or `x<factor>`, a folder (not a link) that is not itself a run's."""
-    return (d.name == CONVERGED_DIR or _HORIZON_NAME.fullmatch(d.name) is not None) and d.is_dir() \
-        and not d.is_symlink() and not is_run_folder(d)
-
-
-def horizon_folders(results_dir: Path) -> list[Path]:
-    """The folders of the longer horizons directly under results_dir (`is_horizon_folder`), in
-    natural order of their names."""
-    return sorted((d for d in results_dir.iterdir() if is_horizon_folder(d)), key=lambda p: _natural(p.name))
-
-
 def folder_kind(d: Path) -> str | None:
     """The kind of output tavc keeps in `d` (`ownership`: run, surrogate, surrogate-study, ...),
     or None where it recognises none."""
@@ -66,12 +53,6 @@ def on_surrogate(d: Path) -> bool:
     return folder_kind(d) == SURROGATE
 
 
-def is_run_folder(d: Path) -> bool:
-    """Whether `d` is a run's folder, finished or not: what `tavc run` writes first (its
-    `config.yaml`, its `trials/`) or last (its tables) is there."""
-    return (d / "config.yaml").is_file() or (d / "state_time.csv").is_file() or (d / "trials").is_dir()
-
-
 def run_folders(folder: Path, top: bool = True) -> list[Path]:
     """Every run folder under `folder` at any depth (`is_run_folder`), in natural order of
     their paths: a run's own folder is not searched further (its `trials/`, `model/`), nor
@@ -81,7 +62,7 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
     that loops back leads nowhere."""
     out = []
     for d in sorted((p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()),
-                    key=lambda p: _natural(p.name)):
+                    key=lambda p: natural(p.name)):
         if d.name == "figures" or d.name.startswith(".") or (top and (d.name == VALUE_RATIO or is_horizon_folder(d))) \
                 or (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
@@ -114,29 +95,24 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
     for horizon in horizon_folders(results_dir):
         ladder = horizon / LADDER
         if (ladder / "ladder.csv").is_file():
-            rungs = [d for d in sorted(ladder.iterdir(), key=lambda p: _natural(p.name)) if d.is_dir() and
+            rungs = [d for d in sorted(ladder.iterdir(), key=lambda p: natural(p.name)) if d.is_dir() and
                      is_run_folder(d)]
             if rungs:
                 out.append(("the horizon ladder, in *The time scale*", rungs))
     ratio = results_dir / VALUE_RATIO
     if ratio.is_dir():
-        found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: _natural(p.as_posix()))
+        found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: natural(p.as_posix()))
         if found:
             out.append(("the value-ratio sweep, in *Learning values and time*", found))
     return out
-
-
-def _natural(text: str) -> list:
-    """A sort key that orders "2_seed=3" before "10_seed=11"."""
-    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", text)]
 
 
 def designated_first(name: str, folders: list[Path], results_dir: Path | None = None) -> list[Path]:
     """`folders`, every one a run of experiment `name`, in the report's order: first the run
     the claims are tested on (the folder named exactly after the experiment, the one nearest
     the results folder first, else the first by its path), then the others by path."""
-    key = (lambda d: (len(d.relative_to(results_dir).parts), _natural(d.relative_to(results_dir).as_posix()))) \
-        if results_dir is not None else (lambda d: _natural(d.as_posix()))
+    key = (lambda d: (len(d.relative_to(results_dir).parts), natural(d.relative_to(results_dir).as_posix()))) \
+        if results_dir is not None else (lambda d: natural(d.as_posix()))
     folders = sorted(folders, key=lambda d: (on_surrogate(d), key(d)))  # the simulator's runs before the surrogate's
     named = [d for d in folders if d.name == name and not on_surrogate(d)][:1] or \
         [d for d in folders if d.name == name][:1]
@@ -262,7 +238,7 @@ def run_list_lines(results_dir: Path, horizons: list) -> list[str]:
     lines = ["## The runs in this folder", "",
              "Every run under this folder, and where this report uses it.", "",
              "| run | experiment | scale | trials | in this report |", "|---|---|---|---|---|"]
-    for d, use in sorted(rows, key=lambda r: _natural(rel(r[0], results_dir))):
+    for d, use in sorted(rows, key=lambda r: natural(rel(r[0], results_dir))):
         lines.append(f"| `{rel(d, results_dir)}` | {_facts(d)} | {use} |")
     for what, folders in study_runs(results_dir):
         groups: dict[Path, list[Path]] = {}

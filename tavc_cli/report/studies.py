@@ -17,7 +17,7 @@ from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
 from tavc_cli.reference import chapter_table
 from tavc_cli.report.figures import figure_link
-from tavc_cli.report.files import config_of, read_or_refuse
+from tavc_cli.report.files import config_of, horizon_folders, read_or_refuse
 from tavc_cli.report.mechanism import convergence, mechanism
 from tavc_cli.report.text import fmt
 from tavc_cli.settings import TavcConfig
@@ -215,38 +215,24 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
     return [*lines, ""]
 
 
-READINGS_RUNS = "converged/readings"  # the base case at 40x in a reading: <folder>/<arrival>-<passing>-<arena>
+READINGS_RUNS = "readings"  # under a longer horizon's folder: the base case in a reading, <arrival>-<passing>-<arena>
 
 
 def _learners_beside_the_model(results_dir: Path, model: pd.DataFrame) -> list[str]:
-    """Where learners ran the base case in a reading the model was measured in (today's world:
-    `converged/<the base case>`; any other: `converged/readings/<arrival>-<passing>-<arena>`),
-    how their group was made beside what the make-up model predicts for that world: the
-    regime and the robots on the high-value circuit over the run's measured stretch of its
-    stable period (`stable_from`), whether its learners converged, and whether the regimes agree
-    (a run whose learners did not converge is no check of where they settle)."""
+    """Where learners ran the base case at a longer horizon in a reading the model was measured
+    in (today's world: `<horizon>/<the base case>`; any other:
+    `<horizon>/readings/<arrival>-<passing>-<arena>`, for every horizon folder), how their group
+    was made beside what the make-up model predicts for that world: the regime and the robots on
+    the high-value circuit over the run's measured stretch of its stable period (`stable_from`),
+    whether its learners converged, and whether the regimes agree (a run whose learners did not
+    converge is no check of where they settle)."""
     rows = []
     for reading, mine in model.groupby("reading", sort=False):
         folder = reading_folder(parse_reading(str(reading)))
-        d = results_dir / (f"converged/{base_case().name}" if folder == reading_folder(readings()[0])  # today's world
-                           else f"{READINGS_RUNS}/{folder}")
-        m = mechanism(d) if (d / "mechanism.csv").is_file() else None
-        if m is None or not (d / "allocation.csv").is_file():
-            continue
-        cfg = config_of(d / "config.yaml")
-        alloc = pd.read_csv(d / "allocation.csv")
-        tavc = alloc[(alloc["controller"] == "tavc") & (alloc["t_s"] >= stable_from(cfg))
-                     & (alloc["t_s"] < float(cfg.duration_s))]
-        regime, basin = predicted_regime(mine)
-        v = convergence(d)
-        converged = "?" if v is None else ("yes" if v["converged"] else f"no ({', '.join(v['failed'])})")
-        same = "yes" if regime == m["regime"] else "**no**"
-        if v is None or not v["converged"]:
-            same += " (not a check: the learners did not converge)"
-        high = tavc["mean_high"].mean()
-        rows.append(f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({cfg.trials} trials, "
-                    f"{float(cfg.scale.time_factor):g}x) | {converged} | {m['regime']} | {high:.2f} | "
-                    f"{regime} ({100 * basin:.0f} %) | {expected_high(mine):.2f} | {same} |")
+        today = folder == reading_folder(readings()[0])
+        for horizon in horizon_folders(results_dir):
+            d = horizon / (base_case().name if today else f"{READINGS_RUNS}/{folder}")
+            rows += _beside(reading, mine, d, results_dir)
     if not rows:
         return []
     return ["", "Beside the learners, where they ran the base case in a reading: whether they converged (by the "
@@ -256,3 +242,24 @@ def _learners_beside_the_model(results_dir: Path, model: pd.DataFrame) -> list[s
             "remaining readings) are not run yet.", "",
             "| reading | the learners' run | converged | their regime | robots on the high-value circuit | the model | "
             "its robots on the high-value circuit | the same regime |", "|---|---|---|---|---|---|---|---|", *rows]
+
+
+def _beside(reading: str, mine: pd.DataFrame, d: Path, results_dir: Path) -> list[str]:
+    """The row of `_learners_beside_the_model` for the run in `d`, if it holds one."""
+    m = mechanism(d) if (d / "mechanism.csv").is_file() else None
+    if m is None or not (d / "allocation.csv").is_file():
+        return []
+    cfg = config_of(d / "config.yaml")
+    alloc = pd.read_csv(d / "allocation.csv")
+    tavc = alloc[(alloc["controller"] == "tavc") & (alloc["t_s"] >= stable_from(cfg))
+                 & (alloc["t_s"] < float(cfg.duration_s))]
+    regime, basin = predicted_regime(mine)
+    v = convergence(d)
+    converged = "?" if v is None else ("yes" if v["converged"] else f"no ({', '.join(v['failed'])})")
+    same = "yes" if regime == m["regime"] else "**no**"
+    if v is None or not v["converged"]:
+        same += " (not a check: the learners did not converge)"
+    high = tavc["mean_high"].mean()
+    return [f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({cfg.trials} trials, "
+            f"{float(cfg.scale.time_factor):g}x) | {converged} | {m['regime']} | {high:.2f} | "
+            f"{regime} ({100 * basin:.0f} %) | {expected_high(mine):.2f} | {same} |"]
