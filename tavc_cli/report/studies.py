@@ -182,9 +182,10 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
     how = (f" Each make-up: {m['trials_per_makeup']} static trials, {m['measure_s']:g} s measured after "
            f"{m['warmup_s']:g} s (scale={record.get('scale', '?')})." if {"trials_per_makeup", "measure_s", "warmup_s"}
            <= set(m) else "")
+    n = int((table["high_stayers"] + table["low_stayers"] + table["alternators"]).max())
     lines = ["## The readings: what staying and switching cost", "",
              "Static robots held to their roles (staying on the high-value circuit, staying on the low-value one, "
-             "alternating) in every make-up of the team of six, in each reading of the world the chapter leaves "
+             f"alternating) in every make-up of the team of {n}, in each reading of the world the chapter leaves "
              f"unsaid (`tavc stay-switch`, `{rel}/stay_switch.csv`). A robot on the low-value circuit gains by staying "
              f"there where a switching task takes more than {threshold:.3f} times a staying one (the values' "
              "(w_h + w_l) / 2 w_l); the vacancy chains the chapter describes need it to. No learner and no claim "
