@@ -1,6 +1,5 @@
 """tavc: a reproduction of task allocation through vacancy chains in multi-robot transportation."""
 
-import ast  # only for a digest: not on the command line's path to its first output
 import hashlib
 import os
 import shutil
@@ -32,6 +31,8 @@ def meaning_digest(root: Path, parts: Sequence[str]) -> str:
     to `root` included. Rewording a docstring or rewrapping a line leaves it as it is; any change
     to the code changes it. The tree is Python's own, so the digest is that of one minor version
     of Python."""
+    import ast  # deferred: only for a digest, not on the command line's path before its interrupt handler
+
     h = hashlib.sha256()
     for part in parts:
         path = root / part

@@ -234,3 +234,14 @@ def test_every_import_inside_a_function_says_why_it_is_there():
                 silent += [f"{path.relative_to(PACKAGE)}:{node.lineno}" for node in ast.walk(fn)
                            if isinstance(node, (ast.Import, ast.ImportFrom)) and not _reasoned(lines, node.lineno - 1)]
     assert sorted(set(silent)) == []
+
+
+def test_the_package_loads_no_more_than_it_needs_before_the_interrupt_handler():
+    """`python -m tavc_cli` imports the package before its entry point installs the Ctrl-C
+    handler: that import stays small (no `ast`, `numpy`, `pandas`, nothing of tavc's but itself),
+    so an interrupt in the first hundredths of a second lands under the handler."""
+    code = "import sys; before = set(sys.modules); import tavc_cli; print(sorted(set(sys.modules) - before))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    loaded = set(ast.literal_eval(out))
+    assert not loaded & {"ast", "numpy", "pandas", "inspect", "typing"}
+    assert {m for m in loaded if m.startswith("tavc_cli")} == {"tavc_cli"}
