@@ -26,7 +26,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.makeup_model import expected_high, predict, predicted_regime, times_of, values_high_low
+from tavc_cli.analysis.makeup_model import predict, readings_summary, times_of, values_high_low
 from tavc_cli.analysis.stay_switch import GRID, reading_folder, reading_name, readings, stay_switch_table
 from tavc_cli.chapter import base_case
 from tavc_cli.errors import TavcError
@@ -103,18 +103,17 @@ def summary_lines(table: pd.DataFrame, model: pd.DataFrame | None = None) -> lis
     with both, against the threshold, and in how many make-ups staying pays (whole task; from
     the source on); with `model` (`stay_switch_model.csv`), the regime the make-up model
     predicts and the robots it puts on the high-value circuit."""
+    summary = readings_summary(table, model).set_index("reading")
     lines = []
-    for name, rows in table.groupby("reading", sort=False):
-        both = rows.dropna(subset=["ratio_low"])
-        if not len(both):
+    for name in dict.fromkeys(table["reading"]):
+        if name not in summary.index:
             lines.append(f"{name}: no make-up with both a low-value stayer and an alternator")
             continue
-        lines.append(f"{name}: t_switch / t_stay,low {both['ratio_low'].min():.3f} to {both['ratio_low'].max():.3f} "
-                     f"(staying pays above {both['threshold_low'].iloc[0]:.3f}) in {len(both)} make-ups; "
-                     f"pays in {int(both['stay_pays_low'].sum())}, timed from the source in "
-                     f"{int(both['stay_pays_low_source'].sum())}")
-        if model is not None and (model["reading"] == name).any():
-            mine = model[model["reading"] == name]
-            regime, basin = predicted_regime(mine)
-            lines[-1] += f"; the make-up model: {regime} ({basin:.0%} of starts), {expected_high(mine):.2f} robots high"
+        r = summary.loc[name]
+        lines.append(f"{name}: t_switch / t_stay,low {r['ratio_min']:.3f} to {r['ratio_max']:.3f} "
+                     f"(staying pays above {r['threshold']:.3f}) in {r['n']} make-ups; "
+                     f"pays in {r['pays']}, timed from the source in {r['pays_source']}")
+        if r["regime"] is not None:
+            lines[-1] += (f"; the make-up model: {r['regime']} ({r['basin']:.0%} of starts), "
+                          f"{r['robots_high']:.2f} robots high")
     return lines

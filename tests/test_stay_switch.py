@@ -109,6 +109,13 @@ def test_the_study_end_to_end_at_smoke_scale_and_again_from_its_tasks(tmp_path):
     assert (out / "stay_switch.csv").read_bytes() == before
 
 
+def _write_study(results, tasks: pd.DataFrame, readings) -> None:
+    """A study's `stay_switch.csv` under `results`: the table of `tasks` for each reading."""
+    (results / "stay_switch").mkdir()
+    pd.concat([stay_switch_table(tasks, [2200.0, 2000.0], r) for r in readings]).to_csv(
+        results / "stay_switch" / "stay_switch.csv", index=False)
+
+
 def test_the_reports_section_reads_the_studys_table(tmp_path):
     from tavc_cli.report.studies import stay_switch_lines
 
@@ -116,9 +123,7 @@ def test_the_reports_section_reads_the_studys_table(tmp_path):
     tasks = pd.DataFrame([_task("all:2-2-2", "stay", 1, 80.0, 30.0), _task("all:2-2-2", "switch", 0, 92.0, 40.0),
                           _task("all:3-2-1", "stay", 1, 100.0, 30.0), _task("all:3-2-1", "switch", 0, 100.0, 40.0)],
                          columns=list(COLUMNS))
-    (tmp_path / "stay_switch").mkdir()
-    stay_switch_table(tasks, [2200.0, 2000.0], "arrival=dock").to_csv(tmp_path / "stay_switch" / "stay_switch.csv",
-                                                                      index=False)
+    _write_study(tmp_path, tasks, ["arrival=dock"])
     text = "\n".join(stay_switch_lines(tmp_path))
     # 92 / 80 = 1.15 pays, 100 / 100 = 1.0 does not: one of two; from the source 52 / 50 = 1.04 and 60 / 70: none
     assert "| arrival=dock | 2 | 1.000, 1.075, 1.150 | 1 | 0 |" in text
@@ -197,9 +202,7 @@ def test_the_reports_section_gives_the_make_up_models_regime(tmp_path):
     tasks = pd.DataFrame([_task("all:1-0-1", "stay", 1, 80.0, 30.0), _task("all:1-0-1", "switch", 0, 92.0, 40.0),
                           _task("all:0-1-1", "stay", 1, 80.0, 30.0), _task("all:0-1-1", "switch", 0, 92.0, 40.0)],
                          columns=list(COLUMNS))
-    (tmp_path / "stay_switch").mkdir()
-    stay_switch_table(tasks, [2200.0, 2000.0], "today").to_csv(tmp_path / "stay_switch" / "stay_switch.csv",
-                                                               index=False)
+    _write_study(tmp_path, tasks, ["today"])
     model = predict(_times(lambda h: 100.0, lambda low: 100.0, 90.0), 2, (2200.0, 2000.0), 0.0).assign(reading="today")
     model.to_csv(tmp_path / "stay_switch" / "stay_switch_model.csv", index=False)
     text = "\n".join(stay_switch_lines(tmp_path))
@@ -225,13 +228,11 @@ def test_the_learners_beside_the_model_say_whether_they_agree_and_whether_it_is_
         dst.mkdir(parents=True)
         for name in ("config.yaml", "mechanism.csv", "allocation.csv", "convergence.csv"):
             shutil.copy(src / name, dst / name)
-    (tmp_path / "stay_switch").mkdir()
     tasks = pd.DataFrame([_task("all:2-2-2", "stay", 1, 80.0, 30.0), _task("all:2-2-2", "switch", 0, 92.0, 40.0)],
                          columns=list(COLUMNS))
     readings = ("arrival=dock passing=nearest arena=two_circuits",
                 "arrival=range passing=left arena=two_circuits_parallel")
-    pd.concat([stay_switch_table(tasks, [2200.0, 2000.0], r) for r in readings]).to_csv(
-        tmp_path / "stay_switch" / "stay_switch.csv", index=False)
+    _write_study(tmp_path, tasks, readings)
 
     def rows(model_makeup: str) -> dict:
         h, low, a = (int(x) for x in model_makeup.split("-"))

@@ -39,7 +39,7 @@ from math import comb
 import pandas as pd
 
 from tavc_cli.analysis.mechanism import regime as mechanism_regime
-from tavc_cli.analysis.stay_switch import thresholds
+from tavc_cli.analysis.stay_switch import makeup_counts, thresholds
 
 STRATEGIES = ("high", "low", "alternate")
 START = {"high": 3 / 8, "low": 3 / 8, "alternate": 1 / 4}  # a random 2x2 table's greedy policy
@@ -69,9 +69,7 @@ def times_of(tasks: pd.DataFrame, high: int) -> Times:
     high-value circuit's index `high`."""
     out: dict[tuple[int, int, int], dict[str, float]] = {}
     for makeup, rows in tasks.groupby("makeup", sort=False):
-        if len(str(makeup).split()) != 1:
-            raise ValueError(f"make-up {makeup!r}: the make-up model is of one-group teams")
-        counts = [int(x) for x in str(makeup).rsplit(":", 1)[1].split("-")]
+        counts = makeup_counts(makeup)
         key = (counts[high], counts[1 - high], counts[2])
         on_high = rows["circuit"] == high
         out[key] = {f"{kind}_{where}": float(rows.loc[(rows["kind"] == kind) & (on_high == (where == "high")),
@@ -190,3 +188,25 @@ def values_high_low(values: Sequence[float]) -> tuple[tuple[float, float], int]:
     (`stay_switch.thresholds` picks the circuit)."""
     high = thresholds(values)[2]
     return (float(values[high]), float(values[1 - high])), high
+
+
+def readings_summary(table: pd.DataFrame, model: pd.DataFrame | None = None) -> pd.DataFrame:
+    """One row per reading of a stay/switch table (`stay_switch.stay_switch_table`, several
+    readings) over its make-ups with both a low-value stayer and an alternator: how many, a
+    low-value stayer's t_switch / t_stay (min, median, max) and the threshold, in how many
+    staying pays (t the whole task; from the source on); with `model` (`predict`'s rows, with
+    their reading), the regime it predicts, that regime's basin and its robots on the
+    high-value circuit (NaN where it has no rows for the reading)."""
+    rows = []
+    for reading, mine in table.dropna(subset=["ratio_low"]).groupby("reading", sort=False):
+        r = mine["ratio_low"]
+        row = {"reading": reading, "n": len(mine), "ratio_min": r.min(), "ratio_median": r.median(),
+               "ratio_max": r.max(), "threshold": float(mine["threshold_low"].iloc[0]),
+               "pays": int(mine["stay_pays_low"].sum()), "pays_source": int(mine["stay_pays_low_source"].sum()),
+               "regime": None, "basin": math.nan, "robots_high": math.nan}
+        predicted = model[model["reading"] == reading] if model is not None else None
+        if predicted is not None and len(predicted):
+            row["regime"], row["basin"] = predicted_regime(predicted)
+            row["robots_high"] = expected_high(predicted)
+        rows.append(row)
+    return pd.DataFrame(rows)

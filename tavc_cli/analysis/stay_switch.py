@@ -58,6 +58,16 @@ def _ratio(num: float, den: float) -> float:
     return num / den if den > 0 and math.isfinite(num) and math.isfinite(den) else math.nan
 
 
+def makeup_counts(makeup: str) -> tuple[int, int, int]:
+    """A one-group team's make-up (``all:s0-s1-a``, as `surrogate.tasks.makeup_name` writes it):
+    robots staying on circuit 0, on circuit 1, alternating."""
+    parts = str(makeup).split()
+    if len(parts) != 1:
+        raise ValueError(f"make-up {makeup!r}: stay and switch are measured on one-group teams")
+    s0, s1, a = (int(x) for x in parts[0].rsplit(":", 1)[1].split("-"))
+    return s0, s1, a
+
+
 def stay_switch_table(tasks: pd.DataFrame, values: Sequence[float], reading: str = "") -> pd.DataFrame:
     """One row per make-up of a one-group team (`tasks`: `surrogate.tasks.COLUMNS`, one team):
     robots staying on the high-value circuit, on the low-value one and alternating; the tasks
@@ -68,10 +78,7 @@ def stay_switch_table(tasks: pd.DataFrame, values: Sequence[float], reading: str
     t_low, t_high, high, low = thresholds(values)
     rows = []
     for makeup, mine in tasks.groupby("makeup", sort=False):
-        parts = str(makeup).split()
-        if len(parts) != 1:
-            raise ValueError(f"make-up {makeup!r}: stay and switch are measured on one-group teams")
-        counts = [int(x) for x in parts[0].rsplit(":", 1)[1].split("-")]
+        counts = makeup_counts(makeup)
         by_circuit = {high: counts[high], low: counts[low]}
         stay_low = mine[(mine["kind"] == STAY) & (mine["circuit"] == low)]
         stay_high = mine[(mine["kind"] == STAY) & (mine["circuit"] == high)]

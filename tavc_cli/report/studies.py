@@ -9,7 +9,7 @@ from pathlib import Path
 import pandas as pd
 from scipy import stats
 
-from tavc_cli.analysis.makeup_model import expected_high, predicted_regime
+from tavc_cli.analysis.makeup_model import expected_high, predicted_regime, readings_summary
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, readings
 from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
@@ -169,7 +169,6 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
     path = results_dir / STAY_SWITCH_DIR / "stay_switch.csv"
     if not path.is_file():
         return []
-
     table = read_or_refuse(path, pd.read_csv)
     rel = path.parent.relative_to(results_dir).as_posix()
     both = table.dropna(subset=["ratio_low"])
@@ -183,6 +182,8 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
            f"{m['warmup_s']:g} s (scale={record.get('scale', '?')})." if {"trials_per_makeup", "measure_s", "warmup_s"}
            <= set(m) else "")
     n = int((table["high_stayers"] + table["low_stayers"] + table["alternators"]).max())
+    model_path = path.parent / "stay_switch_model.csv"
+    model = read_or_refuse(model_path, pd.read_csv) if model_path.is_file() else None
     lines = ["## The readings: what staying and switching cost", "",
              "Static robots held to their roles (staying on the high-value circuit, staying on the low-value one, "
              f"alternating) in every make-up of the team of {n}, in each reading of the world the chapter leaves "
@@ -194,18 +195,10 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
              "| reading | make-ups with both | t_switch / t_stay (min, median, max) | staying pays in | "
              "timed from the source: pays in | the make-up model: regime (share of starts) | robots on the high-value "
              "circuit |", "|---|---|---|---|---|---|---|"]
-    model_path = path.parent / "stay_switch_model.csv"
-    model = read_or_refuse(model_path, pd.read_csv) if model_path.is_file() else None
-    for reading, rows in both.groupby("reading", sort=False):
-        r = rows["ratio_low"]
-        line = (f"| {reading} | {len(rows)} | {r.min():.3f}, {r.median():.3f}, {r.max():.3f} | "
-                f"{int(rows['stay_pays_low'].sum())} | {int(rows['stay_pays_low_source'].sum())} |")
-        mine = model[model["reading"] == reading] if model is not None else None
-        if mine is not None and len(mine):
-            regime, basin = predicted_regime(mine)
-            line += f" {regime} ({100 * basin:.0f} %) | {expected_high(mine):.2f} |"
-        else:
-            line += "  |  |"
+    for r in readings_summary(table, model).itertuples():
+        line = (f"| {r.reading} | {r.n} | {r.ratio_min:.3f}, {r.ratio_median:.3f}, {r.ratio_max:.3f} | {r.pays} | "
+                f"{r.pays_source} |")
+        line += f" {r.regime} ({100 * r.basin:.0f} %) | {r.robots_high:.2f} |" if r.regime is not None else "  |  |"
         lines.append(line)
     if model is not None:
         lines += ["", "The make-up model (`analysis/makeup_model.py`, `stay_switch_model.csv`) gives each robot one of "
