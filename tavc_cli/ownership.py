@@ -42,11 +42,13 @@ ANIMATION = "animation"
 SURROGATE, TASKS, STUDY = "surrogate", "surrogate-tasks", "surrogate-study"
 COMPARE = "compare"
 READINGS = "readings"
+TURN_TAKING_KIND = "turn-taking"
 _WHAT = {RUN: "a tavc run's folder", SURROGATE: "a surrogate run's folder (tavc surrogate)",
          TASKS: "the folder of the surrogate's measured tasks (task_times.csv)",
          STUDY: "the folder of the surrogate's study (comparison.csv, phase.csv)",
          COMPARE: "a comparison's folder (tavc compare: compare.csv and runs/)",
          READINGS: "the folder of a study of the readings (tavc stay-switch: stay_switch.csv)",
+         TURN_TAKING_KIND: "the folder of the model that knows turn-taking (turn_taking.json and its runs)",
          SWEEP: "a tavc sweep's folder (the jobs' folders and sweep.csv)",
          MODEL: "the folder of a tavc model (model.json)", CALIBRATION: "a tavc calibration's folder (search.csv)",
          ANIMATION: "a folder of tavc animations",
@@ -62,13 +64,14 @@ RESULTS_FILES = ("REPORT.md", "REPORT.html", "claims.csv", "value_ratio.csv")
 MODEL_FILES = ("model.csv", "model.json")
 COMPARE_FILES = ("compare.csv", "compare_trials.csv", "compare.md", "compare.png", "compare.svg")
 TASKS_FILES = ("task_times.csv", "task_times.json", "task_times_summary.csv")
-STAY_SWITCH_FILES = ("stay_switch.csv", "stay_switch_model.csv", "stay_switch.json", "stay_switch.png",
-                     "stay_switch.svg")
+STAY_SWITCH_FILES = ("stay_switch.csv", "stay_switch_model.csv", "stay_switch_turn_taking.csv", "stay_switch.json",
+                     "stay_switch.png", "stay_switch.svg")
+TURN_TAKING_FILES = ("turn_taking.json",)
 CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
     f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))
 _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODEL: MODEL_FILES,
           CALIBRATION: CALIBRATION_FILES, ANIMATION: (), TASKS: TASKS_FILES,
-          STUDY: (), COMPARE: COMPARE_FILES}
+          STUDY: (), COMPARE: COMPARE_FILES, TURN_TAKING_KIND: TURN_TAKING_FILES}
 _WITH_TRIALS = (RUN, MODEL, SURROGATE, TASKS)  # folders whose trials/ holds tavc's records
 _SUBFOLDERS = {**dict.fromkeys(_WITH_TRIALS, ("trials",)), RESULTS: ("figures",)}  # tavc's folders in a folder
 _NESTED = {"model": MODEL}  # folders of their own a run's folder may hold before the run (`_nested`)

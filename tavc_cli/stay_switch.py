@@ -6,14 +6,17 @@ circuits), the static `alternate` robots of the surrogate's measurement
 (`surrogate.run.measure_tasks`) run every make-up of the experiment's team (robots staying
 high, staying low, alternating), and `analysis.stay_switch` turns their tasks into the
 stay/switch times, where the time goes, and whether staying pays; and `analysis.makeup_model`
-into the make-ups of stayers and alternators that are rest points, and which one the learners
-reach from random tables. What t covers (the whole task
+into the make-ups of stayers and alternators that are rest points, and which one their drift
+reaches from random tables; and the model that knows turn-taking (`turn_taking`: the chapter's
+learners on the reading's measured tasks at 40x, static alternators where they take turns)
+predicts the regime, the robots on the high-value circuit and the modal state. What t covers (the whole task
 or from the source on) needs no runs of its own: both are read from the same tasks.
 
 Each reading's tasks are kept in `<results>/<reading>/tasks/` (`dock-nearest-two_circuits/`),
 guarded as the surrogate's are (other settings refused, other code measured again), so a
 rerun measures only what is missing.
-The study writes `stay_switch.csv`, `stay_switch_model.csv`, `stay_switch.json` (the grid, the settings, the tasks'
+The study writes `stay_switch.csv`, `stay_switch_model.csv`, `stay_switch_turn_taking.csv`
+(the turn-taking model's runs in `<reading>/turn_taking/`), `stay_switch.json` (the grid, the settings, the tasks'
 digests) and the figure `stay_switch.png`/`.svg`. Static robots learn nothing, and the readings
 are measured at their defaults: no learner's table and no claim enters.
 """
@@ -34,6 +37,7 @@ from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.ownership import READINGS, STAY_SWITCH_FILES, take
 from tavc_cli.settings import TavcConfig
 from tavc_cli.surrogate.tasks import Team
+from tavc_cli.turn_taking import PREDICTED, TURN_TAKING_FOLDER, predict_turn_taking
 
 DEFAULT_EXPERIMENT = base_case().name  # the chapter's base case: its team of six, no events
 SET_BY_THE_STUDY = ("arrival", "passing", "arena", "surrogate.tasks_dir", "output_dir")
@@ -58,7 +62,7 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
     with claim_folder(out):
         owned = take(out, READINGS, STAY_SWITCH_FILES, "--results")
     base = [f"experiment={DEFAULT_EXPERIMENT}", *overrides]
-    frames, models = [], []
+    frames, models, learners = [], [], []
     record: dict = {"grid": {k: list(v) for k, v in GRID}, "overrides": list(overrides), "readings": {}}
     for reading in readings():
         name, folder = reading_name(reading), reading_folder(reading)
@@ -80,6 +84,9 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
         epsilon = float(cfg.learner.epsilon)
         prediction = predict(times_of(times.frame, high), len(groups), values, epsilon)
         models.append(prediction.assign(reading=name, epsilon=epsilon))
+        learned = predict_turn_taking([*base, *name.split()], out / folder / TURN_TAKING_FOLDER, compose,
+                                      tasks_dir=out / folder / "tasks", progress=progress, echo=echo)
+        learners.append({"reading": name, **{k: learned[k] for k in PREDICTED}})
         record.setdefault("scale", str(cfg.scale.name))
         record.setdefault("measurement", measurement_record(cfg)["measurement"])
         record["readings"][name] = {"tasks": f"{folder}/tasks/task_times.csv", "tasks_digest": tasks_digest(times),
@@ -93,9 +100,12 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
         owned.wrote(*STAY_SWITCH_FILES)
         write_text_atomic(out / "stay_switch.csv", table.to_csv(index=False, float_format="%.4f"))
         write_text_atomic(out / "stay_switch_model.csv", model.to_csv(index=False, float_format="%.4f"))
+        write_text_atomic(out / "stay_switch_turn_taking.csv",
+                          pd.DataFrame(learners).to_csv(index=False, float_format="%.4f"))
         write_text_atomic(out / "stay_switch.json", json.dumps(record, indent=2))
         figures = stay_switch_figure(table, out / "stay_switch")
-    return [out / "stay_switch.csv", out / "stay_switch_model.csv", out / "stay_switch.json", *figures]
+    return [out / "stay_switch.csv", out / "stay_switch_model.csv", out / "stay_switch_turn_taking.csv",
+            out / "stay_switch.json", *figures]
 
 
 def summary_lines(table: pd.DataFrame, model: pd.DataFrame | None = None) -> list[str]:

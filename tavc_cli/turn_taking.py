@@ -1,0 +1,108 @@
+"""The model that knows turn-taking, run for one experiment in one world (`tavc model
+--turn-taking`, and for each reading by `tavc stay-switch`).
+
+Two runs of its own, each in a folder of the model's (`analysis.turn_taking` reads them):
+
+- ``learners/``: the chapter's learning rule on the surrogate (`surrogate.run.run_surrogate`) at
+  a longer horizon (`scale=converged`, 40 times the chapter's durations, unless `horizon` says
+  otherwise), its tasks measured by static robots in every make-up of this world, or read from
+  `tasks_dir` where they were measured before (the stay/switch study's);
+- ``alternators/``: where those learners take turns, static robots that all alternate
+  (`learner=alternate`, `learner.allocation=[0,0]`) in the simulator at the run's scale, whose
+  order of circulation gives the modal state.
+
+`turn_taking.json` records the prediction and where each part came from. Both runs are kept and
+reused by a rerun of the same settings and code, as any run's trials are.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.analysis.trial_stats import stable_from
+from tavc_cli.analysis.turn_taking import TURN_TAKING, group_reading, modal_state, prediction
+from tavc_cli.errors import TavcError
+from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.ownership import TURN_TAKING_FILES, TURN_TAKING_KIND, take
+from tavc_cli.settings import TavcConfig
+
+LEARNERS, ALTERNATORS = "learners", "alternators"
+TURN_TAKING_FOLDER = "turn_taking"  # the model's folder in a reading's of the stay/switch study
+PREDICTED = ("regime", "stayers", "alternators", "robots_high", "modal_state", "modal_share_pct", "modal_from",
+             "learners_horizon", "learners_trials")  # a prediction's columns in a table
+ALTERNATOR = "alternate"  # the static controller's label in its run's tables
+SET_HERE = ("learner", "output_dir", "surrogate.tasks_dir", "baseline_trials")
+
+Compose = Callable[[list[str]], TavcConfig]
+
+
+def _key(override: str) -> str:
+    return override.split("=", 1)[0].lstrip("+~")
+
+
+def read_group(folder: Path, cfg: TavcConfig, controller: str = "tavc") -> dict:
+    """How `controller`'s groups were made in the run in `folder` (`analysis.turn_taking.group_reading`)."""
+    tables = {name: pd.read_csv(folder / f"{name}.csv") for name in ("mechanism", "allocation", "state_time")}
+    return group_reading(tables["mechanism"], tables["allocation"], tables["state_time"], stable_from(cfg),
+                         float(cfg.duration_s), controller)
+
+
+def predict_turn_taking(overrides: Sequence[str], out: Path, compose: Compose, *, tasks_dir: Path | None = None,
+                        horizon: float | None = None, progress: bool = False,
+                        echo: Callable[[str], None] = print) -> dict:
+    """The model's prediction for the experiment and world of `overrides` into `out`: its learners
+    on the surrogate, static alternators where they take turns, and `turn_taking.json`. The
+    learners draw from the tasks in `tasks_dir` where those were measured as they would measure
+    them (the stay/switch study's), else from tasks of their own (`out/tasks`). Returns the
+    prediction (`analysis.turn_taking.prediction`) with the runs' folders."""
+    # deferred: both load the simulator's compiled kernels
+    from tavc_cli.pipeline import run_experiment
+    from tavc_cli.surrogate.run import measurement_record, run_surrogate
+
+    given = [_key(o) for o in overrides if _key(o) in SET_HERE]
+    if given:
+        raise TavcError(f"{given[0]}: set by the model that knows turn-taking for each of its runs "
+                        "(its learners at scale=converged on the surrogate, static alternators at the run's scale)")
+    out = Path(out)
+    with claim_folder(out):
+        owned = take(out, TURN_TAKING_KIND, TURN_TAKING_FILES, "output_dir")
+    longer = ["scale=converged", *([f"scale.time_factor={horizon:g}"] if horizon is not None else []),
+              "baseline_trials=1", f"output_dir={out / LEARNERS}"]
+    learners_cfg = compose([*overrides, *longer, f"surrogate.tasks_dir={out / 'tasks'}"])
+    if tasks_dir is not None and measurement_record(compose(list(overrides))) == measurement_record(learners_cfg):
+        learners_cfg = compose([*overrides, *longer, f"surrogate.tasks_dir={tasks_dir}"])  # measured alike: reused
+    echo(f"turn-taking model: the chapter's learners on the surrogate, {float(learners_cfg.scale.time_factor):g}x")
+    run_surrogate(learners_cfg, progress=progress, echo=lambda _: None)
+    learners = read_group(out / LEARNERS, learners_cfg)
+    alternators, alternators_cfg = None, None
+    if learners["regime"] == TURN_TAKING:
+        alternators_cfg = compose([*overrides, "learner=alternate", "learner.allocation=[0,0]", "baseline_trials=1",
+                                   f"output_dir={out / ALTERNATORS}"])
+        echo("turn-taking model: every robot alternating, in the simulator")
+        run_experiment(alternators_cfg, progress=progress)
+        alternators = modal_state(pd.read_csv(out / ALTERNATORS / "state_time.csv"), ALTERNATOR)
+    result = {**prediction(learners, alternators), "learners_run": LEARNERS,
+              "learners_horizon": float(learners_cfg.scale.time_factor), "learners_trials": int(learners_cfg.trials),
+              "alternators_run": ALTERNATORS if alternators_cfg is not None else None,
+              "overrides": list(overrides)}
+    with claim_folder(out):
+        owned.wrote(*TURN_TAKING_FILES)
+        write_text_atomic(out / "turn_taking.json", json.dumps(result, indent=2, default=float))
+    return result
+
+
+def prediction_lines(result: dict) -> list[str]:
+    """The prediction in a few lines, as `tavc model --turn-taking` prints it."""
+    modal = (f"{result['modal_state']} ({result['modal_share_pct']:.1f} % of the stable period, "
+             + ("every robot alternating in the simulator)" if result["modal_from"] == ALTERNATORS
+                else "the learners on the surrogate)"))
+    return [f"the model that knows turn-taking (the chapter's learners on measured tasks, "
+            f"{result['learners_horizon']:g}x, {result['learners_trials']} trials):",
+            f"  regime: {result['regime']} ({result['stayers']:.1f} stayers, {result['alternators']:.1f} alternators "
+            "per trial)",
+            f"  robots on the high-value circuit: {result['robots_high']:.2f}",
+            f"  modal state: {modal}"]
