@@ -210,13 +210,35 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
                        model_file=str(model_file), scale_name=str(scale["name"]), progress=progress)
 
 
-def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, progress: bool = False,
-          echo: Callable[[str], None] = print, config_dir: ConfigDirs = None) -> dict:
+def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, turn_taking: bool = False,
+          progress: bool = False, echo: Callable[[str], None] = print, config_dir: ConfigDirs = None) -> dict:
     """Measure c_i(n) and apply the TAVC model as `tavc model` does, printing its summary through
-    `echo`; with `save_calibration`, record the calibrated values as tasks=calibrated. Returns
-    the model's result. `config_dir`: folders of your own configs, as ``--config-dir``."""
+    `echo`; with `save_calibration`, record the calibrated values as tasks=calibrated; with
+    `turn_taking`, the model that knows turn-taking beside it (its prediction under the result's
+    ``turn_taking`` key, its runs in ``<output_dir>/turn_taking``). Returns the model's result.
+    `config_dir`: folders of your own configs, as ``--config-dir``."""
     with using_config_dirs(config_dir):
-        return _model(overrides, save_calibration, progress, echo)
+        if turn_taking:
+            # deferred: pandas and the model's modules, only with turn_taking
+            from tavc_cli.turn_taking import check_overrides
+
+            check_overrides([o for o in overrides if o.split("=", 1)[0].lstrip("+~") != "output_dir"])
+        result = _model(overrides, save_calibration, progress, echo)
+        if turn_taking:
+            result["turn_taking"] = _turn_taking(overrides, progress, echo)
+        return result
+
+
+def _turn_taking(overrides: Sequence[str], progress: bool, echo: Callable[[str], None]) -> dict:
+    # deferred: loads the surrogate and the simulator's compiled kernels
+    from tavc_cli.turn_taking import TURN_TAKING_FOLDER, predict_turn_taking, prediction_lines
+
+    out = Path(config.load_config(list(overrides)).output_dir) / TURN_TAKING_FOLDER
+    mine = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") != "output_dir"]
+    result = predict_turn_taking(mine, out, lambda o: config.settings(config.load_config(o)), progress=progress,
+                                 echo=echo)
+    echo("\n".join(prediction_lines(result)))
+    return result
 
 
 def _model(overrides: Sequence[str], save_calibration: bool, progress: bool, echo: Callable[[str], None]) -> dict:

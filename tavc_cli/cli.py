@@ -171,22 +171,24 @@ def stay_switch_command(
 @app.command()
 def model(
     overrides: options.Overrides = None,
-    save_calibration: Annotated[
-        bool,
-        typer.Option(
-            "--save-calibration",
-            help="Record the calibrated values as the config option tasks=calibrated (conf/tasks/).",
-        ),
-    ] = False,
+    save_calibration: Annotated[bool, typer.Option(
+        "--save-calibration", help="Record the calibrated values as the config option tasks=calibrated (conf/tasks/).",
+    )] = False,
+    turn_taking: Annotated[bool, typer.Option(
+        "--turn-taking", help="Beside it, the model that knows turn-taking: the chapter's learners on measured "
+                              "tasks at 40x, static alternators where they take turns (into OUTPUT_DIR/turn_taking).",
+    )] = False,
     progress: options.ProgressFlag = None,
 ) -> None:
     """Measure c_i(n) in the simulator and apply the TAVC model: slot values, predicted
-    allocation, constraints (1.3)/(1.4) and calibrated task values."""
+    allocation, constraints (1.3)/(1.4) and calibrated task values; with --turn-taking, the
+    model that knows turn-taking beside it."""
     with _user_errors(folder=lambda: config.load_config(overrides or []).output_dir):
         # deferred: loads pandas
         from tavc_cli.api import model as run_model
 
-        run_model(overrides or [], save_calibration=save_calibration, progress=options.shown(progress), echo=typer.echo)
+        run_model(overrides or [], save_calibration=save_calibration, turn_taking=turn_taking,
+                  progress=options.shown(progress), echo=typer.echo)
 
 
 @app.command()

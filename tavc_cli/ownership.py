@@ -74,7 +74,8 @@ _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODE
           STUDY: (), COMPARE: COMPARE_FILES, TURN_TAKING_KIND: TURN_TAKING_FILES}
 _WITH_TRIALS = (RUN, MODEL, SURROGATE, TASKS)  # folders whose trials/ holds tavc's records
 _SUBFOLDERS = {**dict.fromkeys(_WITH_TRIALS, ("trials",)), RESULTS: ("figures",)}  # tavc's folders in a folder
-_NESTED = {"model": MODEL}  # folders of their own a run's folder may hold before the run (`_nested`)
+# folders of their own a run's folder may hold before the run (`_nested`)
+_NESTED = {"model": MODEL, "turn_taking": TURN_TAKING_KIND}
 
 # settings that decide where and how fast a run goes, not what it computes
 _NOT_RESULTS = ("executor", "output_dir", "overwrite", "force")

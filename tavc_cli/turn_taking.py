@@ -4,9 +4,10 @@
 Two runs of its own, each in a folder of the model's (`analysis.turn_taking` reads them):
 
 - ``learners/``: the chapter's learning rule on the surrogate (`surrogate.run.run_surrogate`) at
-  a longer horizon (`scale=converged`, 40 times the chapter's durations, unless `horizon` says
-  otherwise), its tasks measured by static robots in every make-up of this world, or read from
-  `tasks_dir` where they were measured before (the stay/switch study's);
+  a longer horizon (`HORIZON`, 40 times the scale's durations: the chapter's at scale=paper,
+  where today's world converges), its tasks measured by static robots in every make-up of this
+  world at the scale's settings, or read from `tasks_dir` where they were measured before (the
+  stay/switch study's);
 - ``alternators/``: where those learners take turns, static robots that all alternate
   (`learner=alternate`, `learner.allocation=[0,0]`) in the simulator at the run's scale, whose
   order of circulation gives the modal state.
@@ -35,13 +36,24 @@ TURN_TAKING_FOLDER = "turn_taking"  # the model's folder in a reading's of the s
 PREDICTED = ("regime", "stayers", "alternators", "robots_high", "modal_state", "modal_share_pct", "modal_from",
              "learners_horizon", "learners_trials")  # a prediction's columns in a table
 ALTERNATOR = "alternate"  # the static controller's label in its run's tables
-SET_HERE = ("learner", "output_dir", "surrogate.tasks_dir", "baseline_trials")
+SET_HERE = ("learner", "output_dir", "surrogate.tasks_dir", "baseline_trials", "scale.time_factor",
+            "scale.stable_window")
+HORIZON = 40.0  # the learners' horizon, times the run's scale: where the chapter's rule converges in today's world
 
 Compose = Callable[[list[str]], TavcConfig]
 
 
 def _key(override: str) -> str:
     return override.split("=", 1)[0].lstrip("+~")
+
+
+def check_overrides(overrides: Sequence[str]) -> None:
+    """Refuse, in one line, a setting the model sets for its runs (`SET_HERE`)."""
+    given = [_key(o) for o in overrides if _key(o) in SET_HERE]
+    if given:
+        raise TavcError(f"{given[0]}: set by the model that knows turn-taking for each of its runs (its "
+                        f"learners on the surrogate at {HORIZON:g} times the scale's durations, static alternators at "
+                        "the scale's own)")
 
 
 def read_group(folder: Path, cfg: TavcConfig, controller: str = "tavc") -> dict:
@@ -55,28 +67,28 @@ def predict_turn_taking(overrides: Sequence[str], out: Path, compose: Compose, *
                         horizon: float | None = None, progress: bool = False,
                         echo: Callable[[str], None] = print) -> dict:
     """The model's prediction for the experiment and world of `overrides` into `out`: its learners
-    on the surrogate, static alternators where they take turns, and `turn_taking.json`. The
-    learners draw from the tasks in `tasks_dir` where those were measured as they would measure
-    them (the stay/switch study's), else from tasks of their own (`out/tasks`). Returns the
-    prediction (`analysis.turn_taking.prediction`) with the runs' folders."""
+    on the surrogate at `horizon` (default `HORIZON`) times the scale's durations, static
+    alternators where they take turns, and `turn_taking.json`. The learners' tasks are measured
+    at the scale's settings into `tasks_dir` (default `out/tasks`), or reused from there (the
+    stay/switch study's). Returns the prediction (`analysis.turn_taking.prediction`) with the
+    runs' folders."""
     # deferred: both load the simulator's compiled kernels
     from tavc_cli.pipeline import run_experiment
-    from tavc_cli.surrogate.run import measurement_record, run_surrogate
+    from tavc_cli.surrogate.run import measure_tasks, run_surrogate
 
-    given = [_key(o) for o in overrides if _key(o) in SET_HERE]
-    if given:
-        raise TavcError(f"{given[0]}: set by the model that knows turn-taking for each of its runs "
-                        "(its learners at scale=converged on the surrogate, static alternators at the run's scale)")
+    check_overrides(overrides)
     out = Path(out)
     with claim_folder(out):
         owned = take(out, TURN_TAKING_KIND, TURN_TAKING_FILES, "output_dir")
-    longer = ["scale=converged", *([f"scale.time_factor={horizon:g}"] if horizon is not None else []),
-              "baseline_trials=1", f"output_dir={out / LEARNERS}"]
-    learners_cfg = compose([*overrides, *longer, f"surrogate.tasks_dir={out / 'tasks'}"])
-    if tasks_dir is not None and measurement_record(compose(list(overrides))) == measurement_record(learners_cfg):
-        learners_cfg = compose([*overrides, *longer, f"surrogate.tasks_dir={tasks_dir}"])  # measured alike: reused
+    here = compose(list(overrides))
+    factor = HORIZON if horizon is None else float(horizon)
+    learners_cfg = compose([*overrides, f"scale.time_factor={factor * float(here.scale.time_factor)!r}",
+                            "scale.stable_window=chapter", "baseline_trials=1",
+                            f"surrogate.tasks_dir={tasks_dir or out / 'tasks'}", f"output_dir={out / LEARNERS}"])
     echo(f"turn-taking model: the chapter's learners on the surrogate, {float(learners_cfg.scale.time_factor):g}x")
-    run_surrogate(learners_cfg, progress=progress, echo=lambda _: None)
+    times = measure_tasks(compose([*overrides, f"surrogate.tasks_dir={tasks_dir or out / 'tasks'}"]),
+                          progress=progress, echo=echo)
+    run_surrogate(learners_cfg, times=times, progress=progress, echo=lambda _: None)
     learners = read_group(out / LEARNERS, learners_cfg)
     alternators, alternators_cfg = None, None
     if learners["regime"] == TURN_TAKING:

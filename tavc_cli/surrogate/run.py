@@ -227,12 +227,15 @@ def surrogate_specs(cfg: TavcConfig, times: TaskTimes, plan: RunPlan | None = No
     return [replace(s, engine=engine) for s in trial_specs(cfg, plan)]
 
 
-def run_surrogate(cfg: TavcConfig, *, progress: bool = False, echo: Callable[[str], None] = print) -> dict:
-    """An experiment on the surrogate into `cfg.output_dir`: tasks measured or reused, trials
-    drawn (a finished one of the same key reused), then the tables, claims and provenance of
-    `tavc run`. Returns the run's summary, as `pipeline.run_experiment` does."""
+def run_surrogate(cfg: TavcConfig, *, times: TaskTimes | None = None, progress: bool = False,
+                  echo: Callable[[str], None] = print) -> dict:
+    """An experiment on the surrogate into `cfg.output_dir`: tasks measured or reused (or `times`,
+    measured for another run's settings: each trial's key holds their digest), trials drawn (a
+    finished one of the same key reused), then the tables, claims and provenance of `tavc run`.
+    Returns the run's summary, as `pipeline.run_experiment` does."""
     surrogate_supports(cfg)
-    times = measure_tasks(cfg, progress=progress, echo=echo)
+    if times is None:
+        times = measure_tasks(cfg, progress=progress, echo=echo)
     plan = plan_run(cfg)
     specs = surrogate_specs(cfg, times, plan)
     folder = Path(cfg.output_dir)
