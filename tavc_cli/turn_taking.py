@@ -24,11 +24,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.trial_stats import stable_from
-from tavc_cli.analysis.turn_taking import TURN_TAKING, group_reading, modal_state, prediction
+from tavc_cli.analysis.turn_taking import TURN_TAKING, modal_state, prediction
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.ownership import TURN_TAKING_FILES, TURN_TAKING_KIND, take
+from tavc_cli.report.mechanism import read_group
 from tavc_cli.settings import TavcConfig
 
 LEARNERS, ALTERNATORS = "learners", "alternators"
@@ -54,13 +54,6 @@ def check_overrides(overrides: Sequence[str]) -> None:
         raise TavcError(f"{given[0]}: set by the model that knows turn-taking for each of its runs (its "
                         f"learners on the surrogate at {HORIZON:g} times the scale's durations, static alternators at "
                         "the scale's own)")
-
-
-def read_group(folder: Path, cfg: TavcConfig, controller: str = "tavc") -> dict:
-    """How `controller`'s groups were made in the run in `folder` (`analysis.turn_taking.group_reading`)."""
-    tables = {name: pd.read_csv(folder / f"{name}.csv") for name in ("mechanism", "allocation", "state_time")}
-    return group_reading(tables["mechanism"], tables["allocation"], tables["state_time"], stable_from(cfg),
-                         float(cfg.duration_s), controller)
 
 
 def predict_turn_taking(overrides: Sequence[str], out: Path, compose: Compose, *, tasks_dir: Path | None = None,

@@ -206,14 +206,15 @@ def test_the_reports_section_gives_the_make_up_models_regime(tmp_path):
     model = predict(_times(lambda h: 100.0, lambda low: 100.0, 90.0), 2, (2200.0, 2000.0), 0.0).assign(reading="today")
     model.to_csv(tmp_path / "stay_switch" / "stay_switch_model.csv", index=False)
     text = "\n".join(stay_switch_lines(tmp_path))
-    assert "| turn-taking (100 %) | 1.00 |" in text  # both alternate: one robot's worth on each circuit
+    assert "| turn-taking (100 %), 1.00 |" in text  # both alternate: one robot's worth on each circuit
 
 
-def test_the_learners_beside_the_model_say_whether_they_agree_and_whether_it_is_a_check(tmp_path):
-    """The report's rows of learners beside the make-up model, on two committed 40x runs copied
-    into a folder with a model written by hand: a converged run of turn-taking against a model
-    of persistence is a disagreement; against a model of turn-taking an agreement; a run whose
-    learners did not converge is no check, whatever the model says."""
+def test_the_learners_beside_the_models_say_whether_they_agree_and_whether_it_is_a_check(tmp_path):
+    """The report's rows of learners beside the two models, on two committed 40x runs copied
+    into a folder with the models' predictions written by hand: a converged run of turn-taking
+    against a prediction of persistence is a disagreement; against one of turn-taking an
+    agreement; the modal state is checked against the turn-taking model's; a run whose learners
+    did not converge is no check, whatever the models say."""
     import shutil
 
     from tavc_cli.report.studies import stay_switch_lines
@@ -226,7 +227,7 @@ def test_the_learners_beside_the_model_say_whether_they_agree_and_whether_it_is_
     for src, dst in ((today, tmp_path / "converged" / "initial_distribution"),
                      (other, tmp_path / "converged" / "readings" / "range-left-two_circuits_parallel")):
         dst.mkdir(parents=True)
-        for name in ("config.yaml", "mechanism.csv", "allocation.csv", "convergence.csv"):
+        for name in ("config.yaml", "mechanism.csv", "allocation.csv", "convergence.csv", "state_time.csv"):
             shutil.copy(src / name, dst / name)
     tasks = pd.DataFrame([_task("all:2-2-2", "stay", 1, 80.0, 30.0), _task("all:2-2-2", "switch", 0, 92.0, 40.0)],
                          columns=list(COLUMNS))
@@ -240,17 +241,22 @@ def test_the_learners_beside_the_model_say_whether_they_agree_and_whether_it_is_
                                "alternators": a, "rest_point": True, "regime": regime, "robots_high": h + a / 2,
                                "basin": 1.0} for r, regime in zip(readings, [model_regime] * 2, strict=True)])
         model.to_csv(tmp_path / "stay_switch" / "stay_switch_model.csv", index=False)
+        pd.DataFrame([{"reading": r, "regime": model_regime, "stayers": 6 - a, "alternators": a, "robots_high": 3.0,
+                       "modal_state": modal, "modal_share_pct": 50.0, "modal_from": "alternators"} for r in readings]
+                     ).to_csv(tmp_path / "stay_switch" / "stay_switch_turn_taking.csv", index=False)
         lines = [x for x in stay_switch_lines(tmp_path) if x.startswith("| arrival=") and "` (" in x]
         return {x.split("|")[1].strip(): [c.strip() for c in x.strip("|").split("|")] for x in lines}
 
-    model_regime = "persistence"
+    model_regime, modal = "persistence", "4:2"
     found = rows("3-3-0")
-    assert found[readings[0]][2] == "yes" and found[readings[0]][3] == "turn-taking"  # converged, took turns
-    assert found[readings[0]][7] == "**no**"
+    assert found[readings[0]][2] == "yes" and found[readings[0]][3].startswith("turn-taking, 3.00, 3:3 (")  # converged
+    assert found[readings[0]][5] == "persistence, 3.00, 4:2 (50 %)"
+    assert found[readings[0]][6] == "**no**; **no**" and found[readings[0]][7] == "**no**"
     assert found[readings[1]][2].startswith("no (") and found[readings[1]][7].endswith("(not a check: the learners did "
                                                                                         "not converge)")
-    model_regime = "turn-taking"
-    assert rows("0-0-6")[readings[0]][7] == "yes"
+    model_regime, modal = "turn-taking", "3:3"
+    found = rows("0-0-6")
+    assert found[readings[0]][6] == "yes; yes" and found[readings[0]][7] == "yes"
 
 
 def test_from_the_source_counts_only_tasks_whose_source_arrival_is_known():

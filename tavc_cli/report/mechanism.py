@@ -14,8 +14,11 @@ import pandas as pd
 from tavc_cli.analysis.convergence import convergence_verdict
 from tavc_cli.analysis.mechanism import mechanism_summary
 from tavc_cli.analysis.stay_switch import thresholds
+from tavc_cli.analysis.trial_stats import stable_from
+from tavc_cli.analysis.turn_taking import group_reading
 from tavc_cli.report.files import config_of
 from tavc_cli.report.text import CONTROLLER_NAMES, fmt
+from tavc_cli.settings import TavcConfig
 
 
 def mechanism(d: Path, controller: str = "tavc") -> dict | None:
@@ -28,6 +31,14 @@ def mechanism(d: Path, controller: str = "tavc") -> dict | None:
     if not ((table["controller"] == controller) & (table["window"] == "stable")).any():
         return None
     return mechanism_summary(table, controller=controller)
+
+
+def read_group(folder: Path, cfg: TavcConfig, controller: str = "tavc") -> dict:
+    """How `controller`'s groups were made over the measured stretch of the stable period of the
+    run in `folder` (its `cfg`): `analysis.turn_taking.group_reading` of its tables."""
+    tables = {name: pd.read_csv(folder / f"{name}.csv") for name in ("mechanism", "allocation", "state_time")}
+    return group_reading(tables["mechanism"], tables["allocation"], tables["state_time"], stable_from(cfg),
+                         float(cfg.duration_s), controller)
 
 
 def mechanism_words(m: dict | None) -> str:

@@ -11,14 +11,13 @@ from scipy import stats
 
 from tavc_cli.analysis.makeup_model import expected_high, predicted_regime, readings_summary
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, readings
-from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
 from tavc_cli.reference import chapter_table
 from tavc_cli.report.figures import figure_link
 from tavc_cli.report.files import config_of, horizon_folders, read_or_refuse
-from tavc_cli.report.mechanism import convergence, mechanism
+from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.text import fmt
 from tavc_cli.settings import TavcConfig
 
@@ -182,8 +181,9 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
            f"{m['warmup_s']:g} s (scale={record.get('scale', '?')})." if {"trials_per_makeup", "measure_s", "warmup_s"}
            <= set(m) else "")
     n = int((table["high_stayers"] + table["low_stayers"] + table["alternators"]).max())
-    model_path = path.parent / "stay_switch_model.csv"
+    model_path, turn_path = path.parent / "stay_switch_model.csv", path.parent / "stay_switch_turn_taking.csv"
     model = read_or_refuse(model_path, pd.read_csv) if model_path.is_file() else None
+    turn = read_or_refuse(turn_path, pd.read_csv).set_index("reading") if turn_path.is_file() else None
     lines = ["## The readings: what staying and switching cost", "",
              "Static robots held to their roles (staying on the high-value circuit, staying on the low-value one, "
              f"alternating) in every make-up of the team of {n}, in each reading of the world the chapter leaves "
@@ -193,32 +193,46 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
              "enters: this is what the world offers the learners, measured." + how, "",
              f"![stay and switch in each reading]({rel}/stay_switch.png)", "",
              "| reading | make-ups with both | t_switch / t_stay (min, median, max) | staying pays in | "
-             "timed from the source: pays in | the make-up model: regime (share of starts) | robots on the high-value "
-             "circuit |", "|---|---|---|---|---|---|---|"]
+             "timed from the source: pays in | the drift model: regime (share of starts), robots high | "
+             "the turn-taking model: regime, robots high, modal state |", "|---|---|---|---|---|---|---|"]
     for r in readings_summary(table, model).itertuples():
         line = (f"| {r.reading} | {r.n} | {r.ratio_min:.3f}, {r.ratio_median:.3f}, {r.ratio_max:.3f} | {r.pays} | "
                 f"{r.pays_source} |")
-        line += f" {r.regime} ({100 * r.basin:.0f} %) | {r.robots_high:.2f} |" if r.regime is not None else "  |  |"
-        lines.append(line)
+        line += f" {r.regime} ({100 * r.basin:.0f} %), {r.robots_high:.2f} |" if r.regime is not None else "  |"
+        lines.append(line + f" {_turn_words(turn, r.reading)} |")
     if model is not None:
-        lines += ["", "The make-up model (`analysis/makeup_model.py`, `stay_switch_model.csv`) gives each robot one of "
-                  "the strategies a two-state Q-learner holds greedily (stay high, stay low, alternate), rates each by "
-                  "the measured tasks of its make-up with epsilon-greedy exploration, and follows the make-up from "
-                  "random initial tables, one robot's most gainful change at a time, to where no robot gains. It is "
-                  "fitted to nothing the learners did.", *_learners_beside_the_model(results_dir, model)]
+        lines += ["", "Two models of where the learners settle, neither fitted to anything the learners did. The drift "
+                  "model (`analysis/makeup_model.py`, `stay_switch_model.csv`) gives each robot one of the strategies "
+                  "a two-state Q-learner holds greedily (stay high, stay low, alternate), rates each by the measured "
+                  "tasks of its make-up with epsilon-greedy exploration, and follows the make-up from random initial "
+                  "tables, one robot's most gainful change at a time, to where no robot gains. The turn-taking model "
+                  "(`turn_taking.py`, `stay_switch_turn_taking.csv`) runs the chapter's learners themselves on the "
+                  "same measured tasks (the surrogate, 40 times the chapter's durations, the chapter's trial count) "
+                  "for the regime and the robots on the high-value circuit; where they take turns, the modal state is "
+                  "that of static robots all alternating in the simulator, which keep their order of circulation.",
+                  *_learners_beside_the_models(results_dir, model, turn)]
     return [*lines, ""]
+
+
+def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
+    """The turn-taking model's prediction for `reading` in a few words, or nothing."""
+    if turn is None or reading not in turn.index:
+        return ""
+    t = turn.loc[reading]
+    return f"{t['regime']}, {float(t['robots_high']):.2f}, {t['modal_state']} ({float(t['modal_share_pct']):.0f} %)"
 
 
 READINGS_RUNS = "readings"  # under a longer horizon's folder: the base case in a reading, <arrival>-<passing>-<arena>
 
 
-def _learners_beside_the_model(results_dir: Path, model: pd.DataFrame) -> list[str]:
-    """Where learners ran the base case at a longer horizon in a reading the model was measured
+def _learners_beside_the_models(results_dir: Path, model: pd.DataFrame, turn: pd.DataFrame | None) -> list[str]:
+    """Where learners ran the base case at a longer horizon in a reading the models were measured
     in (today's world: `<horizon>/<the base case>`; any other:
     `<horizon>/readings/<arrival>-<passing>-<arena>`, for every horizon folder), how their group
-    was made beside what the make-up model predicts for that world: the regime and the robots on
-    the high-value circuit over the run's measured stretch of its stable period (`stable_from`),
-    whether its learners converged, and whether the regimes agree (a run whose learners did not
+    was made beside what each model predicts for that world: the regime, the robots on the
+    high-value circuit and the modal state over the run's measured stretch of its stable period
+    (`report.mechanism.read_group`), whether its learners converged, and whether each model
+    names their regime and the turn-taking model their modal state (a run whose learners did not
     converge is no check of where they settle)."""
     rows = []
     for reading, mine in model.groupby("reading", sort=False):
@@ -226,34 +240,36 @@ def _learners_beside_the_model(results_dir: Path, model: pd.DataFrame) -> list[s
         today = folder == reading_folder(readings()[0])
         for horizon in horizon_folders(results_dir):
             d = horizon / (base_case().name if today else f"{READINGS_RUNS}/{folder}")
-            rows += _beside(reading, mine, d, results_dir)
+            rows += _beside(str(reading), mine, turn, d, results_dir)
     if not rows:
         return []
     return ["", "Beside the learners, where they ran the base case in a reading: whether they converged (by the "
             "measures of *The time scale*), how their group was made over the measured stretch of the stable period "
-            "and the robots on the high-value circuit there, against the model, which is fitted to none of these "
-            "runs. The other checks the model needs (the chapter's scenarios, the value ratios, team sizes, the "
-            "remaining readings) are not run yet.", "",
-            "| reading | the learners' run | converged | their regime | robots on the high-value circuit | the model | "
-            "its robots on the high-value circuit | the same regime |", "|---|---|---|---|---|---|---|---|", *rows]
+            "(regime, robots on the high-value circuit, modal state), against each model's prediction.", "",
+            "| reading | the learners' run | converged | their regime, robots high, modal state | the drift model | "
+            "the turn-taking model | the same regime (drift; turn-taking) | the same modal state (turn-taking) |",
+            "|---|---|---|---|---|---|---|---|", *rows]
 
 
-def _beside(reading: str, mine: pd.DataFrame, d: Path, results_dir: Path) -> list[str]:
-    """The row of `_learners_beside_the_model` for the run in `d`, if it holds one."""
-    m = mechanism(d) if (d / "mechanism.csv").is_file() else None
-    if m is None or not (d / "allocation.csv").is_file():
+def _beside(reading: str, mine: pd.DataFrame, turn: pd.DataFrame | None, d: Path, results_dir: Path) -> list[str]:
+    """The row of `_learners_beside_the_models` for the run in `d`, if it holds one."""
+    if not all((d / f"{name}.csv").is_file() for name in ("mechanism", "allocation", "state_time")):
         return []
     cfg = config_of(d / "config.yaml")
-    alloc = pd.read_csv(d / "allocation.csv")
-    tavc = alloc[(alloc["controller"] == "tavc") & (alloc["t_s"] >= stable_from(cfg))
-                 & (alloc["t_s"] < float(cfg.duration_s))]
+    if mechanism(d) is None:
+        return []
+    group = read_group(d, cfg)
     regime, basin = predicted_regime(mine)
     v = convergence(d)
     converged = "?" if v is None else ("yes" if v["converged"] else f"no ({', '.join(v['failed'])})")
-    same = "yes" if regime == m["regime"] else "**no**"
+    same = lambda a, b: "yes" if a == b else "**no**"  # noqa: E731
+    predicted = turn.loc[reading] if turn is not None and reading in turn.index else None
+    regimes = same(regime, group["regime"]) + "; " + ("" if predicted is None else same(predicted["regime"],
+                                                                                         group["regime"]))
+    modal = "" if predicted is None else same(str(predicted["modal_state"]), group["modal_state"])
     if v is None or not v["converged"]:
-        same += " (not a check: the learners did not converge)"
-    high = tavc["mean_high"].mean()
+        modal += " (not a check: the learners did not converge)"
     return [f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({cfg.trials} trials, "
-            f"{float(cfg.scale.time_factor):g}x) | {converged} | {m['regime']} | {high:.2f} | "
-            f"{regime} ({100 * basin:.0f} %) | {expected_high(mine):.2f} | {same} |"]
+            f"{float(cfg.scale.time_factor):g}x) | {converged} | {group['regime']}, {group['robots_high']:.2f}, "
+            f"{group['modal_state']} ({group['modal_share_pct']:.0f} %) | {regime} ({100 * basin:.0f} %), "
+            f"{expected_high(mine):.2f} | {_turn_words(turn, reading)} | {regimes} | {modal} |"]

@@ -1,0 +1,113 @@
+"""The model that knows turn-taking: how a group is read from a run's tables (modal state,
+robots on the high-value circuit over the measured stretch, regime), where its prediction takes
+the modal state from, its refusals in one line, and its two runs end to end at smoke scale
+(slow)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from tavc_cli import config
+from tavc_cli.analysis.trial_stats import stable_from
+from tavc_cli.analysis.turn_taking import group_reading, modal_state, prediction, robots_high
+from tavc_cli.cli import app
+from tavc_cli.errors import TavcError
+from tavc_cli.turn_taking import check_overrides, predict_turn_taking
+
+STATES = ("0:6", "1:5", "2:4", "3:3", "4:2", "5:1", "6:0")
+
+
+def _state_time(shares: dict[str, list[float]]) -> pd.DataFrame:
+    return pd.DataFrame([{"state": s, "controller": c, "mean_pct": p, "std_pct": 0.0, "n_trials": 4}
+                         for c, pcts in shares.items() for s, p in zip(STATES, pcts, strict=True)])
+
+
+def _mechanism(rows: list[tuple[str, str, float, float, float, float]]) -> pd.DataFrame:
+    """(controller, window, stayers high, stayers low, alternators, mixed) per trial."""
+    cols = {"switch_share": 0.5, "task_s_stay": 90.0, "task_s_switch": 80.0, "avoid_s_stay": 5.0,
+            "avoid_s_switch": 1.0, "wait_s_stay": 9.0, "wait_s_switch": 1.0, "q_gap_stay_switch": 0.0, "n_idle": 0}
+    return pd.DataFrame([{"controller": c, "trial": i, "window": w, "n_stayers_high": h, "n_stayers_low": lo,
+                          "n_alternators": a, "n_mixed": m, **cols} for i, (c, w, h, lo, a, m) in enumerate(rows)])
+
+
+def test_the_modal_state_is_the_largest_share_and_the_first_on_a_tie():
+    table = _state_time({"tavc": [1, 5, 20, 30, 30, 10, 4], "random": [2, 9, 23, 31, 23, 9, 2]})
+    assert modal_state(table, "tavc") == ("3:3", 30.0)  # 3:3 and 4:2 tie at 30: the first in the table's order
+    assert modal_state(table, "random") == ("3:3", 31.0)
+    state, share = modal_state(table, "alternate")
+    assert state == "" and math.isnan(share)
+
+
+def test_robots_high_are_averaged_over_the_measured_stretch_only():
+    alloc = pd.DataFrame({"t_s": [100.0, 200.0, 300.0, 400.0, 200.0], "controller": ["tavc"] * 4 + ["random"],
+                          "mean_high": [1.0, 2.0, 4.0, 8.0, 100.0]})
+    assert robots_high(alloc, "tavc", 150.0, 400.0) == pytest.approx(3.0)  # 200 and 300: (2 + 4) / 2
+    assert math.isnan(robots_high(alloc, "tavc", 500.0, 600.0))
+
+
+def test_a_group_is_read_from_its_stable_windows():
+    mech = _mechanism([("tavc", "stable", 0, 0, 6, 0), ("tavc", "stable", 0, 1, 5, 0), ("tavc", "w1", 3, 3, 0, 0)])
+    alloc = pd.DataFrame({"t_s": [50.0, 150.0], "controller": ["tavc", "tavc"], "mean_high": [4.0, 3.0]})
+    got = group_reading(mech, alloc, _state_time({"tavc": [0, 2, 20, 60, 15, 3, 0]}), 100.0, 200.0)
+    # per trial 0.5 stayers and 5.5 alternators: 5.5 of 6 working robots alternate, at least half
+    assert got == {"regime": "turn-taking", "stayers": 0.5, "alternators": 5.5, "robots_high": 3.0,
+                   "modal_state": "3:3", "modal_share_pct": 60.0}
+
+
+def test_turn_taking_takes_its_modal_state_from_the_alternators_and_the_rest_from_the_learners():
+    learners = {"regime": "turn-taking", "stayers": 0.0, "alternators": 6.0, "robots_high": 3.0,
+                "modal_state": "2:4", "modal_share_pct": 35.0}
+    got = prediction(learners, ("3:3", 61.0))
+    assert (got["modal_state"], got["modal_share_pct"], got["modal_from"]) == ("3:3", 61.0, "alternators")
+    assert got["robots_high"] == 3.0 and got["regime"] == "turn-taking"
+    held = prediction({**learners, "regime": "persistence"}, ("3:3", 61.0))
+    assert (held["modal_state"], held["modal_from"]) == ("2:4", "learners")
+    with pytest.raises(ValueError, match="static alternators"):
+        prediction(learners, None)
+
+
+@pytest.mark.parametrize("override", ["learner=random", "output_dir=/tmp/x", "scale.time_factor=3",
+                                      "+surrogate.tasks_dir=/tmp/y", "baseline_trials=4"])
+def test_what_the_model_sets_for_its_runs_is_refused(override):
+    with pytest.raises(TavcError, match=f"^{override.split('=')[0].lstrip('+')}: set by the model"):
+        check_overrides([override])
+    check_overrides(["experiment=breakdown", "scale=smoke", "arrival=range"])  # the user's to set
+
+
+def test_tavc_model_refuses_such_a_setting_in_one_line_before_it_measures(tmp_path):
+    result = CliRunner().invoke(app, ["model", "--turn-taking", "learner=random", "scale=smoke",
+                                      f"output_dir={tmp_path / 'm'}", "--no-progress"])
+    assert result.exit_code != 0
+    assert result.output.strip().splitlines() == [
+        "error: learner: set by the model that knows turn-taking for each of its runs (its learners on the surrogate "
+        "at 40 times the scale's durations, static alternators at the scale's own)"]
+    assert not (tmp_path / "m" / "model").exists()
+
+
+@pytest.mark.slow
+def test_the_model_end_to_end_at_smoke_scale_and_again_from_its_runs(tmp_path):
+    """Its tasks measured, its learners run at 40 times the scale's durations, its prediction
+    written as its learners' tables give it; the same call again reuses every trial and writes
+    the same prediction."""
+    compose = lambda o: config.settings(config.load_config(o))  # noqa: E731
+    out = tmp_path / "tt"
+    args = ["experiment=initial_distribution", "scale=smoke"]
+    first = predict_turn_taking(args, out, compose, echo=lambda _: None)
+    learners = compose([*args, f"scale.time_factor={40 * 0.02!r}", "scale.stable_window=chapter"])
+    assert first["learners_horizon"] == pytest.approx(40 * 0.02) and first["learners_trials"] == 2
+    tables = {n: pd.read_csv(out / "learners" / f"{n}.csv") for n in ("mechanism", "allocation", "state_time")}
+    again = group_reading(tables["mechanism"], tables["allocation"], tables["state_time"], stable_from(learners),
+                          float(learners.duration_s))
+    assert first["regime"] == again["regime"] and first["robots_high"] == pytest.approx(again["robots_high"])
+    assert (first["alternators_run"] is not None) == (first["regime"] == "turn-taking")
+    written = (out / "turn_taking.json").read_bytes()
+    assert json.loads(written)["modal_state"] == first["modal_state"]
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "learners" / "trials").rglob("*") if p.is_file()}
+    second = predict_turn_taking(args, out, compose, echo=lambda _: None)
+    assert second == first and (out / "turn_taking.json").read_bytes() == written
+    assert {p: p.stat().st_mtime_ns for p in stamps} == stamps  # no trial drawn again
