@@ -258,6 +258,29 @@ def test_a_folder_named_like_a_horizon_that_holds_a_run_is_a_run(tmp_path):
     assert [d.name for d in finished_runs(results)[0]["initial_distribution"]] == ["initial_distribution", "x4"]
 
 
+def test_runs_in_another_reading_of_the_world_are_never_a_horizons_claims(two_horizons, tmp_path):
+    """A horizon's `readings/` holds the base case in other worlds, read as a whole by the
+    readings' section: a folder `x80/` holding only such a run is no horizon with claims, and
+    under `converged/` such a run is not another run of the experiment; both are listed as
+    read as a whole."""
+    import shutil
+
+    from tavc_cli.report import build_report
+
+    results = tmp_path / "results"
+    shutil.copytree(two_horizons, results, ignore=shutil.ignore_patterns("REPORT.md", "claims.csv", "figures",
+                                                                         ".tavc.json", ".tavc.lock"))
+    _run_folder(results / "x80" / "readings" / "range-left-two_circuits_parallel", "converged", 80.0, 10.0, seed=5)
+    _run_folder(results / "converged" / "readings" / "dock-nearest-two_circuits_parallel", "converged", 40.0, 10.0,
+                seed=6)
+    result = build_report(results)
+    assert [h["folder"] for h in result["horizons"]] == ["converged"]
+    report = (results / "REPORT.md").read_text()
+    assert "another run of initial_distribution" not in report and not (results / "x80" / "claims.csv").exists()
+    listed = [line for line in report.splitlines() if "read as a whole: runs in other readings of the world" in line]
+    assert len(listed) == 2 and "`x80/readings/`" in listed[1] and "`converged/readings/`" in listed[0]
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["ladder", "--factors", "1,x"], "error: ladder factors: '1,x' is not a comma-separated list of numbers"),
     (["ladder", "--factors", "1,1"], "error: ladder factors: a factor is given twice"),

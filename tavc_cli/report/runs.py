@@ -30,7 +30,7 @@ from tavc_cli.report.files import (
     natural,
     read_or_refuse,
 )
-from tavc_cli.report.studies import spatiotemporal_lines
+from tavc_cli.report.studies import READINGS_RUNS, spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, to_yaml
 
@@ -57,14 +57,14 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
     """Every run folder under `folder` at any depth (`is_run_folder`), in natural order of
     their paths: a run's own folder is not searched further (its `trials/`, `model/`), nor
     `figures/`, hidden folders, or what the report reads otherwise (directly under the results
-    folder, `top`: the longer horizons and the value-ratio sweep; a `ladder/` with its
-    `ladder.csv`). A link is not followed: each run is found once, where it lies, and a link
-    that loops back leads nowhere."""
+    folder, `top`: the longer horizons, the value-ratio sweep and the runs in other readings of
+    the world, `readings/`; a `ladder/` with its `ladder.csv`). A link is not followed: each run
+    is found once, where it lies, and a link that loops back leads nowhere."""
     out = []
     for d in sorted((p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()),
                     key=lambda p: natural(p.name)):
         if d.name == "figures" or d.name.startswith(".") or (top and (d.name == VALUE_RATIO or is_horizon_folder(d))) \
-                or (d.name == LADDER and (d / "ladder.csv").is_file()):
+                or (d.name == LADDER and (d / "ladder.csv").is_file()) or (top and d.name == READINGS_RUNS):
             continue
         if folder_kind(d) in (STUDY, TASKS, COMPARE, READINGS):  # read as a whole: studies, measured tasks, comparisons
             continue
@@ -99,6 +99,11 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
                      is_run_folder(d)]
             if rungs:
                 out.append(("the horizon ladder, in *The time scale*", rungs))
+    for top in (results_dir, *horizon_folders(results_dir)):
+        found = sorted((p for p in (top / READINGS_RUNS).rglob("config.yaml")), key=lambda p: natural(p.as_posix())) \
+            if (top / READINGS_RUNS).is_dir() else []
+        if found:
+            out.append(("runs in other readings of the world, in *The readings*", [p.parent for p in found]))
     ratio = results_dir / VALUE_RATIO
     if ratio.is_dir():
         found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: natural(p.as_posix()))
