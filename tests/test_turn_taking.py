@@ -111,3 +111,37 @@ def test_the_model_end_to_end_at_smoke_scale_and_again_from_its_runs(tmp_path):
     second = predict_turn_taking(args, out, compose, echo=lambda _: None)
     assert second == first and (out / "turn_taking.json").read_bytes() == written
     assert {p: p.stat().st_mtime_ns for p in stamps} == stamps  # no trial drawn again
+
+
+def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_horizon(tmp_path):
+    """A prediction written by hand for breakdown beside the committed 40x run of breakdown (its
+    learners take turns; 3:2 42.08 % of the measured stretch, 2:3 41.99 %): the same regime and
+    modal state is two yeses; another modal state is a no, with the learners' share of it
+    beside; without the learners' run there is no row."""
+    import shutil
+
+    from tavc_cli.report.studies import turn_taking_check_lines
+    from tests.helpers import REPO
+
+    run = REPO / "results" / "converged" / "breakdown"
+    if not (run / "mechanism.csv").is_file():
+        pytest.skip("the committed 40x runs are not here")
+    assert turn_taking_check_lines(tmp_path) == []
+    (tmp_path / "converged" / "breakdown").mkdir(parents=True)
+    for name in ("config.yaml", "mechanism.csv", "allocation.csv", "state_time.csv", "convergence.csv"):
+        shutil.copy(run / name, tmp_path / "converged" / "breakdown" / name)
+    where = tmp_path / "turn_taking" / "breakdown" / "turn_taking"
+    where.mkdir(parents=True)
+
+    def row(modal: str) -> list[str]:
+        (where / "turn_taking.json").write_text(json.dumps({"regime": "turn-taking", "robots_high": 2.5,
+                                                            "modal_state": modal, "modal_share_pct": 40.0}))
+        lines = [x for x in turn_taking_check_lines(tmp_path) if x.startswith("| breakdown |")]
+        assert len(lines) == 1
+        return [c.strip() for c in lines[0].strip("|").split("|")]
+
+    cells = row("3:2")
+    assert cells[1] == "`converged/breakdown` (20 trials)" and cells[2] == "yes"
+    assert cells[3].startswith("turn-taking, ") and cells[3].split(", ")[2] == "3:2 (42 %)"
+    assert cells[4] == "turn-taking, 2.50, 3:2 (40 %)" and cells[5] == "yes; yes"
+    assert row("2:3")[5] == "yes; **no** (the learners: 42.0 % in 2:3)"

@@ -210,18 +210,80 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
                   "same measured tasks (the surrogate, 40 times the chapter's durations, the chapter's trial count) "
                   "for the regime and the robots on the high-value circuit; where they take turns, the modal state is "
                   "that of static robots all alternating in the simulator, which keep their order of circulation.",
-                  *_learners_beside_the_models(results_dir, model, turn)]
+                  *_learners_beside_the_models(results_dir, model, turn), *turn_taking_check_lines(results_dir)]
     return [*lines, ""]
+
+
+def turn_taking_check_lines(results_dir: Path) -> list[str]:
+    """The turn-taking model beside the learners at the chapter's scenarios in today's world:
+    for each prediction `turn_taking/<experiment>/turn_taking/turn_taking.json` (`tavc model
+    --turn-taking`), the learners' runs of that experiment at every longer horizon, read as in
+    `_beside`."""
+    found = sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")) \
+        if (results_dir / TURN_TAKING_RUNS).is_dir() else []
+    rows = []
+    for path in found:
+        predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))
+        name = path.parent.parent.name
+        for horizon in horizon_folders(results_dir):
+            d = horizon / name
+            if not all((d / f"{t}.csv").is_file() for t in ("mechanism", "allocation", "state_time")):
+                continue
+            learners = _learners(d)
+            same = f"{_same(predicted['regime'], learners['regime'])}; " \
+                   f"{_same_state(str(predicted['modal_state']), learners)}{learners['no_check']}"
+            rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
+                        f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} |")
+    if not rows:
+        return []
+    return ["", "The turn-taking model at the chapter's other scenarios in today's world (`tavc model --turn-taking "
+            f"experiment=... scale=paper`, into `{TURN_TAKING_RUNS}/<experiment>/`), beside the learners' runs at the "
+            "longer horizons. These runs were made before the model; it was fixed before its predictions were set "
+            "beside them.", "",
+            "| experiment | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
+            "model | the same regime; modal state |", "|---|---|---|---|---|---|", *rows]
+
+
+def _learners(d: Path) -> dict:
+    """The learners' group in the run in `d` (`report.mechanism.read_group`), in words, with its
+    trial count, whether they converged, and the note that makes a row no check where not."""
+    cfg = config_of(d / "config.yaml")
+    group = read_group(d, cfg)
+    v = convergence(d)
+    converged = "?" if v is None else ("yes" if v["converged"] else f"no ({', '.join(v['failed'])})")
+    table = pd.read_csv(d / "state_time.csv", dtype={"state": str})
+    mine = table[table["controller"] == "tavc"]
+    return {**group, "shares": dict(zip(mine["state"], mine["mean_pct"], strict=True)), "trials": cfg.trials,
+            "factor": float(cfg.scale.time_factor), "converged": converged,
+            "no_check": "" if v is not None and v["converged"] else " (not a check: the learners did not converge)",
+            "words": f"{group['regime']}, {group['robots_high']:.2f}, {group['modal_state']} "
+                     f"({group['modal_share_pct']:.0f} %)"}
+
+
+def _same(predicted: str, found: str) -> str:
+    return "yes" if predicted == found else "**no**"
+
+
+def _same_state(predicted: str, learners: dict) -> str:
+    """Whether a predicted modal state is the learners' modal state; where not, the learners'
+    share of the predicted state beside (two states can be nearly tied)."""
+    if predicted == learners["modal_state"]:
+        return "yes"
+    share = learners["shares"].get(predicted)
+    return "**no**" + (f" (the learners: {share:.1f} % in {predicted})" if share is not None else "")
+
+
+def _prediction_words(p) -> str:
+    """A turn-taking prediction (`turn_taking.json`, or a row of the study's table) in a few words."""
+    return f"{p['regime']}, {float(p['robots_high']):.2f}, {p['modal_state']} ({float(p['modal_share_pct']):.0f} %)"
 
 
 def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
     """The turn-taking model's prediction for `reading` in a few words, or nothing."""
-    if turn is None or reading not in turn.index:
-        return ""
-    t = turn.loc[reading]
-    return f"{t['regime']}, {float(t['robots_high']):.2f}, {t['modal_state']} ({float(t['modal_share_pct']):.0f} %)"
+    return _prediction_words(turn.loc[reading]) if turn is not None and reading in turn.index else ""
 
 
+TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
 READINGS_RUNS = "readings"  # under a longer horizon's folder: the base case in a reading, <arrival>-<passing>-<arena>
 
 
@@ -253,23 +315,17 @@ def _learners_beside_the_models(results_dir: Path, model: pd.DataFrame, turn: pd
 
 def _beside(reading: str, mine: pd.DataFrame, turn: pd.DataFrame | None, d: Path, results_dir: Path) -> list[str]:
     """The row of `_learners_beside_the_models` for the run in `d`, if it holds one."""
-    if not all((d / f"{name}.csv").is_file() for name in ("mechanism", "allocation", "state_time")):
+    if not all((d / f"{name}.csv").is_file() for name in ("mechanism", "allocation", "state_time")) \
+            or mechanism(d) is None:
         return []
-    cfg = config_of(d / "config.yaml")
-    if mechanism(d) is None:
-        return []
-    group = read_group(d, cfg)
+    learners = _learners(d)
     regime, basin = predicted_regime(mine)
-    v = convergence(d)
-    converged = "?" if v is None else ("yes" if v["converged"] else f"no ({', '.join(v['failed'])})")
-    same = lambda a, b: "yes" if a == b else "**no**"  # noqa: E731
-    predicted = turn.loc[reading] if turn is not None and reading in turn.index else None
-    regimes = same(regime, group["regime"]) + "; " + ("" if predicted is None else same(predicted["regime"],
-                                                                                         group["regime"]))
-    modal = "" if predicted is None else same(str(predicted["modal_state"]), group["modal_state"])
-    if v is None or not v["converged"]:
-        modal += " (not a check: the learners did not converge)"
-    return [f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({cfg.trials} trials, "
-            f"{float(cfg.scale.time_factor):g}x) | {converged} | {group['regime']}, {group['robots_high']:.2f}, "
-            f"{group['modal_state']} ({group['modal_share_pct']:.0f} %) | {regime} ({100 * basin:.0f} %), "
-            f"{expected_high(mine):.2f} | {_turn_words(turn, reading)} | {regimes} | {modal} |"]
+    regimes, modal = _same(regime, learners["regime"]), ""
+    if turn is not None and reading in turn.index:
+        predicted = turn.loc[reading]
+        regimes += f"; {_same(str(predicted['regime']), learners['regime'])}"
+        modal = _same_state(str(predicted["modal_state"]), learners)
+    return [f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials, "
+            f"{learners['factor']:g}x) | {learners['converged']} | {learners['words']} | {regime} "
+            f"({100 * basin:.0f} %), {expected_high(mine):.2f} | {_turn_words(turn, reading)} | {regimes} | "
+            f"{modal}{learners['no_check']} |"]
