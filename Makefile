@@ -23,7 +23,7 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch $(REPRODUCE) clean
+.PHONY: help venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch turn-taking-checks $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -129,6 +129,10 @@ reproduce-quick: venv ## A first look: every experiment at scale=quick into runs
 
 model: venv ## Measure the vacancy-chain model in the chapter's world (results/initial_distribution/model/)
 	$(MODEL_NICE) $(BIN)/tavc model experiment=initial_distribution scale=paper output_dir=results/initial_distribution
+
+turn-taking-checks: venv ## The turn-taking model beside the chapter's at the chapter's scenarios in today's world (results/turn_taking/)
+	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
+		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper output_dir=results/turn_taking/$$e || exit 1; done
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
 	$(BIN)/tavc stay-switch scale=paper --results results/stay_switch
