@@ -281,6 +281,35 @@ def test_runs_in_another_reading_of_the_world_are_never_a_horizons_claims(two_ho
     assert len(listed) == 2 and "`x80/readings/`" in listed[1] and "`converged/readings/`" in listed[0]
 
 
+def test_the_chapters_experiments_in_another_reading_are_a_counterfactual_column_never_the_headline(
+        two_horizons, tmp_path):
+    """initial_distribution run in another reading (`readings/<reading>/initial_distribution`,
+    3:3 at 60 % where today's world has it at 20 %): its claims get a column of their own, with
+    the reading in words; the headline counts and claims.csv stay today's world's."""
+    import shutil
+
+    from tavc_cli.report import build_report
+
+    results = tmp_path / "results"
+    shutil.copytree(two_horizons, results, ignore=shutil.ignore_patterns("REPORT.md", "claims.csv", "figures",
+                                                                         ".tavc.json", ".tavc.lock"))
+    before = build_report(results)
+    _run_folder(results / "readings" / "range-left-two_circuits_parallel" / "initial_distribution", "paper", 1.0,
+                60.0, seed=7)
+    after = build_report(results)
+    assert after["n_reproduced"] == before["n_reproduced"] and after["n_reproduced_long"] == before["n_reproduced_long"]
+    pd.testing.assert_frame_equal(after["claims"], before["claims"])
+    report = (results / "REPORT.md").read_text()
+    section = report[report.index("## In other readings of the world: counterfactuals"):]
+    head = next(line for line in section.splitlines() if line.startswith("| claim |"))
+    assert ("in a world where arrival=range passing=left arena=two_circuits_parallel (1x, "
+            "`readings/range-left-two_circuits_parallel`)") in head
+    row = [c.strip() for c in next(line for line in section.splitlines()
+                                   if line.startswith("| 3 | initial_distribution |")).strip("|").split("|")]
+    assert row[2] == "not reproduced" and row[3] == "reproduced"
+    assert "another run of initial_distribution" not in report
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["ladder", "--factors", "1,x"], "error: ladder factors: '1,x' is not a comma-separated list of numbers"),
     (["ladder", "--factors", "1,1"], "error: ladder factors: a factor is given twice"),

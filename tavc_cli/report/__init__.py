@@ -37,6 +37,7 @@ from tavc_cli.ownership import list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
+from tavc_cli.report.counterfactuals import counterfactual_lines
 from tavc_cli.report.drawing import FigurePool
 from tavc_cli.report.figures import find_model
 from tavc_cli.report.files import config_of, horizon_folders, read_or_refuse
@@ -134,6 +135,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     if longer:
         lines += time_scale_lines(results_dir, every, model_json)
     lines += stay_switch_lines(results_dir)
+    lines += counterfactual_lines(base, results_dir)
     lines += surrogate_lines(results_dir)
     lines += compare_lines(results_dir)
     n_runs = sum(len(h.experiments) + sum(len(ds) for ds in h.others.values()) for h in every)

@@ -236,15 +236,24 @@ def claims_by_horizon_table(horizons: list[Horizon]) -> list[str]:
         for h, claims in zip(longer, by_id, strict=True):
             other = claims.get(int(r.claim_id))
             ran = other is not None and exp in h.runs
-            m = mechanism(h.experiments[exp]) if exp in h.experiments else None
-            words = mechanism_words(m) if int(r.claim_id) not in CLAIM_CONTROLLER else ""  # a claim about random
-            if other is not None and other.verdict == "reproduced" and m is not None and \
-                    int(r.claim_id) in PERSISTENCE_CLAIMS and m["regime"] != "persistence":
-                words = f"**the test holds, but not by the chapter's persistence**; {words}"
             line += (f" {verdict_words(other.verdict, h.verdicts) if ran else 'not run'} | "
-                     f"{p_cell(other) if ran else ''} | {words} |")
+                     f"{p_cell(other) if ran else ''} | {mechanism_cell(h, exp, int(r.claim_id), other)} |")
         lines.append(line)
     return lines
+
+
+def mechanism_cell(h: Horizon, exp: str, claim_id: int, claim) -> str:
+    """How the group of `exp` was made at `h`, beside the verdict on claim `claim_id` (its row
+    `claim`, or None); flagged where the test holds but the group does not persist, the chapter's
+    mechanism for the claims on learning; empty for a claim about random."""
+    m = mechanism(h.experiments[exp]) if exp in h.experiments else None
+    if claim_id in CLAIM_CONTROLLER:
+        return ""
+    words = mechanism_words(m)
+    if claim is not None and claim.verdict == "reproduced" and m is not None and claim_id in PERSISTENCE_CLAIMS \
+            and m["regime"] != "persistence":
+        words = f"**the test holds, but not by the chapter's persistence**; {words}"
+    return words
 
 
 def window_words(cfg: TavcConfig) -> str:

@@ -1,0 +1,84 @@
+"""The chapter's experiments in other readings of the world: labelled counterfactuals beside the
+headline, never in its place.
+
+A reading's runs sit in `readings/<arrival>-<passing>-<arena>/` under the results folder (at the
+chapter's durations) or under a longer horizon's folder, one folder per experiment as
+`tavc reproduce --results` writes them. Each such folder is read as a horizon is
+(`horizons.read_horizon`), its claims tested on its runs, and every claim gets a column per
+reading beside its verdict in today's world: the verdict, the p of the deciding part and how
+the group was made (the regime and its robots), so that a verdict is read with its mechanism.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tavc_cli import chapter
+from tavc_cli.analysis.claims import verdict_words
+from tavc_cli.report.files import horizon_folders, is_run_folder, natural
+from tavc_cli.report.horizons import Horizon, mechanism_cell, read_horizon
+from tavc_cli.report.runs import finished_runs
+from tavc_cli.report.studies import READINGS_RUNS
+from tavc_cli.report.text import p_cell
+
+GROUPS = ("arrival", "passing", "arena")  # a reading's folder name, in this order: dock-left-two_circuits
+
+
+def reading_words(folder_name: str) -> str:
+    """A reading's folder name in the report's words: ``arrival=range passing=left arena=...``."""
+    parts = folder_name.split("-", 2)
+    if len(parts) != len(GROUPS):
+        return folder_name
+    return " ".join(f"{k}={v}" for k, v in zip(GROUPS, parts, strict=True))
+
+
+def reading_horizons(results_dir: Path) -> list[tuple[str, Horizon]]:
+    """(where, the reading's runs read as a horizon) for every folder of a reading holding
+    finished runs of the chapter's experiments: `readings/<reading>/` under the results folder
+    and under each longer horizon's, in natural order (a reading's folder that is itself a run,
+    a check point of the models, is read by the readings' section instead)."""
+    out = []
+    for top in (results_dir, *horizon_folders(results_dir)):
+        base = top / READINGS_RUNS
+        if not base.is_dir():
+            continue
+        for d in sorted((p for p in base.iterdir() if p.is_dir() and not is_run_folder(p)),
+                        key=lambda p: natural(p.name)):
+            found, unfinished = finished_runs(d)
+            if found:
+                out.append((d.relative_to(results_dir).as_posix(), read_horizon(d, found, unfinished)))
+    return out
+
+
+def counterfactual_lines(base: Horizon, results_dir: Path) -> list[str]:
+    """The section: every claim's verdict in today's world (the chapter's durations) beside its
+    verdict in each reading's runs, with how the group was made there; none without such runs."""
+    found = reading_horizons(results_dir)
+    if not found:
+        return []
+    lines = ["## In other readings of the world: counterfactuals", "",
+             "The chapter's experiments run in worlds that read what the chapter leaves unsaid otherwise "
+             "(docs/readings.md): labelled counterfactuals, never the headline. Each column: the "
+             "verdict on the reading's own runs, the p of the part that decides it, and how the learners' group "
+             "was made there (the chapter's mechanism is persistence: robots that keep to a circuit, a vacancy "
+             "filled by one robot that moves and stays).", ""]
+    head = "| claim | experiment | today's world, at the chapter's durations |"
+    rule = "|---|---|---|"
+    for where, h in found:
+        reading = reading_words(Path(where).name)
+        factor = f"{h.factor:g}x" if h.read else "?"
+        head += f" in a world where {reading} ({factor}, `{where}`) | p | how the group is made |"
+        rule += "---|---|---|"
+    lines += [head, rule]
+    for r in base.claims.itertuples():
+        exp = chapter.experiment_of(r.claim_id)
+        here = verdict_words(r.verdict, base.verdicts) if exp in base.runs else "not run"
+        line = f"| {r.claim_id} | {exp} | {here} |"
+        for _, h in found:
+            other = next((c for c in h.claims.itertuples() if int(c.claim_id) == int(r.claim_id)), None)
+            ran = other is not None and exp in h.runs
+            line += f" {verdict_words(other.verdict, h.verdicts) if ran else 'not run'} | " \
+                    f"{p_cell(other) if ran else ''} | {mechanism_cell(h, exp, int(r.claim_id), other)} |"
+        lines.append(line)
+    return [*lines, ""]
+
