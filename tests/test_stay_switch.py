@@ -244,19 +244,27 @@ def test_the_learners_beside_the_models_say_whether_they_agree_and_whether_it_is
         pd.DataFrame([{"reading": r, "regime": model_regime, "stayers": 6 - a, "alternators": a, "robots_high": 3.0,
                        "modal_state": modal, "modal_share_pct": 50.0, "modal_from": "alternators"} for r in readings]
                      ).to_csv(tmp_path / "stay_switch" / "stay_switch_turn_taking.csv", index=False)
-        lines = [x for x in stay_switch_lines(tmp_path) if x.startswith("| arrival=") and "` (" in x]
+        text = stay_switch_lines(tmp_path)
+        tally[:] = [x for x in text if x.startswith("Where the learners converged")]
+        lines = [x for x in text if x.startswith("| arrival=") and "` (" in x]
         return {x.split("|")[1].strip(): [c.strip() for c in x.strip("|").split("|")] for x in lines}
 
+    tally: list[str] = []
     model_regime, modal = "persistence", "4:2"
     found = rows("3-3-0")
+    # the converged run alone is a check: neither model names its regime, nor the turn-taking model its modal state
+    assert tally == ["Where the learners converged (1 run): the turn-taking model names their modal state in 0 of 1 "
+                     "and their regime in 0; the drift model their regime in 0 of 1."]
     assert found[readings[0]][2] == "yes" and found[readings[0]][3].startswith("turn-taking, 3.00, 3:3 (")  # converged
     assert found[readings[0]][5] == "persistence, 3.00, 4:2 (50 %)"
-    assert found[readings[0]][6] == "**no**; **no**" and found[readings[0]][7] == "**no**"
+    assert found[readings[0]][6] == "**no**; **no**" and found[readings[0]][7].startswith("**no** (the learners: ")
     assert found[readings[1]][2].startswith("no (") and found[readings[1]][7].endswith("(not a check: the learners did "
                                                                                         "not converge)")
     model_regime, modal = "turn-taking", "3:3"
     found = rows("0-0-6")
     assert found[readings[0]][6] == "yes; yes" and found[readings[0]][7] == "yes"
+    assert tally == ["Where the learners converged (1 run): the turn-taking model names their modal state in 1 of 1 "
+                     "and their regime in 1; the drift model their regime in 1 of 1."]
 
 
 def test_from_the_source_counts_only_tasks_whose_source_arrival_is_known():

@@ -136,12 +136,19 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
     def row(modal: str) -> list[str]:
         (where / "turn_taking.json").write_text(json.dumps({"regime": "turn-taking", "robots_high": 2.5,
                                                             "modal_state": modal, "modal_share_pct": 40.0}))
-        lines = [x for x in turn_taking_check_lines(tmp_path) if x.startswith("| breakdown |")]
+        text = turn_taking_check_lines(tmp_path)
+        lines = [x for x in text if x.startswith("| breakdown |")]
         assert len(lines) == 1
+        tally.append(text[-1])
         return [c.strip() for c in lines[0].strip("|").split("|")]
+
+    tally: list[str] = []
 
     cells = row("3:2")
     assert cells[1] == "`converged/breakdown` (20 trials)" and cells[2] == "yes"
     assert cells[3].startswith("turn-taking, ") and cells[3].split(", ")[2] == "3:2 (42 %)"
     assert cells[4] == "turn-taking, 2.50, 3:2 (40 %)" and cells[5] == "yes; yes"
     assert row("2:3")[5] == "yes; **no** (the learners: 42.0 % in 2:3)"
+    assert tally == ["Where the learners converged (1 run): the turn-taking model names their modal state in 1 of 1 "
+                     "and their regime in 1.", "Where the learners converged (1 run): the turn-taking model names "
+                     "their modal state in 0 of 1 and their regime in 1."]

@@ -221,7 +221,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
     `_beside`."""
     found = sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")) \
         if (results_dir / TURN_TAKING_RUNS).is_dir() else []
-    rows = []
+    rows, tallies = [], []
     for path in found:
         predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))
         name = path.parent.parent.name
@@ -234,6 +234,8 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                    f"{_same_state(str(predicted['modal_state']), learners)}{learners['no_check']}"
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
                         f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} |")
+            tallies.append({"check": not learners["no_check"], "regime": predicted["regime"] == learners["regime"],
+                            "modal": str(predicted["modal_state"]) == learners["modal_state"]})
     if not rows:
         return []
     return ["", "The turn-taking model at the chapter's other scenarios in today's world (`tavc model --turn-taking "
@@ -241,7 +243,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             "longer horizons. These runs were made before the model; it was fixed before its predictions were set "
             "beside them.", "",
             "| experiment | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
-            "model | the same regime; modal state |", "|---|---|---|---|---|---|", *rows]
+            "model | the same regime; modal state |", "|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
 
 
 def _learners(d: Path) -> dict:
@@ -305,27 +307,49 @@ def _learners_beside_the_models(results_dir: Path, model: pd.DataFrame, turn: pd
             rows += _beside(str(reading), mine, turn, d, results_dir)
     if not rows:
         return []
+    rows, tallies = [r for r, _ in rows], [t for _, t in rows]
     return ["", "Beside the learners, where they ran the base case in a reading: whether they converged (by the "
             "measures of *The time scale*), how their group was made over the measured stretch of the stable period "
             "(regime, robots on the high-value circuit, modal state), against each model's prediction.", "",
             "| reading | the learners' run | converged | their regime, robots high, modal state | the drift model | "
             "the turn-taking model | the same regime (drift; turn-taking) | the same modal state (turn-taking) |",
-            "|---|---|---|---|---|---|---|---|", *rows]
+            "|---|---|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
 
 
-def _beside(reading: str, mine: pd.DataFrame, turn: pd.DataFrame | None, d: Path, results_dir: Path) -> list[str]:
-    """The row of `_learners_beside_the_models` for the run in `d`, if it holds one."""
+def _beside(reading: str, mine: pd.DataFrame, turn: pd.DataFrame | None, d: Path,
+            results_dir: Path) -> list[tuple[str, dict]]:
+    """The row of `_learners_beside_the_models` for the run in `d`, if it holds one, with its
+    tally (`_tally_line`)."""
     if not all((d / f"{name}.csv").is_file() for name in ("mechanism", "allocation", "state_time")) \
             or mechanism(d) is None:
         return []
     learners = _learners(d)
     regime, basin = predicted_regime(mine)
     regimes, modal = _same(regime, learners["regime"]), ""
+    tally = {"check": not learners["no_check"], "drift": regime == learners["regime"]}
     if turn is not None and reading in turn.index:
         predicted = turn.loc[reading]
         regimes += f"; {_same(str(predicted['regime']), learners['regime'])}"
         modal = _same_state(str(predicted["modal_state"]), learners)
-    return [f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials, "
-            f"{learners['factor']:g}x) | {learners['converged']} | {learners['words']} | {regime} "
-            f"({100 * basin:.0f} %), {expected_high(mine):.2f} | {_turn_words(turn, reading)} | {regimes} | "
-            f"{modal}{learners['no_check']} |"]
+        tally.update(regime=str(predicted["regime"]) == learners["regime"],
+                     modal=str(predicted["modal_state"]) == learners["modal_state"])
+    return [(f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials, "
+             f"{learners['factor']:g}x) | {learners['converged']} | {learners['words']} | {regime} "
+             f"({100 * basin:.0f} %), {expected_high(mine):.2f} | {_turn_words(turn, reading)} | {regimes} | "
+             f"{modal}{learners['no_check']} |", tally)]
+
+
+def _tally_line(tallies: list[dict]) -> list[str]:
+    """Over the rows whose learners converged: in how many each model names their regime, and
+    the turn-taking model their modal state."""
+    checks = [t for t in tallies if t["check"]]
+    if not checks:
+        return []
+    turn = [t for t in checks if "modal" in t]
+    drift = [t for t in checks if "drift" in t]
+    words = [f"the turn-taking model names their modal state in {sum(t['modal'] for t in turn)} of {len(turn)} "
+             f"and their regime in {sum(t['regime'] for t in turn)}"] if turn else []
+    if drift:
+        words.append(f"the drift model their regime in {sum(t['drift'] for t in drift)} of {len(drift)}")
+    runs = f"{len(checks)} run" + ("s" if len(checks) != 1 else "")
+    return ["", f"Where the learners converged ({runs}): " + "; ".join(words) + "."]
