@@ -103,7 +103,8 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
         found = sorted((p for p in (top / READINGS_RUNS).rglob("config.yaml")), key=lambda p: natural(p.as_posix())) \
             if (top / READINGS_RUNS).is_dir() else []
         if found:
-            out.append(("runs in other readings of the world, in *The readings*", [p.parent for p in found]))
+            out.append(("runs in other readings of the world, in *The readings* (the models' check points) and "
+                        "*In other readings of the world* (the chapter's experiments)", [p.parent for p in found]))
     ratio = results_dir / VALUE_RATIO
     if ratio.is_dir():
         found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: natural(p.as_posix()))
