@@ -19,6 +19,7 @@ reused by a rerun of the same settings and code, as any run's trials are.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -109,5 +110,6 @@ def prediction_lines(result: dict) -> list[str]:
             f"{result['learners_horizon']:g}x, {result['learners_trials']} trials):",
             f"  regime: {result['regime']} ({result['stayers']:.1f} stayers, {result['alternators']:.1f} alternators "
             "per trial)",
-            f"  robots on the high-value circuit: {result['robots_high']:.2f}",
+            *([f"  robots on the high-value circuit: {result['robots_high']:.2f}"]
+              if math.isfinite(result["robots_high"]) else []),
             f"  modal state: {modal}"]

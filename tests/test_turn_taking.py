@@ -152,3 +152,19 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
     assert tally == ["Where the learners converged (1 run): the turn-taking model names their modal state in 1 of 1 "
                      "and their regime in 1.", "Where the learners converged (1 run): the turn-taking model names "
                      "their modal state in 0 of 1 and their regime in 1."]
+
+
+def test_a_team_of_two_groups_is_read_without_robots_on_the_high_circuit(tmp_path):
+    """A run of a team of several groups writes no allocation.csv (its states count each group):
+    its group is read all the same, the robots on the high-value circuit NaN, and the report's
+    words show a dash for them."""
+    from tavc_cli.report.mechanism import read_group
+    from tavc_cli.report.studies import _prediction_words
+
+    mech = _mechanism([("tavc", "stable", 3, 2, 1, 0)])
+    mech.to_csv(tmp_path / "mechanism.csv", index=False)
+    _state_time({"tavc": [1, 5, 20, 30, 31, 10, 3]}).to_csv(tmp_path / "state_time.csv", index=False)
+    cfg = config.settings(config.load_config(["experiment=heterogeneous", "scale=smoke"]))
+    got = read_group(tmp_path, cfg)
+    assert got["regime"] == "persistence" and got["modal_state"] == "4:2" and math.isnan(got["robots_high"])
+    assert _prediction_words(got) == "persistence, -, 4:2 (31 %)"

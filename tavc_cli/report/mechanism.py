@@ -35,8 +35,12 @@ def mechanism(d: Path, controller: str = "tavc") -> dict | None:
 
 def read_group(folder: Path, cfg: TavcConfig, controller: str = "tavc") -> dict:
     """How `controller`'s groups were made over the measured stretch of the stable period of the
-    run in `folder` (its `cfg`): `analysis.turn_taking.group_reading` of its tables."""
-    tables = {name: pd.read_csv(folder / f"{name}.csv") for name in ("mechanism", "allocation", "state_time")}
+    run in `folder` (its `cfg`): `analysis.turn_taking.group_reading` of its tables (the robots
+    on the high-value circuit NaN where the run has no `allocation.csv`)."""
+    tables = {name: pd.read_csv(folder / f"{name}.csv", dtype={"state": str}) for name in ("mechanism", "state_time")}
+    # a team of several groups has no allocation.csv (its states count each group): no robots on the high circuit
+    tables["allocation"] = pd.read_csv(folder / "allocation.csv") if (folder / "allocation.csv").is_file() else \
+        pd.DataFrame(columns=["t_s", "controller", "mean_high"])
     return group_reading(tables["mechanism"], tables["allocation"], tables["state_time"], stable_from(cfg),
                          float(cfg.duration_s), controller)
 

@@ -227,7 +227,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
         name = path.parent.parent.name
         for horizon in horizon_folders(results_dir):
             d = horizon / name
-            if not all((d / f"{t}.csv").is_file() for t in ("mechanism", "allocation", "state_time")):
+            if not all((d / f"{t}.csv").is_file() for t in ("mechanism", "state_time")):
                 continue
             learners = _learners(d)
             same = f"{_same(predicted['regime'], learners['regime'])}; " \
@@ -258,7 +258,7 @@ def _learners(d: Path) -> dict:
     return {**group, "shares": dict(zip(mine["state"], mine["mean_pct"], strict=True)), "trials": cfg.trials,
             "factor": float(cfg.scale.time_factor), "converged": converged,
             "no_check": "" if v is not None and v["converged"] else " (not a check: the learners did not converge)",
-            "words": f"{group['regime']}, {group['robots_high']:.2f}, {group['modal_state']} "
+            "words": f"{group['regime']}, {fmt(group['robots_high'], '.2f') or '-'}, {group['modal_state']} "
                      f"({group['modal_share_pct']:.0f} %)"}
 
 
@@ -277,7 +277,8 @@ def _same_state(predicted: str, learners: dict) -> str:
 
 def _prediction_words(p) -> str:
     """A turn-taking prediction (`turn_taking.json`, or a row of the study's table) in a few words."""
-    return f"{p['regime']}, {float(p['robots_high']):.2f}, {p['modal_state']} ({float(p['modal_share_pct']):.0f} %)"
+    return (f"{p['regime']}, {fmt(float(p['robots_high']), '.2f') or '-'}, {p['modal_state']} "
+            f"({float(p['modal_share_pct']):.0f} %)")
 
 
 def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
