@@ -130,9 +130,12 @@ reproduce-quick: venv ## A first look: every experiment at scale=quick into runs
 model: venv ## Measure the vacancy-chain model in the chapter's world (results/initial_distribution/model/)
 	$(MODEL_NICE) $(BIN)/tavc model experiment=initial_distribution scale=paper output_dir=results/initial_distribution
 
-turn-taking-checks: venv ## The turn-taking model beside the chapter's at the chapter's scenarios in today's world (results/turn_taking/)
+turn-taking-checks: venv ## The turn-taking model beside the chapter's at the chapter's other scenarios and values in today's world (results/turn_taking/)
 	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
 		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper output_dir=results/turn_taking/$$e || exit 1; done
+	for w in 2000 3000 4000; do \
+		$(BIN)/tavc model --turn-taking experiment=initial_distribution "tasks.values=[$$w,2000]" scale=paper \
+			output_dir=results/turn_taking/value_ratio_$$w || exit 1; done
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
 	$(BIN)/tavc stay-switch scale=paper --results results/stay_switch

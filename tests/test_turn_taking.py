@@ -168,3 +168,28 @@ def test_a_team_of_two_groups_is_read_without_robots_on_the_high_circuit(tmp_pat
     got = read_group(tmp_path, cfg)
     assert got["regime"] == "persistence" and got["modal_state"] == "4:2" and math.isnan(got["robots_high"])
     assert _prediction_words(got) == "persistence, -, 4:2 (31 %)"
+
+
+def test_a_prediction_at_other_values_is_set_beside_the_value_ratio_sweeps_run_at_those_values(tmp_path):
+    """A prediction with ``tasks.values=[3000,2000]`` among its overrides is set beside the
+    committed 40x run of the value-ratio sweep at those values, and beside no other."""
+    import shutil
+
+    from tavc_cli.report.studies import turn_taking_check_lines
+    from tests.helpers import REPO
+
+    sweep = REPO / "results" / "value_ratio" / "converged"
+    jobs = {w: sweep / f"{k}_tasks.values=_{w},2000_" for k, w in ((2, 3000), (3, 4000))}
+    if not all((d / "mechanism.csv").is_file() for d in jobs.values()):
+        pytest.skip("the committed value-ratio sweep is not here")
+    for d in jobs.values():
+        (tmp_path / "value_ratio" / "converged" / d.name).mkdir(parents=True)
+        for name in ("config.yaml", "mechanism.csv", "allocation.csv", "state_time.csv", "convergence.csv"):
+            shutil.copy(d / name, tmp_path / "value_ratio" / "converged" / d.name / name)
+    where = tmp_path / "turn_taking" / "value_ratio_3000" / "turn_taking"
+    where.mkdir(parents=True)
+    (where / "turn_taking.json").write_text(json.dumps({
+        "regime": "persistence", "robots_high": 4.0, "modal_state": "4:2", "modal_share_pct": 50.0,
+        "overrides": ["experiment=initial_distribution", "tasks.values=[3000,2000]", "scale=paper"]}))
+    rows = [x for x in turn_taking_check_lines(tmp_path) if x.startswith("| value_ratio_3000 |")]
+    assert len(rows) == 1 and "`value_ratio/converged/2_tasks.values=_3000,2000_` (8 trials)" in rows[0]

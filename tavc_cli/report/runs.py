@@ -30,16 +30,18 @@ from tavc_cli.report.files import (
     natural,
     read_or_refuse,
 )
-from tavc_cli.report.studies import READINGS_RUNS, spatiotemporal_lines
+from tavc_cli.report.studies import READINGS_RUNS, VALUE_RATIO_DIR, spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, to_yaml
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
 # folders directly under the results folder that the report reads otherwise than run by run:
-# the longer horizons (`horizon_folders`, their runs found there in turn) and the value-ratio
-# sweep (`studies.value_ratio_lines`); under a horizon, the horizon ladder (`time_scale.ladder_lines`)
-VALUE_RATIO = "value_ratio"
+# the longer horizons (`horizon_folders`, their runs found there in turn), the value-ratio
+# sweep (`studies.value_ratio_lines`) and the runs in other readings (`studies.READINGS_RUNS`);
+# under a horizon, the horizon ladder (`time_scale.ladder_lines`) and its readings
 LADDER = "ladder"
+
+
 def folder_kind(d: Path) -> str | None:
     """The kind of output tavc keeps in `d` (`ownership`: run, surrogate, surrogate-study, ...),
     or None where it recognises none."""
@@ -63,8 +65,9 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
     out = []
     for d in sorted((p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()),
                     key=lambda p: natural(p.name)):
-        if d.name == "figures" or d.name.startswith(".") or (top and (d.name == VALUE_RATIO or is_horizon_folder(d))) \
-                or (d.name == LADDER and (d / "ladder.csv").is_file()) or (top and d.name == READINGS_RUNS):
+        read_otherwise = top and (d.name in (VALUE_RATIO_DIR, READINGS_RUNS) or is_horizon_folder(d))
+        if d.name == "figures" or d.name.startswith(".") or read_otherwise \
+                or (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
         if folder_kind(d) in (STUDY, TASKS, COMPARE, READINGS, MODEL, TURN_TAKING_KIND):  # read as a whole
             continue
@@ -105,7 +108,7 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
         if found:
             out.append(("runs in other readings of the world, in *The readings* (the models' check points) and "
                         "*In other readings of the world* (the chapter's experiments)", [p.parent for p in found]))
-    ratio = results_dir / VALUE_RATIO
+    ratio = results_dir / VALUE_RATIO_DIR
     if ratio.is_dir():
         found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: natural(p.as_posix()))
         if found:

@@ -25,7 +25,7 @@ from tavc_cli.settings import TavcConfig
 def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     """The value-ratio sweep (`make value-ratio`), if it was run into results_dir/value_ratio:
     its table (also written as value_ratio.csv there), a figure, and the model's prediction."""
-    root = results_dir / "value_ratio"
+    root = results_dir / VALUE_RATIO_DIR
     if not root.is_dir():
         return []
     # deferred: loads matplotlib
@@ -215,18 +215,16 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
 
 
 def turn_taking_check_lines(results_dir: Path) -> list[str]:
-    """The turn-taking model beside the learners at the chapter's scenarios in today's world:
-    for each prediction `turn_taking/<experiment>/turn_taking/turn_taking.json` (`tavc model
-    --turn-taking`), the learners' runs of that experiment at every longer horizon, read as in
-    `_beside`."""
+    """The turn-taking model beside the learners at the chapter's scenarios and value ratios in
+    today's world: for each prediction `turn_taking/<name>/turn_taking/turn_taking.json` (`tavc
+    model --turn-taking`), the learners' runs it predicts (`_learners_runs`), read as in `_beside`."""
     found = sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")) \
         if (results_dir / TURN_TAKING_RUNS).is_dir() else []
     rows, tallies = [], []
     for path in found:
         predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))
         name = path.parent.parent.name
-        for horizon in horizon_folders(results_dir):
-            d = horizon / name
+        for d in _learners_runs(results_dir, name, predicted):
             if not all((d / f"{t}.csv").is_file() for t in ("mechanism", "state_time")):
                 continue
             learners = _learners(d)
@@ -238,12 +236,29 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                             "modal": str(predicted["modal_state"]) == learners["modal_state"]})
     if not rows:
         return []
-    return ["", "The turn-taking model at the chapter's other scenarios in today's world (`tavc model --turn-taking "
-            f"experiment=... scale=paper`, into `{TURN_TAKING_RUNS}/<experiment>/`), beside the learners' runs at the "
-            "longer horizons. These runs were made before the model; it was fixed before its predictions were set "
-            "beside them.", "",
-            "| experiment | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
+    return ["", "The turn-taking model at the chapter's other scenarios and at other values in today's world (`make "
+            f"turn-taking-checks`: `tavc model --turn-taking ... scale=paper`, into `{TURN_TAKING_RUNS}/<name>/`), "
+            "beside the learners' runs at the longer horizons and the value-ratio sweep's at 40x. These runs were "
+            "made before the model; it was fixed before its predictions were set beside them.", "",
+            "| prediction | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
             "model | the same regime; modal state |", "|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
+
+
+def _learners_runs(results_dir: Path, name: str, predicted: dict) -> list[Path]:
+    """The learners' runs a prediction named `name` is for: `<horizon>/<name>` at every longer
+    horizon; for a prediction at other task values (``tasks.values=[...]`` among its overrides),
+    the value-ratio sweep's runs of the base case at scale=converged with those values."""
+    runs = [h / name for h in horizon_folders(results_dir)]
+    given = [o.split("=", 1)[1] for o in predicted.get("overrides", []) if o.split("=", 1)[0] == "tasks.values"]
+    sweep = results_dir / VALUE_RATIO_DIR
+    if given and sweep.is_dir():
+        values = [float(v) for v in given[-1].strip("[]").split(",")]
+        for path in sorted(sweep.rglob("config.yaml"), key=lambda p: p.as_posix()):
+            cfg = config_of(path)
+            if cfg.scale.name == "converged" and cfg.experiment_name == base_case().name and \
+                    [float(v) for v in cfg.tasks.values] == values and cfg.tasks.time_unit == "ms":
+                runs.append(path.parent)
+    return runs
 
 
 def _learners(d: Path) -> dict:
@@ -286,6 +301,7 @@ def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
     return _prediction_words(turn.loc[reading]) if turn is not None and reading in turn.index else ""
 
 
+VALUE_RATIO_DIR = "value_ratio"  # under the results folder: the value-ratio sweep (`make value-ratio`)
 TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
 READINGS_RUNS = "readings"  # under a longer horizon's folder: the base case in a reading, <arrival>-<passing>-<arena>
 
