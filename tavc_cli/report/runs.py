@@ -19,7 +19,17 @@ import yaml
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.chapter import order_key, state_table_id
-from tavc_cli.ownership import COMPARE, MODEL, READINGS, STUDY, SURROGATE, TASKS, TURN_TAKING_KIND, read
+from tavc_cli.ownership import (
+    CALIBRATION,
+    COMPARE,
+    MODEL,
+    READINGS,
+    STUDY,
+    SURROGATE,
+    TASKS,
+    TURN_TAKING_KIND,
+    read,
+)
 from tavc_cli.readers import load_json
 from tavc_cli.report.figures import experiment_figures
 from tavc_cli.report.files import (
@@ -69,7 +79,7 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
         if d.name == "figures" or d.name.startswith(".") or read_otherwise \
                 or (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
-        if folder_kind(d) in (STUDY, TASKS, COMPARE, READINGS, MODEL, TURN_TAKING_KIND):  # read as a whole
+        if folder_kind(d) in (STUDY, TASKS, COMPARE, READINGS, MODEL, TURN_TAKING_KIND, CALIBRATION):  # read as a whole
             continue
         out += [d] if is_run_folder(d) else run_folders(d, top=False)
     return out
