@@ -11,11 +11,14 @@ the group was made (the regime and its robots), so that a verdict is read with i
 
 from __future__ import annotations
 
+from operator import attrgetter
 from pathlib import Path
+
+import pandas as pd
 
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
-from tavc_cli.report.files import horizon_folders, is_run_folder, natural
+from tavc_cli.report.files import horizon_folders, is_run_folder, natural, read_or_refuse
 from tavc_cli.report.horizons import Horizon, mechanism_cell, read_horizon
 from tavc_cli.report.runs import finished_runs
 from tavc_cli.report.studies import READINGS_RUNS
@@ -70,6 +73,7 @@ def counterfactual_lines(base: Horizon, results_dir: Path) -> list[str]:
         head += f" in a world where {reading} ({factor}, `{where}`) | p | how the group is made |"
         rule += "---|---|---|"
     lines += [head, rule]
+    notes = [n for where, h in found for n in calibration_words(results_dir, where, h)]
     for r in base.claims.itertuples():
         exp = chapter.experiment_of(r.claim_id)
         here = verdict_words(r.verdict, base.verdicts) if exp in base.runs else "not run"
@@ -80,5 +84,32 @@ def counterfactual_lines(base: Horizon, results_dir: Path) -> list[str]:
             line += f" {verdict_words(other.verdict, h.verdicts) if ran else 'not run'} | " \
                     f"{p_cell(other) if ran else ''} | {mechanism_cell(h, exp, int(r.claim_id), other)} |"
         lines.append(line)
-    return [*lines, ""]
+    return [*lines, *(["", *notes] if notes else []), ""]
+
+
+def calibration_words(results_dir: Path, where: str, h: Horizon) -> list[str]:
+    """Whether the world a reading's runs used meets the chapter's constraints, by the reading's
+    own calibration search beside them (`calibration/world/search.csv`, `tavc calibrate`): the
+    grid point of its settings (from its first run's config), and the point the rule chose."""
+    table = results_dir / where / "calibration" / "world" / "search.csv"
+    if not table.is_file() or not h.read:
+        return []
+    search = read_or_refuse(table, pd.read_csv)
+    keys = [c for c in search.columns[1:search.columns.get_loc("lone_leg_s")]]
+    cfg = next(iter(h.read.values()))[0]
+    mine = search
+    for key in keys:
+        mine = mine[mine[key].astype(float) == float(attrgetter(key)(cfg))]
+    setting = ", ".join(f"{k} {float(attrgetter(k)(cfg)):g}" for k in keys)
+    chosen = search[search["chosen"].astype(bool)]
+    pick = ", ".join(f"{k} {float(chosen[k].iloc[0]):g}" for k in keys) if len(chosen) else "none"
+    if mine.empty:
+        verdict = "is not on its grid"
+    else:
+        row = mine.iloc[0]
+        verdict = ("meets the chapter's constraints (1.3) and (1.4)" + (" robustly" if bool(row["robust"]) else "")
+                   if bool(row["feasible"]) else "does not meet the chapter's constraints (1.3) and (1.4)")
+    rel = table.relative_to(results_dir).as_posix()
+    return [f"- `{where}`: the world these runs used ({setting}) {verdict}, by the reading's calibration search "
+            f"(`{rel}`); its rule chooses {pick}."]
 
