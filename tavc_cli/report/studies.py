@@ -245,10 +245,11 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
 
 
 def _learners_runs(results_dir: Path, name: str, predicted: dict) -> list[Path]:
-    """The learners' runs a prediction named `name` is for: `<horizon>/<name>` at every longer
-    horizon; for a prediction at other task values (``tasks.values=[...]`` among its overrides),
+    """The learners' runs a prediction named `name` is for: `<horizon>/<name>` and
+    `<horizon>/readings/<name>` (a world of its own, e.g. a reading as calibrated) at every
+    longer horizon; for a prediction at other task values (``tasks.values=[...]`` among its overrides),
     the value-ratio sweep's runs of the base case at scale=converged with those values."""
-    runs = [h / name for h in horizon_folders(results_dir)]
+    runs = [d for h in horizon_folders(results_dir) for d in (h / name, h / READINGS_RUNS / name)]
     given = [o.split("=", 1)[1] for o in predicted.get("overrides", []) if o.split("=", 1)[0] == "tasks.values"]
     sweep = results_dir / VALUE_RATIO_DIR
     if given and sweep.is_dir():
