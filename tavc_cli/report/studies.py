@@ -216,7 +216,7 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
 
 def turn_taking_check_lines(results_dir: Path) -> list[str]:
     """The turn-taking model beside the learners at the chapter's scenarios and value ratios in
-    today's world: for each prediction `turn_taking/<name>/turn_taking/turn_taking.json` (`tavc
+    today's world, and in worlds of their own: for each prediction `turn_taking/<name>/turn_taking/turn_taking.json` (`tavc
     model --turn-taking`), the learners' runs it predicts (`_learners_runs`), read as in `_beside`."""
     found = sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")) \
         if (results_dir / TURN_TAKING_RUNS).is_dir() else []
@@ -237,9 +237,11 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
     if not rows:
         return []
     return ["", "The turn-taking model at the chapter's other scenarios and at other values in today's world (`make "
-            f"turn-taking-checks`: `tavc model --turn-taking ... scale=paper`, into `{TURN_TAKING_RUNS}/<name>/`), "
-            "beside the learners' runs at the longer horizons and the value-ratio sweep's at 40x. These runs were "
-            "made before the model; it was fixed before its predictions were set beside them.", "",
+            f"turn-taking-checks`: `tavc model --turn-taking ... scale=paper`, into `{TURN_TAKING_RUNS}/<name>/`), and "
+            "in worlds of their own (a reading as calibrated), beside the learners' runs at the longer horizons "
+            f"(`<horizon>/<name>`, `<horizon>/{READINGS_RUNS}/<name>`) and the value-ratio sweep's at 40x. The "
+            "scenarios' and the sweep's runs were made before the model, which was fixed before its predictions "
+            "were set beside them; a world of its own is checked at a point fixed before its run.", "",
             "| prediction | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
             "model | the same regime; modal state |", "|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
 
