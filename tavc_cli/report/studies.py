@@ -216,8 +216,9 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
 
 def turn_taking_check_lines(results_dir: Path) -> list[str]:
     """The turn-taking model beside the learners at the chapter's scenarios and value ratios in
-    today's world, and in worlds of their own: for each prediction `turn_taking/<name>/turn_taking/turn_taking.json` (`tavc
-    model --turn-taking`), the learners' runs it predicts (`_learners_runs`), read as in `_beside`."""
+    today's world, and in worlds of their own: for each prediction
+    `turn_taking/<name>/turn_taking/turn_taking.json` (`tavc model --turn-taking`), the learners'
+    runs it predicts (`_learners_runs`), read as in `_beside`."""
     found = sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")) \
         if (results_dir / TURN_TAKING_RUNS).is_dir() else []
     rows, tallies = [], []
