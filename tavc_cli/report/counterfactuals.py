@@ -18,13 +18,14 @@ import pandas as pd
 
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
+from tavc_cli.analysis.stay_switch import GRID
 from tavc_cli.report.files import horizon_folders, is_run_folder, natural, read_or_refuse
 from tavc_cli.report.horizons import Horizon, mechanism_cell, read_horizon
 from tavc_cli.report.runs import finished_runs
 from tavc_cli.report.studies import READINGS_RUNS
 from tavc_cli.report.text import p_cell
 
-GROUPS = ("arrival", "passing", "arena")  # a reading's folder name, in this order: dock-left-two_circuits
+GROUPS = tuple(key for key, _ in GRID)  # a reading's folder name, in this order: dock-left-two_circuits
 
 
 def reading_words(folder_name: str) -> str:
