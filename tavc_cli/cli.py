@@ -175,8 +175,8 @@ def model(
         "--save-calibration", help="Record the calibrated values as the config option tasks=calibrated (conf/tasks/).",
     )] = False,
     turn_taking: Annotated[bool, typer.Option(
-        "--turn-taking", help="Beside it, the model that knows turn-taking: the chapter's learners on measured "
-                              "tasks at 40x, static alternators where they take turns (into OUTPUT_DIR/turn_taking).",
+        "--turn-taking", help="Beside it, the model that knows turn-taking (docs/model.md): the chapter's learners on "
+                              "measured tasks at 40 times the scale's durations, into OUTPUT_DIR/turn_taking.",
     )] = False,
     progress: options.ProgressFlag = None,
 ) -> None:
