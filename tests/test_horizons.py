@@ -321,6 +321,25 @@ def test_the_chapters_experiments_in_another_reading_are_a_counterfactual_column
     assert note.endswith("its rule chooses robot.dock.dwell_s 5.")
 
 
+def test_the_turn_taking_models_and_a_calibrations_folders_are_never_runs_of_the_report(tmp_path):
+    """A finished run inside the turn-taking model's folder (its learners) is not another run of
+    the experiment, and a calibration's folder with its trials is not an unfinished run."""
+    import json
+
+    from tavc_cli.report.runs import finished_runs
+
+    results = tmp_path / "results"
+    _run_folder(results / "initial_distribution", "paper", 1.0, 20.0, seed=1)
+    model = results / "turn_taking" / "initial_distribution" / "turn_taking"
+    _run_folder(model / "learners", "converged", 40.0, 60.0, seed=2)
+    (model / ".tavc.json").write_text(json.dumps({"tavc": "turn-taking", "files": ["turn_taking.json"]}))
+    search = results / "calibration" / "world"
+    (search / "trials").mkdir(parents=True)
+    (search / ".tavc.json").write_text(json.dumps({"tavc": "calibration", "files": ["search.csv"]}))
+    found, unfinished = finished_runs(results)
+    assert [d.name for d in found["initial_distribution"]] == ["initial_distribution"] and unfinished == []
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["ladder", "--factors", "1,x"], "error: ladder factors: '1,x' is not a comma-separated list of numbers"),
     (["ladder", "--factors", "1,1"], "error: ladder factors: a factor is given twice"),
