@@ -193,3 +193,13 @@ def test_a_prediction_at_other_values_is_set_beside_the_value_ratio_sweeps_run_a
         "overrides": ["experiment=initial_distribution", "tasks.values=[3000,2000]", "scale=paper"]}))
     rows = [x for x in turn_taking_check_lines(tmp_path) if x.startswith("| value_ratio_3000 |")]
     assert len(rows) == 1 and "`value_ratio/converged/2_tasks.values=_3000,2000_` (8 trials)" in rows[0]
+
+
+def test_a_readings_folder_name_in_words():
+    from tavc_cli.report.counterfactuals import reading_words
+
+    assert reading_words("range-left-two_circuits_parallel") == \
+        "arrival=range passing=left arena=two_circuits_parallel"
+    assert reading_words("range-left-two_circuits_parallel-calibrated") == \
+        "arrival=range passing=left arena=two_circuits_parallel (calibrated)"
+    assert reading_words("mine") == "mine"  # a folder not named after a reading keeps its name

@@ -29,11 +29,15 @@ GROUPS = tuple(key for key, _ in GRID)  # a reading's folder name, in this order
 
 
 def reading_words(folder_name: str) -> str:
-    """A reading's folder name in the report's words: ``arrival=range passing=left arena=...``."""
-    parts = folder_name.split("-", 2)
+    """A reading's folder name in the report's words: ``arrival=range passing=left arena=...``,
+    a variant after the arena in brackets (``... arena=two_circuits_parallel (calibrated)``)."""
+    parts = folder_name.split("-", len(GROUPS) - 1)
     if len(parts) != len(GROUPS):
         return folder_name
-    return " ".join(f"{k}={v}" for k, v in zip(GROUPS, parts, strict=True))
+    *parts, last = parts
+    last, _, variant = last.partition("-")  # a variant of the reading: range-left-two_circuits_parallel-calibrated
+    words = " ".join(f"{k}={v}" for k, v in zip(GROUPS, [*parts, last], strict=True))
+    return f"{words} ({variant})" if variant else words
 
 
 def reading_horizons(results_dir: Path) -> list[tuple[str, Horizon]]:
