@@ -96,14 +96,11 @@ def experiment_claims(cfg: TavcConfig, tables: Mapping[str, pd.DataFrame],
     """The chapter's claims about this experiment, tested on its trials (and, where a claim
     compares two experiments, on the other's `trial_stats` in `others`, by experiment name)."""
     # deferred: loads scipy
-    from tavc_cli.analysis.claims import CLAIM_TABLES, claim_rows
+    from tavc_cli.analysis.claims import CLAIM_TABLES, claim_rows, learner_under_test
 
     name = str(cfg.experiment_name or "")
     runs = {name: tables["trial_stats"]}
     runs.update({f"{name}/{t}": tables[t] for t in CLAIM_TABLES if t in tables})
     runs.update({other: table for other, table in others.items() if other != name})
-    # deferred: loads scipy
-    from tavc_cli.analysis.claims import learner_under_test
-
     # the claims about learning test this run's own learner (TAVC's runs: TAVC)
     return claim_rows(runs, only_experiment=name, learner=learner_under_test([controller_label(cfg.learner.name)]))

@@ -36,6 +36,7 @@ from tavc_cli.analysis.states import alive_at_end
 from tavc_cli.experiments.records import TrialRecord
 
 N_WINDOWS = 8
+PERSISTENCE, TURN_TAKING, MIXED, UNDEFINED = "persistence", "turn-taking", "mixed", "undefined"  # the regimes
 REGIME_SHARE = 0.5
 COLUMNS = ["controller", "trial", "window", "t_from_s", "t_to_s", "n_stayers_high", "n_stayers_low",
            "n_alternators", "n_mixed", "n_idle", "switch_share", "task_s_stay", "task_s_switch", "avoid_s_stay",
@@ -139,10 +140,10 @@ def regime(stayers: float, alternators: float, working: float) -> str:
     """`persistence`, `turn-taking` or `mixed` by the REGIME_SHARE rule ("undefined" without
     working robots)."""
     if not working > 0:
-        return "undefined"
+        return UNDEFINED
     if stayers >= REGIME_SHARE * working:
-        return "persistence"
-    return "turn-taking" if alternators >= REGIME_SHARE * working else "mixed"
+        return PERSISTENCE
+    return TURN_TAKING if alternators >= REGIME_SHARE * working else MIXED
 
 
 def mechanism_summary(table: pd.DataFrame, controller: str = "tavc") -> dict:

@@ -23,10 +23,7 @@ import math
 
 import pandas as pd
 
-from tavc_cli.analysis.mechanism import mechanism_summary
-
-TURN_TAKING = "turn-taking"
-COLUMNS = ("regime", "stayers", "alternators", "robots_high", "modal_state", "modal_share_pct")
+from tavc_cli.analysis.mechanism import TURN_TAKING, mechanism_summary
 
 
 def modal_state(state_time: pd.DataFrame, controller: str) -> tuple[str, float]:
@@ -49,7 +46,8 @@ def robots_high(allocation: pd.DataFrame, controller: str, t_from: float, t_to: 
 def group_reading(mechanism: pd.DataFrame, allocation: pd.DataFrame, state_time: pd.DataFrame,
                   t_from: float, t_to: float, controller: str = "tavc") -> dict:
     """How `controller`'s groups were made over [t_from, t_to) of a run's stable period (its
-    tables `mechanism.csv`, `allocation.csv`, `state_time.csv`): `COLUMNS`."""
+    tables `mechanism.csv`, `allocation.csv`, `state_time.csv`): its regime, stayers and
+    alternators per trial, robots on the high-value circuit, modal state and its share (%)."""
     m = mechanism_summary(mechanism, controller=controller)
     state, share = modal_state(state_time, controller)
     return {"regime": m["regime"], "stayers": m["n_stayers_high"] + m["n_stayers_low"],

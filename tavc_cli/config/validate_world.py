@@ -192,8 +192,6 @@ def validate_start(cfg: DictConfig) -> None:
     always = 1 + math.floor((1 - START_MIN_CHANCE) * area / (math.pi * spacing**2))
     if n_robots <= always and not arena.walls:  # interior walls take start area the bound does not count
         return
-    # imported here: the engine loads numba, which `tavc config` need not wait for
-
     specs = trial_specs(OmegaConf.to_object(cfg))
     model = specs[0].build_arena()
     for spec in specs:

@@ -23,6 +23,7 @@ import pandas as pd
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import CLAIM_TABLES, claim_table, learner_under_test, not_a_verdict, verdict_words
 from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
+from tavc_cli.analysis.mechanism import PERSISTENCE
 from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.learning.registry import controller_label
 from tavc_cli.readers import load_json
@@ -251,7 +252,7 @@ def mechanism_cell(h: Horizon, exp: str, claim_id: int, claim) -> str:
         return ""
     words = mechanism_words(m)
     if claim is not None and claim.verdict == "reproduced" and m is not None and claim_id in PERSISTENCE_CLAIMS \
-            and m["regime"] != "persistence":
+            and m["regime"] != PERSISTENCE:
         words = f"**the test holds, but not by the chapter's persistence**; {words}"
     return words
 

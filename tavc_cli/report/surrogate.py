@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.mechanism import PERSISTENCE, TURN_TAKING
 from tavc_cli.report.text import fmt
 
 STUDY_DIR = "surrogate"
@@ -121,7 +122,7 @@ def _disagreements(table: pd.DataFrame) -> list[str]:
                              (" Calibrated by stayers alone no task is quicker for switching circuit, so nothing "
                               "rewards alternating: in the simulator it is the traffic (alternators drive one way "
                               "round the arena, a stayer against them) that makes turn-taking pay."
-                              if r.engine == "surrogate_stayers" and s["regime"] == "turn-taking" else ""))
+                              if r.engine == "surrogate_stayers" and s["regime"] == TURN_TAKING else ""))
             elif r.largest_diff_pts > FAR_PTS:
                 lines.append(f"- **{name}**: the make-up agrees ({r.regime}, {fmt(r.n_alternators, '.1f')} alternators "
                              f"against {fmt(s['n_alternators'], '.1f')}) but the states differ by "
@@ -131,7 +132,7 @@ def _disagreements(table: pd.DataFrame) -> list[str]:
                                 "phases: in the arena they circulate in order, so that about half of them are on "
                                 "each circuit at any time; the surrogate draws every task on its own and lets the "
                                 "phases drift apart. Positions and the order of arrivals, which it leaves out, "
-                                "matter here." if r.regime == "turn-taking" else ""))
+                                "matter here." if r.regime == TURN_TAKING else ""))
             if isinstance(r.claims, str) and isinstance(s["claims"], str) and r.claims != s["claims"]:
                 differ = sorted(set(r.claims.split()) - set(s["claims"].split()))
                 lines.append(f"- **{name}**: claims {', '.join(differ)} against the simulator's "
@@ -167,8 +168,8 @@ def _phase_lines(table: pd.DataFrame) -> list[str]:
              "![phase diagram](surrogate/phase.png)", ""]
     for horizon, group in sur.groupby("horizon", sort=False):
         agree = (group["modal_state"] == group["model_state"]).mean()
-        persist = group[group["regime"] == "persistence"]
-        turn = group[group["regime"] == "turn-taking"]
+        persist = group[group["regime"] == PERSISTENCE]
+        turn = group[group["regime"] == TURN_TAKING]
         lines.append(f"- {horizon}: the learners' modal state is the model's prediction in {100 * agree:.0f} % of the "
                      f"{len(group)} cells; persistence holds in {len(persist)} cells, turn-taking in {len(turn)}"
                      + (f" (persistence with {_span(persist)})" if len(persist) else "") + ".")
