@@ -17,13 +17,15 @@ REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
 # Learning values [w_high, w_low] for the value-ratio sweep: ratios 1.0, 1.1 (the chapter's), 1.25 ... 2.0
 VALUE_RATIOS := [2000,2000],[2200,2000],[2500,2000],[3000,2000],[3500,2000],[4000,2000]
 
+comma := ,
+
 # The horizon ladder: multiples of the chapter's durations at which initial_distribution runs
 LADDER ?= 1,4,10,20,40
 # Trials per process at scale=converged: small batches spread hours of trees evenly over the
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch turn-taking-checks $(REPRODUCE) clean
+.PHONY: help venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch turn-taking-checks team-size-checks $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -136,6 +138,17 @@ turn-taking-checks: venv ## The turn-taking model beside the chapter's at the ch
 	for w in 2000 3000 4000; do \
 		$(BIN)/tavc model --turn-taking experiment=initial_distribution "tasks.values=[$$w,2000]" scale=paper \
 			output_dir=results/turn_taking/value_ratio_$$w || exit 1; done
+
+# Team sizes for the turn-taking model's checks against the learners at 40x (six, the chapter's, is
+# checked by the base case's own run at results/converged/initial_distribution)
+TEAM_SIZES := 2,3,4,5,7,8,9,10
+
+team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn_taking/team_size_N/), then the learners at 40x there (results/team_size/converged/)
+	for n in $(subst $(comma), ,$(TEAM_SIZES)); do \
+		$(BIN)/tavc model --turn-taking experiment=initial_distribution team.n_robots=$$n scale=paper \
+			output_dir=results/turn_taking/team_size_$$n || exit 1; done
+	$(BIN)/tavc run -m experiment=initial_distribution scale=converged trials=8 'baselines=[]' \
+		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(TEAM_SIZES) output_dir=results/team_size/converged
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
 	$(BIN)/tavc stay-switch scale=paper --results results/stay_switch
