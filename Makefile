@@ -25,11 +25,13 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch turn-taking-checks team-size-checks $(REPRODUCE) clean
+.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch turn-taking-checks team-size-checks $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
 	@echo "  reproduce-NAME  Run one experiment at paper scale ($(EXPERIMENTS))"
+
+install: venv ## The tool alone: .venv with tavc at the locked versions, no test tools (the same as venv)
 
 venv: $(STAMP) ## Create .venv and install tavc at the locked versions (requirements.lock)
 

@@ -1,6 +1,7 @@
 """Trials that share their history (tavc_cli.experiments.lineage, joint): a warm-up is the trial
 without one, continued; trees of trials compute each trial as it is computed alone; `tavc reproduce`."""
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -220,7 +221,8 @@ def test_reproduce_writes_what_run_writes_for_each_experiment(tmp_path):
         for table in tables:
             assert (tmp_path / "together" / name / table).read_bytes() == \
                 (tmp_path / "alone" / name / table).read_bytes(), (name, table)
-        assert (tmp_path / "together" / name / "provenance.json").is_file()
+        covers = json.loads((tmp_path / "together" / name / "provenance.json").read_text())["wall_time_covers"]
+        assert covers.startswith("the trials of the 2 experiments one invocation ran together"), covers
 
 
 @pytest.mark.parametrize(

@@ -334,3 +334,23 @@ def test_a_model_measured_below_its_own_settings_is_headed_not_a_verdict():
     result = {"model": model, "table": table, "output_dir": "out", "n_reused": 0}
     assert model_text(result, short).splitlines()[0].startswith("not a verdict: scale=smoke measures 2 of 12")
     assert model_text(result).splitlines()[0].startswith("TAVC model:")
+
+
+def test_a_runs_line_in_the_report_holds_what_decides_its_numbers_and_nothing_a_rerun_changes():
+    """The report's line under a run names its command, seed, trial count and the code digest
+    its trials were computed by; two runs of the same code and settings that differ in version,
+    commit, wall time and trials reused (a rerun, another checkout) give the same line."""
+    from tavc_cli.report.text import run_lines
+
+    cfg = config.settings(config.load_config(["experiment=initial_distribution", "scale=paper"]))
+    same = {"command_line": ["tavc", "run", "experiment=initial_distribution"], "root_seed": 0,
+            "trials": [{}] * 40, "code_digest": "8ccb620951251eec"}
+    first = {**same, "tavc_version": "0.1.0", "git_commit": "aaa", "wall_time_s": 290.0, "n_trials_reused": 0}
+    again = {**same, "tavc_version": "0.2.0", "git_commit": "bbb-dirty", "wall_time_s": 31.0, "n_trials_reused": 40}
+    none = pd.DataFrame({"claim_id": []})
+    line = [x for x in run_lines("initial_distribution", Path("."), cfg, first, none, {}) if x.startswith("Run:")]
+    assert line == [x for x in run_lines("initial_distribution", Path("."), cfg, again, none, {}) if
+                    x.startswith("Run:")]
+    assert line == ["Run: `tavc run experiment=initial_distribution`; root seed 0; 40 trials, by the simulator's code "
+                    "of digest `8ccb620951251eec` (tavc's version and commit, the machine and the wall time: the "
+                    "run's `provenance.json`)."]

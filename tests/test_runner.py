@@ -67,6 +67,7 @@ def test_run_writes_config_provenance_and_tables(first_run):
     # trial j of the random controller (code 1) is seeded with spawn key (seed, 1, j)
     assert [t["seed"] for t in prov["trials"]] == [[0, 1, 0], [0, 1, 1]]
     assert prov["wall_time_s"] > 0
+    assert prov["wall_time_covers"].startswith("this run's trials")
     assert "git_commit" in prov
     assert {"numpy", "pymunk", "numba"} <= set(prov["packages"])
 

@@ -203,3 +203,34 @@ def test_a_readings_folder_name_in_words():
     assert reading_words("range-left-two_circuits_parallel-calibrated") == \
         "arrival=range passing=left arena=two_circuits_parallel (calibrated)"
     assert reading_words("mine") == "mine"  # a folder not named after a reading keeps its name
+
+
+def test_a_prediction_at_another_team_size_is_set_beside_the_team_size_sweeps_run_of_that_size(tmp_path):
+    """A prediction with ``team.n_robots=4`` among its overrides is set beside the team-size sweep's
+    40x run of four robots, not beside one of five nor the value-ratio sweep's run at the same
+    values; the sweep's runs are no runs of the chapter's horizon."""
+    import shutil
+
+    from tavc_cli.report.runs import run_folders
+    from tavc_cli.report.studies import turn_taking_check_lines
+    from tests.helpers import REPO
+
+    job = REPO / "results" / "value_ratio" / "converged" / "1_tasks.values=_2200,2000_"
+    if not (job / "mechanism.csv").is_file():
+        pytest.skip("the committed value-ratio sweep is not here")
+    for sweep, size in (("value_ratio", 6), ("team_size", 4), ("team_size", 5)):
+        d = tmp_path / sweep / "converged" / f"0_team.n_robots={size}"
+        d.mkdir(parents=True)
+        for name in ("mechanism.csv", "allocation.csv", "state_time.csv", "convergence.csv", "config.yaml"):
+            shutil.copy(job / name, d / name)
+        text = (d / "config.yaml").read_text()
+        assert "n_robots: 6\n" in text
+        (d / "config.yaml").write_text(text.replace("n_robots: 6\n", f"n_robots: {size}\n"))
+    where = tmp_path / "turn_taking" / "team_size_4" / "turn_taking"
+    where.mkdir(parents=True)
+    (where / "turn_taking.json").write_text(json.dumps({
+        "regime": "turn-taking", "robots_high": 2.0, "modal_state": "2:2", "modal_share_pct": 50.0,
+        "overrides": ["experiment=initial_distribution", "team.n_robots=4", "scale=paper"]}))
+    rows = [x for x in turn_taking_check_lines(tmp_path) if x.startswith("| team_size_4 |")]
+    assert len(rows) == 1 and "`team_size/converged/0_team.n_robots=4` (8 trials)" in rows[0]
+    assert run_folders(tmp_path) == []

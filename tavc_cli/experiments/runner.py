@@ -31,8 +31,11 @@ from tavc_cli.settings import TavcConfig
 _PACKAGES = ("numpy", "scipy", "pandas", "pymunk", "numba", "hydra-core", "omegaconf", "typer", "matplotlib")
 
 
-def provenance(cfg: TavcConfig, specs: list[TrialSpec], wall_time_s: float, n_reused: int) -> dict:
-    """Who, what and where of a run: versions, seeds, command line, machine."""
+def provenance(cfg: TavcConfig, specs: list[TrialSpec], wall_time_s: float, n_reused: int,
+               n_together: int = 1) -> dict:
+    """Who, what and where of a run: versions, seeds, command line, machine, and the wall time
+    of its trials, said in words (``wall_time_covers``): this run's alone, or those of the
+    `n_together` experiments whose trials one invocation ran together."""
     versions = {}
     for pkg in _PACKAGES:
         try:
@@ -57,6 +60,9 @@ def provenance(cfg: TavcConfig, specs: list[TrialSpec], wall_time_s: float, n_re
         ],
         "command_line": sys.argv,
         "wall_time_s": wall_time_s,
+        "wall_time_covers": "this run's trials, simulated or reused (not their analysis)" if n_together == 1 else
+        f"the trials of the {n_together} experiments one invocation ran together, their shared history simulated "
+        "once (not this run's share, nor the analysis)",
         "n_trials_reused": n_reused,
         "machine": {"platform": platform.platform(), "processor": platform.processor(),
                     "cpu_count": os.cpu_count()},
@@ -87,6 +93,7 @@ class Run:
     records: list[TrialRecord]
     n_reused: int
     wall_time_s: float
+    n_together: int = 1  # experiments whose trials ran together, all in `wall_time_s`
 
 
 def run_experiment_trials(cfg: TavcConfig, plan: RunPlan, *, progress: bool = False) -> Run:
@@ -120,7 +127,7 @@ def run_trials_together(cfgs: list[TavcConfig], plans: list[RunPlan], *, progres
     wall = time.perf_counter() - start
     runs = []
     for folder, plan, sp in zip(folders, plans, specs, strict=True):
-        runs.append(Run(folder, plan, sp, [], reused[folder], wall))
+        runs.append(Run(folder, plan, sp, [], reused[folder], wall, len(cfgs)))
     return runs
 
 
@@ -134,6 +141,6 @@ def write_provenance(cfg: TavcConfig, run: Run, tables: list[str] = ()) -> None:
     names in the run's folder: its tables and `config.yaml`) are recorded with their SHA-256
     (``tables``), so that whoever reads them can tell a file this run wrote from a damaged or
     edited one."""
-    record = provenance(cfg, run.specs, run.wall_time_s, run.n_reused)
+    record = provenance(cfg, run.specs, run.wall_time_s, run.n_reused, run.n_together)
     record["tables"] = {name: file_digest(run.output_dir / name) for name in sorted(tables)}
     write_text_atomic(run.output_dir / "provenance.json", json.dumps(record, indent=2, default=str))

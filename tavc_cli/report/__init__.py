@@ -45,7 +45,7 @@ from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import LADDER, finished_runs, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
-from tavc_cli.report.studies import STAY_SWITCH_DIR, VALUE_RATIO_DIR, stay_switch_lines, value_ratio_lines
+from tavc_cli.report.studies import STAY_SWITCH_DIR, SWEEP_SETTINGS, stay_switch_lines, value_ratio_lines
 from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
@@ -60,9 +60,10 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")
     folders = [d for runs in horizon_runs for ds in runs.values() for d in ds]
-    if (results_dir / VALUE_RATIO_DIR).is_dir():  # its runs as `analysis.value_ratio` finds them
-        folders += sorted(p.parent for p in (results_dir / VALUE_RATIO_DIR).rglob("trial_stats.csv")
-                          if (p.parent / "config.yaml").is_file())
+    for sweep in SWEEP_SETTINGS:  # their runs as `analysis.value_ratio` and the turn-taking checks find them
+        if (results_dir / sweep).is_dir():
+            folders += sorted(p.parent for p in (results_dir / sweep).rglob("trial_stats.csv")
+                              if (p.parent / "config.yaml").is_file())
     ladders = [d / LADDER / "ladder.csv" for d in horizon_dirs if (d / LADDER / "ladder.csv").is_file()]
     for ladder in ladders:  # the rungs whose claims the ladder's table tests again
         folders += sorted(p.parent for p in ladder.parent.glob("*/trial_stats.csv")

@@ -40,14 +40,14 @@ from tavc_cli.report.files import (
     natural,
     read_or_refuse,
 )
-from tavc_cli.report.studies import READINGS_RUNS, VALUE_RATIO_DIR, spatiotemporal_lines
+from tavc_cli.report.studies import READINGS_RUNS, SWEEP_SETTINGS, TEAM_SIZE_DIR, VALUE_RATIO_DIR, spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, to_yaml
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
 # folders directly under the results folder that the report reads otherwise than run by run:
-# the longer horizons (`horizon_folders`, their runs found there in turn), the value-ratio
-# sweep (`studies.value_ratio_lines`) and the runs in other readings (`studies.READINGS_RUNS`);
+# the longer horizons (`horizon_folders`, their runs found there in turn), the sweeps of the value
+# ratio and the team size (`studies.SWEEP_SETTINGS`) and the runs in other readings (`studies.READINGS_RUNS`);
 # under a horizon, the horizon ladder (`time_scale.ladder_lines`) and its readings
 LADDER = "ladder"
 
@@ -75,7 +75,7 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
     out = []
     for d in sorted((p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()),
                     key=lambda p: natural(p.name)):
-        read_otherwise = top and (d.name in (VALUE_RATIO_DIR, READINGS_RUNS) or is_horizon_folder(d))
+        read_otherwise = top and (d.name in (*SWEEP_SETTINGS, READINGS_RUNS) or is_horizon_folder(d))
         if d.name == "figures" or d.name.startswith(".") or read_otherwise \
                 or (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
@@ -103,7 +103,7 @@ def finished_runs(results_dir: Path) -> tuple[dict[str, list[Path]], list[Path]]
 
 def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
     """(what reads them, run folders) for the studies the report reads as a whole: the
-    horizon ladder's rungs and the value-ratio sweep's runs."""
+    horizon ladder's rungs, the runs in other readings, the value-ratio and team-size sweeps' runs."""
     out = []
     for horizon in horizon_folders(results_dir):
         ladder = horizon / LADDER
@@ -123,6 +123,11 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
         found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: natural(p.as_posix()))
         if found:
             out.append(("the value-ratio sweep, in *Learning values and time*", found))
+    sizes = results_dir / TEAM_SIZE_DIR
+    if sizes.is_dir():
+        found = sorted((p.parent for p in sizes.rglob("config.yaml")), key=lambda p: natural(p.as_posix()))
+        if found:
+            out.append(("the team-size sweep, in *The readings* (the turn-taking model's check points)", found))
     return out
 
 

@@ -4,9 +4,11 @@ traversal times, policies and lanes, and the value-ratio sweep (`make value-rati
 from __future__ import annotations
 
 import json
+from functools import reduce
 from pathlib import Path
 
 import pandas as pd
+import yaml
 from scipy import stats
 
 from tavc_cli.analysis.makeup_model import expected_high, predicted_regime, readings_summary
@@ -242,7 +244,10 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             "in worlds of their own (a reading as calibrated), beside the learners' runs at the longer horizons "
             f"(`<horizon>/<name>`, `<horizon>/{READINGS_RUNS}/<name>`) and the value-ratio sweep's at 40x. The "
             "scenarios' and the sweep's runs were made before the model, which was fixed before its predictions "
-            "were set beside them; a world of its own is checked at a point fixed before its run.", "",
+            "were set beside them; a world of its own is checked at a point fixed before its run." + (
+                f" At other team sizes (`make team-size-checks`: `team_size_<n>` beside `{TEAM_SIZE_DIR}/`'s runs at "
+                "40x) the sizes, the model's predictions and the learners' runs were made in that order, each "
+                "committed before the next was read." if (results_dir / TEAM_SIZE_DIR).is_dir() else ""), "",
             "| prediction | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
             "model | the same regime; modal state |", "|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
 
@@ -250,19 +255,27 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
 def _learners_runs(results_dir: Path, name: str, predicted: dict) -> list[Path]:
     """The learners' runs a prediction named `name` is for: `<horizon>/<name>` and
     `<horizon>/readings/<name>` (a world of its own, e.g. a reading as calibrated) at every
-    longer horizon; for a prediction at other task values (``tasks.values=[...]`` among its overrides),
-    the value-ratio sweep's runs of the base case at scale=converged with those values."""
+    longer horizon; for a prediction that sets what a sweep varies (`SWEEP_SETTINGS`: the task
+    values, the team size) among its overrides, that sweep's runs of the base case at
+    scale=converged with the same setting."""
     runs = [d for h in horizon_folders(results_dir) for d in (h / name, h / READINGS_RUNS / name)]
-    given = [o.split("=", 1)[1] for o in predicted.get("overrides", []) if o.split("=", 1)[0] == "tasks.values"]
-    sweep = results_dir / VALUE_RATIO_DIR
-    if given and sweep.is_dir():
-        values = [float(v) for v in given[-1].strip("[]").split(",")]
+    given = dict(o.split("=", 1) for o in predicted.get("overrides", []) if "=" in o)
+    for folder, key in SWEEP_SETTINGS.items():
+        sweep = results_dir / folder
+        if key not in given or not sweep.is_dir():
+            continue
+        wanted = _numbers(yaml.safe_load(given[key]))
         for path in sorted(sweep.rglob("config.yaml"), key=lambda p: p.as_posix()):
             cfg = config_of(path)
             if cfg.scale.name == "converged" and cfg.experiment_name == base_case().name and \
-                    [float(v) for v in cfg.tasks.values] == values and cfg.tasks.time_unit == "ms":
+                    _numbers(reduce(getattr, key.split("."), cfg)) == wanted and cfg.tasks.time_unit == "ms":
                 runs.append(path.parent)
     return runs
+
+
+def _numbers(value) -> list[float]:
+    """A setting's value, a number or a list of them, as a list of floats (2000 and 2000.0 alike)."""
+    return [float(v) for v in (value if isinstance(value, (list, tuple)) else [value])]
 
 
 def _learners(d: Path) -> dict:
@@ -306,6 +319,10 @@ def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
 
 
 VALUE_RATIO_DIR = "value_ratio"  # under the results folder: the value-ratio sweep (`make value-ratio`)
+TEAM_SIZE_DIR = "team_size"  # under the results folder: the learners at other team sizes (`make team-size-checks`)
+# the sweeps under the results folder the report reads as studies, each with the setting it varies: a
+# prediction of the turn-taking model that sets it is set beside the sweep's runs at 40x
+SWEEP_SETTINGS = {VALUE_RATIO_DIR: "tasks.values", TEAM_SIZE_DIR: "team.n_robots"}
 TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
 READINGS_RUNS = "readings"  # under a longer horizon's folder: the base case in a reading, <arrival>-<passing>-<arena>
 

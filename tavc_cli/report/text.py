@@ -277,11 +277,13 @@ def run_lines(name: str, d: Path, cfg: TavcConfig, prov: dict, claims: pd.DataFr
     command = prov.get("command_line") or ["tavc", "run", f"experiment={name}"]
     if isinstance(command, list):
         command = " ".join(["tavc", *command[1:]])
-    lines += [f"Run: `{command}`; root seed "
-              f"{prov.get('root_seed', cfg.seed)}; tavc {prov.get('tavc_version', '?')} at "
-              f"{prov.get('git_commit') or 'no git commit'}; {len(prov.get('trials', []))} trials "
-              f"({prov.get('n_trials_reused', 0)} reused from an earlier run), "
-              f"{fmt(prov.get('wall_time_s'), '.0f')} s wall time for this invocation.", ""]
+    # only what decides the run's numbers: the version, commit, wall time and trials reused of
+    # whoever ran it last are in its provenance.json, and a rerun of the same code and settings
+    # leaves this line as it was
+    lines += [f"Run: `{command}`; root seed {prov.get('root_seed', cfg.seed)}; "
+              f"{len(prov.get('trials', []))} trials, by the simulator's code of digest "
+              f"`{prov.get('code_digest') or '?'}` (tavc's version and commit, the machine and the wall "
+              "time: the run's `provenance.json`).", ""]
     lines += late_start_lines(cfg, read_plan(d, cfg))
     if diffs:
         lines += ["Differs from the chapter: " + "; ".join(diffs) + ".", ""]
