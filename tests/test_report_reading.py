@@ -354,3 +354,23 @@ def test_a_runs_line_in_the_report_holds_what_decides_its_numbers_and_nothing_a_
     assert line == ["Run: `tavc run experiment=initial_distribution`; root seed 0; 40 trials, by the simulator's code "
                     "of digest `8ccb620951251eec` (tavc's version and commit, the machine and the wall time: the "
                     "run's `provenance.json`)."]
+
+
+def test_a_figure_an_earlier_report_drew_and_this_one_does_not_is_removed_and_nothing_else(tmp_path):
+    """A run's figures in figures/runs/<folder>/ that an earlier report drew are removed, with
+    the folder they leave empty, once the run is gone and the report is written again; every
+    figure the report draws again stays, and the manifest no longer lists what went."""
+    from tavc_cli.ownership import read
+
+    _run(tmp_path / "initial_distribution", "scale=paper", trials=20)
+    _report(tmp_path)
+    kept = sorted(p.relative_to(tmp_path) for p in (tmp_path / "figures").rglob("*") if p.is_file())
+    assert kept
+    old = tmp_path / "figures" / "runs" / "gone" / "state_distribution.png"
+    old.parent.mkdir(parents=True)
+    old.write_bytes(b"drawn by an earlier report")
+    read(tmp_path).wrote("figures/runs/gone/state_distribution.png")
+    _report(tmp_path)
+    assert not old.exists() and not (tmp_path / "figures" / "runs").exists()  # nothing else was in runs/
+    assert sorted(p.relative_to(tmp_path) for p in (tmp_path / "figures").rglob("*") if p.is_file()) == kept
+    assert "figures/runs/gone/state_distribution.png" not in read(tmp_path).files

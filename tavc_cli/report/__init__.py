@@ -33,7 +33,7 @@ from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
-from tavc_cli.ownership import list_figures, take_report_folders
+from tavc_cli.ownership import figure_files, list_figures, remove_stale_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
@@ -111,6 +111,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     tested, n_ok = base.tested, base.n_reproduced
     # everything read: now the first write
     taken = take_report_folders(results_dir, [h.folder for h in longer], page)
+    drawn_before = figure_files(taken)
     lines = ["# tavc: the reproduction report", "",
              *horizons.not_a_verdict_lines(*every),
              "Built by `tavc report` from the saved results in this folder; nothing here was simulated "
@@ -164,6 +165,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     write_text_atomic(results_dir / "REPORT.md", "\n".join(lines))
     if page:
         write_report_html(results_dir)
+    remove_stale_figures(taken, drawn_before)  # what an earlier report drew and this one did not
     list_figures(taken)
     say(f"report: written in {time.perf_counter() - start:.0f} s")
     out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
