@@ -25,7 +25,7 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch turn-taking-checks team-size-checks $(REPRODUCE) clean
+.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch turn-taking-checks team-size-checks calibrate-readings $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -151,6 +151,21 @@ team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn
 			output_dir=results/turn_taking/team_size_$$n || exit 1; done
 	$(BIN)/tavc run -m experiment=initial_distribution scale=converged trials=8 'baselines=[]' \
 		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(TEAM_SIZES) output_dir=results/team_size/converged
+
+# The readings of the world besides today's (docs/readings.md), arrival-passing-arena, and the grid each
+# is calibrated on: a dock reading on today's (conf/config.yaml, calibration.grid), a range reading on its own
+DOCK_READINGS := dock-left-two_circuits dock-nearest-two_circuits_parallel dock-left-two_circuits_parallel
+RANGE_READINGS := range-nearest-two_circuits range-nearest-two_circuits_parallel range-left-two_circuits \
+	range-left-two_circuits_parallel
+RANGE_GRID := [{key:robot.behaviour.read_range_m,values:[1.0,1.5,2.0]},{key:robot.dock.dwell_s,values:[0.0,5.0,10.0]},{key:robot.laser.n_rays,values:[31,61]}]
+
+calibrate-readings: venv ## Each reading's calibration search against the chapter's facts (results/readings/<reading>/calibration/world/)
+	for r in $(DOCK_READINGS); do set -- $$(echo $$r | tr - ' '); \
+		$(BIN)/tavc calibrate scale=paper arrival=$$1 passing=$$2 arena=$$3 \
+			output_dir=results/readings/$$r/initial_distribution || exit 1; done
+	for r in $(RANGE_READINGS); do set -- $$(echo $$r | tr - ' '); \
+		$(BIN)/tavc calibrate scale=paper arrival=$$1 passing=$$2 arena=$$3 'calibration.grid=$(RANGE_GRID)' \
+			output_dir=results/readings/$$r/initial_distribution || exit 1; done
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
 	$(BIN)/tavc stay-switch scale=paper --results results/stay_switch
