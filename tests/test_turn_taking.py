@@ -234,3 +234,32 @@ def test_a_prediction_at_another_team_size_is_set_beside_the_team_size_sweeps_ru
     rows = [x for x in turn_taking_check_lines(tmp_path) if x.startswith("| team_size_4 |")]
     assert len(rows) == 1 and "`team_size/converged/0_team.n_robots=4` (8 trials)" in rows[0]
     assert run_folders(tmp_path) == []
+
+
+def test_each_readings_calibration_search_is_a_row_with_the_world_asked_judged_and_the_rules_choice(tmp_path):
+    """A reading's search by hand: the point of the world as the search was asked it
+    (`configured`: code read at 1.5 m, no dwell, 61 rays) fails the chapter's facts, another meets
+    them robustly and is chosen; a search that did not record what it was asked is judged "?"."""
+    from tavc_cli.report.counterfactuals import calibration_lines
+
+    cols = ["point", "robot.behaviour.read_range_m", "robot.dock.dwell_s", "robot.laser.n_rays", "lone_leg_s",
+            "arrivals_per_5h", "crowding_ratio_6", "feasible", "robust", "chosen"]
+    rows = [["a", 1.5, 0.0, 61, 30.0, 3500, 1.02, False, False, False],
+            ["b", 2.0, 5.0, 31, 33.0, 3919, 1.2049, True, True, True],
+            ["c", 2.0, 10.0, 31, 35.0, 3100, 1.30, True, False, False]]
+    assert calibration_lines(tmp_path) == []
+    asked = {"robot.behaviour.read_range_m": 1.5, "robot.dock.dwell_s": 0.0, "robot.laser.n_rays": 61}
+    for name, record in (("range-left-two_circuits_parallel", {"configured": asked}),
+                         ("range-nearest-two_circuits_parallel", {})):
+        where = tmp_path / "readings" / name / "calibration" / "world"
+        where.mkdir(parents=True)
+        pd.DataFrame(rows, columns=cols).to_csv(where / "search.csv", index=False)
+        (where / "search.json").write_text(json.dumps(record))
+    table = [x for x in calibration_lines(tmp_path) if x.startswith("| arrival=")]
+    assert table == [
+        "| arrival=range passing=left arena=two_circuits_parallel | read_range_m 1.5, 2; dwell_s 0, 5, 10; n_rays 31, "
+        "61 | 1 / 2 of 3 | does not meet them | read_range_m 2, dwell_s 5, n_rays 31; 3919 arrivals per 5 h, "
+        "t(4 on a circuit) / t(3) 1.20 |",
+        "| arrival=range passing=nearest arena=two_circuits_parallel | read_range_m 1.5, 2; dwell_s 0, 5, 10; "
+        "n_rays 31, 61 | 1 / 2 of 3 | ? | read_range_m 2, dwell_s 5, n_rays 31; 3919 arrivals per 5 h, "
+        "t(4 on a circuit) / t(3) 1.20 |"]

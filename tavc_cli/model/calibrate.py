@@ -6,6 +6,7 @@ composes the points' settings."""
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from operator import attrgetter
 from pathlib import Path
 
 from tavc_cli.experiments.store import Executor
@@ -55,7 +56,8 @@ def _search_and_measure(base: TavcConfig, points, out_dir: Path, world_dir: Path
     from tavc_cli.viz.sensitivity import sensitivity_figure, task_time_figure
 
     axes = base.calibration.grid
-    search = run_search(points, out_dir, **measurement)
+    configured = {a.key: attrgetter(a.key)(base) for a in axes}  # the world as asked, before the grid's settings
+    search = run_search(points, out_dir, configured=configured, **measurement)
     echo(search_text(search))
     if save:
         path = save_world(search, world_dir, [a.key for a in axes])

@@ -138,9 +138,10 @@ def choose(rows: list[dict], rays_key: str = "robot.laser.n_rays") -> tuple[int 
 
 def run_search(points: Sequence[tuple[Point, TavcConfig]], out_dir: Path, *, n_robots: int, trials: int,
                warmup_s: float, measure_s: float, confidence: float, executor: Executor,
-               progress: bool) -> dict:
+               progress: bool, configured: dict | None = None) -> dict:
     """Measure every grid point (reusing finished trials), judge each, pick one; write
-    `search.csv` and `search.json` under out_dir."""
+    `search.csv` and `search.json` under out_dir. `configured`: the grid's settings as the search
+    was asked them (the world as configured, e.g. a reading's defaults), recorded beside the choice."""
     if n_robots < 3:
         raise TavcError("team.n_robots: the world search needs a team of at least 3 robots")
     plans, specs = [], []
@@ -169,6 +170,7 @@ def run_search(points: Sequence[tuple[Point, TavcConfig]], out_dir: Path, *, n_r
         "values": [float(v) for v in points[0][1].tasks.values] if points else [],
         "chosen": rows[chosen] if chosen is not None else None,
         "chosen_overrides": point_overrides(points[chosen][0]) if chosen is not None else [],
+        **({"configured": configured} if configured is not None else {}),
         "robust": robust,
         "n_feasible": int(sum(r["feasible"] for r in rows)),
         "n_robust": int(sum(r["robust"] for r in rows)),

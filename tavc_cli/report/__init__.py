@@ -37,7 +37,7 @@ from tavc_cli.ownership import figure_files, list_figures, remove_stale_figures,
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
-from tavc_cli.report.counterfactuals import counterfactual_lines
+from tavc_cli.report.counterfactuals import calibration_lines, counterfactual_lines
 from tavc_cli.report.drawing import FigurePool
 from tavc_cli.report.figures import find_model
 from tavc_cli.report.files import config_of, horizon_folders, read_or_refuse
@@ -137,6 +137,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     if longer:
         lines += time_scale_lines(results_dir, every, model_json)
     lines += stay_switch_lines(results_dir)
+    lines += calibration_lines(results_dir)
     lines += counterfactual_lines(base, results_dir)
     lines += surrogate_lines(results_dir)
     lines += compare_lines(results_dir)

@@ -11,6 +11,7 @@ the group was made (the regime and its robots), so that a verdict is read with i
 
 from __future__ import annotations
 
+import json
 from operator import attrgetter
 from pathlib import Path
 
@@ -118,3 +119,57 @@ def calibration_words(results_dir: Path, where: str, h: Horizon) -> list[str]:
     return [f"- `{where}`: the world these runs used ({setting}) {verdict}, by the reading's calibration search "
             f"(`{rel}`); its rule chooses {pick}."]
 
+
+
+def calibration_lines(results_dir: Path) -> list[str]:
+    """Each reading's calibration search (`readings/<reading>/calibration/world/search.csv`,
+    `make calibrate-readings`; today's world's `calibration/world/` first), a row each: how many
+    points of its grid meet the chapter's facts (the intended split the equilibrium of six and of
+    five robots, constraints (1.3) and (1.4)), robustly and at all; whether the world as the search
+    was asked it (`search.json`'s ``configured``: a reading's defaults) does; and the point the
+    search's rule chooses, with its arrivals per 5 h and crowding ratio."""
+    base = results_dir / READINGS_RUNS
+    tables = sorted(base.glob("*/calibration/world/search.csv"), key=lambda p: natural(p.parents[2].name)) \
+        if base.is_dir() else []
+    today = results_dir / "calibration" / "world" / "search.csv"  # today's world's, `tavc calibrate scale=paper`
+    found = [("today's world", today)] if today.is_file() else []
+    found += [(reading_words(t.parents[2].name), t) for t in tables]
+    rows = []
+    for words, table in found:
+        search = read_or_refuse(table, pd.read_csv)
+        record = table.with_suffix(".json")
+        configured = read_or_refuse(record, lambda p: json.loads(p.read_text())).get("configured") \
+            if record.is_file() else None
+        keys = list(search.columns[1:search.columns.get_loc("lone_leg_s")])
+        mine = search
+        for key in keys if configured is not None else []:
+            mine = mine[mine[key].astype(float) == float(configured.get(key, "nan"))]
+        as_asked = "?" if configured is None else ("not on its grid" if mine.empty else _meets(mine.iloc[0]))
+        chosen = search[search["chosen"].astype(bool)]
+        pick = "none" if chosen.empty else (
+            ", ".join(f"{k.rsplit('.', 1)[-1]} {float(chosen[k].iloc[0]):g}" for k in keys)
+            + f"; {chosen['arrivals_per_5h'].iloc[0]:.0f} arrivals per 5 h, t(4 on a circuit) / t(3) "
+            f"{chosen['crowding_ratio_6'].iloc[0]:.2f}" + ("" if bool(chosen["robust"].iloc[0]) else " (not robust)"))
+        grid = "; ".join(f"{k.rsplit('.', 1)[-1]} " + ", ".join(f"{v:g}" for v in sorted(set(search[k].astype(float))))
+                         for k in keys)
+        rows.append(f"| {words} | {grid} | {int(search['robust'].sum())} / {int(search['feasible'].sum())} of "
+                    f"{len(search)} | {as_asked} | {pick} |")
+    if not rows:
+        return []
+    return ["## The readings calibrated against the chapter's facts", "",
+            "Each reading's own search of what the chapter leaves unsaid (`make calibrate-readings`: `tavc "
+            "calibrate` with the reading's groups, `scale=paper`, into `readings/<reading>/calibration/world/`; "
+            "grids fixed before the runs), under the rule that chose today's world (`calibration/world/`): of the "
+            "points that meet the chapter's facts (the intended split the equilibrium of six and of five robots, "
+            "constraints (1.3) and (1.4)) robustly to the 90 % intervals, the one with the most arrivals per 5 h. "
+            "Whether the world as configured (a reading's defaults, the world its runs used unless said) meets "
+            "them, and what the rule chooses.", "",
+            "| reading | grid | points meeting the facts: robustly / at all | the world as configured | the rule "
+            "chooses |", "|---|---|---|---|---|", *rows, ""]
+
+
+def _meets(row) -> str:
+    """A grid point's verdict against the chapter's facts, in words."""
+    if not bool(row["feasible"]):
+        return "does not meet them"
+    return "meets them robustly" if bool(row["robust"]) else "meets them, not robustly"
