@@ -60,6 +60,7 @@ REPORT_TITLE = "# tavc: the reproduction report"
 RUN_FILES = ("config.yaml", "plan.json", "provenance.json", "failures.log")
 SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
 LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
+VALUE_RATIO_DIR = "value_ratio"  # under a results folder: the value-ratio sweep, its table value_ratio.csv in it
 RESULTS_FILES = ("REPORT.md", "REPORT.html", "claims.csv", "value_ratio.csv")
 MODEL_FILES = ("model.csv", "model.json")
 COMPARE_FILES = ("compare.csv", "compare_trials.csv", "compare.md", "compare.png", "compare.svg")
@@ -335,8 +336,8 @@ def take_report_folders(results_dir: Path, horizon_dirs: Sequence[Path] = (), pa
     roots = [(results_dir, ("REPORT.md", "claims.csv", *(["REPORT.html"] if page else []))),
              *((d, ("claims.csv",)) for d in horizon_dirs)]
     drawn = len(roots)
-    if (results_dir / "value_ratio").is_dir():
-        roots.append((results_dir / "value_ratio", ("value_ratio.csv",)))
+    if (results_dir / VALUE_RATIO_DIR).is_dir():
+        roots.append((results_dir / VALUE_RATIO_DIR, ("value_ratio.csv",)))
     for folder, files in roots:
         check_inside(folder, RESULTS, files, what="RESULTS_DIR")
     for folder, _ in roots[:drawn]:

@@ -79,7 +79,7 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
         frames.append(stay_switch_table(times.frame, [float(v) for v in cfg.tasks.values], name))
         values, high = values_high_low(cfg.tasks.values)
         if not hasattr(cfg.learner, "epsilon"):
-            raise TavcError(f"learner={cfg.learner.name}: the make-up model takes an epsilon-greedy learner's "
+            raise TavcError(f"learner={cfg.learner.name}: the drift model takes an epsilon-greedy learner's "
                             "exploration (learner.epsilon); this learner has none")
         epsilon = float(cfg.learner.epsilon)
         prediction = predict(times_of(times.frame, high), len(groups), values, epsilon)
@@ -111,7 +111,7 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
 def summary_lines(table: pd.DataFrame, model: pd.DataFrame | None = None) -> list[str]:
     """Per reading: the range of t_switch / t_stay on the low-value circuit over the make-ups
     with both, against the threshold, and in how many make-ups staying pays (whole task; from
-    the source on); with `model` (`stay_switch_model.csv`), the regime the make-up model
+    the source on); with `model` (`stay_switch_model.csv`), the regime the drift model
     predicts and the robots it puts on the high-value circuit."""
     summary = readings_summary(table, model).set_index("reading")
     lines = []
@@ -124,6 +124,6 @@ def summary_lines(table: pd.DataFrame, model: pd.DataFrame | None = None) -> lis
                      f"(staying pays above {r['threshold']:.3f}) in {r['n']} make-ups; "
                      f"pays in {r['pays']}, timed from the source in {r['pays_source']}")
         if r["regime"] is not None:
-            lines[-1] += (f"; the make-up model: {r['regime']} ({r['basin']:.0%} of starts), "
+            lines[-1] += (f"; the drift model: {r['regime']} ({r['basin']:.0%} of starts), "
                           f"{r['robots_high']:.2f} robots high")
     return lines

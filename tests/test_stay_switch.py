@@ -130,7 +130,7 @@ def test_the_reports_section_reads_the_studys_table(tmp_path):
     assert "![stay and switch in each reading](stay_switch/stay_switch.png)" in text
 
 
-# ---- the make-up model (analysis.makeup_model), on task times set by hand ------------------------
+# ---- the drift model (analysis.makeup_model), on task times set by hand ------------------------
 
 def _times(stay_high, stay_low, switch):
     """Times for every make-up of two robots: stay_high(h), stay_low(l) by robots on the circuit,

@@ -28,6 +28,7 @@ from tavc_cli.ownership import (
     SURROGATE,
     TASKS,
     TURN_TAKING_KIND,
+    VALUE_RATIO_DIR,
     read,
 )
 from tavc_cli.readers import load_json
@@ -40,7 +41,7 @@ from tavc_cli.report.files import (
     natural,
     read_or_refuse,
 )
-from tavc_cli.report.studies import READINGS_RUNS, SWEEP_SETTINGS, TEAM_SIZE_DIR, VALUE_RATIO_DIR, spatiotemporal_lines
+from tavc_cli.report.studies import READINGS_RUNS, SWEEP_SETTINGS, TEAM_SIZE_DIR, spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, to_yaml
 

@@ -16,6 +16,7 @@ from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, reading
 from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
+from tavc_cli.ownership import VALUE_RATIO_DIR  # the value-ratio sweep's folder (`make value-ratio`)
 from tavc_cli.reference import chapter_table
 from tavc_cli.report.figures import figure_link
 from tavc_cli.report.files import config_of, horizon_folders, read_or_refuse
@@ -318,7 +319,6 @@ def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
     return _prediction_words(turn.loc[reading]) if turn is not None and reading in turn.index else ""
 
 
-VALUE_RATIO_DIR = "value_ratio"  # under the results folder: the value-ratio sweep (`make value-ratio`)
 TEAM_SIZE_DIR = "team_size"  # under the results folder: the learners at other team sizes (`make team-size-checks`)
 # the sweeps under the results folder the report reads as studies, each with the setting it varies: a
 # prediction of the turn-taking model that sets it is set beside the sweep's runs at 40x
