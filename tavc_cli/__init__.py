@@ -6,7 +6,7 @@ import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 # The packages whose source compiled (numba) code is made from: the kernels themselves and
 # the modules whose constants and record layouts they freeze in when compiled.
