@@ -362,35 +362,3 @@ def list_figures(taken: list) -> None:
             owned.wrote(*(p.relative_to(owned.folder).as_posix() for p in (owned.folder / "figures").rglob("*")
                           if p.is_file()))
 
-
-def figure_files(taken: list) -> dict[Path, tuple[int, int]]:
-    """Each file under the figures/ of the folders `tavc report` draws in (`take_report_folders`),
-    with its inode and modification time: what a report finds there before it draws."""
-    out = {}
-    for owned in taken:
-        if (owned.folder / "figures").is_dir():
-            for p in (owned.folder / "figures").rglob("*"):
-                if p.is_file() and not p.is_symlink():
-                    stat = p.stat()
-                    out[p] = (stat.st_ino, stat.st_mtime_ns)
-    return out
-
-
-def remove_stale_figures(taken: list, before: dict[Path, tuple[int, int]]) -> list[Path]:
-    """After a report is written: the figures an earlier report drew that this one did not draw
-    again (the same file as `before`, as `figure_files` found it) are removed if tavc wrote them,
-    then the folders under figures/ they leave empty. Every figure is drawn through a new file
-    renamed over the old (`viz.figures.write_figure`), so one drawn again is never the same file."""
-    removed = []
-    for owned in taken:
-        figures = owned.folder / "figures"
-        for path, seen in sorted(before.items()):
-            if figures in path.parents and path.is_file() and not path.is_symlink():
-                stat = path.stat()
-                if (stat.st_ino, stat.st_mtime_ns) == seen and owned.remove(path.relative_to(owned.folder).as_posix()):
-                    removed.append(path)
-        for d in sorted((p for p in figures.rglob("*") if p.is_dir() and not p.is_symlink()),
-                        key=lambda p: len(p.parts), reverse=True) if figures.is_dir() else []:
-            if not any(d.iterdir()):
-                d.rmdir()
-    return removed

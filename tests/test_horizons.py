@@ -308,16 +308,17 @@ def test_the_chapters_experiments_in_another_reading_are_a_counterfactual_column
                                    if line.startswith("| 3 | initial_distribution |")).strip("|").split("|")]
     assert row[2] == "not reproduced" and row[3] == "reproduced"
     assert "another run of initial_distribution" not in report
-    # the reading's calibration search beside its runs says whether the world they used meets the constraints
+    # the reading's calibration search beside its runs says whether the world they used meets the chapter's facts
     search = results / "readings" / "range-left-two_circuits_parallel" / "calibration" / "world"
     search.mkdir(parents=True)
     pd.DataFrame({"point": ["a", "b"], "robot.dock.dwell_s": [0.0, 5.0], "lone_leg_s": [20.0, 25.0],
+                  "arrivals_per_5h": [3000, 2900], "crowding_ratio_6": [1.05, 1.2],
                   "feasible": [False, True], "robust": [False, True], "chosen": [False, True]}).to_csv(
         search / "search.csv", index=False)
     build_report(results)
     note = next(line for line in (results / "REPORT.md").read_text().splitlines()
                 if line.startswith("- `readings/range-left-two_circuits_parallel`: the world these runs used"))
-    assert "(robot.dock.dwell_s 0) does not meet the chapter's constraints" in note
+    assert "(robot.dock.dwell_s 0) does not meet the chapter's facts" in note
     assert note.endswith("its rule chooses robot.dock.dwell_s 5.")
 
 

@@ -255,17 +255,17 @@ def test_a_circuit_that_delivered_nothing_is_left_for_one_that_pays():
 
 
 def test_a_calibration_search_records_the_world_it_was_asked_beside_its_choice(tmp_path):
-    """`tavc calibrate` with the dwell set to 5 s and a grid over the dwell writes the world as
-    asked (`configured`) in search.json, the report's way to judge a reading as configured."""
+    """`tavc calibrate` with the dwell set to 2.5 s, off its grid over the dwell, writes the world
+    as asked (`configured`) in search.json, the report's way to judge a reading as configured."""
     import json
 
     from typer.testing import CliRunner
 
     from tavc_cli.cli import app
 
-    result = CliRunner().invoke(app, ["calibrate", "scale=smoke", "robot.dock.dwell_s=5.0",
+    result = CliRunner().invoke(app, ["calibrate", "scale=smoke", "robot.dock.dwell_s=2.5",
                                       "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0,5.0]}]",
                                       f"output_dir={tmp_path / 'initial_distribution'}"])
     assert result.exit_code == 0, result.output
     record = json.loads((tmp_path / "calibration" / "world" / "search.json").read_text())
-    assert record["configured"] == {"robot.dock.dwell_s": 5.0} and record["n_points"] == 2
+    assert record["configured"] == {"robot.dock.dwell_s": 2.5} and record["n_points"] == 2

@@ -337,9 +337,10 @@ def test_a_model_measured_below_its_own_settings_is_headed_not_a_verdict():
 
 
 def test_a_runs_line_in_the_report_holds_what_decides_its_numbers_and_nothing_a_rerun_changes():
-    """The report's line under a run names its command, seed, trial count and the code digest
-    its trials were computed by; two runs of the same code and settings that differ in version,
-    commit, wall time and trials reused (a rerun, another checkout) give the same line."""
+    """The report's line under a run names its command, seed, trial count and the digests of the
+    code its trials were computed by (tavc's, and a learner's from outside tavc); two runs of the
+    same code and settings that differ in version, commit, wall time and trials reused (a rerun,
+    another checkout) give the same line."""
     from tavc_cli.report.text import run_lines
 
     cfg = config.settings(config.load_config(["experiment=initial_distribution", "scale=paper"]))
@@ -351,15 +352,18 @@ def test_a_runs_line_in_the_report_holds_what_decides_its_numbers_and_nothing_a_
     line = [x for x in run_lines("initial_distribution", Path("."), cfg, first, none, {}) if x.startswith("Run:")]
     assert line == [x for x in run_lines("initial_distribution", Path("."), cfg, again, none, {}) if
                     x.startswith("Run:")]
-    assert line == ["Run: `tavc run experiment=initial_distribution`; root seed 0; 40 trials, by the simulator's code "
-                    "of digest `8ccb620951251eec` (tavc's version and commit, the machine and the wall time: the "
-                    "run's `provenance.json`)."]
+    assert line == ["Run: `tavc run experiment=initial_distribution`; root seed 0; 40 trials, by tavc's code of "
+                    "digest `8ccb620951251eec` (tavc's version and commit, the machine and the wall time: the run's "
+                    "`provenance.json`)."]
+    plugin = {**first, "learner_code": {"/x/mine.py:Mine": {"digest": "abc123", "files": ["mine.py"]}}}
+    assert [x for x in run_lines("initial_distribution", Path("."), cfg, plugin, none, {}) if x.startswith("Run:")] \
+        == [line[0].replace("`8ccb620951251eec`", "`8ccb620951251eec`, /x/mine.py:Mine's of digest `abc123`")]
 
 
 def test_a_figure_an_earlier_report_drew_and_this_one_does_not_is_removed_and_nothing_else(tmp_path):
     """A run's figures in figures/runs/<folder>/ that an earlier report drew are removed, with
-    the folder they leave empty, once the run is gone and the report is written again; every
-    figure the report draws again stays, and the manifest no longer lists what went."""
+    the folders they leave empty (and no other), once the run is gone and the report is written
+    again; every figure the report draws again stays, and the manifest no longer lists what went."""
     from tavc_cli.ownership import read
 
     _run(tmp_path / "initial_distribution", "scale=paper", trials=20)
@@ -370,7 +374,9 @@ def test_a_figure_an_earlier_report_drew_and_this_one_does_not_is_removed_and_no
     old.parent.mkdir(parents=True)
     old.write_bytes(b"drawn by an earlier report")
     read(tmp_path).wrote("figures/runs/gone/state_distribution.png")
+    (tmp_path / "figures" / "empty_before").mkdir()  # a folder no removal empties stays
     _report(tmp_path)
     assert not old.exists() and not (tmp_path / "figures" / "runs").exists()  # nothing else was in runs/
+    assert (tmp_path / "figures" / "empty_before").is_dir()
     assert sorted(p.relative_to(tmp_path) for p in (tmp_path / "figures").rglob("*") if p.is_file()) == kept
     assert "figures/runs/gone/state_distribution.png" not in read(tmp_path).files

@@ -187,10 +187,12 @@ def test_a_prediction_at_other_values_is_set_beside_the_value_ratio_sweeps_run_a
         for name in ("config.yaml", "mechanism.csv", "allocation.csv", "state_time.csv", "convergence.csv"):
             shutil.copy(d / name, tmp_path / "value_ratio" / "converged" / d.name / name)
     where = tmp_path / "turn_taking" / "value_ratio_3000" / "turn_taking"
-    where.mkdir(parents=True)
+    (where / "learners").mkdir(parents=True)
     (where / "turn_taking.json").write_text(json.dumps({
         "regime": "persistence", "robots_high": 4.0, "modal_state": "4:2", "modal_share_pct": 50.0,
-        "overrides": ["experiment=initial_distribution", "tasks.values=[3000,2000]", "scale=paper"]}))
+        "learners_run": "learners"}))
+    # the prediction's own learners ran in the world of the sweep's job at 3000
+    shutil.copy(jobs[3000] / "config.yaml", where / "learners" / "config.yaml")
     rows = [x for x in turn_taking_check_lines(tmp_path) if x.startswith("| value_ratio_3000 |")]
     assert len(rows) == 1 and "`value_ratio/converged/2_tasks.values=_3000,2000_` (8 trials)" in rows[0]
 
@@ -205,10 +207,11 @@ def test_a_readings_folder_name_in_words():
     assert reading_words("mine") == "mine"  # a folder not named after a reading keeps its name
 
 
-def test_a_prediction_at_another_team_size_is_set_beside_the_team_size_sweeps_run_of_that_size(tmp_path):
-    """A prediction with ``team.n_robots=4`` among its overrides is set beside the team-size sweep's
-    40x run of four robots, not beside one of five nor the value-ratio sweep's run at the same
-    values; the sweep's runs are no runs of the chapter's horizon."""
+def test_a_prediction_at_another_team_size_is_set_beside_the_team_size_sweeps_run_in_its_world(tmp_path):
+    """A prediction whose learners ran four robots is set beside the team-size sweep's 40x run
+    of four robots, not beside one of five nor the value-ratio sweep's run of six at the same
+    values; one of four robots at other values is set beside none of them; the sweeps' runs are
+    no runs of the chapter's horizon."""
     import shutil
 
     from tavc_cli.report.runs import run_folders
@@ -218,28 +221,37 @@ def test_a_prediction_at_another_team_size_is_set_beside_the_team_size_sweeps_ru
     job = REPO / "results" / "value_ratio" / "converged" / "1_tasks.values=_2200,2000_"
     if not (job / "mechanism.csv").is_file():
         pytest.skip("the committed value-ratio sweep is not here")
+
+    def config(size: int, values: str = "2200.0") -> str:
+        text = (job / "config.yaml").read_text()
+        assert "n_robots: 6\n" in text and "- 2200.0\n" in text
+        return text.replace("n_robots: 6\n", f"n_robots: {size}\n").replace("- 2200.0\n", f"- {values}\n")
+
     for sweep, size in (("value_ratio", 6), ("team_size", 4), ("team_size", 5)):
         d = tmp_path / sweep / "converged" / f"0_team.n_robots={size}"
         d.mkdir(parents=True)
-        for name in ("mechanism.csv", "allocation.csv", "state_time.csv", "convergence.csv", "config.yaml"):
+        for name in ("mechanism.csv", "allocation.csv", "state_time.csv", "convergence.csv"):
             shutil.copy(job / name, d / name)
-        text = (d / "config.yaml").read_text()
-        assert "n_robots: 6\n" in text
-        (d / "config.yaml").write_text(text.replace("n_robots: 6\n", f"n_robots: {size}\n"))
-    where = tmp_path / "turn_taking" / "team_size_4" / "turn_taking"
-    where.mkdir(parents=True)
-    (where / "turn_taking.json").write_text(json.dumps({
-        "regime": "turn-taking", "robots_high": 2.0, "modal_state": "2:2", "modal_share_pct": 50.0,
-        "overrides": ["experiment=initial_distribution", "team.n_robots=4", "scale=paper"]}))
-    rows = [x for x in turn_taking_check_lines(tmp_path) if x.startswith("| team_size_4 |")]
-    assert len(rows) == 1 and "`team_size/converged/0_team.n_robots=4` (8 trials)" in rows[0]
+        (d / "config.yaml").write_text(config(size))
     assert run_folders(tmp_path) == []
+    for name, learners in (("team_size_4", config(4)), ("team_size_4_at_3000", config(4, "3000.0"))):
+        where = tmp_path / "turn_taking" / name / "turn_taking"
+        (where / "learners").mkdir(parents=True)
+        (where / "learners" / "config.yaml").write_text(learners)
+        (where / "turn_taking.json").write_text(json.dumps({
+            "regime": "turn-taking", "robots_high": 2.0, "modal_state": "2:2", "modal_share_pct": 50.0,
+            "learners_run": "learners"}))
+    lines = turn_taking_check_lines(tmp_path)
+    rows = [x for x in lines if x.startswith("| team_size_4 |")]
+    assert len(rows) == 1 and "`team_size/converged/0_team.n_robots=4` (8 trials)" in rows[0]
+    assert not [x for x in lines if x.startswith("| team_size_4_at_3000 |")]
 
 
 def test_each_readings_calibration_search_is_a_row_with_the_world_asked_judged_and_the_rules_choice(tmp_path):
-    """A reading's search by hand: the point of the world as the search was asked it
-    (`configured`: code read at 1.5 m, no dwell, 61 rays) fails the chapter's facts, another meets
-    them robustly and is chosen; a search that did not record what it was asked is judged "?"."""
+    """Searches by hand: today's world first; a reading whose world as asked (`configured`: code
+    read at 1.5 m, no dwell, 61 rays) fails the chapter's facts while another point meets them
+    robustly and is chosen; one asked about a point off its grid; one that recorded nothing
+    ("?"); a table without the columns a search writes is refused in one line."""
     from tavc_cli.report.counterfactuals import calibration_lines
 
     cols = ["point", "robot.behaviour.read_range_m", "robot.dock.dwell_s", "robot.laser.n_rays", "lone_leg_s",
@@ -249,17 +261,30 @@ def test_each_readings_calibration_search_is_a_row_with_the_world_asked_judged_a
             ["c", 2.0, 10.0, 31, 35.0, 3100, 1.30, True, False, False]]
     assert calibration_lines(tmp_path) == []
     asked = {"robot.behaviour.read_range_m": 1.5, "robot.dock.dwell_s": 0.0, "robot.laser.n_rays": 61}
-    for name, record in (("range-left-two_circuits_parallel", {"configured": asked}),
-                         ("range-nearest-two_circuits_parallel", {})):
-        where = tmp_path / "readings" / name / "calibration" / "world"
-        where.mkdir(parents=True)
-        pd.DataFrame(rows, columns=cols).to_csv(where / "search.csv", index=False)
-        (where / "search.json").write_text(json.dumps(record))
-    table = [x for x in calibration_lines(tmp_path) if x.startswith("| arrival=")]
-    assert table == [
-        "| arrival=range passing=left arena=two_circuits_parallel | read_range_m 1.5, 2; dwell_s 0, 5, 10; n_rays 31, "
-        "61 | 1 / 2 of 3 | does not meet them | read_range_m 2, dwell_s 5, n_rays 31; 3919 arrivals per 5 h, "
-        "t(4 on a circuit) / t(3) 1.20 |",
-        "| arrival=range passing=nearest arena=two_circuits_parallel | read_range_m 1.5, 2; dwell_s 0, 5, 10; "
-        "n_rays 31, 61 | 1 / 2 of 3 | ? | read_range_m 2, dwell_s 5, n_rays 31; 3919 arrivals per 5 h, "
-        "t(4 on a circuit) / t(3) 1.20 |"]
+    for where, record in (
+            ("calibration/world", {"configured": {"robot.behaviour.read_range_m": 2.0, "robot.dock.dwell_s": 10.0,
+                                                  "robot.laser.n_rays": 31},
+                                   "measurement": {"confidence": 0.9}}),
+            ("readings/range-left-two_circuits_parallel/calibration/world",
+             {"configured": asked, "measurement": {"confidence": 0.9}}),
+            ("readings/range-left-two_circuits/calibration/world",
+             {"configured": {**asked, "robot.dock.dwell_s": 2.5}}),
+            ("readings/range-nearest-two_circuits_parallel/calibration/world", {})):
+        (tmp_path / where).mkdir(parents=True)
+        pd.DataFrame(rows, columns=cols).to_csv(tmp_path / where / "search.csv", index=False)
+        (tmp_path / where / "search.json").write_text(json.dumps(record))
+    lines = calibration_lines(tmp_path)
+    table = [x.split(" | ")[0].lstrip("| ") + " | " + x.split(" | ")[3] for x in lines if x.startswith("| ")][1:]
+    assert table == ["today's world | meets the chapter's facts, not robustly",
+                     "arrival=range passing=left arena=two_circuits | is not on its grid",
+                     "arrival=range passing=left arena=two_circuits_parallel | does not meet the chapter's facts",
+                     "arrival=range passing=nearest arena=two_circuits_parallel | ?"]
+    row = [x for x in lines if x.startswith("| arrival=range passing=left arena=two_circuits_parallel |")][0]
+    assert row == ("| arrival=range passing=left arena=two_circuits_parallel | read_range_m 1.5, 2; dwell_s 0, 5, "
+                   "10; n_rays 31, 61 | 1 / 2 of 3 | does not meet the chapter's facts | read_range_m 2, dwell_s 5, "
+                   "n_rays 31; 3919 arrivals per 5 h, t(4 on a circuit) / t(3) 1.20 |")
+    assert "robustly to the intervals of its measurement" in lines[2]  # the searches did not all say their level
+    pd.DataFrame([r[:5] for r in rows], columns=cols[:5]).to_csv(tmp_path / "calibration" / "world" / "search.csv",
+                                                               index=False)
+    with pytest.raises(TavcError, match=r"calibration/world/search.csv: cannot be read \(no column arrivals_per_5h"):
+        calibration_lines(tmp_path)

@@ -33,19 +33,19 @@ from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
-from tavc_cli.ownership import figure_files, list_figures, remove_stale_figures, take_report_folders
+from tavc_cli.ownership import list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
-from tavc_cli.report.counterfactuals import calibration_lines, counterfactual_lines
-from tavc_cli.report.drawing import FigurePool
+from tavc_cli.report.counterfactuals import calibration_lines, calibration_tables, counterfactual_lines, read_search
+from tavc_cli.report.drawing import FigurePool, figure_files, remove_stale_figures
 from tavc_cli.report.figures import find_model
 from tavc_cli.report.files import config_of, horizon_folders, read_or_refuse
 from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import LADDER, finished_runs, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
-from tavc_cli.report.studies import STAY_SWITCH_DIR, SWEEP_SETTINGS, stay_switch_lines, value_ratio_lines
+from tavc_cli.report.studies import STAY_SWITCH_DIR, SWEEPS, stay_switch_lines, sweep_runs, value_ratio_lines
 from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
@@ -54,16 +54,15 @@ from tavc_cli.report.time_scale import time_scale_lines
 def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: dict[str, list[Path]]) -> None:
     """Check every file the report reads, and where it writes, before writing anything: a
     damaged file is one line naming it, not a half-built report. Every run of every horizon
-    and of the value-ratio sweep (`schema.check_run`: its config.yaml, provenance.json and
-    tables), the models' outputs, the ladders' tables, the readings' study's tables."""
+    and of the sweeps (`studies.SWEEPS`; `schema.check_run`: its config.yaml, provenance.json and
+    tables), the models' outputs, the ladders' tables, the readings' study's tables, the calibration
+    searches' tables."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")
     folders = [d for runs in horizon_runs for ds in runs.values() for d in ds]
-    for sweep in SWEEP_SETTINGS:  # their runs as `analysis.value_ratio` and the turn-taking checks find them
-        if (results_dir / sweep).is_dir():
-            folders += sorted(p.parent for p in (results_dir / sweep).rglob("trial_stats.csv")
-                              if (p.parent / "config.yaml").is_file())
+    for sweep in SWEEPS:  # their runs with tables, as `analysis.value_ratio` and the turn-taking checks read them
+        folders += [d for d in sweep_runs(results_dir, sweep) if (d / "trial_stats.csv").is_file()]
     ladders = [d / LADDER / "ladder.csv" for d in horizon_dirs if (d / LADDER / "ladder.csv").is_file()]
     for ladder in ladders:  # the rungs whose claims the ladder's table tests again
         folders += sorted(p.parent for p in ladder.parent.glob("*/trial_stats.csv")
@@ -77,6 +76,8 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     for name in ("stay_switch.csv", "stay_switch_model.csv", "stay_switch_turn_taking.csv"):  # read as a whole
         if (results_dir / STAY_SWITCH_DIR / name).is_file():
             read_or_refuse(results_dir / STAY_SWITCH_DIR / name, pd.read_csv)
+    for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
+        read_search(table)
 
 
 def build_report(results_dir: Path, progress: Callable[[str], None] | None = None, page: bool = False) -> dict:
@@ -166,7 +167,9 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     write_text_atomic(results_dir / "REPORT.md", "\n".join(lines))
     if page:
         write_report_html(results_dir)
-    remove_stale_figures(taken, drawn_before)  # what an earlier report drew and this one did not
+    stale = remove_stale_figures(taken, drawn_before)  # what an earlier report drew and this one did not
+    if stale:
+        say(f"report: removed {len(stale)} figure(s) an earlier report drew and this one did not")
     list_figures(taken)
     say(f"report: written in {time.perf_counter() - start:.0f} s")
     out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,

@@ -15,11 +15,13 @@ import json
 from operator import attrgetter
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.analysis.stay_switch import GRID
+from tavc_cli.errors import TavcError
 from tavc_cli.report.files import horizon_folders, is_run_folder, natural, read_or_refuse
 from tavc_cli.report.horizons import Horizon, mechanism_cell, read_horizon
 from tavc_cli.report.runs import finished_runs
@@ -94,82 +96,113 @@ def counterfactual_lines(base: Horizon, results_dir: Path) -> list[str]:
 
 
 def calibration_words(results_dir: Path, where: str, h: Horizon) -> list[str]:
-    """Whether the world a reading's runs used meets the chapter's constraints, by the reading's
-    own calibration search beside them (`calibration/world/search.csv`, `tavc calibrate`): the
-    grid point of its settings (from its first run's config), and the point the rule chose."""
+    """Whether the world a reading's runs used meets the chapter's facts, by the reading's own
+    calibration search beside them (`calibration/world/search.csv`, `tavc calibrate`): the grid
+    point of its settings (from its first run's config), and the point the rule chose."""
     table = results_dir / where / "calibration" / "world" / "search.csv"
     if not table.is_file() or not h.read:
         return []
-    search = read_or_refuse(table, pd.read_csv)
-    keys = [c for c in search.columns[1:search.columns.get_loc("lone_leg_s")]]
+    search, keys, _ = read_search(table)
     cfg = next(iter(h.read.values()))[0]
-    mine = search
-    for key in keys:
-        mine = mine[mine[key].astype(float) == float(attrgetter(key)(cfg))]
-    setting = ", ".join(f"{k} {float(attrgetter(k)(cfg)):g}" for k in keys)
-    chosen = search[search["chosen"].astype(bool)]
-    pick = ", ".join(f"{k} {float(chosen[k].iloc[0]):g}" for k in keys) if len(chosen) else "none"
-    if mine.empty:
-        verdict = "is not on its grid"
-    else:
-        row = mine.iloc[0]
-        verdict = ("meets the chapter's constraints (1.3) and (1.4)" + (" robustly" if bool(row["robust"]) else "")
-                   if bool(row["feasible"]) else "does not meet the chapter's constraints (1.3) and (1.4)")
+    used = {k: float(attrgetter(k)(cfg)) for k in keys}
+    setting = ", ".join(f"{k} {v:g}" for k, v in used.items())
     rel = table.relative_to(results_dir).as_posix()
-    return [f"- `{where}`: the world these runs used ({setting}) {verdict}, by the reading's calibration search "
-            f"(`{rel}`); its rule chooses {pick}."]
+    return [f"- `{where}`: the world these runs used ({setting}) {_verdict(search, keys, used)}, by the reading's "
+            f"calibration search (`{rel}`); its rule chooses {_pick(search, keys, long=False)}."]
 
 
-
-def calibration_lines(results_dir: Path) -> list[str]:
-    """Each reading's calibration search (`readings/<reading>/calibration/world/search.csv`,
-    `make calibrate-readings`; today's world's `calibration/world/` first), a row each: how many
-    points of its grid meet the chapter's facts (the intended split the equilibrium of six and of
-    five robots, constraints (1.3) and (1.4)), robustly and at all; whether the world as the search
-    was asked it (`search.json`'s ``configured``: a reading's defaults) does; and the point the
-    search's rule chooses, with its arrivals per 5 h and crowding ratio."""
+def calibration_tables(results_dir: Path) -> list[tuple[str, Path]]:
+    """(its name in words, its search.csv) for today's world's calibration search
+    (`calibration/world/`, `tavc calibrate scale=paper`) and each reading's
+    (`readings/<reading>/calibration/world/`, `make calibrate-readings`), in that order."""
+    today = results_dir / "calibration" / "world" / "search.csv"
     base = results_dir / READINGS_RUNS
     tables = sorted(base.glob("*/calibration/world/search.csv"), key=lambda p: natural(p.parents[2].name)) \
         if base.is_dir() else []
-    today = results_dir / "calibration" / "world" / "search.csv"  # today's world's, `tavc calibrate scale=paper`
-    found = [("today's world", today)] if today.is_file() else []
-    found += [(reading_words(t.parents[2].name), t) for t in tables]
-    rows = []
-    for words, table in found:
-        search = read_or_refuse(table, pd.read_csv)
-        record = table.with_suffix(".json")
-        configured = read_or_refuse(record, lambda p: json.loads(p.read_text())).get("configured") \
-            if record.is_file() else None
-        keys = list(search.columns[1:search.columns.get_loc("lone_leg_s")])
-        mine = search
-        for key in keys if configured is not None else []:
-            mine = mine[mine[key].astype(float) == float(configured.get(key, "nan"))]
-        as_asked = "?" if configured is None else ("not on its grid" if mine.empty else _meets(mine.iloc[0]))
-        chosen = search[search["chosen"].astype(bool)]
-        pick = "none" if chosen.empty else (
-            ", ".join(f"{k.rsplit('.', 1)[-1]} {float(chosen[k].iloc[0]):g}" for k in keys)
-            + f"; {chosen['arrivals_per_5h'].iloc[0]:.0f} arrivals per 5 h, t(4 on a circuit) / t(3) "
-            f"{chosen['crowding_ratio_6'].iloc[0]:.2f}" + ("" if bool(chosen["robust"].iloc[0]) else " (not robust)"))
+    return [*([("today's world", today)] if today.is_file() else []),
+            *((reading_words(t.parents[2].name), t) for t in tables)]
+
+
+def read_search(table: Path) -> tuple[pd.DataFrame, list[str], dict]:
+    """A world search's table, its grid's keys (the columns between the point's id and
+    `lone_leg_s`) and its record (`search.json` beside it, empty where there is none); a table
+    or record that cannot be read, or does not say what it must, refused in one line."""
+    search = read_or_refuse(table, pd.read_csv)
+    record = table.with_suffix(".json")
+    facts = read_or_refuse(record, lambda p: json.loads(p.read_text())) if record.is_file() else {}
+    needed = {"lone_leg_s", "arrivals_per_5h", "crowding_ratio_6", "feasible", "robust", "chosen"}
+    if not needed <= set(search.columns) or not isinstance(facts, dict):
+        missing = sorted(needed - set(search.columns))
+        raise TavcError(f"{table if missing else record}: cannot be read (" + (
+            f"no column {missing[0]}" if missing else "not a JSON object") + "); rerun its `tavc calibrate`")
+    keys = list(search.columns[1:search.columns.get_loc("lone_leg_s")])
+    try:
+        search[keys].astype(float)
+    except (TypeError, ValueError):
+        raise TavcError(f"{table}: cannot be read (a grid setting that is not a number); rerun its `tavc calibrate`"
+                        ) from None
+    return search, keys, facts
+
+
+def _verdict(search: pd.DataFrame, keys: list[str], settings: dict | None) -> str:
+    """Whether the grid point of `settings` meets the chapter's facts, in words: "?" where the
+    settings are not known, "is not on its grid" where no point has them."""
+    if settings is None or any(k not in settings for k in keys):
+        return "?"
+    mine = search
+    for key in keys:
+        mine = mine[np.isclose(mine[key].astype(float), float(settings[key]), rtol=1e-6, atol=0.0)]
+    if mine.empty:
+        return "is not on its grid"
+    row = mine.iloc[0]
+    if not bool(row["feasible"]):
+        return "does not meet the chapter's facts"
+    return "meets the chapter's facts robustly" if bool(row["robust"]) else "meets the chapter's facts, not robustly"
+
+
+def _pick(search: pd.DataFrame, keys: list[str], long: bool = True) -> str:
+    """The point the search's rule chose, in words (with its arrivals and crowding, `long`)."""
+    chosen = search[search["chosen"].astype(bool)]
+    if chosen.empty:
+        return "none"
+    row = chosen.iloc[0]
+    words = ", ".join(f"{k.rsplit('.', 1)[-1] if long else k} {float(row[k]):g}" for k in keys)
+    if long:
+        words += (f"; {row['arrivals_per_5h']:.0f} arrivals per 5 h, t(4 on a circuit) / t(3) "
+                  f"{row['crowding_ratio_6']:.2f}" + ("" if bool(row["robust"]) else " (not robust)"))
+    return words
+
+
+def calibration_lines(results_dir: Path) -> list[str]:
+    """Each calibration search (`calibration_tables`), a row each: how many points of its grid
+    meet the chapter's facts (the intended split the equilibrium of six and of five robots,
+    constraints (1.3) and (1.4)), robustly and at all; whether the world the search was asked
+    about does (`search.json`'s ``configured``: a reading's defaults); and the point its rule
+    chooses, with its arrivals per 5 h and crowding ratio."""
+    rows, levels = [], set()
+    for words, table in calibration_tables(results_dir):
+        search, keys, facts = read_search(table)
+        levels.add(facts.get("measurement", {}).get("confidence") if isinstance(facts.get("measurement"), dict)
+                   else None)
+        configured = facts.get("configured")
         grid = "; ".join(f"{k.rsplit('.', 1)[-1]} " + ", ".join(f"{v:g}" for v in sorted(set(search[k].astype(float))))
                          for k in keys)
-        rows.append(f"| {words} | {grid} | {int(search['robust'].sum())} / {int(search['feasible'].sum())} of "
-                    f"{len(search)} | {as_asked} | {pick} |")
+        rows.append(f"| {words} | {grid} | {int(search['robust'].astype(bool).sum())} / "
+                    f"{int(search['feasible'].astype(bool).sum())} of {len(search)} | "
+                    f"{_verdict(search, keys, configured if isinstance(configured, dict) else None)} | "
+                    f"{_pick(search, keys)} |")
     if not rows:
         return []
+    level = next(iter(levels)) if len(levels) == 1 and None not in levels else None
+    robust = f"robustly to the {100 * float(level):g} % intervals" if level is not None else \
+        "robustly to the intervals of its measurement"
     return ["## The readings calibrated against the chapter's facts", "",
             "Each reading's own search of what the chapter leaves unsaid (`make calibrate-readings`: `tavc "
             "calibrate` with the reading's groups, `scale=paper`, into `readings/<reading>/calibration/world/`; "
             "grids fixed before the runs), under the rule that chose today's world (`calibration/world/`): of the "
             "points that meet the chapter's facts (the intended split the equilibrium of six and of five robots, "
-            "constraints (1.3) and (1.4)) robustly to the 90 % intervals, the one with the most arrivals per 5 h. "
-            "Whether the world as configured (a reading's defaults, the world its runs used unless said) meets "
-            "them, and what the rule chooses.", "",
+            f"constraints (1.3) and (1.4)) {robust}, the one with the most arrivals per 5 h. Whether the world as "
+            "configured (a reading's defaults, the world its runs used unless said) meets them, and what the rule "
+            "chooses.", "",
             "| reading | grid | points meeting the facts: robustly / at all | the world as configured | the rule "
             "chooses |", "|---|---|---|---|---|", *rows, ""]
-
-
-def _meets(row) -> str:
-    """A grid point's verdict against the chapter's facts, in words."""
-    if not bool(row["feasible"]):
-        return "does not meet them"
-    return "meets them robustly" if bool(row["robust"]) else "meets them, not robustly"

@@ -1,4 +1,5 @@
-"""The processes that draw the report's figures while its text is written."""
+"""The processes that draw the report's figures while its text is written, and the figures an
+earlier report drew that this one did not, removed once it is written."""
 
 from __future__ import annotations
 
@@ -7,6 +8,10 @@ import os
 import signal
 import sys
 from concurrent.futures import Future, ProcessPoolExecutor
+from pathlib import Path
+
+from tavc_cli.errors import TavcError
+from tavc_cli.io import owned_path
 
 
 class FigurePool:
@@ -48,3 +53,47 @@ def figure_worker_start() -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     worker_start()
+
+
+def figure_files(taken: list) -> dict[Path, tuple[int, int]]:
+    """Each file under the figures/ of the folders `tavc report` draws in
+    (`ownership.take_report_folders`), with its inode and modification time: what a report finds
+    there before it draws."""
+    out = {}
+    for owned in taken:
+        for p in (owned.folder / "figures").rglob("*") if (owned.folder / "figures").is_dir() else ():
+            if p.is_file() and not p.is_symlink():
+                stat = p.stat()
+                out[p] = (stat.st_ino, stat.st_mtime_ns)
+    return out
+
+
+def remove_stale_figures(taken: list, before: dict[Path, tuple[int, int]]) -> list[Path]:
+    """After a report is written: the figures an earlier report drew that this one did not draw
+    again (still the file `figure_files` found) are removed where tavc wrote them (the folder's
+    manifest lists them), then each folder under figures/ that a removal left empty. Every
+    figure is drawn through a new file renamed over the old (`viz.figures.write_figure`), so one
+    drawn again is never the same file. Nothing on a path through a link is touched."""
+    removed = []
+    for owned in taken:
+        figures = owned.folder / "figures"
+        for path, seen in sorted(before.items()):
+            name = path.relative_to(owned.folder).as_posix() if figures in path.parents else None
+            if name is None or not owned.owns(name):
+                continue
+            try:
+                owned_path(owned.folder, path)
+            except TavcError:
+                continue  # a link, a pipe or a folder where the figure was: not tavc's to remove
+            stat = path.lstat() if path.is_file() else None
+            if stat is not None and (stat.st_ino, stat.st_mtime_ns) == seen:
+                path.unlink()
+                owned.files.discard(name)
+                removed.append(path)
+        if any(figures in p.parents for p in removed):
+            owned.save()
+        for d in sorted({p.parent for p in removed if figures in p.parents}, key=lambda d: -len(d.parts)):
+            while d != figures and d.is_dir() and not d.is_symlink() and not any(d.iterdir()):
+                d.rmdir()
+                d = d.parent
+    return removed

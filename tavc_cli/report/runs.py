@@ -28,7 +28,6 @@ from tavc_cli.ownership import (
     SURROGATE,
     TASKS,
     TURN_TAKING_KIND,
-    VALUE_RATIO_DIR,
     read,
 )
 from tavc_cli.readers import load_json
@@ -41,14 +40,14 @@ from tavc_cli.report.files import (
     natural,
     read_or_refuse,
 )
-from tavc_cli.report.studies import READINGS_RUNS, SWEEP_SETTINGS, TEAM_SIZE_DIR, spatiotemporal_lines
+from tavc_cli.report.studies import READINGS_RUNS, SWEEPS, spatiotemporal_lines, sweep_runs
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, to_yaml
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
 # folders directly under the results folder that the report reads otherwise than run by run:
 # the longer horizons (`horizon_folders`, their runs found there in turn), the sweeps of the value
-# ratio and the team size (`studies.SWEEP_SETTINGS`) and the runs in other readings (`studies.READINGS_RUNS`);
+# ratio and the team size (`studies.SWEEPS`) and the runs in other readings (`studies.READINGS_RUNS`);
 # under a horizon, the horizon ladder (`time_scale.ladder_lines`) and its readings
 LADDER = "ladder"
 
@@ -70,13 +69,13 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
     """Every run folder under `folder` at any depth (`is_run_folder`), in natural order of
     their paths: a run's own folder is not searched further (its `trials/`, `model/`), nor
     `figures/`, hidden folders, or what the report reads otherwise (directly under the results
-    folder, `top`: the longer horizons, the value-ratio sweep and the runs in other readings of
+    folder, `top`: the longer horizons, the sweeps (`studies.SWEEPS`) and the runs in other readings of
     the world, `readings/`; a `ladder/` with its `ladder.csv`). A link is not followed: each run
     is found once, where it lies, and a link that loops back leads nowhere."""
     out = []
     for d in sorted((p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()),
                     key=lambda p: natural(p.name)):
-        read_otherwise = top and (d.name in (*SWEEP_SETTINGS, READINGS_RUNS) or is_horizon_folder(d))
+        read_otherwise = top and (d.name in (*SWEEPS, READINGS_RUNS) or is_horizon_folder(d))
         if d.name == "figures" or d.name.startswith(".") or read_otherwise \
                 or (d.name == LADDER and (d / "ladder.csv").is_file()):
             continue
@@ -104,7 +103,7 @@ def finished_runs(results_dir: Path) -> tuple[dict[str, list[Path]], list[Path]]
 
 def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
     """(what reads them, run folders) for the studies the report reads as a whole: the
-    horizon ladder's rungs, the runs in other readings, the value-ratio and team-size sweeps' runs."""
+    horizon ladder's rungs, the runs in other readings, the sweeps' runs (`studies.SWEEPS`)."""
     out = []
     for horizon in horizon_folders(results_dir):
         ladder = horizon / LADDER
@@ -119,16 +118,10 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
         if found:
             out.append(("runs in other readings of the world, in *The readings* (the models' check points) and "
                         "*In other readings of the world* (the chapter's experiments)", [p.parent for p in found]))
-    ratio = results_dir / VALUE_RATIO_DIR
-    if ratio.is_dir():
-        found = sorted((p.parent for p in ratio.rglob("config.yaml")), key=lambda p: natural(p.as_posix()))
+    for folder, what in SWEEPS.items():
+        found = sweep_runs(results_dir, folder)
         if found:
-            out.append(("the value-ratio sweep, in *Learning values and time*", found))
-    sizes = results_dir / TEAM_SIZE_DIR
-    if sizes.is_dir():
-        found = sorted((p.parent for p in sizes.rglob("config.yaml")), key=lambda p: natural(p.as_posix()))
-        if found:
-            out.append(("the team-size sweep, in *The readings* (the turn-taking model's check points)", found))
+            out.append((what, found))
     return out
 
 

@@ -4,11 +4,9 @@ traversal times, policies and lanes, and the value-ratio sweep (`make value-rati
 from __future__ import annotations
 
 import json
-from functools import reduce
 from pathlib import Path
 
 import pandas as pd
-import yaml
 from scipy import stats
 
 from tavc_cli.analysis.makeup_model import expected_high, predicted_regime, readings_summary
@@ -19,7 +17,7 @@ from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import VALUE_RATIO_DIR  # the value-ratio sweep's folder (`make value-ratio`)
 from tavc_cli.reference import chapter_table
 from tavc_cli.report.figures import figure_link
-from tavc_cli.report.files import config_of, horizon_folders, read_or_refuse
+from tavc_cli.report.files import config_of, horizon_folders, natural, read_or_refuse
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.text import fmt
 from tavc_cli.settings import TavcConfig
@@ -228,7 +226,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
     for path in found:
         predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))
         name = path.parent.parent.name
-        for d in _learners_runs(results_dir, name, predicted):
+        for d in _learners_runs(results_dir, name, predicted, path.parent):
             if not all((d / f"{t}.csv").is_file() for t in ("mechanism", "state_time")):
                 continue
             learners = _learners(d)
@@ -246,37 +244,39 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             f"(`<horizon>/<name>`, `<horizon>/{READINGS_RUNS}/<name>`) and the value-ratio sweep's at 40x. The "
             "scenarios' and the sweep's runs were made before the model, which was fixed before its predictions "
             "were set beside them; a world of its own is checked at a point fixed before its run." + (
-                f" At other team sizes (`make team-size-checks`: `team_size_<n>` beside `{TEAM_SIZE_DIR}/`'s runs at "
-                "40x) the sizes, the model's predictions and the learners' runs were made in that order, each "
-                "committed before the next was read." if (results_dir / TEAM_SIZE_DIR).is_dir() else ""), "",
+                f" At other team sizes, `make team-size-checks` predicts (`{TURN_TAKING_RUNS}/team_size_<n>/`) "
+                f"and then runs the learners at 40x (`{TEAM_SIZE_DIR}/`)." if (results_dir / TEAM_SIZE_DIR).is_dir()
+                else ""), "",
             "| prediction | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
             "model | the same regime; modal state |", "|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
 
 
-def _learners_runs(results_dir: Path, name: str, predicted: dict) -> list[Path]:
-    """The learners' runs a prediction named `name` is for: `<horizon>/<name>` and
-    `<horizon>/readings/<name>` (a world of its own, e.g. a reading as calibrated) at every
-    longer horizon; for a prediction that sets what a sweep varies (`SWEEP_SETTINGS`: the task
-    values, the team size) among its overrides, that sweep's runs of the base case at
-    scale=converged with the same setting."""
+def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path) -> list[Path]:
+    """The learners' runs a prediction named `name` (its folder `where`) is for:
+    `<horizon>/<name>` and `<horizon>/readings/<name>` (a world of its own, e.g. a reading as
+    calibrated) at every longer horizon; and, for a prediction of the base case, every run of a
+    sweep (`SWEEPS`) at scale=converged in the world its own learners ran in (`WORLD`: the same
+    arena, robots, team, tasks and events as their `config.yaml`)."""
     runs = [d for h in horizon_folders(results_dir) for d in (h / name, h / READINGS_RUNS / name)]
-    given = dict(o.split("=", 1) for o in predicted.get("overrides", []) if "=" in o)
-    for folder, key in SWEEP_SETTINGS.items():
-        sweep = results_dir / folder
-        if key not in given or not sweep.is_dir():
-            continue
-        wanted = _numbers(yaml.safe_load(given[key]))
-        for path in sorted(sweep.rglob("config.yaml"), key=lambda p: p.as_posix()):
-            cfg = config_of(path)
-            if cfg.scale.name == "converged" and cfg.experiment_name == base_case().name and \
-                    _numbers(reduce(getattr, key.split("."), cfg)) == wanted and cfg.tasks.time_unit == "ms":
-                runs.append(path.parent)
+    own_path = where / str(predicted.get("learners_run", "learners")) / "config.yaml"
+    own = read_or_refuse(own_path, config_of) if own_path.is_file() else None
+    if own is None or own.experiment_name != base_case().name:
+        return runs
+    for folder in SWEEPS:
+        for d in sweep_runs(results_dir, folder):
+            cfg = read_or_refuse(d / "config.yaml", config_of)
+            if cfg.scale.name == "converged" and cfg.experiment_name == own.experiment_name and \
+                    all(getattr(cfg, k) == getattr(own, k) for k in WORLD):
+                runs.append(d)
     return runs
 
 
-def _numbers(value) -> list[float]:
-    """A setting's value, a number or a list of them, as a list of floats (2000 and 2000.0 alike)."""
-    return [float(v) for v in (value if isinstance(value, (list, tuple)) else [value])]
+def sweep_runs(results_dir: Path, folder: str) -> list[Path]:
+    """The runs of the sweep in `results_dir/folder` (`SWEEPS`), finished or not: every folder
+    with a `config.yaml` at any depth, in natural order of their paths."""
+    root = results_dir / folder
+    return sorted((p.parent for p in root.rglob("config.yaml")), key=lambda p: natural(p.as_posix())) \
+        if root.is_dir() and not root.is_symlink() else []
 
 
 def _learners(d: Path) -> dict:
@@ -320,9 +320,11 @@ def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
 
 
 TEAM_SIZE_DIR = "team_size"  # under the results folder: the learners at other team sizes (`make team-size-checks`)
-# the sweeps under the results folder the report reads as studies, each with the setting it varies: a
-# prediction of the turn-taking model that sets it is set beside the sweep's runs at 40x
-SWEEP_SETTINGS = {VALUE_RATIO_DIR: "tasks.values", TEAM_SIZE_DIR: "team.n_robots"}
+# the sweeps under the results folder the report reads as studies, not run by run, each with where
+# it is read: a prediction of the turn-taking model is set beside their runs at 40x in its world
+SWEEPS = {VALUE_RATIO_DIR: "the value-ratio sweep, in *Learning values and time*",
+          TEAM_SIZE_DIR: "the team-size sweep, in *The readings* (the turn-taking model's check points)"}
+WORLD = ("arena", "robot", "team", "tasks", "events")  # the settings that make a run's world and its task
 TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
 READINGS_RUNS = "readings"  # under a longer horizon's folder: the base case in a reading, <arrival>-<passing>-<arena>
 

@@ -280,10 +280,13 @@ def run_lines(name: str, d: Path, cfg: TavcConfig, prov: dict, claims: pd.DataFr
     # only what decides the run's numbers: the version, commit, wall time and trials reused of
     # whoever ran it last are in its provenance.json, and a rerun of the same code and settings
     # leaves this line as it was
+    learners = prov.get("learner_code") or {}  # learners from outside tavc, by their own code's digest
+    theirs = "".join(f", {target}'s of digest `{v.get('digest', '?')}`" for target, v in sorted(learners.items())
+                     if isinstance(v, dict))
     lines += [f"Run: `{command}`; root seed {prov.get('root_seed', cfg.seed)}; "
-              f"{len(prov.get('trials', []))} trials, by the simulator's code of digest "
-              f"`{prov.get('code_digest') or '?'}` (tavc's version and commit, the machine and the wall "
-              "time: the run's `provenance.json`).", ""]
+              f"{len(prov.get('trials', []))} trials, by tavc's code of digest `{prov.get('code_digest') or '?'}`"
+              f"{theirs} (tavc's version and commit, the machine and the wall time: the run's "
+              "`provenance.json`).", ""]
     lines += late_start_lines(cfg, read_plan(d, cfg))
     if diffs:
         lines += ["Differs from the chapter: " + "; ".join(diffs) + ".", ""]
