@@ -220,7 +220,8 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
     today's world, and in worlds of their own: for each prediction
     `turn_taking/<name>/turn_taking/turn_taking.json` (`tavc model --turn-taking`), the learners'
     runs it predicts (`_learners_runs`), read as in `_beside`."""
-    found = sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")) \
+    found = sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json"),
+                   key=lambda p: natural(p.as_posix())) \
         if (results_dir / TURN_TAKING_RUNS).is_dir() else []
     rows, tallies = [], []
     for path in found:
