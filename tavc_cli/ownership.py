@@ -361,4 +361,3 @@ def list_figures(taken: list) -> None:
         if (owned.folder / "figures").is_dir():
             owned.wrote(*(p.relative_to(owned.folder).as_posix() for p in (owned.folder / "figures").rglob("*")
                           if p.is_file()))
-

@@ -182,8 +182,8 @@ def calibration_lines(results_dir: Path) -> list[str]:
     rows, levels = [], set()
     for words, table in calibration_tables(results_dir):
         search, keys, facts = read_search(table)
-        levels.add(facts.get("measurement", {}).get("confidence") if isinstance(facts.get("measurement"), dict)
-                   else None)
+        measurement = facts.get("measurement")
+        levels.add(measurement.get("confidence") if isinstance(measurement, dict) else None)
         configured = facts.get("configured")
         grid = "; ".join(f"{k.rsplit('.', 1)[-1]} " + ", ".join(f"{v:g}" for v in sorted(set(search[k].astype(float))))
                          for k in keys)

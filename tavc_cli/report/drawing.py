@@ -77,6 +77,7 @@ def remove_stale_figures(taken: list, before: dict[Path, tuple[int, int]]) -> li
     removed = []
     for owned in taken:
         figures = owned.folder / "figures"
+        mine = []
         for path, seen in sorted(before.items()):
             name = path.relative_to(owned.folder).as_posix() if figures in path.parents else None
             if name is None or not owned.owns(name):
@@ -89,11 +90,12 @@ def remove_stale_figures(taken: list, before: dict[Path, tuple[int, int]]) -> li
             if stat is not None and (stat.st_ino, stat.st_mtime_ns) == seen:
                 path.unlink()
                 owned.files.discard(name)
-                removed.append(path)
-        if any(figures in p.parents for p in removed):
+                mine.append(path)
+        if mine:
             owned.save()
-        for d in sorted({p.parent for p in removed if figures in p.parents}, key=lambda d: -len(d.parts)):
+        for d in sorted({p.parent for p in mine}, key=lambda d: -len(d.parts)):
             while d != figures and d.is_dir() and not d.is_symlink() and not any(d.iterdir()):
                 d.rmdir()
                 d = d.parent
+        removed += mine
     return removed
