@@ -281,10 +281,10 @@ def test_runs_in_another_reading_of_the_world_are_never_a_horizons_claims(two_ho
     assert len(listed) == 2 and "`x80/readings/`" in listed[1] and "`converged/readings/`" in listed[0]
 
 
-def test_the_chapters_experiments_in_another_reading_are_a_counterfactual_column_never_the_headline(
+def test_the_chapters_experiments_in_another_reading_are_counterfactual_rows_never_the_headline(
         two_horizons, tmp_path):
     """initial_distribution run in another reading (`readings/<reading>/initial_distribution`,
-    3:3 at 60 % where today's world has it at 20 %): its claims get a column of their own, with
+    3:3 at 60 % where today's world has it at 20 %): its claims get rows of their own, with
     the reading in words; the headline counts and claims.csv stay today's world's."""
     import shutil
 
@@ -300,13 +300,17 @@ def test_the_chapters_experiments_in_another_reading_are_a_counterfactual_column
     assert after["n_reproduced"] == before["n_reproduced"] and after["n_reproduced_long"] == before["n_reproduced_long"]
     pd.testing.assert_frame_equal(after["claims"], before["claims"])
     report = (results / "REPORT.md").read_text()
-    section = report[report.index("## In other readings of the world: counterfactuals"):]
-    head = next(line for line in section.splitlines() if line.startswith("| claim |"))
-    assert ("in a world where arrival=range passing=left arena=two_circuits_parallel (1x, "
-            "`readings/range-left-two_circuits_parallel`)") in head
-    row = [c.strip() for c in next(line for line in section.splitlines()
-                                   if line.startswith("| 3 | initial_distribution |")).strip("|").split("|")]
-    assert row[2] == "not reproduced" and row[3] == "reproduced"
+    start = report.index("## In other readings of the world: counterfactuals")
+    section = report[start:report.index("\n## ", start)]
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in section.splitlines()
+            if line.startswith("| 3 | initial_distribution |")]
+    assert [r[2] for r in rows] == ["today's world (1x, the headline)",
+                                    "arrival=range passing=left arena=two_circuits_parallel (1x, "
+                                    "`readings/range-left-two_circuits_parallel`)"]
+    assert [r[3] for r in rows] == ["not reproduced", "reproduced"]
+    # only the claims of experiments some reading ran get rows: initial_distribution's 3, 4 and 5
+    assert {line.split("|")[1].strip() for line in section.splitlines() if line.startswith("| ")} - {"claim", "---"} \
+        == {"3", "4", "5"}
     assert "another run of initial_distribution" not in report
     # the reading's calibration search beside its runs says whether the world they used meets the chapter's facts
     search = results / "readings" / "range-left-two_circuits_parallel" / "calibration" / "world"
@@ -320,6 +324,18 @@ def test_the_chapters_experiments_in_another_reading_are_a_counterfactual_column
                 if line.startswith("- `readings/range-left-two_circuits_parallel`: the world these runs used"))
     assert "(robot.dock.dwell_s 0) does not meet the chapter's facts" in note
     assert note.endswith("its rule chooses robot.dock.dwell_s 5.")
+    # the reading at 40x too: today's world at 40x comes before it, after the rows at 1x
+    _run_folder(results / "converged" / "readings" / "range-left-two_circuits_parallel" / "initial_distribution",
+                "converged", 40.0, 60.0, seed=8)
+    build_report(results)
+    report = (results / "REPORT.md").read_text()
+    start = report.index("## In other readings of the world: counterfactuals")
+    worlds = [line.split("|")[3].strip() for line in report[start:report.index("\n## ", start)].splitlines()
+              if line.startswith("| 3 | initial_distribution |")]
+    reading = "arrival=range passing=left arena=two_circuits_parallel"
+    assert [w.split(" (")[0] for w in worlds] == ["today's world", reading, "today's world", reading]
+    assert "(40x, `converged`)" in worlds[2]
+    assert "(40x, `converged/readings/range-left-two_circuits_parallel`)" in worlds[3]
 
 
 def test_the_turn_taking_models_and_a_calibrations_folders_are_never_runs_of_the_report(tmp_path):

@@ -154,6 +154,35 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
                      "their modal state in 0 of 1 and their regime in 1."]
 
 
+def test_a_prediction_finds_its_learners_among_a_readings_experiments(tmp_path):
+    """A reading's folder at 40x that holds the chapter's experiments, as `tavc reproduce
+    --results` writes them, rather than being one run: the prediction named after the reading is
+    set beside the base case's run inside it; a folder with neither gives no row."""
+    import shutil
+
+    from tavc_cli.report.studies import turn_taking_check_lines
+    from tests.helpers import REPO
+
+    run = REPO / "results" / "converged" / "initial_distribution"
+    if not (run / "mechanism.csv").is_file():
+        pytest.skip("the committed 40x runs are not here")
+    name = "range-left-two_circuits_parallel-calibrated"
+    where = tmp_path / "turn_taking" / name / "turn_taking"
+    where.mkdir(parents=True)
+    (where / "turn_taking.json").write_text(json.dumps({"regime": "turn-taking", "robots_high": 3.0,
+                                                        "modal_state": "3:3", "modal_share_pct": 70.0}))
+    folder = tmp_path / "converged" / "readings" / name
+    (folder / "breakdown").mkdir(parents=True)
+    assert not [x for x in turn_taking_check_lines(tmp_path) if x.startswith(f"| {name} |")]
+    (folder / "initial_distribution").mkdir()
+    for f in ("config.yaml", "mechanism.csv", "allocation.csv", "state_time.csv", "convergence.csv"):
+        shutil.copy(run / f, folder / "initial_distribution" / f)
+    rows = [x for x in turn_taking_check_lines(tmp_path) if x.startswith(f"| {name} |")]
+    assert len(rows) == 1
+    cells = [c.strip() for c in rows[0].strip("|").split("|")]
+    assert cells[1] == f"`converged/readings/{name}/initial_distribution` (20 trials)" and cells[5] == "yes; yes"
+
+
 def test_a_team_of_two_groups_is_read_without_robots_on_the_high_circuit(tmp_path):
     """A run of a team of several groups writes no allocation.csv (its states count each group):
     its group is read all the same, the robots on the high-value circuit NaN, and the report's

@@ -4,9 +4,10 @@ headline, never in its place.
 A reading's runs sit in `readings/<arrival>-<passing>-<arena>/` under the results folder (at the
 chapter's durations) or under a longer horizon's folder, one folder per experiment as
 `tavc reproduce --results` writes them. Each such folder is read as a horizon is
-(`horizons.read_horizon`), its claims tested on its runs, and every claim gets a column per
-reading beside its verdict in today's world: the verdict, the p of the deciding part and how
-the group was made (the regime and its robots), so that a verdict is read with its mechanism.
+(`horizons.read_horizon`), its claims tested on its runs, and every claim gets a row per
+reading beside its verdict in today's world at the same horizon: the verdict, the p of the
+deciding part and how the group was made (the regime and its robots), so that a verdict is read
+with its mechanism.
 """
 
 from __future__ import annotations
@@ -61,37 +62,47 @@ def reading_horizons(results_dir: Path) -> list[tuple[str, Horizon]]:
     return out
 
 
-def counterfactual_lines(base: Horizon, results_dir: Path) -> list[str]:
-    """The section: every claim's verdict in today's world (the chapter's durations) beside its
-    verdict in each reading's runs, with how the group was made there; none without such runs."""
+def counterfactual_lines(base: Horizon, results_dir: Path, longer: list[Horizon] = ()) -> list[str]:
+    """The section: every claim whose experiment ran in another reading, a row per world it was
+    tested in: today's world at the chapter's durations, each reading's runs at their horizon,
+    and today's world at each longer horizon a reading ran at (from `longer`) before that
+    reading's rows; the verdict, the p of the deciding part and how the group was made. None
+    without such runs."""
     found = reading_horizons(results_dir)
     if not found:
         return []
+    factors = sorted({h.factor for _, h in found if h.read})
+    today = [("today's world (1x, the headline)", base),
+             *((f"today's world ({h.factor:g}x, `{h.folder.relative_to(results_dir).as_posix()}`)", h)
+               for h in longer if h.read and h.factor in factors and h.factor != base.factor)]
+    worlds = sorted([*today, *((f"{reading_words(Path(where).name)} "
+                                f"({f'{h.factor:g}x' if h.read else '?'}, `{where}`)", h) for where, h in found)],
+                    key=lambda w: (w[1].factor if w[1].read else float("inf"), not w[0].startswith("today")))
     lines = ["## In other readings of the world: counterfactuals", "",
              "The chapter's experiments run in worlds that read what the chapter leaves unsaid otherwise "
-             "(docs/readings.md): labelled counterfactuals, never the headline. Each column: the "
-             "verdict on the reading's own runs, the p of the part that decides it, and how the learners' group "
-             "was made there (the chapter's mechanism is persistence: robots that keep to a circuit, a vacancy "
-             "filled by one robot that moves and stays).", ""]
-    head = "| claim | experiment | today's world, at the chapter's durations |"
-    rule = "|---|---|---|"
-    for where, h in found:
-        reading = reading_words(Path(where).name)
-        factor = f"{h.factor:g}x" if h.read else "?"
-        head += f" in a world where {reading} ({factor}, `{where}`) | p | how the group is made |"
-        rule += "---|---|---|"
-    lines += [head, rule]
+             "(docs/readings.md): labelled counterfactuals, never the headline. For every claim whose experiment "
+             "ran in another reading, a row per world: the verdict on that world's own runs, the p of the part that "
+             "decides it, and how the learners' group was made there (the chapter's mechanism is persistence: robots "
+             "that keep to a circuit, a vacancy filled by one robot that moves and stays). Today's world comes first "
+             "at each horizon a reading ran at.", "",
+             "| claim | experiment | world (horizon, runs) | verdict | p (the deciding part) | how the group is made |",
+             "|---|---|---|---|---|---|"]
     notes = [n for where, h in found for n in calibration_words(results_dir, where, h)]
+    skipped = []
     for r in base.claims.itertuples():
         exp = chapter.experiment_of(r.claim_id)
-        here = verdict_words(r.verdict, base.verdicts) if exp in base.runs else "not run"
-        line = f"| {r.claim_id} | {exp} | {here} |"
-        for _, h in found:
-            other = next((c for c in h.claims.itertuples() if int(c.claim_id) == int(r.claim_id)), None)
-            ran = other is not None and exp in h.runs
-            line += f" {verdict_words(other.verdict, h.verdicts) if ran else 'not run'} | " \
-                    f"{p_cell(other) if ran else ''} | {mechanism_cell(h, exp, int(r.claim_id), other)} |"
-        lines.append(line)
+        if not any(exp in h.runs for _, h in found):
+            skipped.append(str(r.claim_id))
+            continue
+        for words, h in worlds:
+            row = next((c for c in h.claims.itertuples() if int(c.claim_id) == int(r.claim_id)), None)
+            ran = row is not None and exp in h.runs
+            cells = [verdict_words(row.verdict, h.verdicts), p_cell(row),
+                     mechanism_cell(h, exp, int(r.claim_id), row)] if ran else ["not run", "", ""]
+            lines.append(f"| {r.claim_id} | {exp} | {words} | {' | '.join(cells)} |")
+    if skipped:
+        lines += ["", f"Claims {', '.join(skipped)}: their experiment ran in no other reading." if len(skipped) > 1
+                  else f"Claim {skipped[0]}: its experiment ran in no other reading."]
     return [*lines, *(["", *notes] if notes else []), ""]
 
 

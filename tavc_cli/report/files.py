@@ -61,6 +61,12 @@ def is_run_folder(d: Path) -> bool:
     return (d / "config.yaml").is_file() or (d / "state_time.csv").is_file() or (d / "trials").is_dir()
 
 
+def run_in(d: Path, experiment: str) -> Path:
+    """The run in `d`: `d` itself, or, where `d` holds the runs of several experiments as `tavc
+    reproduce --results` writes them, its run of `experiment` (if there is one)."""
+    return d if is_run_folder(d) or not (d / experiment).is_dir() else d / experiment
+
+
 def natural(text: str) -> list:
     """A sort key that orders "2_seed=3" before "10_seed=11"."""
     return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", text)]

@@ -17,7 +17,7 @@ from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import VALUE_RATIO_DIR  # the value-ratio sweep's folder (`make value-ratio`)
 from tavc_cli.reference import chapter_table
 from tavc_cli.report.figures import figure_link
-from tavc_cli.report.files import config_of, horizon_folders, natural, read_or_refuse
+from tavc_cli.report.files import config_of, horizon_folders, natural, read_or_refuse, run_in
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.text import fmt
 from tavc_cli.settings import TavcConfig
@@ -253,27 +253,28 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
 
 
 def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path) -> list[Path]:
-    """The learners' runs a prediction named `name` (its folder `where`) is for:
+    """The learners' runs a prediction named `name` (its folder `where`) is for, each once:
     `<horizon>/<name>` and `<horizon>/readings/<name>` (a world of its own, e.g. a reading as
-    calibrated) at every longer horizon; and, for a prediction of the base case, every run of a
-    sweep (`SWEEPS`) at scale=converged in the world its own learners ran in (`WORLD`: the same
-    arena, robots, team, tasks and events as their `config.yaml`)."""
-    runs = [d for h in horizon_folders(results_dir) for d in (h / name, h / READINGS_RUNS / name)]
+    calibrated; `files.run_in`) at every longer horizon; and every run of a sweep (`SWEEPS`) or
+    in a reading (`<horizon>/readings/`) at scale=converged of the prediction's experiment in the
+    world its own learners ran in (`WORLD`: the same arena, robots, team, tasks and events)."""
     own_path = where / str(predicted.get("learners_run", "learners")) / "config.yaml"
     own = read_or_refuse(own_path, config_of) if own_path.is_file() else None
-    if own is None or own.experiment_name != base_case().name:
+    runs = [run_in(d, own.experiment_name if own else base_case().name) for h in horizon_folders(results_dir)
+            for d in (h / name, h / READINGS_RUNS / name)]
+    if own is None:
         return runs
-    for folder in SWEEPS:
-        for d in sweep_runs(results_dir, folder):
-            cfg = read_or_refuse(d / "config.yaml", config_of)
-            if cfg.scale.name == "converged" and cfg.experiment_name == own.experiment_name and \
-                    all(getattr(cfg, k) == getattr(own, k) for k in WORLD):
-                runs.append(d)
+    for d in [*(d for f in SWEEPS for d in sweep_runs(results_dir, f)),
+              *(d for h in horizon_folders(results_dir) for d in sweep_runs(h, READINGS_RUNS))]:
+        cfg = read_or_refuse(d / "config.yaml", config_of)
+        if d not in runs and cfg.scale.name == "converged" and cfg.experiment_name == own.experiment_name and \
+                all(getattr(cfg, k) == getattr(own, k) for k in WORLD):
+            runs.append(d)
     return runs
 
 
 def sweep_runs(results_dir: Path, folder: str) -> list[Path]:
-    """The runs of the sweep in `results_dir/folder` (`SWEEPS`), finished or not: every folder
+    """The runs of the sweep in `results_dir/folder` (`SWEEPS`, or a horizon's readings), finished or not: every folder
     with a `config.yaml` at any depth, in natural order of their paths."""
     root = results_dir / folder
     return sorted((p.parent for p in root.rglob("config.yaml")), key=lambda p: natural(p.as_posix())) \
@@ -333,7 +334,7 @@ READINGS_RUNS = "readings"  # under a longer horizon's folder: the base case in 
 def _learners_beside_the_models(results_dir: Path, model: pd.DataFrame, turn: pd.DataFrame | None) -> list[str]:
     """Where learners ran the base case at a longer horizon in a reading the models were measured
     in (today's world: `<horizon>/<the base case>`; any other:
-    `<horizon>/readings/<arrival>-<passing>-<arena>`, for every horizon folder), how their group
+    `<horizon>/readings/<arrival>-<passing>-<arena>` or its base case's run, for every horizon folder), how their group
     was made beside what each model predicts for that world: the regime, the robots on the
     high-value circuit and the modal state over the run's measured stretch of its stable period
     (`report.mechanism.read_group`), whether its learners converged, and whether each model
@@ -344,7 +345,7 @@ def _learners_beside_the_models(results_dir: Path, model: pd.DataFrame, turn: pd
         folder = reading_folder(parse_reading(str(reading)))
         today = folder == reading_folder(readings()[0])
         for horizon in horizon_folders(results_dir):
-            d = horizon / (base_case().name if today else f"{READINGS_RUNS}/{folder}")
+            d = run_in(horizon / (base_case().name if today else f"{READINGS_RUNS}/{folder}"), base_case().name)
             rows += _beside(str(reading), mine, turn, d, results_dir)
     if not rows:
         return []
