@@ -7,8 +7,7 @@ domain logic here. A ``TavcError`` or an ``OSError`` anywhere becomes one ``erro
 stderr and exit status 1; Ctrl-C becomes exit status 130 (`console.user_errors`). Any other
 exception is a bug and keeps its traceback.
 
-Modules that pull in the simulator are imported inside the commands that need them, so that
-``tavc config`` and ``tavc list`` start fast.
+Modules that load the simulator are imported only by the commands that need them: ``tavc list`` starts fast.
 """
 
 import os
@@ -160,12 +159,13 @@ def stay_switch_command(
         Path, typer.Option("--results", help="The study's folder: one folder per reading with its measured tasks, "
                                              "stay_switch.csv and its figure beside them.")
     ] = Path("runs/stay_switch"),
+    calibrated: options.CalibratedFrom = None,
     progress: options.ProgressFlag = None,
 ) -> None:
     """What each reading of the world does to staying and switching: static robots in every
     make-up of the team, per reading (arrival, passing, layout); stay_switch.csv."""
     with _user_errors(folder=lambda: results):
-        commands.stay_switch(results, overrides or [], options.shown(progress))
+        commands.stay_switch(results, overrides or [], options.shown(progress), calibrated)
 
 
 @app.command()

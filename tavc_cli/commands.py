@@ -134,15 +134,16 @@ def report(results_dir: Path, progress: bool | None = None, page: bool = False) 
     typer.echo("\n".join(summary_lines(build_report(results_dir, say, page))))
 
 
-def stay_switch(results: Path, overrides: list[str], progress: bool) -> None:
-    """Run the readings' stay/switch study into `results` and print its summary and files."""
+def stay_switch(results: Path, overrides: list[str], progress: bool, calibrated: Path | None = None) -> None:
+    """Run the readings' stay/switch study into `results` (each reading at its calibrated
+    settings with `calibrated`, `stay_switch.calibrated_overrides`) and print its summary and files."""
     # deferred: loads pandas
     import pandas as pd
 
     from tavc_cli.stay_switch import run_stay_switch, summary_lines
 
     written = run_stay_switch(results, overrides, lambda o: config.settings(config.load_config(o)), progress=progress,
-                              echo=typer.echo)
+                              echo=typer.echo, calibrated=calibrated)
     for line in summary_lines(pd.read_csv(written[0]), pd.read_csv(written[1])):
         typer.echo(line)
     for path in written:

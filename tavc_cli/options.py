@@ -1,6 +1,7 @@
 """The arguments several commands of ``tavc`` share (their Hydra overrides, the progress flag)
 and how every command's help lists them: without type labels."""
 
+from pathlib import Path
 from typing import Annotated, Any, Optional
 
 import typer
@@ -14,6 +15,11 @@ def overrides_of(example: str) -> Any:
 
 Overrides = overrides_of("experiment=initial_distribution scale=paper team.n_robots=5")
 
+
+CalibratedFrom = Annotated[Optional[Path], typer.Option(
+    "--calibrated", show_default=False,
+    help="A results folder holding the calibration searches (make calibrate-readings): measure each reading at the "
+         "settings its own search chose against the chapter's facts, not at its defaults.")]
 
 ProgressFlag = Annotated[
     Optional[bool],

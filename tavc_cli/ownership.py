@@ -61,12 +61,14 @@ RUN_FILES = ("config.yaml", "plan.json", "provenance.json", "failures.log")
 SWEEP_FILES = ("sweep.csv", "sweep.png", "sweep.svg")
 LADDER_FILES = ("ladder.csv", "ladder.png", "ladder.svg")
 VALUE_RATIO_DIR = "value_ratio"  # under a results folder: the value-ratio sweep, its table value_ratio.csv in it
+READINGS_DIR = "readings"  # under a results folder: the runs and calibration searches in other readings
+WORLD_SEARCH_DIR = "calibration/world"  # beside a run's folder: `tavc calibrate`'s search (search.csv)
 RESULTS_FILES = ("REPORT.md", "REPORT.html", "claims.csv", "value_ratio.csv")
 MODEL_FILES = ("model.csv", "model.json")
 COMPARE_FILES = ("compare.csv", "compare_trials.csv", "compare.md", "compare.png", "compare.svg")
 TASKS_FILES = ("task_times.csv", "task_times.json", "task_times_summary.csv")
-STAY_SWITCH_FILES = ("stay_switch.csv", "stay_switch_model.csv", "stay_switch_turn_taking.csv", "stay_switch.json",
-                     "stay_switch.png", "stay_switch.svg")
+STAY_SWITCH_TABLES = ("stay_switch.csv", "stay_switch_model.csv", "stay_switch_turn_taking.csv")
+STAY_SWITCH_FILES = (*STAY_SWITCH_TABLES, "stay_switch.json", "stay_switch.png", "stay_switch.svg")
 TURN_TAKING_FILES = ("turn_taking.json",)
 CALIBRATION_FILES = tuple(f"{stem}.{ext}" for stem in ("search", "sensitivity") for ext in ("csv", "json")) + tuple(
     f"{stem}.{ext}" for stem in ("sensitivity", "task_times") for ext in ("png", "svg"))

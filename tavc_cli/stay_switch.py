@@ -18,7 +18,8 @@ rerun measures only what is missing.
 The study writes `stay_switch.csv`, `stay_switch_model.csv`, `stay_switch_turn_taking.csv`
 (the turn-taking model's runs in `<reading>/turn_taking/`), `stay_switch.json` (the grid, the settings, the tasks'
 digests) and the figure `stay_switch.png`/`.svg`. Static robots learn nothing, and the readings
-are measured at their defaults: no learner's table and no claim enters.
+are measured at their defaults, or (`--calibrated`) at the settings each one's own calibration
+search chose against the chapter's facts: no learner's table and no claim enters.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from tavc_cli.analysis.stay_switch import GRID, reading_folder, reading_name, re
 from tavc_cli.chapter import base_case
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
-from tavc_cli.ownership import READINGS, STAY_SWITCH_FILES, take
+from tavc_cli.ownership import READINGS, READINGS_DIR, STAY_SWITCH_FILES, WORLD_SEARCH_DIR, take
 from tavc_cli.settings import TavcConfig
 from tavc_cli.surrogate.tasks import Team
 from tavc_cli.turn_taking import PREDICTED, TURN_TAKING_FOLDER, predict_turn_taking
@@ -46,27 +47,35 @@ Compose = Callable[[list[str]], TavcConfig]
 
 
 def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, progress: bool = False,
-                    echo: Callable[[str], None] = print) -> list[Path]:
+                    echo: Callable[[str], None] = print, calibrated: Path | None = None) -> list[Path]:
     """Measure every reading of `GRID` into `out` and write the study's table, record and
     figure; returns the files written, the table first. `overrides` apply to every reading
-    (e.g. `seed=3`, `surrogate.trials_per_makeup=8`, `experiment=...` of a one-group team)."""
+    (e.g. `seed=3`, `surrogate.trials_per_makeup=8`, `experiment=...` of a one-group team).
+    With `calibrated` (a results folder), each reading is measured at the settings its own
+    calibration search there chose (`calibrated_overrides`), not at its defaults."""
     # deferred: loads the simulator's compiled kernels
     from tavc_cli.surrogate.run import measure_tasks, measurement_record, tasks_digest
 
+    chosen = {reading_folder(r): calibrated_overrides(Path(calibrated), reading_folder(r)) for r in readings()} \
+        if calibrated is not None else {}
+    by_search = {o.split("=", 1)[0] for c in chosen.values() for o in c}
     set_here = [o.split("=", 1)[0].lstrip("+~") for o in overrides
-                if o.split("=", 1)[0].lstrip("+~") in SET_BY_THE_STUDY]
+                if o.split("=", 1)[0].lstrip("+~") in (*SET_BY_THE_STUDY, *by_search)]
     if set_here:
-        raise TavcError(f"{set_here[0]}: set by the study for each reading (its grid: "
+        raise TavcError(f"{set_here[0]}: set by each reading's calibration search (--calibrated)"
+                        if set_here[0] in by_search else f"{set_here[0]}: set by the study for each reading (its grid: "
                         + "; ".join(f"{k} {', '.join(v)}" for k, v in GRID) + ")")
     out = Path(out)
     with claim_folder(out):
         owned = take(out, READINGS, STAY_SWITCH_FILES, "--results")
     base = [f"experiment={DEFAULT_EXPERIMENT}", *overrides]
     frames, models, learners = [], [], []
-    record: dict = {"grid": {k: list(v) for k, v in GRID}, "overrides": list(overrides), "readings": {}}
+    record: dict = {"grid": {k: list(v) for k, v in GRID}, "overrides": list(overrides), "readings": {},
+                    **({"calibrated_from": str(calibrated)} if chosen else {})}
     for reading in readings():
         name, folder = reading_name(reading), reading_folder(reading)
-        cfg = compose([*base, *name.split(), f"surrogate.tasks_dir={out / folder / 'tasks'}"])
+        world = [*name.split(), *chosen.get(folder, [])]
+        cfg = compose([*base, *world, f"surrogate.tasks_dir={out / folder / 'tasks'}"])
         groups = tuple(m.group for m in cfg.team.members)
         if len(set(groups)) != 1:
             raise TavcError(f"experiment={cfg.experiment_name}: stay and switch are measured on a team of one group; "
@@ -84,13 +93,14 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
         epsilon = float(cfg.learner.epsilon)
         prediction = predict(times_of(times.frame, high), len(groups), values, epsilon)
         models.append(prediction.assign(reading=name, epsilon=epsilon))
-        learned = predict_turn_taking([*base, *name.split()], out / folder / TURN_TAKING_FOLDER, compose,
+        learned = predict_turn_taking([*base, *world], out / folder / TURN_TAKING_FOLDER, compose,
                                       tasks_dir=out / folder / "tasks", progress=progress, echo=echo)
         learners.append({"reading": name, **{k: learned[k] for k in PREDICTED}})
         record.setdefault("scale", str(cfg.scale.name))
         record.setdefault("measurement", measurement_record(cfg)["measurement"])
         record["readings"][name] = {"tasks": f"{folder}/tasks/task_times.csv", "tasks_digest": tasks_digest(times),
-                                    "values": [float(v) for v in cfg.tasks.values], "team": team.name}
+                                    "values": [float(v) for v in cfg.tasks.values], "team": team.name,
+                                    **({"calibrated": chosen[folder]} if chosen else {})}
     table = pd.concat(frames, ignore_index=True)
     model = pd.concat(models, ignore_index=True)
     model = model[["reading", *(c for c in model.columns if c != "reading")]]
@@ -106,6 +116,25 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
         figures = stay_switch_figure(table, out / "stay_switch")
     return [out / "stay_switch.csv", out / "stay_switch_model.csv", out / "stay_switch_turn_taking.csv",
             out / "stay_switch.json", *figures]
+
+
+def calibrated_overrides(results_dir: Path, folder: str) -> list[str]:
+    """The settings the calibration search of the reading in `folder` chose (`search.json`'s
+    `chosen_overrides`): today's world's in `<results_dir>/calibration/world/`, another
+    reading's in `<results_dir>/readings/<folder>/calibration/world/` (`make calibrate-readings`);
+    refused in one line where there is no such search or it chose no point."""
+    today = folder == reading_folder(readings()[0])
+    path = results_dir / ("" if today else f"{READINGS_DIR}/{folder}") / WORLD_SEARCH_DIR / "search.json"
+    if not path.is_file():
+        raise TavcError(f"--calibrated: no calibration search of {folder} at {path} (make calibrate-readings)")
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, ValueError):
+        raise TavcError(f"--calibrated: {path} cannot be read; rerun its tavc calibrate") from None
+    chosen = record.get("chosen_overrides") if isinstance(record, dict) else None
+    if not isinstance(chosen, list) or not chosen or not all(isinstance(o, str) and "=" in o for o in chosen):
+        raise TavcError(f"--calibrated: {path} names no chosen point (no point met the chapter's facts)")
+    return chosen
 
 
 def summary_lines(table: pd.DataFrame, model: pd.DataFrame | None = None) -> list[str]:

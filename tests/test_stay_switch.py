@@ -130,6 +130,75 @@ def test_the_reports_section_reads_the_studys_table(tmp_path):
     assert "![stay and switch in each reading](stay_switch/stay_switch.png)" in text
 
 
+def test_the_calibrated_study_is_a_second_table_with_the_settings_each_reading_was_measured_at(tmp_path):
+    """A study at the calibrations' choices (`stay_switch_calibrated/`) beside the study at the
+    readings' defaults: its own table after the first, each row with the settings from its
+    record; the first table as it was without it."""
+    import json
+
+    from tavc_cli.report.studies import stay_switch_lines
+
+    tasks = pd.DataFrame([_task("all:2-2-2", "stay", 1, 80.0, 30.0), _task("all:2-2-2", "switch", 0, 92.0, 40.0)],
+                         columns=list(COLUMNS))
+    _write_study(tmp_path, tasks, ["arrival=dock"])
+    before = stay_switch_lines(tmp_path)
+    slower = tasks.assign(task_time_s=[80.0, 70.0])  # a switch 70 / 80 = 0.875 of a stay: staying does not pay
+    (tmp_path / "stay_switch_calibrated").mkdir()
+    stay_switch_table(slower, [2200.0, 2000.0], "arrival=dock").to_csv(
+        tmp_path / "stay_switch_calibrated" / "stay_switch.csv", index=False)
+    (tmp_path / "stay_switch_calibrated" / "stay_switch.json").write_text(json.dumps(
+        {"readings": {"arrival=dock": {"calibrated": ["robot.dock.dwell_s=5.0", "robot.laser.n_rays=31"]}}}))
+    after = stay_switch_lines(tmp_path)
+    assert after[:len(before) - 1] == before[:-1]  # the first table as it was
+    rest = "\n".join(after[len(before) - 1:])
+    assert "`tavc stay-switch --calibrated`" in rest and "(stay_switch_calibrated/stay_switch.png)" in rest
+    assert "| arrival=dock | dwell_s 5.0, n_rays 31 | 1 | 0.875, 0.875, 0.875 | 0 |" in rest
+
+
+def test_the_calibrated_settings_are_each_searchs_choice_or_one_line(tmp_path):
+    """`calibrated_overrides` reads today's world's search in `calibration/world/` and another
+    reading's in `readings/<reading>/calibration/world/`; a search that is missing, cannot be
+    read or chose nothing is one line naming it."""
+    import json
+
+    from tavc_cli.errors import TavcError
+    from tavc_cli.stay_switch import calibrated_overrides
+
+    def search(where, record):
+        (tmp_path / where).mkdir(parents=True, exist_ok=True)
+        (tmp_path / where / "search.json").write_text(record if isinstance(record, str) else json.dumps(record))
+
+    with pytest.raises(TavcError, match="no calibration search of dock-nearest-two_circuits at"):
+        calibrated_overrides(tmp_path, "dock-nearest-two_circuits")
+    search("calibration/world", {"chosen_overrides": ["robot.dock.dwell_s=0.0"]})
+    search("readings/range-left-two_circuits/calibration/world", {"chosen_overrides": ["robot.dock.dwell_s=5.0"]})
+    assert calibrated_overrides(tmp_path, "dock-nearest-two_circuits") == ["robot.dock.dwell_s=0.0"]
+    assert calibrated_overrides(tmp_path, "range-left-two_circuits") == ["robot.dock.dwell_s=5.0"]
+    search("readings/range-left-two_circuits/calibration/world", {"chosen": None, "chosen_overrides": []})
+    with pytest.raises(TavcError, match="names no chosen point"):
+        calibrated_overrides(tmp_path, "range-left-two_circuits")
+    search("readings/range-left-two_circuits/calibration/world", "{not json")
+    with pytest.raises(TavcError, match="cannot be read"):
+        calibrated_overrides(tmp_path, "range-left-two_circuits")
+
+
+def test_a_setting_the_calibrations_choose_is_refused_beside_calibrated_before_anything_is_written(tmp_path):
+    import json
+
+    for where in ["calibration/world", *(f"readings/{r}/calibration/world" for r in (
+            "dock-left-two_circuits", "dock-nearest-two_circuits_parallel", "dock-left-two_circuits_parallel",
+            "range-nearest-two_circuits", "range-nearest-two_circuits_parallel", "range-left-two_circuits",
+            "range-left-two_circuits_parallel"))]:
+        (tmp_path / where).mkdir(parents=True)
+        (tmp_path / where / "search.json").write_text(json.dumps({"chosen_overrides": ["robot.dock.dwell_s=5.0"]}))
+    result = CliRunner().invoke(app, ["stay-switch", "robot.dock.dwell_s=0", "--calibrated", str(tmp_path),
+                                      "--results", str(tmp_path / "out"), "--no-progress"])
+    assert result.exit_code == 1
+    assert result.output.strip().splitlines()[-1] == \
+        "error: robot.dock.dwell_s: set by each reading's calibration search (--calibrated)"
+    assert not (tmp_path / "out").exists()
+
+
 # ---- the drift model (analysis.makeup_model), on task times set by hand ------------------------
 
 def _times(stay_high, stay_low, switch):

@@ -13,7 +13,7 @@ from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder
 from tavc_cli.model.report import search_text, sensitivity_text
 from tavc_cli.model.world_search import Point, one_axis_variants, point_id, run_search, run_sensitivity, save_world
-from tavc_cli.ownership import CALIBRATION, CALIBRATION_FILES, refuse_other_settings, take
+from tavc_cli.ownership import CALIBRATION, CALIBRATION_FILES, WORLD_SEARCH_DIR, refuse_other_settings, take
 from tavc_cli.settings import TavcConfig
 
 
@@ -26,7 +26,7 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
     trials = int(cal.trials_per_split)
     if base.scale.trials:
         trials = max(2, min(trials, int(base.scale.trials)))
-    out_dir = Path(base.output_dir).parent / "calibration" / "world"
+    out_dir = Path(base.output_dir).parent / WORLD_SEARCH_DIR
     measurement = dict(
         n_robots=int(base.team.n_robots), trials=trials, warmup_s=float(cal.warmup_s) * factor,
         measure_s=float(cal.measure_s) * factor, confidence=float(base.model.confidence),

@@ -33,7 +33,7 @@ from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
-from tavc_cli.ownership import list_figures, take_report_folders
+from tavc_cli.ownership import STAY_SWITCH_TABLES, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
@@ -45,7 +45,13 @@ from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import LADDER, finished_runs, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
-from tavc_cli.report.studies import STAY_SWITCH_DIR, SWEEPS, stay_switch_lines, sweep_runs, value_ratio_lines
+from tavc_cli.report.studies import (
+    STAY_SWITCH_DIRS,
+    SWEEPS,
+    stay_switch_lines,
+    sweep_runs,
+    value_ratio_lines,
+)
 from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
@@ -73,9 +79,9 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
             read_or_refuse(d / "model" / "model.json", lambda p: json.loads(p.read_text()))
     for ladder in ladders:
         read_or_refuse(ladder, pd.read_csv)
-    for name in ("stay_switch.csv", "stay_switch_model.csv", "stay_switch_turn_taking.csv"):  # read as a whole
-        if (results_dir / STAY_SWITCH_DIR / name).is_file():
-            read_or_refuse(results_dir / STAY_SWITCH_DIR / name, pd.read_csv)
+    for path in (results_dir / d / name for d in STAY_SWITCH_DIRS for name in STAY_SWITCH_TABLES):  # read as a whole
+        if path.is_file():
+            read_or_refuse(path, pd.read_csv)
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
         read_search(table)
 

@@ -23,6 +23,7 @@ from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.analysis.stay_switch import GRID
 from tavc_cli.errors import TavcError
+from tavc_cli.ownership import WORLD_SEARCH_DIR
 from tavc_cli.report.files import horizon_folders, is_run_folder, natural, read_or_refuse
 from tavc_cli.report.horizons import Horizon, mechanism_cell, read_horizon
 from tavc_cli.report.runs import finished_runs
@@ -110,7 +111,7 @@ def calibration_words(results_dir: Path, where: str, h: Horizon) -> list[str]:
     """Whether the world a reading's runs used meets the chapter's facts, by the reading's own
     calibration search beside them (`calibration/world/search.csv`, `tavc calibrate`): the grid
     point of its settings (from its first run's config), and the point the rule chose."""
-    table = results_dir / where / "calibration" / "world" / "search.csv"
+    table = results_dir / where / WORLD_SEARCH_DIR / "search.csv"
     if not table.is_file() or not h.read:
         return []
     search, keys, _ = read_search(table)
@@ -126,9 +127,9 @@ def calibration_tables(results_dir: Path) -> list[tuple[str, Path]]:
     """(its name in words, its search.csv) for today's world's calibration search
     (`calibration/world/`, `tavc calibrate scale=paper`) and each reading's
     (`readings/<reading>/calibration/world/`, `make calibrate-readings`), in that order."""
-    today = results_dir / "calibration" / "world" / "search.csv"
+    today = results_dir / WORLD_SEARCH_DIR / "search.csv"
     base = results_dir / READINGS_RUNS
-    tables = sorted(base.glob("*/calibration/world/search.csv"), key=lambda p: natural(p.parents[2].name)) \
+    tables = sorted(base.glob(f"*/{WORLD_SEARCH_DIR}/search.csv"), key=lambda p: natural(p.parents[2].name)) \
         if base.is_dir() else []
     return [*([("today's world", today)] if today.is_file() else []),
             *((reading_words(t.parents[2].name), t) for t in tables)]

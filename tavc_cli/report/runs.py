@@ -40,7 +40,8 @@ from tavc_cli.report.files import (
     natural,
     read_or_refuse,
 )
-from tavc_cli.report.studies import READINGS_RUNS, SWEEPS, spatiotemporal_lines, sweep_runs
+from tavc_cli.report.spatiotemporal import spatiotemporal_lines
+from tavc_cli.report.studies import READINGS_RUNS, SWEEPS, sweep_runs
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, to_yaml
 

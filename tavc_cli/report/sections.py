@@ -30,7 +30,7 @@ from tavc_cli.report.horizons import (
 )
 from tavc_cli.report.mechanism import mechanism_lines, vacancy_mechanism_lines
 from tavc_cli.report.runs import choice_lines, draw_figures, other_run_lines
-from tavc_cli.report.studies import spatiotemporal_lines
+from tavc_cli.report.spatiotemporal import spatiotemporal_lines
 from tavc_cli.report.text import (
     chapter_says,
     claims_table,

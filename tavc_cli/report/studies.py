@@ -1,5 +1,6 @@
-"""The report's sections for the studies beside the chapter's state tables: section 1.4's
-traversal times, policies and lanes, and the value-ratio sweep (`make value-ratio`)."""
+"""The report's sections for the studies beside the chapter's state tables: the value-ratio
+sweep (`make value-ratio`), the readings' stay/switch studies and the turn-taking model's checks
+against the learners."""
 
 from __future__ import annotations
 
@@ -7,20 +8,16 @@ import json
 from pathlib import Path
 
 import pandas as pd
-from scipy import stats
 
 from tavc_cli.analysis.makeup_model import expected_high, predicted_regime, readings_summary
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, readings
 from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
-from tavc_cli.ownership import VALUE_RATIO_DIR  # the value-ratio sweep's folder (`make value-ratio`)
-from tavc_cli.reference import chapter_table
-from tavc_cli.report.figures import figure_link
+from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
 from tavc_cli.report.files import config_of, horizon_folders, natural, read_or_refuse, run_in
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.text import fmt
-from tavc_cli.settings import TavcConfig
 
 
 def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
@@ -82,109 +79,28 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     return lines
 
 
-def spatiotemporal_lines(name: str, d: Path, cfg: TavcConfig, results_dir: Path, fig_dir: Path | None = None,
-                         label: str | None = None) -> list[str]:
-    """Section 1.4: Table 1.1 beside the chapter's, Figure 1.4's kind, the learned policies, the
-    lanes; the figures under `fig_dir` (results_dir/figures unless given), their titles naming
-    `label` (the experiment's name unless given)."""
-    # deferred: loads the simulator's compiled kernels; loads matplotlib
-    from tavc_cli.analysis.spatiotemporal import target_time_curve
-    from tavc_cli.viz.spatial import lane_figure, target_time_figure
-
-    ours = pd.read_csv(d / "table_1_1.csv")
-    chapter = chapter_table("1.1")
-    lines = ["Individual traversal time after n traversals (mean ± std over robots) and the group's target time "
-             "after m arrivals (mean ± std over trials), the chapter's Table 1.1 beside ours. Both as the chapter "
-             "defines them: a traversal runs from a sink via the source back to a sink, a target time lies "
-             "between two arrivals at either a source or a sink. (The chapter's own last row, a target time a "
-             "fifth of the traversal time with five robots, fits one arrival per traversal rather than two.)", "",
-             "| n | chapter | ours (robots) | m | chapter | ours (trials) |", "|---|---|---|---|---|---|"]
-    for o, c in zip(ours.itertuples(), chapter.itertuples(), strict=True):
-        lines.append(f"| {o.n_traversals} | {c.mean_traversal_s:.1f} ± {c.std_traversal_s:.1f} | "
-                     f"{fmt(o.mean_traversal_s)} ± {fmt(o.std_traversal_s)} ({o.n_robots}) | {o.m_arrivals} | "
-                     f"{c.mean_target_s:.1f} ± {c.std_target_s:.1f} | {fmt(o.mean_target_s)} ± "
-                     f"{fmt(o.std_target_s)} ({o.n_trials}) |")
-    lines.append("")
-    lines += trial_length_lines(d, cfg)
-    fig_dir = fig_dir or results_dir / "figures"
-    link, label = figure_link(results_dir, fig_dir), label or name
-    if (d / "target_times.csv").is_file():
-        target_time_figure(target_time_curve(pd.read_csv(d / "target_times.csv")), chapter,
-                           f"{label}: the group's target time over arrivals (Figure 1.4's kind)", fig_dir / "fig_1_4")
-        lines += [f"![Figure 1.4, tavc]({link}/fig_1_4.png)", ""]
-    if (d / "policy.csv").is_file():
-        pol = pd.read_csv(d / "policy.csv")
-        shares = ", ".join(f"{c[len('share_'):]} {pol[c].mean():.2f}" for c in pol.columns if c.startswith("share_"))
-        rates = ", ".join(f"{c[len('stop_rate_'):]} {pol[c].mean():.2f}" for c in pol.columns
-                          if c.startswith("stop_rate_"))
-        learned = f", {pol['n_states'].mean():.1f} of the 32 states on average" if "n_states" in pol else ""
-        lines += [f"Learned policies ({len(pol)} robots, final Q-tables, over the states each robot learned in"
-                  f"{learned}): share whose best behaviour is each behaviour: {shares}. Stop-rates (share of those "
-                  f"states with that marking in view, and no yellow for red, green and front, whose best behaviour "
-                  f"is stop): {rates}.", ""]
-    if (d / "lanes.csv").is_file():
-        lanes = pd.read_csv(d / "lanes.csv")
-        parts = [f"{w} {g['mean_left_m'].mean():+.3f} ± {fmt(g['mean_left_m'].std(ddof=1), '.3f')} m"
-                 for w, g in lanes.groupby("window", sort=False)]
-        text = ("Lanes: mean offset to the left of the direction of travel, robots driving along the source-sink "
-                "axis away from its ends, per trial (mean ± std over trials): " + "; ".join(parts) + ".")
-        wide = lanes.pivot_table(index="trial", columns="window", values="mean_left_m")
-        if {"early", "late"} <= set(wide.columns) and len(wide.dropna()) >= 2:
-            both = wide.dropna()
-            res = stats.ttest_rel(both["late"], both["early"])
-            text += (f" Late against early, paired two-sided over {len(both)} trials (reported, not part of a "
-                     f"verdict): t = {res.statistic:.2f}, p = {res.pvalue:.3g}.")
-        lines += [text, ""]
-    if (d / "occupancy.csv").is_file():
-        arena = cfg.arena
-        xy = {t.name: (float(t.x), float(t.y)) for t in arena.targets}
-        lane_figure(pd.read_csv(d / "occupancy.csv"), xy[arena.circuits[0].source],
-                    xy[arena.circuits[0].sink], f"{label}: where the robots drive", fig_dir / f"lanes_{name}")
-        lines += [f"![lanes, {label}]({link}/lanes_{name}.png)", ""]
-    return lines
-
-
-def trial_length_lines(d: Path, cfg: TavcConfig) -> list[str]:
-    """How long the trials ran, where they end with a number of deliveries (traversals)."""
-    if cfg.deliveries is None or not (d / "trial_stats.csv").is_file():
-        return []
-    stats = pd.read_csv(d / "trial_stats.csv")
-    if "duration_s" not in stats:
-        return []
-    x = stats["duration_s"].to_numpy(float)
-    capped = int((x >= float(cfg.duration_s)).sum())
-    return [f"Each trial ran until its robots had made {cfg.deliveries} traversals together (the chapter: "
-            f"{cfg.paper.deliveries}), at most {float(cfg.duration_s):,.0f} s: its trials ran "
-            f"{x.min():,.0f} to {x.max():,.0f} s (mean {x.mean():,.0f} s)"
-            + (f"; {capped} of {len(x)} reached the limit first" if capped else "") + ".", ""]
-
-
-STAY_SWITCH_DIR = "stay_switch"
+STAY_SWITCH_DIR = "stay_switch"  # `make stay-switch`: each reading at its defaults
+STAY_SWITCH_CALIBRATED_DIR = "stay_switch_calibrated"  # `make stay-switch-calibrated`: at its calibration's choice
+STAY_SWITCH_DIRS = (STAY_SWITCH_DIR, STAY_SWITCH_CALIBRATED_DIR)
 
 
 def stay_switch_lines(results_dir: Path) -> list[str]:
     """What each reading does to staying and switching (`tavc stay-switch`, `make stay-switch`),
     if it was run into results_dir/stay_switch: per reading, a low-value stayer's t_switch /
-    t_stay over the make-ups that have both, and in how many of them staying pays; the figure."""
-    path = results_dir / STAY_SWITCH_DIR / "stay_switch.csv"
-    if not path.is_file():
+    t_stay over the make-ups that have both, and in how many of them staying pays; the figure;
+    the same at each reading's calibrated settings where that study was run too
+    (`stay_switch_calibrated/`); the models beside the learners."""
+    study = _study(results_dir, STAY_SWITCH_DIR)
+    if study is None:
         return []
-    table = read_or_refuse(path, pd.read_csv)
-    rel = path.parent.relative_to(results_dir).as_posix()
-    both = table.dropna(subset=["ratio_low"])
-    if not len(both):
-        return []
-    threshold = float(both["threshold_low"].iloc[0])
-    record_path = path.parent / "stay_switch.json"
-    record = read_or_refuse(record_path, lambda p: json.loads(p.read_text())) if record_path.is_file() else {}
-    m = record.get("measurement", {}) if isinstance(record, dict) else {}
+    table, model, turn, record = study
+    rel = STAY_SWITCH_DIR
+    threshold = float(table.dropna(subset=["ratio_low"])["threshold_low"].iloc[0])
+    m = record.get("measurement", {})
     how = (f" Each make-up: {m['trials_per_makeup']} static trials, {m['measure_s']:g} s measured after "
            f"{m['warmup_s']:g} s (scale={record.get('scale', '?')})." if {"trials_per_makeup", "measure_s", "warmup_s"}
            <= set(m) else "")
     n = int((table["high_stayers"] + table["low_stayers"] + table["alternators"]).max())
-    model_path, turn_path = path.parent / "stay_switch_model.csv", path.parent / "stay_switch_turn_taking.csv"
-    model = read_or_refuse(model_path, pd.read_csv) if model_path.is_file() else None
-    turn = read_or_refuse(turn_path, pd.read_csv).set_index("reading") if turn_path.is_file() else None
     lines = ["## The readings: what staying and switching cost", "",
              "Static robots held to their roles (staying on the high-value circuit, staying on the low-value one, "
              f"alternating) in every make-up of the team of {n}, in each reading of the world the chapter leaves "
@@ -192,15 +108,15 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
              f"there where a switching task takes more than {threshold:.3f} times a staying one (the values' "
              "(w_h + w_l) / 2 w_l); the vacancy chains the chapter describes need it to. No learner and no claim "
              "enters: this is what the world offers the learners, measured." + how, "",
-             f"![stay and switch in each reading]({rel}/stay_switch.png)", "",
-             "| reading | make-ups with both | t_switch / t_stay (min, median, max) | staying pays in | "
-             "timed from the source: pays in | the drift model: regime (share of starts), robots high | "
-             "the turn-taking model: regime, robots high, modal state |", "|---|---|---|---|---|---|---|"]
-    for r in readings_summary(table, model).itertuples():
-        line = (f"| {r.reading} | {r.n} | {r.ratio_min:.3f}, {r.ratio_median:.3f}, {r.ratio_max:.3f} | {r.pays} | "
-                f"{r.pays_source} |")
-        line += f" {r.regime} ({100 * r.basin:.0f} %), {r.robots_high:.2f} |" if r.regime is not None else "  |"
-        lines.append(line + f" {_turn_words(turn, r.reading)} |")
+             f"![stay and switch in each reading]({rel}/stay_switch.png)", "", *_study_rows(table, model, turn)]
+    calibrated = _study(results_dir, STAY_SWITCH_CALIBRATED_DIR)
+    if calibrated is not None:
+        rel = STAY_SWITCH_CALIBRATED_DIR
+        lines += ["", "The same study with each reading at the settings its own calibration search chose against the "
+                  "chapter's facts (`tavc stay-switch --calibrated`, `make stay-switch-calibrated`, "
+                  f"`{rel}/stay_switch.csv`; *The readings calibrated against the chapter's facts*), measured alike:",
+                  "", f"![stay and switch in each reading, as calibrated]({rel}/stay_switch.png)", "",
+                  *_study_rows(*calibrated)]
     if model is not None:
         lines += ["", "Two models of where the learners settle, neither fitted to anything the learners did. The drift "
                   "model (`analysis/makeup_model.py`, `stay_switch_model.csv`) gives each robot one of the strategies "
@@ -213,6 +129,41 @@ def stay_switch_lines(results_dir: Path) -> list[str]:
                   "that of static robots all alternating in the simulator, which keep their order of circulation.",
                   *_learners_beside_the_models(results_dir, model, turn), *turn_taking_check_lines(results_dir)]
     return [*lines, ""]
+
+
+def _study(results_dir: Path, folder: str) -> tuple | None:
+    """A stay/switch study in results_dir/folder: its table, drift model and turn-taking model
+    (None where not written) and its record ({} where none); None where it was not run or no
+    make-up has both a low-value stayer and an alternator."""
+    path = results_dir / folder / "stay_switch.csv"
+    table = read_or_refuse(path, pd.read_csv) if path.is_file() else None
+    if table is None or table.dropna(subset=["ratio_low"]).empty:
+        return None
+    model_path, turn_path, record_path = (path.parent / f for f in (*STAY_SWITCH_TABLES[1:], "stay_switch.json"))
+    model = read_or_refuse(model_path, pd.read_csv) if model_path.is_file() else None
+    turn = read_or_refuse(turn_path, pd.read_csv).set_index("reading") if turn_path.is_file() else None
+    record = read_or_refuse(record_path, lambda p: json.loads(p.read_text())) if record_path.is_file() else {}
+    return table, model, turn, record if isinstance(record, dict) else {}
+
+
+def _study_rows(table: pd.DataFrame, model: pd.DataFrame | None, turn: pd.DataFrame | None,
+                record: dict | None = None) -> list[str]:
+    """A stay/switch study's table, a row per reading; with `record`, the settings each reading
+    was measured at beside its name (`calibrated` in the study's record)."""
+    settings = {k: v.get("calibrated") for k, v in record.get("readings", {}).items() if isinstance(v, dict)} \
+        if record else {}
+    lines = ["| reading | " + ("settings | " if settings else "") + "make-ups with both | t_switch / t_stay (min, "
+             "median, max) | staying pays in | timed from the source: pays in | the drift model: regime (share of "
+             "starts), robots high | the turn-taking model: regime, robots high, modal state |",
+             "|---|" + ("---|" if settings else "") + "---|---|---|---|---|---|"]
+    for r in readings_summary(table, model).itertuples():
+        chosen = settings.get(r.reading) or []
+        words = ", ".join(f"{k.rsplit('.', 1)[-1]} {v}" for k, _, v in (o.partition("=") for o in chosen))
+        line = f"| {r.reading} |" + (f" {words or '?'} |" if settings else "")
+        line += f" {r.n} | {r.ratio_min:.3f}, {r.ratio_median:.3f}, {r.ratio_max:.3f} | {r.pays} | {r.pays_source} |"
+        line += f" {r.regime} ({100 * r.basin:.0f} %), {r.robots_high:.2f} |" if r.regime is not None else "  |"
+        lines.append(line + f" {_turn_words(turn, r.reading)} |")
+    return lines
 
 
 def turn_taking_check_lines(results_dir: Path) -> list[str]:
@@ -328,7 +279,7 @@ SWEEPS = {VALUE_RATIO_DIR: "the value-ratio sweep, in *Learning values and time*
           TEAM_SIZE_DIR: "the team-size sweep, in *The readings* (the turn-taking model's check points)"}
 WORLD = ("arena", "robot", "team", "tasks", "events")  # the settings that make a run's world and its task
 TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
-READINGS_RUNS = "readings"  # under a longer horizon's folder: the base case in a reading, <arrival>-<passing>-<arena>
+READINGS_RUNS = READINGS_DIR  # under a results or horizon folder: runs in a reading, <arrival>-<passing>-<arena>
 
 
 def _learners_beside_the_models(results_dir: Path, model: pd.DataFrame, turn: pd.DataFrame | None) -> list[str]:
