@@ -13,6 +13,7 @@ with its mechanism.
 from __future__ import annotations
 
 import json
+from functools import lru_cache
 from operator import attrgetter
 from pathlib import Path
 
@@ -138,7 +139,17 @@ def calibration_tables(results_dir: Path) -> list[tuple[str, Path]]:
 def read_search(table: Path) -> tuple[pd.DataFrame, list[str], dict]:
     """A world search's table, its grid's keys (the columns between the point's id and
     `lone_leg_s`) and its record (`search.json` beside it, empty where there is none); a table
-    or record that cannot be read, or does not say what it must, refused in one line."""
+    or record that cannot be read, or does not say what it must, refused in one line. Read once
+    per version of the two files (the report checks them all before it writes, then reads them
+    again): the table is shared between callers, read it, never change it."""
+    record = table.with_suffix(".json")
+    versions = tuple((p.stat().st_mtime_ns, p.stat().st_size) if p.is_file() else None for p in (table, record))
+    return _read_search(str(table), str(table.resolve()), versions)
+
+
+@lru_cache(maxsize=32)
+def _read_search(given: str, resolved: str, versions: tuple) -> tuple[pd.DataFrame, list[str], dict]:
+    table = Path(given)
     search = read_or_refuse(table, pd.read_csv)
     record = table.with_suffix(".json")
     facts = read_or_refuse(record, lambda p: json.loads(p.read_text())) if record.is_file() else {}
