@@ -99,7 +99,7 @@ def test_a_figure_path_that_is_not_a_regular_file_is_refused(tmp_path, sibling, 
         save_figure(fig, stem)
     _one_line_naming(str(refused.value), stem.with_suffix(f".{ext}"))
     assert _snapshot(sibling) == before
-    assert not plt.get_fignums()  # the figure is closed all the same
+    assert fig.number not in plt.get_fignums()  # the figure is closed all the same
 
 
 def test_a_sweep_figure_over_a_link_is_refused(tmp_path, sibling):
