@@ -25,7 +25,7 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated turn-taking-checks team-size-checks calibrate-readings $(REPRODUCE) clean
+.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged turn-taking-checks team-size-checks calibrate-readings $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -166,6 +166,36 @@ calibrate-readings: venv ## Each reading's calibration search against the chapte
 	for r in $(RANGE_READINGS); do set -- $$(echo $$r | tr - ' '); \
 		$(BIN)/tavc calibrate scale=paper arrival=$$1 passing=$$2 arena=$$3 'calibration.grid=$(RANGE_GRID)' \
 			output_dir=results/readings/$$r/initial_distribution || exit 1; done
+
+# The chapter's five task-allocation experiments in other readings: labelled counterfactuals (docs/readings.md)
+EXPERIMENTS_1_5 := initial_distribution,breakdown,breakdown_no_vacancy,value_change,heterogeneous
+READINGS_1X := range-left-two_circuits_parallel dock-left-two_circuits_parallel dock-nearest-two_circuits_parallel
+RANGE_CALIBRATED := arrival=range passing=left arena=two_circuits_parallel robot.behaviour.read_range_m=2.0 \
+	robot.dock.dwell_s=5.0 robot.laser.n_rays=31
+
+readings-experiments: venv ## The chapter's five task-allocation experiments at its durations in other readings (results/readings/<reading>/)
+	for r in $(READINGS_1X); do set -- $$(echo $$r | tr - ' '); \
+		$(BIN)/tavc reproduce scale=paper --experiments $(EXPERIMENTS_1_5) arrival=$$1 passing=$$2 arena=$$3 \
+			--results results/readings/$$r || exit 1; done
+	$(BIN)/tavc reproduce scale=paper --experiments $(EXPERIMENTS_1_5) $(RANGE_CALIBRATED) \
+		--results results/readings/range-left-two_circuits_parallel-calibrated
+
+turn-taking-readings: venv ## The turn-taking model in the readings whose experiments run at 40x, before those runs are read (results/turn_taking/)
+	$(BIN)/tavc model --turn-taking experiment=initial_distribution scale=paper $(RANGE_CALIBRATED) \
+		output_dir=results/turn_taking/range-left-two_circuits_parallel-calibrated
+	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
+		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper $(RANGE_CALIBRATED) \
+			output_dir=results/turn_taking/range-left-two_circuits_parallel-calibrated-$$e || exit 1; done
+	$(BIN)/tavc model --turn-taking experiment=heterogeneous scale=paper arrival=dock passing=left arena=two_circuits_parallel \
+		output_dir=results/turn_taking/dock-left-two_circuits_parallel-heterogeneous
+
+readings-experiments-converged: venv ## The same experiments at 40x, 8 trials, in dock/left/parallel and the calibrated range world (results/converged/readings/)
+	$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
+		--experiments $(EXPERIMENTS_1_5) arrival=dock passing=left arena=two_circuits_parallel \
+		--results results/converged/readings/dock-left-two_circuits_parallel
+	$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
+		--experiments $(EXPERIMENTS_1_5) $(RANGE_CALIBRATED) \
+		--results results/converged/readings/range-left-two_circuits_parallel-calibrated
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
 	$(BIN)/tavc stay-switch scale=paper --results results/stay_switch
