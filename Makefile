@@ -168,7 +168,8 @@ calibrate-readings: venv ## Each reading's calibration search against the chapte
 			output_dir=results/readings/$$r/initial_distribution || exit 1; done
 
 # The chapter's five task-allocation experiments in other readings: labelled counterfactuals (docs/readings.md)
-EXPERIMENTS_1_5 := initial_distribution,breakdown,breakdown_no_vacancy,value_change,heterogeneous
+# (the registry's task-allocation experiments, those `tavc compare` serves; read only when a target uses them)
+EXPERIMENTS_1_5 = $(shell $(BIN)/python -c "from tavc_cli.compare import SCENARIOS; print(','.join(SCENARIOS))")
 READINGS_1X := range-left-two_circuits_parallel dock-left-two_circuits_parallel dock-nearest-two_circuits_parallel
 RANGE_CALIBRATED := arrival=range passing=left arena=two_circuits_parallel robot.behaviour.read_range_m=2.0 \
 	robot.dock.dwell_s=5.0 robot.laser.n_rays=31

@@ -44,13 +44,14 @@ HORIZON = 40.0  # the learners' horizon, times the run's scale: where the chapte
 Compose = Callable[[list[str]], TavcConfig]
 
 
-def _key(override: str) -> str:
+def override_setting(override: str) -> str:
+    """The setting an override names, without Hydra's `+` or `~`."""
     return override.split("=", 1)[0].lstrip("+~")
 
 
 def check_overrides(overrides: Sequence[str]) -> None:
     """Refuse, in one line, a setting the model sets for its runs (`SET_HERE`)."""
-    given = [_key(o) for o in overrides if _key(o) in SET_HERE]
+    given = [k for k in map(override_setting, overrides) if k in SET_HERE]
     if given:
         raise TavcError(f"{given[0]}: set by the model that knows turn-taking for each of its runs (its "
                         f"learners on the surrogate at {HORIZON:g} times the scale's durations, static alternators at "
