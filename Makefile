@@ -189,14 +189,20 @@ turn-taking-readings: venv ## The turn-taking model in the readings whose experi
 			output_dir=results/turn_taking/range-left-two_circuits_parallel-calibrated-$$e || exit 1; done
 	$(BIN)/tavc model --turn-taking experiment=heterogeneous scale=paper arrival=dock passing=left arena=two_circuits_parallel \
 		output_dir=results/turn_taking/dock-left-two_circuits_parallel-heterogeneous
+	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
+		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper arrival=dock passing=nearest arena=two_circuits_parallel \
+			output_dir=results/turn_taking/dock-nearest-two_circuits_parallel-$$e || exit 1; done
 
-readings-experiments-converged: venv ## The same experiments at 40x, 8 trials, in dock/left/parallel and the calibrated range world (results/converged/readings/)
+readings-experiments-converged: venv ## The same experiments at 40x, 8 trials, in both parallel dock readings and the calibrated range world (results/converged/readings/)
 	$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
 		--experiments $(EXPERIMENTS_1_5) arrival=dock passing=left arena=two_circuits_parallel \
 		--results results/converged/readings/dock-left-two_circuits_parallel
 	$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
 		--experiments $(EXPERIMENTS_1_5) $(RANGE_CALIBRATED) \
 		--results results/converged/readings/range-left-two_circuits_parallel-calibrated
+	$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
+		--experiments $(EXPERIMENTS_1_5) arrival=dock passing=nearest arena=two_circuits_parallel \
+		--results results/converged/readings/dock-nearest-two_circuits_parallel
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
 	$(BIN)/tavc stay-switch scale=paper --results results/stay_switch
