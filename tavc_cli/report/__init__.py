@@ -114,48 +114,21 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     for i, h in enumerate(longer, start=1):
         h.index = i
     every = [base, *longer]
-    runs, claims = base.runs, base.claims
+    claims = base.claims
     tested, n_ok = base.tested, base.n_reproduced
     # everything read: now the first write
     taken = take_report_folders(results_dir, [h.folder for h in longer], page)
     drawn_before = figure_files(taken)
-    lines = ["# tavc: the reproduction report", "",
-             *horizons.not_a_verdict_lines(*every),
-             "Built by `tavc report` from the saved results in this folder; nothing here was simulated "
-             "while writing it, and no number was typed in.", ""]
-    if longer:
-        lines += horizons.summary_lines(every)
-        lines += horizons.claims_by_horizon_table(every)
-    else:
-        head = (f"**Claims reproduced: {n_ok} of {len(tested)} tested**" if base.verdicts else
-                f"**Claims (not a verdict): {n_ok} of {len(tested)} tested would be reproduced at "
-                f"scale={', scale='.join(base.scale_names())}**")
-        lines += [f"{head} (claims {claims['claim_id'].min()}-{claims['claim_id'].max()} of the chapter's nine; "
-                  f"{len(claims) - len(tested)} not tested because their experiment has not been run here).", "",
-                  "| claim | experiment | verdict | p (the deciding part) |", "|---|---|---|---|"]
-        for r in claims.itertuples():
-            exp = chapter.experiment_of(r.claim_id)
-            ran = exp in runs
-            verdict = verdict_words(r.verdict, base.verdicts) if ran else "not run"
-            lines.append(f"| {r.claim_id} | {horizons.experiment_cell(base, exp, results_dir)} | {verdict} | "
-                         f"{p_cell(r) if ran else ''} |")
-    lines += method_lines()
     model_json = find_model(experiments)
-    if longer:
-        lines += time_scale_lines(results_dir, every, model_json)
-    lines += stay_switch_lines(results_dir)
-    lines += calibration_lines(results_dir)
-    lines += counterfactual_lines(base, results_dir, longer)
-    lines += surrogate_lines(results_dir)
-    lines += compare_lines(results_dir)
     n_runs = sum(len(h.experiments) + sum(len(ds) for ds in h.others.values()) for h in every)
-    say(f"report: drawing the figures of {n_runs} runs and the studies "
+    say(f"report: drawing the figures of {n_runs} runs and the studies while the text is written "
         f"({time.perf_counter() - start:.0f} s so far; this takes up to a minute or two)")
     try:
         with FigurePool() as pool:
-            # every horizon's figures are drawn side by side while the text is written
+            # every horizon's figures are drawn side by side from here, while the text is written
             ratio = pool.submit(value_ratio_lines, results_dir, model_json)
             figures = submit_figures(pool, every, results_dir, model_json)
+            lines = _front_lines(every, results_dir, model_json)
             lines += experiment_sections(every, figures, results_dir, model_json)
             lines += ratio.result()
     except BaseException:
@@ -196,6 +169,44 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
                     "not_a_verdict_long": first["not_a_verdict"]})
     out["unfinished"] += [str(d) for h in longer for d in h.unfinished]
     return out
+
+
+def _front_lines(every: list, results_dir: Path, model_json: Path | None) -> list[str]:
+    """The report's text before the experiments' sections: the headline, the claims table, the
+    method, the time scale, the studies, the readings, the surrogate and `tavc compare`'s
+    comparisons (written while the figures are drawn)."""
+    base, longer = every[0], every[1:]
+    runs, claims = base.runs, base.claims
+    tested, n_ok = base.tested, base.n_reproduced
+    lines = ["# tavc: the reproduction report", "",
+             *horizons.not_a_verdict_lines(*every),
+             "Built by `tavc report` from the saved results in this folder; nothing here was simulated "
+             "while writing it, and no number was typed in.", ""]
+    if longer:
+        lines += horizons.summary_lines(every)
+        lines += horizons.claims_by_horizon_table(every)
+    else:
+        head = (f"**Claims reproduced: {n_ok} of {len(tested)} tested**" if base.verdicts else
+                f"**Claims (not a verdict): {n_ok} of {len(tested)} tested would be reproduced at "
+                f"scale={', scale='.join(base.scale_names())}**")
+        lines += [f"{head} (claims {claims['claim_id'].min()}-{claims['claim_id'].max()} of the chapter's nine; "
+                  f"{len(claims) - len(tested)} not tested because their experiment has not been run here).", "",
+                  "| claim | experiment | verdict | p (the deciding part) |", "|---|---|---|---|"]
+        for r in claims.itertuples():
+            exp = chapter.experiment_of(r.claim_id)
+            ran = exp in runs
+            verdict = verdict_words(r.verdict, base.verdicts) if ran else "not run"
+            lines.append(f"| {r.claim_id} | {horizons.experiment_cell(base, exp, results_dir)} | {verdict} | "
+                         f"{p_cell(r) if ran else ''} |")
+    lines += method_lines()
+    if longer:
+        lines += time_scale_lines(results_dir, every, model_json)
+    lines += stay_switch_lines(results_dir)
+    lines += calibration_lines(results_dir)
+    lines += counterfactual_lines(base, results_dir, longer)
+    lines += surrogate_lines(results_dir)
+    lines += compare_lines(results_dir)
+    return lines
 
 
 def _run_names(found: dict[str, list[Path]], results_dir: Path) -> dict[str, list[str]]:
