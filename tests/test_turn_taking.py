@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from tavc_cli import config
 from tavc_cli.analysis.trial_stats import stable_from
-from tavc_cli.analysis.turn_taking import group_reading, modal_state, prediction, robots_high
+from tavc_cli.analysis.turn_taking import group_reading, modal_state, modal_support, prediction, robots_high
 from tavc_cli.cli import app
 from tavc_cli.errors import TavcError
 from tavc_cli.turn_taking import check_overrides, predict_turn_taking
@@ -41,6 +41,26 @@ def test_the_modal_state_is_the_largest_share_and_the_first_on_a_tie():
     assert modal_state(table, "random") == ("3:3", 31.0)
     state, share = modal_state(table, "alternate")
     assert state == "" and math.isnan(share)
+
+
+def _trial_stats(*trials: dict[str, float], controller: str = "tavc") -> pd.DataFrame:
+    return pd.DataFrame([{"controller": controller, "trial": i, **{f"pct_{k}": v for k, v in t.items()}}
+                         for i, t in enumerate(trials)])
+
+
+def test_a_modal_states_firmness_is_its_share_of_resampled_trials():
+    # one trial: every resample is that trial, so its modal state is modal in all of them
+    one = _trial_stats({"3:2": 70.0, "2:3": 30.0})
+    assert modal_support(one, "3:2") == 1.0 and modal_support(one, "2:3") == 0.0
+    # two trials, one wholly in x and one wholly in y: of the four equally likely pairs, xx names x, yy names y
+    # and the two mixed ones tie, which goes to x, first in the table's order: x in 3/4, y in 1/4
+    two = _trial_stats({"x": 100.0, "y": 0.0}, {"x": 0.0, "y": 100.0})
+    assert modal_support(two, "x") == pytest.approx(0.75, abs=0.03)
+    assert modal_support(two, "y") == pytest.approx(0.25, abs=0.03)
+    assert modal_support(two, "x") + modal_support(two, "y") == 1.0
+    assert modal_support(two, "x") == modal_support(two, "x")  # the same tables give the same share
+    # a state the table does not have, or no trials of the controller: no share
+    assert math.isnan(modal_support(two, "z")) and math.isnan(modal_support(two, "x", controller="random"))
 
 
 def test_robots_high_are_averaged_over_the_measured_stretch_only():
@@ -152,6 +172,14 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
     assert tally == ["Where the learners converged (1 run): the turn-taking model names their modal state in 1 of 1 "
                      "and their regime in 1.", "Where the learners converged (1 run): the turn-taking model names "
                      "their modal state in 0 of 1 and their regime in 1."]
+    # with the table of its trials, one trial wholly in 3:2: the predicted state's share of resamples beside it
+    _trial_stats({"3:2": 100.0, "2:3": 0.0}).to_csv(tmp_path / "converged" / "breakdown" / "trial_stats.csv",
+                                                    index=False)
+    assert row("3:2")[5] == "yes; yes (modal in 100 % of resamples of the trials)"
+    assert row("2:3")[5] == "yes; **no** (the learners: 42.0 % in 2:3; modal in 0 % of resamples of the trials)"
+    said = "Where the learners converged (1 run): the turn-taking model names their modal state in {} of 1 (over " \
+           "resamples of the learners' trials, in {}.0 of 1 on average) and their regime in 1."
+    assert tally[-2:] == [said.format(1, 1), said.format(0, 0)]
 
 
 def test_a_prediction_finds_its_learners_among_a_readings_experiments(tmp_path):

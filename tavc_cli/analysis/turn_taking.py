@@ -21,9 +21,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.mechanism import TURN_TAKING, mechanism_summary
+from tavc_cli.analysis.trial_stats import STATE_PREFIX
 
 
 def modal_state(state_time: pd.DataFrame, controller: str) -> tuple[str, float]:
@@ -34,6 +36,28 @@ def modal_state(state_time: pd.DataFrame, controller: str) -> tuple[str, float]:
         return "", math.nan
     i = int(mine["mean_pct"].to_numpy().argmax())
     return str(mine["state"].iloc[i]), float(mine["mean_pct"].iloc[i])
+
+
+def modal_support(trial_stats: pd.DataFrame, state: str, controller: str = "tavc", draws: int = 2000,
+                  seed: int = 0) -> float:
+    """How firmly a run's trials make `state` the modal state of `controller`'s groups: the share
+    of `draws` resamples of its trials (drawn with replacement, from a generator seeded with
+    `seed`, so the same tables give the same share) in which `state` has the largest mean share of
+    the measured stretch (`trial_stats.csv`'s `pct_<state>` columns, whose means are
+    `state_time.csv`'s; the first in the table's order on a tie, as `modal_state` picks). Where
+    each trial settles in one state, eight trials make a modal state of two or three of them, and
+    the share says how often another eight like them would name the same one. NaN where there
+    are no such trials or no such state."""
+    mine = trial_stats[trial_stats["controller"] == controller]
+    columns = [c for c in mine.columns if c.startswith(STATE_PREFIX)]
+    if STATE_PREFIX + state not in columns:
+        return math.nan
+    shares = mine[columns].dropna().to_numpy(float)
+    if not len(shares):
+        return math.nan
+    picks = np.random.default_rng(seed).integers(0, len(shares), size=(draws, len(shares)))
+    means = shares[picks].mean(axis=1)
+    return float((means.argmax(axis=1) == columns.index(STATE_PREFIX + state)).mean())
 
 
 def robots_high(allocation: pd.DataFrame, controller: str, t_from: float, t_to: float) -> float:

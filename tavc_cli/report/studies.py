@@ -5,12 +5,14 @@ against the learners."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pandas as pd
 
 from tavc_cli.analysis.makeup_model import expected_high, predicted_regime, readings_summary
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, readings
+from tavc_cli.analysis.turn_taking import modal_support
 from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
@@ -187,7 +189,8 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
                         f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} |")
             tallies.append({"check": not learners["no_check"], "regime": predicted["regime"] == learners["regime"],
-                            "modal": str(predicted["modal_state"]) == learners["modal_state"]})
+                            "modal": str(predicted["modal_state"]) == learners["modal_state"],
+                            "support": _support(learners, str(predicted["modal_state"]))})
     if not rows:
         return []
     return ["", "The turn-taking model at the chapter's other scenarios and at other values in today's world (`make "
@@ -195,7 +198,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             "in worlds of their own (a reading as calibrated), beside the learners' runs at the longer horizons "
             f"(`<horizon>/<name>`, `<horizon>/{READINGS_RUNS}/<name>`) and the value-ratio sweep's at 40x. The "
             "scenarios' and the sweep's runs were made before the model, which was fixed before its predictions "
-            "were set beside them; a world of its own is checked at a point fixed before its run." + (
+            "were set beside them; a world of its own is checked at a point fixed before its run. " + FIRMNESS + (
                 f" At other team sizes, `make team-size-checks` predicts (`{TURN_TAKING_RUNS}/team_size_<n>/`) "
                 f"and then runs the learners at 40x (`{TEAM_SIZE_DIR}/`)." if (results_dir / TEAM_SIZE_DIR).is_dir()
                 else ""), "",
@@ -241,7 +244,9 @@ def _learners(d: Path) -> dict:
     converged = "?" if v is None else ("yes" if v["converged"] else f"no ({', '.join(v['failed'])})")
     table = pd.read_csv(d / "state_time.csv", dtype={"state": str})
     mine = table[table["controller"] == "tavc"]
+    trials = pd.read_csv(d / "trial_stats.csv") if (d / "trial_stats.csv").is_file() else pd.DataFrame()
     return {**group, "shares": dict(zip(mine["state"], mine["mean_pct"], strict=True)), "trials": cfg.trials,
+            "trial_stats": trials,
             "factor": float(cfg.scale.time_factor), "converged": converged,
             "no_check": "" if v is not None and v["converged"] else " (not a check: the learners did not converge)",
             "words": f"{group['regime']}, {fmt(group['robots_high'], '.2f') or '-'}, {group['modal_state']} "
@@ -254,11 +259,23 @@ def _same(predicted: str, found: str) -> str:
 
 def _same_state(predicted: str, learners: dict) -> str:
     """Whether a predicted modal state is the learners' modal state; where not, the learners'
-    share of the predicted state beside (two states can be nearly tied)."""
+    share of the predicted state beside (two states can be nearly tied); and in how many
+    resamples of the learners' trials the predicted state is their modal state
+    (`analysis.turn_taking.modal_support`)."""
+    support = _support(learners, predicted)
+    firm = f"modal in {100 * support:.0f} % of resamples of the trials" if math.isfinite(support) else ""
     if predicted == learners["modal_state"]:
-        return "yes"
+        return "yes" + (f" ({firm})" if firm else "")
     share = learners["shares"].get(predicted)
-    return "**no**" + (f" (the learners: {share:.1f} % in {predicted})" if share is not None else "")
+    said = [f"the learners: {share:.1f} % in {predicted}"] if share is not None else []
+    return "**no**" + (f" ({'; '.join([*said, *([firm] if firm else [])])})" if said or firm else "")
+
+
+def _support(learners: dict, state: str) -> float:
+    """In what share of resamples of the learners' trials `state` is their modal state (NaN
+    where their run has no table of its trials)."""
+    stats = learners["trial_stats"]
+    return modal_support(stats, state) if len(stats) else math.nan
 
 
 def _prediction_words(p) -> str:
@@ -272,6 +289,9 @@ def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
     return _prediction_words(turn.loc[reading]) if turn is not None and reading in turn.index else ""
 
 
+FIRMNESS = ("Beside each predicted modal state, the share of 2,000 resamples of the learners' trials (drawn with "
+            "replacement) in which it is their modal state: where each trial settles in a state of its own, a few "
+            "trials decide which state is modal, and the share says how firmly they do.")
 TEAM_SIZE_DIR = "team_size"  # under the results folder: the learners at other team sizes (`make team-size-checks`)
 # the sweeps under the results folder the report reads as studies, not run by run, each with where
 # it is read: a prediction of the turn-taking model is set beside their runs at 40x in its world
@@ -303,7 +323,7 @@ def _learners_beside_the_models(results_dir: Path, model: pd.DataFrame, turn: pd
     rows, tallies = [r for r, _ in rows], [t for _, t in rows]
     return ["", "Beside the learners, where they ran the base case in a reading: whether they converged (by the "
             "measures of *The time scale*), how their group was made over the measured stretch of the stable period "
-            "(regime, robots on the high-value circuit, modal state), against each model's prediction.", "",
+            "(regime, robots on the high-value circuit, modal state), against each model's prediction. " + FIRMNESS, "",
             "| reading | the learners' run | converged | their regime, robots high, modal state | the drift model | "
             "the turn-taking model | the same regime (drift; turn-taking) | the same modal state (turn-taking) |",
             "|---|---|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
@@ -325,7 +345,8 @@ def _beside(reading: str, mine: pd.DataFrame, turn: pd.DataFrame | None, d: Path
         regimes += f"; {_same(str(predicted['regime']), learners['regime'])}"
         modal = _same_state(str(predicted["modal_state"]), learners)
         tally.update(regime=str(predicted["regime"]) == learners["regime"],
-                     modal=str(predicted["modal_state"]) == learners["modal_state"])
+                     modal=str(predicted["modal_state"]) == learners["modal_state"],
+                     support=_support(learners, str(predicted["modal_state"])))
     return [(f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials, "
              f"{learners['factor']:g}x) | {learners['converged']} | {learners['words']} | {regime} "
              f"({100 * basin:.0f} %), {expected_high(mine):.2f} | {_turn_words(turn, reading)} | {regimes} | "
@@ -340,8 +361,11 @@ def _tally_line(tallies: list[dict]) -> list[str]:
         return []
     turn = [t for t in checks if "modal" in t]
     drift = [t for t in checks if "drift" in t]
-    words = [f"the turn-taking model names their modal state in {sum(t['modal'] for t in turn)} of {len(turn)} "
-             f"and their regime in {sum(t['regime'] for t in turn)}"] if turn else []
+    supports = [t["support"] for t in turn if math.isfinite(t.get("support", math.nan))]
+    firm = (f" (over resamples of the learners' trials, in {sum(supports):.1f} of {len(supports)} on average)"
+            if supports else "")
+    words = [f"the turn-taking model names their modal state in {sum(t['modal'] for t in turn)} of {len(turn)}"
+             f"{firm} and their regime in {sum(t['regime'] for t in turn)}"] if turn else []
     if drift:
         words.append(f"the drift model their regime in {sum(t['drift'] for t in drift)} of {len(drift)}")
     runs = f"{len(checks)} run" + ("s" if len(checks) != 1 else "")
