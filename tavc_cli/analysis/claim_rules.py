@@ -52,7 +52,8 @@ from tavc_cli.analysis.significance import (
     paired_less,
 )
 from tavc_cli.analysis.states import theory_pct
-from tavc_cli.analysis.trial_stats import Q_GAP_PREFIX, STATE_PREFIX, states_of
+from tavc_cli.analysis.table_schemas import Q_GAP_PREFIX, STATE_PREFIX
+from tavc_cli.analysis.trial_stats import states_of
 from tavc_cli.learning.registry import LEARNS_NOTHING
 
 # The margin within which two shares of a state (% of the stable period) are the same: the smallest

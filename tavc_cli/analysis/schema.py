@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from itertools import product
 from pathlib import Path
 
-from tavc_cli.analysis.table_schemas import TABLE_NAMES, TABLES, TableSchema
+from tavc_cli.analysis.table_schemas import STATE_PREFIX, TABLE_NAMES, TABLES, TableSchema
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import PLAN_FILE
 from tavc_cli.experiments.records import TrialRecord
@@ -43,7 +43,6 @@ from tavc_cli.settings import TavcConfig, from_yaml
 
 SECTIONS = ("arena", "robot", "team", "learner", "scale", "executor", "paper", "tasks", "events", "sim", "analysis",
             "model", "calibration")
-STATE_PREFIX = "pct_"  # trial_stats: one column of shares per state (`analysis.trial_stats`)
 REWRITE = "rerun its experiment to rewrite it"
 # tavc's largest table is 2.5 MB (a 40x spatiotemporal run's target_times.csv); 256 MiB is some
 # 100 times that: a table is read whole, only a regular file (`readers.read_bounded`) and at most this

@@ -10,6 +10,9 @@ from dataclasses import dataclass, field
 TABLE_NAMES = ("state_time", "performance", "trial_stats", "allocation", "specialisation", "robots", "q_values",
                "convergence", "mechanism", "vacancy", "table_1_1", "traversals", "target_times", "policy", "lanes",
                "occupancy", "comparison", "claims")
+# trial_stats: one column of shares of the stable period per state (`analysis.trial_stats`), and per group of
+# robots (heterogeneous teams) one of the mean final Q(s, high) - Q(s, low) (`analysis.qvalues.q_gaps`)
+STATE_PREFIX, Q_GAP_PREFIX = "pct_", "q_gap_"
 
 @dataclass(frozen=True)
 class TableSchema:
@@ -39,7 +42,7 @@ TABLES: dict[str, TableSchema] = {
     "trial_stats": TableSchema(("controller", "trial", "value_rate_stable", "value_rate_convergence",
                                 "value_rate_before", "settle_s", "policy_settle_s", "policy_changes"),
                                keys=("controller", "trial", "duration_s"), optional=("duration_s",),
-                               prefixes=("pct_", "q_gap_")),
+                               prefixes=(STATE_PREFIX, Q_GAP_PREFIX)),
     "allocation": TableSchema(("t_s", "controller", "mean_high", "std_high", "n_trials"),
                               keys=("t_s", "controller", "n_trials")),
     "specialisation": TableSchema(("t_s", "controller", "group", "mean_share_high", "std_share_high", "n_trials"),

@@ -21,12 +21,10 @@ import pandas as pd
 from tavc_cli.analysis.performance import value_rate
 from tavc_cli.analysis.qvalues import q_gaps, trial_policy_stats
 from tavc_cli.analysis.states import alive_at_end, all_states, group_order, high_circuit_series, time_shares
+from tavc_cli.analysis.table_schemas import Q_GAP_PREFIX, STATE_PREFIX
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.settings import TavcConfig
 
-STATE_PREFIX = "pct_"
-# per group of robots (heterogeneous teams): mean final Q(s, high) - Q(s, low) (`analysis.qvalues.q_gaps`)
-Q_GAP_PREFIX = "q_gap_"
 # a trial's allocation has settled from the first bin after which every bin's mean number of
 # robots on the high-value circuit stays within this many robots of its stable-period mean
 SETTLE_TOL = 0.5

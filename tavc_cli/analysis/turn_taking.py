@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.mechanism import TURN_TAKING, mechanism_summary
-from tavc_cli.analysis.trial_stats import STATE_PREFIX
+from tavc_cli.analysis.table_schemas import STATE_PREFIX
 
 
 def modal_state(state_time: pd.DataFrame, controller: str) -> tuple[str, float]:

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tavc_cli.analysis.trial_stats import STATE_PREFIX
+from tavc_cli.analysis.table_schemas import STATE_PREFIX
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
 from tavc_cli.model import core
 from tavc_cli.settings import from_yaml

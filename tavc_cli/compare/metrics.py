@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from tavc_cli.analysis.trial_stats import STATE_PREFIX
+from tavc_cli.analysis.table_schemas import STATE_PREFIX
 from tavc_cli.chapter import EXPERIMENTS
 from tavc_cli.compare import FLOOR, REFERENCE
 from tavc_cli.errors import TavcError
