@@ -25,7 +25,7 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged turn-taking-checks team-size-checks calibrate-readings $(REPRODUCE) clean
+.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged readings-x80 turn-taking-checks team-size-checks calibrate-readings $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -203,6 +203,12 @@ readings-experiments-converged: venv ## The same experiments at 40x, 8 trials, i
 	$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
 		--experiments $(EXPERIMENTS_1_5) arrival=dock passing=nearest arena=two_circuits_parallel \
 		--results results/converged/readings/dock-nearest-two_circuits_parallel
+
+readings-x80: venv ## The base case at 80x, 8 trials, in the parallel readings whose learners had not settled by 40x (results/x80/readings/)
+	$(BIN)/tavc run experiment=initial_distribution scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
+		arrival=range passing=left arena=two_circuits_parallel output_dir=results/x80/readings/range-left-two_circuits_parallel
+	$(BIN)/tavc run experiment=initial_distribution scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
+		arrival=dock passing=left arena=two_circuits_parallel output_dir=results/x80/readings/dock-left-two_circuits_parallel
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
 	$(BIN)/tavc stay-switch scale=paper --results results/stay_switch
