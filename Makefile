@@ -187,8 +187,9 @@ turn-taking-readings: venv ## The turn-taking model in the readings whose experi
 	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
 		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper $(RANGE_CALIBRATED) \
 			output_dir=results/turn_taking/range-left-two_circuits_parallel-calibrated-$$e || exit 1; done
-	$(BIN)/tavc model --turn-taking experiment=heterogeneous scale=paper arrival=dock passing=left arena=two_circuits_parallel \
-		output_dir=results/turn_taking/dock-left-two_circuits_parallel-heterogeneous
+	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
+		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper arrival=dock passing=left arena=two_circuits_parallel \
+			output_dir=results/turn_taking/dock-left-two_circuits_parallel-$$e || exit 1; done
 	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
 		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper arrival=dock passing=nearest arena=two_circuits_parallel \
 			output_dir=results/turn_taking/dock-nearest-two_circuits_parallel-$$e || exit 1; done
