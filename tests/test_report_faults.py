@@ -200,6 +200,29 @@ def test_a_damaged_trial_record_the_report_reads_is_refused_before_anything_is_w
         api.load(results / "breakdown").records()
 
 
+@pytest.mark.parametrize("where", ["readings/dock-left-two_circuits_parallel/breakdown",
+                                   "converged/readings/dock-left-two_circuits_parallel/breakdown"])
+def test_a_damaged_table_of_a_run_in_another_reading_is_refused_before_anything_is_written(breakdown, tmp_path,
+                                                                                           where):
+    # the studies read those runs' tables as a whole (the counterfactuals, the models' check points)
+    results = _results_with(tmp_path, breakdown)
+    shutil.copytree(breakdown, results / where)
+    path = results / where / "state_time.csv"
+    path.write_text('state,"controller\n')
+    assert _refused(results, path).startswith(f"error: {path}: cannot be read (")
+
+
+def test_a_damaged_prediction_of_the_turn_taking_model_is_refused_before_anything_is_written(breakdown, tmp_path):
+    results = _results_with(tmp_path, breakdown)
+    path = results / "turn_taking" / "breakdown" / "turn_taking" / "turn_taking.json"
+    path.parent.mkdir(parents=True)
+    path.write_text('{"regime": "turn-taking", ')
+    before = _files(results)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 1 and result.output.startswith(f"error: {path}: "), result.output
+    assert len(result.output.strip().splitlines()) == 1 and _files(results) == before
+
+
 # --- 2. config.yaml read and checked before anything is written --------------------------------------
 
 

@@ -52,15 +52,24 @@ def test_a_modal_states_firmness_is_its_share_of_resampled_trials():
     # one trial: every resample is that trial, so its modal state is modal in all of them
     one = _trial_stats({"3:2": 70.0, "2:3": 30.0})
     assert modal_support(one, "3:2") == 1.0 and modal_support(one, "2:3") == 0.0
-    # two trials, one wholly in x and one wholly in y: of the four equally likely pairs, xx names x, yy names y
-    # and the two mixed ones tie, which goes to x, first in the table's order: x in 3/4, y in 1/4
-    two = _trial_stats({"x": 100.0, "y": 0.0}, {"x": 0.0, "y": 100.0})
-    assert modal_support(two, "x") == pytest.approx(0.75, abs=0.03)
-    assert modal_support(two, "y") == pytest.approx(0.25, abs=0.03)
+    # two trials, one wholly in y and one wholly in x: of the four equally likely pairs, yy names y, xx names x
+    # and the two mixed ones tie, which goes to y, first in the table's order (not the alphabet's): y in 3/4
+    two = _trial_stats({"y": 100.0, "x": 0.0}, {"y": 0.0, "x": 100.0})
+    assert modal_support(two, "y") == pytest.approx(0.75, abs=0.03)
+    assert modal_support(two, "x") == pytest.approx(0.25, abs=0.03)
     assert modal_support(two, "x") + modal_support(two, "y") == 1.0
-    assert modal_support(two, "x") == modal_support(two, "x")  # the same tables give the same share
+    # other controllers' trials are not the learners': three random trials wholly in x change nothing
+    mixed = pd.concat([two, _trial_stats(*[{"y": 0.0, "x": 100.0}] * 3, controller="random")], ignore_index=True)
+    assert modal_support(mixed, "y") == modal_support(two, "y")
+    # a trial without shares (no defined state in its window) is left out: the one left decides alone
+    gap = _trial_stats({"y": 100.0, "x": 0.0}, {"y": math.nan, "x": math.nan})
+    assert modal_support(gap, "y") == 1.0
+    # a state only another controller's trials have is no column of the learners': it leaves theirs alone
+    other = pd.concat([one, _trial_stats({"3:2": 0.0, "2:3": 0.0, "9:9": 100.0}, controller="random")],
+                      ignore_index=True)
+    assert modal_support(other, "3:2") == 1.0 and math.isnan(modal_support(other, "9:9"))
     # a state the table does not have, or no trials of the controller: no share
-    assert math.isnan(modal_support(two, "z")) and math.isnan(modal_support(two, "x", controller="random"))
+    assert math.isnan(modal_support(two, "z")) and math.isnan(modal_support(two, "x", controller="static"))
 
 
 def test_robots_high_are_averaged_over_the_measured_stretch_only():
@@ -178,7 +187,7 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
     assert row("3:2")[5] == "yes; yes (modal in 100 % of resamples of the trials)"
     assert row("2:3")[5] == "yes; **no** (the learners: 42.0 % in 2:3; modal in 0 % of resamples of the trials)"
     said = "Where the learners converged (1 run): the turn-taking model names their modal state in {} of 1 (over " \
-           "resamples of the learners' trials, in {}.0 of 1 on average) and their regime in 1."
+           "resamples of the learners' trials, in {}.0 of the 1 on average) and their regime in 1."
     assert tally[-2:] == [said.format(1, 1), said.format(0, 0)]
 
 

@@ -38,7 +38,10 @@ def modal_state(state_time: pd.DataFrame, controller: str) -> tuple[str, float]:
     return str(mine["state"].iloc[i]), float(mine["mean_pct"].iloc[i])
 
 
-def modal_support(trial_stats: pd.DataFrame, state: str, controller: str = "tavc", draws: int = 2000,
+RESAMPLES = 2000  # `modal_support`'s resamples of a run's trials
+
+
+def modal_support(trial_stats: pd.DataFrame, state: str, controller: str = "tavc", draws: int = RESAMPLES,
                   seed: int = 0) -> float:
     """How firmly a run's trials make `state` the modal state of `controller`'s groups: the share
     of `draws` resamples of its trials (drawn with replacement, from a generator seeded with
@@ -46,13 +49,16 @@ def modal_support(trial_stats: pd.DataFrame, state: str, controller: str = "tavc
     the measured stretch (`trial_stats.csv`'s `pct_<state>` columns, whose means are
     `state_time.csv`'s; the first in the table's order on a tie, as `modal_state` picks). Where
     each trial settles in one state, eight trials make a modal state of two or three of them, and
-    the share says how often another eight like them would name the same one. NaN where there
-    are no such trials or no such state."""
-    mine = trial_stats[trial_stats["controller"] == controller]
-    columns = [c for c in mine.columns if c.startswith(STATE_PREFIX)]
+    the share says how often another eight like them would name the same one. Columns that only
+    other controllers' trials fill, and trials without shares, are left out. NaN where there are
+    no such trials or no such state."""
+    mine = trial_stats.loc[trial_stats["controller"] == controller,
+                           [c for c in trial_stats.columns if c.startswith(STATE_PREFIX)]]
+    mine = mine.dropna(axis=1, how="all").dropna()
+    columns = list(mine.columns)
     if STATE_PREFIX + state not in columns:
         return math.nan
-    shares = mine[columns].dropna().to_numpy(float)
+    shares = mine.to_numpy(float)
     if not len(shares):
         return math.nan
     picks = np.random.default_rng(seed).integers(0, len(shares), size=(draws, len(shares)))

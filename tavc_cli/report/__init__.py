@@ -33,7 +33,7 @@ from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
-from tavc_cli.ownership import STAY_SWITCH_TABLES, list_figures, take_report_folders
+from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines
@@ -48,6 +48,7 @@ from tavc_cli.report.sections import experiment_sections, submit_figures
 from tavc_cli.report.studies import (
     STAY_SWITCH_DIRS,
     SWEEPS,
+    TURN_TAKING_RUNS,
     stay_switch_lines,
     sweep_runs,
     value_ratio_lines,
@@ -59,16 +60,18 @@ from tavc_cli.report.time_scale import time_scale_lines
 
 def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: dict[str, list[Path]]) -> None:
     """Check every file the report reads, and where it writes, before writing anything: a
-    damaged file is one line naming it, not a half-built report. Every run of every horizon
-    and of the sweeps (`studies.SWEEPS`; `schema.check_run`: its config.yaml, provenance.json and
-    tables), the models' outputs, the ladders' tables, the readings' study's tables, the calibration
-    searches' tables."""
+    damaged file is one line naming it, not a half-built report. Every run of every horizon,
+    of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`schema.check_run`:
+    its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
+    readings' study's tables, the calibration searches' tables, the turn-taking model's predictions."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")
     folders = [d for runs in horizon_runs for ds in runs.values() for d in ds]
     for sweep in SWEEPS:  # their runs with tables, as `analysis.value_ratio` and the turn-taking checks read them
         folders += [d for d in sweep_runs(results_dir, sweep) if (d / "trial_stats.csv").is_file()]
+    for top in (results_dir, *horizon_folders(results_dir)):  # runs in other readings, read by the studies
+        folders += [d for d in sweep_runs(top, READINGS_DIR) if (d / "trial_stats.csv").is_file()]
     ladders = [d / LADDER / "ladder.csv" for d in horizon_dirs if (d / LADDER / "ladder.csv").is_file()]
     for ladder in ladders:  # the rungs whose claims the ladder's table tests again
         folders += sorted(p.parent for p in ladder.parent.glob("*/trial_stats.csv")
@@ -84,6 +87,8 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
             read_or_refuse(path, pd.read_csv)
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
         read_search(table)
+    for path in sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")):  # the predictions
+        read_or_refuse(path, lambda p: json.loads(p.read_text()))
 
 
 def build_report(results_dir: Path, progress: Callable[[str], None] | None = None, page: bool = False) -> dict:

@@ -12,7 +12,8 @@ import pandas as pd
 
 from tavc_cli.analysis.makeup_model import expected_high, predicted_regime, readings_summary
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, readings
-from tavc_cli.analysis.turn_taking import modal_support
+from tavc_cli.analysis.table_schemas import STATE_PREFIX
+from tavc_cli.analysis.turn_taking import RESAMPLES, modal_support
 from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
@@ -184,21 +185,23 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             if not all((d / f"{t}.csv").is_file() for t in ("mechanism", "state_time")):
                 continue
             learners = _learners(d)
+            state = str(predicted["modal_state"])
+            support = _support(learners, state)
             same = f"{_same(predicted['regime'], learners['regime'])}; " \
-                   f"{_same_state(str(predicted['modal_state']), learners)}{learners['no_check']}"
+                   f"{_same_state(state, learners, support)}{learners['no_check']}"
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
                         f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} |")
             tallies.append({"check": not learners["no_check"], "regime": predicted["regime"] == learners["regime"],
-                            "modal": str(predicted["modal_state"]) == learners["modal_state"],
-                            "support": _support(learners, str(predicted["modal_state"]))})
+                            "modal": state == learners["modal_state"], "support": support})
     if not rows:
         return []
     return ["", "The turn-taking model at the chapter's other scenarios and at other values in today's world (`make "
             f"turn-taking-checks`: `tavc model --turn-taking ... scale=paper`, into `{TURN_TAKING_RUNS}/<name>/`), and "
             "in worlds of their own (a reading as calibrated), beside the learners' runs at the longer horizons "
             f"(`<horizon>/<name>`, `<horizon>/{READINGS_RUNS}/<name>`) and the value-ratio sweep's at 40x. The "
-            "scenarios' and the sweep's runs were made before the model, which was fixed before its predictions "
-            "were set beside them; a world of its own is checked at a point fixed before its run. " + FIRMNESS + (
+            "model was fixed before it was set beside any of these runs; the chapter's scenarios in today's world, "
+            "the sweep and some of a reading's scenarios were run before their predictions were made, the rest after "
+            "their predictions were committed (which is which: docs/readings.md). " + FIRMNESS + (
                 f" At other team sizes, `make team-size-checks` predicts (`{TURN_TAKING_RUNS}/team_size_<n>/`) "
                 f"and then runs the learners at 40x (`{TEAM_SIZE_DIR}/`)." if (results_dir / TEAM_SIZE_DIR).is_dir()
                 else ""), "",
@@ -257,12 +260,11 @@ def _same(predicted: str, found: str) -> str:
     return "yes" if predicted == found else "**no**"
 
 
-def _same_state(predicted: str, learners: dict) -> str:
+def _same_state(predicted: str, learners: dict, support: float) -> str:
     """Whether a predicted modal state is the learners' modal state; where not, the learners'
-    share of the predicted state beside (two states can be nearly tied); and in how many
-    resamples of the learners' trials the predicted state is their modal state
-    (`analysis.turn_taking.modal_support`)."""
-    support = _support(learners, predicted)
+    share of the predicted state beside (two states can be nearly tied); and in what share of
+    resamples of the learners' trials the predicted state is their modal state (`support`,
+    `_support`)."""
     firm = f"modal in {100 * support:.0f} % of resamples of the trials" if math.isfinite(support) else ""
     if predicted == learners["modal_state"]:
         return "yes" + (f" ({firm})" if firm else "")
@@ -272,10 +274,13 @@ def _same_state(predicted: str, learners: dict) -> str:
 
 
 def _support(learners: dict, state: str) -> float:
-    """In what share of resamples of the learners' trials `state` is their modal state (NaN
-    where their run has no table of its trials)."""
+    """In what share of resamples of the learners' trials `state` is their modal state
+    (`analysis.turn_taking.modal_support`); NaN where their run has no table of its trials, or
+    where their modal state is one that table has no column for (a state outside the team's)."""
     stats = learners["trial_stats"]
-    return modal_support(stats, state) if len(stats) else math.nan
+    if not len(stats) or STATE_PREFIX + learners["modal_state"] not in stats.columns:
+        return math.nan
+    return modal_support(stats, state)
 
 
 def _prediction_words(p) -> str:
@@ -289,9 +294,9 @@ def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
     return _prediction_words(turn.loc[reading]) if turn is not None and reading in turn.index else ""
 
 
-FIRMNESS = ("Beside each predicted modal state, the share of 2,000 resamples of the learners' trials (drawn with "
-            "replacement) in which it is their modal state: where each trial settles in a state of its own, a few "
-            "trials decide which state is modal, and the share says how firmly they do.")
+FIRMNESS = (f"Beside each predicted modal state, the share of {RESAMPLES:,} resamples of the learners' trials (drawn "
+            "with replacement) in which it is their modal state: where each trial settles in a state of its own, a "
+            "few trials decide which state is modal, and the share says how firmly they do.")
 TEAM_SIZE_DIR = "team_size"  # under the results folder: the learners at other team sizes (`make team-size-checks`)
 # the sweeps under the results folder the report reads as studies, not run by run, each with where
 # it is read: a prediction of the turn-taking model is set beside their runs at 40x in its world
@@ -343,10 +348,11 @@ def _beside(reading: str, mine: pd.DataFrame, turn: pd.DataFrame | None, d: Path
     if turn is not None and reading in turn.index:
         predicted = turn.loc[reading]
         regimes += f"; {_same(str(predicted['regime']), learners['regime'])}"
-        modal = _same_state(str(predicted["modal_state"]), learners)
-        tally.update(regime=str(predicted["regime"]) == learners["regime"],
-                     modal=str(predicted["modal_state"]) == learners["modal_state"],
-                     support=_support(learners, str(predicted["modal_state"])))
+        state = str(predicted["modal_state"])
+        support = _support(learners, state)
+        modal = _same_state(state, learners, support)
+        tally.update(regime=str(predicted["regime"]) == learners["regime"], modal=state == learners["modal_state"],
+                     support=support)
     return [(f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials, "
              f"{learners['factor']:g}x) | {learners['converged']} | {learners['words']} | {regime} "
              f"({100 * basin:.0f} %), {expected_high(mine):.2f} | {_turn_words(turn, reading)} | {regimes} | "
@@ -362,8 +368,9 @@ def _tally_line(tallies: list[dict]) -> list[str]:
     turn = [t for t in checks if "modal" in t]
     drift = [t for t in checks if "drift" in t]
     supports = [t["support"] for t in turn if math.isfinite(t.get("support", math.nan))]
-    firm = (f" (over resamples of the learners' trials, in {sum(supports):.1f} of {len(supports)} on average)"
-            if supports else "")
+    which = "" if len(supports) == len(turn) else " with a table of their trials"
+    firm = (f" (over resamples of the learners' trials, in {sum(supports):.1f} of the {len(supports)}{which} on "
+            "average)" if supports else "")
     words = [f"the turn-taking model names their modal state in {sum(t['modal'] for t in turn)} of {len(turn)}"
              f"{firm} and their regime in {sum(t['regime'] for t in turn)}"] if turn else []
     if drift:

@@ -12,7 +12,8 @@ import pandas as pd
 from tavc_cli.analysis.claims import not_a_verdict, verdict_words
 from tavc_cli.analysis.robots import ALTERNATOR_RATE, STAYER_SHARE, robot_summary
 from tavc_cli.analysis.schema import read_trial
-from tavc_cli.analysis.trial_stats import Q_GAP_PREFIX, SETTLE_TOL
+from tavc_cli.analysis.table_schemas import Q_GAP_PREFIX
+from tavc_cli.analysis.trial_stats import SETTLE_TOL
 from tavc_cli.analysis.vacancy import SETTLE_TASKS, vacancy_summary
 from tavc_cli.chapter import EXPERIMENTS, experiment_of
 from tavc_cli.experiments.plan import RunPlan, read_plan
