@@ -205,11 +205,13 @@ readings-experiments-converged: venv ## The same experiments at 40x, 8 trials, i
 		--experiments $(EXPERIMENTS_1_5) arrival=dock passing=nearest arena=two_circuits_parallel \
 		--results results/converged/readings/dock-nearest-two_circuits_parallel
 
-readings-x80: venv ## The base case at 80x, 8 trials, in the parallel readings whose learners had not settled by 40x (results/x80/readings/)
+readings-x80: venv ## The base case at 80x, 8 trials, in the parallel readings (and the calibrated range world) whose learners had not settled by 40x (results/x80/readings/)
 	$(BIN)/tavc run experiment=initial_distribution scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
 		arrival=range passing=left arena=two_circuits_parallel output_dir=results/x80/readings/range-left-two_circuits_parallel
 	$(BIN)/tavc run experiment=initial_distribution scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
 		arrival=dock passing=left arena=two_circuits_parallel output_dir=results/x80/readings/dock-left-two_circuits_parallel
+	$(BIN)/tavc run experiment=initial_distribution scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
+		$(RANGE_CALIBRATED) output_dir=results/x80/readings/range-left-two_circuits_parallel-calibrated
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
 	$(BIN)/tavc stay-switch scale=paper --results results/stay_switch
