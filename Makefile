@@ -134,8 +134,12 @@ reproduce-quick: venv ## A first look: every experiment at scale=quick into runs
 model: venv ## Measure the vacancy-chain model in the chapter's world (results/initial_distribution/model/)
 	$(MODEL_NICE) $(BIN)/tavc model experiment=initial_distribution scale=paper output_dir=results/initial_distribution
 
+# the chapter's task-allocation experiments besides its base case, from the registry (those `tavc compare` serves)
+OTHER_SCENARIOS = $(shell $(BIN)/python -c "from tavc_cli.chapter import base_case; from tavc_cli.compare import \
+	SCENARIOS; print(' '.join(s for s in SCENARIOS if s != base_case().name))")
+
 turn-taking-checks: venv ## The turn-taking model beside the chapter's at the chapter's other scenarios and values in today's world (results/turn_taking/)
-	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
+	for e in $(OTHER_SCENARIOS); do \
 		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper output_dir=results/turn_taking/$$e || exit 1; done
 	for w in 2000 3000 4000; do \
 		$(BIN)/tavc model --turn-taking experiment=initial_distribution "tasks.values=[$$w,2000]" scale=paper \
@@ -170,7 +174,8 @@ calibrate-readings: venv ## Each reading's calibration search against the chapte
 # The chapter's five task-allocation experiments in other readings: labelled counterfactuals (docs/readings.md)
 # (the registry's task-allocation experiments, those `tavc compare` serves; read only when a target uses them)
 EXPERIMENTS_1_5 = $(shell $(BIN)/python -c "from tavc_cli.compare import SCENARIOS; print(','.join(SCENARIOS))")
-READINGS_1X := range-left-two_circuits_parallel dock-left-two_circuits_parallel dock-nearest-two_circuits_parallel
+DOCK_PARALLEL := dock-left-two_circuits_parallel dock-nearest-two_circuits_parallel
+READINGS_1X := range-left-two_circuits_parallel $(DOCK_PARALLEL)
 RANGE_CALIBRATED := arrival=range passing=left arena=two_circuits_parallel robot.behaviour.read_range_m=2.0 \
 	robot.dock.dwell_s=5.0 robot.laser.n_rays=31
 
@@ -184,26 +189,21 @@ readings-experiments: venv ## The chapter's five task-allocation experiments at 
 turn-taking-readings: venv ## The turn-taking model in the readings whose experiments run at 40x, before those runs are read (results/turn_taking/)
 	$(BIN)/tavc model --turn-taking experiment=initial_distribution scale=paper $(RANGE_CALIBRATED) \
 		output_dir=results/turn_taking/range-left-two_circuits_parallel-calibrated
-	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
+	for e in $(OTHER_SCENARIOS); do \
 		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper $(RANGE_CALIBRATED) \
 			output_dir=results/turn_taking/range-left-two_circuits_parallel-calibrated-$$e || exit 1; done
-	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
-		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper arrival=dock passing=left arena=two_circuits_parallel \
-			output_dir=results/turn_taking/dock-left-two_circuits_parallel-$$e || exit 1; done
-	for e in breakdown breakdown_no_vacancy value_change heterogeneous; do \
-		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper arrival=dock passing=nearest arena=two_circuits_parallel \
-			output_dir=results/turn_taking/dock-nearest-two_circuits_parallel-$$e || exit 1; done
+	for r in $(DOCK_PARALLEL); do set -- $$(echo $$r | tr - ' '); for e in $(OTHER_SCENARIOS); do \
+		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper arrival=$$1 passing=$$2 arena=$$3 \
+			output_dir=results/turn_taking/$$r-$$e || exit 1; done; done
 
 readings-experiments-converged: venv ## The same experiments at 40x, 8 trials, in both parallel dock readings and the calibrated range world (results/converged/readings/)
-	$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
-		--experiments $(EXPERIMENTS_1_5) arrival=dock passing=left arena=two_circuits_parallel \
-		--results results/converged/readings/dock-left-two_circuits_parallel
+	for r in $(DOCK_PARALLEL); do set -- $$(echo $$r | tr - ' '); \
+		$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
+			--experiments $(EXPERIMENTS_1_5) arrival=$$1 passing=$$2 arena=$$3 \
+			--results results/converged/readings/$$r || exit 1; done
 	$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
 		--experiments $(EXPERIMENTS_1_5) $(RANGE_CALIBRATED) \
 		--results results/converged/readings/range-left-two_circuits_parallel-calibrated
-	$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
-		--experiments $(EXPERIMENTS_1_5) arrival=dock passing=nearest arena=two_circuits_parallel \
-		--results results/converged/readings/dock-nearest-two_circuits_parallel
 
 readings-x80: venv ## The base case at 80x, 8 trials, in the parallel readings (and the calibrated range world) whose learners had not settled by 40x (results/x80/readings/)
 	$(BIN)/tavc run experiment=initial_distribution scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \

@@ -269,8 +269,9 @@ def _same_state(predicted: str, learners: dict, support: float) -> str:
     if predicted == learners["modal_state"]:
         return "yes" + (f" ({firm})" if firm else "")
     share = learners["shares"].get(predicted)
-    said = [f"the learners: {share:.1f} % in {predicted}"] if share is not None else []
-    return "**no**" + (f" ({'; '.join([*said, *([firm] if firm else [])])})" if said or firm else "")
+    notes = [f"the learners: {share:.1f} % in {predicted}"] if share is not None else []
+    notes += [firm] if firm else []
+    return "**no**" + (f" ({'; '.join(notes)})" if notes else "")
 
 
 def _support(learners: dict, state: str) -> float:
