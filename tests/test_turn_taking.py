@@ -187,7 +187,9 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
     assert row("3:2")[5] == "yes; yes (modal in 100 % of resamples of the trials)"
     assert row("2:3")[5] == "yes; **no** (the learners: 42.0 % in 2:3; modal in 0 % of resamples of the trials)"
     said = "Where the learners converged (1 run): the turn-taking model names their modal state in {} of 1 (over " \
-           "resamples of the learners' trials, in {}.0 of the 1 on average) and their regime in 1."
+           "resamples of the learners' trials, in {}.0 of the 1 on average, where a prediction of each run's own " \
+           "modal state would be right in 1.0) and their regime in 1."
+    # the learners' own modal state, 3:2, is the one state of that trial: every resample makes it modal
     assert tally[-2:] == [said.format(1, 1), said.format(0, 0)]
 
 

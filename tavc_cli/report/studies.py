@@ -192,7 +192,8 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
                         f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} |")
             tallies.append({"check": not learners["no_check"], "regime": predicted["regime"] == learners["regime"],
-                            "modal": state == learners["modal_state"], "support": support})
+                            "modal": state == learners["modal_state"], "support": support,
+                            "ceiling": _support(learners, learners["modal_state"])})
     if not rows:
         return []
     return ["", "The turn-taking model at the chapter's other scenarios and at other values in today's world (`make "
@@ -353,7 +354,7 @@ def _beside(reading: str, mine: pd.DataFrame, turn: pd.DataFrame | None, d: Path
         support = _support(learners, state)
         modal = _same_state(state, learners, support)
         tally.update(regime=str(predicted["regime"]) == learners["regime"], modal=state == learners["modal_state"],
-                     support=support)
+                     support=support, ceiling=_support(learners, learners["modal_state"]))
     return [(f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials, "
              f"{learners['factor']:g}x) | {learners['converged']} | {learners['words']} | {regime} "
              f"({100 * basin:.0f} %), {expected_high(mine):.2f} | {_turn_words(turn, reading)} | {regimes} | "
@@ -368,10 +369,11 @@ def _tally_line(tallies: list[dict]) -> list[str]:
         return []
     turn = [t for t in checks if "modal" in t]
     drift = [t for t in checks if "drift" in t]
-    supports = [t["support"] for t in turn if math.isfinite(t.get("support", math.nan))]
-    which = "" if len(supports) == len(turn) else " with a table of their trials"
-    firm = (f" (over resamples of the learners' trials, in {sum(supports):.1f} of the {len(supports)}{which} on "
-            "average)" if supports else "")
+    firmly = [t for t in turn if math.isfinite(t.get("support", math.nan))]
+    which = "" if len(firmly) == len(turn) else " with a table of their trials"
+    firm = (f" (over resamples of the learners' trials, in {sum(t['support'] for t in firmly):.1f} of the "
+            f"{len(firmly)}{which} on average, where a prediction of each run's own modal state would be right in "
+            f"{sum(t['ceiling'] for t in firmly):.1f})" if firmly else "")
     words = [f"the turn-taking model names their modal state in {sum(t['modal'] for t in turn)} of {len(turn)}"
              f"{firm} and their regime in {sum(t['regime'] for t in turn)}"] if turn else []
     if drift:
