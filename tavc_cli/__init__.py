@@ -1,10 +1,16 @@
 """tavc: a reproduction of task allocation through vacancy chains in multi-robot transportation."""
 
-import hashlib
+from __future__ import annotations
+
 import os
-import shutil
-from collections.abc import Sequence
-from pathlib import Path
+
+# Nothing more is imported here: `python -m tavc_cli` and the `tavc` script import this package
+# before the entry point installs its Ctrl-C handler, so what loads here is a window in which an
+# interrupt would print a traceback. The functions below load what they need when called.
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+    from pathlib import Path
 
 __version__ = "0.2.0"
 
@@ -16,6 +22,8 @@ COMPILED_SOURCES = ("kernel.py", "vocabulary.py", "sim", "behaviours", "learning
 def source_digest(root: Path, parts: Sequence[str]) -> str:
     """Digest of the source files `parts` under `root` (a part not ending in .py is a package
     folder and stands for every .py file in it), their paths relative to `root` included."""
+    import hashlib  # deferred: kept out of the package's import (above)
+
     h = hashlib.sha256()
     for part in parts:
         path = root / part
@@ -32,6 +40,7 @@ def meaning_digest(root: Path, parts: Sequence[str]) -> str:
     to the code changes it. The tree is Python's own, so the digest is that of one minor version
     of Python."""
     import ast  # deferred: only for a digest, not on the command line's path before its interrupt handler
+    import hashlib  # deferred: kept out of the package's import (above)
 
     h = hashlib.sha256()
     for part in parts:
@@ -63,6 +72,8 @@ def compiled_code_cache(root: Path, home: Path) -> Path:
 def compiled_code_home(root: Path) -> Path:
     """Where the compiled kernels of the source under `root` are kept, one folder per version of
     that source: beside the source, or in the user's cache for an installed, read-only copy."""
+    from pathlib import Path  # deferred: kept out of the package's import (above)
+
     if os.access(root, os.W_OK):
         return root / "__pycache__" / "numba"
     return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tavc" / "numba"
@@ -71,6 +82,8 @@ def compiled_code_home(root: Path) -> Path:
 def prune_compiled_code(root: Path, home: Path) -> None:
     """Remove the folders under `home` of other versions of the source under `root` (the command
     line does it when it starts; nothing does it on import)."""
+    import shutil  # deferred: kept out of the package's import (above)
+
     keep = compiled_code_cache(root, home)
     if home.is_dir():
         for old in home.iterdir():

@@ -22,7 +22,7 @@ from typing import Any, Optional
 
 import typer
 
-from tavc_cli.errors import TavcError, Terminated, sigterm_raises
+from tavc_cli.errors import TavcError, Terminated, interrupt_behind, sigterm_raises
 from tavc_cli.settings import from_yaml
 
 RESUME = "finished trials are kept: rerun the same command to resume"
@@ -42,19 +42,32 @@ _REMEDIES = {
 @contextmanager
 def user_errors(folder: Optional[Callable[[], Any]] = None) -> Iterator[None]:
     """Turn a ``TavcError`` or an ``OSError`` into one line and exit 1, running out of memory
-    into one line and exit 1, Ctrl-C into exit 130, SIGTERM into 143. `folder` gives the folder
-    the command writes to, for an OSError that names no file."""
+    into one line and exit 1, Ctrl-C into exit 130, SIGTERM into 143, also where a library's
+    error hides them (`errors.interrupt_behind`). `folder` gives the folder the command writes
+    to, for an OSError that names no file."""
     try:
         with sigterm_raises():
             yield
     except TavcError as error:
+        _stopped(interrupt_behind(error))
         _fail(str(error), 1)
     except OSError as error:
+        _stopped(interrupt_behind(error))
         _fail(os_error_text(error, folder), 1)
     except MemoryError:
         _fail(f"out of memory; use fewer trials per process (executor.batch_size) or fewer processes "
               f"(executor.n_jobs); {RESUME}", 1)
     except KeyboardInterrupt as stop:
+        _stopped(stop)
+    except Exception as error:  # a bug keeps its traceback, unless it is a library's that hid an interrupt
+        _stopped(interrupt_behind(error))
+        raise
+
+
+def _stopped(stop: KeyboardInterrupt | None) -> None:
+    """Ctrl-C (exit 130) or SIGTERM (143) as one line, however deep it was caught: none if `stop`
+    is None."""
+    if stop is not None:
         terminated = isinstance(stop, Terminated)
         _fail("terminated" if terminated else "interrupted", 143 if terminated else 130)
 

@@ -31,6 +31,26 @@ class Terminated(KeyboardInterrupt):
     processes stopped, its folder released, nothing half-written."""
 
 
+def interrupt_behind(error: BaseException) -> KeyboardInterrupt | None:
+    """The Ctrl-C or SIGTERM that `error` was raised while handling, if any.
+
+    A library that tidies up on the way out can fail there and hide the interrupt behind an
+    error of its own: OmegaConf, stopped while it builds a list, restores the flags of the
+    half-built list in a ``finally``, fails on its missing items and reports that as an unknown
+    key, which would then read as a mistake in the config rather than the Ctrl-C it was."""
+    seen: set[int] = set()
+    pending = [error]
+    while pending:
+        e = pending.pop()
+        if e is None or id(e) in seen:
+            continue
+        seen.add(id(e))
+        if isinstance(e, KeyboardInterrupt):
+            return e
+        pending += [e.__cause__, e.__context__]
+    return None
+
+
 @contextmanager
 def sigterm_raises() -> Iterator[None]:
     """Within the block (in the main thread), SIGTERM raises `Terminated`."""

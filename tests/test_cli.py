@@ -352,6 +352,47 @@ def test_ctrl_c_at_any_moment_is_one_line_and_exit_130(tmp_path):
     assert interrupted >= 2
 
 
+def test_an_interrupt_a_library_hid_behind_its_own_error_is_still_an_interrupt(capsys):
+    """Stopped by Ctrl-C while it builds a list, OmegaConf fails in its own clean-up and reports an
+    unknown key (the chain below is the one it raises); the command still ends as interrupted, not
+    as a mistake in the config. An error with no interrupt behind it stays that error."""
+    import typer
+    from omegaconf.errors import ConfigKeyError
+
+    from tavc_cli.console import user_errors
+    from tavc_cli.errors import TavcError, Terminated
+
+    def unknown_key_over(stop):
+        try:
+            try:
+                raise stop
+            except KeyboardInterrupt:
+                raise AttributeError("'NoneType' object has no attribute '_invalidate_flags_cache'") from None
+        except AttributeError as error:
+            try:
+                raise ConfigKeyError(str(error)) from error
+            except ConfigKeyError:
+                raise TavcError("targets: unknown key") from None
+
+    for stop, code, line in ((KeyboardInterrupt(), 130, "error: interrupted"),
+                             (Terminated(), 143, "error: terminated"), (None, 1, "error: targets: unknown key")):
+        with pytest.raises(typer.Exit) as ended, user_errors():
+            if stop is None:
+                raise TavcError("targets: unknown key")
+            unknown_key_over(stop)
+        assert ended.value.exit_code == code
+        assert capsys.readouterr().err.strip() == line
+    # OmegaConf also lets the clean-up's own error out as it is: an interrupt still, not a bug's traceback
+    with pytest.raises(typer.Exit) as ended, user_errors():
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise AttributeError("'NoneType' object has no attribute '_invalidate_flags_cache'") from None
+    assert ended.value.exit_code == 130 and capsys.readouterr().err.strip() == "error: interrupted"
+    with pytest.raises(AttributeError), user_errors():  # a bug with no interrupt behind it keeps its traceback
+        raise AttributeError("a bug")
+
+
 # ------------------------------------------------------------------------------- what a summary says
 
 
