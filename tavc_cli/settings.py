@@ -20,6 +20,7 @@ from tavc_cli.learning.parameters import LearnerSettings, PluginSettings, record
 from tavc_cli.learning.registry import SETTINGS
 from tavc_cli.readers import load_yaml
 from tavc_cli.settings_studies import CalibrationConfig, GridAxis, ModelConfig, SurrogateConfig  # noqa: F401 (groups)
+from tavc_cli.typed_data import DECLINED, exact
 
 SCHEMA_NAME = "tavc_schema"
 AVAILABLE_BACKENDS = ("local", "ray", "dask")
@@ -376,12 +377,14 @@ def to_yaml(settings: TavcConfig) -> str:
 
 def from_yaml(path: Path) -> TavcConfig:
     """A results folder's ``config.yaml`` read back as typed settings."""
-    # as `OmegaConf.load` reads it (its loader, its types), bounded as any file of a run is
-    data = load_yaml(path, loader=get_yaml_loader())
+    data = load_yaml(path, loader=get_yaml_loader())  # as `OmegaConf.load` reads it, bounded as a run's files are
     if data is not None and not isinstance(data, (list, dict, str)):
         raise OSError(f"Invalid loaded object type: {type(data).__name__}")
     if isinstance(data, dict) and isinstance(data.get("learner"), dict):
         data["learner"] = recorded_learner(data["learner"], SETTINGS)
+    fast = exact(TavcConfig, data)  # what tavc wrote is of its fields' types already; else OmegaConf decides
+    if fast is not DECLINED:
+        return fast
     return from_mapping(TavcConfig, OmegaConf.create() if data is None else OmegaConf.create(data))
 
 

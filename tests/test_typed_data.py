@@ -1,0 +1,84 @@
+"""Reading a run's settings without OmegaConf where the file needs nothing converted: the same
+settings as OmegaConf's path for every committed config, and OmegaConf's path (its result, its
+message) for anything else."""
+
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional
+
+import pytest
+from omegaconf import MISSING, OmegaConf
+from omegaconf._utils import get_yaml_loader
+
+from tavc_cli.learning.parameters import recorded_learner
+from tavc_cli.learning.registry import SETTINGS
+from tavc_cli.readers import load_yaml
+from tavc_cli.settings import TavcConfig, from_mapping, from_yaml, to_yaml
+from tavc_cli.typed_data import DECLINED, exact
+from tests.helpers import REPO
+
+
+@dataclass
+class Leaf:
+    name: str = MISSING
+    x: float = 0.5
+
+
+@dataclass
+class Tree:
+    leaves: List[Leaf] = field(default_factory=list)
+    count: int = 1
+    scale: float = 1.0
+    flag: bool = False
+    maybe: Optional[List[float]] = None
+    open_node: Dict[str, Any] = field(default_factory=lambda: {"a": 1, "nested": {"b": 2, "c": 3}})
+    anything: Any = None
+
+
+def test_values_of_their_fields_types_are_read_as_omegaconf_reads_them():
+    data = {"leaves": [{"name": "l1", "x": 2}, {"name": "l2"}], "scale": 3, "maybe": [1, 2.5],
+            "open_node": {"nested": {"c": 30}, "d": [1]}, "anything": {"k": [1, "v"]}}
+    tree = exact(Tree, data)
+    # by hand: an integer in a float field becomes that float; a field left out takes its default;
+    # the open mapping is merged over its default key by key
+    assert tree == Tree(leaves=[Leaf("l1", 2.0), Leaf("l2", 0.5)], count=1, scale=3.0, maybe=[1.0, 2.5],
+                        open_node={"a": 1, "nested": {"b": 2, "c": 30}, "d": [1]}, anything={"k": [1, "v"]})
+    assert isinstance(tree.scale, float) and isinstance(tree.leaves[0].x, float)
+    assert tree == OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(Tree), data))
+    assert tree.anything is not data["anything"] and tree.leaves is not data["leaves"]  # copies, not the data
+
+
+@pytest.mark.parametrize("data", [
+    {"count": "2"},  # a string OmegaConf would convert
+    {"count": 2.0},  # a float in an int field
+    {"flag": 1},  # an integer in a bool field
+    {"leaves": [{"x": 1.0}]},  # a mandatory field left out
+    {"leaves": [{"name": "l", "z": 1}]},  # a key the class lacks
+    {"nothing": 1},
+    {"leaves": [{"name": "${count}"}]},  # an interpolation
+    {"anything": {"k": "${count}"}},
+    {"leaves": [{"name": "???"}]},  # OmegaConf's missing value
+    {"count": None},  # None where the field is not optional
+    {"leaves": {"name": "l"}},  # a mapping where a list belongs
+    None,
+])
+def test_anything_to_convert_fill_in_or_refuse_is_left_to_omegaconf(data):
+    assert exact(Tree, data) is DECLINED
+
+
+def test_a_refusal_of_the_class_itself_is_left_to_omegaconf():
+    data = load_yaml(REPO / "results" / "initial_distribution" / "config.yaml", loader=get_yaml_loader())
+    data["learner"]["name"] = "no_such_learner"
+    assert exact(TavcConfig, data) is DECLINED
+
+
+def test_every_committed_config_reads_as_omegaconf_reads_it():
+    paths = sorted((REPO / "results").rglob("config.yaml"))
+    assert len(paths) > 100
+    for path in paths:
+        data = load_yaml(path, loader=get_yaml_loader())
+        data["learner"] = recorded_learner(data["learner"], SETTINGS)
+        fast = exact(TavcConfig, data)
+        assert fast is not DECLINED, path
+        slow = from_mapping(TavcConfig, OmegaConf.create(data))
+        assert fast == slow and repr(fast) == repr(slow) and to_yaml(fast) == to_yaml(slow), path
+        assert repr(from_yaml(path)) == repr(slow)  # the path the report reads by
