@@ -64,7 +64,8 @@ def _dataclass(cls: type, data: Any) -> Any:
     kwargs = {}
     for name, kind, has_default in fields:
         if name in data:
-            kwargs[name] = _value(kind, data[name], _default(cls, name))
+            default = _default(cls, name) if typing.get_origin(kind) is dict else None
+            kwargs[name] = _value(kind, data[name], default)
         elif not has_default:
             raise _Decline
     try:
