@@ -54,11 +54,14 @@ def user_errors(folder: Optional[Callable[[], Any]] = None) -> Iterator[None]:
     except OSError as error:
         _stopped(interrupt_behind(error))
         _fail(os_error_text(error, folder), 1)
-    except MemoryError:
+    except MemoryError as error:
+        _stopped(interrupt_behind(error))
         _fail(f"out of memory; use fewer trials per process (executor.batch_size) or fewer processes "
               f"(executor.n_jobs); {RESUME}", 1)
     except KeyboardInterrupt as stop:
         _stopped(stop)
+    except (typer.Exit, typer.Abort):
+        raise  # the command's own way out (an inner user_errors' one line, say), never read again
     except Exception as error:  # a bug keeps its traceback, unless it is a library's that hid an interrupt
         _stopped(interrupt_behind(error))
         raise

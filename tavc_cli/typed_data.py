@@ -5,15 +5,15 @@ then turned into objects), which converts what it can, refuses the rest in one m
 costs about 30 ms a config: the report reads over a hundred. A run's `config.yaml` is written
 by tavc and holds every value in its field's type already, so `exact` builds the same objects
 directly, and declines (returns `DECLINED`) at the first thing it would have to convert,
-resolve, fill in or refuse: a key the class lacks, a mandatory field left out, a value of
-another type, an interpolation, ``???``, anything the class's own constructor refuses. The
+resolve, fill in or refuse: a key the class lacks, a field left out whose default is not plain,
+a value of another type, an interpolation, ``???``, anything the class's constructor refuses. The
 caller then takes OmegaConf's path, which gives its own result or its own message, so a
 damaged or hand-edited file reads exactly as before.
 
 What it does as OmegaConf does: a field left out takes its default; an integer in a float
 field becomes that float; a ``Dict[str, Any]`` field merges the data over its default (nested
-mappings key by key, anything else replaced); a list replaces the default; containers are
-copied, never shared with the data.
+mappings key by key, other values replaced by values that are not mappings); a list replaces
+the default; containers are copied, never shared with the data.
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ from functools import cache
 from typing import Any
 
 from omegaconf import MISSING
+
+from tavc_cli.errors import interrupt_behind
 
 DECLINED = object()  # what `exact` returns where it would have to convert, fill in or refuse
 
@@ -49,9 +51,20 @@ def _fields(cls: type) -> tuple[tuple[str, Any, bool], ...]:
 
 
 def _has_default(f: dataclasses.Field) -> bool:
+    """Whether the field, left out, takes a default that needs nothing filled in: not ``???``, nor
+    a settings class with a mandatory field anywhere inside (the arena's: OmegaConf refuses it)."""
     if f.default is not dataclasses.MISSING:
         return f.default != MISSING
-    return f.default_factory is not dataclasses.MISSING
+    if f.default_factory is dataclasses.MISSING:
+        return False
+    return not dataclasses.is_dataclass(f.default_factory) or _complete(f.default_factory)
+
+
+@cache
+def _complete(cls: type) -> bool:
+    """Whether every field of the settings class `cls`, and of those its fields' defaults build,
+    has a default."""
+    return all(has_default for _, _, has_default in _fields(cls))
 
 
 def _dataclass(cls: type, data: Any) -> Any:
@@ -70,7 +83,9 @@ def _dataclass(cls: type, data: Any) -> Any:
             raise _Decline
     try:
         return cls(**kwargs)
-    except Exception:  # noqa: BLE001 - a refusal of the class's own (its __post_init__): as OmegaConf reports it
+    except Exception as error:  # a refusal of the class's own (its __post_init__): as OmegaConf reports it
+        if interrupt_behind(error) is not None:
+            raise  # a Ctrl-C a library hid behind its own error stays one (`console.user_errors`)
         raise _Decline from None
 
 
@@ -122,7 +137,7 @@ def _scalar(kind: Any, value: Any) -> Any:
     elif kind is float:
         if isinstance(value, float):
             return value
-        if isinstance(value, int) and not isinstance(value, bool):
+        if isinstance(value, int) and not isinstance(value, bool) and abs(value) < 2 ** 1023:
             return float(value)
     elif kind is str:
         if isinstance(value, str) and "${" not in value and value != MISSING:
@@ -148,8 +163,11 @@ def _plain(value: Any) -> Any:
 
 
 def _merged(base: dict, over: dict) -> dict:
-    """`over` merged over a copy of `base`: mappings key by key, anything else replaced."""
+    """`over` merged over a copy of `base`: mappings key by key, anything else replaced; a
+    mapping over a value that is not one, or the reverse, is OmegaConf's to decide."""
     out = _plain(base)
     for key, value in over.items():
-        out[key] = _merged(out[key], value) if isinstance(out.get(key), dict) and isinstance(value, dict) else value
+        if key in out and isinstance(out[key], dict) != isinstance(value, dict):
+            raise _Decline
+        out[key] = _merged(out[key], value) if isinstance(value, dict) and key in out else value
     return out

@@ -391,6 +391,16 @@ def test_an_interrupt_a_library_hid_behind_its_own_error_is_still_an_interrupt(c
     assert ended.value.exit_code == 130 and capsys.readouterr().err.strip() == "error: interrupted"
     with pytest.raises(AttributeError), user_errors():  # a bug with no interrupt behind it keeps its traceback
         raise AttributeError("a bug")
+    # out of memory while stopping is the stop; an inner user_errors' line is said once, not read again
+    with pytest.raises(typer.Exit) as ended, user_errors():
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise MemoryError from None
+    assert ended.value.exit_code == 130 and capsys.readouterr().err.strip() == "error: interrupted"
+    with pytest.raises(typer.Exit) as ended, user_errors(), user_errors():
+        raise KeyboardInterrupt
+    assert ended.value.exit_code == 130 and capsys.readouterr().err.strip() == "error: interrupted"
 
 
 # ------------------------------------------------------------------------------- what a summary says

@@ -59,6 +59,9 @@ def test_values_of_their_fields_types_are_read_as_omegaconf_reads_them():
     {"leaves": [{"name": "???"}]},  # OmegaConf's missing value
     {"count": None},  # None where the field is not optional
     {"leaves": {"name": "l"}},  # a mapping where a list belongs
+    {"open_node": {"nested": [1]}},  # a list over a mapping of the default: OmegaConf refuses it
+    {"open_node": {"a": {"b": 1}}},  # a mapping over a value of the default
+    {"scale": 10 ** 400},  # an integer no float holds
     None,
 ])
 def test_anything_to_convert_fill_in_or_refuse_is_left_to_omegaconf(data):
@@ -82,3 +85,31 @@ def test_every_committed_config_reads_as_omegaconf_reads_it():
         slow = from_mapping(TavcConfig, OmegaConf.create(data))
         assert fast == slow and repr(fast) == repr(slow) and to_yaml(fast) == to_yaml(slow), path
         assert repr(from_yaml(path)) == repr(slow)  # the path the report reads by
+
+
+def test_a_settings_section_left_out_is_left_to_omegaconf():
+    """A section whose class has mandatory fields (the arena's) cannot take its default; the file
+    is refused where it is read, as before."""
+    data = load_yaml(REPO / "results" / "initial_distribution" / "config.yaml", loader=get_yaml_loader())
+    del data["arena"]
+    assert exact(TavcConfig, data) is DECLINED
+
+
+def test_an_interrupt_hidden_in_the_class_own_check_is_not_taken_for_a_refusal(monkeypatch):
+    """A Ctrl-C that a library hides behind its own error while the learner's node is read (the
+    class's `__post_init__`) comes out, for the command line to end on, rather than being
+    retried away by OmegaConf's path."""
+    import tavc_cli.settings as settings
+    from tavc_cli.errors import TavcError, interrupt_behind
+
+    def interrupted(node):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise TavcError("learner.name: unknown key") from None
+
+    monkeypatch.setattr(settings, "settings_of", interrupted)
+    data = load_yaml(REPO / "results" / "initial_distribution" / "config.yaml", loader=get_yaml_loader())
+    with pytest.raises(TavcError) as raised:
+        exact(TavcConfig, data)
+    assert isinstance(interrupt_behind(raised.value), KeyboardInterrupt)
