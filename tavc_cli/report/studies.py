@@ -191,9 +191,8 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                    f"{_same_state(state, learners, support)}{learners['no_check']}"
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
                         f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} |")
-            tallies.append({"check": not learners["no_check"], "regime": predicted["regime"] == learners["regime"],
-                            "modal": state == learners["modal_state"], "support": support,
-                            "ceiling": _support(learners, learners["modal_state"])})
+            tallies.append({"check": not learners["no_check"],
+                            **_turn_tally(str(predicted["regime"]), state, support, learners)})
     if not rows:
         return []
     return ["", "The turn-taking model at the chapter's other scenarios and at other values in today's world (`make "
@@ -275,6 +274,14 @@ def _same_state(predicted: str, learners: dict, support: float) -> str:
     return "**no**" + (f" ({'; '.join(notes)})" if notes else "")
 
 
+def _turn_tally(regime: str, state: str, support: float, learners: dict) -> dict:
+    """What `_tally_line` counts of one prediction of the turn-taking model (its regime, its modal
+    state and that state's `support`) beside the learners: whether each is theirs, the support, and
+    their own modal state's (what a prediction could at best be confirmed by)."""
+    return {"regime": regime == learners["regime"], "modal": state == learners["modal_state"], "support": support,
+            "ceiling": _support(learners, learners["modal_state"])}
+
+
 def _support(learners: dict, state: str) -> float:
     """In what share of resamples of the learners' trials `state` is their modal state
     (`analysis.turn_taking.modal_support`); NaN where their run has no table of its trials, or
@@ -353,8 +360,7 @@ def _beside(reading: str, mine: pd.DataFrame, turn: pd.DataFrame | None, d: Path
         state = str(predicted["modal_state"])
         support = _support(learners, state)
         modal = _same_state(state, learners, support)
-        tally.update(regime=str(predicted["regime"]) == learners["regime"], modal=state == learners["modal_state"],
-                     support=support, ceiling=_support(learners, learners["modal_state"]))
+        tally.update(_turn_tally(str(predicted["regime"]), state, support, learners))
     return [(f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials, "
              f"{learners['factor']:g}x) | {learners['converged']} | {learners['words']} | {regime} "
              f"({100 * basin:.0f} %), {expected_high(mine):.2f} | {_turn_words(turn, reading)} | {regimes} | "
