@@ -22,6 +22,7 @@ import pandas as pd
 
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
+from tavc_cli.analysis.matched import seed_for_seed
 from tavc_cli.analysis.stay_switch import GRID
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import WORLD_SEARCH_DIR
@@ -105,7 +106,49 @@ def counterfactual_lines(base: Horizon, results_dir: Path, longer: list[Horizon]
     if skipped:
         lines += ["", f"Claims {', '.join(skipped)}: their experiment ran in no other reading." if len(skipped) > 1
                   else f"Claim {skipped[0]}: its experiment ran in no other reading."]
-    return [*lines, *(["", *notes] if notes else []), ""]
+    return [*lines, *(["", *notes] if notes else []), *seed_for_seed_lines([(w, h) for w, h in today], found), ""]
+
+
+def seed_for_seed_lines(today: list[tuple[str, Horizon]], found: list[tuple[str, Horizon]]) -> list[str]:
+    """Each reading's runs set beside today's world's at the same horizon, robot by robot
+    (`analysis.matched`): a row per reading and horizon, a cell per experiment with the learners'
+    robots of the same kind in both worlds, of those matched, and the number expected by chance.
+    None where no reading's run shares a horizon with one of today's."""
+    by_factor = {h.factor: h for _, h in today}
+    experiments = sorted({e for _, h in found for e in h.experiments}, key=chapter.order_key)
+    rows = []
+    for where, h in found:
+        base = by_factor.get(h.factor)
+        if base is None:
+            continue
+        cells = [_matched_cell(base.experiments.get(e), h.experiments.get(e)) for e in experiments]
+        if any(cells):
+            rows.append(f"| {reading_words(Path(where).name)} ({h.factor:g}x, `{where}`) | {' | '.join(cells)} |")
+    if not rows:
+        return []
+    return ["", "Seed for seed: trial j of a reading's run starts from the same random initial Q-tables and first "
+            "circuits as trial j of today's world's run of the same experiment at the same horizon (robots are "
+            "matched only where their first Q snapshots are the same in both). Each cell: the learners' robots whose "
+            "kind at the end (`robots.csv`: a stayer on circuit 0 or 1, an alternator, mixed, idle) is the same in "
+            "both worlds, of those matched, and in brackets the number expected if each world's kinds were drawn "
+            "independently with its own frequencies (`analysis/matched.py`). Far above that number, what the robots "
+            "did was their initial tables' and the world hardly mattered; near it, the world decided.", "",
+            "| world (horizon, runs) | " + " | ".join(experiments) + " |", "|---|" + "---|" * len(experiments),
+            *rows]
+
+
+def _matched_cell(base: Path | None, other: Path | None) -> str:
+    """"same of matched (chance)" for two runs of one experiment; "" where either run, or its
+    robots' or Q-values' table, is missing; "none matched" where no robot starts from the same
+    table in both."""
+    if base is None or other is None:
+        return ""
+    paths = [d / f"{name}.csv" for d in (base, other) for name in ("robots", "q_values")]
+    if not all(p.is_file() for p in paths):
+        return ""
+    tables = [read_or_refuse(p, pd.read_csv) for p in paths]
+    matched = seed_for_seed(*tables)
+    return "none matched" if matched is None else f"{matched.same} of {matched.robots} ({matched.chance:.0f})"
 
 
 def calibration_words(results_dir: Path, where: str, h: Horizon) -> list[str]:
