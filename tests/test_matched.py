@@ -59,6 +59,26 @@ def test_runs_from_other_tables_are_not_set_side_by_side():
         is None
 
 
+def test_a_robot_listed_twice_is_not_matched():
+    """Robot 1 twice in b's robots (as another run's table might be): robots 0, 2 and 3 are
+    matched, all three of the same kind; robot 2 twice in b's first tables: 0, 1 and 3 are."""
+    q = _tables([0.1, -0.05, 0.02, 0.07])
+    twice = pd.concat([_robots(B), _robots(B).iloc[[1]]])
+    matched = seed_for_seed(_robots(A), q, twice, q)
+    assert (matched.robots, matched.same) == (3, 3)
+    matched = seed_for_seed(_robots(A), q, _robots(A), pd.concat([q, q.iloc[[2]]]))
+    assert (matched.robots, matched.same) == (3, 3)
+
+
+def test_a_stayers_circuit_is_part_of_its_kind_whatever_its_number_reads():
+    """Circuit 1 read as 1.0 is circuit 1; an empty circuit (NaN) is no circuit: that stayer is
+    of another kind than b's stayer on circuit 1."""
+    a = _robots(A).astype({"circuit": float})
+    a.loc[3, ["kind", "circuit"]] = ["stayer", float("nan")]
+    matched = seed_for_seed(a, _tables([0.1, -0.05, 0.02, 0.07]), _robots(B), _tables([0.1, -0.05, 0.02, 0.07]))
+    assert (matched.robots, matched.same) == (4, 2)
+
+
 def _run(folder: Path, kinds: list[tuple[str, int]], tables: list[float]) -> Path:
     folder.mkdir(parents=True)
     _robots(kinds).to_csv(folder / "robots.csv", index=False)

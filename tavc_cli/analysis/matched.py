@@ -8,8 +8,8 @@ alternator, mixed, idle) tell how much of what the learners did the world decide
 their initial tables did: many more robots of the same kind in both runs than two independent
 draws of each run's own mix of kinds would give means the tables decided; about as many, the
 world did. Which robots are matched is read from the runs' tables, not assumed: only robots
-whose first Q snapshot is the same in both runs count, and runs that share none are not set
-side by side.
+whose first Q snapshot is the same in both runs count (a robot listed twice in either run's
+tables is not matched), and runs that share none are not set side by side.
 """
 
 from __future__ import annotations
@@ -34,17 +34,18 @@ class Matched:
 
 def kinds(robots: pd.DataFrame) -> pd.Series:
     """Each robot's kind at the end of its run (`robots.csv`), a stayer's with its circuit
-    ("stayer 0"), indexed by controller, trial and robot."""
-    words = robots["kind"].astype(str).where(robots["kind"] != "stayer",
-                                             "stayer " + robots["circuit"].astype(int).astype(str))
-    return pd.Series(words.to_numpy(), index=pd.MultiIndex.from_frame(robots[KEY]), name="kind")
+    ("stayer 0"), indexed by controller, trial and robot; a robot listed twice is left out."""
+    circuit = pd.to_numeric(robots["circuit"], errors="coerce").map(lambda c: f"stayer {c:g}")
+    words = robots["kind"].astype(str).where(robots["kind"] != "stayer", circuit)
+    out = pd.Series(words.to_numpy(), index=pd.MultiIndex.from_frame(robots[KEY]), name="kind")
+    return out[~out.index.duplicated(keep=False)]
 
 
 def first_tables(q_values: pd.DataFrame) -> pd.DataFrame:
     """Each robot's Q-table at its run's first snapshot (`q_values.csv`), indexed by controller,
-    trial and robot."""
-    first = q_values[q_values["t_s"] == q_values["t_s"].min()]
-    return first.set_index(KEY)[Q_COLUMNS]
+    trial and robot; a robot listed twice there is left out."""
+    first = q_values[q_values["t_s"] == q_values["t_s"].min()].set_index(KEY)[Q_COLUMNS]
+    return first[~first.index.duplicated(keep=False)]
 
 
 def seed_for_seed(robots_a: pd.DataFrame, q_a: pd.DataFrame, robots_b: pd.DataFrame,
