@@ -1,5 +1,6 @@
 """What several test modules need: the repository's root, the command line in a process of its
-own, a folder's files by digest, and the settings of a small run."""
+own, a folder's files by digest, the settings of a small run, and a run's robots' and Q-values'
+tables made by hand."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ import subprocess
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+
+import pandas as pd
 
 from tavc_cli.config import load_config, settings
 from tavc_cli.settings import TavcConfig
@@ -59,3 +62,20 @@ def then_interrupted(fn):
         raise KeyboardInterrupt
 
     return done_then_stop
+
+
+# two runs' robots, trial 0's robots 0-3, as (kind, circuit): the same kind for robots 0, 2 and 3
+KINDS_A = [("stayer", 0), ("stayer", 0), ("stayer", 1), ("alternator", -1)]
+KINDS_B = [("stayer", 0), ("stayer", 1), ("stayer", 1), ("alternator", -1)]
+
+
+def robots_table(kinds: list[tuple[str, int]], controller: str = "tavc") -> pd.DataFrame:
+    """robots.csv rows for trial 0's robots 0, 1, ...: (kind, circuit)."""
+    return pd.DataFrame([{"controller": controller, "trial": 0, "robot": i, "kind": k, "circuit": c, "n_choices": 50,
+                          "share_main": 1.0, "switch_rate": 0.0} for i, (k, c) in enumerate(kinds)])
+
+
+def q_table(values: list[float], t_s: float = 0.0, controller: str = "tavc") -> pd.DataFrame:
+    """q_values.csv rows at `t_s` for trial 0's robots, robot i's table all `values[i]`."""
+    return pd.DataFrame([{"controller": controller, "trial": 0, "robot": i, "t_s": t_s, "q_0_0": v, "q_0_1": v,
+                          "q_1_0": v, "q_1_1": v} for i, v in enumerate(values)])

@@ -10,22 +10,10 @@ import pandas as pd
 
 from tavc_cli.analysis.matched import seed_for_seed
 from tavc_cli.report.counterfactuals import seed_for_seed_lines
-
-
-def _robots(kinds: list[tuple[str, int]], controller: str = "tavc") -> pd.DataFrame:
-    """robots.csv rows for trial 0's robots 0, 1, ...: (kind, circuit)."""
-    return pd.DataFrame([{"controller": controller, "trial": 0, "robot": i, "kind": k, "circuit": c, "n_choices": 50,
-                          "share_main": 1.0, "switch_rate": 0.0} for i, (k, c) in enumerate(kinds)])
-
-
-def _tables(values: list[float], t_s: float = 0.0, controller: str = "tavc") -> pd.DataFrame:
-    """q_values.csv rows at `t_s` for trial 0's robots, robot i's table all `values[i]`."""
-    return pd.DataFrame([{"controller": controller, "trial": 0, "robot": i, "t_s": t_s, "q_0_0": v, "q_0_1": v,
-                          "q_1_0": v, "q_1_1": v} for i, v in enumerate(values)])
-
-
-A = [("stayer", 0), ("stayer", 0), ("stayer", 1), ("alternator", -1)]
-B = [("stayer", 0), ("stayer", 1), ("stayer", 1), ("alternator", -1)]
+from tests.helpers import KINDS_A as A
+from tests.helpers import KINDS_B as B
+from tests.helpers import q_table as _tables
+from tests.helpers import robots_table as _robots
 
 
 def test_the_same_kinds_and_the_chance_of_them_by_hand():

@@ -22,11 +22,10 @@ import pandas as pd
 
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
-from tavc_cli.analysis.matched import seed_for_seed
 from tavc_cli.analysis.stay_switch import GRID
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import WORLD_SEARCH_DIR
-from tavc_cli.report.files import horizon_folders, is_run_folder, natural, read_or_refuse
+from tavc_cli.report.files import horizon_folders, is_run_folder, natural, read_or_refuse, seed_for_seed_cell
 from tavc_cli.report.horizons import Horizon, mechanism_cell, read_horizon
 from tavc_cli.report.runs import finished_runs
 from tavc_cli.report.studies import READINGS_RUNS
@@ -121,7 +120,7 @@ def seed_for_seed_lines(today: list[tuple[str, Horizon]], found: list[tuple[str,
         base = by_factor.get(h.factor)
         if base is None:
             continue
-        cells = [_matched_cell(base.experiments.get(e), h.experiments.get(e)) for e in experiments]
+        cells = [seed_for_seed_cell(base.experiments.get(e), h.experiments.get(e)) for e in experiments]
         if any(cells):
             rows.append(f"| {reading_words(Path(where).name)} ({h.factor:g}x, `{where}`) | {' | '.join(cells)} |")
     if not rows:
@@ -135,20 +134,6 @@ def seed_for_seed_lines(today: list[tuple[str, Horizon]], found: list[tuple[str,
             "did was their initial tables' and the world hardly mattered; near it, the world decided.", "",
             "| world (horizon, runs) | " + " | ".join(experiments) + " |", "|---|" + "---|" * len(experiments),
             *rows]
-
-
-def _matched_cell(base: Path | None, other: Path | None) -> str:
-    """"same of matched (chance)" for two runs of one experiment; "" where either run, or its
-    robots' or Q-values' table, is missing; "none matched" where no robot starts from the same
-    table in both."""
-    if base is None or other is None:
-        return ""
-    paths = [d / f"{name}.csv" for d in (base, other) for name in ("robots", "q_values")]
-    if not all(p.is_file() for p in paths):
-        return ""
-    tables = [read_or_refuse(p, pd.read_csv) for p in paths]
-    matched = seed_for_seed(*tables)
-    return "none matched" if matched is None else f"{matched.same} of {matched.robots} ({matched.chance:.0f})"
 
 
 def calibration_words(results_dir: Path, where: str, h: Horizon) -> list[str]:

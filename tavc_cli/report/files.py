@@ -8,6 +8,9 @@ import re
 from functools import lru_cache
 from pathlib import Path
 
+import pandas as pd
+
+from tavc_cli.analysis.matched import seed_for_seed
 from tavc_cli.errors import TavcError
 from tavc_cli.settings import TavcConfig, from_yaml
 
@@ -70,3 +73,17 @@ def run_in(d: Path, experiment: str) -> Path:
 def natural(text: str) -> list:
     """A sort key that orders "2_seed=3" before "10_seed=11"."""
     return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", text)]
+
+
+def seed_for_seed_cell(base: Path | None, other: Path | None) -> str:
+    """"same of matched (chance)" for two runs of one experiment; "" where either run, or its
+    robots' or Q-values' table, is missing; "none matched" where no robot starts from the same
+    table in both."""
+    if base is None or other is None:
+        return ""
+    paths = [d / f"{name}.csv" for d in (base, other) for name in ("robots", "q_values")]
+    if not all(p.is_file() for p in paths):
+        return ""
+    tables = [read_or_refuse(p, pd.read_csv) for p in paths]
+    matched = seed_for_seed(*tables)
+    return "none matched" if matched is None else f"{matched.same} of {matched.robots} ({matched.chance:.0f})"

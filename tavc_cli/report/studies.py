@@ -18,7 +18,7 @@ from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
-from tavc_cli.report.files import config_of, horizon_folders, natural, read_or_refuse, run_in
+from tavc_cli.report.files import config_of, horizon_folders, natural, read_or_refuse, run_in, seed_for_seed_cell
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.text import fmt
 
@@ -189,8 +189,10 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             support = _support(learners, state)
             same = f"{_same(predicted['regime'], learners['regime'])}; " \
                    f"{_same_state(state, learners, support)}{learners['no_check']}"
+            own = seed_for_seed_cell(path.parent / str(predicted.get("learners_run", "learners")), d)
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
-                        f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} |")
+                        f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} | "
+                        f"{own} |")
             tallies.append({"check": not learners["no_check"],
                             **_turn_tally(str(predicted["regime"]), state, support, learners)})
     if not rows:
@@ -201,12 +203,13 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             f"(`<horizon>/<name>`, `<horizon>/{READINGS_RUNS}/<name>`) and the value-ratio sweep's at 40x. The "
             "model was fixed before it was set beside any of these runs; the chapter's scenarios in today's world, "
             "the sweep and some of a reading's scenarios were run before their predictions were made, the rest after "
-            "their predictions were committed (which is which: docs/readings.md). " + FIRMNESS + (
+            "their predictions were committed (which is which: docs/readings.md). " + FIRMNESS + SEED_FOR_SEED + (
                 f" At other team sizes, `make team-size-checks` predicts (`{TURN_TAKING_RUNS}/team_size_<n>/`) "
                 f"and then runs the learners at 40x (`{TEAM_SIZE_DIR}/`)." if (results_dir / TEAM_SIZE_DIR).is_dir()
                 else ""), "",
             "| prediction | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
-            "model | the same regime; modal state |", "|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
+            "model | the same regime; modal state | the model's learners and these, seed for seed |",
+            "|---|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
 
 
 def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path) -> list[Path]:
@@ -306,6 +309,10 @@ def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
 FIRMNESS = (f"Beside each predicted modal state, the share of {RESAMPLES:,} resamples of the learners' trials (drawn "
             "with replacement) in which it is their modal state: where each trial settles in a state of its own, a "
             "few trials decide which state is modal, and the share says how firmly they do.")
+SEED_FOR_SEED = (" The last column sets the model's own learners (the surrogate's, same seeds) beside the "
+                 "learners' run robot by robot: those of the same kind at the end in both, of those matched by their "
+                 "first Q-tables, and in brackets the number chance would give (as in *In other readings of the "
+                 "world*); far above it, the make-up is the initial tables' rather than the world's.")
 TEAM_SIZE_DIR = "team_size"  # under the results folder: the learners at other team sizes (`make team-size-checks`)
 # the sweeps under the results folder the report reads as studies, not run by run, each with where
 # it is read: a prediction of the turn-taking model is set beside their runs at 40x in its world
@@ -314,6 +321,7 @@ SWEEPS = {VALUE_RATIO_DIR: "the value-ratio sweep, in *Learning values and time*
 WORLD = ("arena", "robot", "team", "tasks", "events")  # the settings that make a run's world and its task
 TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
 READINGS_RUNS = READINGS_DIR  # under a results or horizon folder: runs in a reading, <arrival>-<passing>-<arena>
+
 
 
 def _learners_beside_the_models(results_dir: Path, model: pd.DataFrame, turn: pd.DataFrame | None) -> list[str]:
