@@ -69,13 +69,13 @@ KINDS_A = [("stayer", 0), ("stayer", 0), ("stayer", 1), ("alternator", -1)]
 KINDS_B = [("stayer", 0), ("stayer", 1), ("stayer", 1), ("alternator", -1)]
 
 
-def robots_table(kinds: list[tuple[str, int]], controller: str = "tavc") -> pd.DataFrame:
-    """robots.csv rows for trial 0's robots 0, 1, ...: (kind, circuit)."""
-    return pd.DataFrame([{"controller": controller, "trial": 0, "robot": i, "kind": k, "circuit": c, "n_choices": 50,
-                          "share_main": 1.0, "switch_rate": 0.0} for i, (k, c) in enumerate(kinds)])
+def robots_table(kinds: list[tuple[str, int]], controller: str = "tavc", trial: int = 0) -> pd.DataFrame:
+    """robots.csv rows for a trial's robots 0, 1, ...: (kind, circuit)."""
+    return pd.DataFrame([{"controller": controller, "trial": trial, "robot": i, "kind": k, "circuit": c,
+                          "n_choices": 50, "share_main": 1.0, "switch_rate": 0.0} for i, (k, c) in enumerate(kinds)])
 
 
-def q_table(values: list[float], t_s: float = 0.0, controller: str = "tavc") -> pd.DataFrame:
-    """q_values.csv rows at `t_s` for trial 0's robots, robot i's table all `values[i]`."""
-    return pd.DataFrame([{"controller": controller, "trial": 0, "robot": i, "t_s": t_s, "q_0_0": v, "q_0_1": v,
+def q_table(values: list[float], t_s: float = 0.0, controller: str = "tavc", trial: int = 0) -> pd.DataFrame:
+    """q_values.csv rows at `t_s` for a trial's robots, robot i's table all `values[i]`."""
+    return pd.DataFrame([{"controller": controller, "trial": trial, "robot": i, "t_s": t_s, "q_0_0": v, "q_0_1": v,
                           "q_1_0": v, "q_1_1": v} for i, v in enumerate(values)])

@@ -223,6 +223,19 @@ def test_a_damaged_prediction_of_the_turn_taking_model_is_refused_before_anythin
     assert len(result.output.strip().splitlines()) == 1 and _files(results) == before
 
 
+def test_a_damaged_table_of_the_turn_taking_models_own_learners_is_refused(breakdown, tmp_path):
+    """The model's own learners' run, set beside the learners' runs seed for seed: checked like
+    any run the report reads (here: its robots' table without the kinds)."""
+    results = _results_with(tmp_path, breakdown)
+    where = results / "turn_taking" / "breakdown" / "turn_taking"
+    shutil.copytree(breakdown, where / "learners")
+    (where / "turn_taking.json").write_text(json.dumps({"regime": "turn-taking", "modal_state": "3:2",
+                                                        "learners_run": "learners"}))
+    path = where / "learners" / "robots.csv"
+    pd.read_csv(path).drop(columns="kind").to_csv(path, index=False)
+    _refused(results, path, "no column 'kind'")
+
+
 # --- 2. config.yaml read and checked before anything is written --------------------------------------
 
 

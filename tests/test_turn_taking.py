@@ -192,14 +192,14 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
            "modal state would be right in 1.0) and their regime in 1."
     # the learners' own modal state, 3:2, is the one state of that trial: every resample makes it modal
     assert tally[-2:] == [said.format(1, 1), said.format(0, 0)]
-    # the model's own learners beside these, seed for seed (tests.helpers' KINDS_A and KINDS_B: 3 of 4, 1.25
-    # by chance, tests/test_matched.py); nothing there without the tables of both
+    # the model's own learners beside these, seed for seed (tests.helpers' KINDS_A and KINDS_B, one trial: 3 of
+    # 4, and 3 by chance, each robot's chance being whether it is the same); nothing there without both tables
     assert row("3:2")[6] == ""
     for folder, kinds in ((tmp_path / "converged" / "breakdown", KINDS_A), (where / "learners", KINDS_B)):
         folder.mkdir(exist_ok=True)
         robots_table(kinds).to_csv(folder / "robots.csv", index=False)
         q_table([0.1, -0.05, 0.02, 0.07]).to_csv(folder / "q_values.csv", index=False)
-    assert row("3:2")[6] == "3 of 4 (1)"
+    assert row("3:2")[6] == "3 of 4 (3)"
 
 
 def test_a_prediction_finds_its_learners_among_a_readings_experiments(tmp_path):

@@ -40,7 +40,7 @@ from tavc_cli.report.compare import compare_lines
 from tavc_cli.report.counterfactuals import calibration_lines, calibration_tables, counterfactual_lines, read_search
 from tavc_cli.report.drawing import FigurePool, figure_files, remove_stale_figures
 from tavc_cli.report.figures import find_model
-from tavc_cli.report.files import config_of, horizon_folders, read_or_refuse
+from tavc_cli.report.files import config_of, horizon_folders, model_learners, read_or_refuse
 from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import LADDER, finished_runs, rel, run_list_lines, study_runs
@@ -88,7 +88,10 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
         read_search(table)
     for path in sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")):  # the predictions
-        read_or_refuse(path, lambda p: json.loads(p.read_text()))
+        predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))
+        learners = model_learners(path.parent, predicted) if isinstance(predicted, dict) else None
+        if learners is not None and (learners / "config.yaml").is_file():  # their own learners, set beside the runs
+            check_run(learners, config_of)
 
 
 def build_report(results_dir: Path, progress: Callable[[str], None] | None = None, page: bool = False) -> dict:

@@ -109,18 +109,15 @@ def counterfactual_lines(base: Horizon, results_dir: Path, longer: list[Horizon]
 
 
 def seed_for_seed_lines(today: list[tuple[str, Horizon]], found: list[tuple[str, Horizon]]) -> list[str]:
-    """Each reading's runs set beside today's world's at the same horizon, robot by robot
-    (`analysis.matched`): a row per reading and horizon, a cell per experiment with the learners'
-    robots of the same kind in both worlds, of those matched, and the number expected by chance.
-    None where no reading's run shares a horizon with one of today's."""
-    by_factor = {h.factor: h for _, h in today}
+    """Each reading's runs set beside today's world's runs of the same experiment at the same time
+    factor, robot by robot (`analysis.matched`): a row per reading and horizon, a cell per
+    experiment with the learners' robots of the same kind in both worlds, of those matched, and
+    the number chance gives. [] where no reading's run has one of today's to be set beside."""
     experiments = sorted({e for _, h in found for e in h.experiments}, key=chapter.order_key)
     rows = []
     for where, h in found:
-        base = by_factor.get(h.factor)
-        if base is None:
-            continue
-        cells = [seed_for_seed_cell(base.experiments.get(e), h.experiments.get(e)) for e in experiments]
+        cells = [seed_for_seed_cell(_today_at(today, e, _factor(h, e)), h.experiments[e]) if e in h.read else ""
+                 for e in experiments]
         if any(cells):
             rows.append(f"| {reading_words(Path(where).name)} ({h.factor:g}x, `{where}`) | {' | '.join(cells)} |")
     if not rows:
@@ -129,11 +126,22 @@ def seed_for_seed_lines(today: list[tuple[str, Horizon]], found: list[tuple[str,
             "circuits as trial j of today's world's run of the same experiment at the same horizon (robots are "
             "matched only where their first Q snapshots are the same in both). Each cell: the learners' robots whose "
             "kind at the end (`robots.csv`: a stayer on circuit 0 or 1, an alternator, mixed, idle) is the same in "
-            "both worlds, of those matched, and in brackets the number expected if each world's kinds were drawn "
-            "independently with its own frequencies (`analysis/matched.py`). Far above that number, what the robots "
-            "did was their initial tables' and the world hardly mattered; near it, the world decided.", "",
+            "both worlds, of those matched, and in brackets the number chance gives: robot by robot, its kinds over "
+            "the trials in each world drawn independently (`analysis/matched.py`). Far above that number, what the "
+            "robots did was their initial tables' and the world hardly mattered; near it, the world decided.", "",
             "| world (horizon, runs) | " + " | ".join(experiments) + " |", "|---|" + "---|" * len(experiments),
             *rows]
+
+
+def _factor(h: Horizon, experiment: str) -> float:
+    """The time factor `experiment`'s run in `h` ran at (its own settings')."""
+    return float(h.read[experiment][0].scale.time_factor)
+
+
+def _today_at(today: list[tuple[str, Horizon]], experiment: str, factor: float) -> Path | None:
+    """Today's world's run of `experiment` at time factor `factor`, if there is one."""
+    return next((h.experiments[experiment] for _, h in today
+                 if experiment in h.read and _factor(h, experiment) == factor), None)
 
 
 def calibration_words(results_dir: Path, where: str, h: Horizon) -> list[str]:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.matched import seed_for_seed
+from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, seed_for_seed
 from tavc_cli.errors import TavcError
 from tavc_cli.settings import TavcConfig, from_yaml
 
@@ -70,20 +70,37 @@ def run_in(d: Path, experiment: str) -> Path:
     return d if is_run_folder(d) or not (d / experiment).is_dir() else d / experiment
 
 
+def model_learners(where: Path, predicted: dict) -> Path | None:
+    """The folder of a prediction's own learners' run (`learners_run` in `turn_taking.json`,
+    beside it in `where`); None where the name is not one folder's."""
+    name = str(predicted.get("learners_run", "learners"))
+    return where / name if name not in ("", ".", "..") and "/" not in name and "\\" not in name else None
+
+
 def natural(text: str) -> list:
     """A sort key that orders "2_seed=3" before "10_seed=11"."""
     return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", text)]
 
 
 def seed_for_seed_cell(base: Path | None, other: Path | None) -> str:
-    """"same of matched (chance)" for two runs of one experiment; "" where either run, or its
-    robots' or Q-values' table, is missing; "none matched" where no robot starts from the same
-    table in both."""
+    """"same of matched (chance)" for two runs of one experiment (`analysis.matched`); "" where
+    either run, or its robots' or Q-values' table, is missing; "none matched" where no robot
+    starts from the same table in both. A table without the columns that needs is refused in
+    one line naming it."""
     if base is None or other is None:
         return ""
     paths = [d / f"{name}.csv" for d in (base, other) for name in ("robots", "q_values")]
     if not all(p.is_file() for p in paths):
         return ""
-    tables = [read_or_refuse(p, pd.read_csv) for p in paths]
+    tables = [_with_columns(p, cols) for p, cols in zip(paths, [ROBOT_COLUMNS, TABLE_COLUMNS] * 2, strict=True)]
     matched = seed_for_seed(*tables)
     return "none matched" if matched is None else f"{matched.same} of {matched.robots} ({matched.chance:.0f})"
+
+
+def _with_columns(path: Path, columns: list[str]) -> pd.DataFrame:
+    """The table at `path`, refused in one line naming it where a column of `columns` is missing."""
+    table = read_or_refuse(path, pd.read_csv)
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise TavcError(f"{path}: cannot be read (no column {missing[0]!r}); rerun its experiment to rewrite it")
+    return table

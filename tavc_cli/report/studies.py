@@ -18,7 +18,8 @@ from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
-from tavc_cli.report.files import config_of, horizon_folders, natural, read_or_refuse, run_in, seed_for_seed_cell
+from tavc_cli.report import files
+from tavc_cli.report.files import config_of, horizon_folders, model_learners, natural, read_or_refuse, run_in
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.text import fmt
 
@@ -189,7 +190,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             support = _support(learners, state)
             same = f"{_same(predicted['regime'], learners['regime'])}; " \
                    f"{_same_state(state, learners, support)}{learners['no_check']}"
-            own = seed_for_seed_cell(path.parent / str(predicted.get("learners_run", "learners")), d)
+            own = files.seed_for_seed_cell(model_learners(path.parent, predicted), d)
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
                         f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} | "
                         f"{own} |")
@@ -218,8 +219,9 @@ def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path) -
     calibrated; `files.run_in`) at every longer horizon; and every run of a sweep (`SWEEPS`) or
     in a reading (`<horizon>/readings/`) at scale=converged of the prediction's experiment in the
     world its own learners ran in (`WORLD`: the same arena, robots, team, tasks and events)."""
-    own_path = where / str(predicted.get("learners_run", "learners")) / "config.yaml"
-    own = read_or_refuse(own_path, config_of) if own_path.is_file() else None
+    own_dir = model_learners(where, predicted)
+    own_path = own_dir / "config.yaml" if own_dir is not None else None
+    own = read_or_refuse(own_path, config_of) if own_path is not None and own_path.is_file() else None
     runs = [run_in(d, own.experiment_name if own else base_case().name) for h in horizon_folders(results_dir)
             for d in (h / name, h / READINGS_RUNS / name)]
     if own is None:
@@ -321,7 +323,6 @@ SWEEPS = {VALUE_RATIO_DIR: "the value-ratio sweep, in *Learning values and time*
 WORLD = ("arena", "robot", "team", "tasks", "events")  # the settings that make a run's world and its task
 TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
 READINGS_RUNS = READINGS_DIR  # under a results or horizon folder: runs in a reading, <arrival>-<passing>-<arena>
-
 
 
 def _learners_beside_the_models(results_dir: Path, model: pd.DataFrame, turn: pd.DataFrame | None) -> list[str]:
