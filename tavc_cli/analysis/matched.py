@@ -54,12 +54,18 @@ def kinds(robots: pd.DataFrame) -> pd.Series:
     return out[keep]
 
 
+def first_rows(q_values: pd.DataFrame) -> pd.DataFrame:
+    """The rows of `q_values.csv` at each robot's own first snapshot (its earliest time that is a
+    number): all `first_tables` needs of the table."""
+    q = q_values.assign(t_s=pd.to_numeric(q_values["t_s"], errors="coerce")).dropna(subset=["t_s"])
+    return q[q["t_s"] == q.groupby(KEY)["t_s"].transform("min")]
+
+
 def first_tables(q_values: pd.DataFrame) -> pd.DataFrame:
-    """Each robot's Q-table at its own first snapshot (`q_values.csv`), indexed by controller,
+    """Each robot's Q-table at its own first snapshot (`first_rows`), indexed by controller,
     trial and robot; a robot with two rows at that time, or none with a time that is a number,
     is left out."""
-    q = q_values.assign(t_s=pd.to_numeric(q_values["t_s"], errors="coerce")).dropna(subset=["t_s"])
-    first = q[q["t_s"] == q.groupby(KEY)["t_s"].transform("min")].set_index(KEY)[Q_COLUMNS]
+    first = first_rows(q_values).set_index(KEY)[Q_COLUMNS]
     return first[~first.index.duplicated(keep=False)]
 
 

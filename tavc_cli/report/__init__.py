@@ -76,10 +76,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     for ladder in ladders:  # the rungs whose claims the ladder's table tests again
         folders += sorted(p.parent for p in ladder.parent.glob("*/trial_stats.csv")
                           if (p.parent / "config.yaml").is_file())
-    for d in folders:
-        check_run(d, config_of)
-        if (d / "model" / "model.json").is_file():
-            read_or_refuse(d / "model" / "model.json", lambda p: json.loads(p.read_text()))
+    _check_runs(folders)
     for ladder in ladders:
         read_or_refuse(ladder, pd.read_csv)
     for path in (results_dir / d / name for d in STAY_SWITCH_DIRS for name in STAY_SWITCH_TABLES):  # read as a whole
@@ -87,11 +84,31 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
             read_or_refuse(path, pd.read_csv)
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
         read_search(table)
+    own = []  # the predictions' own learners, set beside the learners' runs seed for seed
     for path in sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")):  # the predictions
         predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))
         learners = model_learners(path.parent, predicted) if isinstance(predicted, dict) else None
-        if learners is not None and (learners / "config.yaml").is_file():  # their own learners, set beside the runs
-            check_run(learners, config_of)
+        own += [learners] if learners is not None and (learners / "config.yaml").is_file() else []
+    _check_runs(own)
+
+
+def _check_runs(folders: list[Path]) -> None:
+    """`schema.check_run` on each folder, and its model's output, two folders at a time where the
+    system forks (`FigurePool`); the first folder in their order with anything wrong is the one
+    refused, as one by one. Each folder's settings are then read here too, where the report reads
+    them again (`files.config_of` keeps them)."""
+    with FigurePool() as pool:
+        pending = [pool.submit(_check_run, d) for d in folders]
+        for d, checked in zip(folders, pending, strict=True):
+            checked.result()
+            config_of(d / "config.yaml")
+
+
+def _check_run(folder: Path) -> None:
+    """`schema.check_run` on one folder, and its model's output if it has one."""
+    check_run(folder, config_of)
+    if (folder / "model" / "model.json").is_file():
+        read_or_refuse(folder / "model" / "model.json", lambda p: json.loads(p.read_text()))
 
 
 def build_report(results_dir: Path, progress: Callable[[str], None] | None = None, page: bool = False) -> dict:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, seed_for_seed
+from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_rows, seed_for_seed
 from tavc_cli.errors import TavcError
 from tavc_cli.settings import TavcConfig, from_yaml
 
@@ -92,15 +92,23 @@ def seed_for_seed_cell(base: Path | None, other: Path | None) -> str:
     paths = [d / f"{name}.csv" for d in (base, other) for name in ("robots", "q_values")]
     if not all(p.is_file() for p in paths):
         return ""
-    tables = [_with_columns(p, cols) for p, cols in zip(paths, [ROBOT_COLUMNS, TABLE_COLUMNS] * 2, strict=True)]
+    tables = [_seed_table(p) for p in paths]
     matched = seed_for_seed(*tables)
     return "none matched" if matched is None else f"{matched.same} of {matched.robots} ({matched.chance:.0f})"
 
 
-def _with_columns(path: Path, columns: list[str]) -> pd.DataFrame:
-    """The table at `path`, refused in one line naming it where a column of `columns` is missing."""
-    table = read_or_refuse(path, pd.read_csv)
-    missing = [c for c in columns if c not in table.columns]
+def _seed_table(path: Path) -> pd.DataFrame:
+    """A run's robots' table, or its Q-values' first snapshots (`matched.first_rows`), read once
+    per version of the file (a run is set beside several others); refused in one line naming it
+    where a column `analysis.matched` needs is missing. Shared between callers: never changed."""
+    stat = path.stat()
+    return _seed_table_of(str(path.resolve()), stat.st_mtime_ns, stat.st_size, path.name == "q_values.csv")
+
+
+@lru_cache(maxsize=128)
+def _seed_table_of(path: str, mtime_ns: int, size: int, q_values: bool) -> pd.DataFrame:
+    table = read_or_refuse(Path(path), pd.read_csv)
+    missing = [c for c in (TABLE_COLUMNS if q_values else ROBOT_COLUMNS) if c not in table.columns]
     if missing:
         raise TavcError(f"{path}: cannot be read (no column {missing[0]!r}); rerun its experiment to rewrite it")
-    return table
+    return first_rows(table) if q_values else table
