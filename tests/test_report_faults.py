@@ -212,6 +212,18 @@ def test_a_damaged_table_of_a_run_in_another_reading_is_refused_before_anything_
     assert _refused(results, path).startswith(f"error: {path}: cannot be read (")
 
 
+def test_of_two_damaged_runs_the_first_in_order_is_named_though_they_are_checked_together(breakdown, tmp_path):
+    """The runs are checked two at a time; the refusal names the first of them in the report's
+    order (today's world's before another reading's), whichever check ends first."""
+    results = _results_with(tmp_path, breakdown)
+    later = results / "readings" / "dock-left-two_circuits_parallel" / "breakdown"
+    shutil.copytree(breakdown, later)
+    (later / "state_time.csv").write_text('state,"controller\n')  # quick to find wrong
+    path = results / "breakdown" / "trial_stats.csv"
+    path.write_bytes(path.read_bytes()[:-1])  # found only after the other tables of its run are read
+    _refused(results, path, "cut short (its last line has no newline)")
+
+
 def test_a_damaged_prediction_of_the_turn_taking_model_is_refused_before_anything_is_written(breakdown, tmp_path):
     results = _results_with(tmp_path, breakdown)
     path = results / "turn_taking" / "breakdown" / "turn_taking" / "turn_taking.json"
