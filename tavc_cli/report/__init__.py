@@ -63,7 +63,8 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     damaged file is one line naming it, not a half-built report. Every run of every horizon,
     of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`schema.check_run`:
     its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
-    readings' study's tables, the calibration searches' tables, the turn-taking model's predictions."""
+    readings' study's tables, the calibration searches' tables, the turn-taking model's predictions
+    and its own learners' runs. The runs are checked two at a time (`_check_runs`)."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")

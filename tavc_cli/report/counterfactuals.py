@@ -105,7 +105,7 @@ def counterfactual_lines(base: Horizon, results_dir: Path, longer: list[Horizon]
     if skipped:
         lines += ["", f"Claims {', '.join(skipped)}: their experiment ran in no other reading." if len(skipped) > 1
                   else f"Claim {skipped[0]}: its experiment ran in no other reading."]
-    return [*lines, *(["", *notes] if notes else []), *seed_for_seed_lines([(w, h) for w, h in today], found), ""]
+    return [*lines, *(["", *notes] if notes else []), *seed_for_seed_lines(today, found), ""]
 
 
 def seed_for_seed_lines(today: list[tuple[str, Horizon]], found: list[tuple[str, Horizon]]) -> list[str]:
