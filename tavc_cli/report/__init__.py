@@ -96,13 +96,23 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
 def _check_runs(folders: list[Path]) -> None:
     """`schema.check_run` on each folder, and its model's output, two folders at a time where the
     system forks (`FigurePool`); the first folder in their order with anything wrong is the one
-    refused, as one by one. Each folder's settings are then read here too, where the report reads
-    them again (`files.config_of` keeps them)."""
+    refused, as one by one, once the checks already under way have ended (a worker stopped while
+    it starts can hold the pool's queue for good). Each folder's settings are then read here
+    too, where the report reads them again (`files.config_of` keeps them)."""
+    refused = None
     with FigurePool() as pool:
         pending = [pool.submit(_check_run, d) for d in folders]
         for d, checked in zip(folders, pending, strict=True):
-            checked.result()
+            try:
+                checked.result()
+            except TavcError as exc:  # the checks under way end as they would, the others never start
+                refused = exc
+                for later in pending:
+                    later.cancel()
+                break
             config_of(d / "config.yaml")
+    if refused is not None:
+        raise refused
 
 
 def _check_run(folder: Path) -> None:
