@@ -96,8 +96,9 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
 def _check_runs(folders: list[Path]) -> None:
     """`schema.check_run` on each folder, and its model's output, two folders at a time where the
     system forks (`FigurePool`); the first folder in their order with anything wrong is the one
-    refused, as one by one, once the checks already under way have ended (a worker stopped while
-    it starts can hold the pool's queue for good). Each folder's settings are then read here
+    refused (or a failure of the check itself raised), as one by one, once the checks already
+    under way have ended and with no other started (a worker stopped while it starts can hold
+    the pool's queue for good). Each folder's settings are then read here
     too, where the report reads them again (`files.config_of` keeps them)."""
     refused = None
     with FigurePool() as pool:
@@ -105,7 +106,7 @@ def _check_runs(folders: list[Path]) -> None:
         for d, checked in zip(folders, pending, strict=True):
             try:
                 checked.result()
-            except TavcError as exc:  # the checks under way end as they would, the others never start
+            except Exception as exc:  # noqa: BLE001 - raised below, once the checks under way have ended
                 refused = exc
                 for later in pending:
                     later.cancel()
