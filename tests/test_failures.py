@@ -346,3 +346,29 @@ def test_something_in_the_way_of_the_trial_records_is_one_line(tmp_path):
     trial_path(tmp_path, "random", 0).mkdir(parents=True)
     with pytest.raises(TavcError, match=r"random_000.npz: a folder stands where tavc writes its trial records"):
         run_experiment(_cfg(tmp_path, "trials=1"))
+
+
+def _deaf_to_sigterm() -> None:
+    """A worker that has not yet replaced the run's own SIGTERM handler, which only asks a run to stop."""
+    signal.signal(signal.SIGTERM, lambda *_: None)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forked workers")
+def test_stopping_a_pool_stops_a_worker_that_does_not_heed_sigterm():
+    """`stop_workers` ends every worker, even one still deaf to SIGTERM, so that waiting for the
+    pool ends too (a worker left alive would wait for good on the pool's queue)."""
+    import multiprocessing as mp
+    import threading
+    from concurrent.futures import ProcessPoolExecutor
+
+    from tavc_cli.experiments.pool import stop_workers
+
+    pool = ProcessPoolExecutor(max_workers=2, mp_context=mp.get_context("fork"), initializer=_deaf_to_sigterm)
+    busy = pool.submit(time.sleep, 30)
+    time.sleep(0.5)  # both workers started: one sleeping, one waiting on the queue
+    stopper = threading.Thread(target=stop_workers, args=(pool,), daemon=True)
+    started = time.monotonic()
+    stopper.start()
+    stopper.join(timeout=20)
+    assert not stopper.is_alive(), "stop_workers waited for a worker it did not stop"
+    assert time.monotonic() - started < 20 and busy.done()
