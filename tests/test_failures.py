@@ -348,27 +348,54 @@ def test_something_in_the_way_of_the_trial_records_is_one_line(tmp_path):
         run_experiment(_cfg(tmp_path, "trials=1"))
 
 
-def _deaf_to_sigterm() -> None:
-    """A worker that has not yet replaced the run's own SIGTERM handler, which only asks a run to stop."""
+
+def _deaf_to_sigterm(ready) -> None:
+    """A pool worker that has not yet replaced a SIGTERM handler that lets it live (dying with the
+    test all the same), counted in `ready` once it is so."""
+    from tavc_cli.experiments.pool import die_with_parent
+
+    die_with_parent()
     signal.signal(signal.SIGTERM, lambda *_: None)
+    with ready.get_lock():
+        ready.value += 1
+
+
+def _touch_and_sleep(path: str) -> None:
+    with open(path, "w"):
+        pass
+    time.sleep(30)
+
+
+def _until(condition, timeout_s: float = 20.0) -> None:
+    end = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < end, "gave up waiting"
+        time.sleep(0.02)
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forked workers")
-def test_stopping_a_pool_stops_a_worker_that_does_not_heed_sigterm():
-    """`stop_workers` ends every worker, even one still deaf to SIGTERM, so that waiting for the
-    pool ends too (a worker left alive would wait for good on the pool's queue)."""
+def test_stopping_a_pool_stops_a_worker_that_does_not_heed_sigterm(tmp_path):
+    """`stop_workers` ends every worker, even one deaf to SIGTERM, so that waiting for the pool
+    ends too (a worker left alive would wait for good on the pool's queue): both workers deaf and
+    one of them busy before it is called."""
     import multiprocessing as mp
     import threading
     from concurrent.futures import ProcessPoolExecutor
 
     from tavc_cli.experiments.pool import stop_workers
 
-    pool = ProcessPoolExecutor(max_workers=2, mp_context=mp.get_context("fork"), initializer=_deaf_to_sigterm)
-    busy = pool.submit(time.sleep, 30)
-    time.sleep(0.5)  # both workers started: one sleeping, one waiting on the queue
-    stopper = threading.Thread(target=stop_workers, args=(pool,), daemon=True)
-    started = time.monotonic()
-    stopper.start()
-    stopper.join(timeout=20)
-    assert not stopper.is_alive(), "stop_workers waited for a worker it did not stop"
-    assert time.monotonic() - started < 20 and busy.done()
+    ctx = mp.get_context("fork")
+    ready = ctx.Value("i", 0)
+    pool = ProcessPoolExecutor(max_workers=2, mp_context=ctx, initializer=_deaf_to_sigterm, initargs=(ready,))
+    started = tmp_path / "started"
+    try:
+        busy = pool.submit(_touch_and_sleep, str(started))
+        _until(lambda: ready.value == 2 and started.exists())
+        stopper = threading.Thread(target=stop_workers, args=(pool,), daemon=True)
+        stopper.start()
+        stopper.join(timeout=20)
+        assert not stopper.is_alive(), "stop_workers waited for a worker it did not stop"
+        assert busy.done()
+    finally:  # whatever happened, no worker outlives the test
+        for worker in list((getattr(pool, "_processes", None) or {}).values()):
+            worker.kill()

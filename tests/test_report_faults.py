@@ -6,8 +6,10 @@ which nothing was delivered says so; the API reads only the trials a run lists."
 import csv
 import io
 import json
+import os
 import shutil
 import tempfile
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -16,7 +18,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from tavc_cli import api
+from tavc_cli import api, report
 from tavc_cli.analysis.schema import RunFacts, check_run
 from tavc_cli.cli import app
 from tavc_cli.config import load_config
@@ -212,15 +214,50 @@ def test_a_damaged_table_of_a_run_in_another_reading_is_refused_before_anything_
     assert _refused(results, path).startswith(f"error: {path}: cannot be read (")
 
 
-def test_of_two_damaged_runs_the_first_in_order_is_named_though_they_are_checked_together(breakdown, tmp_path):
+_CHECK_RUN = report._check_run
+
+
+def _slow_for_todays_world(folder: Path) -> None:
+    """The report's check of one run, a second late for a run directly under the results folder."""
+    if folder.parent.name == "results":
+        time.sleep(1.0)
+    _CHECK_RUN(folder)
+
+
+def test_of_two_damaged_runs_the_first_in_order_is_named_though_they_are_checked_together(breakdown, tmp_path,
+                                                                                          monkeypatch):
     """The runs are checked two at a time; the refusal names the first of them in the report's
-    order (today's world's before another reading's), whichever check ends first."""
+    order (today's world's before another reading's), though its check ends a second after the
+    other's (the check processes are forked with the slowed check)."""
     results = _results_with(tmp_path, breakdown)
     later = results / "readings" / "dock-left-two_circuits_parallel" / "breakdown"
     shutil.copytree(breakdown, later)
-    (later / "state_time.csv").write_text('state,"controller\n')  # quick to find wrong
+    (later / "state_time.csv").write_text('state,"controller\n')
     path = results / "breakdown" / "trial_stats.csv"
-    path.write_bytes(path.read_bytes()[:-1])  # found only after the other tables of its run are read
+    path.write_bytes(path.read_bytes()[:-1])
+    monkeypatch.setattr(report, "_check_run", _slow_for_todays_world)
+    _refused(results, path, "cut short (its last line has no newline)")
+
+
+_REPORTING = os.getpid()
+
+
+def _dies_in_a_check_process(folder: Path) -> None:
+    """The report's check of one run, dying (as out of memory would) in a check process."""
+    if os.getpid() != _REPORTING:
+        os._exit(9)
+    _CHECK_RUN(folder)
+
+
+def test_where_a_check_process_dies_the_runs_are_checked_in_the_report_itself(breakdown, tmp_path, monkeypatch):
+    """A check process that dies takes nothing with it: the report checks the runs itself and is
+    written; with a damaged run, that run is refused as ever."""
+    results = _results_with(tmp_path, breakdown)
+    monkeypatch.setattr(report, "_check_run", _dies_in_a_check_process)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0 and (results / "REPORT.md").is_file(), result.output
+    path = results / "breakdown" / "trial_stats.csv"
+    path.write_bytes(path.read_bytes()[:-1])
     _refused(results, path, "cut short (its last line has no newline)")
 
 

@@ -283,9 +283,10 @@ def _compiling_alone() -> Iterator[None]:
 def stop_workers(pool: ProcessPoolExecutor) -> None:
     """Stop a pool's workers now and start no work that nobody will wait for (on Ctrl-C they
     stop themselves; on SIGTERM or an error in this process only this process would). They are
-    killed, not asked: a worker that has just been forked still has this run's own SIGTERM
-    handler (which only asks a run to stop) until `worker_start` replaces it, and a worker that
-    lived on would wait for good on the pool's queue, which a killed one may hold."""
+    killed, not asked: until `worker_start` replaces it, a worker forked a moment before runs
+    whatever SIGTERM handler its parent had, which need not end it (under a test runner, one may
+    not), and a worker that lived on would wait for good on the pool's queue, which a killed one
+    may hold."""
     for worker in list(getattr(pool, "_processes", {}).values()):
         worker.kill()
     pool.shutdown(wait=True, cancel_futures=True)

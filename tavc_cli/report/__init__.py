@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 import pandas as pd
@@ -97,15 +98,18 @@ def _check_runs(folders: list[Path]) -> None:
     """`schema.check_run` on each folder, and its model's output, two folders at a time where the
     system forks (`FigurePool`); the first folder in their order with anything wrong is the one
     refused (or a failure of the check itself raised), as one by one, once the checks already
-    under way have ended and with no other started (a worker stopped while it starts can hold
-    the pool's queue for good). Each folder's settings are then read here
-    too, where the report reads them again (`files.config_of` keeps them)."""
-    refused = None
+    handed to the processes have ended; where a check process dies, the folders from there on
+    are checked here, one by one. Each folder's settings are then read here too, where the
+    report reads them again (`files.config_of` keeps them)."""
+    refused, here_from = None, len(folders)
     with FigurePool() as pool:
         pending = [pool.submit(_check_run, d) for d in folders]
-        for d, checked in zip(folders, pending, strict=True):
+        for i, (d, checked) in enumerate(zip(folders, pending, strict=True)):
             try:
                 checked.result()
+            except BrokenProcessPool:  # a check process died: this folder and the rest are checked here
+                here_from = i
+                break
             except Exception as exc:  # noqa: BLE001 - raised below, once the checks under way have ended
                 refused = exc
                 for later in pending:
@@ -114,6 +118,9 @@ def _check_runs(folders: list[Path]) -> None:
             config_of(d / "config.yaml")
     if refused is not None:
         raise refused
+    for d in folders[here_from:]:
+        _check_run(d)
+        config_of(d / "config.yaml")
 
 
 def _check_run(folder: Path) -> None:

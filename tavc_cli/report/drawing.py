@@ -35,14 +35,26 @@ class FigurePool:
         return done
 
     def __exit__(self, kind, *exc) -> None:
-        """Wait for every figure; on an error or an interrupt, stop the processes at once."""
-        if self.pool is not None and kind is not None:  # Ctrl-C, SIGTERM, an error: the figures stop now
-            # deferred: loads the simulator's compiled kernels
-            from tavc_cli.experiments.pool import stop_workers
+        """Wait for every figure; on an error or an interrupt, here or while waiting, stop the
+        processes at once."""
+        if self.pool is None:
+            return
+        if kind is None:
+            try:
+                self.pool.shutdown(wait=True, cancel_futures=True)
+                return
+            except BaseException:  # Ctrl-C or SIGTERM while waiting: stopped as below, then raised
+                _stop(self.pool)
+                raise
+        _stop(self.pool)  # Ctrl-C, SIGTERM, an error: the figures stop now
 
-            stop_workers(self.pool)
-        elif self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
+
+def _stop(pool) -> None:
+    """`experiments.pool.stop_workers`, loaded when needed."""
+    # deferred: loads the simulator's compiled kernels
+    from tavc_cli.experiments.pool import stop_workers
+
+    stop_workers(pool)
 
 
 def figure_worker_start() -> None:
