@@ -396,6 +396,7 @@ def test_stopping_a_pool_stops_a_worker_that_does_not_heed_sigterm(tmp_path):
         stopper.join(timeout=20)
         assert not stopper.is_alive(), "stop_workers waited for a worker it did not stop"
         assert busy.done()
+        stop_workers(pool)  # again, on a pool already shut down (an interrupt after it ended): nothing to do
     finally:  # whatever happened, no worker outlives the test
         for worker in list((getattr(pool, "_processes", None) or {}).values()):
             worker.kill()

@@ -287,7 +287,7 @@ def stop_workers(pool: ProcessPoolExecutor) -> None:
     whatever SIGTERM handler its parent had, which need not end it (under a test runner, one may
     not), and a worker that lived on would wait for good on the pool's queue, which a killed one
     may hold."""
-    for worker in list(getattr(pool, "_processes", {}).values()):
+    for worker in list((getattr(pool, "_processes", None) or {}).values()):  # None once shut down
         worker.kill()
     pool.shutdown(wait=True, cancel_futures=True)
 
