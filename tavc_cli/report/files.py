@@ -102,7 +102,7 @@ def _seed_table(path: Path) -> pd.DataFrame:
     per version of the file (a run is set beside several others); refused in one line naming it
     where a column `analysis.matched` needs is missing. Shared between callers: never changed."""
     stat = path.stat()
-    return _seed_table_of(str(path.resolve()), stat.st_mtime_ns, stat.st_size, path.name == "q_values.csv")
+    return _seed_table_of(str(path), stat.st_mtime_ns, stat.st_size, path.name == "q_values.csv")  # named as given
 
 
 @lru_cache(maxsize=128)
