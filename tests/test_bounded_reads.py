@@ -4,7 +4,6 @@ each refused in one line naming the file, at once, and never end in a traceback 
 
 import json
 import os
-import shutil
 import signal
 from contextlib import contextmanager
 from pathlib import Path
@@ -15,10 +14,7 @@ from typer.testing import CliRunner
 
 from tavc_cli import readers
 from tavc_cli.cli import app
-from tavc_cli.config import load_config
-from tavc_cli.config import settings as to_settings
 from tavc_cli.errors import TavcError
-from tavc_cli.pipeline import run_experiment
 from tavc_cli.readers import MAX_DEPTH, json_depth, load_json, load_yaml, read_bounded
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
@@ -45,19 +41,10 @@ def within(seconds: int):
         signal.signal(signal.SIGALRM, previous)
 
 
-@pytest.fixture(scope="module")
-def finished(tmp_path_factory):
-    """A finished smoke run."""
-    folder = tmp_path_factory.mktemp("run") / "initial_distribution"
-    run_experiment(to_settings(load_config([*SMOKE, f"output_dir={folder}"])))
-    return folder
-
-
-def _copy(run: Path, tmp_path: Path) -> tuple[Path, Path]:
-    results = tmp_path / "results"
-    results.mkdir()
-    shutil.copytree(run, results / run.name)
-    return results, results / run.name
+@pytest.fixture
+def copied(finished_run, run_copy, tmp_path) -> tuple[Path, Path]:
+    """A results folder holding a copy of a finished smoke run (shared, made once), and the copy."""
+    return tmp_path / "results", run_copy(finished_run(*SMOKE, name="initial_distribution"), into="results")
 
 
 def _refused(results: Path, path: Path) -> str:
@@ -71,29 +58,29 @@ def _refused(results: Path, path: Path) -> str:
     return lines[0]
 
 
-def test_a_nested_provenance_json_is_refused(finished, tmp_path):
-    results, run = _copy(finished, tmp_path)
+def test_a_nested_provenance_json_is_refused(copied):
+    results, run = copied
     (run / "provenance.json").write_text(NESTED)
     line = _refused(results, run / "provenance.json")
     assert f"nested more than {MAX_DEPTH} levels deep" in line and line.endswith("rerun its experiment to rewrite it")
 
 
-def test_a_nested_manifest_is_refused(finished, tmp_path):
-    results, run = _copy(finished, tmp_path)
+def test_a_nested_manifest_is_refused(copied):
+    results, run = copied
     (run / ".tavc.json").write_text(NESTED)
     line = _refused(results, run / ".tavc.json")
     assert f"nested more than {MAX_DEPTH} levels deep" in line and line.endswith("taken as tavc's")
 
 
-def test_an_alias_bomb_config_is_refused(finished, tmp_path):
-    results, run = _copy(finished, tmp_path)
+def test_an_alias_bomb_config_is_refused(copied):
+    results, run = copied
     (run / "config.yaml").write_text(BOMB)
     line = _refused(results, run / "config.yaml")
     assert "a YAML alias" in line
 
 
-def test_a_pipe_named_provenance_json_never_hangs(finished, tmp_path):
-    results, run = _copy(finished, tmp_path)
+def test_a_pipe_named_provenance_json_never_hangs(copied):
+    results, run = copied
     (run / "provenance.json").unlink()
     os.mkfifo(run / "provenance.json")
     with within(20):
@@ -104,8 +91,8 @@ def test_a_pipe_named_provenance_json_never_hangs(finished, tmp_path):
         load_json(run / "provenance.json")
 
 
-def test_an_oversized_provenance_json_is_refused(finished, tmp_path):
-    results, run = _copy(finished, tmp_path)
+def test_an_oversized_provenance_json_is_refused(copied):
+    results, run = copied
     with open(run / "provenance.json", "ab") as fh:
         fh.truncate(readers.JSON_LIMIT + 1)  # sparse: nothing written
     line = _refused(results, run / "provenance.json")

@@ -44,12 +44,10 @@ def _files(folder):
     return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file())
 
 
-@pytest.fixture(scope="module")
-def reference(tmp_path_factory):
-    """An uneventful run of 4 trials: what every recovered run must reproduce."""
-    out = tmp_path_factory.mktemp("reference")
-    run_experiment(_cfg(out, "trials=4"))
-    return out
+@pytest.fixture
+def reference(finished_run):
+    """An uneventful run of 4 trials: what every recovered run must reproduce (shared, never changed)."""
+    return finished_run(*SMOKE, "trials=4")
 
 
 def _fault_on_tick(monkeypatch, trial: int, tick: int, fault) -> None:

@@ -41,12 +41,10 @@ def _tables(folder):
     return {p.name: p.read_bytes() for p in sorted(folder.glob("*.csv"))}
 
 
-@pytest.fixture(scope="module")
-def undisturbed(tmp_path_factory):
-    """What every disturbed run must come back to."""
-    out = tmp_path_factory.mktemp("undisturbed") / "run"
-    run_experiment(_cfg(out))
-    return out
+@pytest.fixture
+def undisturbed(finished_run):
+    """What every disturbed run must come back to (shared: the tests disturb copies of it)."""
+    return finished_run(*SMOKE)
 
 
 def _assert_healed(out, undisturbed):

@@ -29,17 +29,10 @@ def _snapshot(folder):
     return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
-@pytest.fixture(scope="module")
-def finished(tmp_path_factory):
-    """A finished run, copied by each test that changes it."""
-    out = tmp_path_factory.mktemp("finished") / "run"
-    run_experiment(_cfg(out))
-    return out
-
-
-def _copy(finished, tmp_path):
-    shutil.copytree(finished, tmp_path / "run")
-    return tmp_path / "run"
+@pytest.fixture
+def finished(finished_run):
+    """A finished run, shared: each test that changes it changes a copy (`run_copy`)."""
+    return finished_run(*SMOKE)
 
 
 def test_a_run_lists_what_it_wrote(finished):
@@ -84,8 +77,8 @@ def test_a_run_aimed_at_a_sweeps_folder_and_a_sweep_at_a_run_are_refused(tmp_pat
         write_sweep([{"seed": "1"}, {"seed": "2"}], [finished / "a", finished / "b"])
 
 
-def test_a_file_of_a_tables_name_added_to_a_run_folder_is_never_overwritten_or_deleted(finished, tmp_path):
-    out = _copy(finished, tmp_path)
+def test_a_file_of_a_tables_name_added_to_a_run_folder_is_never_overwritten_or_deleted(finished, run_copy):
+    out = run_copy(finished)
     (out / "policy.csv").write_text("mine\n")  # a table section 1.4 writes, which this run would remove
     with pytest.raises(TavcError, match=r"policy.csv was not written by tavc and tavc would write a file of that "
                                         r"name; move it away or choose another folder$"):
@@ -93,8 +86,8 @@ def test_a_file_of_a_tables_name_added_to_a_run_folder_is_never_overwritten_or_d
     assert (out / "policy.csv").read_text() == "mine\n"
 
 
-def test_another_configuration_is_refused_unless_overwrite_and_then_only_tavcs_files_go(finished, tmp_path):
-    out = _copy(finished, tmp_path)
+def test_another_configuration_is_refused_unless_overwrite_and_then_only_tavcs_files_go(finished, run_copy):
+    out = run_copy(finished)
     (out / "notes.txt").write_text("mine\n")
     before = _snapshot(out)
     with pytest.raises(TavcError, match=r"holds a finished run of another configuration \(seed: 0 -> 7\); add "
@@ -120,8 +113,8 @@ def test_the_settings_that_differ_are_named_at_most_three(tmp_path):
     assert config_differences(tmp_path / "config.yaml", old.replace("n_jobs: 1", "n_jobs: 8")) == []
 
 
-def test_a_folder_an_earlier_version_wrote_is_taken_as_tavcs(finished, tmp_path):
-    out = _copy(finished, tmp_path)
+def test_a_folder_an_earlier_version_wrote_is_taken_as_tavcs(finished, run_copy):
+    out = run_copy(finished)
     (out / MANIFEST).unlink()  # as before the list existed: provenance.json says it is a run
     (out / "vacancy.csv").write_text("an earlier experiment's table\n")
     (out / "notes.txt").write_text("mine\n")
@@ -133,8 +126,8 @@ def test_a_folder_an_earlier_version_wrote_is_taken_as_tavcs(finished, tmp_path)
     assert json.loads((out / MANIFEST).read_text())["tavc"] == "run"
 
 
-def test_a_damaged_list_is_one_line_naming_it(finished, tmp_path):
-    out = _copy(finished, tmp_path)
+def test_a_damaged_list_is_one_line_naming_it(finished, run_copy):
+    out = run_copy(finished)
     (out / MANIFEST).write_text("{not json")
     with pytest.raises(TavcError, match=rf"{MANIFEST}: cannot be read"):
         run_experiment(_cfg(out))
@@ -158,11 +151,11 @@ def test_a_ladder_never_replaces_a_table_it_did_not_write(tmp_path, finished):
     assert not (tmp_path / LOCK_NAME).exists()
 
 
-def test_a_report_or_reproduce_aimed_at_a_run_folder_is_refused_before_anything_runs(finished, tmp_path):
+def test_a_report_or_reproduce_aimed_at_a_run_folder_is_refused_before_anything_runs(finished, tmp_path, run_copy):
     from tavc_cli.api import reproduce_summaries
     from tavc_cli.report import build_report
 
-    out = _copy(finished, tmp_path)
+    out = run_copy(finished)
     before = _snapshot(out)
     with pytest.raises(TavcError, match=r"--results: .* is a tavc run's folder, not a results folder"):
         reproduce_summaries(["scale=smoke"], experiments=["breakdown"], results_dir=out)
@@ -192,8 +185,8 @@ def test_a_folder_that_only_looks_like_a_run_is_not_taken_for_one(tmp_path):
     assert (tmp_path / "sweep" / "sweep.csv").read_text() == "lr,acc\n0.1,0.9\n"
 
 
-def test_only_tavcs_own_half_written_files_are_removed(finished, tmp_path):
-    out = _copy(finished, tmp_path)
+def test_only_tavcs_own_half_written_files_are_removed(finished, tmp_path, run_copy):
+    out = run_copy(finished)
     for name in (".notes.tmp", "trials/.keep.tmp", ".state_time.csv.abcd1234.tmp",
                  "trials/.random_000.npz.x1y2z3_4.tmp"):
         (out / name).write_text("half\n")
@@ -209,8 +202,8 @@ def test_only_tavcs_own_half_written_files_are_removed(finished, tmp_path):
 
 
 @pytest.mark.parametrize("damage", ["remove", "empty", "cut"])
-def test_a_finished_run_without_its_config_is_not_replaced_silently(finished, tmp_path, damage):
-    out = _copy(finished, tmp_path)
+def test_a_finished_run_without_its_config_is_not_replaced_silently(finished, damage, run_copy):
+    out = run_copy(finished)
     config = out / "config.yaml"
     text = config.read_text()
     if damage == "remove":
@@ -226,8 +219,8 @@ def test_a_finished_run_without_its_config_is_not_replaced_silently(finished, tm
     assert "seed: 5" in (out / "config.yaml").read_text()
 
 
-def test_somebody_elses_failures_log_in_a_run_folder_is_kept(finished, tmp_path):
-    out = _copy(finished, tmp_path)
+def test_somebody_elses_failures_log_in_a_run_folder_is_kept(finished, run_copy):
+    out = run_copy(finished)
     (out / "failures.log").write_text("my failures\n")
     with pytest.raises(TavcError, match=r"failures.log was not written by tavc"):
         run_experiment(_cfg(out))
@@ -235,17 +228,17 @@ def test_somebody_elses_failures_log_in_a_run_folder_is_kept(finished, tmp_path)
 
 
 @pytest.mark.parametrize("text", ['{"tavc": null, "files": []}', '{"tavc": "run", "files": "abc"}', "[]"])
-def test_a_list_of_another_shape_is_one_line_naming_it(finished, tmp_path, text):
-    out = _copy(finished, tmp_path)
+def test_a_list_of_another_shape_is_one_line_naming_it(finished, text, run_copy):
+    out = run_copy(finished)
     (out / MANIFEST).write_text(text)
     with pytest.raises(TavcError, match=rf"{MANIFEST}: cannot be read"):
         run_experiment(_cfg(out))
 
 
-def test_the_api_says_when_a_run_did_not_finish_or_its_config_is_damaged(finished, tmp_path):
+def test_the_api_says_when_a_run_did_not_finish_or_its_config_is_damaged(finished, run_copy):
     from tavc_cli import api
 
-    out = _copy(finished, tmp_path)
+    out = run_copy(finished)
     (out / "provenance.json").unlink()  # as an interrupted overwrite=true run leaves it
     with pytest.raises(TavcError, match=r"its run did not finish \(no provenance.json\), so its tables may be "
                                         r"another run's"):
@@ -272,8 +265,8 @@ def test_the_report_never_replaces_a_figure_it_did_not_draw(finished, tmp_path):
     build_report(tmp_path)  # its own figures: drawn again
 
 
-def test_a_refused_run_writes_nothing_even_in_a_folder_an_earlier_version_wrote(finished, tmp_path):
-    out = _copy(finished, tmp_path)
+def test_a_refused_run_writes_nothing_even_in_a_folder_an_earlier_version_wrote(finished, run_copy):
+    out = run_copy(finished)
     (out / MANIFEST).unlink()
     before = _snapshot(out)
     with pytest.raises(TavcError, match=r"of another configuration \(seed: 0 -> 9\)"):

@@ -15,18 +15,15 @@ from tavc_cli.config import settings as to_settings
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.plan import PLAN_FILE, plan_run, read_plan
-from tavc_cli.pipeline import run_experiment
 
 SMOKE = ["experiment=breakdown", "scale=smoke", "executor.n_jobs=1", "trials=2", "baseline_trials=2", "static_trials=1"]
 runner = CliRunner()
 
 
-@pytest.fixture(scope="module")
-def finished(tmp_path_factory):
-    """A finished smoke run of breakdown (the learner, random and static)."""
-    folder = tmp_path_factory.mktemp("run") / "breakdown"
-    run_experiment(to_settings(load_config([*SMOKE, f"output_dir={folder}"])))
-    return folder
+@pytest.fixture
+def finished(finished_run):
+    """A finished smoke run of breakdown (the learner, random and static), shared: tests change copies."""
+    return finished_run(*SMOKE, name="breakdown")
 
 
 def test_the_plan_is_written_beside_the_run_and_vouched_for_by_provenance(finished):
