@@ -25,7 +25,8 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli import config
-from tavc_cli.compare import CONTROLLERS, SCENARIOS
+from tavc_cli.chapter import base_case
+from tavc_cli.compare import CONTROLLERS, scenarios
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import ModelSettings
@@ -188,7 +189,7 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     overrides = [o for o in overrides if o not in model_keys]
     model_file = model_keys[-1].split("=", 1)[1] if model_keys else ModelSettings().model_file
     learners = list(CONTROLLERS if learners is None else learners)
-    experiments = list(SCENARIOS if experiments is None else experiments)
+    experiments = list(scenarios() if experiments is None else experiments)
     if not experiments:
         raise TavcError("--experiments: no scenario given")
     if not learners or len(set(learners)) != len(learners):
@@ -279,7 +280,7 @@ def _calibrate(overrides: Sequence[str], save: bool, progress: bool, echo: Calla
     overrides = list(overrides)
     config.check_measurement(overrides, "calibration")  # its time on this machine, before anything runs
     if not any(o.split("=", 1)[0].lstrip("+~") == "experiment" for o in overrides):
-        overrides = ["experiment=initial_distribution", *overrides]  # six robots, the chapter's values
+        overrides = [f"experiment={base_case().name}", *overrides]  # six robots, the chapter's values
     base = config.settings(config.load_config(overrides))
     if not base.calibration.grid:
         raise TavcError("calibration.grid: empty; nothing to search")

@@ -244,9 +244,9 @@ def compare(
                                              f"by default {', '.join(CONTROLLERS)}.", show_default=False)
     ] = ",".join(CONTROLLERS),
     experiments: Annotated[
-        str, typer.Option("--experiments", help=f"Comma-separated scenarios; by default {', '.join(SCENARIOS)}.",
-                          show_default=False)
-    ] = ",".join(SCENARIOS),
+        Optional[str], typer.Option("--experiments", help="Comma-separated scenarios; by default "
+                                    f"{', '.join(SCENARIOS)}, and your own that compare serves.", show_default=False)
+    ] = None,
     results: Annotated[
         Optional[Path],
         typer.Option("--results", help="The comparison's folder (default: runs/<scale>/compare).", show_default=False),
@@ -269,8 +269,8 @@ def compare(
         from tavc_cli.compare.run import parse_reuse
 
         written = compare_summary(overrides or [], learners=[n for n in learners.split(",") if n],
-                                  experiments=[n for n in experiments.split(",") if n], results_dir=results,
-                                  reuse=parse_reuse(reuse or []), progress=options.shown(progress))
+                                  experiments=None if experiments is None else [n for n in experiments.split(",") if n],
+                                  results_dir=results, reuse=parse_reuse(reuse or []), progress=options.shown(progress))
         for name in ("compare.csv", "compare.md", "compare_trials.csv"):
             typer.echo(f"{name}: {Path(written['results']) / name}")
         for path in written["figures"]:

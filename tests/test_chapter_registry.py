@@ -4,8 +4,10 @@ experiment of the user's own (a file and a registry module in a config folder) i
 `tavc list`, placed in the report's order and has its claims tested."""
 
 import ast
+import re
 from pathlib import Path
 
+import pandas as pd
 import pytest
 import yaml
 from typer.testing import CliRunner
@@ -13,6 +15,7 @@ from typer.testing import CliRunner
 from tavc_cli import chapter
 from tavc_cli.chapter import EXPERIMENTS, Claim, Experiment
 from tavc_cli.cli import app
+from tavc_cli.compare import SCENARIOS, scenarios
 from tavc_cli.config import find_conf_dir, load_config, to_yaml
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
@@ -25,7 +28,14 @@ ALLOWED = {
     # the kind of event that opened a vacancy, vacancy.csv's `event` column: a robot's breakdown or a
     # change of the values, whichever experiment the trial ran
     ("analysis/vacancy.py", "breakdown"), ("analysis/vacancy.py", "value_change"),
+    # examples of overrides in the command line's help
+    ("cli.py", "breakdown"), ("options.py", "initial_distribution"),
+    # the default model file, where `tavc model` writes it: a setting's default in the learners' layer,
+    # below the chapter's registry
+    ("learning/parameters.py", "initial_distribution"),
 }
+# an experiment's name inside a longer string: chosen (experiment=NAME) or a folder (/NAME/)
+NAME_IN_TEXT = re.compile(r"(?:experiment=|/)(" + "|".join(sorted(CHAPTER, key=len, reverse=True)) + r")\b")
 
 
 def _experiment_files() -> dict[str, dict]:
@@ -50,14 +60,28 @@ def test_the_entries_hold_together():
         assert all((reference / f"table_{t.replace('.', '_')}.csv").is_file() for t in e.tables)
 
 
+def test_the_checks_on_the_chapters_tables_are_those_its_claims_name():
+    from tavc_cli.analysis.chapter_checks import chapter_checks
+
+    named = [c.id for _, c in chapter.claims() if c.on_tables is not None]
+    assert named == [3, 4, 6, 7, 8, 9]  # the claims on the time in each state (5: performance, printed in none)
+    assert all(EXPERIMENTS[name].state_table is not None for name, c in chapter.claims() if c.on_tables)
+    rows = [row["claim_id"] for row in chapter_checks()]
+    assert sorted(set(rows)) == named and rows == sorted(rows)
+    with pytest.raises(TavcError, match="no service 'ladder'"):
+        chapter.served_by("ladder")
+
+
 def _named_experiments(path: Path) -> set[str]:
-    """The experiments' names a module holds as string constants (its docstrings aside)."""
+    """The experiments' names a module holds as string constants, or inside one where it chooses
+    an experiment or names its folder (its docstrings aside)."""
     tree = ast.parse(path.read_text())
     docstrings = {id(node.body[0].value) for node in ast.walk(tree)
                   if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))
                   and ast.get_docstring(node, clean=False) is not None}
-    return {node.value for node in ast.walk(tree)
-            if isinstance(node, ast.Constant) and node.value in CHAPTER and id(node) not in docstrings}
+    strings = [node.value for node in ast.walk(tree)
+               if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings]
+    return {s for s in strings if s in CHAPTER} | {name for s in strings for name in NAME_IN_TEXT.findall(s)}
 
 
 def test_no_module_outside_the_chapter_names_an_experiment():
@@ -109,7 +133,7 @@ def claim_10(runs, learner="tavc"):
     return [Part("the toy ran", 1.0, 0.01, "toy" in runs)]
 
 
-EXPERIMENT = Experiment(name="toy", section="1.5.5", order=25,
+EXPERIMENT = Experiment(name="toy", section="1.5.5", order=25, compare=True,
                         claims=(Claim(10, "four learners share two circuits.", claim_10),))
 '''
 
@@ -149,8 +173,34 @@ def test_an_experiment_of_ones_own_is_listed_ordered_and_tested(toy, tmp_path):
     assert table[["claim_id", "verdict"]].to_dict("records") == [{"claim_id": 10, "verdict": "reproduced"}]
 
 
+@pytest.mark.slow
+def test_an_experiment_of_ones_own_runs_is_reported_and_compared(toy, tmp_path):
+    """The toy end to end, from nothing but its file and its registry module: a run whose claim is
+    tested, the report's section and claim row, and `tavc compare`, which serves it by default."""
+    results = tmp_path / "results"
+    mine = ["--config-dir", str(toy)]
+    run = CliRunner().invoke(app, [*mine, "run", "experiment=toy", "scale=paper", f"output_dir={results / 'toy'}",
+                                   "--no-progress"])
+    assert run.exit_code == 0, run.output
+    assert "claim 10: reproduced" in run.output
+    report = CliRunner().invoke(app, [*mine, "report", str(results)])
+    assert report.exit_code == 0, report.output
+    text = (results / "REPORT.md").read_text()
+    assert "## toy (section 1.5.5)" in text and "| 10 | toy | reproduced |" in text
+    # compare's default: the chapter's scenarios and the toy, at its place in the report's order (25)
+    assert scenarios() == ("initial_distribution", "toy", *SCENARIOS[1:]) and SCENARIOS[0] == "initial_distribution"
+    model = PACKAGE.parent / "results" / "initial_distribution" / "model" / "model.json"
+    compared = CliRunner().invoke(app, [*mine, "compare", "scale=paper", f"learner.model_file={model}",
+                                        "--learners", "tavc,random", "--experiments", "toy",
+                                        "--results", str(tmp_path / "cmp"), "--no-progress"])
+    assert compared.exit_code == 0, compared.output
+    table = pd.read_csv(tmp_path / "cmp" / "compare.csv")
+    assert set(table["experiment"]) == {"toy"} and set(table["controller"]) == {"tavc", "random"}
+
+
 def test_without_the_config_folder_the_toy_is_gone(toy):
     assert "toy" not in EXPERIMENTS
+    assert "toy" not in scenarios()
 
 
 def test_a_name_or_a_claim_number_registered_twice_is_refused(monkeypatch):

@@ -17,11 +17,21 @@ from __future__ import annotations
 from tavc_cli.chapter.registry import Claim, Experiment, Registry
 from tavc_cli.errors import TavcError
 
-__all__ = ["EXPERIMENTS", "Claim", "Experiment", "base_case", "claim", "claims", "experiment_of", "order_key",
-           "register", "state_table_id"]
+__all__ = ["EXPERIMENTS", "SERVICES", "Claim", "Experiment", "base_case", "claim", "claims", "experiment_of",
+           "order_key", "register", "served_by", "state_table_id"]
 
 EXPERIMENTS = Registry(__name__)  # name -> Experiment, in the report's order
 register = EXPERIMENTS.register
+SERVICES = ("compare", "surrogate", "vacancy")  # the studies an entry says serve it (`Experiment`'s flags)
+
+
+def served_by(service: str, own: bool = False) -> tuple[str, ...]:
+    """The experiments `service` (one of `SERVICES`) serves, in the report's order: the chapter's
+    and, read when asked, those of the user's config folders (the chapter's only, if `own`)."""
+    if service not in SERVICES:
+        raise TavcError(f"chapter: no service {service!r} ({', '.join(SERVICES)})")
+    experiments = EXPERIMENTS.own() if own else EXPERIMENTS
+    return tuple(name for name, e in experiments.items() if getattr(e, service))
 
 
 def claims(own: bool = False) -> list[tuple[str, Claim]]:

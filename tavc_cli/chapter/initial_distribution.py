@@ -19,10 +19,12 @@ EXPERIMENT = Experiment(
         Claim(3, "\"the increase in the amount of time spent in state 3 : 3 is statistically significant\" (over "
                  "random), and the time in 3:3 is \"significantly higher than the time spent in any of the other "
                  "states\".",
-              "tavc_cli.analysis.claim_rules:claim_3"),
+              "tavc_cli.analysis.claim_rules:claim_3",
+              on_tables="tavc_cli.analysis.chapter_checks:claim_3"),
         Claim(4, "the random controllers' distribution is \"closely aligned with this theoretical estimate\" (the "
                  "binomial row), \"though the differences are statistically significant\".",
-              "tavc_cli.analysis.claim_rules:claim_4"),
+              "tavc_cli.analysis.claim_rules:claim_4",
+              on_tables="tavc_cli.analysis.chapter_checks:claim_4"),
         Claim(5, "the learners' performance is \"significantly higher than the performance of random allocation\".",
               "tavc_cli.analysis.claim_rules:claim_5"),
     ),

@@ -28,21 +28,31 @@ class Claim:
     """One of the chapter's claims: its number, the chapter's words its parts test (quoted), and
     its rule, a function ``(runs, learner=...) -> list[Part]`` given as ``package.module:function``
     or as the function itself. `against` names the other experiment whose run the rule compares
-    this one's with, if it compares two."""
+    this one's with, if it compares two. `on_tables`, where the chapter prints the numbers for it,
+    is the same test applied to the chapter's own tables: a function ``() -> list[dict]`` of rows
+    ``claim_id, test, statistic, p_value, holds, observation``, given the same way."""
 
     id: int
     text: str
     rule: str | Callable
     against: str | None = None
+    on_tables: str | Callable | None = None
 
     def test(self) -> Callable:
         """The rule, imported where it is given by name."""
-        if callable(self.rule):
-            return self.rule
-        module, _, name = self.rule.partition(":")
+        return self._function(self.rule)
+
+    def table_check(self) -> Callable | None:
+        """The check on the chapter's tables (`on_tables`), imported where it is given by name; None without one."""
+        return None if self.on_tables is None else self._function(self.on_tables)
+
+    def _function(self, given: str | Callable) -> Callable:
+        if callable(given):
+            return given
+        module, _, name = given.partition(":")
         found = getattr(importlib.import_module(module), name, None)
         if not callable(found):
-            raise TavcError(f"claim {self.id}: {self.rule!r} names no function")
+            raise TavcError(f"claim {self.id}: {given!r} names no function")
         return found
 
 

@@ -18,6 +18,7 @@ EXPERIMENT = Experiment(
                  "random the learners have \"a significantly higher value for state 3 : 2 and significantly lower "
                  "values for all other states\"; performance \"fell significantly\", then came back to a level "
                  "\"not significantly different from the initial level\".",
-              "tavc_cli.analysis.claim_rules:claim_8", against="breakdown"),
+              "tavc_cli.analysis.claim_rules:claim_8", against="breakdown",
+              on_tables="tavc_cli.analysis.chapter_checks:claim_8"),
     ),
 )

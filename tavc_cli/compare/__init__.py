@@ -1,7 +1,7 @@
 """`tavc compare`: learners side by side on the chapter's five task-allocation scenarios.
 
 Every controller named (built-in, from the literature, or the user's own through ``--config-dir``)
-runs every scenario (`SCENARIOS`) at one scale through the ordinary pipeline, each into a run
+runs every scenario (`scenarios`) at one scale through the ordinary pipeline, each into a run
 folder of its own (``RESULTS/runs/<controller>/<experiment>``, every table and claim as ``tavc
 run`` writes them); `metrics` reads four numbers per trial from those folders and tests each
 controller against TAVC and against random allocation; `figures` draws them and `write`
@@ -13,8 +13,14 @@ distribution at every horizon: at a scale that runs baselines on the chapter's s
 run do, and the table says at which multiple of the chapter's durations each row ran.
 """
 
-from tavc_cli.chapter import EXPERIMENTS
+from tavc_cli.chapter import served_by
 
-SCENARIOS = tuple(name for name, e in EXPERIMENTS.own().items() if e.compare)  # the chapter's order
+SCENARIOS = served_by("compare", own=True)  # the chapter's scenarios, in its order
+
+
+def scenarios() -> tuple[str, ...]:
+    """The scenarios `tavc compare` runs by default: the chapter's, then any of the user's own
+    that its registry entry says compare serves (``compare=True``, from ``--config-dir``)."""
+    return served_by("compare")
 CONTROLLERS = ("tavc", "random", "model", "informed", "wolf_phc", "threshold")
 REFERENCE, FLOOR = "tavc", "random"  # every controller is tested against these two

@@ -34,7 +34,7 @@ import pandas as pd
 from scipy import stats
 
 from tavc_cli.analysis.table_schemas import STATE_PREFIX
-from tavc_cli.chapter import EXPERIMENTS
+from tavc_cli.chapter import served_by
 from tavc_cli.compare import FLOOR, REFERENCE
 from tavc_cli.errors import TavcError
 from tavc_cli.readers import load_yaml
@@ -46,7 +46,6 @@ METRICS = {
     "filled_pct": "vacancy filled (% of trials)",
     "fast_high_share": "share of fast robots on the high-value circuit",
 }
-VACANCY_SCENARIOS = tuple(name for name, e in EXPERIMENTS.own().items() if e.vacancy)  # vacancy on the high circuit
 TRIAL_COLUMNS = ["experiment", "controller", "trial", "metric", "value"]
 TABLE_COLUMNS = ["experiment", "metric", "controller", "time_factor", "n_trials", "mean", "std", "median",
                  "p_vs_tavc", "p_vs_random", "above_tavc", "above_random"]
@@ -111,7 +110,7 @@ def trial_metrics(folder: Path, experiment: str, controller: str, label: str,
     trials = stats_["trial"].to_numpy(int)
     out = [pd.DataFrame({"experiment": experiment, "controller": controller, "trial": trials, "metric": metric,
                          "value": values}) for metric, values in rows]
-    if experiment in VACANCY_SCENARIOS and (folder / "vacancy.csv").is_file():
+    if experiment in served_by("vacancy") and (folder / "vacancy.csv").is_file():  # a vacancy on the high circuit
         out.append(_fill_delays(folder, experiment, controller, label, stats_))
     return pd.concat(out, ignore_index=True)[TRIAL_COLUMNS]
 

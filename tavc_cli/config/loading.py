@@ -13,6 +13,7 @@ from omegaconf.errors import (
     OmegaConfBaseException,
 )
 
+from tavc_cli.chapter import base_case
 from tavc_cli.config.limits import sources, validate_measurement_time
 from tavc_cli.config.messages import hydra_errors, omegaconf_message
 from tavc_cli.config.overrides import is_hydra_override, override_key, parse_overrides, slug, sweep_choices
@@ -86,7 +87,7 @@ def check_measurement(overrides: Sequence[str], group: str) -> None:
     """
     overrides = list(overrides)
     if group == "calibration" and not any(override_key(o).lstrip("+~") == "experiment" for o in overrides):
-        overrides = ["experiment=initial_distribution", *overrides]  # as `api.calibrate` composes it
+        overrides = [f"experiment={base_case().name}", *overrides]  # as `api.calibrate` composes it
     validate_measurement_time(load_config(overrides), group)
 
 
@@ -164,7 +165,8 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
     (what ``tavc reproduce`` runs).
 
     Args:
-        names: Experiment names (as ``experiment=`` takes them); None for every one.
+        names: Experiment names (as ``experiment=`` takes them), tavc's or, from the user's
+            config folders (``--config-dir``), their own; None for every one of tavc's.
         overrides: Hydra overrides for all of them; ``experiment`` and ``output_dir`` are set
             per experiment and refused here.
         results_dir: The folder that gets one folder per experiment; by default
@@ -173,8 +175,9 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
     Raises:
         TavcError: For an unknown or missing name, a refused key, or any override that fails.
     """
-    known = sorted(p.stem for p in (find_conf_dir() / "experiment").glob("*.yaml"))
-    chosen = known if names is None else [n.strip() for n in names if n.strip()]
+    own = sorted(p.stem for p in (find_conf_dir() / "experiment").glob("*.yaml"))
+    known = sorted({*own, *(p.stem for d in config_dirs() for p in (d / "experiment").glob("*.yaml"))})
+    chosen = own if names is None else [n.strip() for n in names if n.strip()]
     unknown = [n for n in chosen if n not in known]
     if unknown or not chosen:
         raise TavcError(f"--experiments: no experiment {unknown[0] if unknown else ''!r} "

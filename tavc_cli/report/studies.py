@@ -49,7 +49,7 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     lines = ["## Learning values and time", "",
              "The chapter's learning values differ by 10 %. How far does the group move towards the high-value "
              "circuit as the difference grows, at the chapter's trial length and at longer ones? "
-             "(`make value-ratio`, 5 h and 50 h, and `make value-ratio-converged`, 200 h: initial_distribution "
+             f"(`make value-ratio`, 5 h and 50 h, and `make value-ratio-converged`, 200 h: {base_case().name} "
              "with w_low = 2000 and w_high = 2000 x ratio, TAVC only, "
              "each reading and horizon on the same seeds; share of robots on the high-value circuit over the "
              "stable period, mean ± std over trials; runs under `value_ratio/`, table in "

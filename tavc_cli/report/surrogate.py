@@ -11,6 +11,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.mechanism import PERSISTENCE, TURN_TAKING
+from tavc_cli.chapter import base_case
 from tavc_cli.report.text import fmt
 
 STUDY_DIR = "surrogate"
@@ -144,7 +145,7 @@ def _disagreements(table: pd.DataFrame) -> list[str]:
 
 def _ladder_lines(table: pd.DataFrame) -> list[str]:
     lines = ["### The horizon ladder on the surrogate", "",
-             "initial_distribution at each multiple of the chapter's 5 h, on the simulator (the ladder above) and "
+             f"{base_case().name} at each multiple of the chapter's 5 h, on the simulator (the ladder above) and "
              "on the surrogate by make-up, same seeds and trials.", "",
              "| horizon | engine | 3:3 modal? | modal state | alternators | converged | largest difference |",
              "|---|---|---|---|---|---|---|"]
@@ -161,7 +162,7 @@ def _phase_lines(table: pd.DataFrame) -> list[str]:
     sim = table[table["engine"] == "simulator"]
     n = int(sur["n_trials"].max()) if len(sur) else 0
     lines = ["### Phase diagram: team size and value ratio", "",
-             f"The learners (the chapter's rule) on the surrogate by make-up, {n} trials a cell, initial_distribution "
+             f"The learners (the chapter's rule) on the surrogate by make-up, {n} trials a cell, {base_case().name} "
              "with 2 to 10 robots and w_high / w_low from 1 to 2 (w_low = 2000), at the chapter's 5 h and at 40 "
              "times it. The model's prediction comes from the same static runs' stay tasks (t_i the mean stay, "
              "c_i = n_i / t_i). Red circles: the physical simulator at the checked points (`phase.csv`).", "",
@@ -197,7 +198,7 @@ def _horizon_lines(table: pd.DataFrame) -> list[str]:
     lines = ["### The convergence horizon", "",
              f"The first multiple of the chapter's 5 h (of {', '.join(f'{f:g}' for f in factors)}) at which the "
              "learner-side convergence measure is met (`analysis.convergence`), one parameter away from the "
-             "chapter's at a time, on the surrogate by make-up (initial_distribution).", "",
+             f"chapter's at a time, on the surrogate by make-up ({base_case().name}).", "",
              "| parameter | value | converged from |", "|---|---|---|"]
     for r in points.itertuples():
         value = "the chapter's" if r.parameter == "chapter" else f"{r.value:g}"

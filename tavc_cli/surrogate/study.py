@@ -31,8 +31,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
-from tavc_cli.chapter import EXPERIMENTS as CHAPTER
-from tavc_cli.chapter import base_case
+from tavc_cli.chapter import base_case, served_by
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.io import claim_folder, write_text_atomic
@@ -45,7 +44,6 @@ from tavc_cli.surrogate.tasks import Team
 if TYPE_CHECKING:
     from tavc_cli.settings import TavcConfig
 
-EXPERIMENTS = tuple(name for name, e in CHAPTER.own().items() if e.surrogate)  # the experiments the study checks
 BASE = base_case().name  # the one its ladder climbs, its phase diagram varies and its horizons measure
 HORIZONS = {"paper": 1.0, "converged": 40.0}  # the scale of each horizon and its multiple of the chapter's
 CALIBRATIONS = ("makeup", "stayers")
@@ -115,7 +113,7 @@ class Study:
         """The side-by-side comparison: every served experiment, both horizons, both calibrations."""
         rows = []
         for scale, factor in HORIZONS.items():
-            for experiment in EXPERIMENTS:
+            for experiment in served_by("surrogate"):
                 engines = {}
                 for calibration in CALIBRATIONS:
                     folder = self.out / calibration / scale / experiment
@@ -228,7 +226,7 @@ class Study:
         from tavc_cli.surrogate.run import measure_tasks, surrogate_specs
 
         rows = []
-        for experiment in EXPERIMENTS:
+        for experiment in served_by("surrogate"):
             for scale in HORIZONS:
                 cfg = self.compose([*self.overrides, f"experiment={experiment}", f"scale={scale}",
                                     f"surrogate.tasks_dir={self.tasks_dir}"])

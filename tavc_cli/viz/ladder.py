@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from tavc_cli.chapter import base_case
 from tavc_cli.reference import chapter_table
 from tavc_cli.viz.figures import clipped_err, n_text, plt, save_figure
 
@@ -58,7 +59,7 @@ def ladder_figure(table: pd.DataFrame, out_stem: Path, chapter: pd.DataFrame | N
     n = n_text(tavc["n_trials"]) if "n_trials" in tavc else "trials"
     top.set_ylabel(f"% of the stable period\n(mean ± std over {n}, cut at 0 and 100)")
     top.set_ylim(bottom=0.0)
-    top.set_title("initial_distribution: time in each state against the horizon")
+    top.set_title(f"{base_case().name}: time in each state against the horizon")
     top.legend(fontsize=7, ncol=2)
     top.grid(alpha=0.3)
     for quantity, label, colour in (("q_drift", "Q drift over the last quarter (median)", "tab:purple"),

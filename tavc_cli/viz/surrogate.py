@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from tavc_cli.chapter import base_case
 from tavc_cli.viz.figures import plt, save_figure
 
 ENGINES = {"simulator": ("physical simulator", "0.25"), "surrogate_makeup": ("surrogate, by make-up", "tab:blue"),
@@ -138,7 +139,7 @@ def horizon_figure(table: pd.DataFrame, stem: Path) -> list[Path]:
         ax.set_yscale("log")
         ax.set_title(f"the chapter's {name} = {base[name]:g}", fontsize=9)
     axes[0].set_ylabel("converged from (x the chapter's duration)")
-    fig.suptitle(f"Convergence horizon on the surrogate (initial_distribution, {int(table['factor'].nunique())} "
+    fig.suptitle(f"Convergence horizon on the surrogate ({base_case().name}, {int(table['factor'].nunique())} "
                  f"horizons, {int(table['n_trials'].max()) if 'n_trials' in table else 8} trials each; above the "
                  f"dashed line: not within {top:g}x; red: the simulator's ladder)", fontsize=10)
     fig.tight_layout()
