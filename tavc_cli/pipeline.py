@@ -11,9 +11,6 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 from tavc_cli.analysis.claims import not_a_verdict
-from tavc_cli.analysis.ladder import ladder_table
-from tavc_cli.analysis.schema import SECTIONS
-from tavc_cli.analysis.sweep import sweep_table
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.joint import CAN_FORK
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, plan_run, write_plan
@@ -30,6 +27,8 @@ from tavc_cli.io import claim_folder, file_digest, write_text_atomic
 from tavc_cli.outputs import write_analysis
 from tavc_cli.ownership import LADDER, LADDER_FILES, RUN, SWEEP, SWEEP_FILES, Owned, config_differences, run_files, take
 from tavc_cli.readers import YAML_LIMIT, load_json, read_text
+from tavc_cli.run_checks import SECTIONS
+from tavc_cli.run_tables import ladder_table, sweep_table
 from tavc_cli.settings import TavcConfig, from_yaml, to_yaml
 
 

@@ -5,7 +5,7 @@ A results folder may come from somebody else, and its `provenance.json`, `.tavc.
 file (a named pipe never blocks, a device such as ``/dev/zero`` is never read), at most a stated
 size, JSON at most `MAX_DEPTH` levels deep, and YAML without aliases (tavc's own files never use
 them; a document of nested aliases would expand without end). A refusal is one `TavcError` line
-naming the file and what to do, worded as `analysis.schema.damaged` words its own.
+naming the file and what to do, worded as `run_checks.damaged` words its own.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import yaml
 
 from tavc_cli.errors import TavcError
 
-REWRITE = "rerun its experiment to rewrite it"  # what to do about a damaged file of a run (as `analysis.schema`)
+REWRITE = "rerun its experiment to rewrite it"  # what to do about a damaged file of a run (as `run_checks`)
 
 # tavc's largest provenance.json is 13 KB (results/breakdown: it lists every trial and table) and
 # its largest .tavc.json 1.6 KB; 4 MiB is some 300 times the first, room for runs of many more trials

@@ -11,11 +11,11 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from tavc_cli.analysis.schema import check_table, load_record, read_provenance, read_trial
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.experiments.records import TABLES, TrialRecord
 from tavc_cli.readers import load_yaml, read_text
+from tavc_cli.run_checks import check_table, load_record, read_provenance, read_trial
 from tavc_cli.settings import from_yaml
 
 SWEEP_LIMIT = 64 * 2**20  # sweep.csv read bounded, as every table is
@@ -39,7 +39,7 @@ class Results:
 
     def table(self, name: str) -> pd.DataFrame:
         """The run's table `name`.csv (state_time, performance, trial_stats, claims, ...), checked
-        as `tavc report` checks it first (`analysis.schema.check_table`: a damaged table is one
+        as `tavc report` checks it first (`run_checks.check_table`: a damaged table is one
         line naming it)."""
         path = self.path / f"{name}.csv"
         if not path.is_file():
@@ -99,7 +99,7 @@ class Results:
         """The raw record of every trial of the run, in file-name order: the files its
         `provenance.json` lists (a rerun with fewer trials leaves the others' files in
         `trials/`, and they are not this run's), each checked to be this run's own
-        (`analysis.schema.read_trial`: a record missing, damaged, or of another configuration
+        (`run_checks.read_trial`: a record missing, damaged, or of another configuration
         or seed is one line naming it). A folder without a `provenance.json` (a run that did
         not finish) gives every file in `trials/`, unchecked: there is no list to check them
         against."""

@@ -520,6 +520,7 @@ def test_model_prediction_against_the_value_ratio_by_hand(tmp_path):
     import pandas as pd
 
     from tavc_cli.analysis.value_ratio import predicted_shares
+    from tavc_cli.run_tables import model_rows
 
     # two robots; alone on a circuit a task takes 100 s, two on one circuit 150 s each.
     # In 1:1 the low robot earns 2000/100 = 20 per s; moving to the high circuit it would earn
@@ -530,7 +531,7 @@ def test_model_prediction_against_the_value_ratio_by_hand(tmp_path):
             ("0:2", 0, 0.0, inf), ("0:2", 1, 2 / 150, 150.0)]
     pd.DataFrame(rows, columns=["split", "circuit", "c_per_s", "task_time_s"]).to_csv(tmp_path / "model.csv",
                                                                                      index=False)
-    pred = predicted_shares(tmp_path / "model.csv", 2, [1.0, 1.4, 1.6, 2.0])
+    pred = predicted_shares(model_rows(tmp_path / "model.csv"), 2, [1.0, 1.4, 1.6, 2.0])
     assert pred["share"].tolist() == [0.5, 0.5, 1.0, 1.0]
     assert pred["state"].tolist() == ["1:1", "1:1", "2:0", "2:0"]
 
@@ -538,8 +539,8 @@ def test_model_prediction_against_the_value_ratio_by_hand(tmp_path):
 def test_ratio_points_gather_a_sweep_from_its_run_folders(tmp_path):
     import pandas as pd
 
-    from tavc_cli.analysis.value_ratio import ratio_points
     from tavc_cli.config import load_config, settings
+    from tavc_cli.run_tables import ratio_points
     from tavc_cli.settings import to_yaml
 
     for sub, unit, values, duration, shares in (("paper/0", "ms", [2000, 2000], 18000.0, (0.0, 50.0)),

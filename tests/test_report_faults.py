@@ -19,13 +19,13 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from tavc_cli import api, report
-from tavc_cli.analysis.schema import RunFacts, check_run
 from tavc_cli.cli import app
 from tavc_cli.config import load_config
 from tavc_cli.config import settings as to_settings
 from tavc_cli.errors import TavcError
 from tavc_cli.io import file_digest
 from tavc_cli.pipeline import run_experiment
+from tavc_cli.run_checks import RunFacts, check_run
 from tests.helpers import then_interrupted
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
@@ -513,7 +513,7 @@ def test_links_in_a_results_tree_are_not_followed(breakdown, tmp_path):
 def test_a_table_larger_than_any_tavc_writes_is_refused_unread(breakdown, tmp_path):
     """A trial_stats.csv of 300 MiB (sparse: no disk used) is refused in one line naming it, without
     being read into memory."""
-    from tavc_cli.analysis.schema import TABLE_LIMIT
+    from tavc_cli.run_checks import TABLE_LIMIT
 
     results = tmp_path / "results"
     shutil.copytree(breakdown, results / "breakdown")

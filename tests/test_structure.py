@@ -190,6 +190,22 @@ def test_each_layer_imports_only_the_layers_below_it():
     assert broken == []
 
 
+def test_the_analysis_reads_and_writes_no_file():
+    """analysis/ works on the records and tables it is handed: a run's files are read by
+    run_checks.py and run_tables.py (and the report, the pipeline), never below them."""
+    io_calls = {"open", "read_csv", "to_csv", "read_text", "write_text", "read_bytes", "write_bytes", "from_yaml",
+                "load_json", "load_yaml", "read_bounded", "glob", "rglob", "is_file", "is_dir", "exists", "load",
+                "save", "savez", "savez_compressed"}
+    found = []
+    for path in sorted((PACKAGE / "analysis").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call):
+                name = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
+                if name in io_calls:
+                    found.append(f"{path.relative_to(PACKAGE)}:{node.lineno}: {name}")
+    assert found == []
+
+
 def test_the_simulation_core_imports_neither_hydra_nor_omegaconf():
     """The core reads typed settings only: the config's machinery stays above it."""
     core = ("sim", "behaviours", "learning", "model", "analysis")

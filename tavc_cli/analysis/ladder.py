@@ -1,5 +1,5 @@
 """The horizon ladder: initial_distribution at several multiples of the chapter's durations,
-side by side (`ladder.csv`), from each rung's saved tables only.
+side by side (`ladder.csv`), from each rung's saved tables only (read by `run_tables.read_rung`).
 
 A rung is one folder of `tavc run` output whose `config.yaml` holds its factor
 (`scale.time_factor`). The rungs' trials are prefixes of one another (the same seeds, the
@@ -22,12 +22,12 @@ Per rung and controller the table holds, as `quantity` rows:
 from __future__ import annotations
 
 import math
-from pathlib import Path
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import pandas as pd
 
 from tavc_cli.analysis.convergence import convergence_verdict
-from tavc_cli.settings import from_yaml
 
 LADDER_COLUMNS = ["factor", "duration_s", "controller", "quantity", "mean", "std", "n_trials"]
 LADDER_CLAIMS = (3, 4, 5)
@@ -42,21 +42,30 @@ def _row(factor: float, duration: float, controller: str, quantity: str, mean: f
             "mean": mean, "std": std, "n_trials": n}
 
 
-def rung_rows(folder: Path) -> list[dict]:
-    """Every row of `ladder.csv` for one rung's folder."""
-    cfg = from_yaml(folder / "config.yaml")
-    factor, duration = float(cfg.scale.time_factor), float(cfg.duration_s)
+@dataclass(frozen=True)
+class Rung:
+    """One rung as its folder holds it: its multiple of the chapter's durations, its duration, and
+    its tables by name (``state_time``, ``trial_stats``; ``claims``, ``convergence`` and
+    ``mechanism`` where the run wrote them)."""
+
+    factor: float
+    duration_s: float
+    tables: Mapping[str, pd.DataFrame]
+
+
+def rung_rows(rung: Rung) -> list[dict]:
+    """Every row of `ladder.csv` for one rung."""
+    factor, duration, tables = rung.factor, rung.duration_s, rung.tables
     rows = []
-    states = pd.read_csv(folder / "state_time.csv", dtype={"state": str})
-    for r in states.itertuples():
+    for r in tables["state_time"].itertuples():
         rows.append(_row(factor, duration, r.controller, f"pct_{r.state}", r.mean_pct, r.std_pct, int(r.n_trials)))
-    stats = pd.read_csv(folder / "trial_stats.csv")
+    stats = tables["trial_stats"]
     for controller, group in stats.groupby("controller", sort=False):
         x = group["value_rate_stable"].dropna()
         rows.append(_row(factor, duration, str(controller), "value_rate_stable", x.mean(),
                          x.std(ddof=1) if len(x) > 1 else math.nan, len(x)))
-    if (folder / "claims.csv").is_file():
-        claims = pd.read_csv(folder / "claims.csv")
+    if "claims" in tables:
+        claims = tables["claims"]
         for r in claims[claims["claim_id"].isin(LADDER_CLAIMS)].itertuples():
             who = CLAIM_CONTROLLER.get(int(r.claim_id), "tavc")  # whose trials the claim is about
             n = int((stats["controller"] == who).sum())
@@ -64,17 +73,14 @@ def rung_rows(folder: Path) -> list[dict]:
             rows += [_row(factor, duration, who, f"claim{r.claim_id}_statistic", r.statistic, n=n),
                      _row(factor, duration, who, f"claim{r.claim_id}_p", r.p_value, n=n),
                      _row(factor, duration, who, f"claim{r.claim_id}_reproduced", verdict, n=n)]
-    rows += _convergence_rows(folder, factor, duration)
-    rows += _mechanism_rows(folder, factor, duration)
+    rows += _convergence_rows(tables.get("convergence"), factor, duration)
+    rows += _mechanism_rows(tables.get("mechanism"), factor, duration)
     return rows
 
 
-def _convergence_rows(folder: Path, factor: float, duration: float) -> list[dict]:
-    path = folder / "convergence.csv"
-    if not path.is_file():
+def _convergence_rows(table: pd.DataFrame | None, factor: float, duration: float) -> list[dict]:
+    if table is None:
         return []
-
-    table = pd.read_csv(path)
     rows = []
     for controller in dict.fromkeys(table["controller"]):
         v = convergence_verdict(table, controller=str(controller))
@@ -85,11 +91,9 @@ def _convergence_rows(folder: Path, factor: float, duration: float) -> list[dict
     return rows
 
 
-def _mechanism_rows(folder: Path, factor: float, duration: float) -> list[dict]:
-    path = folder / "mechanism.csv"
-    if not path.is_file():
+def _mechanism_rows(table: pd.DataFrame | None, factor: float, duration: float) -> list[dict]:
+    if table is None:
         return []
-    table = pd.read_csv(path)
     stable = table[table["window"] == "stable"]
     rows = []
     for controller, group in stable.groupby("controller", sort=False):
@@ -100,10 +104,10 @@ def _mechanism_rows(folder: Path, factor: float, duration: float) -> list[dict]:
     return rows
 
 
-def ladder_table(folders: list[Path]) -> pd.DataFrame:
-    """`ladder.csv` from the rungs' folders, the shortest horizon first."""
-    order = sorted(folders, key=lambda f: float(from_yaml(f / "config.yaml").scale.time_factor))
-    return pd.DataFrame([r for f in order for r in rung_rows(f)], columns=LADDER_COLUMNS)
+def ladder_table(rungs: Sequence[Rung]) -> pd.DataFrame:
+    """`ladder.csv` from the rungs, the shortest horizon first."""
+    order = sorted(rungs, key=lambda rung: rung.factor)
+    return pd.DataFrame([r for rung in order for r in rung_rows(rung)], columns=LADDER_COLUMNS)
 
 
 def ladder_value(table: pd.DataFrame, controller: str, quantity: str) -> pd.Series:

@@ -4,7 +4,7 @@
 w_high / w_low, at the chapter's 5 h and at ten times that, under two readings of the
 unit of t in r = w / t, and, as a diagnostic that is not the chapter's rule, with no
 discounting (gamma = 0: each Q-value a running mean of its task's reward). This module
-gathers those runs (any folder below a root that holds a finished run) into one table:
+makes those runs (`run_tables.ratio_points` reads every finished run below a root) one table:
 per reading, horizon and ratio, the mean share of robots on the high-value circuit over
 the stable period, from `trial_stats.csv` (each state's share
 of the period weighted by the fraction of robots it puts on the high circuit). The model's
@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -23,7 +22,7 @@ import pandas as pd
 from tavc_cli.analysis.table_schemas import STATE_PREFIX
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
 from tavc_cli.model import core
-from tavc_cli.settings import from_yaml
+from tavc_cli.settings import TavcConfig
 
 POINT_COLUMNS = ["reading", "horizon", "ratio", "values", "mean", "std", "n_trials", "policy_changes_per_trial",
                  "run"]
@@ -39,56 +38,54 @@ def high_share(stats: pd.DataFrame) -> np.ndarray:
     return share
 
 
-def _runs(root: Path) -> list[Path]:
-    return sorted(p.parent for p in root.rglob("trial_stats.csv") if (p.parent / "config.yaml").is_file())
-
-
 def horizon_label(duration_s: float) -> str:
     """A duration in hours as the tables label a horizon (`18000` -> ``5 h``)."""
     return f"{duration_s / 3600.0:g} h"
 
 
-def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
-    """One row per run below `root` with two circuits: `reading,horizon,ratio,values,mean,std,n_trials,...`."""
-    rows = []
-    for d in _runs(Path(root)):
-        cfg = from_yaml(d / "config.yaml")
-        values = cfg.tasks.values
-        if not values or len(values) != 2:
-            continue
-        stats = pd.read_csv(d / "trial_stats.csv")
-        stats = stats[stats["controller"] == controller]
-        share = high_share(stats)
-        share = share[np.isfinite(share)]
-        if not len(share):
-            continue
-        unit = str(cfg.tasks.time_unit)
-        reading = READINGS.get(unit, f"t in {unit}")
-        gamma = float(getattr(cfg.learner, "gamma", CHAPTER_GAMMA))
-        if gamma != CHAPTER_GAMMA:
-            reading += f", gamma {gamma:g} (diagnostic)"
-        changes = stats["policy_changes"].to_numpy(float) if "policy_changes" in stats else np.full(len(stats), np.nan)
-        rows.append({"reading": reading, "horizon": horizon_label(float(cfg.duration_s)),
-                     "ratio": max(values) / min(values), "values": "/".join(f"{float(v):g}" for v in values),
-                     "mean": float(share.mean()), "std": float(share.std(ddof=1)) if len(share) > 1 else math.nan,
-                     "n_trials": len(share),
-                     "policy_changes_per_trial": float(np.nanmean(changes)) if np.isfinite(changes).any() else math.nan,
-                     "run": str(d.relative_to(root))})
-    out = pd.DataFrame(rows, columns=POINT_COLUMNS)
-    # the default reading first, then shorter horizons first, then by ratio
+def ratio_point(cfg: TavcConfig, stats: pd.DataFrame, run: str, controller: str = "tavc") -> dict | None:
+    """A run's row of the table (`POINT_COLUMNS`), from its settings and `trial_stats.csv`; None for a
+    run without two circuits or without a finite share of `controller`'s trials."""
+    values = cfg.tasks.values
+    if not values or len(values) != 2:
+        return None
+    stats = stats[stats["controller"] == controller]
+    share = high_share(stats)
+    share = share[np.isfinite(share)]
+    if not len(share):
+        return None
+    unit = str(cfg.tasks.time_unit)
+    reading = READINGS.get(unit, f"t in {unit}")
+    gamma = float(getattr(cfg.learner, "gamma", CHAPTER_GAMMA))
+    if gamma != CHAPTER_GAMMA:
+        reading += f", gamma {gamma:g} (diagnostic)"
+    changes = stats["policy_changes"].to_numpy(float) if "policy_changes" in stats else np.full(len(stats), np.nan)
+    return {"reading": reading, "horizon": horizon_label(float(cfg.duration_s)),
+            "ratio": max(values) / min(values), "values": "/".join(f"{float(v):g}" for v in values),
+            "mean": float(share.mean()), "std": float(share.std(ddof=1)) if len(share) > 1 else math.nan,
+            "n_trials": len(share),
+            "policy_changes_per_trial": float(np.nanmean(changes)) if np.isfinite(changes).any() else math.nan,
+            "run": run}
+
+
+def points_table(rows: Sequence[dict]) -> pd.DataFrame:
+    """The runs' rows (`ratio_point`) as one table: the default reading first, then shorter horizons
+    first, then by ratio."""
+    out = pd.DataFrame(list(rows), columns=POINT_COLUMNS)
     key = [(r != READINGS["ms"], r, float(h.split()[0]), x) for r, h, x in zip(out["reading"], out["horizon"],
                                                                            out["ratio"], strict=True)]
     return out.iloc[sorted(range(len(out)), key=key.__getitem__)].reset_index(drop=True)
 
 
-def predicted_shares(model_csv: Path, n_robots: int, ratios: Sequence[float],
+def predicted_shares(model_rows: pd.DataFrame, n_robots: int, ratios: Sequence[float],
                      low_value: float = 2000.0) -> pd.DataFrame:
     """`ratio,share,state`: the model's predicted split (the individual equilibrium) of n_robots at
-    each ratio, as the share of robots on the high-value circuit (circuit 0 gets the high value)."""
+    each ratio, as the share of robots on the high-value circuit (circuit 0 gets the high value);
+    `model_rows` is a `model.csv` as read (`run_tables.model_rows`)."""
     # deferred: loads the simulator's compiled kernels
     from tavc_cli.model.api import table_from_rows
 
-    table = table_from_rows(pd.read_csv(model_csv, dtype={"split": str, "state": str}))
+    table = table_from_rows(model_rows)
     rows = []
     for r in ratios:
         values = [low_value * float(r), low_value]

@@ -24,7 +24,6 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.claims import not_a_verdict
-from tavc_cli.analysis.schema import check_run
 from tavc_cli.compare.figures import comparison_figure
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order, trial_metrics
 from tavc_cli.errors import TavcError
@@ -33,6 +32,7 @@ from tavc_cli.learning.registry import LEARNS_NOTHING, controller_label
 from tavc_cli.model.allocations import model_allocations
 from tavc_cli.ownership import COMPARE, COMPARE_FILES, config_differences, take
 from tavc_cli.readers import load_yaml
+from tavc_cli.run_checks import check_run
 from tavc_cli.settings import TavcConfig, to_yaml
 
 
@@ -72,7 +72,7 @@ def check_reused(folder: Path, planned: TavcConfig, label: str) -> None:
     """Refuse, in one line (``--reuse: <folder>: <what is wrong>; <what to do>``), a folder the
     comparison would read instead of running `planned` (the run it would make of one scenario
     for the controller whose trials are labelled `label`), unless it holds a finished run
-    (its `provenance.json` there) whose files are whole and unchanged (`analysis.schema.check_run`,
+    (its `provenance.json` there) whose files are whole and unchanged (`run_checks.check_run`,
     as `tavc report` checks a run), of that scenario, of that learner with trials of `label`,
     at `planned`'s settings but `REUSE_MAY_DIFFER`, and with at least `planned`'s trials."""
     experiment = str(planned.experiment_name)

@@ -4,7 +4,7 @@ It reads, for every run folder under the results directory at any depth (a sweep
 two levels down: `<root>/breakdown/0_seed=1/`), what `tavc run` wrote (`config.yaml`,
 `provenance.json`, `state_time.csv`, `trial_stats.csv`, and the model's `model/model.json`
 if `tavc model` was run into it), checks all of it before writing anything
-(`analysis.schema`: a damaged file is one line naming it, and nothing written), tests the
+(`run_checks`: a damaged file is one line naming it, and nothing written), tests the
 chapter's claims on the per-trial numbers of one run per experiment together (claim 7
 compares two experiments), and writes `claims.csv` (every claim, and the part that decides
 each verdict) and `REPORT.md` beside the run folders. A folder directly under the results
@@ -31,7 +31,6 @@ import pandas as pd
 
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
-from tavc_cli.analysis.schema import check_run
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, list_figures, take_report_folders
@@ -57,12 +56,13 @@ from tavc_cli.report.studies import (
 from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
+from tavc_cli.run_checks import check_run
 
 
 def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: dict[str, list[Path]]) -> None:
     """Check every file the report reads, and where it writes, before writing anything: a
     damaged file is one line naming it, not a half-built report. Every run of every horizon,
-    of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`schema.check_run`:
+    of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`run_checks.check_run`:
     its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
     readings' study's tables, the calibration searches' tables, the turn-taking model's predictions
     and its own learners' runs. The runs are checked two at a time (`_check_runs`)."""
@@ -95,7 +95,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
 
 
 def _check_runs(folders: list[Path]) -> None:
-    """`schema.check_run` on each folder, and its model's output, two folders at a time where the
+    """`run_checks.check_run` on each folder, and its model's output, two folders at a time where the
     system forks (`FigurePool`); the first folder in their order with anything wrong is the one
     refused (or a failure of the check itself raised), as one by one, once the checks already
     handed to the processes have ended; where a check process dies, the folders from there on
@@ -124,7 +124,7 @@ def _check_runs(folders: list[Path]) -> None:
 
 
 def _check_run(folder: Path) -> None:
-    """`schema.check_run` on one folder, and its model's output if it has one."""
+    """`run_checks.check_run` on one folder, and its model's output if it has one."""
     check_run(folder, config_of)
     if (folder / "model" / "model.json").is_file():
         read_or_refuse(folder / "model" / "model.json", lambda p: json.loads(p.read_text()))

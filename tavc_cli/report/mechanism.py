@@ -16,8 +16,9 @@ from tavc_cli.analysis.mechanism import mechanism_summary
 from tavc_cli.analysis.stay_switch import thresholds
 from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.analysis.turn_taking import group_reading
+from tavc_cli.learning.registry import TITLES
 from tavc_cli.report.files import config_of
-from tavc_cli.report.text import CONTROLLER_NAMES, fmt
+from tavc_cli.report.text import fmt
 from tavc_cli.settings import TavcConfig
 
 
@@ -94,7 +95,7 @@ def mechanism_lines(d: Path) -> list[str]:
     for controller in ("random", "static"):
         o = mechanism(d, controller)
         if o is not None:
-            others.append(f"{CONTROLLER_NAMES.get(controller, controller)}: stay {_secs(o.get('task_s_stay'))}, "
+            others.append(f"{TITLES.get(controller, controller)}: stay {_secs(o.get('task_s_stay'))}, "
                           f"switch {_secs(o.get('task_s_switch'))}")
     if others:
         text += " (" + "; ".join(others) + ")"

@@ -14,7 +14,7 @@ from tavc_cli.analysis.makeup_model import expected_high, predicted_regime, read
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, readings
 from tavc_cli.analysis.table_schemas import STATE_PREFIX
 from tavc_cli.analysis.turn_taking import RESAMPLES, modal_support
-from tavc_cli.analysis.value_ratio import predicted_shares, ratio_points
+from tavc_cli.analysis.value_ratio import predicted_shares
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
@@ -22,6 +22,7 @@ from tavc_cli.report import files
 from tavc_cli.report.files import config_of, horizon_folders, model_learners, natural, read_or_refuse, run_in
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.text import fmt
+from tavc_cli.run_tables import model_rows, ratio_points
 
 
 def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
@@ -42,7 +43,7 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     if model_csv is not None and model_csv.is_file():
         n_robots = int(json.loads(model_json.read_text())["n_robots"])
         fine = [round(1.0 + 0.01 * k, 2) for k in range(101)]
-        predicted = predicted_shares(model_csv, n_robots, fine)
+        predicted = predicted_shares(model_rows(model_csv), n_robots, fine)
     value_ratio_figure(points, predicted, 1.1, "share of robots on the high-value circuit in the stable period",
                        results_dir / "figures" / "value_ratio")
     columns = list(dict.fromkeys(zip(points["reading"], points["horizon"], strict=True)))

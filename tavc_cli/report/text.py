@@ -11,18 +11,18 @@ import pandas as pd
 
 from tavc_cli.analysis.claims import not_a_verdict, verdict_words
 from tavc_cli.analysis.robots import ALTERNATOR_RATE, STAYER_SHARE, robot_summary
-from tavc_cli.analysis.schema import read_trial
 from tavc_cli.analysis.table_schemas import Q_GAP_PREFIX
 from tavc_cli.analysis.trial_stats import SETTLE_TOL
 from tavc_cli.analysis.vacancy import SETTLE_TASKS, vacancy_summary
 from tavc_cli.chapter import EXPERIMENTS, experiment_of
 from tavc_cli.experiments.plan import RunPlan, read_plan
+from tavc_cli.learning.registry import TITLES
 from tavc_cli.model.allocations import MODEL_LIMIT
 from tavc_cli.readers import load_json
+from tavc_cli.run_checks import read_trial
 from tavc_cli.settings import TavcConfig
 
 KIND_WORDS = {"stayer": "stayers", "alternator": "alternators", "mixed": "mixed", "idle": "idle (broken down or stuck)"}
-CONTROLLER_NAMES = {"tavc": "TAVC", "random": "random", "static": "static", "theory": "theory"}
 
 
 def fmt(x, spec=".1f") -> str:
@@ -39,7 +39,7 @@ def state_table(state_time: pd.DataFrame, comparison: pd.DataFrame | None) -> li
         chapter = {(r.state, r.quantity): r.chapter for r in comparison.itertuples()}
     head = ["state"]
     for c in controllers:
-        name = CONTROLLER_NAMES.get(c, c)
+        name = TITLES.get(c, c)
         key = "theory_pct" if c == "theory" else f"{c}_mean_pct"
         if any(q == key for _, q in chapter):
             head.append(f"{name}, chapter")
@@ -125,7 +125,7 @@ def performance(stats: pd.DataFrame) -> str:
     for ctrl, g in stats.groupby("controller", sort=False):
         x = g["value_rate_stable"].dropna()
         spread = f" ± {x.std(ddof=1):.4f}" if len(x) > 1 else ""  # one trial has none
-        parts.append(f"{CONTROLLER_NAMES.get(ctrl, ctrl)} {x.mean():.4f}{spread} (n = {len(x)})")
+        parts.append(f"{TITLES.get(ctrl, ctrl)} {x.mean():.4f}{spread} (n = {len(x)})")
     return "score value delivered per second in the stable period: " + ", ".join(parts)
 
 
@@ -181,7 +181,7 @@ def settle_lines(stats: pd.DataFrame, cfg: TavcConfig) -> list[str]:
     for ctrl, g in stats.groupby("controller", sort=False):
         x = g["settle_s"].to_numpy(float)
         done = x[pd.notna(x)]
-        text = f"{CONTROLLER_NAMES.get(ctrl, ctrl)} settled in {len(done)} of {len(x)} trials"
+        text = f"{TITLES.get(ctrl, ctrl)} settled in {len(done)} of {len(x)} trials"
         if len(done):
             text += f", median {pd.Series(done).median():.0f} s"
         parts.append(text)
@@ -203,7 +203,7 @@ def policy_lines(stats: pd.DataFrame) -> list[str]:
         if not len(changes):
             continue
         settle = g["policy_settle_s"].dropna()
-        text = (f"{CONTROLLER_NAMES.get(ctrl, ctrl)}: in {int((changes == 0).sum())} of {len(changes)} trials no "
+        text = (f"{TITLES.get(ctrl, ctrl)}: in {int((changes == 0).sum())} of {len(changes)} trials no "
                 f"robot's greedy policy changed at all; {changes.sum():.0f} changes in all "
                 f"({changes.mean():.2f} per trial)")
         if len(settle) < len(changes):
@@ -223,7 +223,7 @@ def robot_lines(d: Path) -> list[str]:
 
     parts = []
     for ctrl, kinds in robot_summary(pd.read_csv(path)).items():
-        parts.append(f"{CONTROLLER_NAMES.get(ctrl, ctrl)} " + ", ".join(
+        parts.append(f"{TITLES.get(ctrl, ctrl)} " + ", ".join(
             f"{v:.1f} {KIND_WORDS[k]}" for k, v in kinds.items() if v > 0))
     return [f"Robots per trial in the stable period (stayer: {STAYER_SHARE:.0%} or more of its choices on one "
             f"circuit; alternator: {ALTERNATOR_RATE:.0%} or more of its choices switch): " + "; ".join(parts) + ".", ""]
@@ -303,7 +303,7 @@ def late_start_lines(cfg: TavcConfig, plan: RunPlan) -> list[str]:
     theirs = plan.controllers[1].schedule
     start, what = theirs.start_s - theirs.trial_warmup_s, theirs.starts_at
     learner_start = 0.0 - float(cfg.sim.warmup_s)
-    names = " and ".join(CONTROLLER_NAMES.get(b.label, b.label) for b in plan.controllers[1:])
+    names = " and ".join(TITLES.get(b.label, b.label) for b in plan.controllers[1:])
     if not plan.shared_schedule:
         return [f"The baselines ({names}) learn nothing, so their distribution does not depend on the horizon: "
                 f"they ran the chapter's own schedule ({float(cfg.scale.baseline_time_factor):g} times its "
@@ -333,13 +333,13 @@ def delivery_lines(d: Path, prov: dict) -> list[str]:
         return []
     n = {c: sum(1 for t in prov["trials"] if t["controller"] == c) for c in delivered}
     if len(idle) == len(delivered):
-        names = [CONTROLLER_NAMES.get(c, c) for c in idle]
+        names = [TITLES.get(c, c) for c in idle]
         names = ", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else names[0]
         return [f"**No robot delivered anything in any trial of this run** ({_trials(sum(n.values()))} of {names}): "
                 "the tables and figures below describe robots that never completed a task, and no claim about "
                 "their allocation can be tested on them.", ""]
     return ["No robot delivered anything in any trial of "
-            + " or of ".join(f"{CONTROLLER_NAMES.get(c, c)} ({_trials(n[c])})" for c in idle) + ".", ""]
+            + " or of ".join(f"{TITLES.get(c, c)} ({_trials(n[c])})" for c in idle) + ".", ""]
 
 
 def _trials(n: int) -> str:

@@ -1,0 +1,60 @@
+"""Runs' saved tables read for the studies that gather runs: the horizon ladder's rungs, a sweep's
+jobs, the value-ratio sweep's points and the model's table. What is read here is handed to
+`analysis` (`analysis.ladder`, `analysis.sweep`, `analysis.value_ratio`), which works the numbers
+out without touching a file."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli.analysis import ladder, sweep, value_ratio
+from tavc_cli.settings import from_yaml
+
+STATES = {"state": str}  # a state column read as text ("3:3"), never as a number or a time
+_RUNG_TABLES = ("claims", "convergence", "mechanism")  # a rung's tables the ladder reads where the run wrote them
+
+
+def read_rung(folder: Path) -> ladder.Rung:
+    """One rung of the ladder as its folder holds it: its factor and duration (`config.yaml`), its
+    state table and per-trial statistics, and its claims, convergence and mechanism tables where it has them."""
+    cfg = from_yaml(folder / "config.yaml")
+    tables = {"state_time": pd.read_csv(folder / "state_time.csv", dtype=STATES),
+              "trial_stats": pd.read_csv(folder / "trial_stats.csv")}
+    tables.update({name: pd.read_csv(folder / f"{name}.csv") for name in _RUNG_TABLES
+                   if (folder / f"{name}.csv").is_file()})
+    return ladder.Rung(float(cfg.scale.time_factor), float(cfg.duration_s), tables)
+
+
+def ladder_table(folders: Sequence[Path]) -> pd.DataFrame:
+    """`ladder.csv` from the rungs' folders, the shortest horizon first (`analysis.ladder.ladder_table`)."""
+    return ladder.ladder_table([read_rung(f) for f in folders])
+
+
+def sweep_table(jobs: Sequence[tuple[Mapping[str, str], Path]]) -> pd.DataFrame:
+    """`sweep.csv`: one row per job, controller and state (`analysis.sweep.job_rows`), from each job's
+    `state_time.csv` and `trial_stats.csv`. Jobs without a state table (one-circuit runs) give no rows."""
+    rows = []
+    for index, (values, folder) in enumerate(jobs):
+        states, stats = Path(folder) / "state_time.csv", Path(folder) / "trial_stats.csv"
+        if states.is_file():
+            rows += sweep.job_rows(index, values, str(folder), pd.read_csv(states),
+                                   pd.read_csv(stats) if stats.is_file() else None)
+    return pd.DataFrame(rows)
+
+
+def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
+    """One row per finished run below `root` with two circuits (`analysis.value_ratio.ratio_point`):
+    `reading,horizon,ratio,values,mean,std,n_trials,...`, each run named relative to `root`."""
+    root = Path(root)
+    runs = sorted(p.parent for p in root.rglob("trial_stats.csv") if (p.parent / "config.yaml").is_file())
+    points = (value_ratio.ratio_point(from_yaml(d / "config.yaml"), pd.read_csv(d / "trial_stats.csv"),
+                                      str(d.relative_to(root)), controller) for d in runs)
+    return value_ratio.points_table([p for p in points if p is not None])
+
+
+def model_rows(model_csv: Path) -> pd.DataFrame:
+    """A `model.csv` as `tavc model` wrote it, its split and state columns as text."""
+    return pd.read_csv(model_csv, dtype={"split": str, "state": str})
