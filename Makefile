@@ -19,7 +19,10 @@ VALUE_RATIOS := [2000,2000],[2200,2000],[2500,2000],[3000,2000],[3500,2000],[400
 
 comma := ,
 
-# The horizon ladder: multiples of the chapter's durations at which initial_distribution runs
+# The chapter's base case, as its registry names it (read once, by the first recipe that needs it)
+BASE = $(eval BASE := $(shell $(BIN)/python -c "from tavc_cli.chapter import base_case; print(base_case().name)"))$(BASE)
+
+# The horizon ladder: multiples of the chapter's durations at which the base case runs
 LADDER ?= 1,4,10,20,40
 # Trials per process at scale=converged: small batches spread hours of trees evenly over the
 # cores, and a killed run loses less (batching changes speed, never numbers)
@@ -94,11 +97,11 @@ VERIFY_WORLD := search sensitivity
 
 verify-outcomes: venv ## Recompute initial_distribution and the world search at paper scale; tables must match the committed ones byte for byte
 	rm -rf $(VERIFY_DIR)
-	$(BIN)/tavc run experiment=initial_distribution scale=paper output_dir=$(VERIFY_DIR)/initial_distribution
-	$(BIN)/tavc calibrate scale=paper output_dir=$(VERIFY_DIR)/initial_distribution
-	@for f in $(VERIFY_RUN); do cmp results/initial_distribution/$$f.csv $(VERIFY_DIR)/initial_distribution/$$f.csv || exit 1; done
+	$(BIN)/tavc run experiment=$(BASE) scale=paper output_dir=$(VERIFY_DIR)/$(BASE)
+	$(BIN)/tavc calibrate scale=paper output_dir=$(VERIFY_DIR)/$(BASE)
+	@for f in $(VERIFY_RUN); do cmp results/$(BASE)/$$f.csv $(VERIFY_DIR)/$(BASE)/$$f.csv || exit 1; done
 	@for f in $(VERIFY_WORLD); do cmp results/calibration/world/$$f.csv $(VERIFY_DIR)/calibration/world/$$f.csv || exit 1; done
-	@echo "outcomes identical: $(words $(VERIFY_RUN)) tables of initial_distribution, $(words $(VERIFY_WORLD)) of the world search"
+	@echo "outcomes identical: $(words $(VERIFY_RUN)) tables of $(BASE), $(words $(VERIFY_WORLD)) of the world search"
 
 # The experiments (one run of every core) beside the model. The model runs at the lowest
 # priority, so that its trials take only the cores the experiments leave idle (their last
@@ -132,7 +135,7 @@ reproduce-quick: venv ## A first look: every experiment at scale=quick into runs
 	@echo "reproduce-quick: $$(( $$(date +%s) - $$(cat $(VENV)/.reproduce-start) )) s wall time"
 
 model: venv ## Measure the vacancy-chain model in the chapter's world (results/initial_distribution/model/)
-	$(MODEL_NICE) $(BIN)/tavc model experiment=initial_distribution scale=paper output_dir=results/initial_distribution
+	$(MODEL_NICE) $(BIN)/tavc model experiment=$(BASE) scale=paper output_dir=results/$(BASE)
 
 # the chapter's task-allocation experiments besides its base case, from the registry (those `tavc compare` serves)
 OTHER_SCENARIOS = $(shell $(BIN)/python -c "from tavc_cli.chapter import base_case; from tavc_cli.compare import \
@@ -142,7 +145,7 @@ turn-taking-checks: venv ## The turn-taking model beside the chapter's at the ch
 	for e in $(OTHER_SCENARIOS); do \
 		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper output_dir=results/turn_taking/$$e || exit 1; done
 	for w in 2000 3000 4000; do \
-		$(BIN)/tavc model --turn-taking experiment=initial_distribution "tasks.values=[$$w,2000]" scale=paper \
+		$(BIN)/tavc model --turn-taking experiment=$(BASE) "tasks.values=[$$w,2000]" scale=paper \
 			output_dir=results/turn_taking/value_ratio_$$w || exit 1; done
 
 # Team sizes for the turn-taking model's checks against the learners at 40x (six, the chapter's, is
@@ -151,9 +154,9 @@ TEAM_SIZES := 2,3,4,5,7,8,9,10
 
 team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn_taking/team_size_N/), then the learners at 40x there (results/team_size/converged/)
 	for n in $(subst $(comma), ,$(TEAM_SIZES)); do \
-		$(BIN)/tavc model --turn-taking experiment=initial_distribution team.n_robots=$$n scale=paper \
+		$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$$n scale=paper \
 			output_dir=results/turn_taking/team_size_$$n || exit 1; done
-	$(BIN)/tavc run -m experiment=initial_distribution scale=converged trials=8 'baselines=[]' \
+	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' \
 		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(TEAM_SIZES) output_dir=results/team_size/converged
 
 # The readings of the world besides today's (docs/readings.md), arrival-passing-arena, and the grid each
@@ -166,10 +169,10 @@ RANGE_GRID := [{key:robot.behaviour.read_range_m,values:[1.0,1.5,2.0]},{key:robo
 calibrate-readings: venv ## Each reading's calibration search against the chapter's facts (results/readings/<reading>/calibration/world/)
 	for r in $(DOCK_READINGS); do set -- $$(echo $$r | tr - ' '); \
 		$(BIN)/tavc calibrate scale=paper arrival=$$1 passing=$$2 arena=$$3 \
-			output_dir=results/readings/$$r/initial_distribution || exit 1; done
+			output_dir=results/readings/$$r/$(BASE) || exit 1; done
 	for r in $(RANGE_READINGS); do set -- $$(echo $$r | tr - ' '); \
 		$(BIN)/tavc calibrate scale=paper arrival=$$1 passing=$$2 arena=$$3 'calibration.grid=$(RANGE_GRID)' \
-			output_dir=results/readings/$$r/initial_distribution || exit 1; done
+			output_dir=results/readings/$$r/$(BASE) || exit 1; done
 
 # The chapter's five task-allocation experiments in other readings: labelled counterfactuals (docs/readings.md)
 # (the registry's task-allocation experiments, those `tavc compare` serves; read only when a target uses them)
@@ -187,7 +190,7 @@ readings-experiments: venv ## The chapter's five task-allocation experiments at 
 		--results results/readings/range-left-two_circuits_parallel-calibrated
 
 turn-taking-readings: venv ## The turn-taking model in the readings whose experiments run at 40x, before those runs are read (results/turn_taking/)
-	$(BIN)/tavc model --turn-taking experiment=initial_distribution scale=paper $(RANGE_CALIBRATED) \
+	$(BIN)/tavc model --turn-taking experiment=$(BASE) scale=paper $(RANGE_CALIBRATED) \
 		output_dir=results/turn_taking/range-left-two_circuits_parallel-calibrated
 	for e in $(OTHER_SCENARIOS); do \
 		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper $(RANGE_CALIBRATED) \
@@ -206,11 +209,11 @@ readings-experiments-converged: venv ## The same experiments at 40x, 8 trials, i
 		--results results/converged/readings/range-left-two_circuits_parallel-calibrated
 
 readings-x80: venv ## The base case at 80x, 8 trials, in the parallel readings (and the calibrated range world) whose learners had not settled by 40x (results/x80/readings/)
-	$(BIN)/tavc run experiment=initial_distribution scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
+	$(BIN)/tavc run experiment=$(BASE) scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
 		arrival=range passing=left arena=two_circuits_parallel output_dir=results/x80/readings/range-left-two_circuits_parallel
-	$(BIN)/tavc run experiment=initial_distribution scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
+	$(BIN)/tavc run experiment=$(BASE) scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
 		arrival=dock passing=left arena=two_circuits_parallel output_dir=results/x80/readings/dock-left-two_circuits_parallel
-	$(BIN)/tavc run experiment=initial_distribution scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
+	$(BIN)/tavc run experiment=$(BASE) scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
 		$(RANGE_CALIBRATED) output_dir=results/x80/readings/range-left-two_circuits_parallel-calibrated
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
@@ -220,18 +223,18 @@ stay-switch-calibrated: venv ## The same with each reading at the settings its c
 	$(BIN)/tavc stay-switch scale=paper --calibrated results --results results/stay_switch_calibrated
 
 value-ratio: venv ## Share of time on the high-value circuit against the value ratio: 5 h and 50 h, t in ms and s; gamma 0 at 5 h
-	$(BIN)/tavc run -m experiment=initial_distribution scale=paper 'baselines=[]' tasks.time_unit=ms,s \
+	$(BIN)/tavc run -m experiment=$(BASE) scale=paper 'baselines=[]' tasks.time_unit=ms,s \
 		'tasks.values=$(VALUE_RATIOS)' output_dir=results/value_ratio/paper
-	$(BIN)/tavc run -m experiment=initial_distribution scale=long 'baselines=[]' tasks.time_unit=ms,s \
+	$(BIN)/tavc run -m experiment=$(BASE) scale=long 'baselines=[]' tasks.time_unit=ms,s \
 		'tasks.values=$(VALUE_RATIOS)' output_dir=results/value_ratio/long
-	$(BIN)/tavc run -m experiment=initial_distribution scale=paper 'baselines=[]' learner.gamma=0 \
+	$(BIN)/tavc run -m experiment=$(BASE) scale=paper 'baselines=[]' learner.gamma=0 \
 		'tasks.values=$(VALUE_RATIOS)' output_dir=results/value_ratio/paper_gamma0
 
 # The value-ratio sweep at 40x the chapter's 5 h (200 h), where the learning rule converges
 VALUE_RATIOS_CONVERGED := [2000,2000],[2200,2000],[3000,2000],[4000,2000]
 
 value-ratio-converged: venv ## The value-ratio sweep at 40x the chapter's durations: ratios 1.0, 1.1, 1.5, 2.0, 8 trials of 200 h
-	$(BIN)/tavc run -m experiment=initial_distribution scale=converged trials=8 'baselines=[]' \
+	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' \
 		executor.batch_size=$(CONVERGED_BATCH) 'tasks.values=$(VALUE_RATIOS_CONVERGED)' output_dir=results/value_ratio/converged
 
 compare: venv ## Learners side by side on the chapter's scenarios at paper scale and at 40x (results/compare/)

@@ -42,7 +42,7 @@ def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[
     comparison = experiment_comparison(str(cfg.experiment_name or ""), written_tables["state_time"])
     if comparison is not None:
         write_text_atomic(out_dir / "comparison.csv", comparison.to_csv(index=False, float_format="%.4f"))
-    claims = experiment_claims(cfg, written_tables, _other_experiments(cfg, out_dir))
+    claims = experiment_claims(cfg, plan, written_tables, _other_experiments(cfg, out_dir))
     if len(claims):
         write_text_atomic(out_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
     written = {*tables, *(["comparison"] if comparison is not None else []), *(["claims"] if len(claims) else [])}

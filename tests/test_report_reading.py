@@ -306,15 +306,15 @@ def test_the_report_tests_the_claims_on_the_learner_its_runs_are_of():
 
     from tavc_cli.report.horizons import under_test as _under_test
 
-    def cfg(name):
-        return SimpleNamespace(learner=SimpleNamespace(name=name)), None
+    def plans(*learners):  # each run's plan, its learner (the first controller) labelled as its trials are
+        return [SimpleNamespace(controllers=(SimpleNamespace(label=label),)) for label in learners]
 
     # TAVC's runs (e-greedy and softmax share the label), section 1.4's behaviour learners aside
-    assert _under_test({"a": cfg("tavc_egreedy"), "b": cfg("tavc_softmax"), "s": cfg("behaviour_softmax")}) == "tavc"
-    assert _under_test({"a": cfg("wolf_phc"), "b": cfg("wolf_phc")}) == "wolf_phc"
-    assert _under_test({"a": cfg("wolf_phc"), "b": cfg("threshold")}) == "tavc"  # mixed: the chapter's learner
+    assert _under_test(plans("tavc", "tavc", "behaviour")) == "tavc"
+    assert _under_test(plans("wolf_phc", "wolf_phc")) == "wolf_phc"
+    assert _under_test(plans("wolf_phc", "threshold")) == "tavc"  # mixed: the chapter's learner
     # a controller that learns nothing is what the claims compare learners with, not a learner under test
-    assert _under_test({"a": cfg("random")}) == "tavc" and _under_test({"a": cfg("informed")}) == "tavc"
+    assert _under_test(plans("random")) == "tavc" and _under_test(plans("informed")) == "tavc"
 
 
 def test_a_model_measured_below_its_own_settings_is_headed_not_a_verdict():

@@ -20,7 +20,6 @@ from tavc_cli.analysis.vacancy import vacancy_table
 from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
-from tavc_cli.learning.registry import controller_label
 from tavc_cli.settings import TavcConfig
 
 
@@ -91,10 +90,11 @@ def spatiotemporal_tables(cfg: TavcConfig, records: list[TrialRecord]) -> dict[s
                                             windows)}
 
 
-def experiment_claims(cfg: TavcConfig, tables: Mapping[str, pd.DataFrame],
+def experiment_claims(cfg: TavcConfig, plan: RunPlan, tables: Mapping[str, pd.DataFrame],
                       others: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     """The chapter's claims about this experiment, tested on its trials (and, where a claim
-    compares two experiments, on the other's `trial_stats` in `others`, by experiment name)."""
+    compares two experiments, on the other's `trial_stats` in `others`, by experiment name); the
+    claims about learning on the trials of the run's learner, the first controller of its `plan`."""
     # deferred: loads scipy
     from tavc_cli.analysis.claims import CLAIM_TABLES, claim_rows, learner_under_test
 
@@ -103,4 +103,4 @@ def experiment_claims(cfg: TavcConfig, tables: Mapping[str, pd.DataFrame],
     runs.update({f"{name}/{t}": tables[t] for t in CLAIM_TABLES if t in tables})
     runs.update({other: table for other, table in others.items() if other != name})
     # the claims about learning test this run's own learner (TAVC's runs: TAVC)
-    return claim_rows(runs, only_experiment=name, learner=learner_under_test([controller_label(cfg.learner.name)]))
+    return claim_rows(runs, only_experiment=name, learner=learner_under_test([plan.controllers[0].label]))

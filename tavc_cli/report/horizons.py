@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,7 +26,7 @@ from tavc_cli.analysis.claims import CLAIM_TABLES, claim_table, learner_under_te
 from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
 from tavc_cli.analysis.mechanism import PERSISTENCE
 from tavc_cli.analysis.trial_stats import stable_from
-from tavc_cli.learning.registry import controller_label
+from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.readers import load_json
 from tavc_cli.report.files import CONVERGED_DIR, config_of
 from tavc_cli.report.mechanism import convergence, mechanism, mechanism_words
@@ -138,14 +139,15 @@ def read_horizon(folder: Path, found: dict[str, list[Path]], unfinished: list[Pa
     others = {name: folders[1:] for name, folders in found.items() if len(folders) > 1}
     deliveries = {d: delivery_lines(d, load_json(d / "provenance.json"))
                   for folders in found.values() for d in folders}
-    return Horizon(folder, experiments, read, runs, claim_table(runs, learner=under_test(read)), unfinished, others,
+    learner = under_test(read_plan(experiments[name], cfg) for name, (cfg, _) in read.items())
+    return Horizon(folder, experiments, read, runs, claim_table(runs, learner=learner), unfinished, others,
                    deliveries, index)
 
 
-def under_test(read: dict) -> str:
-    """The learner the claims about learning test: the task learner every run's trials are of
-    (TAVC's runs: `tavc`), else TAVC (`claims.learner_under_test`)."""
-    return learner_under_test(controller_label(str(cfg.learner.name)) for cfg, _ in read.values())
+def under_test(plans: Iterable[RunPlan]) -> str:
+    """The learner the claims about learning test: the task learner every run's trials are of, its
+    plan's first controller (TAVC's runs: `tavc`), else TAVC (`claims.learner_under_test`)."""
+    return learner_under_test(plan.controllers[0].label for plan in plans)
 
 
 def not_a_verdict_lines(*horizons: Horizon | None) -> list[str]:
