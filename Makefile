@@ -19,8 +19,13 @@ VALUE_RATIOS := [2000,2000],[2200,2000],[2500,2000],[3000,2000],[3500,2000],[400
 
 comma := ,
 
-# The chapter's base case, as its registry names it (read once, by the first recipe that needs it)
-BASE = $(eval BASE := $(shell $(BIN)/python -c "from tavc_cli.chapter import base_case; print(base_case().name)"))$(BASE)
+# The chapter's base case, as its registry names it (read once, by the first recipe that needs it;
+# a registry that cannot be read stops make, rather than leaving the name empty)
+BASE = $(eval BASE := $(shell $(BIN)/python -c "from tavc_cli.chapter import base_case; print(base_case().name)"))$(or \
+	$(BASE),$(error cannot read the chapter's base case from its registry with $(BIN)/python))
+# The targets make the committed results, the chapter's experiments only: config folders of one's
+# own that the shell names (tavc --config-dir) are not passed on to them
+unexport TAVC_CONFIG_DIRS
 
 # The horizon ladder: multiples of the chapter's durations at which the base case runs
 LADDER ?= 1,4,10,20,40
@@ -95,7 +100,7 @@ VERIFY_DIR ?= /tmp/tavc-verify
 VERIFY_RUN := state_time trial_stats performance allocation robots q_values claims comparison
 VERIFY_WORLD := search sensitivity
 
-verify-outcomes: venv ## Recompute initial_distribution and the world search at paper scale; tables must match the committed ones byte for byte
+verify-outcomes: venv ## Recompute the base case (initial_distribution) and the world search at paper scale; tables must match the committed ones byte for byte
 	rm -rf $(VERIFY_DIR)
 	$(BIN)/tavc run experiment=$(BASE) scale=paper output_dir=$(VERIFY_DIR)/$(BASE)
 	$(BIN)/tavc calibrate scale=paper output_dir=$(VERIFY_DIR)/$(BASE)
@@ -125,7 +130,7 @@ reproduce-converged: venv ## Every experiment and the horizon ladder at 40x the 
 	$(BIN)/tavc report results --html
 	@echo "reproduce-converged: $$(( $$(date +%s) - $$(cat $(VENV)/.converged-start) )) s wall time"
 
-ladder: venv ## initial_distribution at 1x to 40x the chapter's durations (results/converged/ladder/), the rungs' history shared
+ladder: venv ## The base case (initial_distribution) at 1x to 40x the chapter's durations (results/converged/ladder/), the rungs' history shared
 	$(BIN)/tavc ladder --factors $(LADDER) --results results/converged executor.batch_size=$(CONVERGED_BATCH)
 
 reproduce-quick: venv ## A first look: every experiment at scale=quick into runs/quick/, and its report (not a verdict)

@@ -189,7 +189,13 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     overrides = [o for o in overrides if o not in model_keys]
     model_file = model_keys[-1].split("=", 1)[1] if model_keys else ModelSettings().model_file
     learners = list(CONTROLLERS if learners is None else learners)
-    experiments = list(scenarios() if experiments is None else experiments)
+    if experiments is None:
+        experiments = scenarios()
+        files = config.experiment_names()
+        if missing := [name for name in experiments if name not in files]:
+            raise TavcError(f"chapter: {missing[0]}'s registry entry says compare serves it, but no "
+                            f"experiment/{missing[0]}.yaml is in tavc's configs or a --config-dir folder")
+    experiments = list(experiments)
     if not experiments:
         raise TavcError("--experiments: no scenario given")
     if not learners or len(set(learners)) != len(learners):

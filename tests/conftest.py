@@ -12,7 +12,6 @@ from pathlib import Path
 
 import pytest
 
-from tavc_cli.pipeline import run_experiment
 from tests.helpers import file_digests, run_settings
 
 
@@ -28,8 +27,13 @@ def finished_run(tmp_path_factory) -> Iterator[Callable[..., Path]]:
     (`pipeline.run_experiment`, as `tavc run` computes it), written into a folder called `name`.
     It is made the first time a test asks for it and shared with every later test that asks for
     the same; read it, and change only a copy (`run_copy`). At the end of the session every file
-    is checked against what the run wrote: a test that changed a shared run fails there, naming
-    the files, since the tests that compare with the run would otherwise compare with its damage."""
+    is checked against what the run wrote: a shared run that a test changed fails the session there,
+    naming the files (reported as an error of the last test to use the fixture, not necessarily
+    the one that changed it), since the tests that compare with the run would otherwise compare
+    with its damage. The same overrides in another order make a run of their own."""
+    # deferred: loads the simulator and scipy, which a session without a finished run does not need
+    from tavc_cli.pipeline import run_experiment
+
     made: dict[tuple[str, ...], tuple[Path, dict[str, str]]] = {}
 
     def finished(*overrides: str, name: str = "run") -> Path:

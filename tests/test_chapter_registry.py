@@ -15,7 +15,8 @@ from typer.testing import CliRunner
 from tavc_cli import chapter
 from tavc_cli.chapter import EXPERIMENTS, Claim, Experiment
 from tavc_cli.cli import app
-from tavc_cli.compare import SCENARIOS, scenarios
+from tavc_cli.compare import run as compare_run
+from tavc_cli.compare import scenarios
 from tavc_cli.config import find_conf_dir, load_config, to_yaml
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
@@ -174,7 +175,7 @@ def test_an_experiment_of_ones_own_is_listed_ordered_and_tested(toy, tmp_path):
 
 
 @pytest.mark.slow
-def test_an_experiment_of_ones_own_runs_is_reported_and_compared(toy, tmp_path):
+def test_an_experiment_of_ones_own_runs_is_reported_and_compared(toy, tmp_path, monkeypatch):
     """The toy end to end, from nothing but its file and its registry module: a run whose claim is
     tested, the report's section and claim row, and `tavc compare`, which serves it by default."""
     results = tmp_path / "results"
@@ -187,15 +188,38 @@ def test_an_experiment_of_ones_own_runs_is_reported_and_compared(toy, tmp_path):
     assert report.exit_code == 0, report.output
     text = (results / "REPORT.md").read_text()
     assert "## toy (section 1.5.5)" in text and "| 10 | toy | reproduced |" in text
-    # compare's default: the chapter's scenarios and the toy, at its place in the report's order (25)
-    assert scenarios() == ("initial_distribution", "toy", *SCENARIOS[1:]) and SCENARIOS[0] == "initial_distribution"
+    # compare's default: the chapter's scenarios and the toy, at its place in the report's order (25),
+    # each composed for every controller before anything runs (`run_compare` stands in for the runs)
     model = PACKAGE.parent / "results" / "initial_distribution" / "model" / "model.json"
+    planned = {}
+
+    def planned_only(plans, results, **kwargs):
+        planned.update({name: [str(cfg.experiment_name) for cfg in cfgs] for name, cfgs in plans.items()})
+        return {"results": str(results), "figures": []}
+
+    with monkeypatch.context() as patch:
+        patch.setattr(compare_run, "run_compare", planned_only)
+        default = CliRunner().invoke(app, [*mine, "compare", "scale=paper", f"learner.model_file={model}",
+                                           "--learners", "tavc,random", "--results", str(tmp_path / "default")])
+    assert default.exit_code == 0, default.output
+    served = ["initial_distribution", "toy", "breakdown", "breakdown_no_vacancy", "value_change", "heterogeneous"]
+    assert planned == {"tavc": served, "random": served}
     compared = CliRunner().invoke(app, [*mine, "compare", "scale=paper", f"learner.model_file={model}",
                                         "--learners", "tavc,random", "--experiments", "toy",
                                         "--results", str(tmp_path / "cmp"), "--no-progress"])
     assert compared.exit_code == 0, compared.output
     table = pd.read_csv(tmp_path / "cmp" / "compare.csv")
     assert set(table["experiment"]) == {"toy"} and set(table["controller"]) == {"tavc", "random"}
+
+
+def test_an_entry_compare_serves_without_its_file_is_one_line_before_anything_runs(toy, tmp_path):
+    (toy / "experiment" / "toy.yaml").unlink()
+    result = CliRunner().invoke(app, ["--config-dir", str(toy), "compare", "scale=paper",
+                                      "--results", str(tmp_path / "cmp")])
+    assert result.exit_code == 1
+    assert result.output.strip() == ("error: chapter: toy's registry entry says compare serves it, but no "
+                                     "experiment/toy.yaml is in tavc's configs or a --config-dir folder")
+    assert not (tmp_path / "cmp").exists()
 
 
 def test_without_the_config_folder_the_toy_is_gone(toy):

@@ -1,6 +1,7 @@
 """The claims' tests applied to the chapter's own printed tables (from their means, stds and
 trial counts): does the chapter's table pass the test tavc applies to ours? A claim has such a
-check where its registry entry names one (`Claim.on_tables`: `claim_3` ... `claim_9` here); each
+check where its registry entry names one (`Claim.on_tables`: `claim_3` ... `claim_9` here; the
+chapter's own claims only, as the tables are the chapter's); each
 row is `claim_id,test,statistic,p_value,holds`, and `observation` marks what is reported beside
 a claim rather than tested for it. Each check reads the state table of its claim's experiment
 and, for a claim that compares two experiments (`Claim.against`), the other's, with the trial
@@ -25,7 +26,7 @@ from tavc_cli.analysis.significance import (
     holm_none_differ,
     welch_error,
 )
-from tavc_cli.chapter import EXPERIMENTS, claim, claims
+from tavc_cli.chapter import EXPERIMENTS, claims
 from tavc_cli.reference import chapter_table
 
 # trials behind each of the chapter's state tables: (TAVC, random; 0 where it prints no random column)
@@ -33,8 +34,9 @@ CHAPTER_TRIALS = {e.state_table: e.chapter_trials for e in EXPERIMENTS.own().val
 
 
 def _tables_of(claim_id: int) -> tuple[str, str | None]:
-    """The chapter's state table of the claim's experiment, and of the experiment it is compared with."""
-    name, found = claim(claim_id)
+    """The chapter's state table of the claim's experiment, and of the experiment it is compared with
+    (the chapter's own claims only: its tables are the chapter's)."""
+    name, found = next((name, c) for name, c in claims(own=True) if c.id == claim_id)
     return EXPERIMENTS[name].state_table, EXPERIMENTS[found.against].state_table if found.against else None
 
 

@@ -16,11 +16,12 @@ run do, and the table says at which multiple of the chapter's durations each row
 from tavc_cli.chapter import served_by
 
 SCENARIOS = served_by("compare", own=True)  # the chapter's scenarios, in its order
+CONTROLLERS = ("tavc", "random", "model", "informed", "wolf_phc", "threshold")
+REFERENCE, FLOOR = "tavc", "random"  # every controller is tested against these two
 
 
 def scenarios() -> tuple[str, ...]:
-    """The scenarios `tavc compare` runs by default: the chapter's, then any of the user's own
-    that its registry entry says compare serves (``compare=True``, from ``--config-dir``)."""
+    """The scenarios `tavc compare` runs by default, in the report's order (`Experiment.order`):
+    the chapter's, and any of the user's own whose registry entry says compare serves it
+    (``compare=True``, from ``--config-dir``)."""
     return served_by("compare")
-CONTROLLERS = ("tavc", "random", "model", "informed", "wolf_phc", "threshold")
-REFERENCE, FLOOR = "tavc", "random"  # every controller is tested against these two

@@ -14,6 +14,7 @@ from tavc_cli.config.ladder import ladder_folder, load_ladder, parse_factors
 from tavc_cli.config.loading import (
     check_measurement,
     experiment_lines,
+    experiment_names,
     find_conf_dir,
     list_experiments,
     load_config,
@@ -33,6 +34,7 @@ __all__ = [
     "describe_experiments",
     "expand_sweep",
     "experiment_lines",
+    "experiment_names",
     "find_conf_dir",
     "is_hydra_override",
     "ladder_folder",

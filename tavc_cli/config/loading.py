@@ -159,6 +159,13 @@ def results_root(overrides: Sequence[str] = (), default_scale: str | None = None
     return default_root(load_config(scale).scale.name)
 
 
+def experiment_names(own: bool = False) -> list[str]:
+    """The experiments there are files for (``experiment/<name>.yaml``), sorted: tavc's and those of
+    the user's config folders (``--config-dir``), or tavc's only (`own`)."""
+    folders = [find_conf_dir(), *([] if own else config_dirs())]
+    return sorted({p.stem for d in folders for p in (d / "experiment").glob("*.yaml")})
+
+
 def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
                      results_dir: str | Path | None = None) -> list[DictConfig]:
     """Compose several experiments with the same overrides, each into ``results_dir/<name>``
@@ -175,8 +182,7 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
     Raises:
         TavcError: For an unknown or missing name, a refused key, or any override that fails.
     """
-    own = sorted(p.stem for p in (find_conf_dir() / "experiment").glob("*.yaml"))
-    known = sorted({*own, *(p.stem for d in config_dirs() for p in (d / "experiment").glob("*.yaml"))})
+    own, known = experiment_names(own=True), experiment_names()
     chosen = own if names is None else [n.strip() for n in names if n.strip()]
     unknown = [n for n in chosen if n not in known]
     if unknown or not chosen:
