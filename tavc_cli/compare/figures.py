@@ -15,13 +15,7 @@ CEILING = {"predicted_state_pct": 100.0, "filled_pct": 100.0, "fast_high_share":
 def comparison_figure(table: pd.DataFrame, out_stem: Path) -> list[Path]:
     """Bars of each controller's mean with its standard deviation (cut at 0), a panel per metric."""
     # deferred: loads matplotlib
-    import matplotlib
-
-    matplotlib.use("Agg")
-    # deferred: loads matplotlib
-    import matplotlib.pyplot as plt
-
-    from tavc_cli.viz.figures import COLOURS, LABELS, save_figure
+    from tavc_cli.viz.figures import COLOURS, LABELS, plt, save_figure
 
     metrics = [m for m in METRICS if m in set(table["metric"])]
     controllers = list(dict.fromkeys(table["controller"]))

@@ -15,23 +15,19 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib import animation
+from matplotlib.patches import Circle, Wedge
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib import animation  # noqa: E402
-from matplotlib.patches import Circle, Wedge  # noqa: E402
-
-from tavc_cli.errors import TavcError  # noqa: E402
-from tavc_cli.experiments.build import trial_specs  # noqa: E402
-from tavc_cli.experiments.engine import run_trials  # noqa: E402
-from tavc_cli.experiments.records import TrialRecord  # noqa: E402
-from tavc_cli.io import atomic_path, owned_path  # noqa: E402
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.engine import run_trials
+from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.io import atomic_path, owned_path
 from tavc_cli.ownership import ANIMATION, Owned, read
-from tavc_cli.settings import TavcConfig  # noqa: E402
-from tavc_cli.sim.arena import Arena, arena_from_config  # noqa: E402
-from tavc_cli.viz.figures import write_figure  # noqa: E402
+from tavc_cli.settings import TavcConfig
+from tavc_cli.sim.arena import Arena, arena_from_config
+from tavc_cli.viz.figures import plt, write_figure
 from tavc_cli.vocabulary import SOURCE
 
 CIRCUIT_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2"]

@@ -29,6 +29,8 @@ from pathlib import Path
 
 import matplotlib
 
+# every figure of tavc's is drawn through this module: off screen (Agg, in any process, on any
+# machine) and with SVG ids that are the same on every run
 matplotlib.use("Agg")
 matplotlib.rcParams["svg.hashsalt"] = "tavc"
 import matplotlib.pyplot as plt  # noqa: E402

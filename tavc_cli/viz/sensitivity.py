@@ -3,17 +3,12 @@ world search (a pure function of its saved table, `search.csv`)."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
-import matplotlib
+import pandas as pd
 
-matplotlib.use("Agg")
-import json
-
-import matplotlib.pyplot as plt  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from tavc_cli.viz.figures import save_figure  # noqa: E402
+from tavc_cli.viz.figures import plt, save_figure
 
 ZONE, DWELL, READ, RAYS = "robot.dock.occupied_m", "robot.dock.dwell_s", "robot.behaviour.arrive_dist_m", \
     "robot.laser.n_rays"

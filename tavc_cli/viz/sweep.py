@@ -4,13 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from tavc_cli.viz.figures import clipped_err, n_text, write_figure
+from tavc_cli.viz.figures import clipped_err, n_text, plt, write_figure
 
 
 def _trials(table: pd.DataFrame) -> str:
