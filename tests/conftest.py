@@ -12,13 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.helpers import file_digests, run_settings
-
-
-def changed_files(before: dict[str, str], folder: Path) -> list[str]:
-    """The files of `folder` added, removed or changed since `before` (`file_digests`)."""
-    after = file_digests(folder)
-    return sorted(name for name in before.keys() | after.keys() if before.get(name) != after.get(name))
+from tests.helpers import changed_files, file_digests, run_settings
 
 
 @pytest.fixture(scope="session")

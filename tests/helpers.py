@@ -1,6 +1,6 @@
 """What several test modules need: the repository's root, the command line in a process of its
-own, a folder's files by digest, the settings of a small run, and a run's robots' and Q-values'
-tables made by hand."""
+own, a folder's files by digest and those changed since, the settings of a small run, and a
+run's robots' and Q-values' tables made by hand."""
 
 from __future__ import annotations
 
@@ -29,6 +29,12 @@ def file_digests(folder: Path) -> dict[str, str]:
     """Every file under `folder` by its path, with its SHA-256."""
     return {p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
             for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def changed_files(before: dict[str, str], folder: Path) -> list[str]:
+    """The files of `folder` added, removed or changed since `before` (`file_digests`)."""
+    after = file_digests(folder)
+    return sorted(name for name in before.keys() | after.keys() if before.get(name) != after.get(name))
 
 
 def run_settings(overrides: Sequence[str], out_dir: Path | str, *extra: str) -> TavcConfig:

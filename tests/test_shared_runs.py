@@ -1,8 +1,7 @@
 """The shared finished runs of `tests/conftest.py` are guarded: a test that changes one is found
 at the end of the session, every changed, added and removed file named."""
 
-from tests.conftest import changed_files
-from tests.helpers import file_digests
+from tests.helpers import changed_files, file_digests
 
 
 def test_a_changed_an_added_and_a_removed_file_are_each_named_and_nothing_else(tmp_path):

@@ -141,11 +141,9 @@ def list_experiments() -> list[dict]:
         TavcError: If an experiment file does not compose.
     """
     experiments = []
-    for path in sorted((find_conf_dir() / "experiment").glob("*.yaml")):
-        cfg = _compose([f"experiment={path.stem}"])
-        experiments.append(
-            {"name": path.stem, "section": cfg.section, "description": cfg.description}
-        )
+    for name in experiment_names(own=True):
+        cfg = _compose([f"experiment={name}"])
+        experiments.append({"name": name, "section": cfg.section, "description": cfg.description})
     return experiments
 
 
