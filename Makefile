@@ -154,15 +154,24 @@ turn-taking-checks: venv ## The turn-taking model beside the chapter's at the ch
 			output_dir=results/turn_taking/value_ratio_$$w || exit 1; done
 
 # Team sizes for the turn-taking model's checks against the learners at 40x (six, the chapter's, is
-# checked by the base case's own run at results/converged/initial_distribution)
+# checked by the base case's own run at results/converged/initial_distribution). In today's world, or in
+# a reading named as its runs' folder is (READING=<arrival>-<passing>-<arena>, e.g.
+# READING=dock-nearest-two_circuits_parallel): the model into results/turn_taking/<reading>-team_size_N/,
+# the learners into results/team_size/<reading>/converged/.
 TEAM_SIZES := 2,3,4,5,7,8,9,10
+READING ?=
+READING_PARTS = $(subst -, ,$(READING))
+READING_ARGS = $(if $(READING),$(if $(filter 3,$(words $(READING_PARTS))),arrival=$(word 1,$(READING_PARTS)) \
+	passing=$(word 2,$(READING_PARTS)) arena=$(word 3,$(READING_PARTS)),$(error READING=$(READING) is not \
+	<arrival>-<passing>-<arena>, e.g. dock-nearest-two_circuits_parallel)))
 
-team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn_taking/team_size_N/), then the learners at 40x there (results/team_size/converged/)
+team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn_taking/team_size_N/), then the learners at 40x there (results/team_size/converged/); READING=<arrival>-<passing>-<arena> for a reading
 	for n in $(subst $(comma), ,$(TEAM_SIZES)); do \
-		$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$$n scale=paper \
-			output_dir=results/turn_taking/team_size_$$n || exit 1; done
-	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' \
-		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(TEAM_SIZES) output_dir=results/team_size/converged
+		$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$$n scale=paper $(READING_ARGS) \
+			output_dir=results/turn_taking/$(if $(READING),$(READING)-)team_size_$$n || exit 1; done
+	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' $(READING_ARGS) \
+		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(TEAM_SIZES) \
+		output_dir=results/team_size/$(if $(READING),$(READING)/)converged
 
 # The readings of the world besides today's (docs/readings.md), arrival-passing-arena, and the grid each
 # is calibrated on: a dock reading on today's (conf/config.yaml, calibration.grid), a range reading on its own
