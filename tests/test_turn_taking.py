@@ -189,9 +189,11 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
     assert row("2:3")[5] == "yes; **no** (the learners: 42.0 % in 2:3; modal in 0 % of resamples of the trials)"
     said = "Where the learners converged (1 run): the turn-taking model names their modal state in {} of 1 (over " \
            "resamples of the learners' trials, in {}.0 of the 1 on average, where a prediction of each run's own " \
-           "modal state would be right in 1.0) and their regime in 1."
-    # the learners' own modal state, 3:2, is the one state of that trial: every resample makes it modal
-    assert tally[-2:] == [said.format(1, 1), said.format(0, 0)]
+           "modal state would be right in 1.0; at the 1 whose trials name their own modal state firmly, modal in at " \
+           "least 90 % of resamples, in {}) and their regime in 1."
+    # the learners' own modal state, 3:2, is the one state of that trial: every resample makes it modal, so the
+    # point is a firm one, and the model names its modal state there or not as it does at all
+    assert tally[-2:] == [said.format(1, 1, 1), said.format(0, 0, 0)]
     # the model's own learners beside these, seed for seed (tests.helpers' KINDS_A and KINDS_B, one trial: 3 of
     # 4, and 3 by chance, each robot's chance being whether it is the same); nothing there without both tables
     assert row("3:2")[6] == ""
@@ -365,3 +367,22 @@ def test_each_readings_calibration_search_is_a_row_with_the_world_asked_judged_a
                                                                index=False)
     with pytest.raises(TavcError, match=r"calibration/world/search.csv: cannot be read \(no column arrivals_per_5h"):
         calibration_lines(tmp_path)
+
+
+def test_the_tally_counts_hits_at_firm_points_apart():
+    """Of the converged points, those whose own modal state is modal in at least 90 % of the
+    resamples of their trials (0.9 counts) are counted apart, with the model's hits there; a point
+    that is no check counts nowhere. By hand: hits 1 of 3, support 1.0 + 0.3 + 0.0 = 1.3, the
+    learners' own 1.0 + 0.6 + 0.9 = 2.5, firm points 2 (1.0 and 0.9), hits there 1; regime 2."""
+    from tavc_cli.report.tally import tally_line
+
+    tallies = [{"check": True, "regime": True, "modal": True, "support": 1.0, "ceiling": 1.0},
+               {"check": True, "regime": True, "modal": False, "support": 0.3, "ceiling": 0.6},
+               {"check": True, "regime": False, "modal": False, "support": 0.0, "ceiling": 0.9},
+               {"check": False, "regime": True, "modal": True, "support": 1.0, "ceiling": 1.0}]
+    assert tally_line(tallies) == ["", "Where the learners converged (3 runs): the turn-taking model names their "
+                                   "modal state in 1 of 3 (over resamples of the learners' trials, in 1.3 of the 3 on "
+                                   "average, where a prediction of each run's own modal state would be right in 2.5; "
+                                   "at the 2 whose trials name their own modal state firmly, modal in at least 90 % "
+                                   "of resamples, in 1) and their regime in 2."]
+    assert tally_line([{**tallies[1], "ceiling": 0.89}])[-1].count("at the 0 whose trials") == 1

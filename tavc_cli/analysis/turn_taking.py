@@ -39,6 +39,8 @@ def modal_state(state_time: pd.DataFrame, controller: str) -> tuple[str, float]:
 
 
 RESAMPLES = 2000  # `modal_support`'s resamples of a run's trials
+FIRM = 0.9  # a run's trials name its modal state firmly where it is modal in this share of `modal_support`'s
+# resamples (docs/readings.md: fixed before the team-size checks in a reading were run)
 
 
 def modal_support(trial_stats: pd.DataFrame, state: str, controller: str = "tavc", draws: int = RESAMPLES,

@@ -12,8 +12,7 @@ import pandas as pd
 
 from tavc_cli.analysis.makeup_model import expected_high, predicted_regime, readings_summary
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, readings
-from tavc_cli.analysis.table_schemas import STATE_PREFIX
-from tavc_cli.analysis.turn_taking import RESAMPLES, modal_support
+from tavc_cli.analysis.turn_taking import RESAMPLES
 from tavc_cli.analysis.value_ratio import predicted_shares
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
@@ -21,6 +20,7 @@ from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
 from tavc_cli.report import files
 from tavc_cli.report.files import config_of, horizon_folders, model_learners, natural, read_or_refuse, run_in
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
+from tavc_cli.report.tally import support_of, tally_line, turn_tally
 from tavc_cli.report.text import fmt
 from tavc_cli.run_tables import model_rows, ratio_points
 
@@ -188,7 +188,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                 continue
             learners = _learners(d)
             state = str(predicted["modal_state"])
-            support = _support(learners, state)
+            support = support_of(learners, state)
             same = f"{_same(predicted['regime'], learners['regime'])}; " \
                    f"{_same_state(state, learners, support)}{learners['no_check']}"
             own = files.seed_for_seed_cell(model_learners(path.parent, predicted), d)
@@ -196,7 +196,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                         f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} | "
                         f"{own} |")
             tallies.append({"check": not learners["no_check"],
-                            **_turn_tally(str(predicted["regime"]), state, support, learners)})
+                            **turn_tally(str(predicted["regime"]), state, support, learners)})
     if not rows:
         return []
     return ["", "The turn-taking model at the chapter's other scenarios and at other values in today's world (`make "
@@ -211,7 +211,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                 else ""), "",
             "| prediction | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
             "model | the same regime; modal state | the model's learners and these, seed for seed |",
-            "|---|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
+            "|---|---|---|---|---|---|---|", *rows, *tally_line(tallies)]
 
 
 def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path) -> list[Path]:
@@ -270,7 +270,7 @@ def _same_state(predicted: str, learners: dict, support: float) -> str:
     """Whether a predicted modal state is the learners' modal state; where not, the learners'
     share of the predicted state beside (two states can be nearly tied); and in what share of
     resamples of the learners' trials the predicted state is their modal state (`support`,
-    `_support`)."""
+    `tally.support_of`)."""
     firm = f"modal in {100 * support:.0f} % of resamples of the trials" if math.isfinite(support) else ""
     if predicted == learners["modal_state"]:
         return "yes" + (f" ({firm})" if firm else "")
@@ -278,24 +278,6 @@ def _same_state(predicted: str, learners: dict, support: float) -> str:
     notes = [f"the learners: {share:.1f} % in {predicted}"] if share is not None else []
     notes += [firm] if firm else []
     return "**no**" + (f" ({'; '.join(notes)})" if notes else "")
-
-
-def _turn_tally(regime: str, state: str, support: float, learners: dict) -> dict:
-    """What `_tally_line` counts of one prediction of the turn-taking model (its regime, its modal
-    state and that state's `support`) beside the learners: whether each is theirs, the support, and
-    their own modal state's (what a prediction could at best be confirmed by)."""
-    return {"regime": regime == learners["regime"], "modal": state == learners["modal_state"], "support": support,
-            "ceiling": _support(learners, learners["modal_state"])}
-
-
-def _support(learners: dict, state: str) -> float:
-    """In what share of resamples of the learners' trials `state` is their modal state
-    (`analysis.turn_taking.modal_support`); NaN where their run has no table of its trials, or
-    where their modal state is one that table has no column for (a state outside the team's)."""
-    stats = learners["trial_stats"]
-    if not len(stats) or STATE_PREFIX + learners["modal_state"] not in stats.columns:
-        return math.nan
-    return modal_support(stats, state)
 
 
 def _prediction_words(p) -> str:
@@ -350,13 +332,13 @@ def _learners_beside_the_models(results_dir: Path, model: pd.DataFrame, turn: pd
             "(regime, robots on the high-value circuit, modal state), against each model's prediction. " + FIRMNESS, "",
             "| reading | the learners' run | converged | their regime, robots high, modal state | the drift model | "
             "the turn-taking model | the same regime (drift; turn-taking) | the same modal state (turn-taking) |",
-            "|---|---|---|---|---|---|---|---|", *rows, *_tally_line(tallies)]
+            "|---|---|---|---|---|---|---|---|", *rows, *tally_line(tallies)]
 
 
 def _beside(reading: str, mine: pd.DataFrame, turn: pd.DataFrame | None, d: Path,
             results_dir: Path) -> list[tuple[str, dict]]:
     """The row of `_learners_beside_the_models` for the run in `d`, if it holds one, with its
-    tally (`_tally_line`)."""
+    tally (`tally.tally_line`)."""
     if not all((d / f"{name}.csv").is_file() for name in ("mechanism", "allocation", "state_time")) \
             or mechanism(d) is None:
         return []
@@ -368,31 +350,10 @@ def _beside(reading: str, mine: pd.DataFrame, turn: pd.DataFrame | None, d: Path
         predicted = turn.loc[reading]
         regimes += f"; {_same(str(predicted['regime']), learners['regime'])}"
         state = str(predicted["modal_state"])
-        support = _support(learners, state)
+        support = support_of(learners, state)
         modal = _same_state(state, learners, support)
-        tally.update(_turn_tally(str(predicted["regime"]), state, support, learners))
+        tally.update(turn_tally(str(predicted["regime"]), state, support, learners))
     return [(f"| {reading} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials, "
              f"{learners['factor']:g}x) | {learners['converged']} | {learners['words']} | {regime} "
              f"({100 * basin:.0f} %), {expected_high(mine):.2f} | {_turn_words(turn, reading)} | {regimes} | "
              f"{modal}{learners['no_check']} |", tally)]
-
-
-def _tally_line(tallies: list[dict]) -> list[str]:
-    """Over the rows whose learners converged: in how many each model names their regime, and
-    the turn-taking model their modal state."""
-    checks = [t for t in tallies if t["check"]]
-    if not checks:
-        return []
-    turn = [t for t in checks if "modal" in t]
-    drift = [t for t in checks if "drift" in t]
-    firmly = [t for t in turn if math.isfinite(t.get("support", math.nan))]
-    which = "" if len(firmly) == len(turn) else " with a table of their trials"
-    firm = (f" (over resamples of the learners' trials, in {sum(t['support'] for t in firmly):.1f} of the "
-            f"{len(firmly)}{which} on average, where a prediction of each run's own modal state would be right in "
-            f"{sum(t['ceiling'] for t in firmly):.1f})" if firmly else "")
-    words = [f"the turn-taking model names their modal state in {sum(t['modal'] for t in turn)} of {len(turn)}"
-             f"{firm} and their regime in {sum(t['regime'] for t in turn)}"] if turn else []
-    if drift:
-        words.append(f"the drift model their regime in {sum(t['drift'] for t in drift)} of {len(drift)}")
-    runs = f"{len(checks)} run" + ("s" if len(checks) != 1 else "")
-    return ["", f"Where the learners converged ({runs}): " + "; ".join(words) + "."]

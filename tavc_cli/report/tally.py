@@ -1,0 +1,54 @@
+"""The tally under the report's two tables of the turn-taking model's checks: over the runs whose
+learners converged, how often each model names their regime and the turn-taking model their modal
+state, how firmly the learners' trials name it, and the model's hits where they name it firmly."""
+
+from __future__ import annotations
+
+import math
+
+from tavc_cli.analysis.table_schemas import STATE_PREFIX
+from tavc_cli.analysis.turn_taking import FIRM, modal_support
+
+
+def turn_tally(regime: str, state: str, support: float, learners: dict) -> dict:
+    """What `tally_line` counts of one prediction of the turn-taking model (its regime, its modal
+    state and that state's `support`) beside the learners: whether each is theirs, the support, and
+    their own modal state's (what a prediction could at best be confirmed by)."""
+    return {"regime": regime == learners["regime"], "modal": state == learners["modal_state"], "support": support,
+            "ceiling": support_of(learners, learners["modal_state"])}
+
+
+def support_of(learners: dict, state: str) -> float:
+    """In what share of resamples of the learners' trials `state` is their modal state
+    (`analysis.turn_taking.modal_support`); NaN where their run has no table of its trials, or
+    where their modal state is one that table has no column for (a state outside the team's)."""
+    stats = learners["trial_stats"]
+    if not len(stats) or STATE_PREFIX + learners["modal_state"] not in stats.columns:
+        return math.nan
+    return modal_support(stats, state)
+
+
+def tally_line(tallies: list[dict]) -> list[str]:
+    """Over the rows whose learners converged: in how many each model names their regime, and
+    the turn-taking model their modal state; where the learners' trials have a table, the hits
+    expected over resamples of them, what a prediction of each run's own modal state would get,
+    and the hits at the points whose trials name their modal state firmly (`FIRM`)."""
+    checks = [t for t in tallies if t["check"]]
+    if not checks:
+        return []
+    turn = [t for t in checks if "modal" in t]
+    drift = [t for t in checks if "drift" in t]
+    firmly = [t for t in turn if math.isfinite(t.get("support", math.nan))]
+    which = "" if len(firmly) == len(turn) else " with a table of their trials"
+    named = [t for t in firmly if t["ceiling"] >= FIRM]
+    firm = (f" (over resamples of the learners' trials, in {sum(t['support'] for t in firmly):.1f} of the "
+            f"{len(firmly)}{which} on average, where a prediction of each run's own modal state would be right in "
+            f"{sum(t['ceiling'] for t in firmly):.1f}; at the {len(named)} whose trials name their own modal state "
+            f"firmly, modal in at least {100 * FIRM:.0f} % of resamples, in {sum(t['modal'] for t in named)})"
+            if firmly else "")
+    words = [f"the turn-taking model names their modal state in {sum(t['modal'] for t in turn)} of {len(turn)}"
+             f"{firm} and their regime in {sum(t['regime'] for t in turn)}"] if turn else []
+    if drift:
+        words.append(f"the drift model their regime in {sum(t['drift'] for t in drift)} of {len(drift)}")
+    runs = f"{len(checks)} run" + ("s" if len(checks) != 1 else "")
+    return ["", f"Where the learners converged ({runs}): " + "; ".join(words) + "."]
