@@ -18,6 +18,8 @@ REPRODUCE := $(addprefix reproduce-,$(EXPERIMENTS))
 VALUE_RATIOS := [2000,2000],[2200,2000],[2500,2000],[3000,2000],[3500,2000],[4000,2000]
 
 comma := ,
+empty :=
+space := $(empty) $(empty)
 
 # The chapter's base case, as its registry names it (read once, by the first recipe that needs it;
 # a registry that cannot be read stops make, rather than leaving the name empty)
@@ -33,7 +35,7 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged readings-x80 turn-taking-checks team-size-checks calibrate-readings $(REPRODUCE) clean
+.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged readings-x80 turn-taking-checks team-size-checks value-ratio-checks calibrate-readings $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -172,6 +174,21 @@ team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn
 	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' $(READING_ARGS) \
 		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(TEAM_SIZES) \
 		output_dir=results/team_size/$(if $(READING),$(READING)/)converged
+
+# The values of turn-taking-checks (today's world) in a reading: the model into
+# results/turn_taking/<reading>-value_ratio_W/, then the learners at 40x into
+# results/value_ratio/<reading>/converged/ (the base case's 2200/2000 is the reading's own 40x run)
+VALUE_RATIO_CHECKS := 2000 3000 4000
+
+value-ratio-checks: venv ## The turn-taking model at other values in a reading (READING=<arrival>-<passing>-<arena>), then the learners at 40x there
+	$(if $(READING),,$(error value-ratio-checks needs READING=<arrival>-<passing>-<arena>; today's world's are turn-taking-checks and value-ratio-converged))
+	for w in $(VALUE_RATIO_CHECKS); do \
+		$(BIN)/tavc model --turn-taking experiment=$(BASE) "tasks.values=[$$w,2000]" scale=paper $(READING_ARGS) \
+			output_dir=results/turn_taking/$(READING)-value_ratio_$$w || exit 1; done
+	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' $(READING_ARGS) \
+		executor.batch_size=$(CONVERGED_BATCH) \
+		'tasks.values=$(subst $(space),$(comma),$(foreach w,$(VALUE_RATIO_CHECKS),[$(w),2000]))' \
+		output_dir=results/value_ratio/$(READING)/converged
 
 # The readings of the world besides today's (docs/readings.md), arrival-passing-arena, and the grid each
 # is calibrated on: a dock reading on today's (conf/config.yaml, calibration.grid), a range reading on its own

@@ -112,6 +112,12 @@ def readings() -> list[dict[str, str]]:
     return [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*(v for _, v in GRID))]
 
 
+def reading_of(cfg) -> dict[str, str]:
+    """The reading of the grid a run's settings make (`GRID`'s keys): ``{"arrival": "dock", ...}``."""
+    behaviour = cfg.robot.behaviour
+    return {"arrival": str(behaviour.arrival), "passing": str(behaviour.passing), "arena": str(cfg.arena.name)}
+
+
 def reading_name(reading: dict[str, str]) -> str:
     """A reading as the table names it, its overrides: ``arrival=dock passing=nearest arena=two_circuits``."""
     return " ".join(f"{k}={v}" for k, v in reading.items())

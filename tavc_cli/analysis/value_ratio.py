@@ -7,7 +7,8 @@ discounting (gamma = 0: each Q-value a running mean of its task's reward). This 
 makes those runs (`run_tables.ratio_points` reads every finished run below a root) one table:
 per reading, horizon and ratio, the mean share of robots on the high-value circuit over
 the stable period, from `trial_stats.csv` (each state's share
-of the period weighted by the fraction of robots it puts on the high circuit). The model's
+of the period weighted by the fraction of robots it puts on the high circuit). A run in another
+reading of the world (`make value-ratio-checks READING=...`) is a reading of its own there. The model's
 prediction for the same ratios comes from a `model.csv` measured in the same world.
 """
 
@@ -19,6 +20,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from tavc_cli.analysis.stay_switch import reading_name, reading_of, readings
 from tavc_cli.analysis.table_schemas import STATE_PREFIX
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
 from tavc_cli.model import core
@@ -59,6 +61,9 @@ def ratio_point(cfg: TavcConfig, stats: pd.DataFrame, run: str, controller: str 
     gamma = float(getattr(cfg.learner, "gamma", CHAPTER_GAMMA))
     if gamma != CHAPTER_GAMMA:
         reading += f", gamma {gamma:g} (diagnostic)"
+    world = reading_of(cfg)
+    if world != readings()[0]:  # a reading of the world other than today's (docs/readings.md)
+        reading += f", {reading_name(world)}"
     changes = stats["policy_changes"].to_numpy(float) if "policy_changes" in stats else np.full(len(stats), np.nan)
     return {"reading": reading, "horizon": horizon_label(float(cfg.duration_s)),
             "ratio": max(values) / min(values), "values": "/".join(f"{float(v):g}" for v in values),
