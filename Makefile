@@ -161,11 +161,16 @@ turn-taking-checks: venv ## The turn-taking model beside the chapter's at the ch
 # READING=dock-nearest-two_circuits_parallel): the model into results/turn_taking/<reading>-team_size_N/,
 # the learners into results/team_size/<reading>/converged/.
 TEAM_SIZES := 2,3,4,5,7,8,9,10
-READING ?=
+READING :=
 READING_PARTS = $(subst -, ,$(READING))
-READING_ARGS = $(if $(READING),$(if $(filter 3,$(words $(READING_PARTS))),arrival=$(word 1,$(READING_PARTS)) \
-	passing=$(word 2,$(READING_PARTS)) arena=$(word 3,$(READING_PARTS)),$(error READING=$(READING) is not \
-	<arrival>-<passing>-<arena>, e.g. dock-nearest-two_circuits_parallel)))
+TODAYS_WORLD = $(shell $(BIN)/python -c "from tavc_cli.analysis.stay_switch import reading_folder, readings; \
+	print(reading_folder(readings()[0]))")
+READING_ERROR = $(if $(or $(filter-out 1,$(words x$(READING)x)),$(filter-out 3,$(words $(READING_PARTS))),$(filter-out $(READING),$(subst \
+	$(space),-,$(strip $(READING_PARTS))))),READING=$(READING) is not <arrival>-<passing>-<arena>$(comma) e.g. \
+	dock-nearest-two_circuits_parallel,$(if $(filter $(TODAYS_WORLD),$(READING)),READING=$(READING) is today's \
+	world: leave READING out))
+READING_ARGS = $(if $(READING),$(if $(READING_ERROR),$(error $(READING_ERROR)),arrival=$(word 1,$(READING_PARTS)) \
+	passing=$(word 2,$(READING_PARTS)) arena=$(word 3,$(READING_PARTS))))
 
 team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn_taking/team_size_N/), then the learners at 40x there (results/team_size/converged/); READING=<arrival>-<passing>-<arena> for a reading
 	for n in $(subst $(comma), ,$(TEAM_SIZES)); do \

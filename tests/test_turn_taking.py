@@ -386,3 +386,7 @@ def test_the_tally_counts_hits_at_firm_points_apart():
                                    "at the 2 whose trials name their own modal state firmly, modal in at least 90 % "
                                    "of resamples, in 1) and their regime in 2."]
     assert tally_line([{**tallies[1], "ceiling": 0.89}])[-1].count("at the 0 whose trials") == 1
+    # a firm point whose predicted state has no support (a state outside the trials' table) still counts, as a miss
+    odd = tally_line([tallies[0], {**tallies[2], "support": math.nan}])[-1]
+    assert "in 1.0 of the 1 with a table of their trials" in odd and "at the 2 whose trials" in odd and \
+        "resamples, in 1)" in odd

@@ -72,8 +72,12 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     lines += ["", "![share on the high-value circuit against the value ratio](figures/value_ratio.png)", "",
               "With epsilon-greedy selection the unit of t only rescales every reward, and with it the Q-values, "
               "against the fixed initial range [-0.1, 0.1]: with t in seconds the initial values are negligible "
-              "beside the first reward, with t in milliseconds they are of its order. The two readings therefore "
+              "beside the first reward, with t in milliseconds they are of its order. The two units of t therefore "
               "differ only in how strongly the initial table decides each robot's first preference.", ""]
+    if points["reading"].str.contains("arrival=").any():
+        lines += ["Columns naming a reading of the world (`arrival=...`) are the learners in that reading (`make "
+                  "value-ratio-checks`); the model's column is today's world's, and the turn-taking model's "
+                  "predictions for those runs are set beside them in *The readings*.", ""]
     if points["reading"].str.contains("diagnostic").any():
         lines += ["Rows marked diagnostic are not the chapter's rule: with gamma = 0 a Q-value is a running mean "
                   "of its own task's reward and no longer bootstraps from the state the robot would switch to, so "
@@ -201,13 +205,15 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
         return []
     return ["", "The turn-taking model at the chapter's other scenarios and at other values in today's world (`make "
             f"turn-taking-checks`: `tavc model --turn-taking ... scale=paper`, into `{TURN_TAKING_RUNS}/<name>/`), and "
-            "in worlds of their own (a reading as calibrated), beside the learners' runs at the longer horizons "
-            f"(`<horizon>/<name>`, `<horizon>/{READINGS_RUNS}/<name>`) and the value-ratio sweep's at 40x. The "
+            "in the readings of the world (as configured or as calibrated), beside the learners' runs at the longer "
+            f"horizons (`<horizon>/<name>`, `<horizon>/{READINGS_RUNS}/<name>`) and the value-ratio sweep's at 40x. "
+            "The "
             "model was fixed before it was set beside any of these runs; the chapter's scenarios in today's world, "
             "the sweep and some of a reading's scenarios were run before their predictions were made, the rest after "
             "their predictions were committed (which is which: docs/readings.md). " + FIRMNESS + SEED_FOR_SEED + (
-                f" At other team sizes, `make team-size-checks` predicts (`{TURN_TAKING_RUNS}/team_size_<n>/`) "
-                f"and then runs the learners at 40x (`{TEAM_SIZE_DIR}/`)." if (results_dir / TEAM_SIZE_DIR).is_dir()
+                f" At other team sizes, `make team-size-checks` predicts (`{TURN_TAKING_RUNS}/team_size_<n>/`; in a "
+                f"reading `<reading>-team_size_<n>/`) and then runs the learners at 40x (`{TEAM_SIZE_DIR}/`)."
+                if (results_dir / TEAM_SIZE_DIR).is_dir()
                 else ""), "",
             "| prediction | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
             "model | the same regime; modal state | the model's learners and these, seed for seed |",

@@ -38,14 +38,15 @@ def tally_line(tallies: list[dict]) -> list[str]:
         return []
     turn = [t for t in checks if "modal" in t]
     drift = [t for t in checks if "drift" in t]
-    firmly = [t for t in turn if math.isfinite(t.get("support", math.nan))]
-    which = "" if len(firmly) == len(turn) else " with a table of their trials"
-    named = [t for t in firmly if t["ceiling"] >= FIRM]
-    firm = (f" (over resamples of the learners' trials, in {sum(t['support'] for t in firmly):.1f} of the "
-            f"{len(firmly)}{which} on average, where a prediction of each run's own modal state would be right in "
-            f"{sum(t['ceiling'] for t in firmly):.1f}; at the {len(named)} whose trials name their own modal state "
-            f"firmly, modal in at least {100 * FIRM:.0f} % of resamples, in {sum(t['modal'] for t in named)})"
-            if firmly else "")
+    resampled = [t for t in turn if math.isfinite(t.get("support", math.nan))]
+    which = "" if len(resampled) == len(turn) else " with a table of their trials"
+    # a firm point counts whatever the predicted state's support (NaN compares False: no table, no firm point)
+    named = [t for t in turn if t.get("ceiling", math.nan) >= FIRM]
+    firm = (f" (over resamples of the learners' trials, in {sum(t['support'] for t in resampled):.1f} of the "
+            f"{len(resampled)}{which} on average, where a prediction of each run's own modal state would be right "
+            f"in {sum(t['ceiling'] for t in resampled):.1f}; at the {len(named)} whose trials name their own modal "
+            f"state firmly, modal in at least {100 * FIRM:.0f} % of resamples, in {sum(t['modal'] for t in named)})"
+            if resampled else "")
     words = [f"the turn-taking model names their modal state in {sum(t['modal'] for t in turn)} of {len(turn)}"
              f"{firm} and their regime in {sum(t['regime'] for t in turn)}"] if turn else []
     if drift:

@@ -284,17 +284,14 @@ def value_ratio_figure(points: pd.DataFrame, predicted: pd.DataFrame | None, cha
     styles = {"5 h": "-", "50 h": "--"}
     markers = ["o", "s", "^", "D"]
     readings = list(dict.fromkeys(points["reading"]))
-    horizons = list(dict.fromkeys(points["horizon"]))
-    for i, reading in enumerate(readings):
-        for j, horizon in enumerate(horizons):
-            g = points[(points["reading"] == reading) & (points["horizon"] == horizon)].sort_values("ratio")
-            if not len(g):
-                continue
-            n = f", n = {n_text(g['n_trials'])}" if "n_trials" in g else ""
-            ax.errorbar(g["ratio"] + 0.008 * (2 * i + j - 1.5), g["mean"],
-                        yerr=clipped_err(g["mean"], g["std"], 0.0, 1.0), capsize=3,
-                        ls=styles.get(horizon, ":"), marker=markers[i % len(markers)],
-                        color=f"C{2 * i + j}", label=f"{reading}, {horizon}{n}")
+    lines = list(dict.fromkeys(zip(points["reading"], points["horizon"], strict=True)))
+    for k, (reading, horizon) in enumerate(lines):  # each line its own colour and offset
+        g = points[(points["reading"] == reading) & (points["horizon"] == horizon)].sort_values("ratio")
+        n = f", n = {n_text(g['n_trials'])}" if "n_trials" in g else ""
+        ax.errorbar(g["ratio"] + 0.008 * (k - (len(lines) - 1) / 2), g["mean"],
+                    yerr=clipped_err(g["mean"], g["std"], 0.0, 1.0), capsize=3,
+                    ls=styles.get(horizon, ":"), marker=markers[readings.index(reading) % len(markers)],
+                    color=f"C{k % 10}", label=f"{reading}, {horizon}{n}")
     if predicted is not None and len(predicted):
         ax.step(predicted["ratio"], predicted["share"], where="mid", color="k", lw=2, ls=":",
                 label="the model's prediction")
