@@ -163,12 +163,10 @@ turn-taking-checks: venv ## The turn-taking model beside the chapter's at the ch
 TEAM_SIZES := 2,3,4,5,7,8,9,10
 READING :=
 READING_PARTS = $(subst -, ,$(READING))
-TODAYS_WORLD = $(shell $(BIN)/python -c "from tavc_cli.analysis.stay_switch import reading_folder, readings; \
-	print(reading_folder(readings()[0]))")
-READING_ERROR = $(if $(or $(filter-out 1,$(words x$(READING)x)),$(filter-out 3,$(words $(READING_PARTS))),$(filter-out $(READING),$(subst \
-	$(space),-,$(strip $(READING_PARTS))))),READING=$(READING) is not <arrival>-<passing>-<arena>$(comma) e.g. \
-	dock-nearest-two_circuits_parallel,$(if $(filter $(TODAYS_WORLD),$(READING)),READING=$(READING) is today's \
-	world: leave READING out))
+OTHER_READINGS = $(shell $(BIN)/python -c "from tavc_cli.analysis.stay_switch import reading_folder, readings; \
+	print(' '.join(reading_folder(r) for r in readings()[1:]))")
+READING_ERROR = $(if $(and $(filter 1,$(words x$(READING)x)),$(filter $(READING),$(OTHER_READINGS))),,READING=$(READING) \
+	is not one of the readings besides today's world ($(OTHER_READINGS)); leave READING out for today's world)
 READING_ARGS = $(if $(READING),$(if $(READING_ERROR),$(error $(READING_ERROR)),arrival=$(word 1,$(READING_PARTS)) \
 	passing=$(word 2,$(READING_PARTS)) arena=$(word 3,$(READING_PARTS))))
 
