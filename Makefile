@@ -158,17 +158,20 @@ turn-taking-checks: venv ## The turn-taking model beside the chapter's at the ch
 # Team sizes for the turn-taking model's checks against the learners at 40x (six, the chapter's, is
 # checked by the base case's own run at results/converged/initial_distribution). In today's world, or in
 # a reading named as its runs' folder is (READING=<arrival>-<passing>-<arena>, e.g.
-# READING=dock-nearest-two_circuits_parallel): the model into results/turn_taking/<reading>-team_size_N/,
+# READING=dock-nearest-two_circuits_parallel, or range-left-two_circuits_parallel-calibrated for that reading at
+# the settings its calibration chose, RANGE_CALIBRATED): the model into results/turn_taking/<reading>-team_size_N/,
 # the learners into results/team_size/<reading>/converged/.
 TEAM_SIZES := 2,3,4,5,7,8,9,10
 READING :=
 READING_PARTS = $(subst -, ,$(READING))
+CALIBRATED_READING := range-left-two_circuits_parallel-calibrated
 OTHER_READINGS = $(shell $(BIN)/python -c "from tavc_cli.analysis.stay_switch import reading_folder, readings; \
-	print(' '.join(reading_folder(r) for r in readings()[1:]))")
+	print(' '.join(reading_folder(r) for r in readings()[1:]))") $(CALIBRATED_READING)
 READING_ERROR = $(if $(and $(filter 1,$(words x$(READING)x)),$(filter $(READING),$(OTHER_READINGS))),,READING=$(READING) \
 	is not one of the readings besides today's world ($(OTHER_READINGS)); leave READING out for today's world)
-READING_ARGS = $(if $(READING),$(if $(READING_ERROR),$(error $(READING_ERROR)),arrival=$(word 1,$(READING_PARTS)) \
-	passing=$(word 2,$(READING_PARTS)) arena=$(word 3,$(READING_PARTS))))
+READING_ARGS = $(if $(READING),$(if $(READING_ERROR),$(error $(READING_ERROR)),$(if $(filter $(CALIBRATED_READING),\
+	$(READING)),$(RANGE_CALIBRATED),arrival=$(word 1,$(READING_PARTS)) passing=$(word 2,$(READING_PARTS)) \
+	arena=$(word 3,$(READING_PARTS)))))
 
 team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn_taking/team_size_N/), then the learners at 40x there (results/team_size/converged/); READING=<arrival>-<passing>-<arena> for a reading
 	for n in $(subst $(comma), ,$(TEAM_SIZES)); do \
