@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.turn_taking import TURN_TAKING, modal_state, prediction
+from tavc_cli.analysis.turn_taking import ALTERNATOR, TURN_TAKING, modal_state, prediction
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.ownership import TURN_TAKING_FILES, TURN_TAKING_KIND, take
@@ -36,7 +36,6 @@ LEARNERS, ALTERNATORS = "learners", "alternators"
 TURN_TAKING_FOLDER = "turn_taking"  # the model's folder in a reading's of the stay/switch study
 PREDICTED = ("regime", "stayers", "alternators", "robots_high", "modal_state", "modal_share_pct", "modal_from",
              "learners_horizon", "learners_trials")  # a prediction's columns in a table
-ALTERNATOR = "alternate"  # the static controller's label in its run's tables
 SET_HERE = ("learner", "output_dir", "surrogate.tasks_dir", "baseline_trials", "scale.time_factor",
             "scale.stable_window")
 HORIZON = 40.0  # the learners' horizon, times the run's scale: where the chapter's rule converges in today's world

@@ -163,9 +163,9 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
     where = tmp_path / "turn_taking" / "breakdown" / "turn_taking"
     where.mkdir(parents=True)
 
-    def row(modal: str) -> list[str]:
+    def row(modal: str, **more) -> list[str]:
         (where / "turn_taking.json").write_text(json.dumps({"regime": "turn-taking", "robots_high": 2.5,
-                                                            "modal_state": modal, "modal_share_pct": 40.0}))
+                                                            "modal_state": modal, "modal_share_pct": 40.0, **more}))
         text = turn_taking_check_lines(tmp_path)
         lines = [x for x in text if x.startswith("| breakdown |")]
         assert len(lines) == 1
@@ -202,6 +202,20 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
         robots_table(kinds).to_csv(folder / "robots.csv", index=False)
         q_table([0.1, -0.05, 0.02, 0.07]).to_csv(folder / "q_values.csv", index=False)
     assert row("3:2")[6] == "3 of 4 (3)"
+    # a modal state read from static alternators: how firmly their trials name it, from their own rows alone (one
+    # alternators' trial wholly in 3:2; three random trials wholly in 2:3 beside it, which would make 2:3 modal in
+    # most resamples were they counted); a state the surrogate's learners name, or no table: nothing more
+    (where / "alternators").mkdir()
+    pd.concat([_trial_stats({"3:2": 100.0, "2:3": 0.0}, controller="alternate"),
+               _trial_stats(*[{"3:2": 0.0, "2:3": 100.0}] * 3, controller="random")], ignore_index=True) \
+        .to_csv(where / "alternators" / "trial_stats.csv", index=False)
+    alternators = {"modal_from": "alternators", "alternators_run": "alternators"}
+    assert row("3:2", **alternators)[4] == "turn-taking, 2.50, 3:2 (40 %; the alternators' modal state in 100 % " \
+                                          "of resamples)"
+    assert row("2:3", **alternators)[4] == "turn-taking, 2.50, 2:3 (40 %; the alternators' modal state in 0 % " \
+                                          "of resamples)"
+    assert row("3:2", modal_from="learners", alternators_run="alternators")[4] == "turn-taking, 2.50, 3:2 (40 %)"
+    assert row("3:2", modal_from="alternators", alternators_run="elsewhere")[4] == "turn-taking, 2.50, 3:2 (40 %)"
 
 
 def test_a_prediction_finds_its_learners_among_a_readings_experiments(tmp_path):

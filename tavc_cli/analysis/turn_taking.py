@@ -38,6 +38,7 @@ def modal_state(state_time: pd.DataFrame, controller: str) -> tuple[str, float]:
     return str(mine["state"].iloc[i]), float(mine["mean_pct"].iloc[i])
 
 
+ALTERNATOR = "alternate"  # the static alternators' controller in their run's tables (`learner=alternate`)
 RESAMPLES = 2000  # `modal_support`'s resamples of a run's trials
 FIRM = 0.9  # a run's trials name its modal state firmly where it is modal in this share of `modal_support`'s
 # resamples (docs/readings.md: fixed before the team-size checks in a reading were run)

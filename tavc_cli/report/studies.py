@@ -20,7 +20,7 @@ from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
 from tavc_cli.report import files
 from tavc_cli.report.files import config_of, horizon_folders, model_learners, natural, read_or_refuse, run_in
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
-from tavc_cli.report.tally import support_of, tally_line, turn_tally
+from tavc_cli.report.tally import model_support, support_of, tally_line, turn_tally
 from tavc_cli.report.text import fmt
 from tavc_cli.run_tables import model_rows, ratio_points
 
@@ -196,9 +196,9 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             same = f"{_same(predicted['regime'], learners['regime'])}; " \
                    f"{_same_state(state, learners, support)}{learners['no_check']}"
             own = files.seed_for_seed_cell(model_learners(path.parent, predicted), d)
+            words = _prediction_words(predicted, model_support(path.parent, predicted))
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
-                        f"{learners['converged']} | {learners['words']} | {_prediction_words(predicted)} | {same} | "
-                        f"{own} |")
+                        f"{learners['converged']} | {learners['words']} | {words} | {same} | {own} |")
             tallies.append({"check": not learners["no_check"],
                             **turn_tally(str(predicted["regime"]), state, support, learners)})
     if not rows:
@@ -210,7 +210,8 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             "The "
             "model was fixed before it was set beside any of these runs; the chapter's scenarios in today's world, "
             "the sweep and some of a reading's scenarios were run before their predictions were made, the rest after "
-            "their predictions were committed (which is which: docs/readings.md). " + FIRMNESS + SEED_FOR_SEED + (
+            "their predictions were committed (which is which: docs/readings.md). " + FIRMNESS + MODEL_FIRMNESS
+            + SEED_FOR_SEED + (
                 f" At other team sizes, `make team-size-checks` predicts (`{TURN_TAKING_RUNS}/team_size_<n>/`; in a "
                 f"reading `<reading>-team_size_<n>/`) and then runs the learners at 40x (`{TEAM_SIZE_DIR}/`)."
                 if (results_dir / TEAM_SIZE_DIR).is_dir()
@@ -286,10 +287,12 @@ def _same_state(predicted: str, learners: dict, support: float) -> str:
     return "**no**" + (f" ({'; '.join(notes)})" if notes else "")
 
 
-def _prediction_words(p) -> str:
-    """A turn-taking prediction (`turn_taking.json`, or a row of the study's table) in a few words."""
+def _prediction_words(p, own: float = math.nan) -> str:
+    """A turn-taking prediction (`turn_taking.json`, or a row of the study's table) in a few words;
+    with `own` (`tally.model_support`), how firmly the static alternators it reads name its state."""
+    firm = f"; the alternators' modal state in {100 * own:.0f} % of resamples" if math.isfinite(own) else ""
     return (f"{p['regime']}, {fmt(float(p['robots_high']), '.2f') or '-'}, {p['modal_state']} "
-            f"({float(p['modal_share_pct']):.0f} %)")
+            f"({float(p['modal_share_pct']):.0f} %{firm})")
 
 
 def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
@@ -300,6 +303,8 @@ def _turn_words(turn: pd.DataFrame | None, reading: str) -> str:
 FIRMNESS = (f"Beside each predicted modal state, the share of {RESAMPLES:,} resamples of the learners' trials (drawn "
             "with replacement) in which it is their modal state: where each trial settles in a state of its own, a "
             "few trials decide which state is modal, and the share says how firmly they do.")
+MODEL_FIRMNESS = (" Where the model takes its modal state from static alternators, the share of resamples of "
+                  "their trials in which it is theirs says how firmly they name it.")
 SEED_FOR_SEED = (" The last column sets the model's own learners (the surrogate's, same seeds) beside the "
                  "learners' run robot by robot: those of the same kind at the end in both, of those matched by their "
                  "first Q-tables, and in brackets the number chance would give (as in *In other readings of the "

@@ -5,9 +5,12 @@ state, how firmly the learners' trials name it, and the model's hits where they 
 from __future__ import annotations
 
 import math
+from pathlib import Path
+
+import pandas as pd
 
 from tavc_cli.analysis.table_schemas import STATE_PREFIX
-from tavc_cli.analysis.turn_taking import FIRM, modal_support
+from tavc_cli.analysis.turn_taking import ALTERNATOR, FIRM, modal_support
 
 
 def turn_tally(regime: str, state: str, support: float, learners: dict) -> dict:
@@ -26,6 +29,19 @@ def support_of(learners: dict, state: str) -> float:
     if not len(stats) or STATE_PREFIX + learners["modal_state"] not in stats.columns:
         return math.nan
     return modal_support(stats, state)
+
+
+def model_support(where: Path, predicted: dict) -> float:
+    """How firmly the turn-taking model names its modal state, where it takes that state from
+    static alternators (`modal_from`): the share of resamples of the alternators' trials
+    (`<where>/<alternators_run>/trial_stats.csv`) in which the predicted state is theirs. NaN where
+    the state is the surrogate learners' own, or the alternators' table is missing."""
+    run = predicted.get("alternators_run")
+    stats_path = where / str(run) / "trial_stats.csv" if run else None
+    if predicted.get("modal_from") != "alternators" or stats_path is None or not stats_path.is_file():
+        return math.nan
+    # only the alternators' own rows: a baseline's trials may sit beside them
+    return modal_support(pd.read_csv(stats_path), str(predicted["modal_state"]), controller=ALTERNATOR)
 
 
 def tally_line(tallies: list[dict]) -> list[str]:
