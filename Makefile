@@ -167,13 +167,13 @@ READING_PARTS = $(subst -, ,$(READING))
 CALIBRATED_READING := range-left-two_circuits_parallel-calibrated
 OTHER_READINGS = $(shell $(BIN)/python -c "from tavc_cli.analysis.stay_switch import reading_folder, readings; \
 	print(' '.join(reading_folder(r) for r in readings()[1:]))") $(CALIBRATED_READING)
-READING_ERROR = $(if $(and $(filter 1,$(words x$(READING)x)),$(filter $(READING),$(OTHER_READINGS))),,READING=$(READING) \
+READING_ERROR = $(if $(and $(filter 1,$(words x$(READING)x)),$(filter $(OTHER_READINGS),$(READING))),,READING=$(READING) \
 	is not one of the readings besides today's world ($(OTHER_READINGS)); leave READING out for today's world)
 READING_ARGS = $(if $(READING),$(if $(READING_ERROR),$(error $(READING_ERROR)),$(if $(filter $(CALIBRATED_READING),\
 	$(READING)),$(RANGE_CALIBRATED),arrival=$(word 1,$(READING_PARTS)) passing=$(word 2,$(READING_PARTS)) \
 	arena=$(word 3,$(READING_PARTS)))))
 
-team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn_taking/team_size_N/), then the learners at 40x there (results/team_size/converged/); READING=<arrival>-<passing>-<arena> for a reading
+team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn_taking/team_size_N/), then the learners at 40x there (results/team_size/converged/); READING=<arrival>-<passing>-<arena> (or range-left-two_circuits_parallel-calibrated) for a reading
 	for n in $(subst $(comma), ,$(TEAM_SIZES)); do \
 		$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$$n scale=paper $(READING_ARGS) \
 			output_dir=results/turn_taking/$(if $(READING),$(READING)-)team_size_$$n || exit 1; done
@@ -186,7 +186,7 @@ team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn
 # results/value_ratio/<reading>/converged/ (the base case's 2200/2000 is the reading's own 40x run)
 VALUE_RATIO_CHECKS := 2000 3000 4000
 
-value-ratio-checks: venv ## The turn-taking model at other values in a reading (READING=<arrival>-<passing>-<arena>), then the learners at 40x there
+value-ratio-checks: venv ## The turn-taking model at other values in a reading (READING=<arrival>-<passing>-<arena>, or range-left-two_circuits_parallel-calibrated), then the learners at 40x there
 	$(if $(READING),,$(error value-ratio-checks needs READING=<arrival>-<passing>-<arena>; today's world's are turn-taking-checks and value-ratio-converged))
 	for w in $(VALUE_RATIO_CHECKS); do \
 		$(BIN)/tavc model --turn-taking experiment=$(BASE) "tasks.values=[$$w,2000]" scale=paper $(READING_ARGS) \

@@ -216,6 +216,18 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
                                           "of resamples)"
     assert row("3:2", modal_from="learners", alternators_run="alternators")[4] == "turn-taking, 2.50, 3:2 (40 %)"
     assert row("3:2", modal_from="alternators", alternators_run="elsewhere")[4] == "turn-taking, 2.50, 3:2 (40 %)"
+    assert row("3:2", modal_from="alternators", alternators_run="..")[4] == "turn-taking, 2.50, 3:2 (40 %)"
+    # two alternators' trials, one wholly in each state: resampled, not the means' argmax (a tie, which would
+    # name 3:2 always): 3:2 when both draws are the first or one of each (a tie goes to the table's first), 3/4
+    pd.concat([_trial_stats({"3:2": 100.0, "2:3": 0.0}, {"3:2": 0.0, "2:3": 100.0}, controller="alternate"),
+               _trial_stats({"3:2": 0.0, "2:3": 100.0}, controller="random")], ignore_index=True) \
+        .to_csv(where / "alternators" / "trial_stats.csv", index=False)
+    assert row("3:2", **alternators)[4] == "turn-taking, 2.50, 3:2 (40 %; the alternators' modal state in 75 % " \
+                                          "of resamples)"
+    # a table without its columns is one line naming it, not a traceback
+    (where / "alternators" / "trial_stats.csv").write_text("trial,pct_3:2\n0,100\n")
+    with pytest.raises(TavcError, match="alternators/trial_stats.csv: cannot be read"):
+        row("3:2", **alternators)
 
 
 def test_a_prediction_finds_its_learners_among_a_readings_experiments(tmp_path):

@@ -40,7 +40,7 @@ from tavc_cli.report.compare import compare_lines
 from tavc_cli.report.counterfactuals import calibration_lines, calibration_tables, counterfactual_lines, read_search
 from tavc_cli.report.drawing import FigurePool, figure_files, remove_stale_figures
 from tavc_cli.report.figures import find_model
-from tavc_cli.report.files import config_of, horizon_folders, model_learners, read_or_refuse
+from tavc_cli.report.files import config_of, horizon_folders, model_alternators, model_learners, read_or_refuse
 from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import LADDER, finished_runs, rel, run_list_lines, study_runs
@@ -65,7 +65,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`run_checks.check_run`:
     its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
     readings' study's tables, the calibration searches' tables, the turn-taking model's predictions
-    and its own learners' runs. The runs are checked two at a time (`_check_runs`)."""
+    and its own learners' and alternators' runs. The runs are checked two at a time (`_check_runs`)."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")
@@ -86,11 +86,12 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
             read_or_refuse(path, pd.read_csv)
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
         read_search(table)
-    own = []  # the predictions' own learners, set beside the learners' runs seed for seed
+    own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
     for path in sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")):  # the predictions
         predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))
-        learners = model_learners(path.parent, predicted) if isinstance(predicted, dict) else None
-        own += [learners] if learners is not None and (learners / "config.yaml").is_file() else []
+        runs = (model_learners(path.parent, predicted), model_alternators(path.parent, predicted)) \
+            if isinstance(predicted, dict) else ()
+        own += [d for d in runs if d is not None and (d / "config.yaml").is_file()]
     _check_runs(own)
 
 

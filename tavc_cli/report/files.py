@@ -73,7 +73,19 @@ def run_in(d: Path, experiment: str) -> Path:
 def model_learners(where: Path, predicted: dict) -> Path | None:
     """The folder of a prediction's own learners' run (`learners_run` in `turn_taking.json`,
     beside it in `where`); None where the name is not one folder's."""
-    name = str(predicted.get("learners_run", "learners"))
+    return _model_run(where, str(predicted.get("learners_run", "learners")))
+
+
+def model_alternators(where: Path, predicted: dict) -> Path | None:
+    """The folder of the static alternators' run a prediction takes its modal state from
+    (`alternators_run`, where `modal_from` says so); None where it takes it from its learners, or
+    the name is not one folder's."""
+    if predicted.get("modal_from") != "alternators":
+        return None
+    return _model_run(where, str(predicted.get("alternators_run", "alternators")))
+
+
+def _model_run(where: Path, name: str) -> Path | None:
     return where / name if name not in ("", ".", "..") and "/" not in name and "\\" not in name else None
 
 

@@ -11,6 +11,7 @@ import pandas as pd
 
 from tavc_cli.analysis.table_schemas import STATE_PREFIX
 from tavc_cli.analysis.turn_taking import ALTERNATOR, FIRM, modal_support
+from tavc_cli.report.files import model_alternators, read_or_refuse
 
 
 def turn_tally(regime: str, state: str, support: float, learners: dict) -> dict:
@@ -33,15 +34,17 @@ def support_of(learners: dict, state: str) -> float:
 
 def model_support(where: Path, predicted: dict) -> float:
     """How firmly the turn-taking model names its modal state, where it takes that state from
-    static alternators (`modal_from`): the share of resamples of the alternators' trials
-    (`<where>/<alternators_run>/trial_stats.csv`) in which the predicted state is theirs. NaN where
-    the state is the surrogate learners' own, or the alternators' table is missing."""
-    run = predicted.get("alternators_run")
-    stats_path = where / str(run) / "trial_stats.csv" if run else None
-    if predicted.get("modal_from") != "alternators" or stats_path is None or not stats_path.is_file():
+    static alternators (`files.model_alternators`): the share of resamples of the alternators'
+    trials (their run's `trial_stats.csv`, checked with the report's other runs) in which the
+    predicted state is theirs. NaN where the state is the surrogate learners' own, or the
+    alternators' table is missing."""
+    run = model_alternators(where, predicted)
+    if run is None or not (run / "trial_stats.csv").is_file():
         return math.nan
-    # only the alternators' own rows: a baseline's trials may sit beside them
-    return modal_support(pd.read_csv(stats_path), str(predicted["modal_state"]), controller=ALTERNATOR)
+    # only the alternators' own rows (a baseline's trials may sit beside them); a table without its
+    # columns is one line naming it, as a damaged one is
+    return read_or_refuse(run / "trial_stats.csv", lambda p: modal_support(
+        pd.read_csv(p), str(predicted["modal_state"]), controller=ALTERNATOR))
 
 
 def tally_line(tallies: list[dict]) -> list[str]:
