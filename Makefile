@@ -164,7 +164,6 @@ turn-taking-checks: venv ## The turn-taking model beside the chapter's at the ch
 TEAM_SIZES := 2,3,4,5,7,8,9,10
 READING :=
 READING_PARTS = $(subst -, ,$(READING))
-CALIBRATED_READING := range-left-two_circuits_parallel-calibrated
 OTHER_READINGS = $(shell $(BIN)/python -c "from tavc_cli.analysis.stay_switch import reading_folder, readings; \
 	print(' '.join(reading_folder(r) for r in readings()[1:]))") $(CALIBRATED_READING)
 READING_ERROR = $(if $(and $(filter 1,$(words x$(READING)x)),$(filter $(OTHER_READINGS),$(READING))),,READING=$(READING) \
@@ -216,22 +215,24 @@ calibrate-readings: venv ## Each reading's calibration search against the chapte
 EXPERIMENTS_1_5 = $(shell $(BIN)/python -c "from tavc_cli.compare import SCENARIOS; print(','.join(SCENARIOS))")
 DOCK_PARALLEL := dock-left-two_circuits_parallel dock-nearest-two_circuits_parallel
 READINGS_1X := range-left-two_circuits_parallel $(DOCK_PARALLEL)
+# the range/left/parallel reading at the settings its calibration search chose, and its runs' folder name
 RANGE_CALIBRATED := arrival=range passing=left arena=two_circuits_parallel robot.behaviour.read_range_m=2.0 \
 	robot.dock.dwell_s=5.0 robot.laser.n_rays=31
+CALIBRATED_READING := range-left-two_circuits_parallel-calibrated
 
 readings-experiments: venv ## The chapter's five task-allocation experiments at its durations in other readings (results/readings/<reading>/)
 	for r in $(READINGS_1X); do set -- $$(echo $$r | tr - ' '); \
 		$(BIN)/tavc reproduce scale=paper --experiments $(EXPERIMENTS_1_5) arrival=$$1 passing=$$2 arena=$$3 \
 			--results results/readings/$$r || exit 1; done
 	$(BIN)/tavc reproduce scale=paper --experiments $(EXPERIMENTS_1_5) $(RANGE_CALIBRATED) \
-		--results results/readings/range-left-two_circuits_parallel-calibrated
+		--results results/readings/$(CALIBRATED_READING)
 
 turn-taking-readings: venv ## The turn-taking model in the readings whose experiments run at 40x, before those runs are read (results/turn_taking/)
 	$(BIN)/tavc model --turn-taking experiment=$(BASE) scale=paper $(RANGE_CALIBRATED) \
-		output_dir=results/turn_taking/range-left-two_circuits_parallel-calibrated
+		output_dir=results/turn_taking/$(CALIBRATED_READING)
 	for e in $(OTHER_SCENARIOS); do \
 		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper $(RANGE_CALIBRATED) \
-			output_dir=results/turn_taking/range-left-two_circuits_parallel-calibrated-$$e || exit 1; done
+			output_dir=results/turn_taking/$(CALIBRATED_READING)-$$e || exit 1; done
 	for r in $(DOCK_PARALLEL); do set -- $$(echo $$r | tr - ' '); for e in $(OTHER_SCENARIOS); do \
 		$(BIN)/tavc model --turn-taking experiment=$$e scale=paper arrival=$$1 passing=$$2 arena=$$3 \
 			output_dir=results/turn_taking/$$r-$$e || exit 1; done; done
@@ -243,7 +244,7 @@ readings-experiments-converged: venv ## The same experiments at 40x, 8 trials, i
 			--results results/converged/readings/$$r || exit 1; done
 	$(BIN)/tavc reproduce scale=converged trials=8 baseline_trials=8 executor.batch_size=$(CONVERGED_BATCH) \
 		--experiments $(EXPERIMENTS_1_5) $(RANGE_CALIBRATED) \
-		--results results/converged/readings/range-left-two_circuits_parallel-calibrated
+		--results results/converged/readings/$(CALIBRATED_READING)
 
 readings-x80: venv ## The base case at 80x, 8 trials, in the parallel readings (and the calibrated range world) whose learners had not settled by 40x (results/x80/readings/)
 	$(BIN)/tavc run experiment=$(BASE) scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
@@ -251,7 +252,7 @@ readings-x80: venv ## The base case at 80x, 8 trials, in the parallel readings (
 	$(BIN)/tavc run experiment=$(BASE) scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
 		arrival=dock passing=left arena=two_circuits_parallel output_dir=results/x80/readings/dock-left-two_circuits_parallel
 	$(BIN)/tavc run experiment=$(BASE) scale=converged scale.time_factor=80 trials=8 baseline_trials=8 \
-		$(RANGE_CALIBRATED) output_dir=results/x80/readings/range-left-two_circuits_parallel-calibrated
+		$(RANGE_CALIBRATED) output_dir=results/x80/readings/$(CALIBRATED_READING)
 
 stay-switch: venv ## What each reading of the world does to staying and switching: static robots in every make-up (results/stay_switch/)
 	$(BIN)/tavc stay-switch scale=paper --results results/stay_switch

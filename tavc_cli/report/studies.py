@@ -187,16 +187,18 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
     for path in found:
         predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))
         name = path.parent.parent.name
-        for d in _learners_runs(results_dir, name, predicted, path.parent):
-            if not all((d / f"{t}.csv").is_file() for t in ("mechanism", "state_time")):
-                continue
+        runs = [d for d in _learners_runs(results_dir, name, predicted, path.parent)
+                if all((d / f"{t}.csv").is_file() for t in ("mechanism", "state_time"))]
+        if not runs:
+            continue
+        state = str(predicted["modal_state"])
+        words = _prediction_words(predicted, model_support(path.parent, predicted))  # once for all its runs
+        for d in runs:
             learners = _learners(d)
-            state = str(predicted["modal_state"])
             support = support_of(learners, state)
             same = f"{_same(predicted['regime'], learners['regime'])}; " \
                    f"{_same_state(state, learners, support)}{learners['no_check']}"
             own = files.seed_for_seed_cell(model_learners(path.parent, predicted), d)
-            words = _prediction_words(predicted, model_support(path.parent, predicted))
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
                         f"{learners['converged']} | {learners['words']} | {words} | {same} | {own} |")
             tallies.append({"check": not learners["no_check"],
