@@ -548,7 +548,10 @@ def test_ratio_points_gather_a_sweep_from_its_run_folders(tmp_path):
             ("paper/0", "ms", [2000, 2000], 18000.0, (0.0, 50.0), []),
             ("paper/1", "ms", [4000, 2000], 18000.0, (50.0, 100.0), []),
             ("long/0", "s", [3000, 2000], 180000.0, (100.0, 100.0), []),
-            ("dock-left-two_circuits_parallel/0", "ms", [3000, 2000], 18000.0, (0.0, 0.0), reading)):
+            ("dock-left-two_circuits_parallel/0", "ms", [3000, 2000], 18000.0, (0.0, 0.0), reading),
+            # a variant of that reading, named by its folder; a folder naming another reading names no variant
+            ("dock-left-two_circuits_parallel-calibrated/0", "ms", [3000, 2000], 18000.0, (0.0, 0.0), reading),
+            ("range-left-two_circuits_parallel-calibrated/0", "ms", [4000, 2000], 18000.0, (0.0, 0.0), reading)):
         d = tmp_path / sub
         d.mkdir(parents=True)
         run = load_config(["experiment=initial_distribution", f"tasks.values={values}", f"tasks.time_unit={unit}",
@@ -562,13 +565,15 @@ def test_ratio_points_gather_a_sweep_from_its_run_folders(tmp_path):
     assert points[["reading", "horizon", "ratio"]].values.tolist() == [
         ["t in ms (the default)", "5 h", 1.0, ], ["t in ms (the default)", "5 h", 2.0],
         # a run in another reading of the world is a reading of its own, after the default's
-        ["t in ms (the default), " + " ".join(reading), "5 h", 1.5], ["t in s", "50 h", 1.5]]
+        ["t in ms (the default), " + " ".join(reading), "5 h", 1.5],
+        ["t in ms (the default), " + " ".join(reading), "5 h", 2.0],
+        ["t in ms (the default), " + " ".join(reading) + " (calibrated)", "5 h", 1.5], ["t in s", "50 h", 1.5]]
     # trials with 0 % and 50 % of the period in 2:0: mean share 0.25, std of (0, 0.5) = 0.3536
     first = points.iloc[0]
     assert first["mean"] == pytest.approx(0.25) and first["std"] == pytest.approx(math.sqrt(0.125))
     assert first["n_trials"] == 2 and first["policy_changes_per_trial"] == 2.0
     assert points.iloc[1]["mean"] == pytest.approx(0.75) and points.iloc[2]["mean"] == 0.0
-    assert points.iloc[3]["mean"] == 1.0
+    assert points.iloc[5]["mean"] == 1.0
 
 
 def test_specialisation_by_speed_group_by_hand():

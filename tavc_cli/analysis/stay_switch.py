@@ -128,6 +128,19 @@ def reading_folder(reading: dict[str, str]) -> str:
     return "-".join(reading.values())
 
 
+def split_folder(name: str) -> tuple[dict[str, str], str] | None:
+    """A reading's folder name (`reading_folder`), perhaps with a variant of the reading after it,
+    as (the reading, the variant): ``range-left-two_circuits_parallel-calibrated`` ->
+    (``{"arrival": "range", ...}``, ``"calibrated"``); None for a name of another form."""
+    keys = [k for k, _ in GRID]
+    parts = name.split("-", len(keys) - 1)
+    if len(parts) != len(keys):
+        return None
+    *parts, last = parts
+    last, _, variant = last.partition("-")
+    return dict(zip(keys, [*parts, last], strict=True)), variant
+
+
 def parse_reading(name: str) -> dict[str, str]:
     """`reading_name`'s words back into the reading: ``{"arrival": "dock", ...}``."""
     return dict(part.split("=", 1) for part in name.split() if "=" in part)

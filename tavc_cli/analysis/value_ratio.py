@@ -8,7 +8,9 @@ makes those runs (`run_tables.ratio_points` reads every finished run below a roo
 per reading, horizon and ratio, the mean share of robots on the high-value circuit over
 the stable period, from `trial_stats.csv` (each state's share
 of the period weighted by the fraction of robots it puts on the high circuit). A run in another
-reading of the world (`make value-ratio-checks READING=...`) is a reading of its own there. The model's
+reading of the world (`make value-ratio-checks READING=...`) is a reading of its own there, and a variant of
+a reading its folder names after the reading's own name (``range-left-two_circuits_parallel-calibrated/``:
+the reading at the settings its calibration chose) is named so in brackets. The model's
 prediction for the same ratios comes from a `model.csv` measured in the same world.
 """
 
@@ -16,11 +18,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from tavc_cli.analysis.stay_switch import reading_name, reading_of, readings
+from tavc_cli.analysis.stay_switch import reading_name, reading_of, readings, split_folder
 from tavc_cli.analysis.table_schemas import STATE_PREFIX
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
 from tavc_cli.model import core
@@ -46,8 +49,9 @@ def horizon_label(duration_s: float) -> str:
 
 
 def ratio_point(cfg: TavcConfig, stats: pd.DataFrame, run: str, controller: str = "tavc") -> dict | None:
-    """A run's row of the table (`POINT_COLUMNS`), from its settings and `trial_stats.csv`; None for a
-    run without two circuits or without a finite share of `controller`'s trials."""
+    """A run's row of the table (`POINT_COLUMNS`), from its settings, `trial_stats.csv` and `run`, its
+    folder relative to the sweep's (whose first part may name a variant of the run's reading); None
+    for a run without two circuits or without a finite share of `controller`'s trials."""
     values = cfg.tasks.values
     if not values or len(values) != 2:
         return None
@@ -62,8 +66,11 @@ def ratio_point(cfg: TavcConfig, stats: pd.DataFrame, run: str, controller: str 
     if gamma != CHAPTER_GAMMA:
         reading += f", gamma {gamma:g} (diagnostic)"
     world = reading_of(cfg)
-    if world != readings()[0]:  # a reading of the world other than today's (docs/readings.md)
-        reading += f", {reading_name(world)}"
+    # a variant of the run's reading, named as its folder under the sweep's is (the calibrated range world)
+    split = split_folder(Path(run).parts[0]) if run else None
+    variant = split[1] if split is not None and split[0] == world else ""
+    if world != readings()[0] or variant:  # a reading of the world other than today's (docs/readings.md)
+        reading += f", {reading_name(world)}" + (f" ({variant})" if variant else "")
     changes = stats["policy_changes"].to_numpy(float) if "policy_changes" in stats else np.full(len(stats), np.nan)
     return {"reading": reading, "horizon": horizon_label(float(cfg.duration_s)),
             "ratio": max(values) / min(values), "values": "/".join(f"{float(v):g}" for v in values),

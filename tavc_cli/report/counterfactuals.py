@@ -22,7 +22,7 @@ import pandas as pd
 
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
-from tavc_cli.analysis.stay_switch import GRID
+from tavc_cli.analysis.stay_switch import reading_name, split_folder
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import WORLD_SEARCH_DIR
 from tavc_cli.report.files import horizon_folders, is_run_folder, natural, read_or_refuse, seed_for_seed_cell
@@ -31,19 +31,15 @@ from tavc_cli.report.runs import finished_runs
 from tavc_cli.report.studies import READINGS_RUNS
 from tavc_cli.report.text import p_cell
 
-GROUPS = tuple(key for key, _ in GRID)  # a reading's folder name, in this order: dock-left-two_circuits
-
 
 def reading_words(folder_name: str) -> str:
     """A reading's folder name in the report's words: ``arrival=range passing=left arena=...``,
     a variant after the arena in brackets (``... arena=two_circuits_parallel (calibrated)``)."""
-    parts = folder_name.split("-", len(GROUPS) - 1)
-    if len(parts) != len(GROUPS):
+    split = split_folder(folder_name)
+    if split is None:
         return folder_name
-    *parts, last = parts
-    last, _, variant = last.partition("-")  # a variant of the reading: range-left-two_circuits_parallel-calibrated
-    words = " ".join(f"{k}={v}" for k, v in zip(GROUPS, [*parts, last], strict=True))
-    return f"{words} ({variant})" if variant else words
+    reading, variant = split
+    return f"{reading_name(reading)} ({variant})" if variant else reading_name(reading)
 
 
 def reading_horizons(results_dir: Path) -> list[tuple[str, Horizon]]:
