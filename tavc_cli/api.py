@@ -20,11 +20,13 @@ line that names the problem.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
 
 from tavc_cli import config
+from tavc_cli.analysis import tasks_seen
 from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
 from tavc_cli.errors import TavcError
@@ -34,6 +36,8 @@ from tavc_cli.learning.registry import MODEL_LEARNERS
 from tavc_cli.model.report import measurement_shortfall, model_text
 from tavc_cli.ownership import COMPARE, LADDER, RESULTS, expect, refuse_other_settings
 from tavc_cli.reading import Results, Sweep, load, load_sweep  # noqa: F401 - the API reads through these
+from tavc_cli.settings import from_yaml
+from tavc_cli.turn_taking import LEARNERS
 from tavc_cli.user_configs import using_config_dirs
 
 ConfigDirs = str | Path | Sequence[str | Path] | None  # a folder of the user's configs, or several
@@ -117,6 +121,37 @@ def run_summary(overrides: Sequence[str] = (), *, progress: bool = False) -> dic
     from tavc_cli.pipeline import run_experiment
 
     return run_experiment(config.settings(config.load_config(list(overrides))), progress=progress)
+
+
+def seen_tasks(run_dir: str | Path, *, controller: str = "tavc", from_share: float = 0.5) -> pd.DataFrame:
+    """The tasks `controller`'s learners made in the finished run in `run_dir` (the trials its
+    provenance lists, each checked to be its own: `Results.records`), by the robots on circuit 0
+    once the chooser had chosen, the kind of task and its circuit, from `from_share` of each
+    trial on (`analysis.tasks_seen.seen_tasks`)."""
+    records = [r for r in load(run_dir).records() if r.meta.get("controller") == controller]
+    if not records:
+        raise TavcError(f"{run_dir}: no trials of {controller} to read")
+    return tasks_seen.seen_tasks(records, from_share)
+
+
+def surrogate_seen_switches(prediction: str | Path, learners_run: str | Path, *, output_dir: str | Path) -> Results:
+    """A diagnostic of the turn-taking model: its learners on the surrogate as the prediction in
+    `prediction` ran them (`tavc model --turn-taking`'s `turn_taking/` folder: its learners'
+    settings, the tasks it measured), every switching task of a make-up with one switcher
+    shifted to the mean the learners of `learners_run` met in the state it makes
+    (`analysis.tasks_seen.seen_switches`), into `output_dir`."""
+    # deferred: loads the simulator's compiled kernels
+    from tavc_cli.surrogate.run import run_surrogate
+    from tavc_cli.surrogate.tasks import TaskTimes
+
+    prediction = Path(prediction)
+    own = prediction / LEARNERS / "config.yaml"
+    if not own.is_file():
+        raise TavcError(f"{prediction}: not a turn-taking prediction's folder (no {LEARNERS}/config.yaml in it)")
+    times = TaskTimes.read(prediction / "tasks" / "task_times.csv")
+    shifted = TaskTimes(tasks_seen.seen_switches(times.frame, seen_tasks(learners_run)))
+    cfg = replace(from_yaml(own), output_dir=str(output_dir))
+    return Results(run_surrogate(cfg, times=shifted, echo=lambda _: None)["output_dir"])
 
 
 def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[str] | None = None,
