@@ -10,7 +10,7 @@ once the chooser had chosen (`on_0`, the chooser counted), the kind of task (sta
 the robot last served; switch: the other) and its circuit; the mean task time and the means of
 its waiting and avoiding. `seen_switches` then gives the surrogate's task table with each
 switching task of a make-up with one switcher moved to the learners' mean in the state that
-make-up is (a diagnostic of the model, never its input: the learners' runs are what it is
+make-up makes (a diagnostic of the model, never its input: the learners' runs are what it is
 checked against).
 """
 
