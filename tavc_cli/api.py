@@ -139,18 +139,25 @@ def surrogate_seen_switches(prediction: str | Path, learners_run: str | Path, *,
     `prediction` ran them (`tavc model --turn-taking`'s `turn_taking/` folder: its learners'
     settings, the tasks it measured), every switching task of a make-up with one switcher
     shifted to the mean the learners of `learners_run` met in the state it makes
-    (`analysis.tasks_seen.seen_switches`), into `output_dir`."""
+    (`analysis.tasks_seen.seen_switches`), into `output_dir`. Tasks measured by other code or
+    settings, or edited since, are refused in one line, as the surrogate refuses them."""
     # deferred: loads the simulator's compiled kernels
-    from tavc_cli.surrogate.run import run_surrogate
+    from tavc_cli.surrogate.run import kept_tasks, measurement_record, run_surrogate
     from tavc_cli.surrogate.tasks import TaskTimes
 
     prediction = Path(prediction)
     own = prediction / LEARNERS / "config.yaml"
     if not own.is_file():
         raise TavcError(f"{prediction}: not a turn-taking prediction's folder (no {LEARNERS}/config.yaml in it)")
-    times = TaskTimes.read(prediction / "tasks" / "task_times.csv")
-    shifted = TaskTimes(tasks_seen.seen_switches(times.frame, seen_tasks(learners_run)))
     cfg = replace(from_yaml(own), output_dir=str(output_dir))
+    # the tasks are drawn only where the surrogate itself would draw them (this code, these settings)
+    why: list[str] = []
+    frame = kept_tasks(prediction / "tasks", measurement_record(cfg), overwrite=False, echo=why.append)
+    if not len(frame):
+        said = why[0].removeprefix("note: ").removesuffix("; measuring the tasks again") if why else ""
+        raise TavcError(f"{prediction / 'tasks'}: no measured tasks of this code and these settings to draw from"
+                        + (f" ({said})" if said else "") + "; rerun tavc model --turn-taking")
+    shifted = TaskTimes(tasks_seen.seen_switches(frame, seen_tasks(learners_run)))
     return Results(run_surrogate(cfg, times=shifted, echo=lambda _: None)["output_dir"])
 
 
