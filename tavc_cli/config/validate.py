@@ -147,6 +147,11 @@ def _validate_surrogate(sur: DictConfig) -> None:
     at_least("surrogate.warmup_s", sur.warmup_s, 0)
     positive("surrogate.measure_s", sur.measure_s)
     one_of("surrogate.calibration", sur.calibration, ("makeup", "stayers"))
+    one_of("surrogate.switches", sur.switches, ("alternators", "explorers"))
+    at_least("surrogate.explore_trials", sur.explore_trials, 1)
+    at_least("surrogate.explore_min_tasks", sur.explore_min_tasks, 1)
+    if sur.explore_epsilon is not None:
+        check(0 < sur.explore_epsilon <= 1, "surrogate.explore_epsilon", "must be in (0, 1]")
 
 
 def _validate_robot(robot: DictConfig) -> None:

@@ -30,6 +30,7 @@ from tavc_cli.pipeline import CAN_FORK, _finish, take_run_folder
 from tavc_cli.readers import load_json
 from tavc_cli.settings import TavcConfig
 from tavc_cli.surrogate.engine import run_trial
+from tavc_cli.surrogate.explorers import explore_trials, explorer_record, explorer_specs, explorer_tasks, with_explorers
 from tavc_cli.surrogate.tasks import (
     COLUMNS,
     TaskTimes,
@@ -66,9 +67,10 @@ def measurement_record(cfg: TavcConfig) -> dict:
     """What `task_times.json` records of how the tasks were measured: a table of other
     settings is not extended or mixed, but refused (`overwrite=true` replaces it)."""
     trials, warmup_s, measure_s = measurement(cfg)
-    return {"measurement": {"trials_per_makeup": trials, "warmup_s": warmup_s, "measure_s": measure_s,
-                            "seed": int(cfg.seed)},
-            "world": {"arena": cfg.arena.name, "robot": _plain(cfg.robot)}}
+    taken = {"trials_per_makeup": trials, "warmup_s": warmup_s, "measure_s": measure_s, "seed": int(cfg.seed)}
+    if cfg.surrogate.switches == "explorers":  # a table of the alternators alone records nothing of them
+        taken.update(explorer_record(cfg))
+    return {"measurement": taken, "world": {"arena": cfg.arena.name, "robot": _plain(cfg.robot)}}
 
 
 def _plain(obj) -> object:
@@ -86,6 +88,7 @@ def measure_tasks(cfg: TavcConfig, teams: list[Team] | None = None, *, progress:
         teams = teams_needed(team, len(cfg.events.breakdowns))
     folder = tasks_dir(cfg)
     plan = measurement_specs(cfg, teams)
+    explorers = explorer_specs(cfg, teams) if cfg.surrogate.switches == "explorers" else {}
     trials, warmup_s, measure_s = measurement(cfg)
     record = measurement_record(cfg)
     with claim_folder(folder):
@@ -98,10 +101,12 @@ def measure_tasks(cfg: TavcConfig, teams: list[Team] | None = None, *, progress:
             return TaskTimes(kept[kept["team"].isin(wanted)].reset_index(drop=True))
         owned.wrote(*TASKS_FILES)
         owned.remove_temporaries()
-        specs = [s for group in plan.values() for s in group]
+        specs = [s for group in (*plan.values(), *explorers.values()) for s in group]
         n_makeups = len(plan)
         echo(f"surrogate: measuring {n_makeups} make-ups of {len(teams)} team(s) in the simulator, {trials} static "
-             f"trials of {warmup_s + measure_s:g} s each, into {folder}")
+             f"trials of {warmup_s + measure_s:g} s each"
+             + (f", and {len(explorers)} allocations of stayers with explorers, {explore_trials(cfg)} trials each"
+                if explorers else "") + f", into {folder}")
         executor = Executor.from_config(cfg.executor)
         store = TrialStore(folder, executor)
         store.run(specs, progress)
@@ -113,6 +118,11 @@ def measure_tasks(cfg: TavcConfig, teams: list[Team] | None = None, *, progress:
             for rec in store.load(group):
                 frames.append(tasks_of(rec, team, makeup, roles, warmup_s, measure_s))
         fresh = pd.concat(frames, ignore_index=True)
+        if explorers:
+            exploring = pd.concat([explorer_tasks(rec, by_name[team_name], warmup_s, measure_s)
+                                   for (team_name, _), group in explorers.items() for rec in store.load(group)],
+                                  ignore_index=True)
+            fresh = with_explorers(fresh, exploring, int(cfg.surrogate.explore_min_tasks))
         table = pd.concat([kept[~kept["team"].isin(wanted)], fresh], ignore_index=True) if len(kept) else fresh
         write_tasks(folder, table, record, teams)
         written = TaskTimes.read(folder / "task_times.csv").frame
@@ -168,8 +178,13 @@ def _trusted_table(folder: Path, record: dict) -> pd.DataFrame:
         kept = None
     if not isinstance(kept, dict):
         raise _Untrusted(f"{record_path} cannot be read as the record of the measured tasks")
-    refuse_other_settings(record_path, record, "surrogate.tasks_dir", False,
-                          allow="add overwrite=true to measure them again, or choose another surrogate.tasks_dir")
+    allow = "add overwrite=true to measure them again, or choose another surrogate.tasks_dir"
+    refuse_other_settings(record_path, record, "surrogate.tasks_dir", False, allow=allow)
+    # a key only one record has is no difference there: the alternators' tables record no `switches`
+    had, want = (_switches(r) for r in (kept, record))
+    if had != want:
+        raise TavcError(f"surrogate.tasks_dir: {record_path} was made with other settings (measurement.switches: "
+                        f"{had} -> {want}); {allow}")
     if not table_path.is_file():
         return pd.DataFrame(columns=list(COLUMNS))  # a record alone (results/ keeps no table): nothing to draw from
     for key, today in (("code_digest", code_digest()), ("surrogate_code_digest", surrogate_code_digest())):
@@ -183,6 +198,12 @@ def _trusted_table(folder: Path, record: dict) -> pd.DataFrame:
         return TaskTimes.read(table_path).frame
     except TavcError:
         raise _Untrusted(f"{table_path} cannot be read as measured tasks") from None
+
+
+def _switches(record: dict) -> str:
+    """How a record's lone switchers were measured (`surrogate.switches`; none recorded: alternators)."""
+    measured = record.get("measurement")
+    return str(measured.get("switches", "alternators")) if isinstance(measured, dict) else "alternators"
 
 
 def task_summary(table: pd.DataFrame) -> pd.DataFrame:
@@ -250,7 +271,8 @@ def run_surrogate(cfg: TavcConfig, *, times: TaskTimes | None = None, progress: 
         records = [TrialRecord.load(path) for path in paths]
         run = Run(folder, plan, specs, records, len(specs) - len(pending), time.perf_counter() - start)
         summary = _finish(cfg, run, owned)
-    return {**summary, "engine": f"the surrogate (surrogate.calibration={cfg.surrogate.calibration}; "
+    return {**summary, "engine": f"the surrogate (surrogate.calibration={cfg.surrogate.calibration}, "
+                                 f"surrogate.switches={cfg.surrogate.switches}; "
                                  f"tasks measured in the simulator: {tasks_dir(cfg)})"}
 
 

@@ -1,0 +1,206 @@
+"""Switching tasks measured the way a learner that stays makes them (`surrogate.switches=explorers`).
+
+The surrogate's tasks come from static robots held to their roles (`surrogate.tasks`): a
+switching task from a robot that alternates on every task. Such a robot keeps step with the
+robots it joins; a learner that stays switches only when it explores, at a moment of its own.
+So here every allocation of stayers (per group, s0 on circuit 0 and s1 on circuit 1, no
+alternator) also runs with robots that keep to their home circuit and choose as an
+epsilon-greedy learner whose greedy choice is always home (`ExplorerPolicy`): with probability
+epsilon a circuit drawn uniformly, else home; a robot that went away comes back the same way.
+Each task is tabulated by the group's make-up at its choice, as the surrogate names it when it
+draws (robots whose task stays on circuit 0, on circuit 1, and those whose task switches, the
+chooser counted): an excursion and its return both make a make-up with one switcher.
+
+In every make-up with exactly one switcher, each cell (group, stay or switch, circuit) that the
+explorers filled with at least `surrogate.explore_min_tasks` tasks is drawn from theirs instead
+of from the alternators'; every other cell, and every other make-up, keeps the alternators'.
+
+The explorers run through the interface of a learner from outside tavc (a module target,
+`EXPLORER_TARGET`), so their trials are keyed by the digest of all of tavc's Python files
+(`learning.plugins.target_digest`): an edit anywhere measures them again.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from tavc_cli import meaning_digest
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import base_spec
+from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.experiments.spec import TrialSpec
+from tavc_cli.learning.parameters import PluginSettings
+from tavc_cli.settings import TavcConfig
+from tavc_cli.surrogate.tasks import (
+    COLUMNS,
+    STAY,
+    SWITCH,
+    Makeup,
+    Team,
+    makeup_name,
+    makeups,
+    measurement,
+    parse_makeup,
+    roles_of,
+    tasks_of,
+)
+
+SWITCHES = ("alternators", "explorers")  # `surrogate.switches`
+EXPLORER_CODE = 12  # enters the seeds of the explorers' trials (the alternators' are 11)
+EXPLORER_TARGET = "tavc_cli.surrogate.explorers.ExplorerPolicy"
+EXPLORER_LABEL = "explorers"
+
+
+class ExplorerPolicy:
+    """Robots that keep to a home circuit each and choose as an epsilon-greedy learner whose
+    greedy choice is always home: with probability `epsilon` a circuit drawn uniformly (home
+    included), else home. They learn nothing."""
+
+    def __init__(self, n_robots: int, n_circuits: int, rng: np.random.Generator, homes: Sequence[int],
+                 epsilon: float) -> None:
+        """Robot i's home is `homes[i]`; `rng` is the trial's policy stream."""
+        if len(homes) != n_robots:
+            raise ValueError(f"{len(homes)} homes for {n_robots} robots")
+        self.homes = [int(h) for h in homes]
+        self.n_circuits, self.rng, self.epsilon = n_circuits, rng, float(epsilon)
+        self.n_states = n_circuits
+
+    def choose(self, robot: int, state: int) -> int:
+        """Home, or with probability epsilon a circuit drawn uniformly."""
+        if self.rng.random() < self.epsilon:
+            return int(self.rng.integers(self.n_circuits))
+        return self.homes[robot]
+
+    def learn(self, robot: int, state: int, action: int, reward: float, next_state: int) -> None:
+        """Nothing: the explorers learn nothing."""
+
+
+def explore_epsilon(cfg: TavcConfig) -> float:
+    """The explorers' epsilon: `surrogate.explore_epsilon`, else the learner's own epsilon; one
+    line where neither is given (a learner that does not explore by an epsilon)."""
+    given = cfg.surrogate.explore_epsilon
+    if given is not None:
+        return float(given)
+    own = getattr(cfg.learner, "epsilon", None)
+    if own is None:
+        raise TavcError(f"surrogate.explore_epsilon: learner {cfg.learner.name} explores by no epsilon; give the "
+                        "explorers' rate (surrogate.explore_epsilon=...) or use surrogate.switches=alternators")
+    return float(own)
+
+
+def explore_trials(cfg: TavcConfig) -> int:
+    """Trials per allocation of stayers: `surrogate.explore_trials`, capped by the scale as the
+    alternators' are."""
+    trials = int(cfg.surrogate.explore_trials)
+    return max(2, min(trials, int(cfg.scale.trials))) if cfg.scale.trials else trials
+
+
+def stayers_makeups(team: Team) -> list[Makeup]:
+    """The team's make-ups without an alternator: its allocations of stayers."""
+    return [m for m in makeups(team) if all(a == 0 for _, _, a in m)]
+
+
+def explorer_specs(cfg: TavcConfig, teams: Sequence[Team]) -> dict[tuple[str, Makeup], list[TrialSpec]]:
+    """The explorers' static trials: for every allocation of stayers of every team, robots homed
+    there (`ExplorerPolicy`), the measurement's world, window and values of 1."""
+    _, warmup_s, measure_s = measurement(cfg)
+    trials, epsilon = explore_trials(cfg), explore_epsilon(cfg)
+    base = base_spec(cfg)
+    k = len(cfg.arena.circuits)
+    out = {}
+    for t_index, team in enumerate(teams):
+        for m_index, makeup in enumerate(stayers_makeups(team)):
+            groups, speeds, homes = roles_of(team, makeup)
+            label = "explore_" + makeup_name(team, makeup).replace(" ", "_").replace(":", "-") + f"_n{team.size}"
+            if len(team.groups) > 1:
+                label += f"_t{t_index}"
+            policy = PluginSettings(name=EXPLORER_LABEL, target=EXPLORER_TARGET,
+                                    params={"homes": list(homes), "epsilon": epsilon})
+            out[(team.name, makeup)] = [
+                replace(base, speeds_mps=tuple(speeds), groups=tuple(groups), values=(1.0,) * k,
+                        score_values=(1.0,) * k, policy=policy, controller=label, trial=j,
+                        seed=(int(cfg.seed), EXPLORER_CODE, team.size, t_index, m_index, j),
+                        duration_s=warmup_s + measure_s, warmup_s=0.0, start_s=0.0, deliveries=None, breakdowns=(),
+                        value_changes=(), q_snapshot_every_s=0.0, pose_every_s=0.0)
+                for j in range(trials)
+            ]
+    return out
+
+
+def choice_makeups(record: TrialRecord, team: Team) -> tuple[np.ndarray, np.ndarray]:
+    """For every delivery of `record` (in its table's order), the make-up at the choice that began
+    its task and its kind: a robot's k-th delivery ends the task of its k-th choice; the make-up
+    counts, by group, the robots whose last choice stays on circuit 0, on circuit 1, and those
+    whose last choice switched (the choices of one instant, the trial's start, counted together)."""
+    c, d = record.table("choices"), record.table("deliveries")
+    groups = list(record.meta["groups"])
+    n = len(groups)
+    index = {g: k for k, (g, _, _) in enumerate(team.groups)}
+    order = np.lexsort((c["robot"], c["t_s"]))
+    current = np.full(n, -1)
+    switching = np.zeros(n, dtype=bool)
+    named = np.empty(len(order), dtype=object)
+    times = c["t_s"][order]
+    for at in np.split(order, np.flatnonzero(np.diff(times)) + 1) if len(order) else []:
+        robots = c["robot"][at]
+        current[robots] = c["circuit"][at]
+        switching[robots] = c["circuit"][at] != c["state"][at]
+        counts = [[0, 0, 0] for _ in team.groups]
+        for i in np.flatnonzero(current >= 0):
+            counts[index[groups[i]]][2 if switching[i] else int(current[i])] += 1
+        named[at] = makeup_name(team, tuple(tuple(x) for x in counts))
+    makeup = np.empty(len(d["t_s"]), dtype=object)
+    kind = np.empty(len(d["t_s"]), dtype=object)
+    for robot in range(n):
+        chose = order[c["robot"][order] == robot]
+        done = np.flatnonzero(d["robot"] == robot)
+        done = done[np.argsort(d["t_s"][done], kind="stable")]
+        for i, j in zip(chose, done, strict=False):
+            makeup[j] = named[i]
+            kind[j] = SWITCH if c["circuit"][i] != c["state"][i] else STAY
+    return makeup, kind
+
+
+def explorer_tasks(record: TrialRecord, team: Team, warmup_s: float, measure_s: float) -> pd.DataFrame:
+    """The tasks an explorers' trial completed within its window, whole (`COLUMNS`), each by the
+    make-up at its choice and its kind (`choice_makeups`)."""
+    d = record.table("deliveries")
+    keep = (d["t_s"] >= warmup_s) & (d["t_s"] < warmup_s + measure_s)
+    makeup, kind = choice_makeups(record, team)
+    frame = tasks_of(record, team, tuple((0, 0, 0) for _ in team.groups), [0] * len(record.meta["groups"]),
+                     warmup_s, measure_s)
+    frame["makeup"], frame["kind"] = makeup[keep], kind[keep]
+    return frame
+
+
+def one_switcher(name: str) -> bool:
+    """Whether a make-up named `name` has exactly one robot whose task switches."""
+    return sum(counts[2] for _, counts in parse_makeup(name)) == 1
+
+
+def with_explorers(alternating: pd.DataFrame, exploring: pd.DataFrame, min_tasks: int) -> pd.DataFrame:
+    """The alternators' task table with every cell of a one-switcher make-up that the explorers
+    filled with at least `min_tasks` tasks taken from theirs (`COLUMNS`, the alternators' rows
+    first)."""
+    cell = ["team", "makeup", "group", "kind", "circuit"]
+    explored = exploring[exploring["makeup"].map(one_switcher)]
+    sizes = explored.groupby(cell).size()
+    taken = sizes[sizes >= min_tasks].index
+    if not len(taken):
+        return alternating[list(COLUMNS)].reset_index(drop=True)
+    keep = ~pd.MultiIndex.from_frame(alternating[cell]).isin(taken)
+    chosen = pd.MultiIndex.from_frame(explored[cell]).isin(taken)
+    return pd.concat([alternating[keep], explored[chosen]], ignore_index=True)[list(COLUMNS)]
+
+
+def explorer_record(cfg: TavcConfig) -> dict:
+    """What `task_times.json` records of the explorers' measurement (with `surrogate.switches=
+    explorers` only: a table of the alternators alone records nothing of them)."""
+    return {"switches": "explorers", "explore_trials": explore_trials(cfg), "explore_epsilon": explore_epsilon(cfg),
+            "explore_min_tasks": int(cfg.surrogate.explore_min_tasks),
+            "explorers_code": meaning_digest(Path(__file__).resolve().parent.parent, ("surrogate/explorers.py",))}
