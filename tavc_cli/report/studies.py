@@ -20,7 +20,15 @@ from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
 from tavc_cli.report import files
 from tavc_cli.report.files import config_of, horizon_folders, model_learners, natural, read_or_refuse, run_in
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
-from tavc_cli.report.tally import model_support, support_of, tally_line, turn_tally
+from tavc_cli.report.tally import (
+    EXPLORERS,
+    model_support,
+    support_of,
+    switches_line,
+    switches_of,
+    tally_line,
+    turn_tally,
+)
 from tavc_cli.report.text import fmt
 from tavc_cli.run_tables import model_rows, ratio_points
 
@@ -191,7 +199,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                 if all((d / f"{t}.csv").is_file() for t in ("mechanism", "state_time"))]
         if not runs:
             continue
-        state = str(predicted["modal_state"])
+        state, switches = str(predicted["modal_state"]), switches_of(predicted)
         words = _prediction_words(predicted, model_support(path.parent, predicted))  # once for all its runs
         for d in runs:
             learners = _learners(d)
@@ -201,10 +209,12 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             own = files.seed_for_seed_cell(model_learners(path.parent, predicted), d)
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
                         f"{learners['converged']} | {learners['words']} | {words} | {same} | {own} |")
-            tallies.append({"check": not learners["no_check"],
+            tallies.append({"check": not learners["no_check"], "switches": switches, "run": d,
                             **turn_tally(str(predicted["regime"]), state, support, learners)})
     if not rows:
         return []
+    main = [t for t in tallies if t["switches"] != EXPLORERS]
+    explored = [t for t in tallies if t["switches"] == EXPLORERS]
     return ["", "The turn-taking model at the chapter's other scenarios and at other values in today's world (`make "
             f"turn-taking-checks`: `tavc model --turn-taking ... scale=paper`, into `{TURN_TAKING_RUNS}/<name>/`), and "
             "in the readings of the world (as configured or as calibrated), beside the learners' runs at the longer "
@@ -217,10 +227,12 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                 f" At other team sizes, `make team-size-checks` predicts (`{TURN_TAKING_RUNS}/team_size_<n>/`; in a "
                 f"reading `<reading>-team_size_<n>/`) and then runs the learners at 40x (`{TEAM_SIZE_DIR}/`)."
                 if (results_dir / TEAM_SIZE_DIR).is_dir()
-                else ""), "",
+                else "") + (" Predictions whose folder ends in `-explorers` draw a lone switcher's tasks from robots "
+                            "that stay and explore (`surrogate.switches=explorers`, docs/surrogate.md); they are "
+                            "tallied apart." if explored else ""), "",
             "| prediction | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
             "model | the same regime; modal state | the model's learners and these, seed for seed |",
-            "|---|---|---|---|---|---|---|", *rows, *tally_line(tallies)]
+            "|---|---|---|---|---|---|---|", *rows, *tally_line(main), *switches_line(explored, main)]
 
 
 def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path) -> list[Path]:

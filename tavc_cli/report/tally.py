@@ -72,3 +72,33 @@ def tally_line(tallies: list[dict]) -> list[str]:
         words.append(f"the drift model their regime in {sum(t['drift'] for t in drift)} of {len(drift)}")
     runs = f"{len(checks)} run" + ("s" if len(checks) != 1 else "")
     return ["", f"Where the learners converged ({runs}): " + "; ".join(words) + "."]
+
+
+EXPLORERS = "explorers"  # `surrogate.switches`: a lone switcher's tasks from robots that stay and explore
+
+
+def switches_of(predicted: dict) -> str:
+    """How a turn-taking prediction's lone switchers were measured: the last `surrogate.switches`
+    among its overrides (`turn_taking.json`), else the default, alternators."""
+    given = [o.split("=", 1)[1] for o in predicted.get("overrides") or () if str(o).startswith("surrogate.switches=")]
+    return given[-1] if given else "alternators"
+
+
+def switches_line(explored: list[dict], main: list[dict]) -> list[str]:
+    """The tally of the predictions whose lone switchers were measured from explorers
+    (`switches_of`), beside the model as it is at the same learners' runs (each tally's `run`)."""
+    if not explored:
+        return []
+    lead = "With lone switchers measured from explorers (`surrogate.switches=explorers`, predictions `*-explorers`)"
+    checks = [t for t in explored if t["check"]]
+    if not checks:
+        return ["", f"{lead}: none of the {len(explored)} runs beside them converged."]
+    same = {t["run"]: t for t in main if t["check"]}
+    paired = [same[t["run"]] for t in checks if t["run"] in same]
+    runs = f"{len(checks)} run" + ("s" if len(checks) != 1 else "")
+    beside = (f"; the model as it is, at {len(paired)} of the same runs, their modal state in "
+              f"{sum(t['modal'] for t in paired)} and their regime in {sum(t['regime'] for t in paired)}"
+              if paired else "")
+    return ["", f"{lead}, where the learners converged ({runs}): the turn-taking model names their modal state in "
+                f"{sum(t['modal'] for t in checks)} of {len(checks)} and their regime in "
+                f"{sum(t['regime'] for t in checks)}{beside}."]
