@@ -35,7 +35,7 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged readings-x80 turn-taking-checks team-size-checks value-ratio-checks calibrate-readings $(REPRODUCE) clean
+.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged readings-x80 turn-taking-checks team-size-checks small-team-value-checks value-ratio-checks calibrate-readings $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -179,6 +179,25 @@ team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn
 	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' $(READING_ARGS) \
 		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(TEAM_SIZES) \
 		output_dir=results/team_size/$(if $(READING),$(READING)/)converged
+
+# Small teams at other values (docs/readings.md): the turn-taking model's predictions with both ways of
+# measuring a lone switcher (the default's into results/turn_taking/<reading>-team_size_N-value_ratio_W/,
+# the explorers' into the same name with -explorers), then the learners at 40x into
+# results/team_size/<reading>/converged_values/ (today's world: READING left out)
+SMALL_TEAMS := 3,4
+SMALL_TEAM_VALUES := 3000 4000
+
+small-team-value-checks: venv ## The turn-taking model, both ways of measuring a lone switcher, at teams of 3 and 4 and the values 3000 and 4000 against 2000, then the learners at 40x there; READING as for team-size-checks
+	for n in $(subst $(comma), ,$(SMALL_TEAMS)); do for w in $(SMALL_TEAM_VALUES); do \
+		for s in "" explorers; do \
+			$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$$n "tasks.values=[$$w,2000]" scale=paper \
+				$(READING_ARGS) $${s:+surrogate.switches=$$s} \
+				output_dir=results/turn_taking/$(if $(READING),$(READING)-)team_size_$$n-value_ratio_$$w$${s:+-$$s} \
+				|| exit 1; done; done; done
+	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' $(READING_ARGS) \
+		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(SMALL_TEAMS) \
+		'tasks.values=$(subst $(space),$(comma),$(foreach w,$(SMALL_TEAM_VALUES),[$(w),2000]))' \
+		output_dir=results/team_size/$(if $(READING),$(READING)/)converged_values
 
 # The values of turn-taking-checks (today's world) in a reading: the model into
 # results/turn_taking/<reading>-value_ratio_W/, then the learners at 40x into
