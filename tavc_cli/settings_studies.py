@@ -18,6 +18,10 @@ class ModelConfig:
     max_robots: Optional[int] = None
 
 
+ALTERNATORS, EXPLORERS = "alternators", "explorers"
+SWITCHES = (ALTERNATORS, EXPLORERS)  # `surrogate.switches`: where a lone switcher's tasks come from
+
+
 @dataclass
 class SurrogateConfig:
     """`tavc surrogate`: the learners on tasks measured in the simulator (`tavc_cli.surrogate`)."""

@@ -94,7 +94,7 @@ def predict_turn_taking(overrides: Sequence[str], out: Path, compose: Compose, *
     result = {**prediction(learners, alternators), "learners_run": LEARNERS,
               "learners_horizon": float(learners_cfg.scale.time_factor), "learners_trials": int(learners_cfg.trials),
               "alternators_run": ALTERNATORS if alternators_cfg is not None else None,
-              "overrides": list(overrides)}
+              "switches": str(learners_cfg.surrogate.switches), "overrides": list(overrides)}
     with claim_folder(out):
         owned.wrote(*TURN_TAKING_FILES)
         write_text_atomic(out / "turn_taking.json", json.dumps(result, indent=2, default=float))

@@ -11,6 +11,8 @@ import pytest
 from tavc_cli import config
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.report.tally import switches_line, switches_of
+from tavc_cli.surrogate.engine import SurrogateTrial
 from tavc_cli.surrogate.explorers import (
     ExplorerPolicy,
     choice_makeups,
@@ -19,7 +21,7 @@ from tavc_cli.surrogate.explorers import (
     stayers_makeups,
     with_explorers,
 )
-from tavc_cli.surrogate.tasks import COLUMNS, Team
+from tavc_cli.surrogate.tasks import COLUMNS, STAY, SWITCH, TaskTimes, Team, makeup_name, makeups
 from tavc_cli.vocabulary import ACTIVITIES
 
 TEAM3 = Team.of(["all"] * 3, [0.25] * 3)
@@ -73,6 +75,39 @@ def test_each_task_takes_the_make_up_at_its_choice():
     assert kind[-3:].tolist() == ["stay", "stay", "stay"]
 
 
+def test_the_make_ups_are_those_the_surrogate_draws_from_ties_included():
+    """A surrogate trial of three learners exploring half the time on tasks of one length, so that
+    robots deliver at the same tick again and again: each delivered task's make-up and kind, as
+    `choice_makeups` reads them from the record, are those the engine drew it from."""
+    cfg = config.settings(config.load_config([
+        "experiment=initial_distribution", "team.n_robots=3", "learner=tavc_egreedy", "learner.epsilon=0.5",
+        "baselines=[]", "trials=1", "duration_s=3000", "convergence_s=100", "sim.warmup_s=0",
+        "sim.q_snapshot_every_s=0", "scale=paper"]))
+    from tavc_cli.experiments.build import trial_specs
+
+    spec = trial_specs(cfg)[0]
+    rows = [{"team": TEAM3.name, "makeup": makeup_name(TEAM3, m), "group": "all", "kind": kind, "circuit": c,
+             "task_time_s": 100.0, "source_s": 50.0, **{f"{a}_s": 0.0 for a in ACTIVITIES}}
+            for m in makeups(TEAM3) for kind in (STAY, SWITCH) for c in (0, 1)]
+    drawn: dict[int, list] = {}
+
+    class Spy(SurrogateTrial):
+        def draw(self, i: int, tick: int) -> None:
+            drawn.setdefault(i, []).append((self.makeup()[1], SWITCH if self.switching[i] else STAY))
+            super().draw(i, tick)
+
+    record = Spy(spec, TaskTimes(pd.DataFrame(rows, columns=list(COLUMNS)))).run()
+    makeup, kind = choice_makeups(record, TEAM3)
+    d = record.table("deliveries")
+    ties = len(d["t_s"]) - len(np.unique(d["t_s"]))
+    assert ties > 20  # many robots deliver at one tick
+    for robot, seen in drawn.items():
+        mine = np.flatnonzero(d["robot"] == robot)
+        mine = mine[np.argsort(d["t_s"][mine], kind="stable")]
+        assert list(zip(makeup[mine], kind[mine], strict=True)) == seen[:len(mine)]
+    assert {k for _, k in drawn[0]} == {STAY, SWITCH}
+
+
 def _cells(makeup: str, kind: str, circuit: int, times: list[float]) -> pd.DataFrame:
     return pd.DataFrame([{"team": TEAM3.name, "makeup": makeup, "group": "all", "kind": kind, "circuit": circuit,
                           "task_time_s": t, "source_s": t / 2, **{f"{a}_s": 0.0 for a in ACTIVITIES}}
@@ -94,6 +129,8 @@ def test_only_well_filled_cells_of_one_switcher_make_ups_are_taken():
                    ("all:2-0-1", "switch", 1): [72.0] * 4}
     assert list(out.columns) == list(COLUMNS)
     assert with_explorers(alternating, exploring, min_tasks=6).equals(alternating.reset_index(drop=True))
+    # explorers that completed no task leave the alternators' table as it is
+    assert with_explorers(alternating, exploring.iloc[:0], min_tasks=1).equals(alternating.reset_index(drop=True))
     assert one_switcher("fast:1-0-1 slow:2-0-0") and not one_switcher("fast:1-0-1 slow:1-0-1")
 
 
@@ -117,6 +154,8 @@ def test_bad_explorer_settings_are_one_line():
         _cfg("surrogate.switches=sometimes")
     with pytest.raises(TavcError, match="surrogate.explore_epsilon"):
         _cfg("surrogate.switches=explorers", "surrogate.explore_epsilon=1.5")
+    with pytest.raises(TavcError, match="surrogate.calibration=stayers never draws"):
+        _cfg("surrogate.switches=explorers", "surrogate.calibration=stayers")
     softmax = _cfg("surrogate.switches=explorers", "learner=tavc_softmax")
     with pytest.raises(TavcError, match="explores by no epsilon"):
         explorer_specs(softmax, [TEAM3])
@@ -150,3 +189,41 @@ def test_the_explorers_change_only_one_switcher_make_ups_and_are_recorded(tmp_pa
     with pytest.raises(TavcError, match="measurement.switches: alternators -> explorers"):
         measure_tasks(_cfg(f"surrogate.tasks_dir={tmp_path / 'alternators'}", "surrogate.switches=explorers",
                            "surrogate.explore_epsilon=1", "surrogate.explore_min_tasks=1"), echo=print)
+
+
+def test_an_explorers_table_of_other_code_is_measured_again(tmp_path, monkeypatch):
+    from tavc_cli.surrogate import run
+    from tavc_cli.surrogate.run import measure_tasks
+
+    cfg = _cfg(f"surrogate.tasks_dir={tmp_path}", "surrogate.switches=explorers", "surrogate.explore_epsilon=1",
+               "surrogate.explore_min_tasks=1", "executor.n_jobs=1")
+    said: list[str] = []
+    measure_tasks(cfg, echo=said.append)
+    assert json.loads((tmp_path / "task_times.json").read_text())["explorers_code"] == run.explorers_code()
+    again: list[str] = []
+    measure_tasks(cfg, echo=again.append)
+    assert again == []
+    monkeypatch.setattr(run, "explorers_code", lambda: "0" * 16)
+    measure_tasks(cfg, echo=again.append)
+    assert again[0].startswith("note:") and "another explorers_code" in again[0] and "measuring" in again[1]
+
+
+def test_predictions_with_explorers_are_tallied_apart_beside_the_model_as_it_is():
+    """A prediction names its way of measuring a lone switcher in `turn_taking.json` (none
+    recorded: alternators). The explorers' tally counts their converged runs and, at those same
+    runs, the model as it is. By hand: runs a, b converged, c not; the explorers hit a (modal
+    state and regime) and b (regime); the model as it is hits b's modal state and b's regime."""
+    assert switches_of({"overrides": ["surrogate.switches=explorers"]}) == "alternators"
+    assert switches_of({"switches": "explorers"}) == "explorers"
+    main = [{"check": True, "run": "a", "modal": False, "regime": False},
+            {"check": True, "run": "b", "modal": True, "regime": True},
+            {"check": False, "run": "c", "modal": True, "regime": True}]
+    explored = [{"check": True, "run": "a", "modal": True, "regime": True},
+                {"check": True, "run": "b", "modal": False, "regime": True},
+                {"check": False, "run": "c", "modal": True, "regime": True}]
+    line = switches_line(explored, main)[-1]
+    assert line.endswith("where the learners converged (2 runs): the turn-taking model names their modal state in "
+                         "1 of 2 and their regime in 2; the model as it is, at 2 of the same runs, their modal state "
+                         "in 1 and their regime in 1.")
+    assert switches_line([], main) == []
+    assert switches_line(explored[2:], main)[-1].endswith("no run beside them converged (1 in all).")

@@ -395,31 +395,6 @@ def test_each_readings_calibration_search_is_a_row_with_the_world_asked_judged_a
         calibration_lines(tmp_path)
 
 
-def test_predictions_with_explorers_are_tallied_apart_beside_the_model_as_it_is():
-    """A prediction names its way of measuring a lone switcher by its overrides (the last wins;
-    none: alternators). The explorers' tally counts their converged runs and, at those same runs,
-    the model as it is. By hand: runs a, b converged, c not; explorers hit a (modal, regime) and b
-    (regime only); the model as it is, at a and b, hits b's modal state and both regimes."""
-    from tavc_cli.report.tally import switches_line, switches_of
-
-    assert switches_of({"overrides": ["team.n_robots=3"]}) == "alternators" == switches_of({})
-    assert switches_of({"overrides": ["surrogate.switches=explorers", "surrogate.switches=alternators"]}) == \
-        "alternators"
-    assert switches_of({"overrides": ["surrogate.switches=explorers"]}) == "explorers"
-    main = [{"check": True, "run": "a", "modal": False, "regime": True},
-            {"check": True, "run": "b", "modal": True, "regime": True},
-            {"check": False, "run": "c", "modal": True, "regime": True}]
-    explored = [{"check": True, "run": "a", "modal": True, "regime": True},
-                {"check": True, "run": "b", "modal": False, "regime": True},
-                {"check": False, "run": "c", "modal": True, "regime": True}]
-    line = switches_line(explored, main)[-1]
-    assert "where the learners converged (2 runs): the turn-taking model names their modal state in 1 of 2 and " \
-           "their regime in 2; the model as it is, at 2 of the same runs, their modal state in 1 and their regime " \
-           "in 2." in line
-    assert switches_line([], main) == []
-    assert switches_line(explored[2:], main)[-1].endswith("none of the 1 runs beside them converged.")
-
-
 def test_the_tally_counts_hits_at_firm_points_apart():
     """Of the converged points, those whose own modal state is modal in at least 90 % of the
     resamples of their trials (0.9 counts) are counted apart, with the model's hits there; a point

@@ -37,6 +37,7 @@ from tavc_cli.settings import (
     STABLE_WINDOWS,
     TIME_UNITS,
 )
+from tavc_cli.settings_studies import EXPLORERS, SWITCHES
 from tavc_cli.sim.arena import START_GAP_M, START_WALL_MARGIN_M, most_robots
 from tavc_cli.vocabulary import ARRIVALS, PASSINGS, TIME_FROM
 
@@ -147,7 +148,9 @@ def _validate_surrogate(sur: DictConfig) -> None:
     at_least("surrogate.warmup_s", sur.warmup_s, 0)
     positive("surrogate.measure_s", sur.measure_s)
     one_of("surrogate.calibration", sur.calibration, ("makeup", "stayers"))
-    one_of("surrogate.switches", sur.switches, ("alternators", "explorers"))
+    one_of("surrogate.switches", sur.switches, SWITCHES)
+    check(not (sur.switches == EXPLORERS and sur.calibration == "stayers"), "surrogate.switches",
+          "explorers measure switching tasks, which surrogate.calibration=stayers never draws")
     at_least("surrogate.explore_trials", sur.explore_trials, 1)
     at_least("surrogate.explore_min_tasks", sur.explore_min_tasks, 1)
     if sur.explore_epsilon is not None:

@@ -21,7 +21,6 @@ from tavc_cli.report import files
 from tavc_cli.report.files import config_of, horizon_folders, model_learners, natural, read_or_refuse, run_in
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.tally import (
-    EXPLORERS,
     model_support,
     support_of,
     switches_line,
@@ -31,6 +30,7 @@ from tavc_cli.report.tally import (
 )
 from tavc_cli.report.text import fmt
 from tavc_cli.run_tables import model_rows, ratio_points
+from tavc_cli.settings_studies import EXPLORERS
 
 
 def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:

@@ -12,6 +12,7 @@ import pandas as pd
 from tavc_cli.analysis.table_schemas import STATE_PREFIX
 from tavc_cli.analysis.turn_taking import ALTERNATOR, FIRM, modal_support
 from tavc_cli.report.files import model_alternators, read_or_refuse
+from tavc_cli.settings_studies import ALTERNATORS
 
 
 def turn_tally(regime: str, state: str, support: float, learners: dict) -> dict:
@@ -74,14 +75,10 @@ def tally_line(tallies: list[dict]) -> list[str]:
     return ["", f"Where the learners converged ({runs}): " + "; ".join(words) + "."]
 
 
-EXPLORERS = "explorers"  # `surrogate.switches`: a lone switcher's tasks from robots that stay and explore
-
-
 def switches_of(predicted: dict) -> str:
-    """How a turn-taking prediction's lone switchers were measured: the last `surrogate.switches`
-    among its overrides (`turn_taking.json`), else the default, alternators."""
-    given = [o.split("=", 1)[1] for o in predicted.get("overrides") or () if str(o).startswith("surrogate.switches=")]
-    return given[-1] if given else "alternators"
+    """How a turn-taking prediction's lone switchers were measured (`surrogate.switches`, which
+    `turn_taking.json` records); a prediction that records none predates the choice: alternators."""
+    return str(predicted.get("switches", ALTERNATORS))
 
 
 def switches_line(explored: list[dict], main: list[dict]) -> list[str]:
@@ -92,7 +89,7 @@ def switches_line(explored: list[dict], main: list[dict]) -> list[str]:
     lead = "With lone switchers measured from explorers (`surrogate.switches=explorers`, predictions `*-explorers`)"
     checks = [t for t in explored if t["check"]]
     if not checks:
-        return ["", f"{lead}: none of the {len(explored)} runs beside them converged."]
+        return ["", f"{lead}: no run beside them converged ({len(explored)} in all)."]
     same = {t["run"]: t for t in main if t["check"]}
     paired = [same[t["run"]] for t in checks if t["run"] in same]
     runs = f"{len(checks)} run" + ("s" if len(checks) != 1 else "")

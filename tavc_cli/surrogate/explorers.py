@@ -9,7 +9,8 @@ epsilon-greedy learner whose greedy choice is always home (`ExplorerPolicy`): wi
 epsilon a circuit drawn uniformly, else home; a robot that went away comes back the same way.
 Each task is tabulated by the group's make-up at its choice, as the surrogate names it when it
 draws (robots whose task stays on circuit 0, on circuit 1, and those whose task switches, the
-chooser counted): an excursion and its return both make a make-up with one switcher.
+chooser counted): an excursion and its return each make a make-up with one switcher where no
+other robot is away.
 
 In every make-up with exactly one switcher, each cell (group, stay or switch, circuit) that the
 explorers filled with at least `surrogate.explore_min_tasks` tasks is drawn from theirs instead
@@ -17,7 +18,8 @@ of from the alternators'; every other cell, and every other make-up, keeps the a
 
 The explorers run through the interface of a learner from outside tavc (a module target,
 `EXPLORER_TARGET`), so their trials are keyed by the digest of all of tavc's Python files
-(`learning.plugins.target_digest`): an edit anywhere measures them again.
+(`learning.plugins.target_digest`): after an edit anywhere, a table measured again runs them
+again. The table itself is measured again when this module's code changes (`explorers_code`).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.learning.parameters import PluginSettings
 from tavc_cli.settings import TavcConfig
+from tavc_cli.settings_studies import EXPLORERS
 from tavc_cli.surrogate.tasks import (
     COLUMNS,
     STAY,
@@ -50,7 +53,6 @@ from tavc_cli.surrogate.tasks import (
     tasks_of,
 )
 
-SWITCHES = ("alternators", "explorers")  # `surrogate.switches`
 EXPLORER_CODE = 12  # enters the seeds of the explorers' trials (the alternators' are 11)
 EXPLORER_TARGET = "tavc_cli.surrogate.explorers.ExplorerPolicy"
 EXPLORER_LABEL = "explorers"
@@ -134,9 +136,12 @@ def explorer_specs(cfg: TavcConfig, teams: Sequence[Team]) -> dict[tuple[str, Ma
 
 def choice_makeups(record: TrialRecord, team: Team) -> tuple[np.ndarray, np.ndarray]:
     """For every delivery of `record` (in its table's order), the make-up at the choice that began
-    its task and its kind: a robot's k-th delivery ends the task of its k-th choice; the make-up
-    counts, by group, the robots whose last choice stays on circuit 0, on circuit 1, and those
-    whose last choice switched (the choices of one instant, the trial's start, counted together)."""
+    its task and its kind, as the surrogate names them when it draws (`engine.SurrogateTrial`): a
+    robot's k-th delivery ends the task of its k-th choice; the make-up counts, by group, the
+    robots whose last choice stays on circuit 0, on circuit 1, and those whose last choice
+    switched. The choices of the trial's start count together (every robot chooses, then the
+    tasks are drawn); every later one in turn, by time and then robot (robots that deliver at one
+    tick choose, and draw, in their index order)."""
     c, d = record.table("choices"), record.table("deliveries")
     groups = list(record.meta["groups"])
     n = len(groups)
@@ -144,9 +149,9 @@ def choice_makeups(record: TrialRecord, team: Team) -> tuple[np.ndarray, np.ndar
     order = np.lexsort((c["robot"], c["t_s"]))
     current = np.full(n, -1)
     switching = np.zeros(n, dtype=bool)
-    named = np.empty(len(order), dtype=object)
-    times = c["t_s"][order]
-    for at in np.split(order, np.flatnonzero(np.diff(times)) + 1) if len(order) else []:
+    named = np.empty(len(c["t_s"]), dtype=object)
+    start = int(np.searchsorted(c["t_s"][order], c["t_s"][order][0], side="right")) if len(order) else 0
+    for at in [order[:start], *np.split(order[start:], np.arange(1, len(order) - start))] if len(order) else []:
         robots = c["robot"][at]
         current[robots] = c["circuit"][at]
         switching[robots] = c["circuit"][at] != c["state"][at]
@@ -160,9 +165,10 @@ def choice_makeups(record: TrialRecord, team: Team) -> tuple[np.ndarray, np.ndar
         chose = order[c["robot"][order] == robot]
         done = np.flatnonzero(d["robot"] == robot)
         done = done[np.argsort(d["t_s"][done], kind="stable")]
-        for i, j in zip(chose, done, strict=False):
-            makeup[j] = named[i]
-            kind[j] = SWITCH if c["circuit"][i] != c["state"][i] else STAY
+        if len(done) > len(chose):
+            raise ValueError(f"robot {robot} delivered {len(done)} tasks after {len(chose)} choices")
+        makeup[done] = named[chose[:len(done)]]
+        kind[done] = np.where(c["circuit"][chose[:len(done)]] != c["state"][chose[:len(done)]], SWITCH, STAY)
     return makeup, kind
 
 
@@ -188,7 +194,7 @@ def with_explorers(alternating: pd.DataFrame, exploring: pd.DataFrame, min_tasks
     filled with at least `min_tasks` tasks taken from theirs (`COLUMNS`, the alternators' rows
     first)."""
     cell = ["team", "makeup", "group", "kind", "circuit"]
-    explored = exploring[exploring["makeup"].map(one_switcher)]
+    explored = exploring[exploring["makeup"].map(one_switcher).astype(bool)]
     sizes = explored.groupby(cell).size()
     taken = sizes[sizes >= min_tasks].index
     if not len(taken):
@@ -199,8 +205,14 @@ def with_explorers(alternating: pd.DataFrame, exploring: pd.DataFrame, min_tasks
 
 
 def explorer_record(cfg: TavcConfig) -> dict:
-    """What `task_times.json` records of the explorers' measurement (with `surrogate.switches=
-    explorers` only: a table of the alternators alone records nothing of them)."""
-    return {"switches": "explorers", "explore_trials": explore_trials(cfg), "explore_epsilon": explore_epsilon(cfg),
-            "explore_min_tasks": int(cfg.surrogate.explore_min_tasks),
-            "explorers_code": meaning_digest(Path(__file__).resolve().parent.parent, ("surrogate/explorers.py",))}
+    """The settings of the explorers' measurement `task_times.json` records (with
+    `surrogate.switches=explorers` only: a table of the alternators alone records nothing of them)."""
+    return {"switches": EXPLORERS, "explore_trials": explore_trials(cfg), "explore_epsilon": explore_epsilon(cfg),
+            "explore_min_tasks": int(cfg.surrogate.explore_min_tasks)}
+
+
+def explorers_code() -> str:
+    """Digest of this module's code (`meaning_digest`), which tabulates and picks the explorers'
+    tasks: recorded beside an explorers' table (`explorers_code`), which is measured again once
+    it changes."""
+    return meaning_digest(Path(__file__).resolve().parent.parent, ("surrogate/explorers.py",))

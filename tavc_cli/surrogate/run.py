@@ -29,8 +29,16 @@ from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_setti
 from tavc_cli.pipeline import CAN_FORK, _finish, take_run_folder
 from tavc_cli.readers import load_json
 from tavc_cli.settings import TavcConfig
+from tavc_cli.settings_studies import ALTERNATORS, EXPLORERS
 from tavc_cli.surrogate.engine import run_trial
-from tavc_cli.surrogate.explorers import explore_trials, explorer_record, explorer_specs, explorer_tasks, with_explorers
+from tavc_cli.surrogate.explorers import (
+    explore_trials,
+    explorer_record,
+    explorer_specs,
+    explorer_tasks,
+    explorers_code,
+    with_explorers,
+)
 from tavc_cli.surrogate.tasks import (
     COLUMNS,
     TaskTimes,
@@ -68,7 +76,7 @@ def measurement_record(cfg: TavcConfig) -> dict:
     settings is not extended or mixed, but refused (`overwrite=true` replaces it)."""
     trials, warmup_s, measure_s = measurement(cfg)
     taken = {"trials_per_makeup": trials, "warmup_s": warmup_s, "measure_s": measure_s, "seed": int(cfg.seed)}
-    if cfg.surrogate.switches == "explorers":  # a table of the alternators alone records nothing of them
+    if cfg.surrogate.switches == EXPLORERS:  # a table of the alternators alone records nothing of them
         taken.update(explorer_record(cfg))
     return {"measurement": taken, "world": {"arena": cfg.arena.name, "robot": _plain(cfg.robot)}}
 
@@ -88,7 +96,7 @@ def measure_tasks(cfg: TavcConfig, teams: list[Team] | None = None, *, progress:
         teams = teams_needed(team, len(cfg.events.breakdowns))
     folder = tasks_dir(cfg)
     plan = measurement_specs(cfg, teams)
-    explorers = explorer_specs(cfg, teams) if cfg.surrogate.switches == "explorers" else {}
+    explorers = explorer_specs(cfg, teams) if cfg.surrogate.switches == EXPLORERS else {}
     trials, warmup_s, measure_s = measurement(cfg)
     record = measurement_record(cfg)
     with claim_folder(folder):
@@ -140,6 +148,7 @@ def write_tasks(folder: Path, table: pd.DataFrame, record: dict, teams: list[Tea
     write_text_atomic(folder / "task_times_summary.csv", task_summary(table).to_csv(index=False, float_format="%.4f"))
     write_text_atomic(folder / "task_times.json", json.dumps(
         {**record, "code_digest": code_digest(), "surrogate_code_digest": surrogate_code_digest(),
+         **({"explorers_code": explorers_code()} if _switches(record) == EXPLORERS else {}),
          "task_times_sha256": hashlib.sha256(data).hexdigest(), "teams": sorted(table["team"].unique().tolist()),
          "makeups": {t.name: len(makeups(t)) for t in teams}}, indent=2))
 
@@ -187,7 +196,10 @@ def _trusted_table(folder: Path, record: dict) -> pd.DataFrame:
                         f"{had} -> {want}); {allow}")
     if not table_path.is_file():
         return pd.DataFrame(columns=list(COLUMNS))  # a record alone (results/ keeps no table): nothing to draw from
-    for key, today in (("code_digest", code_digest()), ("surrogate_code_digest", surrogate_code_digest())):
+    digests = [("code_digest", code_digest()), ("surrogate_code_digest", surrogate_code_digest())]
+    if want == EXPLORERS:
+        digests.append(("explorers_code", explorers_code()))
+    for key, today in digests:
         recorded = kept.get(key)
         if recorded != today:
             said = f"no {key}" if recorded is None else f"another {key} ({recorded}; this tavc's is {today})"
@@ -203,7 +215,7 @@ def _trusted_table(folder: Path, record: dict) -> pd.DataFrame:
 def _switches(record: dict) -> str:
     """How a record's lone switchers were measured (`surrogate.switches`; none recorded: alternators)."""
     measured = record.get("measurement")
-    return str(measured.get("switches", "alternators")) if isinstance(measured, dict) else "alternators"
+    return str(measured.get("switches", ALTERNATORS)) if isinstance(measured, dict) else ALTERNATORS
 
 
 def task_summary(table: pd.DataFrame) -> pd.DataFrame:
