@@ -35,7 +35,7 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged readings-x80 turn-taking-checks team-size-checks small-team-value-checks switch-checks reading-args value-ratio-checks calibrate-readings $(REPRODUCE) clean
+.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged readings-x80 turn-taking-checks team-size-checks small-team-value-checks switch-checks value-ratio-checks calibrate-readings $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -206,21 +206,20 @@ SWITCH_POINTS := dock-nearest-two_circuits_parallel:3:2000 dock-left-two_circuit
 	dock-left-two_circuits_parallel:4:2400 range-left-two_circuits_parallel-calibrated:4:2400 \
 	dock-left-two_circuits_parallel:5:2000
 
-switch-checks: venv ## The turn-taking model both ways, then the learners at 40x, at the points where the two ways of measuring a lone switcher differ (SWITCH_POINTS)
-	for p in $(SWITCH_POINTS); do r=$${p%%:*}; rest=$${p#*:}; n=$${rest%%:*}; w=$${rest#*:}; \
-		args=$$($(MAKE) -s --no-print-directory reading-args READING=$$r); \
-		for s in "" explorers; do \
-			$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$$n "tasks.values=[$$w,2000]" scale=paper \
-				$$args $${s:+surrogate.switches=$$s} output_dir=results/turn_taking/$$r-team_size_$$n-value_ratio_$$w$${s:+-$$s} \
-				|| exit 1; done; done
-	for p in $(SWITCH_POINTS); do r=$${p%%:*}; rest=$${p#*:}; n=$${rest%%:*}; w=$${rest#*:}; \
-		args=$$($(MAKE) -s --no-print-directory reading-args READING=$$r); \
-		$(BIN)/tavc run experiment=$(BASE) scale=converged trials=8 'baselines=[]' $$args team.n_robots=$$n \
-			"tasks.values=[$$w,2000]" executor.batch_size=$(CONVERGED_BATCH) \
-			output_dir=results/team_size/$$r/converged_switches/team_size_$$n-value_ratio_$$w || exit 1; done
+reading_args = $(if $(filter $(CALIBRATED_READING),$(1)),$(RANGE_CALIBRATED),arrival=$(word 1,$(subst -, ,$(1))) \
+	passing=$(word 2,$(subst -, ,$(1))) arena=$(word 3,$(subst -, ,$(1))))
+part = $(word $(2),$(subst :, ,$(1)))
+# $(1) reading, $(2) robots, $(3) w_high, $(4) extra setting, $(5) folder suffix
+switch_predict = $(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$(2) "tasks.values=[$(3),2000]" \
+	scale=paper $(call reading_args,$(1)) $(4) output_dir=results/turn_taking/$(1)-team_size_$(2)-value_ratio_$(3)$(5)
+switch_run = $(BIN)/tavc run experiment=$(BASE) scale=converged trials=8 'baselines=[]' $(call reading_args,$(1)) \
+	team.n_robots=$(2) "tasks.values=[$(3),2000]" executor.batch_size=$(CONVERGED_BATCH) \
+	output_dir=results/team_size/$(1)/converged_switches/team_size_$(2)-value_ratio_$(3)
 
-reading-args: ## The settings a reading's name stands for (READING=...), as the checks pass them
-	@echo $(READING_ARGS)
+switch-checks: venv ## The turn-taking model both ways, then the learners at 40x, at the points where the two ways of measuring a lone switcher differ (SWITCH_POINTS)
+	$(foreach p,$(SWITCH_POINTS),$(call switch_predict,$(call part,$(p),1),$(call part,$(p),2),$(call part,$(p),3),,) && \
+		$(call switch_predict,$(call part,$(p),1),$(call part,$(p),2),$(call part,$(p),3),surrogate.switches=explorers,-explorers) && ) true
+	$(foreach p,$(SWITCH_POINTS),$(call switch_run,$(call part,$(p),1),$(call part,$(p),2),$(call part,$(p),3)) && ) true
 
 # The values of turn-taking-checks (today's world) in a reading: the model into
 # results/turn_taking/<reading>-value_ratio_W/, then the learners at 40x into
