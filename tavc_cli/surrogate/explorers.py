@@ -33,7 +33,6 @@ import pandas as pd
 
 from tavc_cli import meaning_digest
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.build import base_spec
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.learning.parameters import PluginSettings
@@ -47,9 +46,8 @@ from tavc_cli.surrogate.tasks import (
     Team,
     makeup_name,
     makeups,
-    measurement,
+    measurement_specs,
     parse_makeup,
-    roles_of,
     tasks_of,
 )
 
@@ -108,29 +106,23 @@ def stayers_makeups(team: Team) -> list[Makeup]:
 
 
 def explorer_specs(cfg: TavcConfig, teams: Sequence[Team]) -> dict[tuple[str, Makeup], list[TrialSpec]]:
-    """The explorers' static trials: for every allocation of stayers of every team, robots homed
-    there (`ExplorerPolicy`), the measurement's world, window and values of 1."""
-    _, warmup_s, measure_s = measurement(cfg)
+    """The explorers' static trials: for every allocation of stayers of every team, the
+    alternators' measuring trial of that make-up (`tasks.measurement_specs`: the measurement's
+    world, window and values of 1) with its robots homed there (`ExplorerPolicy`), its own label
+    and seeds, `surrogate.explore_trials` of them."""
     trials, epsilon = explore_trials(cfg), explore_epsilon(cfg)
-    base = base_spec(cfg)
-    k = len(cfg.arena.circuits)
+    by_name = {team.name: team for team in teams}
     out = {}
-    for t_index, team in enumerate(teams):
-        for m_index, makeup in enumerate(stayers_makeups(team)):
-            groups, speeds, homes = roles_of(team, makeup)
-            label = "explore_" + makeup_name(team, makeup).replace(" ", "_").replace(":", "-") + f"_n{team.size}"
-            if len(team.groups) > 1:
-                label += f"_t{t_index}"
-            policy = PluginSettings(name=EXPLORER_LABEL, target=EXPLORER_TARGET,
-                                    params={"homes": list(homes), "epsilon": epsilon})
-            out[(team.name, makeup)] = [
-                replace(base, speeds_mps=tuple(speeds), groups=tuple(groups), values=(1.0,) * k,
-                        score_values=(1.0,) * k, policy=policy, controller=label, trial=j,
-                        seed=(int(cfg.seed), EXPLORER_CODE, team.size, t_index, m_index, j),
-                        duration_s=warmup_s + measure_s, warmup_s=0.0, start_s=0.0, deliveries=None, breakdowns=(),
-                        value_changes=(), q_snapshot_every_s=0.0, pose_every_s=0.0)
-                for j in range(trials)
-            ]
+    for (name, makeup), specs in measurement_specs(cfg, teams).items():
+        if any(a for _, _, a in makeup):
+            continue
+        first = specs[0]
+        policy = PluginSettings(name=EXPLORER_LABEL, target=EXPLORER_TARGET,
+                                params={"homes": list(first.policy.roles), "epsilon": epsilon})
+        seed = (int(cfg.seed), EXPLORER_CODE, first.seed[2], first.seed[3],
+                stayers_makeups(by_name[name]).index(makeup))
+        out[(name, makeup)] = [replace(first, policy=policy, controller="explore_" + first.controller.removeprefix(
+            "makeup_"), trial=j, seed=(*seed, j)) for j in range(trials)]
     return out
 
 
