@@ -34,8 +34,8 @@ class SurrogateConfig:
     measure_s: float = 3000.0
     calibration: str = "makeup"    # makeup: by stayers and alternators; stayers: by robots per circuit only
     # a lone switcher's tasks: alternators (a robot that alternates on every task), or explorers
-    # (robots that keep to a home circuit and explore at epsilon; `surrogate.explorers`)
-    switches: str = "alternators"
+    # (robots that keep to a home circuit and explore at epsilon; tavc_cli/surrogate/explorers.py)
+    switches: str = ALTERNATORS
     explore_trials: int = 16       # the explorers' static trials per allocation of stayers (capped by the scale)
     explore_epsilon: Optional[float] = None  # their exploration rate; null: the learner's epsilon
     explore_min_tasks: int = 10    # a cell is drawn from the explorers' tasks where they have at least this many
