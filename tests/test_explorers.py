@@ -10,8 +10,10 @@ import pytest
 
 from tavc_cli import config
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.report.tally import switches_line, switches_of
+from tavc_cli.surrogate import run
 from tavc_cli.surrogate.engine import SurrogateTrial
 from tavc_cli.surrogate.explorers import (
     ExplorerPolicy,
@@ -21,6 +23,7 @@ from tavc_cli.surrogate.explorers import (
     stayers_makeups,
     with_explorers,
 )
+from tavc_cli.surrogate.run import measure_tasks
 from tavc_cli.surrogate.tasks import COLUMNS, STAY, SWITCH, TaskTimes, Team, makeup_name, makeups
 from tavc_cli.vocabulary import ACTIVITIES
 
@@ -83,8 +86,6 @@ def test_the_make_ups_are_those_the_surrogate_draws_from_ties_included():
         "experiment=initial_distribution", "team.n_robots=3", "learner=tavc_egreedy", "learner.epsilon=0.5",
         "baselines=[]", "trials=1", "duration_s=3000", "convergence_s=100", "sim.warmup_s=0",
         "sim.q_snapshot_every_s=0", "scale=paper"]))
-    from tavc_cli.experiments.build import trial_specs
-
     spec = trial_specs(cfg)[0]
     rows = [{"team": TEAM3.name, "makeup": makeup_name(TEAM3, m), "group": "all", "kind": kind, "circuit": c,
              "task_time_s": 100.0, "source_s": 50.0, **{f"{a}_s": 0.0 for a in ACTIVITIES}}
@@ -162,8 +163,6 @@ def test_bad_explorer_settings_are_one_line():
 
 
 def test_the_explorers_change_only_one_switcher_make_ups_and_are_recorded(tmp_path):
-    from tavc_cli.surrogate.run import measure_tasks
-
     def measure(switches: str):
         said: list[str] = []
         cfg = _cfg(f"surrogate.tasks_dir={tmp_path / switches}", f"surrogate.switches={switches}",
@@ -192,9 +191,6 @@ def test_the_explorers_change_only_one_switcher_make_ups_and_are_recorded(tmp_pa
 
 
 def test_an_explorers_table_of_other_code_is_measured_again(tmp_path, monkeypatch):
-    from tavc_cli.surrogate import run
-    from tavc_cli.surrogate.run import measure_tasks
-
     cfg = _cfg(f"surrogate.tasks_dir={tmp_path}", "surrogate.switches=explorers", "surrogate.explore_epsilon=1",
                "surrogate.explore_min_tasks=1", "executor.n_jobs=1")
     said: list[str] = []

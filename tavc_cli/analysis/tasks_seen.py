@@ -27,6 +27,21 @@ STAY, SWITCH = "stay", "switch"
 SEEN_COLUMNS = ["on_0", "kind", "circuit", "n", "task_s", "wait_s", "avoid_s"]
 
 
+def delivered_choices(c: dict, d: dict, n: int) -> np.ndarray:
+    """For every delivery of the table `d` (in its order), the row of the choice in `c` that
+    began its task: a robot's k-th delivery, by time, ends the task of its k-th choice, by time
+    (choices at one time taken in robot order); -1 for a delivery with no choice to pair."""
+    out = np.full(len(d["t_s"]), -1, dtype=np.int64)
+    order = np.lexsort((c["robot"], c["t_s"]))
+    for robot in range(n):
+        chose = order[c["robot"][order] == robot]
+        done = np.flatnonzero(d["robot"] == robot)
+        done = done[np.argsort(d["t_s"][done], kind="stable")]
+        k = min(len(chose), len(done))
+        out[done[:k]] = chose[:k]
+    return out
+
+
 def task_rows(rec: TrialRecord, from_share: float = 0.5) -> pd.DataFrame:
     """One row per task delivered from `from_share` of the trial on: `on_0`, `kind`, `circuit`,
     and its task time, waiting and avoiding. A robot's k-th delivery ends the task of its k-th
@@ -46,18 +61,16 @@ def task_rows(rec: TrialRecord, from_share: float = 0.5) -> pd.DataFrame:
         current[c["robot"][at]] = c["circuit"][at]  # the choices of one instant (the start) together
         on_0[at] = int(((current == 0) & (down > float(c["t_s"][at[0]]))).sum())
     start = rec.start_s + from_share * (rec.end_s - rec.start_s)
+    choice = delivered_choices(c, d, n)
     rows = []
-    for robot in range(n):
-        chose = order[c["robot"][order] == robot]
-        done = np.flatnonzero(d["robot"] == robot)
-        done = done[np.argsort(d["t_s"][done], kind="stable")]
-        for i, j in zip(chose, done, strict=False):
-            if d["t_s"][j] < start:
-                continue
-            circuit = int(c["circuit"][i])
-            rows.append((int(on_0[i]), STAY if int(c["state"][i]) == circuit else SWITCH, circuit,
-                         float(d["task_time_s"][j]), float(d["wait_s"][j]) if "wait_s" in d else np.nan,
-                         float(d["avoid_s"][j]) if "avoid_s" in d else np.nan))
+    for j in np.lexsort((d["t_s"], d["robot"])):  # robot by robot, each in time order
+        i = choice[j]
+        if i < 0 or d["t_s"][j] < start:
+            continue
+        circuit = int(c["circuit"][i])
+        rows.append((int(on_0[i]), STAY if int(c["state"][i]) == circuit else SWITCH, circuit,
+                     float(d["task_time_s"][j]), float(d["wait_s"][j]) if "wait_s" in d else np.nan,
+                     float(d["avoid_s"][j]) if "avoid_s" in d else np.nan))
     return pd.DataFrame(rows, columns=["on_0", "kind", "circuit", "task_s", "wait_s", "avoid_s"])
 
 

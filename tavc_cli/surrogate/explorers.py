@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli import meaning_digest
+from tavc_cli.analysis.tasks_seen import delivered_choices
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
@@ -151,16 +152,11 @@ def choice_makeups(record: TrialRecord, team: Team) -> tuple[np.ndarray, np.ndar
         for i in np.flatnonzero(current >= 0):
             counts[index[groups[i]]][2 if switching[i] else int(current[i])] += 1
         named[at] = makeup_name(team, tuple(tuple(x) for x in counts))
-    makeup = np.empty(len(d["t_s"]), dtype=object)
-    kind = np.empty(len(d["t_s"]), dtype=object)
-    for robot in range(n):
-        chose = order[c["robot"][order] == robot]
-        done = np.flatnonzero(d["robot"] == robot)
-        done = done[np.argsort(d["t_s"][done], kind="stable")]
-        if len(done) > len(chose):
-            raise ValueError(f"robot {robot} delivered {len(done)} tasks after {len(chose)} choices")
-        makeup[done] = named[chose[:len(done)]]
-        kind[done] = np.where(c["circuit"][chose[:len(done)]] != c["state"][chose[:len(done)]], SWITCH, STAY)
+    choice = delivered_choices(c, d, n)
+    if (choice < 0).any():
+        raise ValueError(f"{int((choice < 0).sum())} deliveries after every choice of their robot")
+    makeup = named[choice]
+    kind = np.where(c["circuit"][choice] != c["state"][choice], SWITCH, STAY).astype(object)
     return makeup, kind
 
 
