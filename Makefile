@@ -221,6 +221,23 @@ switch-checks: venv ## The turn-taking model both ways, then the learners at 40x
 		$(call switch_predict,$(call part,$(p),1),$(call part,$(p),2),$(call part,$(p),3),surrogate.switches=explorers,-explorers) && ) true
 	$(foreach p,$(SWITCH_POINTS),$(call switch_run,$(call part,$(p),1),$(call part,$(p),2),$(call part,$(p),3)) && ) true
 
+# The third grid of docs/readings.md: teams of 3 to 6 at 2600 against 2000, with the chapter's 20 trials so that
+# the learners' trials name their modal state more firmly than eight do; both predictions (the explorers' is the
+# model's since the second grid), then the learners at 40x into results/team_size/<reading>/converged_firm/
+FIRM_TEAMS := 3,4,5,6
+FIRM_VALUE := 2600
+FIRM_TRIALS := 20
+
+firm-checks: venv ## The turn-taking model both ways at teams of 3 to 6 and 2600 against 2000, then the learners at 40x with 20 trials there; READING as for team-size-checks
+	for n in $(subst $(comma), ,$(FIRM_TEAMS)); do for s in "" explorers; do \
+		$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$$n "tasks.values=[$(FIRM_VALUE),2000]" \
+			scale=paper $(READING_ARGS) $${s:+surrogate.switches=$$s} \
+			output_dir=results/turn_taking/$(if $(READING),$(READING)-)team_size_$$n-value_ratio_$(FIRM_VALUE)$${s:+-$$s} \
+			|| exit 1; done; done
+	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=$(FIRM_TRIALS) 'baselines=[]' $(READING_ARGS) \
+		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(FIRM_TEAMS) "tasks.values=[$(FIRM_VALUE),2000]" \
+		output_dir=results/team_size/$(if $(READING),$(READING)/)converged_firm
+
 # The values of turn-taking-checks (today's world) in a reading: the model into
 # results/turn_taking/<reading>-value_ratio_W/, then the learners at 40x into
 # results/value_ratio/<reading>/converged/ (the base case's 2200/2000 is the reading's own 40x run)
