@@ -230,6 +230,49 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
         row("3:2", **alternators)
 
 
+def test_a_post_hoc_prediction_stands_beside_its_scenarios_run_and_is_tallied_apart_from_every_check(tmp_path):
+    """A prediction folder named after its scenario with the way's and post hoc's suffixes
+    (`breakdown-explorers-post_hoc`) is set beside the scenario's own run, marked as no check; the
+    checks' tally counts only the prediction made before (`breakdown`: 3:2, the learners' modal
+    state, 1 of 1), and a line of its own counts the post hoc one (2:3, a miss: 0 of 1) beside
+    the model as it is at the same run (1 of 1)."""
+    import shutil
+
+    from tavc_cli.report.studies import turn_taking_check_lines
+    from tavc_cli.report.tally import base_name
+    from tests.helpers import REPO
+
+    assert base_name("team_size_3-explorers-post_hoc") == base_name("team_size_3-explorers") == "team_size_3"
+    assert base_name("team_size_3-post_hoc") == "team_size_3" and base_name("post_hoc-x") == "post_hoc-x"
+    run = REPO / "results" / "converged" / "breakdown"
+    if not (run / "mechanism.csv").is_file():
+        pytest.skip("the committed 40x runs are not here")
+    (tmp_path / "converged" / "breakdown").mkdir(parents=True)
+    for name in ("config.yaml", "mechanism.csv", "allocation.csv", "state_time.csv", "convergence.csv"):
+        shutil.copy(run / name, tmp_path / "converged" / "breakdown" / name)
+    for name, modal, more in (("breakdown", "3:2", {}), ("breakdown-explorers-post_hoc", "2:3",
+                                                          {"switches": "explorers"})):
+        where = tmp_path / "turn_taking" / name / "turn_taking"
+        where.mkdir(parents=True)
+        (where / "turn_taking.json").write_text(json.dumps({"regime": "turn-taking", "robots_high": 2.5,
+                                                            "modal_state": modal, "modal_share_pct": 40.0, **more}))
+    text = turn_taking_check_lines(tmp_path)
+    rows = {x.split("|")[1].strip(): [c.strip() for c in x.strip("|").split("|")] for x in text
+            if x.startswith("| breakdown")}
+    assert set(rows) == {"breakdown", "breakdown-explorers-post_hoc"}
+    assert rows["breakdown"][5] == "yes; yes"
+    assert rows["breakdown-explorers-post_hoc"][1] == "`converged/breakdown` (20 trials)"
+    assert rows["breakdown-explorers-post_hoc"][5] == "yes; **no** (the learners: 42.0 % in 2:3) (post hoc: not a " \
+                                                      "check)"
+    assert "Where the learners converged (1 run): the turn-taking model names their modal state in 1 of 1 and " \
+           "their regime in 1." in text
+    assert text[-1].startswith("Made after the learners' runs beside them were read (predictions `*-post_hoc`")
+    assert text[-1].endswith("where the learners converged (1 run): the turn-taking model names their modal state "
+                             "in 0 of 1 and their regime in 1; the model as it is, at 1 of the same runs, their "
+                             "modal state in 1 and their regime in 1.")
+    assert not [x for x in text if x.startswith("With lone switchers measured from explorers")]
+
+
 def test_a_prediction_finds_its_learners_among_a_readings_experiments(tmp_path):
     """A reading's folder at 40x that holds the chapter's experiments, as `tavc reproduce
     --results` writes them, rather than being one run: the prediction named after the reading is

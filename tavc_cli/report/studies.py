@@ -21,7 +21,10 @@ from tavc_cli.report import files
 from tavc_cli.report.files import config_of, horizon_folders, model_learners, natural, read_or_refuse, run_in
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.tally import (
+    POST_HOC,
+    base_name,
     model_support,
+    post_hoc_line,
     support_of,
     switches_line,
     switches_of,
@@ -199,22 +202,24 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                 if all((d / f"{t}.csv").is_file() for t in ("mechanism", "state_time"))]
         if not runs:
             continue
-        state, switches = str(predicted["modal_state"]), switches_of(predicted)
+        state, switches, post_hoc = str(predicted["modal_state"]), switches_of(predicted), name.endswith(POST_HOC)
         words = _prediction_words(predicted, model_support(path.parent, predicted))  # once for all its runs
         for d in runs:
             learners = _learners(d)
             support = support_of(learners, state)
             same = f"{_same(predicted['regime'], learners['regime'])}; " \
-                   f"{_same_state(state, learners, support)}{learners['no_check']}"
+                   f"{_same_state(state, learners, support)}{learners['no_check']}" + \
+                   (" (post hoc: not a check)" if post_hoc and not learners["no_check"] else "")
             own = files.seed_for_seed_cell(model_learners(path.parent, predicted), d)
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
                         f"{learners['converged']} | {learners['words']} | {words} | {same} | {own} |")
-            tallies.append({"check": not learners["no_check"], "switches": switches, "run": d,
+            tallies.append({"check": not learners["no_check"], "switches": switches, "run": d, "post_hoc": post_hoc,
                             **turn_tally(str(predicted["regime"]), state, support, learners)})
     if not rows:
         return []
-    main = [t for t in tallies if t["switches"] != EXPLORERS]
-    explored = [t for t in tallies if t["switches"] == EXPLORERS]
+    post = [t for t in tallies if t["post_hoc"]]
+    main = [t for t in tallies if t["switches"] != EXPLORERS and not t["post_hoc"]]
+    explored = [t for t in tallies if t["switches"] == EXPLORERS and not t["post_hoc"]]
     return ["", "The turn-taking model at the chapter's other scenarios and at other values in today's world (`make "
             f"turn-taking-checks`: `tavc model --turn-taking ... scale=paper`, into `{TURN_TAKING_RUNS}/<name>/`), and "
             "in the readings of the world (as configured or as calibrated), beside the learners' runs at the longer "
@@ -229,14 +234,19 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                 if (results_dir / TEAM_SIZE_DIR).is_dir()
                 else "") + (" Predictions whose folder ends in `-explorers` draw a lone switcher's tasks from robots "
                             "that stay and explore (`surrogate.switches=explorers`, docs/surrogate.md); they are "
-                            "tallied apart." if explored else ""), "",
+                            "tallied apart." if explored else "") + (
+                f" Predictions whose folder ends in `{POST_HOC}` were made after the learners' runs beside them were "
+                "read, by a way of the model built after those runs: diagnostics, tallied apart from every check."
+                if post else ""), "",
             "| prediction | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
             "model | the same regime; modal state | the model's learners and these, seed for seed |",
-            "|---|---|---|---|---|---|---|", *rows, *tally_line(main), *switches_line(explored, main)]
+            "|---|---|---|---|---|---|---|", *rows, *tally_line(main), *switches_line(explored, main),
+            *post_hoc_line(post, main)]
 
 
 def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path) -> list[Path]:
-    """The learners' runs a prediction named `name` (its folder `where`) is for, each once:
+    """The learners' runs a prediction named `name` (its folder `where`) is for, each once, where
+    `<name>` is the prediction's name without its way's and post hoc's suffixes (`tally.base_name`):
     `<horizon>/<name>` and `<horizon>/readings/<name>` (a world of its own, e.g. a reading as
     calibrated; `files.run_in`) at every longer horizon; and every run of a sweep (`SWEEPS`) or
     in a reading (`<horizon>/readings/`) at scale=converged of the prediction's experiment in the
@@ -244,6 +254,7 @@ def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path) -
     own_dir = model_learners(where, predicted)
     own_path = own_dir / "config.yaml" if own_dir is not None else None
     own = read_or_refuse(own_path, config_of) if own_path is not None and own_path.is_file() else None
+    name = base_name(name)
     runs = [run_in(d, own.experiment_name if own else base_case().name) for h in horizon_folders(results_dir)
             for d in (h / name, h / READINGS_RUNS / name)]
     if own is None:

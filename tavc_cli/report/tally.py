@@ -14,6 +14,17 @@ from tavc_cli.analysis.turn_taking import ALTERNATOR, FIRM, modal_support
 from tavc_cli.report.files import model_alternators, read_or_refuse
 from tavc_cli.settings_studies import ALTERNATORS
 
+# a prediction whose folder ends so was made after the learners' runs beside it were read, by a way of the
+# model built after them: the report sets it beside those runs and tallies it apart from every check
+POST_HOC = "-post_hoc"
+EXPLORED = "-explorers"  # a prediction whose lone switchers were measured from explorers, beside the same name
+
+
+def base_name(prediction: str) -> str:
+    """The name of the scenario a prediction's folder is for: without the suffixes that name a way
+    of the model (`EXPLORED`) or a prediction made after its runs were read (`POST_HOC`)."""
+    return prediction.removesuffix(POST_HOC).removesuffix(EXPLORED)
+
 
 def turn_tally(regime: str, state: str, support: float, learners: dict) -> dict:
     """What `tally_line` counts of one prediction of the turn-taking model (its regime, its modal
@@ -84,12 +95,25 @@ def switches_of(predicted: dict) -> str:
 def switches_line(explored: list[dict], main: list[dict]) -> list[str]:
     """The tally of the predictions whose lone switchers were measured from explorers
     (`switches_of`), beside the model as it is at the same learners' runs (each tally's `run`)."""
-    if not explored:
+    return beside_line("With lone switchers measured from explorers (`surrogate.switches=explorers`, predictions "
+                       "`*-explorers`)", explored, main)
+
+
+def post_hoc_line(post: list[dict], main: list[dict]) -> list[str]:
+    """The tally of the predictions made after the learners' runs beside them were read (folders
+    ending in `POST_HOC`), beside the model as it is at the same runs: diagnostics, never checks."""
+    return beside_line(f"Made after the learners' runs beside them were read (predictions `*{POST_HOC}`, by a way of "
+                       "the model built after those runs were read: diagnostics, not checks)", post, main)
+
+
+def beside_line(lead: str, these: list[dict], main: list[dict]) -> list[str]:
+    """Over the rows of `these` whose learners converged, in how many the turn-taking model names
+    the learners' modal state and regime; beside it, the same counts of `main` at the same runs."""
+    if not these:
         return []
-    lead = "With lone switchers measured from explorers (`surrogate.switches=explorers`, predictions `*-explorers`)"
-    checks = [t for t in explored if t["check"]]
+    checks = [t for t in these if t["check"]]
     if not checks:
-        return ["", f"{lead}: no run beside them converged ({len(explored)} in all)."]
+        return ["", f"{lead}: no run beside them converged ({len(these)} in all)."]
     same = {t["run"]: t for t in main if t["check"]}
     paired = [same[t["run"]] for t in checks if t["run"] in same]
     runs = f"{len(checks)} run" + ("s" if len(checks) != 1 else "")
