@@ -21,6 +21,7 @@ from tavc_cli.report import files
 from tavc_cli.report.files import config_of, horizon_folders, model_learners, natural, read_or_refuse, run_in
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.tally import (
+    EXPLORED,
     POST_HOC,
     base_name,
     model_support,
@@ -232,7 +233,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                 f" At other team sizes, `make team-size-checks` predicts (`{TURN_TAKING_RUNS}/team_size_<n>/`; in a "
                 f"reading `<reading>-team_size_<n>/`) and then runs the learners at 40x (`{TEAM_SIZE_DIR}/`)."
                 if (results_dir / TEAM_SIZE_DIR).is_dir()
-                else "") + (" Predictions whose folder ends in `-explorers` draw a lone switcher's tasks from robots "
+                else "") + (f" Predictions whose folder ends in `{EXPLORED}` draw a lone switcher's tasks from robots "
                             "that stay and explore (`surrogate.switches=explorers`, docs/surrogate.md); they are "
                             "tallied apart." if explored else "") + (
                 f" Predictions whose folder ends in `{POST_HOC}` were made after the learners' runs beside them were "

@@ -96,7 +96,7 @@ def switches_line(explored: list[dict], main: list[dict]) -> list[str]:
     """The tally of the predictions whose lone switchers were measured from explorers
     (`switches_of`), beside the model as it is at the same learners' runs (each tally's `run`)."""
     return beside_line("With lone switchers measured from explorers (`surrogate.switches=explorers`, predictions "
-                       "`*-explorers`)", explored, main)
+                       f"`*{EXPLORED}`)", explored, main)
 
 
 def post_hoc_line(post: list[dict], main: list[dict]) -> list[str]:
