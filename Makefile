@@ -35,7 +35,7 @@ LADDER ?= 1,4,10,20,40
 # cores, and a killed run loses less (batching changes speed, never numbers)
 CONVERGED_BATCH ?= 2
 
-.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged readings-x80 turn-taking-checks team-size-checks small-team-value-checks switch-checks value-ratio-checks calibrate-readings $(REPRODUCE) clean
+.PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged readings-x80 turn-taking-checks team-size-checks small-team-value-checks switch-checks firm-checks transition-predictions transition-runs transition-checks value-ratio-checks calibrate-readings $(REPRODUCE) clean
 
 help: ## List the targets
 	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
@@ -237,6 +237,28 @@ firm-checks: venv ## The turn-taking model both ways at teams of 3 to 6 and 2600
 	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=$(FIRM_TRIALS) 'baselines=[]' $(READING_ARGS) \
 		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(FIRM_TEAMS) "tasks.values=[$(FIRM_VALUE),2000]" \
 		output_dir=results/team_size/$(if $(READING),$(READING)/)converged_firm
+
+# The fourth grid of docs/readings.md: three robots between the values where the learners of the parallel dock
+# readings held 2:1 (2200, team-size-checks) and 3:0 (2600, firm-checks), with the chapter's 20 trials; both
+# predictions (transition-predictions, committed before the runs), then the learners at 40x into
+# results/team_size/<reading>/converged_transition/ (transition-runs)
+TRANSITION_TEAM := 3
+TRANSITION_VALUES := 2300 2400 2500
+TRANSITION_TRIALS := 20
+
+transition-predictions: venv ## The turn-taking model both ways for TRANSITION_TEAM robots at TRANSITION_VALUES against 2000; READING as for team-size-checks
+	for w in $(TRANSITION_VALUES); do for s in "" explorers; do \
+		$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$(TRANSITION_TEAM) "tasks.values=[$$w,2000]" \
+			scale=paper $(READING_ARGS) $${s:+surrogate.switches=$$s} output_dir=results/turn_taking/$(if \
+			$(READING),$(READING)-)team_size_$(TRANSITION_TEAM)-value_ratio_$$w$${s:+-$$s} || exit 1; done; done
+
+transition-runs: venv ## The learners at 40x with TRANSITION_TRIALS trials for TRANSITION_TEAM robots at TRANSITION_VALUES against 2000; READING as for team-size-checks
+	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=$(TRANSITION_TRIALS) 'baselines=[]' $(READING_ARGS) \
+		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(TRANSITION_TEAM) \
+		'tasks.values=$(subst $(space),$(comma),$(foreach w,$(TRANSITION_VALUES),[$(w),2000]))' \
+		output_dir=results/team_size/$(if $(READING),$(READING)/)converged_transition
+
+transition-checks: transition-predictions transition-runs ## Both, in that order
 
 # The values of turn-taking-checks (today's world) in a reading: the model into
 # results/turn_taking/<reading>-value_ratio_W/, then the learners at 40x into
