@@ -172,13 +172,24 @@ READING_ARGS = $(if $(READING),$(if $(READING_ERROR),$(error $(READING_ERROR)),$
 	$(READING)),$(RANGE_CALIBRATED),arrival=$(word 1,$(READING_PARTS)) passing=$(word 2,$(READING_PARTS)) \
 	arena=$(word 3,$(READING_PARTS)))))
 
+# The learners at 40x without baselines in READING (today's world if left out), $(1) trials each; the caller adds the
+# team, the values and the output folder
+run_converged = $(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=$(1) 'baselines=[]' $(READING_ARGS) \
+	executor.batch_size=$(CONVERGED_BATCH)
+# The turn-taking model both ways of measuring a lone switcher, for $(1) robots at $(2) against 2000 in READING:
+# today's way into results/turn_taking/[<reading>-]team_size_N-value_ratio_W/, the explorers' into the same name
+# with -explorers (a shell loop's body: it exits at the first failure)
+predict_both_ways = for s in "" explorers; do $(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$(1) \
+	"tasks.values=[$(2),2000]" scale=paper $(READING_ARGS) $${s:+surrogate.switches=$$s} \
+	output_dir=results/turn_taking/$(if $(READING),$(READING)-)team_size_$(1)-value_ratio_$(2)$${s:+-$$s} || exit 1; done
+# Values $(1) (space-separated) against 2000 as one multirun setting
+values_against_2000 = 'tasks.values=$(subst $(space),$(comma),$(foreach w,$(1),[$(w),2000]))'
+
 team-size-checks: venv ## The turn-taking model at team sizes 2-10 (results/turn_taking/team_size_N/), then the learners at 40x there (results/team_size/converged/); READING=<arrival>-<passing>-<arena> (or range-left-two_circuits_parallel-calibrated) for a reading
 	for n in $(subst $(comma), ,$(TEAM_SIZES)); do \
 		$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$$n scale=paper $(READING_ARGS) \
 			output_dir=results/turn_taking/$(if $(READING),$(READING)-)team_size_$$n || exit 1; done
-	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' $(READING_ARGS) \
-		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(TEAM_SIZES) \
-		output_dir=results/team_size/$(if $(READING),$(READING)/)converged
+	$(call run_converged,8) team.n_robots=$(TEAM_SIZES) output_dir=results/team_size/$(if $(READING),$(READING)/)converged
 
 # Small teams at other values (docs/readings.md): the turn-taking model's predictions with both ways of
 # measuring a lone switcher (the default's into results/turn_taking/<reading>-team_size_N-value_ratio_W/,
@@ -189,14 +200,8 @@ SMALL_TEAM_VALUES := 3000 4000
 
 small-team-value-checks: venv ## The turn-taking model, both ways of measuring a lone switcher, at teams of 3 and 4 and the values 3000 and 4000 against 2000, then the learners at 40x there; READING as for team-size-checks
 	for n in $(subst $(comma), ,$(SMALL_TEAMS)); do for w in $(SMALL_TEAM_VALUES); do \
-		for s in "" explorers; do \
-			$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$$n "tasks.values=[$$w,2000]" scale=paper \
-				$(READING_ARGS) $${s:+surrogate.switches=$$s} \
-				output_dir=results/turn_taking/$(if $(READING),$(READING)-)team_size_$$n-value_ratio_$$w$${s:+-$$s} \
-				|| exit 1; done; done; done
-	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' $(READING_ARGS) \
-		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(SMALL_TEAMS) \
-		'tasks.values=$(subst $(space),$(comma),$(foreach w,$(SMALL_TEAM_VALUES),[$(w),2000]))' \
+		$(call predict_both_ways,$$n,$$w); done; done
+	$(call run_converged,8) team.n_robots=$(SMALL_TEAMS) $(call values_against_2000,$(SMALL_TEAM_VALUES)) \
 		output_dir=results/team_size/$(if $(READING),$(READING)/)converged_values
 
 # The second grid of docs/readings.md: the points where the two ways of measuring a lone switcher name
@@ -229,13 +234,8 @@ FIRM_VALUE := 2600
 FIRM_TRIALS := 20
 
 firm-checks: venv ## The turn-taking model both ways at teams of 3 to 6 and 2600 against 2000, then the learners at 40x with 20 trials there; READING as for team-size-checks
-	for n in $(subst $(comma), ,$(FIRM_TEAMS)); do for s in "" explorers; do \
-		$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$$n "tasks.values=[$(FIRM_VALUE),2000]" \
-			scale=paper $(READING_ARGS) $${s:+surrogate.switches=$$s} \
-			output_dir=results/turn_taking/$(if $(READING),$(READING)-)team_size_$$n-value_ratio_$(FIRM_VALUE)$${s:+-$$s} \
-			|| exit 1; done; done
-	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=$(FIRM_TRIALS) 'baselines=[]' $(READING_ARGS) \
-		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(FIRM_TEAMS) "tasks.values=[$(FIRM_VALUE),2000]" \
+	for n in $(subst $(comma), ,$(FIRM_TEAMS)); do $(call predict_both_ways,$$n,$(FIRM_VALUE)); done
+	$(call run_converged,$(FIRM_TRIALS)) team.n_robots=$(FIRM_TEAMS) "tasks.values=[$(FIRM_VALUE),2000]" \
 		output_dir=results/team_size/$(if $(READING),$(READING)/)converged_firm
 
 # The fourth grid of docs/readings.md: three robots between the values where the learners of the parallel dock
@@ -247,18 +247,13 @@ TRANSITION_VALUES := 2300 2400 2500
 TRANSITION_TRIALS := 20
 
 transition-predictions: venv ## The turn-taking model both ways for TRANSITION_TEAM robots at TRANSITION_VALUES against 2000; READING as for team-size-checks
-	for w in $(TRANSITION_VALUES); do for s in "" explorers; do \
-		$(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$(TRANSITION_TEAM) "tasks.values=[$$w,2000]" \
-			scale=paper $(READING_ARGS) $${s:+surrogate.switches=$$s} output_dir=results/turn_taking/$(if \
-			$(READING),$(READING)-)team_size_$(TRANSITION_TEAM)-value_ratio_$$w$${s:+-$$s} || exit 1; done; done
+	for w in $(TRANSITION_VALUES); do $(call predict_both_ways,$(TRANSITION_TEAM),$$w); done
 
 transition-runs: venv ## The learners at 40x with TRANSITION_TRIALS trials for TRANSITION_TEAM robots at TRANSITION_VALUES against 2000; READING as for team-size-checks
-	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=$(TRANSITION_TRIALS) 'baselines=[]' $(READING_ARGS) \
-		executor.batch_size=$(CONVERGED_BATCH) team.n_robots=$(TRANSITION_TEAM) \
-		'tasks.values=$(subst $(space),$(comma),$(foreach w,$(TRANSITION_VALUES),[$(w),2000]))' \
-		output_dir=results/team_size/$(if $(READING),$(READING)/)converged_transition
+	$(call run_converged,$(TRANSITION_TRIALS)) team.n_robots=$(TRANSITION_TEAM) $(call \
+		values_against_2000,$(TRANSITION_VALUES)) output_dir=results/team_size/$(if $(READING),$(READING)/)converged_transition
 
-transition-checks: transition-predictions transition-runs ## Both, in that order
+transition-checks: transition-predictions transition-runs ## The fourth grid of docs/readings.md: transition-predictions, then transition-runs
 
 # The values of turn-taking-checks (today's world) in a reading: the model into
 # results/turn_taking/<reading>-value_ratio_W/, then the learners at 40x into
@@ -270,10 +265,7 @@ value-ratio-checks: venv ## The turn-taking model at other values in a reading (
 	for w in $(VALUE_RATIO_CHECKS); do \
 		$(BIN)/tavc model --turn-taking experiment=$(BASE) "tasks.values=[$$w,2000]" scale=paper $(READING_ARGS) \
 			output_dir=results/turn_taking/$(READING)-value_ratio_$$w || exit 1; done
-	$(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=8 'baselines=[]' $(READING_ARGS) \
-		executor.batch_size=$(CONVERGED_BATCH) \
-		'tasks.values=$(subst $(space),$(comma),$(foreach w,$(VALUE_RATIO_CHECKS),[$(w),2000]))' \
-		output_dir=results/value_ratio/$(READING)/converged
+	$(call run_converged,8) $(call values_against_2000,$(VALUE_RATIO_CHECKS)) output_dir=results/value_ratio/$(READING)/converged
 
 # The readings of the world besides today's (docs/readings.md), arrival-passing-arena, and the grid each
 # is calibrated on: a dock reading on today's (conf/config.yaml, calibration.grid), a range reading on its own
