@@ -241,17 +241,19 @@ firm-checks: venv ## The turn-taking model both ways at teams of 3 to 6 and 2600
 # The fourth grid of docs/readings.md: three robots between the values where the learners of the parallel dock
 # readings held 2:1 (2200, team-size-checks) and 3:0 (2600, firm-checks), with the chapter's 20 trials; both
 # predictions (transition-predictions, committed before the runs), then the learners at 40x into
-# results/team_size/<reading>/converged_transition/ (transition-runs)
+# results/team_size/<reading>/converged_transition/ (transition-runs); the fifth grid is the same at 2100
+# (TRANSITION_VALUES=2100 TRANSITION_RUNS=converged_transition_2100)
 TRANSITION_TEAM := 3
 TRANSITION_VALUES := 2300 2400 2500
 TRANSITION_TRIALS := 20
+TRANSITION_RUNS := converged_transition
 
 transition-predictions: venv ## The turn-taking model both ways for TRANSITION_TEAM robots at TRANSITION_VALUES against 2000; READING as for team-size-checks
 	for w in $(TRANSITION_VALUES); do $(call predict_both_ways,$(TRANSITION_TEAM),$$w); done
 
 transition-runs: venv ## The learners at 40x with TRANSITION_TRIALS trials for TRANSITION_TEAM robots at TRANSITION_VALUES against 2000; READING as for team-size-checks
 	$(call run_converged,$(TRANSITION_TRIALS)) team.n_robots=$(TRANSITION_TEAM) $(call \
-		values_against_2000,$(TRANSITION_VALUES)) output_dir=results/team_size/$(if $(READING),$(READING)/)converged_transition
+		values_against_2000,$(TRANSITION_VALUES)) output_dir=results/team_size/$(if $(READING),$(READING)/)$(TRANSITION_RUNS)
 
 transition-checks: transition-predictions transition-runs ## The fourth grid of docs/readings.md: transition-predictions, then transition-runs
 
