@@ -255,7 +255,9 @@ transition-runs: venv ## The learners at 40x with TRANSITION_TRIALS trials for T
 	$(call run_converged,$(TRANSITION_TRIALS)) team.n_robots=$(TRANSITION_TEAM) $(call \
 		values_against_2000,$(TRANSITION_VALUES)) output_dir=results/team_size/$(if $(READING),$(READING)/)$(TRANSITION_RUNS)
 
-transition-checks: transition-predictions transition-runs ## The fourth grid of docs/readings.md: transition-predictions, then transition-runs
+transition-checks: venv ## The fourth grid of docs/readings.md: transition-predictions, then transition-runs (in that order, also under -j)
+	$(MAKE) transition-predictions
+	$(MAKE) transition-runs
 
 # The values of turn-taking-checks (today's world) in a reading: the model into
 # results/turn_taking/<reading>-value_ratio_W/, then the learners at 40x into
