@@ -163,25 +163,28 @@ turn-taking-checks: venv ## The turn-taking model beside the chapter's at the ch
 # the learners into results/team_size/<reading>/converged/.
 TEAM_SIZES := 2,3,4,5,7,8,9,10
 READING :=
-READING_PARTS = $(subst -, ,$(READING))
 OTHER_READINGS = $(shell $(BIN)/python -c "from tavc_cli.analysis.stay_switch import reading_folder, readings; \
 	print(' '.join(reading_folder(r) for r in readings()[1:]))") $(CALIBRATED_READING)
 READING_ERROR = $(if $(and $(filter 1,$(words x$(READING)x)),$(filter $(OTHER_READINGS),$(READING))),,READING=$(READING) \
 	is not one of the readings besides today's world ($(OTHER_READINGS)); leave READING out for today's world)
-READING_ARGS = $(if $(READING),$(if $(READING_ERROR),$(error $(READING_ERROR)),$(if $(filter $(CALIBRATED_READING),\
-	$(READING)),$(RANGE_CALIBRATED),arrival=$(word 1,$(READING_PARTS)) passing=$(word 2,$(READING_PARTS)) \
-	arena=$(word 3,$(READING_PARTS)))))
+# The settings of the reading named $(1) (a folder name as READING's)
+reading_args = $(if $(filter $(CALIBRATED_READING),$(1)),$(RANGE_CALIBRATED),arrival=$(word 1,$(subst -, ,$(1))) \
+	passing=$(word 2,$(subst -, ,$(1))) arena=$(word 3,$(subst -, ,$(1))))
+READING_ARGS = $(if $(READING),$(if $(READING_ERROR),$(error $(READING_ERROR)),$(call reading_args,$(READING))))
 
-# The learners at 40x without baselines in READING (today's world if left out), $(1) trials each; the caller adds the
-# team, the values and the output folder
-run_converged = $(BIN)/tavc run -m experiment=$(BASE) scale=converged trials=$(1) 'baselines=[]' $(READING_ARGS) \
-	executor.batch_size=$(CONVERGED_BATCH)
-# The turn-taking model both ways of measuring a lone switcher, for $(1) robots at $(2) against 2000 in READING:
-# today's way into results/turn_taking/[<reading>-]team_size_N-value_ratio_W/, the explorers' into the same name
-# with -explorers (a shell loop's body: it exits at the first failure)
-predict_both_ways = for s in "" explorers; do $(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$(1) \
-	"tasks.values=[$(2),2000]" scale=paper $(READING_ARGS) $${s:+surrogate.switches=$$s} \
-	output_dir=results/turn_taking/$(if $(READING),$(READING)-)team_size_$(1)-value_ratio_$(2)$${s:+-$$s} || exit 1; done
+# The learners at 40x without baselines, $(1) trials each, in the reading whose settings are $(2)
+learners_40x = experiment=$(BASE) scale=converged trials=$(1) 'baselines=[]' $(2)
+# The learners at 40x without baselines in READING (today's world if left out), $(1) trials each, as a sweep; the
+# caller adds the team, the values and the output folder
+run_converged = $(BIN)/tavc run -m $(call learners_40x,$(1),$(READING_ARGS)) executor.batch_size=$(CONVERGED_BATCH)
+# The turn-taking model both ways of measuring a lone switcher, for $(1) robots at $(2) against 2000 in the reading
+# named $(3) (today's world if empty): today's way into results/turn_taking/[<reading>-]team_size_N-value_ratio_W/,
+# the explorers' into the same name with -explorers (a shell loop: it exits at the first failure)
+predict_both_ways_in = for s in "" explorers; do $(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$(1) \
+	"tasks.values=[$(2),2000]" scale=paper $(if $(3),$(call reading_args,$(3))) $${s:+surrogate.switches=$$s} \
+	output_dir=results/turn_taking/$(if $(3),$(3)-)team_size_$(1)-value_ratio_$(2)$${s:+-$$s} || exit 1; done
+# The same in READING, checked
+predict_both_ways = $(if $(READING_ARGS),)$(call predict_both_ways_in,$(1),$(2),$(READING))
 # Values $(1) (space-separated) against 2000 as one multirun setting
 values_against_2000 = 'tasks.values=$(subst $(space),$(comma),$(foreach w,$(1),[$(w),2000]))'
 
@@ -211,19 +214,14 @@ SWITCH_POINTS := dock-nearest-two_circuits_parallel:3:2000 dock-left-two_circuit
 	dock-left-two_circuits_parallel:4:2400 range-left-two_circuits_parallel-calibrated:4:2400 \
 	dock-left-two_circuits_parallel:5:2000
 
-reading_args = $(if $(filter $(CALIBRATED_READING),$(1)),$(RANGE_CALIBRATED),arrival=$(word 1,$(subst -, ,$(1))) \
-	passing=$(word 2,$(subst -, ,$(1))) arena=$(word 3,$(subst -, ,$(1))))
 part = $(word $(2),$(subst :, ,$(1)))
-# $(1) reading, $(2) robots, $(3) w_high, $(4) extra setting, $(5) folder suffix
-switch_predict = $(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$(2) "tasks.values=[$(3),2000]" \
-	scale=paper $(call reading_args,$(1)) $(4) output_dir=results/turn_taking/$(1)-team_size_$(2)-value_ratio_$(3)$(5)
-switch_run = $(BIN)/tavc run experiment=$(BASE) scale=converged trials=8 'baselines=[]' $(call reading_args,$(1)) \
-	team.n_robots=$(2) "tasks.values=[$(3),2000]" executor.batch_size=$(CONVERGED_BATCH) \
+# $(1) reading, $(2) robots, $(3) w_high
+switch_run = $(BIN)/tavc run $(call learners_40x,8,$(call reading_args,$(1))) team.n_robots=$(2) \
+	"tasks.values=[$(3),2000]" executor.batch_size=$(CONVERGED_BATCH) \
 	output_dir=results/team_size/$(1)/converged_switches/team_size_$(2)-value_ratio_$(3)
 
 switch-checks: venv ## The turn-taking model both ways, then the learners at 40x, at the points where the two ways of measuring a lone switcher differ (SWITCH_POINTS)
-	$(foreach p,$(SWITCH_POINTS),$(call switch_predict,$(call part,$(p),1),$(call part,$(p),2),$(call part,$(p),3),,) && \
-		$(call switch_predict,$(call part,$(p),1),$(call part,$(p),2),$(call part,$(p),3),surrogate.switches=explorers,-explorers) && ) true
+	$(foreach p,$(SWITCH_POINTS),$(call predict_both_ways_in,$(call part,$(p),2),$(call part,$(p),3),$(call part,$(p),1)) && ) true
 	$(foreach p,$(SWITCH_POINTS),$(call switch_run,$(call part,$(p),1),$(call part,$(p),2),$(call part,$(p),3)) && ) true
 
 # The third grid of docs/readings.md: teams of 3 to 6 at 2600 against 2000, with the chapter's 20 trials so that
