@@ -74,11 +74,33 @@ def test_a_refusal_of_the_class_itself_is_left_to_omegaconf():
     assert exact(TavcConfig, data) is DECLINED
 
 
+def _shape(value):
+    """What `typed_data.exact` decides a value by: its keys, each leaf's type, whether an int is
+    too large for a float and whether a string is an interpolation or `???` (never the other
+    values); two configs of one shape take the same path through it."""
+    if isinstance(value, dict):
+        return tuple((key, _shape(v)) for key, v in value.items())
+    if isinstance(value, list):
+        return ("list", *map(_shape, value))
+    if isinstance(value, str):
+        return "str", "${" in value or value == MISSING
+    if isinstance(value, int) and not isinstance(value, bool):
+        return "int", abs(value) < 2 ** 1023
+    return type(value).__name__
+
+
 def test_every_committed_config_reads_as_omegaconf_reads_it():
+    """Every committed config, through one config of each shape (`_shape`, with its learner's name,
+    which picks the learner's settings class): the fast path's settings are OmegaConf's, value,
+    type and YAML alike."""
     paths = sorted((REPO / "results").rglob("config.yaml"))
     assert len(paths) > 100
+    shapes = {}
     for path in paths:
         data = load_yaml(path, loader=get_yaml_loader())
+        shapes.setdefault((data["learner"].get("name"), _shape(data)), (path, data))
+    assert len(shapes) > 10  # the committed runs hold many shapes: sweeps, readings, other learners
+    for path, data in shapes.values():
         data["learner"] = recorded_learner(data["learner"], SETTINGS)
         fast = exact(TavcConfig, data)
         assert fast is not DECLINED, path
