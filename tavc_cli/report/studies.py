@@ -23,7 +23,9 @@ from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.tally import (
     EXPLORED,
     POST_HOC,
+    alternator_shares,
     base_name,
+    middle_line,
     model_support,
     post_hoc_line,
     support_of,
@@ -205,6 +207,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             continue
         state, switches, post_hoc = str(predicted["modal_state"]), switches_of(predicted), name.endswith(POST_HOC)
         words = _prediction_words(predicted, model_support(path.parent, predicted))  # once for all its runs
+        alternators = alternator_shares(path.parent, predicted)
         for d in runs:
             learners = _learners(d)
             support = support_of(learners, state)
@@ -215,7 +218,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
                         f"{learners['converged']} | {learners['words']} | {words} | {same} | {own} |")
             tallies.append({"check": not learners["no_check"], "switches": switches, "run": d, "post_hoc": post_hoc,
-                            **turn_tally(str(predicted["regime"]), state, support, learners)})
+                            **turn_tally(str(predicted["regime"]), state, support, learners, alternators)})
     if not rows:
         return []
     post = [t for t in tallies if t["post_hoc"]]
@@ -225,8 +228,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
             f"turn-taking-checks`: `tavc model --turn-taking ... scale=paper`, into `{TURN_TAKING_RUNS}/<name>/`), and "
             "in the readings of the world (as configured or as calibrated), beside the learners' runs at the longer "
             f"horizons (`<horizon>/<name>`, `<horizon>/{READINGS_RUNS}/<name>`) and the value-ratio sweep's at 40x. "
-            "The "
-            "model was fixed before it was set beside any of these runs; the chapter's scenarios in today's world, "
+            "The model was fixed before it was set beside any of these runs; the chapter's scenarios in today's world, "
             "the sweep and some of a reading's scenarios were run before their predictions were made, the rest after "
             "their predictions were committed (which is which: docs/readings.md). " + FIRMNESS + MODEL_FIRMNESS
             + SEED_FOR_SEED + (
@@ -241,8 +243,8 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                 if post else ""), "",
             "| prediction | the learners' run | converged | their regime, robots high, modal state | the turn-taking "
             "model | the same regime; modal state | the model's learners and these, seed for seed |",
-            "|---|---|---|---|---|---|---|", *rows, *tally_line(main), *switches_line(explored, main),
-            *post_hoc_line(post, main)]
+            "|---|---|---|---|---|---|---|", *rows, *tally_line(main), *middle_line(main),
+            *switches_line(explored, main), *post_hoc_line(post, main)]
 
 
 def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path) -> list[Path]:
