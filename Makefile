@@ -170,7 +170,9 @@ READING_ERROR = $(if $(and $(filter 1,$(words x$(READING)x)),$(filter $(OTHER_RE
 # The settings of the reading named $(1) (a folder name as READING's)
 reading_args = $(if $(filter $(CALIBRATED_READING),$(1)),$(RANGE_CALIBRATED),arrival=$(word 1,$(subst -, ,$(1))) \
 	passing=$(word 2,$(subst -, ,$(1))) arena=$(word 3,$(subst -, ,$(1))))
-READING_ARGS = $(if $(READING),$(if $(READING_ERROR),$(error $(READING_ERROR)),$(call reading_args,$(READING))))
+# Stops make with READING_ERROR where READING is set but not a reading; expands to nothing
+check_reading = $(if $(READING),$(if $(READING_ERROR),$(error $(READING_ERROR))))
+READING_ARGS = $(check_reading)$(if $(READING),$(call reading_args,$(READING)))
 
 # The learners at 40x without baselines, $(1) trials each, in the reading whose settings are $(2)
 learners_40x = experiment=$(BASE) scale=converged trials=$(1) 'baselines=[]' $(2)
@@ -183,8 +185,8 @@ run_converged = $(BIN)/tavc run -m $(call learners_40x,$(1),$(READING_ARGS)) exe
 predict_both_ways_in = for s in "" explorers; do $(BIN)/tavc model --turn-taking experiment=$(BASE) team.n_robots=$(1) \
 	"tasks.values=[$(2),2000]" scale=paper $(if $(3),$(call reading_args,$(3))) $${s:+surrogate.switches=$$s} \
 	output_dir=results/turn_taking/$(if $(3),$(3)-)team_size_$(1)-value_ratio_$(2)$${s:+-$$s} || exit 1; done
-# The same in READING, checked
-predict_both_ways = $(if $(READING_ARGS),)$(call predict_both_ways_in,$(1),$(2),$(READING))
+# The same in READING (checked: check_reading)
+predict_both_ways = $(check_reading)$(call predict_both_ways_in,$(1),$(2),$(READING))
 # Values $(1) (space-separated) against 2000 as one multirun setting
 values_against_2000 = 'tasks.values=$(subst $(space),$(comma),$(foreach w,$(1),[$(w),2000]))'
 

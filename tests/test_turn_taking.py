@@ -170,7 +170,7 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
         lines = [x for x in text if x.startswith("| breakdown |")]
         assert len(lines) == 1
         tally.append(next(x for x in text if x.startswith("Where the learners converged (")))
-        middle.append(text[-1])
+        middle.append(next(x for x in text if x.startswith("Where the learners converged to turn-taking")))
         return [c.strip() for c in lines[0].strip("|").split("|")]
 
     tally: list[str] = []
@@ -184,11 +184,12 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
     assert tally == ["Where the learners converged (1 run): the turn-taking model names their modal state in 1 of 1 "
                      "and their regime in 1.", "Where the learners converged (1 run): the turn-taking model names "
                      "their modal state in 0 of 1 and their regime in 1."]
-    # five robots taking turns: the two middle states, 3:2 and 2:3, are a near tie (no alternators' run here)
-    assert middle[-1] == ("Where the learners converged to turn-taking in a team of odd size (1 of the runs), they "
-                          "spend at least 42.0 % of the stable period in each of its two middle states, whose shares "
-                          "differ by 0.1 to 0.1 points: there the modal state is a near tie, and the model names the "
-                          "learners' at 0 of 1.")
+    # five robots taking turns, modal in 3:2: the two middle states, 3:2 and 2:3, are a near tie (42.1 and 42.0 %
+    # of the committed run; no table of its trials, no alternators' run here)
+    assert middle[-1] == ("Where the learners converged to turn-taking in a team of odd size, modal in one of its two "
+                          "middle states (1 run), they spend at least 42.0 % of the stable period in each of the two, "
+                          "whose shares differ by 0.1 points: their modal state is a near tie, and the model names it "
+                          "at 0 of 1.")
     # with the table of its trials, one trial wholly in 3:2: the predicted state's share of resamples beside it
     _trial_stats({"3:2": 100.0, "2:3": 0.0}).to_csv(tmp_path / "converged" / "breakdown" / "trial_stats.csv",
                                                     index=False)
@@ -231,6 +232,17 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
         .to_csv(where / "alternators" / "trial_stats.csv", index=False)
     assert row("3:2", **alternators)[4] == "turn-taking, 2.50, 3:2 (40 %; the alternators' modal state in 75 % " \
                                           "of resamples)"
+    # their shares of the two middle states beside the learners': |46.9 - 45.9| = 1.0, their own rows alone
+    pd.DataFrame({"state": ["3:2", "2:3", "3:2"], "controller": ["alternate", "alternate", "random"],
+                  "mean_pct": [46.9, 45.9, 10.0]}).to_csv(where / "alternators" / "state_time.csv", index=False)
+    row("3:2", **alternators)
+    assert middle[-1].endswith("at 1 of 1 (over resamples of their trials, in 1.0 of the 1 on average); the static "
+                               "alternators' shares of the same two states, which the model reads its modal state "
+                               "from, differ by 1.0 (median 1.0).")
+    (where / "alternators" / "state_time.csv").write_text("state,controller\n3:2,alternate\n")
+    with pytest.raises(TavcError, match="alternators/state_time.csv: cannot be read"):
+        row("3:2", **alternators)
+    (where / "alternators" / "state_time.csv").unlink()
     # a table without its columns is one line naming it, not a traceback
     (where / "alternators" / "trial_stats.csv").write_text("trial,pct_3:2\n0,100\n")
     with pytest.raises(TavcError, match="alternators/trial_stats.csv: cannot be read"):
@@ -469,27 +481,31 @@ def test_the_tally_counts_hits_at_firm_points_apart():
 
 
 def test_the_middle_states_of_an_odd_team_are_read_and_their_gaps_tallied():
-    """A team of 3 has the middle states 2:1 and 1:2; an even team, or a table without both, has
-    none. By hand over two converged odd-team runs (a third no check, a fourth without the
-    alternators' table): the learners' gaps |38.1 - 38.3| = 0.2 and |44.0 - 41.0| = 3.0, lowest
-    share 38.1; the alternators' gaps 0.0 (one run only); hits 1 of 2, support 0.3 + 1.0 = 1.3."""
-    from tavc_cli.report.tally import middle_line, middle_shares, turn_tally
+    """A team of 3 has the middle states 2:1 and 1:2, whichever of its states names it; an even team,
+    or a state of another form, has none. A turn-taking group modal in one of them gets both shares,
+    its own and the alternators' (None without both); one modal elsewhere, none. By hand over two
+    converged odd-team runs (a third no check, a fourth without the shares): the learners' gaps
+    |38.1 - 38.3| = 0.2 and |44.0 - 41.0| = 3.0, lowest share 38.1; the alternators' gap 0.0 at
+    the one run with their table; hits 1 of 2, support 0.3 + 1.0 = 1.3."""
+    from tavc_cli.report.tally import middle_line, middle_states, turn_tally
 
-    assert middle_shares({"0:3": 10.0, "1:2": 38.3, "2:1": 38.1, "3:0": 13.6}) == (38.1, 38.3)
-    assert middle_shares({"0:2": 20.0, "1:1": 60.0, "2:0": 20.0}) is None
-    assert middle_shares({"2:1": 50.0, "3:0": 50.0}) is None
+    assert middle_states("1:2") == middle_states("3:0") == ("2:1", "1:2")
+    assert middle_states("4:3") == ("4:3", "3:4")
+    assert middle_states("1:1") is None and middle_states("all") is None and middle_states("1:1:1") is None
     learners = {"regime": "turn-taking", "modal_state": "1:2", "trial_stats": pd.DataFrame(),
-                "shares": {"1:2": 38.3, "2:1": 38.1}}
+                "shares": {"0:3": 10.0, "1:2": 38.3, "2:1": 38.1, "3:0": 13.6}}
     tally = turn_tally("turn-taking", "2:1", 0.3, learners, {"2:1": 43.4, "1:2": 43.4})
     assert tally["middle"] == (38.1, 38.3) and tally["alternators"] == (43.4, 43.4) and not tally["modal"]
+    assert turn_tally("turn-taking", "2:1", 0.3, learners, {"2:1": 43.4})["alternators"] is None
     assert "middle" not in turn_tally("persistence", "2:1", 0.3, {**learners, "regime": "persistence"})
+    assert "middle" not in turn_tally("turn-taking", "2:1", 0.3, {**learners, "modal_state": "3:0"})
     tallies = [{**tally, "check": True},
                {"check": True, "modal": True, "support": 1.0, "middle": (44.0, 41.0), "alternators": None},
                {**tally, "check": False}, {"check": True, "modal": True, "support": 1.0}]
     assert middle_line(tallies) == [
-        "", "Where the learners converged to turn-taking in a team of odd size (2 of the runs), they spend at least "
-        "38.1 % of the stable period in each of its two middle states, whose shares differ by 0.2 to 3.0 points; "
-        "those of the static alternators the model reads its modal state from, by 0.0 to 0.0 (median 0.0): there the "
-        "modal state is a near tie, and the model names the learners' at 1 of 2 (over resamples of their trials, in "
-        "1.3 on average)."]
+        "", "Where the learners converged to turn-taking in a team of odd size, modal in one of its two middle states "
+        "(2 runs), they spend at least 38.1 % of the stable period in each of the two, whose shares differ by 0.2 to "
+        "3.0 points: their modal state is a near tie, and the model names it at 1 of 2 (over resamples of their "
+        "trials, in 1.3 of the 2 on average); the static alternators' shares of the same two states, which the model "
+        "reads its modal state from, differ by 0.0 (median 0.0; at the 1 with their table)."]
     assert middle_line(tallies[2:]) == []

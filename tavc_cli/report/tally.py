@@ -5,6 +5,7 @@ state, how firmly the learners' trials name it, and the model's hits where they 
 from __future__ import annotations
 
 import math
+import re
 import statistics
 from pathlib import Path
 
@@ -31,53 +32,73 @@ def turn_tally(regime: str, state: str, support: float, learners: dict, alternat
     """What `tally_line` counts of one prediction of the turn-taking model (its regime, its modal
     state and that state's `support`) beside the learners: whether each is theirs, the support, and
     their own modal state's (what a prediction could at best be confirmed by); and for
-    `middle_line`, where the learners take turns in a team of odd size, their shares of its two
-    middle states and the static alternators' (`alternator_shares`)."""
-    middle = middle_shares(learners["shares"]) if learners["regime"] == "turn-taking" else None
+    `middle_line`, where the learners take turns in a team of odd size and their modal state is
+    one of its two middle states (`middle_states`), their shares of both and the static
+    alternators' (`alternator_shares`; None without their table)."""
+    middle = middle_states(learners["modal_state"]) if learners["regime"] == "turn-taking" else None
+    shares = _shares_of(learners["shares"], middle) if middle and learners["modal_state"] in middle else None
     return {"regime": regime == learners["regime"], "modal": state == learners["modal_state"], "support": support,
             "ceiling": support_of(learners, learners["modal_state"]),
-            **({"middle": middle, "alternators": middle_shares(alternators or {})} if middle else {})}
+            **({"middle": shares, "alternators": _shares_of(alternators or {}, middle)} if shares else {})}
 
 
-def middle_shares(shares: dict) -> tuple[float, float] | None:
-    """The shares (%) of a team of odd size n in its two middle states, (n+1)/2 robots on the
-    high-value circuit and (n-1)/2; None for a team of even size or a table without both."""
-    sizes = {sum(map(int, state.split(":"))) for state in shares}
-    if len(sizes) != 1 or not (n := sizes.pop()) % 2:
-        return None
-    up, down = f"{n // 2 + 1}:{n // 2}", f"{n // 2}:{n // 2 + 1}"
-    return (float(shares[up]), float(shares[down])) if up in shares and down in shares else None
+def middle_states(state: str) -> tuple[str, str] | None:
+    """The two middle states of the team of a state "h:l" (h robots on the high-value circuit, l on
+    the low) where h + l is odd: (n+1)/2 high and (n-1)/2 high; None for an even team or a state
+    of another form."""
+    found = re.fullmatch(r"(\d+):(\d+)", state)
+    n = int(found[1]) + int(found[2]) if found else 0
+    return (f"{n // 2 + 1}:{n // 2}", f"{n // 2}:{n // 2 + 1}") if n % 2 else None
+
+
+def _shares_of(shares: dict, states: tuple[str, str]) -> tuple[float, float] | None:
+    return (float(shares[states[0]]), float(shares[states[1]])) if all(s in shares for s in states) else None
 
 
 def alternator_shares(where: Path, predicted: dict) -> dict | None:
     """The static alternators' share (%) of the stable period in each state, from the run a
-    prediction takes its modal state from (`files.model_alternators`); None where it has none."""
+    prediction takes its modal state from (`files.model_alternators`); None where it has none. A
+    table without its columns is refused in one line naming it."""
     run = model_alternators(where, predicted)
     if run is None or not (run / "state_time.csv").is_file():
         return None
-    table = read_or_refuse(run / "state_time.csv", lambda p: pd.read_csv(p, dtype={"state": str}))
-    mine = table[table["controller"] == ALTERNATOR]
-    return dict(zip(mine["state"], mine["mean_pct"], strict=True))
+
+    def read(path: Path) -> dict:
+        table = pd.read_csv(path, dtype={"state": str})
+        mine = table[table["controller"] == ALTERNATOR]
+        return dict(zip(mine["state"], mine["mean_pct"], strict=True))
+
+    return read_or_refuse(run / "state_time.csv", read)
+
+
+def _span(values: list[float]) -> str:
+    low, high = f"{min(values):.1f}", f"{max(values):.1f}"
+    return low if low == high else f"{low} to {high}"
 
 
 def middle_line(tallies: list[dict]) -> list[str]:
-    """Over the rows whose learners converged and take turns in a team of odd size: how far apart
-    their shares of the team's two middle states are, and the static alternators', and how often
-    the model named the learners' modal state there (a near tie decides it)."""
+    """Over the rows whose learners converged, take turns in a team of odd size and are modal in
+    one of its two middle states: how far apart their shares of the two are, how often the model
+    named their modal state there (a near tie decides it), and how far apart the static
+    alternators' shares of the same states are."""
     odd = [t for t in tallies if t["check"] and "middle" in t]
     if not odd:
         return []
     gaps = [abs(a - b) for a, b in (t["middle"] for t in odd)]
     lows = [min(t["middle"]) for t in odd]
-    alt = [abs(a - b) for a, b in (t["alternators"] for t in odd if t["alternators"])]
-    beside = (f"; those of the static alternators the model reads its modal state from, by {min(alt):.1f} to "
-              f"{max(alt):.1f} (median {statistics.median(alt):.1f})" if alt else "")
     resampled = [t["support"] for t in odd if math.isfinite(t["support"])]
-    expected = f" (over resamples of their trials, in {sum(resampled):.1f} on average)" if resampled else ""
-    return ["", f"Where the learners converged to turn-taking in a team of odd size ({len(odd)} of the runs), they "
-                f"spend at least {min(lows):.1f} % of the stable period in each of its two middle states, whose shares "
-                f"differ by {min(gaps):.1f} to {max(gaps):.1f} points{beside}: there the modal state is a near tie, "
-                f"and the model names the learners' at {sum(t['modal'] for t in odd)} of {len(odd)}{expected}."]
+    which = "" if len(resampled) == len(odd) else " with a table of their trials"
+    expected = f" (over resamples of their trials, in {sum(resampled):.1f} of the {len(resampled)}{which} on " \
+               "average)" if resampled else ""
+    alt = [abs(a - b) for a, b in (t["alternators"] for t in odd if t["alternators"])]
+    some = "" if len(alt) == len(odd) else f"; at the {len(alt)} with their table"
+    beside = (f"; the static alternators' shares of the same two states, which the model reads its modal state "
+              f"from, differ by {_span(alt)} (median {statistics.median(alt):.1f}{some})" if alt else "")
+    runs = f"{len(odd)} run" + ("s" if len(odd) != 1 else "")
+    return ["", f"Where the learners converged to turn-taking in a team of odd size, modal in one of its two middle "
+                f"states ({runs}), they spend at least {min(lows):.1f} % of the stable period in each of the two, "
+                f"whose shares differ by {_span(gaps)} points: their modal state is a near tie, and the model names it "
+                f"at {sum(t['modal'] for t in odd)} of {len(odd)}{expected}{beside}."]
 
 
 def support_of(learners: dict, state: str) -> float:
