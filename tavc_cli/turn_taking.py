@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.turn_taking import ALTERNATOR, TURN_TAKING, modal_state, prediction
+from tavc_cli.analysis.turn_taking import ALTERNATOR, HORIZON, TURN_TAKING, modal_state, prediction
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.ownership import TURN_TAKING_FILES, TURN_TAKING_KIND, take
@@ -38,7 +38,6 @@ PREDICTED = ("regime", "stayers", "alternators", "robots_high", "modal_state", "
              "learners_horizon", "learners_trials")  # a prediction's columns in a table
 SET_HERE = ("learner", "output_dir", "surrogate.tasks_dir", "baseline_trials", "scale.time_factor",
             "scale.stable_window")
-HORIZON = 40.0  # the learners' horizon, times the run's scale: where the chapter's rule converges in today's world
 
 Compose = Callable[[list[str]], TavcConfig]
 

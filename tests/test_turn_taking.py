@@ -509,3 +509,16 @@ def test_the_middle_states_of_an_odd_team_are_read_and_their_gaps_tallied():
         "trials, in 1.3 of the 2 on average); the static alternators' shares of the same two states, which the model "
         "reads its modal state from, differ by 0.0 (median 0.0; at the 1 with their table)."]
     assert middle_line(tallies[2:]) == []
+
+
+def test_only_converged_learners_at_the_checks_horizon_are_a_check():
+    """The checks are at 40x (`analysis.turn_taking.HORIZON`): a converged run at 80x stands beside its
+    prediction labelled with its horizon and is no check; a run that did not converge is none
+    at any horizon."""
+    from tavc_cli.report.tally import no_check_note, trials_words
+
+    assert no_check_note(True, 40.0) == ""
+    assert no_check_note(True, 80.0) == " (not a check: at 80x; the checks are at 40x)"
+    assert no_check_note(False, 80.0) == no_check_note(False, 40.0) == " (not a check: the learners did not converge)"
+    assert trials_words({"trials": 20, "factor": 40.0}) == "20 trials"
+    assert trials_words({"trials": 8, "factor": 80.0}) == "8 trials, 80x"

@@ -40,6 +40,9 @@ def modal_state(state_time: pd.DataFrame, controller: str) -> tuple[str, float]:
 
 ALTERNATOR = "alternate"  # the static alternators' controller in their run's tables (`learner=alternate`)
 RESAMPLES = 2000  # `modal_support`'s resamples of a run's trials
+# the learners' horizon, times a run's scale: where the chapter's rule converges in today's world; the turn-taking
+# model's learners run there, and its checks are the learners' runs there
+HORIZON = 40.0
 FIRM = 0.9  # a run's trials name its modal state firmly where it is modal in this share of `modal_support`'s
 # resamples (docs/readings.md: fixed before the team-size checks in a reading were run)
 

@@ -27,11 +27,13 @@ from tavc_cli.report.tally import (
     base_name,
     middle_line,
     model_support,
+    no_check_note,
     post_hoc_line,
     support_of,
     switches_line,
     switches_of,
     tally_line,
+    trials_words,
     turn_tally,
 )
 from tavc_cli.report.text import fmt
@@ -215,7 +217,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
                    f"{_same_state(state, learners, support)}{learners['no_check']}" + \
                    (" (post hoc: not a check)" if post_hoc and not learners["no_check"] else "")
             own = files.seed_for_seed_cell(model_learners(path.parent, predicted), d)
-            rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({learners['trials']} trials) | "
+            rows.append(f"| {name} | `{d.relative_to(results_dir).as_posix()}` ({trials_words(learners)}) | "
                         f"{learners['converged']} | {learners['words']} | {words} | {same} | {own} |")
             tallies.append({"check": not learners["no_check"], "switches": switches, "run": d, "post_hoc": post_hoc,
                             **turn_tally(str(predicted["regime"]), state, support, learners, alternators)})
@@ -289,10 +291,10 @@ def _learners(d: Path) -> dict:
     table = pd.read_csv(d / "state_time.csv", dtype={"state": str})
     mine = table[table["controller"] == "tavc"]
     trials = pd.read_csv(d / "trial_stats.csv") if (d / "trial_stats.csv").is_file() else pd.DataFrame()
+    factor = float(cfg.scale.time_factor)
     return {**group, "shares": dict(zip(mine["state"], mine["mean_pct"], strict=True)), "trials": cfg.trials,
-            "trial_stats": trials,
-            "factor": float(cfg.scale.time_factor), "converged": converged,
-            "no_check": "" if v is not None and v["converged"] else " (not a check: the learners did not converge)",
+            "trial_stats": trials, "factor": factor, "converged": converged,
+            "no_check": no_check_note(v is not None and v["converged"], factor),
             "words": f"{group['regime']}, {fmt(group['robots_high'], '.2f') or '-'}, {group['modal_state']} "
                      f"({group['modal_share_pct']:.0f} %)"}
 

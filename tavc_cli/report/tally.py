@@ -12,7 +12,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.table_schemas import STATE_PREFIX
-from tavc_cli.analysis.turn_taking import ALTERNATOR, FIRM, modal_support
+from tavc_cli.analysis.turn_taking import ALTERNATOR, FIRM, HORIZON, modal_support
 from tavc_cli.report.files import model_alternators, read_or_refuse
 from tavc_cli.settings_studies import ALTERNATORS
 
@@ -99,6 +99,19 @@ def middle_line(tallies: list[dict]) -> list[str]:
                 f"states ({runs}), they spend at least {min(lows):.1f} % of the stable period in each of the two, "
                 f"whose shares differ by {_span(gaps)} points: their modal state is a near tie, and the model names it "
                 f"at {sum(t['modal'] for t in odd)} of {len(odd)}{expected}{beside}."]
+
+
+def no_check_note(converged: bool, factor: float) -> str:
+    """Why a learners' run beside a prediction is no check of it, in brackets; "" where it is one:
+    the learners converged, at the horizon every check is at (`analysis.turn_taking.HORIZON`)."""
+    if not converged:
+        return " (not a check: the learners did not converge)"
+    return "" if factor == HORIZON else f" (not a check: at {factor:g}x; the checks are at {HORIZON:g}x)"
+
+
+def trials_words(learners: dict) -> str:
+    """A learners' run's trials, with its horizon where it is not the checks' (`no_check_note`)."""
+    return f"{learners['trials']} trials" + ("" if learners["factor"] == HORIZON else f", {learners['factor']:g}x")
 
 
 def support_of(learners: dict, state: str) -> float:
