@@ -1,6 +1,7 @@
 """The tally under the report's two tables of the turn-taking model's checks: over the runs whose
-learners converged, how often each model names their regime and the turn-taking model their modal
-state, how firmly the learners' trials name it, and the model's hits where they name it firmly."""
+learners converged at 40x (`no_check_note`), how often each model names their regime and the
+turn-taking model their modal state, how firmly the learners' trials name it, the model's hits
+where they name it firmly, and how near a tie the modal state is in odd teams that take turns."""
 
 from __future__ import annotations
 
