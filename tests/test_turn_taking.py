@@ -17,6 +17,15 @@ from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.analysis.turn_taking import group_reading, modal_state, modal_support, prediction, robots_high
 from tavc_cli.cli import app
 from tavc_cli.errors import TavcError
+from tavc_cli.report.tally import (
+    base_name,
+    middle_line,
+    middle_states,
+    no_check_note,
+    tally_line,
+    trials_words,
+    turn_tally,
+)
 from tavc_cli.turn_taking import check_overrides, predict_turn_taking
 from tests.helpers import KINDS_A, KINDS_B, q_table, robots_table
 
@@ -258,7 +267,6 @@ def test_a_post_hoc_prediction_stands_beside_its_scenarios_run_and_is_tallied_ap
     import shutil
 
     from tavc_cli.report.studies import turn_taking_check_lines
-    from tavc_cli.report.tally import base_name
     from tests.helpers import REPO
 
     assert base_name("team_size_3-explorers-post_hoc") == base_name("team_size_3-explorers") == "team_size_3"
@@ -462,8 +470,6 @@ def test_the_tally_counts_hits_at_firm_points_apart():
     resamples of their trials (0.9 counts) are counted apart, with the model's hits there; a point
     that is no check counts nowhere. By hand: hits 1 of 3, support 1.0 + 0.3 + 0.0 = 1.3, the
     learners' own 1.0 + 0.6 + 0.9 = 2.5, firm points 2 (1.0 and 0.9), hits there 1; regime 2."""
-    from tavc_cli.report.tally import tally_line
-
     tallies = [{"check": True, "regime": True, "modal": True, "support": 1.0, "ceiling": 1.0},
                {"check": True, "regime": True, "modal": False, "support": 0.3, "ceiling": 0.6},
                {"check": True, "regime": False, "modal": False, "support": 0.0, "ceiling": 0.9},
@@ -487,8 +493,6 @@ def test_the_middle_states_of_an_odd_team_are_read_and_their_gaps_tallied():
     converged odd-team runs (a third no check, a fourth without the shares): the learners' gaps
     |38.1 - 38.3| = 0.2 and |44.0 - 41.0| = 3.0, lowest share 38.1; the alternators' gap 0.0 at
     the one run with their table; hits 1 of 2, support 0.3 + 1.0 = 1.3."""
-    from tavc_cli.report.tally import middle_line, middle_states, turn_tally
-
     assert middle_states("1:2") == middle_states("3:0") == ("2:1", "1:2")
     assert middle_states("4:3") == ("4:3", "3:4")
     assert middle_states("1:1") is None and middle_states("all") is None and middle_states("1:1:1") is None
@@ -515,8 +519,6 @@ def test_only_converged_learners_at_the_checks_horizon_are_a_check():
     """The checks are at 40x (`analysis.turn_taking.HORIZON`): a converged run at 80x stands beside its
     prediction labelled with its horizon and is no check; a run that did not converge is none
     at any horizon."""
-    from tavc_cli.report.tally import no_check_note, trials_words
-
     assert no_check_note(True, 40.0) == ""
     assert no_check_note(True, 80.0) == " (not a check: at 80x; the checks are at 40x)"
     assert no_check_note(False, 80.0) == no_check_note(False, 40.0) == " (not a check: the learners did not converge)"
