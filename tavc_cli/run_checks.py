@@ -38,6 +38,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import PLAN_FILE
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import file_digest
+from tavc_cli.notation import counts_of, join_counts, state_counts
 from tavc_cli.readers import YAML_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig, from_yaml
 
@@ -95,10 +96,9 @@ class RunFacts:
         """Whether `label` is a state of this team: robots per circuit (high-value circuit
         first) adding up to the robots working, or robots of each group on the high-value
         circuit, none more than the group has."""
-        parts = label.split(":")
-        if not all(p.isascii() and p.isdigit() for p in parts):
+        counts = state_counts(label)
+        if counts is None:
             return False
-        counts = [int(p) for p in parts]
         if self.scheme == "groups":
             return len(counts) == len(self.groups) and all(c <= g for c, g in zip(counts, self.groups, strict=True))
         return len(counts) == self.n_circuits and self.fewest <= sum(counts) <= sum(self.groups)
@@ -108,13 +108,13 @@ class RunFacts:
         lists them (the theory rows list them all): the configured team where no robot
         breaks down, else the team the theory rows are for (for circuits, as many robots
         as the first has; for groups, each group's largest count among them)."""
-        counts = [[int(p) for p in s.split(":")] for s in theory]
+        counts = [counts_of(s) for s in theory]
         whole = self.fewest == sum(self.groups)
         if self.scheme == "groups":
             sizes = self.groups if whole else [max(c[k] for c in counts) for k in range(len(self.groups))]
-            return {":".join(map(str, c)) for c in product(*(range(g + 1) for g in sizes))}
+            return {join_counts(c) for c in product(*(range(g + 1) for g in sizes))}
         n = sum(self.groups) if whole else sum(counts[0])
-        return {":".join(map(str, c)) for c in product(range(n + 1), repeat=self.n_circuits) if sum(c) == n}
+        return {join_counts(c) for c in product(range(n + 1), repeat=self.n_circuits) if sum(c) == n}
 
 
 def read_provenance(path: Path) -> dict:

@@ -137,6 +137,8 @@ def test_in_the_simulator_informed_fills_the_vacancy_and_model_leaves_it(tmp_pat
     ('{"by_team_size": {}}', "has no `by_team_size`"),
     ('{"by_team_size": {"6": {}}}', "has no predicted state of counts for 6 robots"),
     ('{"by_team_size": {"6": {"predicted_state": "4:-2"}}}', "has no predicted state of counts for 6 robots"),
+    # a digit to str.isdigit that int() refuses: one line, not a traceback
+    ('{"by_team_size": {"6": {"predicted_state": "\u00b3:3"}}}', "has no predicted state of counts for 6 robots"),
     ('{"by_team_size": {"6": {"predicted_state": "3:2"}}}', "predicts 3:2 for 6 robots: 5 robots, not 6"),
     ('{"by_team_size": {"6": {"predicted_state": "2:2:2"}}}', "2:2:2 for 6 robots: 3 circuits, where the arena has 2"),
     ('{"by_team_size": {"six": {"predicted_state": "3:3"}}}', "has a team size 'six'"),

@@ -55,6 +55,7 @@ from tavc_cli.analysis.states import theory_pct
 from tavc_cli.analysis.table_schemas import Q_GAP_PREFIX, STATE_PREFIX
 from tavc_cli.analysis.trial_stats import states_of
 from tavc_cli.learning.registry import LEARNS_NOTHING
+from tavc_cli.notation import counts_of
 
 # The margin within which two shares of a state (% of the stable period) are the same: the smallest
 # difference between two of the chapter's learners' tables that it calls significant (3:2 in Table
@@ -276,7 +277,7 @@ def largest_relative_increase(tavc: pd.DataFrame, theory: Mapping[str, float], s
 
 def _group_theory(stats_: pd.DataFrame) -> dict[str, float]:
     """Eq. 1.7 for the f:s states of a trial_stats table (group sizes: the largest f and s)."""
-    pairs = [tuple(int(x) for x in st.split(":")) for st in states_of(stats_)]
+    pairs = [counts_of(st) for st in states_of(stats_)]
     sizes = [max(f for f, _ in pairs), max(s for _, s in pairs)]
     return theory_pct(sum(sizes), 2, "groups", sizes)
 
@@ -287,7 +288,7 @@ def claim_9(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
     name, s = _run(runs, 9)
     if s is None:
         return [_missing(f"{name} not run")]
-    n_groups = {len(st.split(":")) for st in states_of(s)}
+    n_groups = {len(counts_of(st)) for st in states_of(s)}
     if n_groups != {2}:
         return [_missing(f"the claim compares two speed groups, this team has {', '.join(map(str, n_groups))}")]
     tavc, rnd = _ctrl(s, learner), _ctrl(s, "random")

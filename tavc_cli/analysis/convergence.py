@@ -39,6 +39,7 @@ import pandas as pd
 from tavc_cli.analysis.qvalues import policy_changes
 from tavc_cli.analysis.states import alive_at_end, state_intervals
 from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.notation import high_of
 
 Q_DRIFT_MAX = 0.05
 POLICY_CHANGED_MAX = 0.10
@@ -98,7 +99,7 @@ def high_count_mean(rec: TrialRecord, t_from: float, t_to: float) -> float:
     for a, b, s in state_intervals(rec, "circuits"):
         lo, hi = max(a, t_from), min(b, t_to)
         if hi > lo and s is not None:
-            weighted += float(s.split(":")[0]) * (hi - lo)  # robots on the high circuit
+            weighted += high_of(s) * (hi - lo)  # robots on the high circuit
             covered += hi - lo
     return weighted / covered if covered > 0 else math.nan
 

@@ -29,6 +29,7 @@ import pandas as pd
 
 from tavc_cli.analysis.series import bin_edges, over_trials
 from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.notation import counts_of, high_of, join_counts
 from tavc_cli.vocabulary import EventKind
 
 
@@ -189,9 +190,9 @@ def time_shares(rec: TrialRecord, t_from: float, t_to: float, scheme: str = "cir
 def all_states(n_robots: int, n_circuits: int, scheme: str, group_sizes: Sequence[int] = ()) -> list[str]:
     """Every possible state, in the chapter's order (first number ascending)."""
     if scheme == "groups":
-        return [":".join(map(str, c)) for c in product(*(range(g + 1) for g in group_sizes))]
+        return [join_counts(c) for c in product(*(range(g + 1) for g in group_sizes))]
     states = [c for c in product(range(n_robots + 1), repeat=n_circuits) if sum(c) == n_robots]
-    return [":".join(map(str, c)) for c in sorted(states)]
+    return [join_counts(c) for c in sorted(states)]
 
 
 def theory_pct(n_robots: int, n_circuits: int, scheme: str, group_sizes: Sequence[int] = ()) -> dict[str, float]:
@@ -204,14 +205,14 @@ def theory_pct(n_robots: int, n_circuits: int, scheme: str, group_sizes: Sequenc
     if scheme == "groups":
         p = 1.0 / n_circuits
         for label in all_states(n_robots, n_circuits, scheme, group_sizes):
-            counts = [int(x) for x in label.split(":")]
+            counts = counts_of(label)
             prob = 1.0
             for g, f in zip(group_sizes, counts, strict=True):
                 prob *= math.comb(g, f) * p**f * (1 - p) ** (g - f)
             out[label] = 100.0 * prob
         return out
     for label in all_states(n_robots, n_circuits, scheme):
-        counts = [int(x) for x in label.split(":")]
+        counts = counts_of(label)
         ways = math.factorial(n_robots)
         for c in counts:
             ways //= math.factorial(c)
@@ -301,7 +302,7 @@ def _binned_mean(intervals, value, edges: np.ndarray, n_values: int = 1) -> np.n
 
 @cache
 def _first_number(label: str) -> float:
-    return float(label.split(":")[0])
+    return float(high_of(label))
 
 
 def high_circuit_series(rec: TrialRecord, bin_s: float, t_from: float, t_to: float) -> tuple[np.ndarray, np.ndarray]:
@@ -334,7 +335,7 @@ def group_high_series(rec: TrialRecord, bin_s: float, t_from: float,
             alive = broken_at > start
             sizes = np.array([((groups == g) & alive).sum() for g in order], dtype=float)
             with np.errstate(invalid="ignore", divide="ignore"):
-                known[key] = np.array([float(x) for x in s.split(":")]) / sizes
+                known[key] = np.array(counts_of(s), dtype=float) / sizes
         return known[key]
 
     edges = bin_edges(t_from, t_to, bin_s)

@@ -14,6 +14,13 @@ TABLE_NAMES = ("state_time", "performance", "trial_stats", "allocation", "specia
 # robots (heterogeneous teams) one of the mean final Q(s, high) - Q(s, low) (`analysis.qvalues.q_gaps`)
 STATE_PREFIX, Q_GAP_PREFIX = "pct_", "q_gap_"
 
+
+def column_state(column: str) -> str | None:
+    """The state a `trial_stats` share column is for (``"pct_3:2"`` -> ``"3:2"``); None for
+    any other column."""
+    return column[len(STATE_PREFIX):] if column.startswith(STATE_PREFIX) else None
+
+
 @dataclass(frozen=True)
 class TableSchema:
     """One table's columns: `columns` are always there and hold numbers unless named in

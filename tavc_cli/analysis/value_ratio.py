@@ -24,9 +24,10 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.stay_switch import reading_name, reading_of, readings, split_folder
-from tavc_cli.analysis.table_schemas import STATE_PREFIX
+from tavc_cli.analysis.table_schemas import column_state
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
 from tavc_cli.model import core
+from tavc_cli.notation import counts_of
 from tavc_cli.settings import TavcConfig
 
 POINT_COLUMNS = ["reading", "horizon", "ratio", "values", "mean", "std", "n_trials", "policy_changes_per_trial",
@@ -37,8 +38,8 @@ READINGS = {"ms": "t in ms (the default)", "s": "t in s"}
 def high_share(stats: pd.DataFrame) -> np.ndarray:
     """Per trial: the mean fraction of robots on the high-value circuit in the stable period."""
     share = np.zeros(len(stats))
-    for col in (c for c in stats.columns if c.startswith(STATE_PREFIX)):
-        high, low = (int(x) for x in col[len(STATE_PREFIX):].split(":"))
+    for col in (c for c in stats.columns if column_state(c) is not None):
+        high, low = counts_of(column_state(col))
         share += stats[col].to_numpy(float) / 100.0 * high / (high + low)
     return share
 

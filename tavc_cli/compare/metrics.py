@@ -33,10 +33,11 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from tavc_cli.analysis.table_schemas import STATE_PREFIX
+from tavc_cli.analysis.table_schemas import STATE_PREFIX, column_state
 from tavc_cli.chapter import served_by
 from tavc_cli.compare import FLOOR, REFERENCE
 from tavc_cli.errors import TavcError
+from tavc_cli.notation import high_of, join_counts
 from tavc_cli.readers import load_yaml
 
 METRICS = {
@@ -61,7 +62,7 @@ def predicted_state(config: Mapping, allocations: Mapping[str, list[int]]) -> st
     if counts is None:
         return None
     if (config.get("analysis") or {}).get("state") != "groups":
-        return ":".join(str(c) for c in counts)
+        return join_counts(counts)
     speeds: dict[str, list[float]] = {}
     for m in members:
         speeds.setdefault(str(m["group"]), []).append(float(m["speed_mps"]))
@@ -71,7 +72,7 @@ def predicted_state(config: Mapping, allocations: Mapping[str, list[int]]) -> st
         take = min(high, len(speeds[g]))
         out.append(take)
         high -= take
-    return ":".join(map(str, out))
+    return join_counts(out)
 
 
 def fast_share(stats_: pd.DataFrame, n_fast: int) -> np.ndarray:
@@ -79,9 +80,9 @@ def fast_share(stats_: pd.DataFrame, n_fast: int) -> np.ndarray:
     from the group states' shares (``pct_<fast>:<slow>``)."""
     total = np.zeros(len(stats_))
     for column in stats_.columns:
-        if column.startswith(STATE_PREFIX):
-            fast = int(column[len(STATE_PREFIX):].split(":")[0])
-            total += stats_[column].to_numpy(float) * fast
+        state = column_state(column)
+        if state is not None:
+            total += stats_[column].to_numpy(float) * high_of(state)
     return total / 100.0 / n_fast
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from tavc_cli.errors import TavcError
+from tavc_cli.notation import state_counts
 from tavc_cli.readers import load_json
 
 # tavc model's largest model.json is 6 KB; 1 MiB is room for many more team sizes
@@ -27,17 +28,16 @@ def _bad(path: Path, what: str) -> TavcError:
 def _counts(path: Path, size: str, prediction: object, n_circuits: int | None) -> list[int]:
     """One team size's predicted state as robots per circuit, most valuable circuit first."""
     state = prediction.get("predicted_state") if isinstance(prediction, dict) else None
-    parts = str(state).split(":") if isinstance(state, str) else []
-    if not parts or not all(p.isdigit() for p in parts):
+    counts = state_counts(state)
+    if counts is None:
         raise _bad(path, f"has no predicted state of counts for {size} robots (by_team_size.{size}.predicted_state "
                          f"is {state!r}, not like '3:3')")
-    counts = [int(p) for p in parts]
     if n_circuits is not None and len(counts) != n_circuits:
         raise _bad(path, f"predicts {state} for {size} robots: {len(counts)} circuits, where the arena has "
                          f"{n_circuits}")
     if sum(counts) != int(size):
         raise _bad(path, f"predicts {state} for {size} robots: {sum(counts)} robots, not {size}")
-    return counts
+    return list(counts)
 
 
 def model_allocations(path: str | Path, n_circuits: int | None = None) -> dict[str, list[int]]:

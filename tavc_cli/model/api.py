@@ -15,6 +15,7 @@ from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.model import core
 from tavc_cli.model.measure import measure
+from tavc_cli.notation import counts_of, join_counts
 from tavc_cli.ownership import MODEL, MODEL_FILES, refuse_other_settings, take
 from tavc_cli.reference import chapter_world
 from tavc_cli.settings import ArenaConfig, TavcConfig
@@ -100,7 +101,7 @@ def table_from_rows(rows: pd.DataFrame) -> core.CTable:
     n_circuits = int(rows["circuit"].max()) + 1
     table = core.CTable(n_circuits)
     for split, g in rows.groupby("split", sort=False):
-        n = tuple(int(x) for x in str(split).split(":"))
+        n = counts_of(str(split))
         g = g.sort_values("circuit")
         table.cells[n] = tuple(core.Cell(c=float(r.c_per_s), t=float(r.task_time_s)) for r in g.itertuples())
     return table
@@ -114,7 +115,7 @@ def table_rows(table: core.CTable, values, time_unit_s: float) -> pd.DataFrame:
         for i, cell in enumerate(cells):
             budget = dict(zip((f"{a}_s" for a in ACTIVITIES), cell.budget, strict=True)) if cell.budget else {}
             rows.append({
-                "split": ":".join(map(str, n)), "state": core.state_label(n, values), "n_robots": sum(n),
+                "split": join_counts(n), "state": core.state_label(n, values), "n_robots": sum(n),
                 "circuit": i, "n_on_circuit": n[i], "c_per_s": cell.c, "c_lo": cell.c_lo, "c_hi": cell.c_hi,
                 "task_time_s": cell.t, "t_lo": cell.t_lo, "t_hi": cell.t_hi,
                 "task_time_delivered_s": cell.t_delivered,
@@ -187,7 +188,7 @@ def time_budget(table: core.CTable, n_robots: int) -> list[dict]:
         for i, cell in enumerate(cells):
             if n[i] == 0 or not cell.budget:
                 continue
-            rows.append({"n_on_circuit": n[i], "circuit": i, "split": ":".join(map(str, n)),
+            rows.append({"n_on_circuit": n[i], "circuit": i, "split": join_counts(n),
                          "task_time_s": cell.t, **dict(zip(ACTIVITIES, cell.budget, strict=True))})
     return sorted(rows, key=lambda r: (r["n_on_circuit"], r["circuit"]))
 

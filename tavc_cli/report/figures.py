@@ -12,6 +12,7 @@ import pandas as pd
 from tavc_cli.analysis.claims import not_a_verdict
 from tavc_cli.chapter import EXPERIMENTS, base_case, state_table_id
 from tavc_cli.experiments.plan import RunPlan, read_plan
+from tavc_cli.notation import high_of
 from tavc_cli.reference import chapter_table
 from tavc_cli.settings import TavcConfig
 
@@ -41,7 +42,7 @@ def predicted_segments(cfg: TavcConfig, model_json: Path | None) -> list[tuple[f
         pred = by_size.get(str(n))
         if pred is not None:
             state = pred["predicted_state"]
-            out.append((a, b, f"{n} robots: {state}", float(state.split(":")[0])))
+            out.append((a, b, f"{n} robots: {state}", float(high_of(state))))
         n -= 1
     return out
 

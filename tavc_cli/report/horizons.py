@@ -27,6 +27,7 @@ from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
 from tavc_cli.analysis.mechanism import PERSISTENCE
 from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.experiments.plan import RunPlan, read_plan
+from tavc_cli.notation import state_counts
 from tavc_cli.readers import load_json
 from tavc_cli.report.files import CONVERGED_DIR, config_of
 from tavc_cli.report.mechanism import convergence, mechanism, mechanism_words
@@ -327,8 +328,9 @@ def model_lines(name: str, d: Path, cfg: TavcConfig, model_json: Path | None) ->
     learners = st[st["controller"] == "tavc"].sort_values("mean_pct", ascending=False)
     modal = learners.iloc[0] if len(learners) else None
     pred = by_size.get(str(n_end), {}).get("predicted_state", "?")
+    counts = state_counts(pred)
     text = (f"The model against the learners: for {n_end} robots it predicts **{pred}** "
-            f"({pred.split(':')[0] if pred != '?' else '?'} robots on the high-value circuit); in the stable "
+            f"({counts[0] if counts else '?'} robots on the high-value circuit); in the stable "
             f"period the learners' most frequent state is {modal['state'] if modal is not None else '?'} "
             f"({fmt(modal['mean_pct']) if modal is not None else ''} %), with {fmt(after, '.2f')} robots on the "
             "high-value circuit on average")

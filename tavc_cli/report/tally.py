@@ -6,7 +6,6 @@ where they name it firmly, and how near a tie the modal state is in odd teams th
 from __future__ import annotations
 
 import math
-import re
 import statistics
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import pandas as pd
 
 from tavc_cli.analysis.table_schemas import STATE_PREFIX
 from tavc_cli.analysis.turn_taking import ALTERNATOR, FIRM, HORIZON, modal_support
+from tavc_cli.notation import state_counts
 from tavc_cli.report.files import model_alternators, read_or_refuse
 from tavc_cli.settings_studies import ALTERNATORS
 
@@ -47,8 +47,8 @@ def middle_states(state: str) -> tuple[str, str] | None:
     """The two middle states of the team of a state "h:l" (h robots on the high-value circuit, l on
     the low) where h + l is odd: (n+1)/2 high and (n-1)/2 high; None for an even team or a state
     of another form."""
-    found = re.fullmatch(r"(\d+):(\d+)", state)
-    n = int(found[1]) + int(found[2]) if found else 0
+    counts = state_counts(state)
+    n = sum(counts) if counts is not None and len(counts) == 2 else 0
     return (f"{n // 2 + 1}:{n // 2}", f"{n // 2}:{n // 2 + 1}") if n % 2 else None
 
 

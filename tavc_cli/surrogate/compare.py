@@ -12,6 +12,7 @@ import pandas as pd
 from tavc_cli.analysis.convergence import convergence_verdict
 from tavc_cli.analysis.mechanism import mechanism_summary
 from tavc_cli.model import core
+from tavc_cli.notation import high_of
 from tavc_cli.surrogate.tasks import STAY
 
 
@@ -109,4 +110,4 @@ def high_share(states: dict, n_robots: int) -> float:
     total = sum(states.values())
     if not total:
         return math.nan
-    return sum(p * int(s.split(":")[0]) for s, p in states.items()) / (n_robots * total)
+    return sum(p * high_of(s) for s, p in states.items()) / (n_robots * total)

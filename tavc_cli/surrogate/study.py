@@ -35,6 +35,7 @@ from tavc_cli.chapter import base_case, served_by
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.notation import high_of
 from tavc_cli.ownership import STUDY, take
 from tavc_cli.settings import to_yaml
 from tavc_cli.surrogate.compare import comparison_rows, high_share, predicted_state, run_facts
@@ -166,7 +167,7 @@ class Study:
             for ratio in PHASE_RATIOS:
                 state = predicted_state(times, team.name, n, [ratio * LOW_VALUE, LOW_VALUE])
                 predicted.append({"n_robots": n, "ratio": ratio, "model_state": state,
-                                  "model_high_share": int(state.split(":")[0]) / n})
+                                  "model_high_share": high_of(state) / n})
         return table.merge(pd.DataFrame(predicted), on=["n_robots", "ratio"], how="left")
 
     def _phase_row(self, engine: str, scale: str, factor: float, n: int, ratio: float, folder: Path) -> dict:

@@ -10,12 +10,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from tavc_cli.notation import counts_of
 from tavc_cli.viz.figures import COLOURS, LABELS, clipped_band, finish_figure, n_text, plt, save_figure
 
 
 def _grid(states: Sequence[str], values: Sequence[float]) -> np.ndarray:
     """f:s states and their numbers as a 2-D array: rows f (fast robots high), columns s (slow)."""
-    pairs = [tuple(int(x) for x in s.split(":")) for s in states]
+    pairs = [counts_of(s) for s in states]
     grid = np.full((max(f for f, _ in pairs) + 1, max(s for _, s in pairs) + 1), np.nan)
     for (f, s), v in zip(pairs, values, strict=True):
         grid[f, s] = v
