@@ -38,7 +38,7 @@ CONVERGED_BATCH ?= 2
 .PHONY: help install venv venv-test lock lint test test-slow test-fast bench compare surrogate-study verify-outcomes reproduce-all reproduce-experiments reproduce-quick reproduce-converged ladder model value-ratio value-ratio-converged stay-switch stay-switch-calibrated readings-experiments turn-taking-readings readings-experiments-converged readings-x80 turn-taking-checks team-size-checks small-team-value-checks switch-checks firm-checks transition-predictions transition-runs transition-checks value-ratio-checks calibrate-readings $(REPRODUCE) clean
 
 help: ## List the targets
-	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
+	@awk 'BEGIN {FS = ":.*## "} /^[a-zA-Z0-9_-]+:.*## / {printf "  %-15s %s\n", $$1, $$2}' $(MAKEFILE_LIST)
 	@echo "  reproduce-NAME  Run one experiment at paper scale ($(EXPERIMENTS))"
 
 install: venv ## The tool alone: .venv with tavc at the locked versions, no test tools (the same as venv)

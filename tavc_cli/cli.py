@@ -162,8 +162,7 @@ def stay_switch_command(
     calibrated: options.CalibratedFrom = None,
     progress: options.ProgressFlag = None,
 ) -> None:
-    """What each reading of the world does to staying and switching: static robots in every
-    make-up of the team, per reading (arrival, passing, layout); stay_switch.csv."""
+    """What each reading of the world (arrival, passing, layout) does to staying and switching."""
     with _user_errors(folder=lambda: results):
         commands.stay_switch(results, overrides or [], options.shown(progress), calibrated)
 
@@ -180,9 +179,10 @@ def model(
     )] = False,
     progress: options.ProgressFlag = None,
 ) -> None:
-    """Measure c_i(n) in the simulator and apply the TAVC model: slot values, predicted
-    allocation, constraints (1.3)/(1.4) and calibrated task values; with --turn-taking, the
-    model that knows turn-taking beside it."""
+    """Measure c_i(n) in the simulator and apply the TAVC model; --turn-taking adds its rival.
+
+    The chapter's model: slot values, predicted allocation, constraints (1.3)/(1.4), calibrated task
+    values; with --turn-taking, the model that knows turn-taking beside it."""
     with _user_errors(folder=lambda: config.load_config(overrides or []).output_dir):
         # deferred: loads pandas
         from tavc_cli.api import model as run_model
@@ -213,10 +213,11 @@ def surrogate(
     ] = None,
     progress: options.ProgressFlag = None,
 ) -> None:
-    """Run an experiment on the surrogate of the learning dynamics: the same learners, seeds,
-    events and tables, with each task drawn from tasks measured in the simulator by the group's
-    make-up (default output: runs/<scale>/surrogate/<experiment>); with --study, the surrogate
-    checked against the simulator and what it answers beyond it."""
+    """Run an experiment on the surrogate of the learning dynamics; --study checks it.
+
+    The same learners, seeds, events and tables, each task drawn from tasks measured in the simulator
+    by the group's make-up (default output: runs/<scale>/surrogate/<experiment>); with --study, the
+    surrogate checked against the simulator and what it answers beyond it."""
     with _user_errors(folder=lambda: results):
         if study:
             # deferred: loads pandas
@@ -260,9 +261,9 @@ def compare(
     ] = None,
     progress: options.ProgressFlag = None,
 ) -> None:
-    """Learners side by side on the chapter's scenarios: score per second, time in the model's
-    predicted state, time to fill a vacancy, fast robots on the valuable circuit, each tested
-    against TAVC and random (compare.csv, compare.md, compare.png)."""
+    """Learners side by side on the chapter's scenarios, each tested against TAVC and random.
+
+    Score per second, time in the predicted state, vacancy fill time, fast robots on the valuable circuit."""
     with _user_errors(folder=lambda: results):
         # deferred: loads pandas
         from tavc_cli.api import compare_summary
@@ -289,8 +290,7 @@ def calibrate(
     ] = False,
     progress: options.ProgressFlag = None,
 ) -> None:
-    """Search the reconstructed docking world (calibration.grid) for the settings under which
-    the chapter's task values meet its constraints (1.3)/(1.4); static allocations only."""
+    """Search the world's settings (calibration.grid) under which the chapter's facts hold."""
     with _user_errors():
         # deferred: loads pandas
         from tavc_cli.api import calibrate as search_world

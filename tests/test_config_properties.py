@@ -197,8 +197,11 @@ REFUSED = [
     (["learner=random", "+learner.alpha=0.2"],
      "learner.alpha: the learner random takes no parameter alpha (it takes no parameters)"),
     (["learner=random", "learner.alpha=0.2"],
-     "learner.alpha: the chosen learner takes no such parameter (`tavc config learner=<name>` shows a learner's "
-     "parameters)"),
+     "learner.alpha: the learner random takes no parameter alpha (`tavc config learner=random` shows its parameters)"),
+    # a near miss of a parameter the learner takes is named
+    (["learner=tavc_egreedy", "learner.epsilonn=0.1"],
+     "learner.epsilonn: the learner tavc_egreedy takes no parameter epsilonn (did you mean 'epsilon'? "
+     "`tavc config learner=tavc_egreedy` shows its parameters)"),
     (["learner=random", "+learner.params.a=1"],
      "learner.params: only a learner from learner.target takes params; set random's parameters as learner.<name>"),
     # the warm-up is checked as written (before smoke's 0.02 would make it -0.1)

@@ -7,6 +7,7 @@ this one, so the readings are the project's."""
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -95,3 +96,12 @@ def test_a_reading_that_is_not_one_is_refused_in_one_line_before_anything_runs(t
     assert done.returncode != 0 and done.stdout == ""
     assert "READING=dock-nowhere-two_circuits is not one of the readings besides today's world" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
+
+
+def test_help_lists_every_target_that_describes_itself(tmp_path):
+    described = re.findall(r"^([A-Za-z0-9_.-]+):[^\n]*## ", (REPO / "Makefile").read_text(), flags=re.M)
+    done = _make(tmp_path, "help")
+    assert done.returncode == 0, done.stderr
+    listed = [line.split()[0] for line in done.stdout.splitlines() if line.strip()]
+    assert "readings-x80" in described  # a name with a digit in it
+    assert set(described) <= set(listed)

@@ -17,7 +17,7 @@ def run_summary_text(summary: dict[str, Any]) -> str:
              *([f"engine: {summary['engine']}"] if summary.get("engine") else []),
              f"trials: {n_trials} ({n_reused} reused) in {summary['wall_time_s']:.1f} s wall time{together}",
              f"figures: tavc report {Path(summary['output_dir']).parent} draws them, with REPORT.md, into its "
-             "figures/ folder"]
+             "figures/ folder, from every run under it"]
     tables = summary.get("tables") or {}
     if "table_1_1" in tables:  # one circuit: the group's state says nothing; Table 1.1 does
         lines += ["\ntraversal time after n traversals (over robots), target time after m arrivals (over trials)",

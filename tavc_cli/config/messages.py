@@ -10,6 +10,7 @@ from typing import Optional
 
 import yaml
 from hydra.errors import HydraException, MissingConfigException
+from omegaconf import DictConfig
 from omegaconf.errors import (
     ConfigAttributeError,
     ConfigKeyError,
@@ -205,14 +206,33 @@ def omegaconf_message(error: OmegaConfBaseException, context: Optional[str] = No
                     f"add it with a plus: +{where}=...")
         if where.startswith("learner.") and where.count(".") == 1:
             # a learner's node holds exactly the parameters its settings class declares
-            return (f"{where}: the chosen learner takes no such parameter (`tavc config learner=<name>` "
-                    "shows a learner's parameters)")
+            return f"{where}: {_learner_hint(error)}"
         unknown = f"unknown key {error.key!r}" if nested else "unknown key"
         return f"{where}: {unknown}{_key_hint(error)}"
     if isinstance(error, ValidationError):
         return f"{where}: {_validation_detail(str(error))}"
     detail = str(error).splitlines()[0] if str(error) else type(error).__name__
     return f"{where or 'config'}: {detail}"
+
+
+# a learner's node beside its parameters: what it is and where a plugin's own parameters go
+_LEARNER_FRAME = ("name", "target", "params")
+
+
+def _learner_hint(error: OmegaConfBaseException) -> str:
+    """Why a `learner.<key>` override is refused: the chosen learner (named where its node says)
+    takes no such parameter; the nearest it takes, if one is near."""
+    node = getattr(error, "parent_node", None)
+    try:
+        name = node.get("name") if isinstance(node, DictConfig) else None
+        taken = [str(k) for k in node.keys() if str(k) not in _LEARNER_FRAME] if isinstance(node, DictConfig) else []
+    except OmegaConfBaseException:
+        name, taken = None, []
+    who = f"the learner {name}" if isinstance(name, str) and name else "the chosen learner"
+    close = difflib.get_close_matches(str(error.key), taken, n=1)
+    near = f"did you mean {close[0]!r}? " if close else ""
+    show = f"learner={name}" if isinstance(name, str) and name else "learner=<name>"
+    return f"{who} takes no parameter {error.key} ({near}`tavc config {show}` shows its parameters)"
 
 
 def _key_hint(error: OmegaConfBaseException) -> str:
