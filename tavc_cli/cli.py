@@ -162,7 +162,10 @@ def stay_switch_command(
     calibrated: options.CalibratedFrom = None,
     progress: options.ProgressFlag = None,
 ) -> None:
-    """What each reading of the world (arrival, passing, layout) does to staying and switching."""
+    """What each reading of the world (arrival, passing, layout) does to staying and switching.
+
+    Static robots in every make-up of the team, per reading: stay_switch.csv and its figure, and
+    the turn-taking model's prediction per reading."""
     with _user_errors(folder=lambda: results):
         commands.stay_switch(results, overrides or [], options.shown(progress), calibrated)
 
@@ -263,7 +266,8 @@ def compare(
 ) -> None:
     """Learners side by side on the chapter's scenarios, each tested against TAVC and random.
 
-    Score per second, time in the predicted state, vacancy fill time, fast robots on the valuable circuit."""
+    Score per second, time in the model's predicted state, time to fill a vacancy, fast robots on the
+    valuable circuit (compare.csv, compare.md, compare.png)."""
     with _user_errors(folder=lambda: results):
         # deferred: loads pandas
         from tavc_cli.api import compare_summary
@@ -281,16 +285,14 @@ def compare(
 @app.command()
 def calibrate(
     overrides: options.Overrides = None,
-    save: Annotated[
-        bool,
-        typer.Option(
-            "--save",
-            help="Record the chosen world as the config option world=calibrated (conf/world/).",
-        ),
-    ] = False,
+    save: Annotated[bool, typer.Option(
+        "--save", help="Record the chosen world as the config option world=calibrated (conf/world/).")] = False,
     progress: options.ProgressFlag = None,
 ) -> None:
-    """Search the world's settings (calibration.grid) under which the chapter's facts hold."""
+    """Search the world's settings (calibration.grid) under which the chapter's facts hold.
+
+    Static allocations only: the settings under which the chapter's task values meet its
+    constraints (1.3)/(1.4)."""
     with _user_errors():
         # deferred: loads pandas
         from tavc_cli.api import calibrate as search_world
@@ -309,14 +311,8 @@ def bench(
         float, typer.Option("--duration-s", help="Simulated seconds per repeat.")
     ] = 600.0,
     repeats: Annotated[int, typer.Option(min=1, help="Timed repeats; their median counts.")] = 3,
-    batch: Annotated[
-        Optional[int],
-        typer.Option(
-            min=1,
-            help="Trials advanced together (default: the simulator's choice).",
-            show_default=False,
-        ),
-    ] = None,
+    batch: Annotated[Optional[int], typer.Option(
+        min=1, help="Trials advanced together (default: the simulator's choice).", show_default=False)] = None,
     n_rays: Annotated[
         Optional[int],
         typer.Option("--n-rays", min=1, help="Laser rays (default: the configured world's).", show_default=False),

@@ -33,12 +33,12 @@ from dataclasses import dataclass
 from itertools import product
 from pathlib import Path
 
-from tavc_cli.analysis.table_schemas import STATE_PREFIX, TABLE_NAMES, TABLES, TableSchema
+from tavc_cli.analysis.table_schemas import TABLE_NAMES, TABLES, TableSchema
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import PLAN_FILE
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import file_digest
-from tavc_cli.notation import counts_of, join_counts, state_counts
+from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
 from tavc_cli.readers import YAML_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig, from_yaml
 
@@ -300,8 +300,9 @@ def _check_states(path: Path, header: list[str], rows: list, facts: RunFacts) ->
     if path.stem == "comparison":
         return
     for c in header:
-        if c.startswith(STATE_PREFIX) and path.stem == "trial_stats" and not facts.valid_state(c[len(STATE_PREFIX):]):
-            raise damaged(path, f"column {c!r}: {c[len(STATE_PREFIX):]!r} is no state of this experiment's team")
+        state = column_state(c)
+        if state is not None and path.stem == "trial_stats" and not facts.valid_state(state):
+            raise damaged(path, f"column {c!r}: {state!r} is no state of this experiment's team")
     if "state" not in header:
         return
     at = header.index("state")

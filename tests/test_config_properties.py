@@ -196,12 +196,15 @@ REFUSED = [
     # a learner's node holds its own parameters only: random has none
     (["learner=random", "+learner.alpha=0.2"],
      "learner.alpha: the learner random takes no parameter alpha (it takes no parameters)"),
-    (["learner=random", "learner.alpha=0.2"],
-     "learner.alpha: the learner random takes no parameter alpha (`tavc config learner=random` shows its parameters)"),
-    # a near miss of a parameter the learner takes is named
+    (["learner=random", "learner.alpha=0.2"], "learner.alpha: the learner random takes no parameter alpha (it takes "
+                                              "no parameters)"),
+    # a near miss of a parameter the learner takes is named, and every one it takes
     (["learner=tavc_egreedy", "learner.epsilonn=0.1"],
-     "learner.epsilonn: the learner tavc_egreedy takes no parameter epsilonn (did you mean 'epsilon'? "
-     "`tavc config learner=tavc_egreedy` shows its parameters)"),
+     "learner.epsilonn: the learner tavc_egreedy takes no parameter epsilonn (did you mean 'epsilon'? it takes alpha, "
+     "gamma, epsilon, q_init_low, q_init_high)"),
+    # a learner from a file takes its own parameters under learner.params
+    (["learner=plugin", "learner.name=mine", "learner.target=x.py:C", "learner.alpha=0.1"],
+     "learner.alpha: the learner mine comes from learner.target and takes its parameters as learner.params.<key>"),
     (["learner=random", "+learner.params.a=1"],
      "learner.params: only a learner from learner.target takes params; set random's parameters as learner.<name>"),
     # the warm-up is checked as written (before smoke's 0.02 would make it -0.1)

@@ -139,6 +139,9 @@ def test_in_the_simulator_informed_fills_the_vacancy_and_model_leaves_it(tmp_pat
     ('{"by_team_size": {"6": {"predicted_state": "4:-2"}}}', "has no predicted state of counts for 6 robots"),
     # a digit to str.isdigit that int() refuses: one line, not a traceback
     ('{"by_team_size": {"6": {"predicted_state": "\u00b3:3"}}}', "has no predicted state of counts for 6 robots"),
+    # a count past the digits int() reads
+    ('{"by_team_size": {"6": {"predicted_state": "' + "9" * 5000 + ':3"}}}',
+     "has no predicted state of counts for 6 robots"),
     ('{"by_team_size": {"6": {"predicted_state": "3:2"}}}', "predicts 3:2 for 6 robots: 5 robots, not 6"),
     ('{"by_team_size": {"6": {"predicted_state": "2:2:2"}}}', "2:2:2 for 6 robots: 3 circuits, where the arena has 2"),
     ('{"by_team_size": {"six": {"predicted_state": "3:3"}}}', "has a team size 'six'"),
@@ -162,6 +165,7 @@ def test_a_malformed_model_file_is_one_line_before_anything_runs_and_the_fixed_f
     line = result.output.strip().splitlines()[-1]
     assert line.startswith(f"error: learner.model_file: {model}") or line.startswith(f"error: {model}: cannot be read")
     assert said in line and "Traceback" not in result.output
+    assert len(line) < 400  # the file's content is quoted short
     assert not (tmp_path / "out").exists()  # nothing written: the fixed file runs the same command
     write_model(model, [2200.0, 2000.0], {"5": "3:2", "6": "3:3"})
     assert CliRunner().invoke(app, command).exit_code == 0

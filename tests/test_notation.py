@@ -4,10 +4,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tavc_cli.analysis.table_schemas import column_state
 from tavc_cli.analysis.value_ratio import high_share
 from tavc_cli.compare.metrics import fast_share
-from tavc_cli.notation import counts_of, high_of, join_counts, state_counts
+from tavc_cli.notation import column_state, counts_of, high_of, join_counts, state_counts
 
 
 @pytest.mark.parametrize(("label", "counts"), [
@@ -21,7 +20,7 @@ def test_a_state_reads_as_its_numbers_in_order(label, counts):
 
 
 @pytest.mark.parametrize("label", ["3:-1", "3.0:2", " 3:2", "3:", ":", "", "a:b", "\u00b3:3", "\u0663:3",
-                                   None, 3, (3, 2)])
+                                   None, 3, (3, 2), "9" * 10 + ":3", "9" * 5000 + ":3"])
 def test_anything_but_ascii_digits_joined_by_colons_is_no_state(label):
     assert state_counts(label) is None
     if isinstance(label, str):

@@ -211,8 +211,9 @@ def test_a_run_folder_given_for_the_results_folder_says_which_to_give(one_run):
     result = runner.invoke(app, ["report", str(one_run / "breakdown")])
     assert result.exit_code == 1
     assert result.output.strip() == (f"error: RESULTS_DIR: {one_run / 'breakdown'} is one run's folder; give the "
-                                     f"folder that holds the runs ({one_run}: every run under it is read), or run "
-                                     "again with output_dir=<a folder of its own>/breakdown to report this one alone")
+                                     f"folder that holds the runs ({one_run}: every run under it is read), or move it "
+                                     "into a folder of its own (<folder>/breakdown) and give that folder to report it "
+                                     "alone")
 
 
 def test_the_report_says_when_the_baselines_started_late():

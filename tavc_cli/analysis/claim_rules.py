@@ -52,10 +52,10 @@ from tavc_cli.analysis.significance import (
     paired_less,
 )
 from tavc_cli.analysis.states import theory_pct
-from tavc_cli.analysis.table_schemas import Q_GAP_PREFIX, STATE_PREFIX
+from tavc_cli.analysis.table_schemas import Q_GAP_PREFIX
 from tavc_cli.analysis.trial_stats import states_of
 from tavc_cli.learning.registry import LEARNS_NOTHING
-from tavc_cli.notation import counts_of
+from tavc_cli.notation import STATE_PREFIX, counts_of
 
 # The margin within which two shares of a state (% of the stable period) are the same: the smallest
 # difference between two of the chapter's learners' tables that it calls significant (3:2 in Table

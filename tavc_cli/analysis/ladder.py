@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from tavc_cli.analysis.convergence import convergence_verdict
+from tavc_cli.notation import STATE_PREFIX
 
 LADDER_COLUMNS = ["factor", "duration_s", "controller", "quantity", "mean", "std", "n_trials"]
 LADDER_CLAIMS = (3, 4, 5)
@@ -58,7 +59,8 @@ def rung_rows(rung: Rung) -> list[dict]:
     factor, duration, tables = rung.factor, rung.duration_s, rung.tables
     rows = []
     for r in tables["state_time"].itertuples():
-        rows.append(_row(factor, duration, r.controller, f"pct_{r.state}", r.mean_pct, r.std_pct, int(r.n_trials)))
+        rows.append(_row(factor, duration, r.controller, f"{STATE_PREFIX}{r.state}", r.mean_pct, r.std_pct,
+                         int(r.n_trials)))
     stats = tables["trial_stats"]
     for controller, group in stats.groupby("controller", sort=False):
         x = group["value_rate_stable"].dropna()

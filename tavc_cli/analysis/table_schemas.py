@@ -6,19 +6,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from tavc_cli.notation import STATE_PREFIX
+
 # every table a run may write in its folder (`outputs.write_analysis`), by file stem
 TABLE_NAMES = ("state_time", "performance", "trial_stats", "allocation", "specialisation", "robots", "q_values",
                "convergence", "mechanism", "vacancy", "table_1_1", "traversals", "target_times", "policy", "lanes",
                "occupancy", "comparison", "claims")
-# trial_stats: one column of shares of the stable period per state (`analysis.trial_stats`), and per group of
-# robots (heterogeneous teams) one of the mean final Q(s, high) - Q(s, low) (`analysis.qvalues.q_gaps`)
-STATE_PREFIX, Q_GAP_PREFIX = "pct_", "q_gap_"
-
-
-def column_state(column: str) -> str | None:
-    """The state a `trial_stats` share column is for (``"pct_3:2"`` -> ``"3:2"``); None for
-    any other column."""
-    return column[len(STATE_PREFIX):] if column.startswith(STATE_PREFIX) else None
+# trial_stats: one column of shares of the stable period per state (`analysis.trial_stats`; named by
+# `notation.STATE_PREFIX`), and per group of robots (heterogeneous teams) one of the mean final
+# Q(s, high) - Q(s, low) (`analysis.qvalues.q_gaps`)
+Q_GAP_PREFIX = "q_gap_"
 
 
 @dataclass(frozen=True)

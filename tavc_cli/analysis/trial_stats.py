@@ -21,8 +21,9 @@ import pandas as pd
 from tavc_cli.analysis.performance import value_rate
 from tavc_cli.analysis.qvalues import q_gaps, trial_policy_stats
 from tavc_cli.analysis.states import alive_at_end, all_states, group_order, high_circuit_series, time_shares
-from tavc_cli.analysis.table_schemas import Q_GAP_PREFIX, STATE_PREFIX
+from tavc_cli.analysis.table_schemas import Q_GAP_PREFIX
 from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.notation import STATE_PREFIX, column_state
 from tavc_cli.settings import TavcConfig
 
 # a trial's allocation has settled from the first bin after which every bin's mean number of
@@ -119,4 +120,4 @@ def trial_stats(records: Iterable[TrialRecord], cfg: TavcConfig) -> pd.DataFrame
 
 def states_of(stats: pd.DataFrame) -> list[str]:
     """The state labels of a trial_stats table, in its column order."""
-    return [c[len(STATE_PREFIX):] for c in stats.columns if c.startswith(STATE_PREFIX)]
+    return [s for s in map(column_state, stats.columns) if s is not None]

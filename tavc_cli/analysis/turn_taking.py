@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.mechanism import TURN_TAKING, mechanism_summary
-from tavc_cli.analysis.table_schemas import STATE_PREFIX
+from tavc_cli.notation import STATE_PREFIX, column_state
 
 
 def modal_state(state_time: pd.DataFrame, controller: str) -> tuple[str, float]:
@@ -59,7 +59,7 @@ def modal_support(trial_stats: pd.DataFrame, state: str, controller: str = "tavc
     other controllers' trials fill, and trials without shares, are left out. NaN where there are
     no such trials or no such state."""
     mine = trial_stats.loc[trial_stats["controller"] == controller,
-                           [c for c in trial_stats.columns if c.startswith(STATE_PREFIX)]]
+                           [c for c in trial_stats.columns if column_state(c) is not None]]
     mine = mine.dropna(axis=1, how="all").dropna()
     columns = list(mine.columns)
     if STATE_PREFIX + state not in columns:

@@ -24,10 +24,9 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.stay_switch import reading_name, reading_of, readings, split_folder
-from tavc_cli.analysis.table_schemas import column_state
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
 from tavc_cli.model import core
-from tavc_cli.notation import counts_of
+from tavc_cli.notation import column_state, counts_of
 from tavc_cli.settings import TavcConfig
 
 POINT_COLUMNS = ["reading", "horizon", "ratio", "values", "mean", "std", "n_trials", "policy_changes_per_trial",

@@ -33,11 +33,10 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from tavc_cli.analysis.table_schemas import STATE_PREFIX, column_state
 from tavc_cli.chapter import served_by
 from tavc_cli.compare import FLOOR, REFERENCE
 from tavc_cli.errors import TavcError
-from tavc_cli.notation import high_of, join_counts
+from tavc_cli.notation import STATE_PREFIX, column_state, high_of, join_counts
 from tavc_cli.readers import load_yaml
 
 METRICS = {

@@ -221,18 +221,26 @@ _LEARNER_FRAME = ("name", "target", "params")
 
 def _learner_hint(error: OmegaConfBaseException) -> str:
     """Why a `learner.<key>` override is refused: the chosen learner (named where its node says)
-    takes no such parameter; the nearest it takes, if one is near."""
+    takes no such parameter, and the ones it takes, the nearest first if one is near; a learner
+    from `learner.target` takes its own under `learner.params`."""
     node = getattr(error, "parent_node", None)
-    try:
-        name = node.get("name") if isinstance(node, DictConfig) else None
-        taken = [str(k) for k in node.keys() if str(k) not in _LEARNER_FRAME] if isinstance(node, DictConfig) else []
-    except OmegaConfBaseException:
-        name, taken = None, []
+    name, target, taken, own = None, None, [], []
+    if isinstance(node, DictConfig):
+        try:
+            name, target, params = node.get("name"), node.get("target"), node.get("params")
+            taken = [str(k) for k in node.keys() if str(k) not in _LEARNER_FRAME]
+            own = [str(k) for k in params.keys()] if isinstance(params, DictConfig) else []
+        except Exception:  # a missing value or an interpolation in the node: the message stays general
+            name, target, taken, own = None, None, [], []
     who = f"the learner {name}" if isinstance(name, str) and name else "the chosen learner"
-    close = difflib.get_close_matches(str(error.key), taken, n=1)
+    key = str(error.key)
+    if target:
+        close = difflib.get_close_matches(key, own, n=1)
+        near = f" (did you mean learner.params.{close[0]}?)" if close else ""
+        return f"{who} comes from learner.target and takes its parameters as learner.params.<key>{near}"
+    close = difflib.get_close_matches(key, taken, n=1)
     near = f"did you mean {close[0]!r}? " if close else ""
-    show = f"learner={name}" if isinstance(name, str) and name else "learner=<name>"
-    return f"{who} takes no parameter {error.key} ({near}`tavc config {show}` shows its parameters)"
+    return f"{who} takes no parameter {key} ({near}it takes {', '.join(taken) or 'no parameters'})"
 
 
 def _key_hint(error: OmegaConfBaseException) -> str:

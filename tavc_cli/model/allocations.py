@@ -10,6 +10,7 @@ command runs once the file is fixed.
 
 from __future__ import annotations
 
+import reprlib
 from pathlib import Path
 
 from tavc_cli.errors import TavcError
@@ -31,7 +32,7 @@ def _counts(path: Path, size: str, prediction: object, n_circuits: int | None) -
     counts = state_counts(state)
     if counts is None:
         raise _bad(path, f"has no predicted state of counts for {size} robots (by_team_size.{size}.predicted_state "
-                         f"is {state!r}, not like '3:3')")
+                         f"is {reprlib.repr(state)}, not like '3:3')")
     if n_circuits is not None and len(counts) != n_circuits:
         raise _bad(path, f"predicts {state} for {size} robots: {len(counts)} circuits, where the arena has "
                          f"{n_circuits}")

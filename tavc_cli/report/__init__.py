@@ -150,8 +150,8 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     experiments = {name: folders[0] for name, folders in found.items()}
     if not experiments and (results_dir / "state_time.csv").is_file():
         raise TavcError(f"RESULTS_DIR: {results_dir} is one run's folder; give the folder that holds the runs "
-                        f"({results_dir.parent}: every run under it is read), or run again with "
-                        f"output_dir=<a folder of its own>/{results_dir.name} to report this one alone")
+                        f"({results_dir.parent}: every run under it is read), or move it into a folder of its "
+                        f"own (<folder>/{results_dir.name}) and give that folder to report it alone")
     if not experiments:
         raise TavcError(f"RESULTS_DIR: no finished runs under {results_dir} (run `tavc run experiment=...` first)")
     base = horizons.read_horizon(results_dir, found, unfinished)

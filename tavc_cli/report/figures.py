@@ -12,7 +12,7 @@ import pandas as pd
 from tavc_cli.analysis.claims import not_a_verdict
 from tavc_cli.chapter import EXPERIMENTS, base_case, state_table_id
 from tavc_cli.experiments.plan import RunPlan, read_plan
-from tavc_cli.notation import high_of
+from tavc_cli.notation import state_counts
 from tavc_cli.reference import chapter_table
 from tavc_cli.settings import TavcConfig
 
@@ -39,10 +39,9 @@ def predicted_segments(cfg: TavcConfig, model_json: Path | None) -> list[tuple[f
     n = int(cfg.team.n_robots) - sum(1 for b in cfg.events.breakdowns if float(b.time_s) <= start)
     out = []
     for a, b in zip([start, *times], [*times, end], strict=True):
-        pred = by_size.get(str(n))
-        if pred is not None:
-            state = pred["predicted_state"]
-            out.append((a, b, f"{n} robots: {state}", float(high_of(state))))
+        state = (by_size.get(str(n)) or {}).get("predicted_state")
+        if state_counts(state) is not None:  # a state the model file does not give is not drawn
+            out.append((a, b, f"{n} robots: {state}", float(state_counts(state)[0])))
         n -= 1
     return out
 

@@ -11,9 +11,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.table_schemas import STATE_PREFIX
 from tavc_cli.analysis.turn_taking import ALTERNATOR, FIRM, HORIZON, modal_support
-from tavc_cli.notation import state_counts
+from tavc_cli.notation import STATE_PREFIX, state_counts
 from tavc_cli.report.files import model_alternators, read_or_refuse
 from tavc_cli.settings_studies import ALTERNATORS
 

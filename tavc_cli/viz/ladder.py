@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.chapter import base_case
+from tavc_cli.notation import STATE_PREFIX, column_state
 from tavc_cli.reference import chapter_table
 from tavc_cli.viz.figures import clipped_err, n_text, plt, save_figure
 
@@ -31,13 +32,13 @@ def ladder_figure(table: pd.DataFrame, out_stem: Path, chapter: pd.DataFrame | N
     share of robots that are stayers and alternators."""
     if chapter is None:
         chapter = chapter_table("1.2")
-    states = [q[4:] for q in dict.fromkeys(table.loc[table["controller"] == "tavc", "quantity"])
-              if q.startswith("pct_")]
+    states = [s for s in map(column_state, dict.fromkeys(table.loc[table["controller"] == "tavc", "quantity"]))
+              if s is not None]
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(7.5, 8.0), sharex=True,
                                       gridspec_kw={"height_ratios": [3, 2]})
     other_labelled = False
     for state in states:
-        h, m, s = _series(table, "tavc", f"pct_{state}")
+        h, m, s = _series(table, "tavc", STATE_PREFIX + state)
         central = state in STATE_COLOURS
         label = f"TAVC {state}" if central else (None if other_labelled else "TAVC, other states")
         other_labelled = other_labelled or not central
@@ -50,12 +51,12 @@ def ladder_figure(table: pd.DataFrame, out_stem: Path, chapter: pd.DataFrame | N
                      markeredgecolor="k", ls="none",
                      label=f"the chapter's {r.state} (Table 1.2)")
     for controller, style in (("random", "--"), ("theory", ":")):
-        h, m, _ = _series(table, controller, "pct_3:3")
+        h, m, _ = _series(table, controller, STATE_PREFIX + "3:3")
         if len(m):
             top.axhline(float(np.nanmean(m)), color="0.3", ls=style, lw=1,
                         label=f"{'random' if controller == 'random' else 'binomial'} 3:3")
     top.set_xscale("log")
-    tavc = table[(table["controller"] == "tavc") & table["quantity"].str.startswith("pct_")]
+    tavc = table[(table["controller"] == "tavc") & table["quantity"].str.startswith(STATE_PREFIX)]
     n = n_text(tavc["n_trials"]) if "n_trials" in tavc else "trials"
     top.set_ylabel(f"% of the stable period\n(mean ± std over {n}, cut at 0 and 100)")
     top.set_ylim(bottom=0.0)
