@@ -39,7 +39,8 @@ def predicted_segments(cfg: TavcConfig, model_json: Path | None) -> list[tuple[f
     n = int(cfg.team.n_robots) - sum(1 for b in cfg.events.breakdowns if float(b.time_s) <= start)
     out = []
     for a, b in zip([start, *times], [*times, end], strict=True):
-        state = (by_size.get(str(n)) or {}).get("predicted_state")
+        entry = by_size.get(str(n)) if isinstance(by_size, dict) else None
+        state = entry.get("predicted_state") if isinstance(entry, dict) else None
         if state_counts(state) is not None:  # a state the model file does not give is not drawn
             out.append((a, b, f"{n} robots: {state}", float(state_counts(state)[0])))
         n -= 1
