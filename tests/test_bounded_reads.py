@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from omegaconf._utils import get_yaml_loader
 from typer.testing import CliRunner
 
 from tavc_cli import readers
@@ -151,3 +152,20 @@ def test_tavcs_own_files_read_as_before():
     assert load_yaml(config) == yaml.safe_load(config.read_text())
     for path in [*RESULTS.glob("*/provenance.json"), *RESULTS.glob("**/.tavc.json")]:
         assert load_json(path) == json.loads(path.read_text())
+
+
+@pytest.mark.skipif(readers.CParser is None, reason="PyYAML without libyaml reads with its own parser only")
+def test_libyaml_reads_every_committed_config_as_pyyaml_does_and_keeps_the_loaders_own_rules(tmp_path):
+    assert issubclass(readers._SAFE, readers.CParser)  # the report's hundreds of configs parsed by libyaml
+    configs = sorted(RESULTS.glob("*/config.yaml")) + sorted(RESULTS.glob("converged/*/config.yaml"))
+    assert len(configs) >= 10
+    for path in configs:
+        assert load_yaml(path) == yaml.safe_load(path.read_text())
+        assert load_yaml(path, loader=get_yaml_loader()) == yaml.load(path.read_text(), Loader=get_yaml_loader())
+    # OmegaConf's loader refuses a key given twice and reads 1e3 as a number: so it does on libyaml
+    path = tmp_path / "config.yaml"
+    path.write_text("a: 1e3\n")
+    assert load_yaml(path, loader=get_yaml_loader()) == {"a": 1000.0}
+    path.write_text("a: 1\na: 2\n")
+    with pytest.raises(yaml.YAMLError, match="duplicate key"):
+        load_yaml(path, loader=get_yaml_loader())
