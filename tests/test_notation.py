@@ -39,10 +39,10 @@ def test_share_columns_name_their_state_and_other_columns_none():
 
 
 def test_the_readers_of_share_columns_weigh_each_state_by_its_first_number():
-    # two trials: 60 % in 3:2 and 40 % in 2:3; then 100 % in 5:0 (five robots, three of them fast)
-    stats = pd.DataFrame({"trial": [0, 1], "pct_3:2": [60.0, 0.0], "pct_2:3": [40.0, 0.0], "pct_5:0": [0.0, 100.0],
+    # two trials: 60 % in 3:2 and 40 % in 2:3; then 100 % in 3:0 (after two robots broke down)
+    stats = pd.DataFrame({"trial": [0, 1], "pct_3:2": [60.0, 0.0], "pct_2:3": [40.0, 0.0], "pct_3:0": [0.0, 100.0],
                           "q_gap_fast": [9.0, 9.0]})
-    # the high-value circuit's share of the team: 0.6 * 3/5 + 0.4 * 2/5 = 0.52, then 1
+    # the high-value circuit's share of the team: 0.6 * 3/5 + 0.4 * 2/5 = 0.52, then 3/3 = 1
     assert high_share(stats) == pytest.approx([0.52, 1.0])
-    # fast robots' share on it, three fast robots: (60 * 3 + 40 * 2) / 100 / 3 = 0.8667, then 5/3
-    assert fast_share(stats, 3) == pytest.approx([260 / 300, 500 / 300])
+    # read as groups (fast:slow on the high-value circuit), three fast robots: (60 * 3 + 40 * 2) / 100 / 3, then 1
+    assert fast_share(stats, 3) == pytest.approx([260 / 300, 1.0])
