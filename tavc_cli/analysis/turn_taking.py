@@ -28,6 +28,13 @@ from tavc_cli.analysis.mechanism import TURN_TAKING, mechanism_summary
 from tavc_cli.notation import STATE_PREFIX, column_state
 
 
+def state_shares(state_time: pd.DataFrame, controller: str) -> dict[str, float]:
+    """`controller`'s mean share (%) of the measured stretch in each state, from a run's
+    `state_time` table, in the table's order."""
+    mine = state_time[state_time["controller"] == controller]
+    return dict(zip(mine["state"], mine["mean_pct"], strict=True))
+
+
 def modal_state(state_time: pd.DataFrame, controller: str) -> tuple[str, float]:
     """The state `controller`'s groups spent most of the measured stretch in and its mean share
     (%), the first in the table's order on a tie; ("", NaN) where the table has no such rows."""

@@ -41,8 +41,9 @@ def predicted_segments(cfg: TavcConfig, model_json: Path | None) -> list[tuple[f
     for a, b in zip([start, *times], [*times, end], strict=True):
         entry = by_size.get(str(n)) if isinstance(by_size, dict) else None
         state = entry.get("predicted_state") if isinstance(entry, dict) else None
-        if state_counts(state) is not None:  # a state the model file does not give is not drawn
-            out.append((a, b, f"{n} robots: {state}", float(state_counts(state)[0])))
+        counts = state_counts(state)
+        if counts is not None:  # a state the model file does not give is not drawn
+            out.append((a, b, f"{n} robots: {state}", float(counts[0])))
         n -= 1
     return out
 

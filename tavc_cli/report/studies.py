@@ -12,7 +12,7 @@ import pandas as pd
 
 from tavc_cli.analysis.makeup_model import expected_high, predicted_regime, readings_summary
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, readings
-from tavc_cli.analysis.turn_taking import RESAMPLES
+from tavc_cli.analysis.turn_taking import RESAMPLES, state_shares
 from tavc_cli.analysis.value_ratio import predicted_shares
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
@@ -288,11 +288,10 @@ def _learners(d: Path) -> dict:
     group = read_group(d, cfg)
     v = convergence(d)
     converged = "?" if v is None else ("yes" if v["converged"] else f"no ({', '.join(v['failed'])})")
-    table = pd.read_csv(d / "state_time.csv", dtype={"state": str})
-    mine = table[table["controller"] == "tavc"]
     trials = pd.read_csv(d / "trial_stats.csv") if (d / "trial_stats.csv").is_file() else pd.DataFrame()
     factor = float(cfg.scale.time_factor)
-    return {**group, "shares": dict(zip(mine["state"], mine["mean_pct"], strict=True)), "trials": cfg.trials,
+    shares = state_shares(pd.read_csv(d / "state_time.csv", dtype={"state": str}), "tavc")
+    return {**group, "shares": shares, "trials": cfg.trials,
             "trial_stats": trials, "factor": factor, "converged": converged,
             "no_check": no_check_note(v is not None and v["converged"], factor),
             "words": f"{group['regime']}, {fmt(group['robots_high'], '.2f') or '-'}, {group['modal_state']} "

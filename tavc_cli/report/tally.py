@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli.analysis.turn_taking import ALTERNATOR, FIRM, HORIZON, modal_support
-from tavc_cli.notation import STATE_PREFIX, state_counts
+from tavc_cli.analysis.turn_taking import ALTERNATOR, FIRM, HORIZON, modal_support, state_shares
+from tavc_cli.notation import STATE_PREFIX, join_counts, state_counts
 from tavc_cli.report.files import model_alternators, read_or_refuse
 from tavc_cli.settings_studies import ALTERNATORS
 
@@ -48,7 +48,7 @@ def middle_states(state: str) -> tuple[str, str] | None:
     of another form."""
     counts = state_counts(state)
     n = sum(counts) if counts is not None and len(counts) == 2 else 0
-    return (f"{n // 2 + 1}:{n // 2}", f"{n // 2}:{n // 2 + 1}") if n % 2 else None
+    return (join_counts((n // 2 + 1, n // 2)), join_counts((n // 2, n // 2 + 1))) if n % 2 else None
 
 
 def _shares_of(shares: dict, states: tuple[str, str]) -> tuple[float, float] | None:
@@ -63,12 +63,8 @@ def alternator_shares(where: Path, predicted: dict) -> dict | None:
     if run is None or not (run / "state_time.csv").is_file():
         return None
 
-    def read(path: Path) -> dict:
-        table = pd.read_csv(path, dtype={"state": str})
-        mine = table[table["controller"] == ALTERNATOR]
-        return dict(zip(mine["state"], mine["mean_pct"], strict=True))
-
-    return read_or_refuse(run / "state_time.csv", read)
+    return read_or_refuse(run / "state_time.csv",
+                          lambda path: state_shares(pd.read_csv(path, dtype={"state": str}), ALTERNATOR))
 
 
 def _span(values: list[float]) -> str:

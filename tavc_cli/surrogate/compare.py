@@ -11,6 +11,7 @@ import pandas as pd
 
 from tavc_cli.analysis.convergence import convergence_verdict
 from tavc_cli.analysis.mechanism import mechanism_summary
+from tavc_cli.analysis.turn_taking import state_shares
 from tavc_cli.model import core
 from tavc_cli.notation import high_of
 from tavc_cli.surrogate.tasks import STAY
@@ -23,7 +24,7 @@ def run_facts(folder: Path, controller: str = "tavc") -> dict:
     folder = Path(folder)
     states = pd.read_csv(folder / "state_time.csv", dtype={"state": str})
     mine = states[states["controller"] == controller]
-    shares = dict(zip(mine["state"], mine["mean_pct"], strict=True))
+    shares = state_shares(states, controller)
     out: dict = {"states": shares, "n_trials": int(mine["n_trials"].max()) if len(mine) else 0}
     out["modal_state"] = max(shares, key=shares.get) if shares else ""
     out["pct_modal"] = shares.get(out["modal_state"], math.nan)
