@@ -23,7 +23,7 @@ from tavc_cli.analysis.significance import (
     close_to,
     equivalence,
     equivalent_family,
-    holm_none_differ,
+    holm_some_differ,
     welch_error,
 )
 from tavc_cli.chapter import EXPERIMENTS, claims
@@ -78,7 +78,7 @@ def claim_3() -> list[dict]:
 
 def claim_4() -> list[dict]:
     """Claim 4 on its table (1.2): the random row close to the theory row (Cohen's w), and, beside it,
-    each state's random share against the theory row, Holm-corrected (the chapter: significant)."""
+    whether random differs from the theory row in some state, Holm-corrected (the chapter: it does)."""
     table_id = _tables_of(4)[0]
     t = _table(table_id)
     n = CHAPTER_TRIALS[table_id][1]
@@ -91,8 +91,8 @@ def claim_4() -> list[dict]:
         p = float(2 * stats.t.sf(abs(tt), n - 1)) if math.isfinite(tt) else math.nan
         tests.append((state, (lambda tt=tt, p=p: (tt, p))))
     return [_from_part(4, close),
-            _from_part(4, holm_none_differ(f"Table {table_id}: random against the theory row, each state", tests),
-                       True)]
+            _from_part(4, holm_some_differ(f"Table {table_id}: random differs from the theory row in some state",
+                                           tests), True)]
 
 
 def claim_6() -> list[dict]:

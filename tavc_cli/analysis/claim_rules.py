@@ -45,7 +45,7 @@ from tavc_cli.analysis.significance import (
     close_to,
     equivalent,
     greater,
-    holm_none_differ,
+    holm_some_differ,
     less,
     one_sample,
     paired_greater,
@@ -152,8 +152,9 @@ def claim_4(runs: Mapping[str, pd.DataFrame], theory: Mapping[str, float] | None
     means = {st: _mean(_share(rnd, st)) for st in states_of(s)}
     tests = [(st, (lambda st=st: _one_sample(_share(rnd, st), theory[st]))) for st in states_of(s)]
     return [close_to("random's mean distribution close to the binomial theory row", means, theory, CLOSE_W),
-            as_observation(holm_none_differ("random's share of each state against the binomial theory row "
-                                            "(the chapter: the differences are significant)", tests))]
+            as_observation(holm_some_differ("random's share differs from the binomial theory row in some state "
+                                            "(the chapter: \"the differences are statistically significant\")",
+                                            tests))]
 
 
 def claim_5(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:

@@ -50,6 +50,7 @@ from tavc_cli.analysis.significance import (
     equivalent,
     greater,
     holm_none_differ,
+    holm_some_differ,
     less,
     not_different,
     one_sample,
@@ -60,8 +61,8 @@ from tavc_cli.analysis.significance import (
 
 __all__ = ["ALPHA", "CLOSE_W", "IDENTICAL", "LEARNER", "PERFORMANCE_MARGIN", "Part", "STATE_MARGIN_PCT", "claim_1",
            "claim_2", "claim_3", "claim_4", "claim_5", "claim_6", "claim_7", "claim_8", "claim_9", "equivalent",
-           "greater", "holm_none_differ", "largest_relative_increase", "learner_under_test", "less", "mean_above",
-           "not_different", "one_sample", "paired_greater", "paired_less", "untestable"]
+           "greater", "holm_none_differ", "holm_some_differ", "largest_relative_increase", "learner_under_test", "less",
+           "mean_above", "not_different", "one_sample", "paired_greater", "paired_less", "untestable"]
 
 # claim id -> (experiment, the chapter's words), and claim id -> its rule, for the chapter's own
 # claims (`claim_table` reads every claim of the registry, each with its rule here if it has one)

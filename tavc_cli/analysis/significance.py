@@ -11,7 +11,9 @@ numbers, each giving a `Part`: what it asked, its statistic and p-value, and whe
   test, which needs no correction), and the family fails when a Holm-corrected two-sided
   test finds any state different.
 - "no state differs" as a plain failure to reject (`holm_none_differ`), kept for reports of
-  what differs, not as a test of sameness.
+  what differs, not as a test of sameness; "some state differs" (`holm_some_differ`), the same
+  Holm-corrected family read the other way, where the chapter states that differences are
+  significant.
 - "close to" a distribution: Cohen's w (`cohens_w`), a comparison of means with no p.
 
 A part that cannot be tested (fewer than two trials a side, no spread at all where a t divides
@@ -160,6 +162,39 @@ def holm_none_differ(what: str, tests: Sequence[tuple[str, Callable[[], tuple]]]
     sides, say) has nothing that could differ: it is no test, and does not count in the family.
     Any other state that cannot be tested leaves the family not testable, unless a state that
     could be tested already rejects: "none differ" cannot be shown while one state is unknown."""
+    family = _holm(what, tests)
+    if isinstance(family, Part):
+        return Part(family.what, family.statistic, family.p_value, family.holds, family.reason, what, "same")
+    label, t0, p0, untested = family
+    if p0 < ALPHA:
+        return Part(label, t0, p0, False, name=what, kind="same")
+    if untested:  # the family's verdict is unknown, and so is its t: the tested states' are in `label`
+        return Part(label, math.nan, math.nan, None, "no tested state differs, but " + _grouped(untested), what,
+                    "same")
+    return Part(label, t0, p0, True, name=what, kind="same")
+
+
+def holm_some_differ(what: str, tests: Sequence[tuple[str, Callable[[], tuple]]]) -> Part:
+    """The same family as `holm_none_differ`, on the other side: holds if some test rejects
+    after Holm's correction (the smallest p, adjusted, below `ALPHA`). A state that cannot be
+    tested leaves it not testable unless a tested state already rejects: "some differ" cannot be
+    denied while one state is unknown."""
+    family = _holm(what, tests)
+    if isinstance(family, Part):
+        return family
+    label, t0, p0, untested = family
+    if p0 < ALPHA:
+        return Part(label, t0, p0, True, name=what)
+    if untested:
+        return Part(label, math.nan, math.nan, None, "no tested state differs, but " + _grouped(untested), what)
+    return Part(label, t0, p0, False, name=what)
+
+
+def _holm(what: str, tests: Sequence[tuple[str, Callable[[], tuple]]]) -> Part | tuple[str, float, float, list]:
+    """A family of two-sided tests over states, Holm-corrected: (its label, naming the most different
+    state and its raw p; that state's t; its Holm-adjusted p, the family's; the states that could not
+    be tested, with why), or a not-testable part where no state could be tested. Holm's step-down
+    rejects some state exactly when the smallest p times the family's size is below `ALPHA`."""
     results, identical, untested = [], [], []
     for name, run in tests:
         t, p, *why = run()
@@ -172,21 +207,10 @@ def holm_none_differ(what: str, tests: Sequence[tuple[str, Callable[[], tuple]]]
     aside = f", {len(identical)} identical in every trial, no test" if identical else ""
     if not results:
         reason = _grouped(untested) if untested else "every state identical in every trial"
-        return _not_testable(what, reason, "same")
-    results.sort()
-    m = len(results)
-    adjusted, running = [], 0.0
-    for k, (p, _, _) in enumerate(results):
-        running = max(running, min(1.0, (m - k) * p))
-        adjusted.append(running)
-    p0, t0, name0 = results[0]
-    label = f"{what} (most different: {name0}, raw p {p0:.4g}, Holm over {m} states{aside})"
-    if any(a < ALPHA for a in adjusted):
-        return Part(label, float(t0), float(adjusted[0]), False, name=what, kind="same")
-    if untested:  # the family's verdict is unknown, and so is its t: the tested states' are in `label`
-        return Part(label, math.nan, math.nan, None, "no tested state differs, but " + _grouped(untested), what,
-                    "same")
-    return Part(label, float(t0), float(adjusted[0]), True, name=what, kind="same")
+        return _not_testable(what, reason)
+    p0, t0, name0 = min(results)
+    label = f"{what} (most different: {name0}, raw p {p0:.4g}, Holm over {len(results)} states{aside})"
+    return label, float(t0), min(1.0, len(results) * p0), untested
 
 
 def _grouped(untested: Sequence[tuple[str, str]]) -> str:

@@ -17,6 +17,10 @@ are named in its list of runs, with where they are used. A report whose claims a
 runs below the chapter's scale is headed "not a verdict". The sections are written by `sections` (an
 experiment's, at any horizon), `text` (its prose), `figures` (its figures), `studies`
 (section 1.4 and the value-ratio sweep) and `time_scale`.
+
+Each run it reads has its claims tested again on its own tables by today's rules
+(`outputs.retested_claims`): a run whose `claims.csv` an older tavc wrote in other words or
+numbers gets it rewritten, and its `provenance.json` says by which tavc (`outputs.rewrite_claims`).
 """
 
 from __future__ import annotations
@@ -59,13 +63,15 @@ from tavc_cli.report.time_scale import time_scale_lines
 from tavc_cli.run_checks import check_run
 
 
-def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: dict[str, list[Path]]) -> None:
+def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: dict[str, list[Path]]) -> list[Path]:
     """Check every file the report reads, and where it writes, before writing anything: a
     damaged file is one line naming it, not a half-built report. Every run of every horizon,
     of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`run_checks.check_run`:
     its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
     readings' study's tables, the calibration searches' tables, the turn-taking model's predictions
-    and its own learners' and alternators' runs. The runs are checked two at a time (`_check_runs`)."""
+    and its own learners' and alternators' runs, and every other finished run under the folder (a
+    study's own runs, read through its tables). The runs are checked two at a time (`_check_runs`).
+    Returns the runs whose claims today's rules test otherwise than their `claims.csv` says."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")
@@ -78,7 +84,10 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     for ladder in ladders:  # the rungs whose claims the ladder's table tests again
         folders += sorted(p.parent for p in ladder.parent.glob("*/trial_stats.csv")
                           if (p.parent / "config.yaml").is_file())
-    _check_runs(folders)
+    listed = set(folders)  # and every other finished run under the folder, whose claims are tested again too
+    folders += [p.parent for p in sorted(results_dir.rglob("provenance.json")) if p.parent not in listed
+                and (p.parent / "trial_stats.csv").is_file() and (p.parent / "config.yaml").is_file()]
+    stale = _check_runs(folders)
     for ladder in ladders:
         read_or_refuse(ladder, pd.read_csv)
     for path in (results_dir / d / name for d in STAY_SWITCH_DIRS for name in STAY_SWITCH_TABLES):  # read as a whole
@@ -92,22 +101,24 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
         runs = (model_learners(path.parent, predicted), model_alternators(path.parent, predicted)) \
             if isinstance(predicted, dict) else ()
         own += [d for d in runs if d is not None and (d / "config.yaml").is_file()]
-    _check_runs(own)
+    return sorted({*stale, *_check_runs(own)})
 
 
-def _check_runs(folders: list[Path]) -> None:
+def _check_runs(folders: list[Path]) -> list[Path]:
     """`run_checks.check_run` on each folder, and its model's output, two folders at a time where the
     system forks (`FigurePool`); the first folder in their order with anything wrong is the one
     refused (or a failure of the check itself raised), as one by one, once the checks already
     handed to the processes have ended; where a check process dies, the folders from there on
     are checked here, one by one. Each folder's settings are then read here too, where the
-    report reads them again (`files.config_of` keeps them)."""
-    refused, here_from = None, len(folders)
+    report reads them again (`files.config_of` keeps them). Returns the folders whose claims are
+    not what today's rules give (`_check_run`)."""
+    refused, here_from, stale = None, len(folders), []
     with FigurePool() as pool:
         pending = [pool.submit(_check_run, d) for d in folders]
         for i, (d, checked) in enumerate(zip(folders, pending, strict=True)):
             try:
-                checked.result()
+                if checked.result():
+                    stale.append(d)
             except BrokenProcessPool:  # a check process died: this folder and the rest are checked here
                 here_from = i
                 break
@@ -120,15 +131,39 @@ def _check_runs(folders: list[Path]) -> None:
     if refused is not None:
         raise refused
     for d in folders[here_from:]:
-        _check_run(d)
+        if _check_run(d):
+            stale.append(d)
         config_of(d / "config.yaml")
+    return stale
 
 
-def _check_run(folder: Path) -> None:
-    """`run_checks.check_run` on one folder, and its model's output if it has one."""
+def _check_run(folder: Path) -> bool:
+    """`run_checks.check_run` on one folder, and its model's output if it has one; True if its
+    claims, tested again on its tables, are not what its `claims.csv` holds (`outputs.retested_claims`)."""
+    # deferred: a run's analysis loads the simulator's kernels, which importing the report must not
+    from tavc_cli.outputs import retested_claims
+
     check_run(folder, config_of)
     if (folder / "model" / "model.json").is_file():
         read_or_refuse(folder / "model" / "model.json", lambda p: json.loads(p.read_text()))
+    return retested_claims(folder, config_of) is not None
+
+
+def _retest(folders: list[Path]) -> tuple[list[Path], list[str]]:
+    """Rewrite the claims of the runs in `folders` as today's rules test them (`outputs.rewrite_claims`);
+    a run another tavc command holds now is left to it. Returns the runs rewritten, and a line for
+    each run left."""
+    # deferred: as in `_check_run`
+    from tavc_cli.outputs import rewrite_claims
+
+    rewritten, left = [], []
+    for d in folders:
+        try:
+            if rewrite_claims(d, config_of):
+                rewritten.append(d)
+        except TavcError as exc:  # the folder is in use: the command that holds it writes its claims
+            left.append(f"claims of {d} not tested again now ({exc}); the next report will")
+    return rewritten, left
 
 
 def build_report(results_dir: Path, progress: Callable[[str], None] | None = None, page: bool = False) -> dict:
@@ -146,7 +181,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     found, unfinished = finished_runs(results_dir)
     longer_found = [(d, *finished_runs(d)) for d in horizon_folders(results_dir)]
     longer_found = [(d, runs, left) for d, runs, left in longer_found if runs]  # a horizon is its finished runs
-    _check_readable(results_dir, [d for d, _, _ in longer_found], found, *(runs for _, runs, _ in longer_found))
+    stale = _check_readable(results_dir, [d for d, _, _ in longer_found], found, *(runs for _, runs, _ in longer_found))
     experiments = {name: folders[0] for name, folders in found.items()}
     if not experiments and (results_dir / "state_time.csv").is_file():
         raise TavcError(f"RESULTS_DIR: {results_dir} is one run's folder; give the folder that holds the runs "
@@ -164,6 +199,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     tested, n_ok = base.tested, base.n_reproduced
     # everything read: now the first write
     taken = take_report_folders(results_dir, [h.folder for h in longer], page)
+    retested, left = _retest(stale)
     drawn_before = figure_files(taken)
     model_json = find_model(experiments)
     n_runs = sum(len(h.experiments) + sum(len(ds) for ds in h.others.values()) for h in every)
@@ -200,6 +236,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
            **({"page": str(results_dir / HTML_FILE)} if page else {}),
            "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished],
+           "claims_retested": [rel(d, results_dir) for d in retested], "claims_left": left,
            "runs": _run_names(found, results_dir), "not_a_verdict": base.shortfalls,
            "studies": {what: [rel(d, results_dir) for d in folders] for what, folders in study_runs(results_dir)},
            "horizons": [{"folder": rel(h.folder, results_dir), "factor": h.factor, "experiments": list(h.experiments),
@@ -263,7 +300,8 @@ def _run_names(found: dict[str, list[Path]], results_dir: Path) -> dict[str, lis
 def summary_lines(result: dict) -> list[str]:
     """`build_report`'s result in a few lines: the runs left out, "not a verdict" where the
     claims were tested on runs below the chapter's scale, the claims and the runs they were
-    tested on, every other run reported, the studies' runs, where the report went."""
+    tested on, every other run reported, the studies' runs, the runs whose claims it tested again,
+    where the report went."""
     lines = [f"left out {folder}: its run did not finish (no provenance.json); run it again to complete it"
              for folder in result["unfinished"]]
     lines += _count_lines(result, "claims reproduced", "")
@@ -272,6 +310,11 @@ def summary_lines(result: dict) -> list[str]:
         lines += _count_lines(h, f"claims reproduced{where}", where, h["folder"])
     lines += [f"read as a whole, not run by run: {_common(folders)} ({len(folders)} runs: {what})"
               for what, folders in result.get("studies", {}).items()]
+    retested = result.get("claims_retested", [])
+    if retested:
+        lines.append(f"claims tested again by this tavc's rules: {len(retested)} run(s) under {_common(retested)} had "
+                     "a claims.csv an older tavc wrote, now rewritten (their provenance.json says by which tavc)")
+    lines += result.get("claims_left", [])
     return [*lines, result["report"], *([result["page"]] if "page" in result else [])]
 
 
