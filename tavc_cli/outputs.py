@@ -77,15 +77,17 @@ def retested_claims(folder: Path, read_config) -> str | None:
     """The `claims.csv` today's rules give the finished run in `folder` (its `provenance.json`
     written), tested on the tables it wrote, where that differs from the folder's (an empty text:
     no claim to write); None where the folder holds it already, has no `trial_stats.csv`, or
-    where its claims file is not tavc's to replace. `read_config(path)` reads its `config.yaml`."""
+    where its claims file is not tavc's to replace (not in the folder's list of tavc's files, or a
+    link). `read_config(path)` reads its `config.yaml`."""
     owned = ownership.read(folder)
     if owned is None or owned.kind not in (ownership.RUN, ownership.SURROGATE):
         return None
     if not (folder / "provenance.json").is_file() or not (folder / "trial_stats.csv").is_file():
         return None
     path = folder / "claims.csv"
-    if path.exists() and not owned.owns("claims.csv"):
-        return None
+    if (path.is_symlink() or path.exists()) and (not owned.owns("claims.csv") or path.is_symlink()
+                                                 or not path.is_file()):
+        return None  # not tavc's: somebody else's file, or a link, which tavc never writes through
     # deferred: loads scipy
     from tavc_cli.analysis.claims import CLAIM_TABLES
 

@@ -95,6 +95,18 @@ def test_a_claims_file_tavc_did_not_write_is_left_alone(one_run, tmp_path):
     assert "rewritten" not in json.loads((run / "provenance.json").read_text())
 
 
+def test_a_claims_file_that_is_a_link_is_never_written_through(one_run, tmp_path):
+    results, run = _copy(one_run, tmp_path)
+    older = _as_an_older_tavc_wrote_it(run, one_run[1])
+    elsewhere = tmp_path / "elsewhere.csv"
+    (run / "claims.csv").rename(elsewhere)
+    (run / "claims.csv").symlink_to(elsewhere)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    assert (run / "claims.csv").is_symlink() and elsewhere.read_text() == older
+    assert "tested again" not in result.output
+
+
 def test_a_run_another_command_holds_is_left_to_it(one_run, tmp_path):
     results, run = _copy(one_run, tmp_path)
     older = _as_an_older_tavc_wrote_it(run, one_run[1])
@@ -102,7 +114,7 @@ def test_a_run_another_command_holds_is_left_to_it(one_run, tmp_path):
         result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
     assert (run / "claims.csv").read_text() == older
-    assert f"claims of {run} not tested again now (output_dir: {run} is in use by another tavc run" in result.output
+    assert f"claims of {run} not tested again (output_dir: {run} is in use by another tavc run" in result.output
     # once the folder is free, the next report heals it
     assert runner.invoke(app, ["report", str(results)]).exit_code == 0
     assert (run / "claims.csv").read_text() == one_run[1]

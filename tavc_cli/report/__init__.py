@@ -162,7 +162,7 @@ def _retest(folders: list[Path]) -> tuple[list[Path], list[str]]:
             if rewrite_claims(d, config_of):
                 rewritten.append(d)
         except TavcError as exc:  # the folder is in use: the command that holds it writes its claims
-            left.append(f"claims of {d} not tested again now ({exc}); the next report will")
+            left.append(f"claims of {d} not tested again ({exc})")
     return rewritten, left
 
 
