@@ -387,7 +387,9 @@ def report(
                                           "of contents, readable offline.")
     ] = False,
 ) -> None:
-    """Write RESULTS_DIR/REPORT.md and claims.csv from saved results (never simulates)."""
+    """Write RESULTS_DIR/REPORT.md and claims.csv from saved results (never simulates).
+
+    Each run's own claims.csv is tested again by this tavc's rules, and rewritten where they differ."""
     with _user_errors(folder=lambda: results_dir):
         commands.report(results_dir, progress, html)
 
