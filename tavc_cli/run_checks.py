@@ -29,7 +29,7 @@ import io
 import math
 import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import product
 from pathlib import Path
 
@@ -71,6 +71,7 @@ class RunFacts:
     groups: tuple[int, ...]
     n_circuits: int
     fewest: int
+    replaced: dict[str, str] = field(default_factory=dict)  # a file tavc rewrote -> its digest before
 
     @classmethod
     def of(cls, cfg: TavcConfig, provenance: dict | None, folder: Path) -> RunFacts:
@@ -85,12 +86,15 @@ class RunFacts:
         scheme = str(cfg.analysis.state)
         sizes = tuple(names.count(g) for g in group_order(names, speeds)) if scheme == "groups" else (len(names),)
         trials = digests = None
+        replaced = {}
         if provenance is not None:
             # a provenance listing no trial (a folder made by hand) gives none to check against
             trials = frozenset((str(t["controller"]), int(t["trial"])) for t in provenance["trials"]) or None
             digests = provenance.get("tables")
+            replaced = {name: r["replaced"] for name, r in (provenance.get("rewritten") or {}).items()
+                        if r.get("replaced")}
         return cls(folder, trials, digests, scheme, sizes, len(cfg.arena.circuits),
-                   len(names) - len(cfg.events.breakdowns))
+                   len(names) - len(cfg.events.breakdowns), replaced)
 
     def valid_state(self, label: str) -> bool:
         """Whether `label` is a state of this team: robots per circuit (high-value circuit
@@ -134,6 +138,10 @@ def read_provenance(path: Path) -> dict:
     tables = prov.get("tables")
     if tables is not None and not (isinstance(tables, dict) and all(isinstance(v, str) for v in tables.values())):
         raise damaged(path, "cannot be read (its tables are not a map of file names to digests)")
+    rewritten = prov.get("rewritten")
+    if "rewritten" in prov and not (isinstance(rewritten, dict) and all(
+            isinstance(r, dict) and isinstance(r.get("replaced", ""), str | None) for r in rewritten.values())):
+        raise damaged(path, "cannot be read (its rewritten files are not a map of file names to records)")
     return prov
 
 
@@ -246,7 +254,8 @@ def check_table(path: Path, facts: RunFacts | None = None) -> None:
         raise damaged(path, "no rows under its header (a run writes this table only with rows)")
     if schema is not None:
         _check_columns(path, schema, header, rows, facts)
-    _check_digest(path, facts.digests, table=True)  # last: what is wrong, where the shape says, first
+    # last: what is wrong, where the shape says, first
+    _check_digest(path, facts.digests, table=True, before=facts.replaced.get(path.name))
 
 
 def _check_columns(path: Path, schema: TableSchema, header: list[str], rows: list, facts: RunFacts) -> None:
@@ -325,10 +334,15 @@ def _check_states(path: Path, header: list[str], rows: list, facts: RunFacts) ->
             raise damaged(path, f"{controller} has no row for state {sorted(full - states)[0]}")
 
 
-def _check_digest(path: Path, digests: dict[str, str] | None, table: bool = False) -> None:
+def _check_digest(path: Path, digests: dict[str, str] | None, table: bool = False, before: str | None = None) -> None:
     """The file's SHA-256 against the one provenance.json recorded for it, where it did. A
-    table of a run's kind that the record leaves out was not written by that run."""
+    table of a run's kind that the record leaves out was not written by that run. A file tavc
+    rewrote from the run's tables (`outputs.rewrite_claims`) passes with the digest it had `before`
+    as well: the record names the new one before the file is replaced, so a rewrite stopped
+    between the two leaves the file as the run had it, and the next report rewrites it."""
     if digests is None:
+        return
+    if before is not None and path.is_file() and file_digest(path) == before:
         return
     recorded = digests.get(path.name)
     if recorded is None:

@@ -217,11 +217,11 @@ def test_a_damaged_table_of_a_run_in_another_reading_is_refused_before_anything_
 _CHECK_RUN = report._check_run
 
 
-def _slow_for_todays_world(folder: Path) -> None:
+def _slow_for_todays_world(folder: Path, root: Path) -> bool:
     """The report's check of one run, a second late for a run directly under the results folder."""
     if folder.parent.name == "results":
         time.sleep(1.0)
-    _CHECK_RUN(folder)
+    return _CHECK_RUN(folder, root)
 
 
 def test_of_two_damaged_runs_the_first_in_order_is_named_though_they_are_checked_together(breakdown, tmp_path,
@@ -242,11 +242,11 @@ def test_of_two_damaged_runs_the_first_in_order_is_named_though_they_are_checked
 _REPORTING = os.getpid()
 
 
-def _dies_in_a_check_process(folder: Path) -> None:
+def _dies_in_a_check_process(folder: Path, root: Path) -> bool:
     """The report's check of one run, dying (as out of memory would) in a check process."""
     if os.getpid() != _REPORTING:
         os._exit(9)
-    _CHECK_RUN(folder)
+    return _CHECK_RUN(folder, root)
 
 
 def test_where_a_check_process_dies_the_runs_are_checked_in_the_report_itself(breakdown, tmp_path, monkeypatch):

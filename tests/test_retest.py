@@ -1,17 +1,20 @@
 """A finished run's claims tested again by today's rules: `tavc report` rewrites a run's
 `claims.csv` that an older tavc wrote in other words, records it in the run's provenance, and
-leaves alone what is not tavc's or what another command holds."""
+leaves alone what is not tavc's, what lies through a link, and what another command holds."""
 
 import json
+import os
 import shutil
 
 import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from tavc_cli import __version__
+from tavc_cli import __version__, report
+from tavc_cli import retest as R
 from tavc_cli.cli import app
 from tavc_cli.io import claim_folder, file_digest
+from tavc_cli.settings import from_yaml
 
 runner = CliRunner()
 
@@ -117,4 +120,93 @@ def test_a_run_another_command_holds_is_left_to_it(one_run, tmp_path):
     assert f"claims of {run} not tested again (output_dir: {run} is in use by another tavc run" in result.output
     # once the folder is free, the next report heals it
     assert runner.invoke(app, ["report", str(results)]).exit_code == 0
+    assert (run / "claims.csv").read_text() == one_run[1]
+
+
+def test_a_rewrite_stopped_between_its_two_writes_is_finished_by_the_next_report(one_run, tmp_path, monkeypatch):
+    """The record is written first: stopped before the claims are, the run still checks out (the
+    file has the digest the record says it had before) and the next report rewrites it."""
+    results, run = _copy(one_run, tmp_path)
+    older = _as_an_older_tavc_wrote_it(run, one_run[1])
+    write = R.write_text_atomic
+
+    def stopped(path, text, root=None):
+        if path.name == "claims.csv":
+            raise KeyboardInterrupt
+        write(path, text, root)
+
+    monkeypatch.setattr(R, "write_text_atomic", stopped)
+    with pytest.raises(KeyboardInterrupt):
+        report.build_report(results)
+    assert (run / "claims.csv").read_text() == older
+    record = json.loads((run / "provenance.json").read_text())
+    assert record["rewritten"]["claims.csv"]["replaced"] == file_digest(run / "claims.csv")
+    assert record["tables"]["claims.csv"] != file_digest(run / "claims.csv")
+    monkeypatch.setattr(R, "write_text_atomic", write)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    assert (run / "claims.csv").read_text() == one_run[1]
+    assert json.loads((run / "provenance.json").read_text())["tables"]["claims.csv"] == file_digest(run / "claims.csv")
+    # once finished, the file before the rewrite no longer passes for the run's
+    (run / "claims.csv").write_text(older)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 1 and "changed since its run wrote it" in result.output
+
+
+def test_a_run_reached_through_a_link_is_never_written(one_run, tmp_path):
+    results = tmp_path / "results"
+    outside = tmp_path / "outside"
+    shutil.copytree(one_run[0] / "breakdown", outside)
+    older = _as_an_older_tavc_wrote_it(outside, one_run[1])
+    results.mkdir()
+    (results / "breakdown").symlink_to(outside)
+    assert R.retested_claims(results / "breakdown", results, from_yaml) is None
+    assert R.rewrite_claims(results / "breakdown", results, from_yaml) is False
+    assert (outside / "claims.csv").read_text() == older and not (outside / ".tavc.lock").exists()
+    # the same folder given as the results folder itself is the user's choice of where to write
+    assert R.retested_claims(results / "breakdown", results / "breakdown", from_yaml) == one_run[1]
+
+
+def test_a_run_beside_one_that_did_not_finish_is_left_as_it_is(one_run, tmp_path):
+    """A claim may compare a run with the run of another experiment beside it; one whose run did not
+    finish (a damaged table, no provenance.json) is neither read nor taken as absent."""
+    results, run = _copy(one_run, tmp_path)
+    older = _as_an_older_tavc_wrote_it(run, one_run[1])
+    beside = results / "initial_distribution"
+    beside.mkdir()
+    (beside / "trial_stats.csv").write_text('controller,"trial\n')
+    assert R.retested_claims(run, results, from_yaml) is None
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    assert (run / "claims.csv").read_text() == older and "tested again" not in result.output
+
+
+def test_a_record_of_rewritten_files_that_is_not_one_is_refused_before_anything_is_written(one_run, tmp_path):
+    results, run = _copy(one_run, tmp_path)
+    record = json.loads((run / "provenance.json").read_text())
+    record["rewritten"] = None
+    (run / "provenance.json").write_text(json.dumps(record))
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 1
+    assert result.output.strip() == (f"error: {run / 'provenance.json'}: cannot be read (its rewritten files are not "
+                                     "a map of file names to records); rerun its experiment to rewrite it")
+    assert sorted(p.name for p in results.iterdir()) == ["breakdown"]
+
+
+_REPORTING = os.getpid()
+_CHECK_RUN = report._check_run
+
+
+def _dies_in_a_check_process(folder, root):
+    if os.getpid() != _REPORTING:
+        os._exit(9)
+    return _CHECK_RUN(folder, root)
+
+
+def test_where_a_check_process_dies_the_report_still_finds_the_claims_to_rewrite(one_run, tmp_path, monkeypatch):
+    results, run = _copy(one_run, tmp_path)
+    _as_an_older_tavc_wrote_it(run, one_run[1])
+    monkeypatch.setattr(report, "_check_run", _dies_in_a_check_process)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
     assert (run / "claims.csv").read_text() == one_run[1]

@@ -208,9 +208,9 @@ def _holm(what: str, tests: Sequence[tuple[str, Callable[[], tuple]]]) -> Part |
     if not results:
         reason = _grouped(untested) if untested else "every state identical in every trial"
         return _not_testable(what, reason)
-    p0, t0, name0 = min(results)
+    p0, t0, name0 = sorted(results)[0]
     label = f"{what} (most different: {name0}, raw p {p0:.4g}, Holm over {len(results)} states{aside})"
-    return label, float(t0), min(1.0, len(results) * p0), untested
+    return label, float(t0), float(min(1.0, len(results) * p0)), untested
 
 
 def _grouped(untested: Sequence[tuple[str, str]]) -> str:

@@ -26,7 +26,6 @@ from tavc_cli.experiments.store import Executor, TrialStore, trial_path
 from tavc_cli.io import file_digest, write_text_atomic
 from tavc_cli.learning.parameters import PluginSettings
 from tavc_cli.learning.plugins import target_digest, target_files
-from tavc_cli.readers import load_json
 from tavc_cli.settings import TavcConfig
 
 _PACKAGES = ("numpy", "scipy", "pandas", "pymunk", "numba", "hydra-core", "omegaconf", "typer", "matplotlib")
@@ -47,7 +46,7 @@ def provenance(cfg: TavcConfig, specs: list[TrialSpec], wall_time_s: float, n_re
     learners = {t: {"digest": target_digest(t), "files": [p.name for p in target_files(t)]} for t in targets}
     return {
         "tavc_version": __version__,
-        "git_commit": _git_commit(),
+        "git_commit": git_commit(),
         "code_digest": code_digest(),
         **({"learner_code": learners} if learners else {}),  # the code of learners from outside tavc
         "packages": versions,
@@ -70,7 +69,7 @@ def provenance(cfg: TavcConfig, specs: list[TrialSpec], wall_time_s: float, n_re
     }
 
 
-def _git_commit() -> str | None:
+def git_commit() -> str | None:
     """HEAD of the checkout tavc runs from, with '-dirty' if its files have uncommitted changes."""
     here = Path(__file__).resolve().parent
     try:
@@ -145,20 +144,3 @@ def write_provenance(cfg: TavcConfig, run: Run, tables: list[str] = ()) -> None:
     record = provenance(cfg, run.specs, run.wall_time_s, run.n_reused, run.n_together)
     record["tables"] = {name: file_digest(run.output_dir / name) for name in sorted(tables)}
     write_text_atomic(run.output_dir / "provenance.json", json.dumps(record, indent=2, default=str))
-
-
-def restamp_provenance(folder: Path, name: str) -> None:
-    """`provenance.json` of the finished run in `folder` once tavc has written `name` there again
-    from the run's own tables (or removed it): the file's digest in ``tables`` where the record keeps
-    digests (dropped if the file is gone), and which tavc did so in ``rewritten`` (by file name: its
-    version and git commit). Everything else the record says of the run stays as its run wrote it."""
-    path = folder / "provenance.json"
-    record = load_json(path)
-    tables = record.get("tables")
-    if isinstance(tables, dict):
-        tables.pop(name, None)
-        if (folder / name).is_file():
-            tables[name] = file_digest(folder / name)
-        record["tables"] = dict(sorted(tables.items()))
-    record.setdefault("rewritten", {})[name] = {"tavc_version": __version__, "git_commit": _git_commit()}
-    write_text_atomic(path, json.dumps(record, indent=2, default=str))

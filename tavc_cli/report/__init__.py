@@ -19,8 +19,8 @@ experiment's, at any horizon), `text` (its prose), `figures` (its figures), `stu
 (section 1.4 and the value-ratio sweep) and `time_scale`.
 
 Each run it reads has its claims tested again on its own tables by today's rules
-(`outputs.retested_claims`): a run whose `claims.csv` an older tavc wrote in other words or
-numbers gets it rewritten, and its `provenance.json` says by which tavc (`outputs.rewrite_claims`).
+(`retest`): a run whose `claims.csv` says otherwise (an older tavc tested it, or the run it is
+compared with was run again) gets it rewritten, and its `provenance.json` says by which tavc.
 """
 
 from __future__ import annotations
@@ -69,8 +69,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`run_checks.check_run`:
     its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
     readings' study's tables, the calibration searches' tables, the turn-taking model's predictions
-    and its own learners' and alternators' runs, and every other finished run under the folder (a
-    study's own runs, read through its tables). The runs are checked two at a time (`_check_runs`).
+    and its own learners' and alternators' runs. The runs are checked two at a time (`_check_runs`).
     Returns the runs whose claims today's rules test otherwise than their `claims.csv` says."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
@@ -84,10 +83,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     for ladder in ladders:  # the rungs whose claims the ladder's table tests again
         folders += sorted(p.parent for p in ladder.parent.glob("*/trial_stats.csv")
                           if (p.parent / "config.yaml").is_file())
-    listed = set(folders)  # and every other finished run under the folder, whose claims are tested again too
-    folders += [p.parent for p in sorted(results_dir.rglob("provenance.json")) if p.parent not in listed
-                and (p.parent / "trial_stats.csv").is_file() and (p.parent / "config.yaml").is_file()]
-    stale = _check_runs(folders)
+    stale = _check_runs(folders, results_dir)
     for ladder in ladders:
         read_or_refuse(ladder, pd.read_csv)
     for path in (results_dir / d / name for d in STAY_SWITCH_DIRS for name in STAY_SWITCH_TABLES):  # read as a whole
@@ -101,20 +97,20 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
         runs = (model_learners(path.parent, predicted), model_alternators(path.parent, predicted)) \
             if isinstance(predicted, dict) else ()
         own += [d for d in runs if d is not None and (d / "config.yaml").is_file()]
-    return sorted({*stale, *_check_runs(own)})
+    return sorted({*stale, *_check_runs(own, results_dir)})
 
 
-def _check_runs(folders: list[Path]) -> list[Path]:
+def _check_runs(folders: list[Path], root: Path) -> list[Path]:
     """`run_checks.check_run` on each folder, and its model's output, two folders at a time where the
     system forks (`FigurePool`); the first folder in their order with anything wrong is the one
     refused (or a failure of the check itself raised), as one by one, once the checks already
     handed to the processes have ended; where a check process dies, the folders from there on
     are checked here, one by one. Each folder's settings are then read here too, where the
     report reads them again (`files.config_of` keeps them). Returns the folders whose claims are
-    not what today's rules give (`_check_run`)."""
+    not what today's rules give (`_check_run`; `root`, the results folder)."""
     refused, here_from, stale = None, len(folders), []
     with FigurePool() as pool:
-        pending = [pool.submit(_check_run, d) for d in folders]
+        pending = [pool.submit(_check_run, d, root) for d in folders]
         for i, (d, checked) in enumerate(zip(folders, pending, strict=True)):
             try:
                 if checked.result():
@@ -131,35 +127,36 @@ def _check_runs(folders: list[Path]) -> list[Path]:
     if refused is not None:
         raise refused
     for d in folders[here_from:]:
-        if _check_run(d):
+        if _check_run(d, root):
             stale.append(d)
         config_of(d / "config.yaml")
     return stale
 
 
-def _check_run(folder: Path) -> bool:
+def _check_run(folder: Path, root: Path) -> bool:
     """`run_checks.check_run` on one folder, and its model's output if it has one; True if its
-    claims, tested again on its tables, are not what its `claims.csv` holds (`outputs.retested_claims`)."""
+    claims, tested again on its tables, are not what its `claims.csv` holds and tavc may rewrite
+    it (`retest.retested_claims`; `root`, the results folder)."""
     # deferred: a run's analysis loads the simulator's kernels, which importing the report must not
-    from tavc_cli.outputs import retested_claims
+    from tavc_cli.retest import retested_claims
 
     check_run(folder, config_of)
     if (folder / "model" / "model.json").is_file():
         read_or_refuse(folder / "model" / "model.json", lambda p: json.loads(p.read_text()))
-    return retested_claims(folder, config_of) is not None
+    return retested_claims(folder, root, config_of) is not None
 
 
-def _retest(folders: list[Path]) -> tuple[list[Path], list[str]]:
-    """Rewrite the claims of the runs in `folders` as today's rules test them (`outputs.rewrite_claims`);
-    a run another tavc command holds now is left to it. Returns the runs rewritten, and a line for
-    each run left."""
+def _retest(folders: list[Path], root: Path) -> tuple[list[Path], list[str]]:
+    """Rewrite the claims of the runs in `folders` under `root` as today's rules test them
+    (`retest.rewrite_claims`); a run another tavc command holds now is left to it. Returns the runs
+    rewritten, and a line for each run left."""
     # deferred: as in `_check_run`
-    from tavc_cli.outputs import rewrite_claims
+    from tavc_cli.retest import rewrite_claims
 
     rewritten, left = [], []
     for d in folders:
         try:
-            if rewrite_claims(d, config_of):
+            if rewrite_claims(d, root, config_of):
                 rewritten.append(d)
         except TavcError as exc:  # the folder is in use: the command that holds it writes its claims
             left.append(f"claims of {d} not tested again ({exc})")
@@ -199,7 +196,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     tested, n_ok = base.tested, base.n_reproduced
     # everything read: now the first write
     taken = take_report_folders(results_dir, [h.folder for h in longer], page)
-    retested, left = _retest(stale)
+    retested, left = _retest(stale, results_dir)
     drawn_before = figure_files(taken)
     model_json = find_model(experiments)
     n_runs = sum(len(h.experiments) + sum(len(ds) for ds in h.others.values()) for h in every)
@@ -312,8 +309,9 @@ def summary_lines(result: dict) -> list[str]:
               for what, folders in result.get("studies", {}).items()]
     retested = result.get("claims_retested", [])
     if retested:
-        lines.append(f"claims tested again by this tavc's rules: {len(retested)} run(s) under {_common(retested)} had "
-                     "a claims.csv an older tavc wrote, now rewritten (their provenance.json says by which tavc)")
+        lines.append(f"claims tested again by this tavc's rules: {len(retested)} run(s) under {_common(retested)} held "
+                     "a claims.csv that their tables no longer give, now rewritten (their provenance.json says by "
+                     "which tavc)")
     lines += result.get("claims_left", [])
     return [*lines, result["report"], *([result["page"]] if "page" in result else [])]
 

@@ -1,0 +1,151 @@
+"""A finished run's claims tested again by today's rules, and its `claims.csv` rewritten where
+they come out otherwise: `tavc report` does it for every run it reads.
+
+A run's claims are a function of the tables it wrote (its `trial_stats.csv` and the tables the
+claims read, `analysis.claims.CLAIM_TABLES`), of its settings and plan, of the `trial_stats.csv`
+of a finished run of the experiment a claim compares it with beside it (claim 7), and of the
+rules that test them, which change more often than the trials do. So they can be tested again
+without the trials (`retested_claims`), and a change of the rules, or a neighbour run again,
+never leaves a run's `claims.csv` saying what no tavc would write from its tables today.
+
+A rewrite (`rewrite_claims`) holds the run's folder as a run does, writes only a `claims.csv`
+that tavc wrote, never through a link nor outside the results folder it was given, and records
+it in the run's `provenance.json` (``tables``: the file's new digest; ``rewritten``: which tavc
+rewrote it). The record is written first, naming the digest the file has before as well
+(``replaced``), and again once the file is written, without it: a rewrite stopped between the
+two leaves the file as the run had it, which the checks accept by that digest (`run_checks`),
+and the next report rewrites it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import pandas as pd
+
+from tavc_cli import __version__, ownership
+from tavc_cli.analysis.experiment import experiment_claims
+from tavc_cli.errors import TavcError
+from tavc_cli.experiments.plan import read_plan
+from tavc_cli.io import claim_folder, file_digest, owned_path, write_text_atomic
+from tavc_cli.outputs import claims_text, other_experiments
+from tavc_cli.readers import load_json
+from tavc_cli.run_checks import check_run
+from tavc_cli.settings import TavcConfig
+
+CLAIMS = "claims.csv"
+PROVENANCE = "provenance.json"
+
+
+def retested_claims(folder: Path, root: Path, read_config: Callable[[Path], TavcConfig]) -> str | None:
+    """The `claims.csv` today's rules give the finished run in `folder` (under `root`, the results
+    folder), tested on the tables it wrote, where that is not what the folder holds (an empty text:
+    no claim to write). None where there is nothing to test or nothing tavc may rewrite: no
+    `trial_stats.csv` or `provenance.json`; a folder not a run's; a claims file tavc did not write
+    or a link on the way to it from `root`; a run it is compared with whose trial_stats.csv is there
+    but whose run did not finish or does not check out (`run_checks.check_run`).
+    `read_config(path)` reads a `config.yaml`."""
+    try:  # nothing on the way from root to the files a rewrite writes may be a link
+        for name in (CLAIMS, PROVENANCE):
+            owned_path(root, folder / name)
+    except TavcError:
+        return None
+    owned = ownership.read(folder)
+    if owned is None or owned.kind not in (ownership.RUN, ownership.SURROGATE):
+        return None
+    if not (folder / PROVENANCE).is_file() or not (folder / "trial_stats.csv").is_file():
+        return None
+    path = folder / CLAIMS
+    if path.exists() and not (owned.owns(CLAIMS) and path.is_file()):
+        return None
+    cfg = read_config(folder / "config.yaml")
+    others = _finished_others(cfg, folder, read_config)
+    if others is None:
+        return None
+    # deferred: loads scipy
+    from tavc_cli.analysis.claims import CLAIM_TABLES
+
+    tables = {"trial_stats": pd.read_csv(folder / "trial_stats.csv")}
+    tables.update({t: pd.read_csv(folder / f"{t}.csv") for t in CLAIM_TABLES if (folder / f"{t}.csv").is_file()})
+    claims = experiment_claims(cfg, read_plan(folder, cfg), tables, others)
+    text = claims_text(claims) if len(claims) else ""
+    return None if text == (path.read_text() if path.is_file() else "") else text
+
+
+def _finished_others(cfg: TavcConfig, folder: Path, read_config) -> dict[str, pd.DataFrame] | None:
+    """The `trial_stats.csv` of the runs beside `folder` its claims compare it with, as `tavc run`
+    reads them (`outputs.other_experiments`), each from a finished run that checks out; None where
+    one is there but its run did not finish or does not check out (its claims cannot be tested
+    as a run would test them now)."""
+    others = {}
+    for name, path in other_experiments(cfg, folder).items():
+        if not path.is_file():
+            continue
+        if not (path.parent / PROVENANCE).is_file():
+            return None
+        try:
+            check_run(path.parent, read_config)
+        except TavcError:
+            return None
+        others[name] = pd.read_csv(path)
+    return others
+
+
+def rewrite_claims(folder: Path, root: Path, read_config: Callable[[Path], TavcConfig]) -> bool:
+    """Hold the run's folder and, if its claims are still not what today's rules give
+    (`retested_claims`, tested again here, where no other tavc command writes), record the
+    rewrite in its `provenance.json`, then write them; True if written. A run another tavc
+    command holds is refused (`io.claim_folder`: one line naming it)."""
+    try:  # the folder is held by a lock file in it: not through a link, nor a folder made anew
+        owned_path(root, folder / CLAIMS)
+    except TavcError:
+        return False
+    if not folder.is_dir():
+        return False
+    with claim_folder(folder):
+        text = retested_claims(folder, root, read_config)
+        record = None if text is None else _restamped(folder, text)
+        if record is None:
+            return False
+        owned = ownership.read(folder)
+        if text:
+            owned.wrote(CLAIMS)
+        write_text_atomic(folder / PROVENANCE, json.dumps(record, indent=2, default=str), root)
+        if text:
+            write_text_atomic(folder / CLAIMS, text, root)
+        else:
+            owned.remove(CLAIMS)
+        del record["rewritten"][CLAIMS]["replaced"]  # done: the file before no longer passes for the run's
+        write_text_atomic(folder / PROVENANCE, json.dumps(record, indent=2, default=str), root)
+        return True
+
+
+def _restamped(folder: Path, text: str) -> dict | None:
+    """The run's `provenance.json` once its `claims.csv` holds `text` (none, for an empty text):
+    the file's digest in ``tables`` where the record keeps digests, and under ``rewritten`` the
+    tavc that rewrote it and, while it does, the digest the file has now (``replaced``); None where
+    the record is not one tavc can extend. Everything else in it stays as the run wrote it."""
+    # deferred: the runner loads the simulator's kernels, which importing the report must not
+    from tavc_cli.experiments.runner import git_commit
+
+    try:
+        record = load_json(folder / PROVENANCE)
+    except (OSError, ValueError, TavcError):
+        return None
+    rewritten = record.get("rewritten", {}) if isinstance(record, dict) else None
+    tables = record.get("tables") if isinstance(record, dict) else None
+    if not isinstance(rewritten, dict) or not isinstance(tables, dict | None):
+        return None
+    if tables is not None:
+        tables.pop(CLAIMS, None)
+        if text:
+            tables[CLAIMS] = hashlib.sha256(text.encode()).hexdigest()
+        record["tables"] = dict(sorted(tables.items()))
+    before = folder / CLAIMS
+    rewritten[CLAIMS] = {"tavc_version": __version__, "git_commit": git_commit(),
+                         "replaced": file_digest(before) if before.is_file() else None}
+    record["rewritten"] = rewritten
+    return record
