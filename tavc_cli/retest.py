@@ -28,12 +28,13 @@ import pandas as pd
 
 from tavc_cli import __version__, ownership
 from tavc_cli.analysis.experiment import experiment_claims
+from tavc_cli.chapter import claims
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import read_plan
 from tavc_cli.io import claim_folder, file_digest, owned_path, write_text_atomic
 from tavc_cli.outputs import claims_text, other_experiments
 from tavc_cli.readers import load_json
-from tavc_cli.run_checks import check_run
+from tavc_cli.run_checks import check_table, run_facts
 from tavc_cli.settings import TavcConfig
 
 CLAIMS = "claims.csv"
@@ -46,7 +47,7 @@ def retested_claims(folder: Path, root: Path, read_config: Callable[[Path], Tavc
     no claim to write). None where there is nothing to test or nothing tavc may rewrite: no
     `trial_stats.csv` or `provenance.json`; a folder not a run's; a claims file tavc did not write
     or a link on the way to it from `root`; a run it is compared with whose trial_stats.csv is there
-    but whose run did not finish or does not check out (`run_checks.check_run`).
+    but whose run did not finish or whose table does not check out.
     `read_config(path)` reads a `config.yaml`."""
     try:  # nothing on the way from root to the files a rewrite writes may be a link
         for name in (CLAIMS, PROVENANCE):
@@ -76,18 +77,20 @@ def retested_claims(folder: Path, root: Path, read_config: Callable[[Path], Tavc
 
 
 def _finished_others(cfg: TavcConfig, folder: Path, read_config) -> dict[str, pd.DataFrame] | None:
-    """The `trial_stats.csv` of the runs beside `folder` its claims compare it with, as `tavc run`
-    reads them (`outputs.other_experiments`), each from a finished run that checks out; None where
-    one is there but its run did not finish or does not check out (its claims cannot be tested
-    as a run would test them now)."""
+    """The `trial_stats.csv` of the runs beside `folder` its claims compare it with (`Claim.against`),
+    where `tavc run` reads them (`outputs.other_experiments`), each from a finished run that checks
+    out; None where one is there but its run did not finish or does not check out (its claims
+    cannot be tested as a run would test them now: `run_checks.check_table`)."""
+    own = str(cfg.experiment_name or "")
+    compared = {c.against for name, c in claims() if name == own and c.against}
     others = {}
     for name, path in other_experiments(cfg, folder).items():
-        if not path.is_file():
+        if name not in compared or not path.is_file():
             continue
         if not (path.parent / PROVENANCE).is_file():
             return None
-        try:
-            check_run(path.parent, read_config)
+        try:  # the table the claims read, as that run wrote it (its digest, columns, trials, states)
+            check_table(path, run_facts(path.parent, read_config))
         except TavcError:
             return None
         others[name] = pd.read_csv(path)

@@ -5,6 +5,7 @@ leaves alone what is not tavc's, what lies through a link, and what another comm
 import json
 import os
 import shutil
+from types import SimpleNamespace
 
 import pandas as pd
 import pytest
@@ -167,14 +168,19 @@ def test_a_run_reached_through_a_link_is_never_written(one_run, tmp_path):
     assert R.retested_claims(results / "breakdown", results / "breakdown", from_yaml) == one_run[1]
 
 
-def test_a_run_beside_one_that_did_not_finish_is_left_as_it_is(one_run, tmp_path):
-    """A claim may compare a run with the run of another experiment beside it; one whose run did not
-    finish (a damaged table, no provenance.json) is neither read nor taken as absent."""
+def test_a_run_beside_one_that_did_not_finish_is_left_as_it_is(one_run, tmp_path, monkeypatch):
+    """A claim may compare a run with the run of another experiment beside it (claim 7); where that
+    run did not finish (a damaged table, no provenance.json), the claims are left as they are,
+    neither tested on its table nor as though it were absent. A run beside that no claim of this
+    run's compares it with does not matter."""
     results, run = _copy(one_run, tmp_path)
     older = _as_an_older_tavc_wrote_it(run, one_run[1])
     beside = results / "initial_distribution"
     beside.mkdir()
     (beside / "trial_stats.csv").write_text('controller,"trial\n')
+    assert R.retested_claims(run, results, from_yaml) == one_run[1]  # breakdown's claims compare with none
+    # as if a claim about breakdown compared it with initial_distribution
+    monkeypatch.setattr(R, "claims", lambda: [("breakdown", SimpleNamespace(against="initial_distribution"))])
     assert R.retested_claims(run, results, from_yaml) is None
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
