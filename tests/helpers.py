@@ -37,6 +37,10 @@ def changed_files(before: dict[str, str], folder: Path) -> list[str]:
     return sorted(name for name in before.keys() | after.keys() if before.get(name) != after.get(name))
 
 
+# a breakdown run at smoke scale, two trials a controller: the finished run the report's tests read
+SMOKE_BREAKDOWN = ("experiment=breakdown", "scale=smoke", "trials=2", "baseline_trials=2")
+
+
 def run_settings(overrides: Sequence[str], out_dir: Path | str, *extra: str) -> TavcConfig:
     """The settings of `overrides`, the run written into `out_dir`, then `extra` overrides."""
     return settings(load_config([*overrides, f"output_dir={out_dir}", *extra]))

@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 from tavc_cli.analysis.comparison import compare, experiment_comparison
 from tavc_cli.cli import app
 from tavc_cli.reference import chapter_table
+from tests.helpers import SMOKE_BREAKDOWN
 
 runner = CliRunner()
 EXPERIMENTS = ["initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change"]
@@ -168,14 +169,10 @@ def test_a_run_that_did_not_finish_is_left_out_and_named(tmp_path):
     assert unfinished == [failed, tmp_path / "killed"]
 
 
-@pytest.fixture(scope="module")
-def one_run(tmp_path_factory):
-    """A results folder holding one finished breakdown run."""
-    results = tmp_path_factory.mktemp("results")
-    result = runner.invoke(app, ["run", "experiment=breakdown", "scale=smoke", "trials=2", "baseline_trials=2",
-                                 f"output_dir={results / 'breakdown'}"])
-    assert result.exit_code == 0, result.output
-    return results
+@pytest.fixture
+def one_run(finished_run):
+    """A folder holding one finished breakdown run (shared: only copies are changed)."""
+    return finished_run(*SMOKE_BREAKDOWN, name="breakdown").parent
 
 
 @pytest.mark.parametrize(("name", "damage"), [

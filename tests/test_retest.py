@@ -16,18 +16,16 @@ from tavc_cli import retest as R
 from tavc_cli.cli import app
 from tavc_cli.io import claim_folder, file_digest
 from tavc_cli.settings import from_yaml
+from tests.helpers import SMOKE_BREAKDOWN
 
 runner = CliRunner()
 
 
-@pytest.fixture(scope="module")
-def one_run(tmp_path_factory):
-    """A results folder holding one finished breakdown run, and its claims as this tavc writes them."""
-    results = tmp_path_factory.mktemp("results")
-    result = runner.invoke(app, ["run", "experiment=breakdown", "scale=smoke", "trials=2", "baseline_trials=2",
-                                 f"output_dir={results / 'breakdown'}"])
-    assert result.exit_code == 0, result.output
-    return results, (results / "breakdown" / "claims.csv").read_text()
+@pytest.fixture
+def one_run(finished_run):
+    """A finished breakdown run (shared: only copies are changed), and its claims as this tavc writes them."""
+    run = finished_run(*SMOKE_BREAKDOWN, name="breakdown")
+    return run, (run / "claims.csv").read_text()
 
 
 def _as_an_older_tavc_wrote_it(run, today: str) -> str:
@@ -43,7 +41,7 @@ def _as_an_older_tavc_wrote_it(run, today: str) -> str:
 
 def _copy(one_run, tmp_path):
     results = tmp_path / "results"
-    shutil.copytree(one_run[0], results)
+    shutil.copytree(one_run[0], results / "breakdown")
     return results, results / "breakdown"
 
 
@@ -157,7 +155,7 @@ def test_a_rewrite_stopped_between_its_two_writes_is_finished_by_the_next_report
 def test_a_run_reached_through_a_link_is_never_written(one_run, tmp_path):
     results = tmp_path / "results"
     outside = tmp_path / "outside"
-    shutil.copytree(one_run[0] / "breakdown", outside)
+    shutil.copytree(one_run[0], outside)
     older = _as_an_older_tavc_wrote_it(outside, one_run[1])
     results.mkdir()
     (results / "breakdown").symlink_to(outside)
