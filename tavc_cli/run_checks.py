@@ -71,7 +71,8 @@ class RunFacts:
     groups: tuple[int, ...]
     n_circuits: int
     fewest: int
-    replaced: dict[str, str] = field(default_factory=dict)  # a file tavc rewrote -> its digest before
+    # a file whose rewrite by tavc was stopped before its end -> its digest before (None: it was not there)
+    replaced: dict[str, str | None] = field(default_factory=dict)
 
     @classmethod
     def of(cls, cfg: TavcConfig, provenance: dict | None, folder: Path) -> RunFacts:
@@ -92,7 +93,7 @@ class RunFacts:
             trials = frozenset((str(t["controller"]), int(t["trial"])) for t in provenance["trials"]) or None
             digests = provenance.get("tables")
             replaced = {name: r["replaced"] for name, r in (provenance.get("rewritten") or {}).items()
-                        if r.get("replaced")}
+                        if "replaced" in r}
         return cls(folder, trials, digests, scheme, sizes, len(cfg.arena.circuits),
                    len(names) - len(cfg.events.breakdowns), replaced)
 
@@ -188,7 +189,7 @@ def check_run(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) -> R
     lists being there."""
     facts = run_facts(folder, load)
     for name in sorted(facts.digests or {}):
-        if not (facts.folder / name).is_file():
+        if not (facts.folder / name).is_file() and not (name in facts.replaced and facts.replaced[name] is None):
             raise damaged(facts.folder / name, "missing, though provenance.json lists it")
     plan = facts.folder / PLAN_FILE
     if plan.is_file() and facts.digests is not None:
@@ -336,10 +337,11 @@ def _check_states(path: Path, header: list[str], rows: list, facts: RunFacts) ->
 
 def _check_digest(path: Path, digests: dict[str, str] | None, table: bool = False, before: str | None = None) -> None:
     """The file's SHA-256 against the one provenance.json recorded for it, where it did. A
-    table of a run's kind that the record leaves out was not written by that run. A file tavc
-    rewrote from the run's tables (`outputs.rewrite_claims`) passes with the digest it had `before`
-    as well: the record names the new one before the file is replaced, so a rewrite stopped
-    between the two leaves the file as the run had it, and the next report rewrites it."""
+    table of a run's kind that the record leaves out was not written by that run. A file whose
+    rewrite from the run's tables (`retest.rewrite_claims`) was stopped before its end passes with
+    the digest it had `before` as well: the record names the new one before the file is replaced,
+    so a rewrite stopped between the two leaves the file as the run had it (or, where there was
+    none, none: `check_run`), and the next report rewrites it."""
     if digests is None:
         return
     if before is not None and path.is_file() and file_digest(path) == before:

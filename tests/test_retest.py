@@ -5,7 +5,7 @@ leaves alone what is not tavc's, what lies through a link, and what another comm
 import json
 import os
 import shutil
-from types import SimpleNamespace
+from dataclasses import replace
 
 import pandas as pd
 import pytest
@@ -159,11 +159,19 @@ def test_a_run_reached_through_a_link_is_never_written(one_run, tmp_path):
     older = _as_an_older_tavc_wrote_it(outside, one_run[1])
     results.mkdir()
     (results / "breakdown").symlink_to(outside)
+    before = {p.name: p.read_bytes() for p in outside.iterdir() if p.is_file()}
     assert R.retested_claims(results / "breakdown", results, from_yaml) is None
     assert R.rewrite_claims(results / "breakdown", results, from_yaml) is False
-    assert (outside / "claims.csv").read_text() == older and not (outside / ".tavc.lock").exists()
+    assert {p.name: p.read_bytes() for p in outside.iterdir() if p.is_file()} == before
+    assert (outside / "claims.csv").read_text() == older
     # the same folder given as the results folder itself is the user's choice of where to write
     assert R.retested_claims(results / "breakdown", results / "breakdown", from_yaml) == one_run[1]
+    # a run in the results folder whose provenance.json is a link is not rewritten either
+    inside = results / "inside"
+    shutil.copytree(outside, inside)
+    (inside / "provenance.json").rename(tmp_path / "provenance.json")
+    (inside / "provenance.json").symlink_to(tmp_path / "provenance.json")
+    assert R.retested_claims(inside, results, from_yaml) is None
 
 
 def test_a_run_beside_one_that_did_not_finish_is_left_as_it_is(one_run, tmp_path, monkeypatch):
@@ -178,11 +186,19 @@ def test_a_run_beside_one_that_did_not_finish_is_left_as_it_is(one_run, tmp_path
     (beside / "trial_stats.csv").write_text('controller,"trial\n')
     assert R.retested_claims(run, results, from_yaml) == one_run[1]  # breakdown's claims compare with none
     # as if a claim about breakdown compared it with initial_distribution
-    monkeypatch.setattr(R, "claims", lambda: [("breakdown", SimpleNamespace(against="initial_distribution"))])
+    compared = [(e, replace(c, against="initial_distribution") if e == "breakdown" else c) for e, c in R.claims()]
+    monkeypatch.setattr(R, "claims", lambda: compared)
     assert R.retested_claims(run, results, from_yaml) is None
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
     assert (run / "claims.csv").read_text() == older and "tested again" not in result.output
+    # the run beside being run again (its settings and plan written, no table yet): not taken as absent
+    (beside / "trial_stats.csv").unlink()
+    shutil.copy(run / "config.yaml", beside / "config.yaml")
+    assert R.retested_claims(run, results, from_yaml) is None
+    # and no folder there at all: a run not made, as tavc run takes it
+    shutil.rmtree(beside)
+    assert R.retested_claims(run, results, from_yaml) is not None
 
 
 def test_a_record_of_rewritten_files_that_is_not_one_is_refused_before_anything_is_written(one_run, tmp_path):
@@ -214,3 +230,64 @@ def test_where_a_check_process_dies_the_report_still_finds_the_claims_to_rewrite
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
     assert (run / "claims.csv").read_text() == one_run[1]
+
+
+def _stopped_at(monkeypatch, n: int):
+    """Make the re-test's n-th write (counting from 1) stop the report, as a kill would."""
+    write, count = R.write_text_atomic, [0]
+
+    def stopped(path, text, root=None):
+        count[0] += 1
+        if count[0] == n:
+            raise KeyboardInterrupt
+        write(path, text, root)
+
+    monkeypatch.setattr(R, "write_text_atomic", stopped)
+    return write
+
+
+def test_a_run_that_had_no_claims_file_and_whose_rewrite_stopped_still_checks_out(one_run, tmp_path, monkeypatch):
+    results, run = _copy(one_run, tmp_path)
+    (run / "claims.csv").unlink()
+    record = json.loads((run / "provenance.json").read_text())
+    del record["tables"]["claims.csv"]
+    (run / "provenance.json").write_text(json.dumps(record, indent=2))
+    write = _stopped_at(monkeypatch, 2)  # the record written, the claims not yet
+    with pytest.raises(KeyboardInterrupt):
+        report.build_report(results)
+    assert not (run / "claims.csv").exists()
+    assert json.loads((run / "provenance.json").read_text())["rewritten"]["claims.csv"]["replaced"] is None
+    monkeypatch.setattr(R, "write_text_atomic", write)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    assert (run / "claims.csv").read_text() == one_run[1]
+
+
+def test_a_rewrite_stopped_before_its_last_record_is_finished_by_the_next_report(one_run, tmp_path, monkeypatch):
+    results, run = _copy(one_run, tmp_path)
+    _as_an_older_tavc_wrote_it(run, one_run[1])
+    write = _stopped_at(monkeypatch, 3)  # the claims written, the record not yet told
+    with pytest.raises(KeyboardInterrupt):
+        report.build_report(results)
+    assert (run / "claims.csv").read_text() == one_run[1]
+    assert "replaced" in json.loads((run / "provenance.json").read_text())["rewritten"]["claims.csv"]
+    monkeypatch.setattr(R, "write_text_atomic", write)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0 and "1 run(s)" in result.output, result.output
+    assert "replaced" not in json.loads((run / "provenance.json").read_text())["rewritten"]["claims.csv"]
+
+
+def test_claims_that_todays_rules_do_not_know_are_left_as_they_are(one_run, tmp_path):
+    """A run of a user's own experiment, reported without its configs: its claims are not today's
+    rules' to test, and its file is neither rewritten nor removed."""
+    results, run = _copy(one_run, tmp_path)
+    theirs = one_run[1].replace("\n6,", "\n99,", 1)
+    assert theirs != one_run[1]
+    (run / "claims.csv").write_text(theirs)
+    record = json.loads((run / "provenance.json").read_text())
+    record["tables"]["claims.csv"] = file_digest(run / "claims.csv")
+    (run / "provenance.json").write_text(json.dumps(record, indent=2))
+    assert R.retested_claims(run, results, from_yaml) is None
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0 and "tested again" not in result.output, result.output
+    assert (run / "claims.csv").read_text() == theirs

@@ -310,8 +310,8 @@ def summary_lines(result: dict) -> list[str]:
     retested = result.get("claims_retested", [])
     if retested:
         lines.append(f"claims tested again by this tavc's rules: {len(retested)} run(s) under {_common(retested)} held "
-                     "a claims.csv that their tables no longer give, now rewritten (their provenance.json says by "
-                     "which tavc)")
+                     "a claims.csv other than today's rules give from their tables (and the runs they are compared "
+                     "with), now rewritten; their provenance.json says by which tavc")
     lines += result.get("claims_left", [])
     return [*lines, result["report"], *([result["page"]] if "page" in result else [])]
 
