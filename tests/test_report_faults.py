@@ -510,6 +510,25 @@ def test_links_in_a_results_tree_are_not_followed(breakdown, tmp_path):
     assert "breakdown_seed9" not in (results / "REPORT.md").read_text()
 
 
+def test_a_value_ratio_folder_that_is_a_link_is_refused(breakdown, tmp_path):
+    """The value-ratio sweep's folder linked from elsewhere: the report would write value_ratio.csv
+    through the link, out of the results folder; it refuses in one line and writes nothing anywhere.
+    (A longer horizon's folder that is a link is not read as one at all.)"""
+    where = "value_ratio"
+    results, elsewhere = tmp_path / "results", tmp_path / "elsewhere"
+    shutil.copytree(breakdown, results / "breakdown")
+    shutil.copytree(breakdown, elsewhere / "breakdown")
+    (results / where).symlink_to(elsewhere, target_is_directory=True)
+    before = _files(results)
+    outside = {p: p.read_bytes() for p in sorted(elsewhere.rglob("*")) if p.is_file()}
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 1, result.output
+    assert result.output.startswith(f"error: RESULTS_DIR: {results / where}") and "link" in result.output
+    assert len(result.output.strip().splitlines()) == 1
+    assert _files(results) == before
+    assert {p: p.read_bytes() for p in sorted(elsewhere.rglob("*")) if p.is_file()} == outside
+
+
 def test_a_table_larger_than_any_tavc_writes_is_refused_unread(breakdown, tmp_path):
     """A trial_stats.csv of 300 MiB (sparse: no disk used) is refused in one line naming it, without
     being read into memory."""
