@@ -45,11 +45,19 @@ def sweep_table(jobs: Sequence[tuple[Mapping[str, str], Path]]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def in_hidden_folder(folder: Path, root: Path) -> bool:
+    """Whether `folder` is, or lies in, a hidden folder below `root` (`.backup/`): a user's copy, not
+    a run of the study in `root`, which the studies and the report leave as the report's search
+    for runs does (`report.runs.run_folders`)."""
+    return any(part.startswith(".") for part in folder.relative_to(root).parts)
+
+
 def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
     """One row per finished run below `root` with two circuits (`analysis.value_ratio.ratio_point`):
     `reading,horizon,ratio,values,mean,std,n_trials,...`, each run named relative to `root`."""
     root = Path(root)
-    runs = sorted(p.parent for p in root.rglob("trial_stats.csv") if (p.parent / "config.yaml").is_file())
+    runs = sorted(p.parent for p in root.rglob("trial_stats.csv")
+                  if (p.parent / "config.yaml").is_file() and not in_hidden_folder(p.parent, root))
     points = (value_ratio.ratio_point(from_yaml(d / "config.yaml"), pd.read_csv(d / "trial_stats.csv"),
                                       str(d.relative_to(root)), controller) for d in runs)
     return value_ratio.points_table([p for p in points if p is not None])

@@ -510,6 +510,20 @@ def test_links_in_a_results_tree_are_not_followed(breakdown, tmp_path):
     assert "breakdown_seed9" not in (results / "REPORT.md").read_text()
 
 
+def test_a_hidden_folder_in_a_sweep_is_not_read(breakdown, tmp_path):
+    """A copy of a run kept in a hidden folder of the value-ratio sweep (`.backup/`), damaged: the
+    report leaves it, as it leaves hidden folders everywhere else, and tests nothing again there."""
+    results = tmp_path / "results"
+    shutil.copytree(breakdown, results / "breakdown")
+    hidden = results / "value_ratio" / ".backup" / "breakdown"
+    shutil.copytree(breakdown, hidden)
+    (hidden / "trial_stats.csv").write_text("damaged\n")
+    before = {p: p.read_bytes() for p in sorted(hidden.rglob("*")) if p.is_file()}
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    assert {p: p.read_bytes() for p in sorted(hidden.rglob("*")) if p.is_file()} == before
+
+
 def test_a_value_ratio_folder_that_is_a_link_is_refused(breakdown, tmp_path):
     """The value-ratio sweep's folder linked from elsewhere: the report would write value_ratio.csv
     through the link, out of the results folder; it refuses in one line and writes nothing anywhere.

@@ -44,7 +44,14 @@ from tavc_cli.report.compare import compare_lines
 from tavc_cli.report.counterfactuals import calibration_lines, calibration_tables, counterfactual_lines, read_search
 from tavc_cli.report.drawing import FigurePool, figure_files, remove_stale_figures
 from tavc_cli.report.figures import find_model
-from tavc_cli.report.files import config_of, horizon_folders, model_alternators, model_learners, read_or_refuse
+from tavc_cli.report.files import (
+    config_of,
+    horizon_folders,
+    model_alternators,
+    model_learners,
+    read_or_refuse,
+    sweep_runs,
+)
 from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import LADDER, finished_runs, rel, run_list_lines, study_runs
@@ -54,7 +61,6 @@ from tavc_cli.report.studies import (
     SWEEPS,
     TURN_TAKING_RUNS,
     stay_switch_lines,
-    sweep_runs,
     value_ratio_lines,
 )
 from tavc_cli.report.surrogate import surrogate_lines

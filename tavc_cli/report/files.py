@@ -12,6 +12,7 @@ import pandas as pd
 
 from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_rows, seed_for_seed
 from tavc_cli.errors import TavcError
+from tavc_cli.run_tables import in_hidden_folder
 from tavc_cli.settings import TavcConfig, from_yaml
 
 
@@ -87,6 +88,17 @@ def model_alternators(where: Path, predicted: dict) -> Path | None:
 
 def _model_run(where: Path, name: str) -> Path | None:
     return where / name if name not in ("", ".", "..") and "/" not in name and "\\" not in name else None
+
+
+def sweep_runs(results_dir: Path, folder: str) -> list[Path]:
+    """The runs of the sweep in `results_dir/folder` (`studies.SWEEPS`, or a horizon's readings), finished or
+    not: every folder with a `config.yaml` at any depth but in hidden folders (`run_tables.in_hidden_folder`), in
+    natural order of their paths."""
+    root = results_dir / folder
+    if not root.is_dir() or root.is_symlink():
+        return []
+    found = (p.parent for p in root.rglob("config.yaml") if not in_hidden_folder(p.parent, root))
+    return sorted(found, key=lambda p: natural(p.as_posix()))
 
 
 def natural(text: str) -> list:

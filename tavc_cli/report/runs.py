@@ -39,9 +39,10 @@ from tavc_cli.report.files import (
     is_run_folder,
     natural,
     read_or_refuse,
+    sweep_runs,
 )
 from tavc_cli.report.spatiotemporal import spatiotemporal_lines
-from tavc_cli.report.studies import READINGS_RUNS, SWEEPS, sweep_runs
+from tavc_cli.report.studies import READINGS_RUNS, SWEEPS
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, to_yaml
 

@@ -18,7 +18,15 @@ from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
 from tavc_cli.report import files
-from tavc_cli.report.files import config_of, horizon_folders, model_learners, natural, read_or_refuse, run_in
+from tavc_cli.report.files import (
+    config_of,
+    horizon_folders,
+    model_learners,
+    natural,
+    read_or_refuse,
+    run_in,
+    sweep_runs,
+)
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.tally import (
     EXPLORED,
@@ -271,14 +279,6 @@ def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path) -
                 all(getattr(cfg, k) == getattr(own, k) for k in WORLD):
             runs.append(d)
     return runs
-
-
-def sweep_runs(results_dir: Path, folder: str) -> list[Path]:
-    """The runs of the sweep in `results_dir/folder` (`SWEEPS`, or a horizon's readings), finished or not: every folder
-    with a `config.yaml` at any depth, in natural order of their paths."""
-    root = results_dir / folder
-    return sorted((p.parent for p in root.rglob("config.yaml")), key=lambda p: natural(p.as_posix())) \
-        if root.is_dir() and not root.is_symlink() else []
 
 
 def _learners(d: Path) -> dict:
