@@ -332,9 +332,9 @@ def _flat(tree, prefix: str = "") -> dict[str, object]:
 def take_report_folders(results_dir: Path, horizon_dirs: Sequence[Path] = (), page: bool = False) -> list:
     """Check, before anything is written, that `tavc report` may write its files (`take`):
     REPORT.md, claims.csv and figures/ on top, each longer horizon's claims.csv and figures/,
-    the value-ratio table; a folder that is a run's, a longer horizon's or the value-ratio sweep's
-    folder that is a link (it would lead the writes out of the results folder), or a file there
-    that tavc did not write, is refused. With `page`, REPORT.html on top too. Returns what tavc owns in the folders
+    the value-ratio table. Refused: a folder that is a run's; a longer horizon's or the value-ratio
+    sweep's folder that is a link (the writes would leave the results folder); a file there that
+    tavc did not write. With `page`, REPORT.html on top too. Returns what tavc owns in the folders
     whose figures/ the report draws."""
     roots = [(results_dir, ("REPORT.md", "claims.csv", *(["REPORT.html"] if page else []))),
              *((d, ("claims.csv",)) for d in horizon_dirs)]
