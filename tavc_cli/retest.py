@@ -133,8 +133,9 @@ def _finished_others(cfg: TavcConfig, folder: Path, read_config) -> dict[str, pd
 def rewrite_claims(folder: Path, root: Path, read_config: Callable[[Path], TavcConfig]) -> bool:
     """Hold the run's folder and, if its claims are still not what today's rules give
     (`retested_claims`, tested again here, where no other tavc command writes), record the
-    rewrite in its `provenance.json`, then write them, then record that it is done; True if
-    written. A run another tavc command holds is refused (`io.claim_folder`: one line naming it)."""
+    rewrite in its `provenance.json`, then write them, then record that it is done, having removed
+    what an earlier one killed inside a write left there; True if written. A run another tavc
+    command holds is refused (`io.claim_folder`: one line naming it)."""
     try:  # the folder is held by a lock file in it: not through a link, nor a folder made anew
         owned_path(root, folder / CLAIMS)
     except TavcError:
@@ -146,7 +147,9 @@ def rewrite_claims(folder: Path, root: Path, read_config: Callable[[Path], TavcC
         record = None if text is None else _restamped(folder, text)
         if record is None:
             return False
-        ownership.read(folder).wrote(CLAIMS)
+        owned = ownership.read(folder)
+        owned.remove_temporaries()  # what a rewrite killed inside a write left
+        owned.wrote(CLAIMS)
         write_text_atomic(folder / PROVENANCE, json.dumps(record, indent=2, default=str), root)
         write_text_atomic(folder / CLAIMS, text, root)
         del record["rewritten"][CLAIMS]["replaced"]  # done: the file before no longer passes for the run's

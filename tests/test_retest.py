@@ -269,12 +269,15 @@ def test_a_rewrite_stopped_before_its_last_record_is_finished_by_the_next_report
     write = _stopped_at(monkeypatch, 3)  # the claims written, the record not yet told
     with pytest.raises(KeyboardInterrupt):
         report.build_report(results)
+    left = run / ".provenance.json.k1ll3d0n.tmp"  # as a kill inside the last write leaves
+    left.write_text("{")
     assert (run / "claims.csv").read_text() == one_run[1]
     assert "replaced" in json.loads((run / "provenance.json").read_text())["rewritten"]["claims.csv"]
     monkeypatch.setattr(R, "write_text_atomic", write)
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0 and "1 run(s)" in result.output, result.output
     assert "replaced" not in json.loads((run / "provenance.json").read_text())["rewritten"]["claims.csv"]
+    assert not left.exists()
 
 
 def test_claims_that_todays_rules_do_not_know_are_left_as_they_are(one_run, tmp_path):
