@@ -85,8 +85,12 @@ def seed_for_seed(robots_a: pd.DataFrame, q_a: pd.DataFrame, robots_b: pd.DataFr
     both = pd.DataFrame({"a": kinds_a.loc[matched].to_numpy(), "b": kinds_b.loc[matched].to_numpy(),
                          "controller": matched.get_level_values("controller"),
                          "robot": matched.get_level_values("robot")})
-    chance = 0.0
-    for _, one in both.groupby(["controller", "robot"]):
-        pa, pb = one["a"].value_counts(normalize=True), one["b"].value_counts(normalize=True)
-        chance += len(one) * float(sum(pa[k] * pb[k] for k in pa.index.intersection(pb.index)))
+    # robot by robot: n * sum over kinds of (count in a / n) (count in b / n) = sum of the products of
+    # the counts over n, the robot's matched trials
+    robot = ["controller", "robot"]
+    n = both.groupby(robot).size()
+    in_a = both.groupby([*robot, "a"]).size().rename_axis([*robot, "kind"])
+    in_b = both.groupby([*robot, "b"]).size().rename_axis([*robot, "kind"])
+    products = (in_a * in_b).dropna().groupby(level=robot).sum()
+    chance = float((products / n.loc[products.index]).sum())
     return Matched(robots=len(matched), same=int((both["a"] == both["b"]).sum()), chance=chance)
