@@ -37,7 +37,7 @@ from tavc_cli.experiments.plan import read_plan
 from tavc_cli.io import claim_folder, file_digest, owned_path, write_text_atomic
 from tavc_cli.outputs import claims_text, other_experiments
 from tavc_cli.readers import load_json
-from tavc_cli.run_checks import check_table, run_facts
+from tavc_cli.run_checks import check_table, read_provenance, run_facts, unfinished_rewrites
 from tavc_cli.settings import TavcConfig
 
 CLAIMS = "claims.csv"
@@ -98,13 +98,11 @@ def _known(text: str) -> bool:
 
 def _pending(folder: Path) -> bool:
     """Whether the run's `provenance.json` records a rewrite of its claims that was stopped before
-    its end (the digest of the file before it, ``replaced``, still there)."""
+    its end (`run_checks.unfinished_rewrites`)."""
     try:
-        record = load_json(folder / PROVENANCE)
-    except (OSError, ValueError, TavcError):
+        return CLAIMS in unfinished_rewrites(read_provenance(folder / PROVENANCE))
+    except TavcError:
         return False
-    entry = (record.get("rewritten") or {}).get(CLAIMS) if isinstance(record, dict) else None
-    return isinstance(entry, dict) and "replaced" in entry
 
 
 def _finished_others(cfg: TavcConfig, folder: Path, read_config) -> dict[str, pd.DataFrame] | None:

@@ -92,8 +92,7 @@ class RunFacts:
             # a provenance listing no trial (a folder made by hand) gives none to check against
             trials = frozenset((str(t["controller"]), int(t["trial"])) for t in provenance["trials"]) or None
             digests = provenance.get("tables")
-            replaced = {name: r["replaced"] for name, r in (provenance.get("rewritten") or {}).items()
-                        if "replaced" in r}
+            replaced = unfinished_rewrites(provenance)
         return cls(folder, trials, digests, scheme, sizes, len(cfg.arena.circuits),
                    len(names) - len(cfg.events.breakdowns), replaced)
 
@@ -120,6 +119,13 @@ class RunFacts:
             return {join_counts(c) for c in product(*(range(g + 1) for g in sizes))}
         n = sum(self.groups) if whole else sum(counts[0])
         return {join_counts(c) for c in product(range(n + 1), repeat=self.n_circuits) if sum(c) == n}
+
+
+def unfinished_rewrites(provenance: dict) -> dict[str, str | None]:
+    """The files of a run whose rewrite by tavc from the run's tables (`retest.rewrite_claims`) was
+    stopped before its end, as its `provenance.json` records them: each with its digest before the
+    rewrite (None: there was no file)."""
+    return {name: r["replaced"] for name, r in (provenance.get("rewritten") or {}).items() if "replaced" in r}
 
 
 def read_provenance(path: Path) -> dict:

@@ -127,14 +127,7 @@ def test_a_rewrite_stopped_between_its_two_writes_is_finished_by_the_next_report
     file has the digest the record says it had before) and the next report rewrites it."""
     results, run = _copy(one_run, tmp_path)
     older = _as_an_older_tavc_wrote_it(run, one_run[1])
-    write = R.write_text_atomic
-
-    def stopped(path, text, root=None):
-        if path.name == "claims.csv":
-            raise KeyboardInterrupt
-        write(path, text, root)
-
-    monkeypatch.setattr(R, "write_text_atomic", stopped)
+    write = _stopped_at(monkeypatch, 2)  # the record written, the claims not yet
     with pytest.raises(KeyboardInterrupt):
         report.build_report(results)
     assert (run / "claims.csv").read_text() == older
