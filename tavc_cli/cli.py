@@ -389,7 +389,8 @@ def report(
 ) -> None:
     """Write RESULTS_DIR/REPORT.md and claims.csv from saved results (never simulates).
 
-    Each run's own claims.csv is tested again by this tavc's rules, and rewritten where they differ."""
+    Each run's own claims.csv and comparison.csv are made again from its tables by this tavc's rules,
+    and rewritten where they differ."""
     with _user_errors(folder=lambda: results_dir):
         commands.report(results_dir, progress, html)
 

@@ -39,9 +39,9 @@ def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[
         # `tavc report` reads back: both then give the same numbers
         written_tables[name] = pd.read_csv(io.StringIO(text), dtype={"state": str} if name == "state_time" else None)
 
-    comparison = experiment_comparison(str(cfg.experiment_name or ""), written_tables["state_time"])
+    comparison = comparison_text(str(cfg.experiment_name or ""), written_tables["state_time"])
     if comparison is not None:
-        write_text_atomic(out_dir / "comparison.csv", comparison.to_csv(index=False, float_format="%.4f"))
+        write_text_atomic(out_dir / "comparison.csv", comparison)
     claims = experiment_claims(cfg, plan, written_tables, _other_experiments(cfg, out_dir))
     if len(claims):
         write_text_atomic(out_dir / "claims.csv", claims_text(claims))
@@ -50,8 +50,6 @@ def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[
         if owned is not None:
             owned.remove(f"{name}.csv")
     return tables, claims
-
-
 
 
 def _other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, pd.DataFrame]:
@@ -65,6 +63,13 @@ def other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, Path]:
     this run's folder (`out_dir`), by experiment name."""
     name = str(cfg.experiment_name or "")
     return {other: out_dir.parent / other / "trial_stats.csv" for other in {e for e, _ in claims()} - {name}}
+
+
+def comparison_text(experiment: str, state_time: pd.DataFrame) -> str | None:
+    """`comparison.csv` as tavc writes it from the run's `state_time.csv` (read with its states as
+    text); None for an experiment the chapter reports in no state table."""
+    comparison = experiment_comparison(experiment, state_time)
+    return None if comparison is None else comparison.to_csv(index=False, float_format="%.4f")
 
 
 def claims_text(claims: pd.DataFrame) -> str:

@@ -122,7 +122,7 @@ class RunFacts:
 
 
 def unfinished_rewrites(provenance: dict) -> dict[str, str | None]:
-    """The files of a run whose rewrite by tavc from the run's tables (`retest.rewrite_claims`) was
+    """The files of a run whose rewrite by tavc from the run's tables (`retest.rewrite_tables`) was
     stopped before its end, as its `provenance.json` records them: each with its digest before the
     rewrite (None: there was no file)."""
     return {name: r["replaced"] for name, r in (provenance.get("rewritten") or {}).items() if "replaced" in r}
@@ -344,7 +344,7 @@ def _check_states(path: Path, header: list[str], rows: list, facts: RunFacts) ->
 def _check_digest(path: Path, digests: dict[str, str] | None, table: bool = False, before: str | None = None) -> None:
     """The file's SHA-256 against the one provenance.json recorded for it, where it did. A
     table of a run's kind that the record leaves out was not written by that run. A file whose
-    rewrite from the run's tables (`retest.rewrite_claims`) was stopped before its end passes with
+    rewrite from the run's tables (`retest.rewrite_tables`) was stopped before its end passes with
     the digest it had `before` as well: the record names the new one before the file is replaced,
     so a rewrite stopped between the two leaves the file as the run had it (or, where there was
     none, none: `check_run`), and the next report rewrites it."""

@@ -1,6 +1,7 @@
-"""A finished run's claims tested again by today's rules: `tavc report` rewrites a run's
-`claims.csv` that an older tavc wrote in other words, records it in the run's provenance, and
-leaves alone what is not tavc's, what lies through a link, and what another command holds."""
+"""A finished run's claims tested again, and its comparison with the chapter made again, by
+today's rules: `tavc report` rewrites a run's `claims.csv` or `comparison.csv` that an older tavc
+wrote otherwise, records it in the run's provenance, and leaves alone what is not tavc's, what lies
+through a link, and what another command holds."""
 
 import json
 import os
@@ -39,6 +40,19 @@ def _as_an_older_tavc_wrote_it(run, today: str) -> str:
     return older
 
 
+def _as_an_older_tavc_compared_it(run) -> tuple[str, str]:
+    """Give the run a comparison.csv an older tavc would have written from a reference table one cell
+    short, its digest recorded as the run recorded it; returns today's text and the older one."""
+    today = (run / "comparison.csv").read_text()
+    older = "".join(today.splitlines(keepends=True)[:-1])
+    assert older != today and older.startswith("table,state,quantity,chapter,ours,difference\n")
+    (run / "comparison.csv").write_text(older)
+    prov = json.loads((run / "provenance.json").read_text())
+    prov["tables"]["comparison.csv"] = file_digest(run / "comparison.csv")
+    (run / "provenance.json").write_text(json.dumps(prov, indent=2))
+    return today, older
+
+
 def _copy(one_run, tmp_path):
     results = tmp_path / "results"
     shutil.copytree(one_run[0], results / "breakdown")
@@ -54,7 +68,8 @@ def test_claims_an_older_tavc_wrote_are_tested_again_and_rewritten(one_run, tmp_
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
     assert (run / "claims.csv").read_text() == one_run[1]
-    assert "claims tested again by this tavc's rules: 1 run(s) under breakdown/" in result.output
+    assert "claims and comparisons made again by this tavc's rules: 1 run(s) under breakdown/" in result.output
+    assert "now rewritten (1 claims.csv)" in result.output
     after = json.loads((run / "provenance.json").read_text())
     assert after["tables"]["claims.csv"] == file_digest(run / "claims.csv")
     assert after["rewritten"]["claims.csv"]["tavc_version"] == __version__
@@ -72,7 +87,7 @@ def test_claims_an_older_tavc_wrote_are_tested_again_and_rewritten(one_run, tmp_
     # a second report finds nothing to test again and touches nothing in the run
     record = (run / "provenance.json").read_bytes()
     again = runner.invoke(app, ["report", str(results)])
-    assert again.exit_code == 0 and "tested again" not in again.output
+    assert again.exit_code == 0 and "made again" not in again.output
     assert (run / "provenance.json").read_bytes() == record
 
 
@@ -80,7 +95,7 @@ def test_claims_up_to_date_are_left_as_the_run_wrote_them(one_run, tmp_path):
     results, run = _copy(one_run, tmp_path)
     record = (run / "provenance.json").read_bytes()
     result = runner.invoke(app, ["report", str(results)])
-    assert result.exit_code == 0 and "tested again" not in result.output
+    assert result.exit_code == 0 and "made again" not in result.output
     assert (run / "provenance.json").read_bytes() == record
     assert (run / "claims.csv").read_text() == one_run[1]
 
@@ -92,7 +107,7 @@ def test_a_claims_file_tavc_did_not_write_is_left_alone(one_run, tmp_path):
     manifest["files"].remove("claims.csv")
     (run / ".tavc.json").write_text(json.dumps(manifest))
     result = runner.invoke(app, ["report", str(results)])
-    assert result.exit_code == 0 and "tested again" not in result.output
+    assert result.exit_code == 0 and "made again" not in result.output
     assert (run / "claims.csv").read_text() == older
     assert "rewritten" not in json.loads((run / "provenance.json").read_text())
 
@@ -106,7 +121,7 @@ def test_a_claims_file_that_is_a_link_is_never_written_through(one_run, tmp_path
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
     assert (run / "claims.csv").is_symlink() and elsewhere.read_text() == older
-    assert "tested again" not in result.output
+    assert "made again" not in result.output
 
 
 def test_a_run_another_command_holds_is_left_to_it(one_run, tmp_path):
@@ -116,7 +131,8 @@ def test_a_run_another_command_holds_is_left_to_it(one_run, tmp_path):
         result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
     assert (run / "claims.csv").read_text() == older
-    assert f"claims of {run} not tested again (output_dir: {run} is in use by another tavc run" in result.output
+    assert f"claims and comparison of {run} not made again (output_dir: {run} is in use by another tavc run" \
+        in result.output
     # once the folder is free, the next report heals it
     assert runner.invoke(app, ["report", str(results)]).exit_code == 0
     assert (run / "claims.csv").read_text() == one_run[1]
@@ -153,18 +169,18 @@ def test_a_run_reached_through_a_link_is_never_written(one_run, tmp_path):
     results.mkdir()
     (results / "breakdown").symlink_to(outside)
     before = {p.name: p.read_bytes() for p in outside.iterdir() if p.is_file()}
-    assert R.retested_claims(results / "breakdown", results, from_yaml) is None
-    assert R.rewrite_claims(results / "breakdown", results, from_yaml) is False
+    assert R.retested_tables(results / "breakdown", results, from_yaml) == {}
+    assert R.rewrite_tables(results / "breakdown", results, from_yaml) == []
     assert {p.name: p.read_bytes() for p in outside.iterdir() if p.is_file()} == before
     assert (outside / "claims.csv").read_text() == older
     # the same folder given as the results folder itself is the user's choice of where to write
-    assert R.retested_claims(results / "breakdown", results / "breakdown", from_yaml) == one_run[1]
+    assert R.retested_tables(results / "breakdown", results / "breakdown", from_yaml) == {"claims.csv": one_run[1]}
     # a run in the results folder whose provenance.json is a link is not rewritten either
     inside = results / "inside"
     shutil.copytree(outside, inside)
     (inside / "provenance.json").rename(tmp_path / "provenance.json")
     (inside / "provenance.json").symlink_to(tmp_path / "provenance.json")
-    assert R.retested_claims(inside, results, from_yaml) is None
+    assert R.retested_tables(inside, results, from_yaml) == {}
 
 
 def test_a_run_beside_one_that_did_not_finish_is_left_as_it_is(one_run, tmp_path, monkeypatch):
@@ -177,21 +193,21 @@ def test_a_run_beside_one_that_did_not_finish_is_left_as_it_is(one_run, tmp_path
     beside = results / "initial_distribution"
     beside.mkdir()
     (beside / "trial_stats.csv").write_text('controller,"trial\n')
-    assert R.retested_claims(run, results, from_yaml) == one_run[1]  # breakdown's claims compare with none
+    assert R.retested_tables(run, results, from_yaml) == {"claims.csv": one_run[1]}  # compared with none
     # as if a claim about breakdown compared it with initial_distribution
     compared = [(e, replace(c, against="initial_distribution") if e == "breakdown" else c) for e, c in R.claims()]
     monkeypatch.setattr(R, "claims", lambda: compared)
-    assert R.retested_claims(run, results, from_yaml) is None
+    assert R.retested_tables(run, results, from_yaml) == {}
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
-    assert (run / "claims.csv").read_text() == older and "tested again" not in result.output
+    assert (run / "claims.csv").read_text() == older and "made again" not in result.output
     # the run beside being run again (its settings and plan written, no table yet): not taken as absent
     (beside / "trial_stats.csv").unlink()
     shutil.copy(run / "config.yaml", beside / "config.yaml")
-    assert R.retested_claims(run, results, from_yaml) is None
+    assert R.retested_tables(run, results, from_yaml) == {}
     # and no folder there at all: a run not made, as tavc run takes it
     shutil.rmtree(beside)
-    assert R.retested_claims(run, results, from_yaml) is not None
+    assert R.retested_tables(run, results, from_yaml) == {"claims.csv": one_run[1]}
 
 
 def test_a_record_of_rewritten_files_that_is_not_one_is_refused_before_anything_is_written(one_run, tmp_path):
@@ -283,7 +299,62 @@ def test_claims_that_todays_rules_do_not_know_are_left_as_they_are(one_run, tmp_
     record = json.loads((run / "provenance.json").read_text())
     record["tables"]["claims.csv"] = file_digest(run / "claims.csv")
     (run / "provenance.json").write_text(json.dumps(record, indent=2))
-    assert R.retested_claims(run, results, from_yaml) is None
+    assert R.retested_tables(run, results, from_yaml) == {}
     result = runner.invoke(app, ["report", str(results)])
-    assert result.exit_code == 0 and "tested again" not in result.output, result.output
+    assert result.exit_code == 0 and "made again" not in result.output, result.output
     assert (run / "claims.csv").read_text() == theirs
+
+
+def test_a_comparison_an_older_tavc_wrote_is_made_again_and_rewritten(one_run, tmp_path):
+    """The comparison with the chapter's table is made from the run's state_time.csv; one that says
+    otherwise is rewritten and recorded as the claims are, the claims (up to date) left as written."""
+    results, run = _copy(one_run, tmp_path)
+    today, _ = _as_an_older_tavc_compared_it(run)
+    claims = (run / "claims.csv").read_bytes()
+    assert R.retested_tables(run, results, from_yaml) == {"comparison.csv": today}
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    assert "1 run(s) under breakdown/" in result.output and "now rewritten (1 comparison.csv)" in result.output
+    assert (run / "comparison.csv").read_text() == today
+    assert (run / "claims.csv").read_bytes() == claims
+    after = json.loads((run / "provenance.json").read_text())
+    assert after["tables"]["comparison.csv"] == file_digest(run / "comparison.csv")
+    assert list(after["rewritten"]) == ["comparison.csv"]
+    again = runner.invoke(app, ["report", str(results)])
+    assert again.exit_code == 0 and "made again" not in again.output
+
+
+def test_a_comparison_tavc_did_not_write_is_left_while_the_claims_are_rewritten(one_run, tmp_path):
+    results, run = _copy(one_run, tmp_path)
+    _, older = _as_an_older_tavc_compared_it(run)
+    _as_an_older_tavc_wrote_it(run, one_run[1])
+    manifest = json.loads((run / ".tavc.json").read_text())
+    manifest["files"].remove("comparison.csv")
+    (run / ".tavc.json").write_text(json.dumps(manifest))
+    assert R.retested_tables(run, results, from_yaml) == {"claims.csv": one_run[1]}
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0 and "now rewritten (1 claims.csv)" in result.output, result.output
+    assert (run / "comparison.csv").read_text() == older
+    assert (run / "claims.csv").read_text() == one_run[1]
+
+
+def test_a_rewrite_of_both_files_stopped_between_them_is_finished_by_the_next_report(one_run, tmp_path, monkeypatch):
+    """Both files recorded first; stopped with the comparison written and the claims not, the run
+    checks out (one file as rewritten, the other as the run had it) and the next report finishes it."""
+    results, run = _copy(one_run, tmp_path)
+    today, _ = _as_an_older_tavc_compared_it(run)
+    older = _as_an_older_tavc_wrote_it(run, one_run[1])
+    write = _stopped_at(monkeypatch, 3)  # the record and the comparison written, the claims not yet
+    with pytest.raises(KeyboardInterrupt):
+        report.build_report(results)
+    assert (run / "comparison.csv").read_text() == today and (run / "claims.csv").read_text() == older
+    assert set(json.loads((run / "provenance.json").read_text())["rewritten"]) == {"comparison.csv", "claims.csv"}
+    monkeypatch.setattr(R, "write_text_atomic", write)
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    assert "now rewritten (1 comparison.csv, 1 claims.csv)" in result.output
+    assert (run / "comparison.csv").read_text() == today and (run / "claims.csv").read_text() == one_run[1]
+    record = json.loads((run / "provenance.json").read_text())
+    assert all("replaced" not in r for r in record["rewritten"].values())
+    assert {record["tables"][n] for n in ("comparison.csv", "claims.csv")} == \
+        {file_digest(run / n) for n in ("comparison.csv", "claims.csv")}

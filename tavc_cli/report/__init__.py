@@ -18,9 +18,10 @@ runs below the chapter's scale is headed "not a verdict". The sections are writt
 experiment's, at any horizon), `text` (its prose), `figures` (its figures), `studies`
 (section 1.4 and the value-ratio sweep) and `time_scale`.
 
-Each run it reads has its claims tested again on its own tables by today's rules
-(`retest`): a run whose `claims.csv` says otherwise (an older tavc tested it, or the run it is
-compared with was run again) gets it rewritten, and its `provenance.json` says by which tavc.
+Each run it reads has its claims tested again, and its comparison with the chapter made again,
+on its own tables by today's rules (`retest`): a run whose `claims.csv` or `comparison.csv` says
+otherwise (an older tavc wrote it, or the run it is compared with was run again) gets it
+rewritten, and its `provenance.json` says by which tavc.
 """
 
 from __future__ import annotations
@@ -76,7 +77,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
     readings' study's tables, the calibration searches' tables, the turn-taking model's predictions
     and its own learners' and alternators' runs. The runs are checked two at a time (`_check_runs`).
-    Returns the runs whose claims today's rules test otherwise than their `claims.csv` says."""
+    Returns the runs whose claims or comparison today's rules make otherwise than their files say."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")
@@ -112,8 +113,8 @@ def _check_runs(folders: list[Path], root: Path) -> list[Path]:
     refused (or a failure of the check itself raised), as one by one, once the checks already
     handed to the processes have ended; where a check process dies, the folders from there on
     are checked here, one by one. Each folder's settings are then read here too, where the
-    report reads them again (`files.config_of` keeps them). Returns the folders whose claims are
-    not what today's rules give (`_check_run`; `root`, the results folder)."""
+    report reads them again (`files.config_of` keeps them). Returns the folders whose claims or
+    comparison are not what today's rules give (`_check_run`; `root`, the results folder)."""
     refused, here_from, stale = None, len(folders), []
     with FigurePool() as pool:
         pending = [pool.submit(_check_run, d, root) for d in folders]
@@ -141,31 +142,33 @@ def _check_runs(folders: list[Path], root: Path) -> list[Path]:
 
 def _check_run(folder: Path, root: Path) -> bool:
     """`run_checks.check_run` on one folder, and its model's output if it has one; True if its
-    claims, tested again on its tables, are not what its `claims.csv` holds and tavc may rewrite
-    it (`retest.retested_claims`; `root`, the results folder)."""
+    claims or its comparison with the chapter, made again on its tables, are not what its files
+    hold and tavc may rewrite them (`retest.retested_tables`; `root`, the results folder)."""
     # deferred: a run's analysis loads the simulator's kernels, which importing the report must not
-    from tavc_cli.retest import retested_claims
+    from tavc_cli.retest import retested_tables
 
     check_run(folder, config_of)
     if (folder / "model" / "model.json").is_file():
         read_or_refuse(folder / "model" / "model.json", lambda p: json.loads(p.read_text()))
-    return retested_claims(folder, root, config_of) is not None
+    return bool(retested_tables(folder, root, config_of))
 
 
-def _retest(folders: list[Path], root: Path) -> tuple[list[Path], list[str]]:
-    """Rewrite the claims of the runs in `folders` under `root` as today's rules test them
-    (`retest.rewrite_claims`); a run another tavc command holds now is left to it. Returns the runs
-    rewritten, and a line for each run left."""
+def _retest(folders: list[Path], root: Path) -> tuple[dict[Path, list[str]], list[str]]:
+    """Rewrite the claims and the comparison of the runs in `folders` under `root` as today's rules
+    make them (`retest.rewrite_tables`); a run another tavc command holds now is left to it. Returns
+    the files rewritten by run, and a line for each run left."""
     # deferred: as in `_check_run`
-    from tavc_cli.retest import rewrite_claims
+    from tavc_cli.retest import rewrite_tables
 
-    rewritten, left = [], []
+    rewritten, left = {}, []
     for d in folders:
         try:
-            if rewrite_claims(d, root, config_of):
-                rewritten.append(d)
-        except TavcError as exc:  # the folder is in use: the command that holds it writes its claims
-            left.append(f"claims of {d} not tested again ({exc})")
+            names = rewrite_tables(d, root, config_of)
+        except TavcError as exc:  # the folder is in use: the command that holds it writes them
+            left.append(f"claims and comparison of {d} not made again ({exc})")
+            continue
+        if names:
+            rewritten[d] = names
     return rewritten, left
 
 
@@ -239,7 +242,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
            **({"page": str(results_dir / HTML_FILE)} if page else {}),
            "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished],
-           "claims_retested": [rel(d, results_dir) for d in retested], "claims_left": left,
+           "retested": {rel(d, results_dir): names for d, names in retested.items()}, "retest_left": left,
            "runs": _run_names(found, results_dir), "not_a_verdict": base.shortfalls,
            "studies": {what: [rel(d, results_dir) for d in folders] for what, folders in study_runs(results_dir)},
            "horizons": [{"folder": rel(h.folder, results_dir), "factor": h.factor, "experiments": list(h.experiments),
@@ -303,8 +306,8 @@ def _run_names(found: dict[str, list[Path]], results_dir: Path) -> dict[str, lis
 def summary_lines(result: dict) -> list[str]:
     """`build_report`'s result in a few lines: the runs left out, "not a verdict" where the
     claims were tested on runs below the chapter's scale, the claims and the runs they were
-    tested on, every other run reported, the studies' runs, the runs whose claims it tested again,
-    where the report went."""
+    tested on, every other run reported, the studies' runs, the runs whose claims or comparison it
+    made again, where the report went."""
     lines = [f"left out {folder}: its run did not finish (no provenance.json); run it again to complete it"
              for folder in result["unfinished"]]
     lines += _count_lines(result, "claims reproduced", "")
@@ -313,12 +316,15 @@ def summary_lines(result: dict) -> list[str]:
         lines += _count_lines(h, f"claims reproduced{where}", where, h["folder"])
     lines += [f"read as a whole, not run by run: {_common(folders)} ({len(folders)} runs: {what})"
               for what, folders in result.get("studies", {}).items()]
-    retested = result.get("claims_retested", [])
+    retested = result.get("retested", {})
     if retested:
-        lines.append(f"claims tested again by this tavc's rules: {len(retested)} run(s) under {_common(retested)} held "
-                     "a claims.csv other than today's rules give from their tables (and the runs they are compared "
-                     "with), now rewritten; their provenance.json says by which tavc")
-    lines += result.get("claims_left", [])
+        files = [name for names in retested.values() for name in names]
+        counts = ", ".join(f"{files.count(name)} {name}" for name in sorted(set(files), key=files.index))
+        lines.append(f"claims and comparisons made again by this tavc's rules: {len(retested)} run(s) under "
+                     f"{_common(list(retested))} held files other than today's rules give from their tables (and the "
+                     f"runs they are compared with), now rewritten ({counts}); their provenance.json says by which "
+                     "tavc")
+    lines += result.get("retest_left", [])
     return [*lines, result["report"], *([result["page"]] if "page" in result else [])]
 
 
