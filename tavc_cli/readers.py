@@ -12,16 +12,21 @@ words its own.
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import re
 import stat
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
 from tavc_cli.errors import TavcError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 try:  # libyaml's parser, where PyYAML was built with it (its wheels are)
     from yaml._yaml import CParser
@@ -40,6 +45,9 @@ YAML_LIMIT = 1 << 20
 MAX_DEPTH = 64
 # tavc's config.yaml files use no YAML aliases (`to_yaml` writes none): any is refused
 MAX_ALIASES = 0
+# tavc's largest table is 3.4 MB (a nine-robot turn-taking prediction's task_times.csv); 256 MiB is
+# some 75 times that: a table is read whole, only a regular file (`read_bounded`) and at most this
+TABLE_LIMIT = 256 << 20
 
 
 class _Refusal(Exception):
@@ -99,6 +107,31 @@ def json_depth(text: str) -> int:
         deepest = max(deepest, depth)
         depth -= 1
     return deepest
+
+
+def read_table(path: Path, columns: Iterable[str] = (), numbers: Iterable[str] = (), advice: str = REWRITE,
+               limit: int = TABLE_LIMIT, **read_csv: Any) -> pd.DataFrame:
+    """The CSV table `path` as a DataFrame (`read_csv`: pandas' options, `dtype` say), read by
+    `read_bounded`. A table that is not UTF-8 CSV, that lacks one of `columns`, or that holds
+    anything but a number (or nothing) in one of `numbers` is refused: one `TavcError` line naming
+    the file, what is wrong and `advice`, what to do. `numbers` are checked where they are there;
+    name them in `columns` as well where they must be."""
+    import pandas as pd  # deferred: most of what reads a folder's files reads no table
+
+    data = read_bounded(path, limit, advice)
+    try:
+        table = pd.read_csv(io.BytesIO(data), **read_csv)
+    except ValueError as exc:  # pandas' parser errors, an empty file, text that is not UTF-8
+        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise _refused(path, detail, advice) from None
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise _refused(path, f"no column {', '.join(missing)}", advice)
+    for column in (c for c in numbers if c in table.columns):
+        values = table[column]
+        if not (pd.api.types.is_numeric_dtype(values) or values.isna().all()):
+            raise _refused(path, f"column {column} holds something other than numbers", advice)
+    return table
 
 
 def load_json(path: Path, limit: int = JSON_LIMIT, advice: str = REWRITE) -> Any:

@@ -39,15 +39,12 @@ from tavc_cli.experiments.plan import PLAN_FILE
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import file_digest
 from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
-from tavc_cli.readers import YAML_LIMIT, load_json, read_bounded
+from tavc_cli.readers import TABLE_LIMIT, YAML_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig, from_yaml
 
 SECTIONS = ("arena", "robot", "team", "learner", "scale", "executor", "paper", "tasks", "events", "sim", "analysis",
             "model", "calibration")
 REWRITE = "rerun its experiment to rewrite it"
-# tavc's largest table is 2.5 MB (a 40x spatiotemporal run's target_times.csv); 256 MiB is some
-# 100 times that: a table is read whole, only a regular file (`readers.read_bounded`) and at most this
-TABLE_LIMIT = 256 << 20
 
 
 def damaged(path: Path, what: str) -> TavcError:

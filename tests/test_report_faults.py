@@ -546,7 +546,7 @@ def test_a_value_ratio_folder_that_is_a_link_is_refused(breakdown, tmp_path):
 def test_a_table_larger_than_any_tavc_writes_is_refused_unread(breakdown, tmp_path):
     """A trial_stats.csv of 300 MiB (sparse: no disk used) is refused in one line naming it, without
     being read into memory."""
-    from tavc_cli.run_checks import TABLE_LIMIT
+    from tavc_cli.readers import TABLE_LIMIT
 
     results = tmp_path / "results"
     shutil.copytree(breakdown, results / "breakdown")

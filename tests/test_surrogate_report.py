@@ -7,6 +7,7 @@ import math
 import pandas as pd
 import pytest
 
+from tavc_cli.errors import TavcError
 from tavc_cli.report.surrogate import surrogate_lines
 from tavc_cli.viz.surrogate import study_figures
 
@@ -128,3 +129,48 @@ def test_a_surrogate_run_is_reported_as_such_and_never_in_the_simulators_place(t
     assert "The claims are tested on `zz_breakdown`" in text
     assert "### breakdown_surrogate: another run of breakdown, on the surrogate" in text
     assert "not the simulator" in text and "(on the surrogate)" in text
+
+
+@pytest.mark.parametrize(("name", "text", "says"), [
+    ("comparison.csv", 'experiment,engine\nx,"surrogate\n',
+     "cannot be read (Error tokenizing data. C error: EOF inside string starting at row 1)"),
+    ("phase.csv", "engine,horizon\nsurrogate,40x\n", "cannot be read (no column n_robots, ratio, n_trials, high_share, "
+                                                      "modal_state, model_state, regime)"),
+    ("speed.csv", "engine,sim_s_per_wall_s\nsurrogate,fast\n", "cannot be read (column sim_s_per_wall_s holds "
+                                                               "something other than numbers)"),
+    ("tasks/task_times.json", '{"measurement": [1, 2]}', "cannot be read (no record of its measurement)"),
+    ("tasks/task_times.json", "{", "cannot be read (Expecting property name enclosed in double quotes: line 1 "
+                                   "column 2 (char 1))"),
+])
+def test_a_damaged_file_of_the_study_is_one_line_naming_it(tmp_path, name, text, says):
+    root = _study(tmp_path)
+    (root / "tasks").mkdir()
+    pd.DataFrame([{"team": "all:6", "makeup": "all:0-0-6", "n": 5}]).to_csv(root / "tasks/task_times_summary.csv",
+                                                                            index=False)
+    (root / "tasks/task_times.json").write_text('{"measurement": {"trials_per_makeup": 4}}')
+    assert "4 static trials each" in "\n".join(surrogate_lines(tmp_path))
+    (root / name).write_text(text)
+    with pytest.raises(TavcError) as refused:
+        surrogate_lines(tmp_path)
+    assert str(refused.value) == f"{root / name}: {says}; run `tavc surrogate --study` again to rewrite it"
+
+
+def test_the_report_refuses_a_damaged_study_table_before_it_writes_anything(finished_run, tmp_path):
+    """The study's tables are checked with the runs, before the first write: one line, nothing written."""
+    import shutil
+
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+    from tests.helpers import SMOKE_BREAKDOWN
+
+    results = tmp_path / "results"
+    shutil.copytree(finished_run(*SMOKE_BREAKDOWN, name="breakdown"), results / "breakdown")
+    _study(results)
+    (results / "surrogate" / "ladder.csv").write_text("horizon,engine\n40x\n")
+    result = CliRunner().invoke(app, ["report", str(results)])
+    assert result.exit_code == 1
+    assert result.output.strip() == (f"error: {results / 'surrogate' / 'ladder.csv'}: cannot be read (no column "
+                                     "modal_state, at_state, converged, pct_modal, n_alternators, largest_diff_pts); "
+                                     "run `tavc surrogate --study` again to rewrite it")
+    assert sorted(p.name for p in results.iterdir()) == ["breakdown", "surrogate"]

@@ -64,7 +64,7 @@ from tavc_cli.report.studies import (
     stay_switch_lines,
     value_ratio_lines,
 )
-from tavc_cli.report.surrogate import surrogate_lines
+from tavc_cli.report.surrogate import study_tables, surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
 from tavc_cli.run_checks import check_run
@@ -75,8 +75,9 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     damaged file is one line naming it, not a half-built report. Every run of every horizon,
     of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`run_checks.check_run`:
     its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
-    readings' study's tables, the calibration searches' tables, the turn-taking model's predictions
-    and its own learners' and alternators' runs. The runs are checked two at a time (`_check_runs`).
+    readings' study's tables, the calibration searches' tables, the surrogate study's tables, the
+    turn-taking model's predictions and its own learners' and alternators' runs. The runs are
+    checked two at a time (`_check_runs`).
     Returns the runs whose claims or comparison today's rules make otherwise than their files say."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
@@ -98,6 +99,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
             read_or_refuse(path, pd.read_csv)
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
         read_search(table)
+    study_tables(results_dir)  # the surrogate study's
     own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
     for path in sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")):  # the predictions
         predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))

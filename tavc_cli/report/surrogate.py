@@ -4,7 +4,6 @@ where it does not and why, and what it then maps (phase diagram, convergence hor
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -12,40 +11,75 @@ import pandas as pd
 
 from tavc_cli.analysis.mechanism import PERSISTENCE, TURN_TAKING
 from tavc_cli.chapter import base_case
+from tavc_cli.errors import TavcError
+from tavc_cli.readers import load_json, read_table
 from tavc_cli.report.text import fmt
 
 STUDY_DIR = "surrogate"
 ENGINE_WORDS = {"simulator": "simulator", "surrogate_makeup": "surrogate (make-up)",
                 "surrogate_stayers": "surrogate (stayers alone)"}
 FAR_PTS = 10.0  # a difference in a state's share worth naming, in points (fixed with the study)
+REWRITE = "run `tavc surrogate --study` again to rewrite it"
+_RUNS = ("horizon", "engine", "modal_state", "at_state", "converged", "pct_modal", "n_alternators", "largest_diff_pts")
+# the study's tables the section reads (below the study's folder): the columns it reads, those of
+# them that hold numbers, those read as text whatever they hold (a state, "3:3")
+TABLES = {
+    "comparison.csv": ((*_RUNS, "experiment", "regime", "claims", "n_stayers_high", "n_stayers_low", "switch_share"),
+                       ("pct_modal", "n_alternators", "largest_diff_pts", "n_stayers_high", "n_stayers_low",
+                        "switch_share"), ("at_state", "modal_state")),
+    "ladder.csv": (_RUNS, ("pct_modal", "n_alternators", "largest_diff_pts"), ("at_state", "modal_state")),
+    "phase.csv": (("engine", "horizon", "n_robots", "ratio", "n_trials", "high_share", "modal_state", "model_state",
+                   "regime"), ("n_robots", "ratio", "n_trials", "high_share"), ("modal_state", "model_state")),
+    "horizon.csv": (("parameter", "value", "factor", "horizon"), ("value", "factor", "horizon"), ()),
+    "speed.csv": (("engine", "sim_s_per_wall_s"), ("sim_s_per_wall_s",), ()),
+    "tasks/task_times_summary.csv": (("team", "makeup", "n"), ("n",), ()),
+}
+
+
+def study_tables(results_dir: Path) -> tuple[dict[str, pd.DataFrame], dict | None]:
+    """The study's tables in results_dir/surrogate that the section reads (`TABLES`, by name), each
+    read bounded and checked (`readers.read_table`: one line naming a damaged one), and the
+    measurement its `tasks/task_times.json` records (None without one); no tables without its
+    comparison.csv, which makes the section."""
+    root = Path(results_dir) / STUDY_DIR
+    if not (root / "comparison.csv").is_file():
+        return {}, None
+    tables = {name: read_table(root / name, columns, numbers, REWRITE, dtype=dict.fromkeys(text, str))
+              for name, (columns, numbers, text) in TABLES.items() if (root / name).is_file()}
+    record = root / "tasks" / "task_times.json"
+    return tables, _read_record(record) if record.is_file() else None
+
+
+def _read_record(path: Path) -> dict:
+    """The measurement a study's `task_times.json` records (trials, warm-up, measured time)."""
+    try:
+        record = load_json(path, advice=REWRITE)
+    except ValueError as exc:
+        raise TavcError(f"{path}: cannot be read ({str(exc).splitlines()[0]}); {REWRITE}") from None
+    measurement = record.get("measurement", {}) if isinstance(record, dict) else None
+    if not isinstance(measurement, dict):
+        raise TavcError(f"{path}: cannot be read (no record of its measurement); {REWRITE}")
+    return measurement
 
 
 def surrogate_lines(results_dir: Path) -> list[str]:
     """The section, if the study was run into results_dir/surrogate."""
-    root = Path(results_dir) / STUDY_DIR
-    if not (root / "comparison.csv").is_file():
+    tables, measurement = study_tables(results_dir)
+    if not tables:
         return []
     lines = ["## The surrogate: the learning dynamics on measured tasks", "",
-             *_intro(root), ""]
-    comparison = pd.read_csv(root / "comparison.csv", dtype={"at_state": str, "modal_state": str})
-    lines += _comparison_lines(comparison)
-    if (root / "ladder.csv").is_file():
-        lines += _ladder_lines(pd.read_csv(root / "ladder.csv", dtype={"modal_state": str}))
-    if (root / "phase.csv").is_file():
-        lines += _phase_lines(pd.read_csv(root / "phase.csv", dtype={"modal_state": str, "model_state": str}))
-    if (root / "horizon.csv").is_file():
-        lines += _horizon_lines(pd.read_csv(root / "horizon.csv"))
-    if (root / "speed.csv").is_file():
-        lines += _speed_lines(pd.read_csv(root / "speed.csv"))
+             *_intro(measurement, tables.get("tasks/task_times_summary.csv")), ""]
+    lines += _comparison_lines(tables["comparison.csv"])
+    for name, section in (("ladder.csv", _ladder_lines), ("phase.csv", _phase_lines),
+                          ("horizon.csv", _horizon_lines), ("speed.csv", _speed_lines)):
+        if name in tables:
+            lines += section(tables[name])
     return lines
 
 
-def _intro(root: Path) -> list[str]:
+def _intro(m: dict | None, cells: pd.DataFrame | None) -> list[str]:
     measured = ""
-    record, summary = root / "tasks" / "task_times.json", root / "tasks" / "task_times_summary.csv"
-    if record.is_file() and summary.is_file():
-        m = json.loads(record.read_text()).get("measurement", {})
-        cells = pd.read_csv(summary, usecols=["team", "makeup", "n"])
+    if m is not None and cells is not None:
         measured = (f" The tasks were measured in {cells[['team', 'makeup']].drop_duplicates().shape[0]} make-ups of "
                     f"{cells['team'].nunique()} teams, {m.get('trials_per_makeup')} static trials each of "
                     f"{fmt(m.get('warmup_s'), 'g')} s warm-up and {fmt(m.get('measure_s'), 'g')} s measured: "
