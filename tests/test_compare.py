@@ -205,3 +205,11 @@ def test_the_report_section_marks_differences_from_tavc_by_hand(tmp_path):
     assert "breakdown: highest mean mine (2); TAVC differs from random (p = 0.01)." in text
     assert "breakdown: lowest mean tavc (1); TAVC differs from random (p = 0.01)." in text
     assert compare_lines(tmp_path / "nothing") == []
+    # a damaged comparison is one line naming it: a column missing, text where a number belongs
+    table = tmp_path / "compare" / "converged" / "compare.csv"
+    pd.DataFrame(rows).drop(columns="controller").to_csv(table, index=False)
+    with pytest.raises(TavcError, match=r"compare\.csv: cannot be read \(no column controller\); run `tavc compare`"):
+        compare_lines(tmp_path)
+    pd.DataFrame(rows).assign(p_vs_tavc="small").to_csv(table, index=False)
+    with pytest.raises(TavcError, match=r"cannot be read \(column p_vs_tavc holds something other than numbers\)"):
+        compare_lines(tmp_path)

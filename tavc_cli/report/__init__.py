@@ -32,16 +32,15 @@ from collections.abc import Callable
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-import pandas as pd
-
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
+from tavc_cli.readers import read_table
 from tavc_cli.report import horizons
-from tavc_cli.report.compare import compare_lines
+from tavc_cli.report.compare import compare_lines, compare_tables
 from tavc_cli.report.counterfactuals import calibration_lines, calibration_tables, counterfactual_lines, read_search
 from tavc_cli.report.drawing import FigurePool, figure_files, remove_stale_figures
 from tavc_cli.report.figures import find_model
@@ -76,9 +75,9 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`run_checks.check_run`:
     its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
     readings' study's tables, the calibration searches' tables, the surrogate study's tables, the
-    turn-taking model's predictions and its own learners' and alternators' runs. The runs are
-    checked two at a time (`_check_runs`).
-    Returns the runs whose claims or comparison today's rules make otherwise than their files say."""
+    comparisons of other learners, the turn-taking model's predictions and its own learners' and
+    alternators' runs. The runs are checked two at a time (`_check_runs`). Returns the runs whose
+    claims or comparison today's rules make otherwise than their files say."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")
@@ -93,13 +92,14 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
                           if (p.parent / "config.yaml").is_file())
     stale = _check_runs(folders, results_dir)
     for ladder in ladders:
-        read_or_refuse(ladder, pd.read_csv)
+        read_or_refuse(ladder, read_table)
     for path in (results_dir / d / name for d in STAY_SWITCH_DIRS for name in STAY_SWITCH_TABLES):  # read as a whole
         if path.is_file():
-            read_or_refuse(path, pd.read_csv)
+            read_or_refuse(path, read_table)
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
         read_search(table)
     study_tables(results_dir)  # the surrogate study's
+    compare_tables(results_dir)  # the comparisons of other learners
     own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
     for path in sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")):  # the predictions
         predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))

@@ -10,22 +10,33 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.claims import ALPHA
-from tavc_cli.compare.metrics import METRICS
+from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS
+from tavc_cli.readers import read_table
 from tavc_cli.report.text import fmt
 
 COMPARE_DIR = "compare"
 SCALES = ("paper", "converged")  # read first, in this order; any other comparison after them
 HIGHER_IS_BETTER = {"score_per_s": True, "predicted_state_pct": True, "fill_delay_s": False, "filled_pct": True,
                     "fast_high_share": True}
+REWRITE = "run `tavc compare` again to rewrite it"
+_TEXT = ("experiment", "metric", "controller")  # compare.csv's other columns hold numbers
+
+
+def compare_tables(results_dir: Path) -> dict[Path, pd.DataFrame]:
+    """Each comparison's `compare.csv` under results_dir/compare/<name>/, by folder in the order the
+    section takes them, read bounded and checked (`readers.read_table`: one line naming a damaged one)."""
+    root = Path(results_dir) / COMPARE_DIR
+    if not root.is_dir():
+        return {}
+    found = sorted((d for d in root.iterdir() if (d / "compare.csv").is_file()),
+                   key=lambda d: (SCALES.index(d.name) if d.name in SCALES else len(SCALES), d.name))
+    numbers = [c for c in TABLE_COLUMNS if c not in _TEXT]
+    return {d: read_table(d / "compare.csv", TABLE_COLUMNS, numbers, REWRITE) for d in found}
 
 
 def compare_lines(results_dir: Path) -> list[str]:
     """The section, if a comparison was written into results_dir/compare/<name>."""
-    root = Path(results_dir) / COMPARE_DIR
-    if not root.is_dir():
-        return []
-    found = sorted((d for d in root.iterdir() if (d / "compare.csv").is_file()),
-                   key=lambda d: (SCALES.index(d.name) if d.name in SCALES else len(SCALES), d.name))
+    found = compare_tables(results_dir)
     if not found:
         return []
     lines = ["## Other learners on the chapter's scenarios", "",
@@ -40,13 +51,12 @@ def compare_lines(results_dir: Path) -> list[str]:
              "period after the event any controller ran (the chapter's). "
              "Controllers that learn nothing run the chapter's schedule at every scale (their "
              "distribution does not depend on the horizon).", ""]
-    for folder in found:
-        lines += _scale_lines(folder, Path(results_dir))
+    for folder, table in found.items():
+        lines += _scale_lines(folder, table, Path(results_dir))
     return lines
 
 
-def _scale_lines(folder: Path, results_dir: Path) -> list[str]:
-    table = pd.read_csv(folder / "compare.csv")
+def _scale_lines(folder: Path, table: pd.DataFrame, results_dir: Path) -> list[str]:
     factors = table.groupby("controller", sort=False)["time_factor"].first()
     n = table.groupby("controller", sort=False)["n_trials"].max()
     ran = ", ".join(f"{c} at {f:g}x ({int(n[c])} trials)" for c, f in factors.items())

@@ -25,6 +25,7 @@ from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.analysis.stay_switch import reading_name, split_folder
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import WORLD_SEARCH_DIR
+from tavc_cli.readers import read_table
 from tavc_cli.report.files import horizon_folders, is_run_folder, natural, read_or_refuse, seed_for_seed_cell
 from tavc_cli.report.horizons import Horizon, mechanism_cell, read_horizon
 from tavc_cli.report.runs import finished_runs
@@ -182,7 +183,7 @@ def read_search(table: Path) -> tuple[pd.DataFrame, list[str], dict]:
 @lru_cache(maxsize=32)
 def _read_search(given: str, resolved: str, versions: tuple) -> tuple[pd.DataFrame, list[str], dict]:
     table = Path(given)
-    search = read_or_refuse(table, pd.read_csv)
+    search = read_or_refuse(table, read_table)
     record = table.with_suffix(".json")
     facts = read_or_refuse(record, lambda p: json.loads(p.read_text())) if record.is_file() else {}
     needed = {"lone_leg_s", "arrivals_per_5h", "crowding_ratio_6", "feasible", "robust", "chosen"}

@@ -12,6 +12,7 @@ import pandas as pd
 
 from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_rows, seed_for_seed
 from tavc_cli.errors import TavcError
+from tavc_cli.readers import read_table
 from tavc_cli.run_tables import in_hidden_folder
 from tavc_cli.settings import TavcConfig, from_yaml
 
@@ -131,7 +132,7 @@ def _seed_table(path: Path) -> pd.DataFrame:
 
 @lru_cache(maxsize=128)
 def _seed_table_of(path: str, mtime_ns: int, size: int, q_values: bool) -> pd.DataFrame:
-    table = read_or_refuse(Path(path), pd.read_csv)
+    table = read_or_refuse(Path(path), read_table)
     missing = [c for c in (TABLE_COLUMNS if q_values else ROBOT_COLUMNS) if c not in table.columns]
     if missing:
         raise TavcError(f"{path}: cannot be read (no column {missing[0]!r}); rerun its experiment to rewrite it")

@@ -17,6 +17,7 @@ from tavc_cli.analysis.value_ratio import predicted_shares
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
+from tavc_cli.readers import read_table
 from tavc_cli.report import files
 from tavc_cli.report.files import (
     config_of,
@@ -169,12 +170,12 @@ def _study(results_dir: Path, folder: str) -> tuple | None:
     (None where not written) and its record ({} where none); None where it was not run or no
     make-up has both a low-value stayer and an alternator."""
     path = results_dir / folder / "stay_switch.csv"
-    table = read_or_refuse(path, pd.read_csv) if path.is_file() else None
+    table = read_or_refuse(path, read_table) if path.is_file() else None
     if table is None or table.dropna(subset=["ratio_low"]).empty:
         return None
     model_path, turn_path, record_path = (path.parent / f for f in (*STAY_SWITCH_TABLES[1:], "stay_switch.json"))
-    model = read_or_refuse(model_path, pd.read_csv) if model_path.is_file() else None
-    turn = read_or_refuse(turn_path, pd.read_csv).set_index("reading") if turn_path.is_file() else None
+    model = read_or_refuse(model_path, read_table) if model_path.is_file() else None
+    turn = read_or_refuse(turn_path, read_table).set_index("reading") if turn_path.is_file() else None
     record = read_or_refuse(record_path, lambda p: json.loads(p.read_text())) if record_path.is_file() else {}
     return table, model, turn, record if isinstance(record, dict) else {}
 
