@@ -132,6 +132,30 @@ def test_the_reports_section_reads_the_studys_table(tmp_path):
     assert "![stay and switch in each reading](stay_switch/stay_switch.png)" in text
 
 
+
+@pytest.mark.parametrize(("name", "text", "says"), [
+    ("stay_switch.csv", "reading,makeup\narrival=dock,all:2-2-2\n",
+     "no column high_stayers, low_stayers, alternators, ratio_low, threshold_low, stay_pays_low, stay_pays_low_source"),
+    ("stay_switch_model.csv", "reading,regime,basin,robots_high\narrival=dock,mixed,most,2\n",
+     "column basin holds something other than numbers"),
+    ("stay_switch_turn_taking.csv", 'reading,regime\n"arrival=dock\n', "Error tokenizing data. C error: EOF inside "
+                                                                         "string starting at row 1"),
+    ("stay_switch.json", '{"measurement": {"measure_s": "long"}}', "not a record of the study's measurement"),
+])
+def test_a_damaged_file_of_the_study_is_one_line_naming_it(tmp_path, name, text, says):
+    from tavc_cli.errors import TavcError
+    from tavc_cli.report.studies import stay_switch_lines
+
+    tasks = pd.DataFrame([_task("all:2-2-2", "stay", 1, 80.0, 30.0), _task("all:2-2-2", "switch", 0, 92.0, 40.0)],
+                         columns=list(COLUMNS))
+    _write_study(tmp_path, tasks, ["arrival=dock"])
+    (tmp_path / "stay_switch" / name).write_text(text)
+    with pytest.raises(TavcError) as refused:
+        stay_switch_lines(tmp_path)
+    assert str(refused.value) == (f"{tmp_path / 'stay_switch' / name}: cannot be read ({says}); run its "
+                                  "`tavc stay-switch` again to rewrite it")
+
+
 def test_the_calibrated_study_is_a_second_table_with_the_settings_each_reading_was_measured_at(tmp_path):
     """A study at the calibrations' choices (`stay_switch_calibrated/`) beside the study at the
     readings' defaults: its own table after the first, each row with the settings from its

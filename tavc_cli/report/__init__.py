@@ -36,7 +36,7 @@ from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
-from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, list_figures, take_report_folders
+from tavc_cli.ownership import READINGS_DIR, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.readers import read_table
 from tavc_cli.report import horizons
@@ -50,6 +50,7 @@ from tavc_cli.report.files import (
     model_alternators,
     model_learners,
     read_or_refuse,
+    read_stay_switch,
     sweep_runs,
 )
 from tavc_cli.report.html import HTML_FILE, write_report_html
@@ -93,9 +94,8 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     stale = _check_runs(folders, results_dir)
     for ladder in ladders:
         read_or_refuse(ladder, read_table)
-    for path in (results_dir / d / name for d in STAY_SWITCH_DIRS for name in STAY_SWITCH_TABLES):  # read as a whole
-        if path.is_file():
-            read_or_refuse(path, read_table)
+    for d in STAY_SWITCH_DIRS:  # the stay/switch studies' tables, read as a whole
+        read_stay_switch(results_dir / d)
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
         read_search(table)
     study_tables(results_dir)  # the surrogate study's

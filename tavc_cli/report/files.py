@@ -12,7 +12,8 @@ import pandas as pd
 
 from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_rows, seed_for_seed
 from tavc_cli.errors import TavcError
-from tavc_cli.readers import read_table
+from tavc_cli.ownership import STAY_SWITCH_TABLES
+from tavc_cli.readers import load_json, read_table
 from tavc_cli.run_tables import in_hidden_folder
 from tavc_cli.settings import TavcConfig, from_yaml
 
@@ -137,3 +138,43 @@ def _seed_table_of(path: str, mtime_ns: int, size: int, q_values: bool) -> pd.Da
     if missing:
         raise TavcError(f"{path}: cannot be read (no column {missing[0]!r}); rerun its experiment to rewrite it")
     return first_rows(table) if q_values else table
+
+
+STAY_SWITCH_REWRITE = "run its `tavc stay-switch` again to rewrite it"
+# a stay/switch study's tables as the report reads them (`ownership.STAY_SWITCH_TABLES`): the columns
+# it reads, those of them that hold numbers, those read as text whatever they hold
+_STAY_SWITCH_COLUMNS = (
+    (("reading", "high_stayers", "low_stayers", "alternators", "ratio_low", "threshold_low", "stay_pays_low",
+      "stay_pays_low_source"), ("high_stayers", "low_stayers", "alternators", "ratio_low", "threshold_low"), ()),
+    (("reading", "regime", "basin", "robots_high"), ("basin", "robots_high"), ()),
+    (("reading", "regime", "robots_high", "modal_state", "modal_share_pct"), ("robots_high", "modal_share_pct"),
+     ("modal_state",)),
+)
+
+
+def read_stay_switch(folder: Path) -> tuple[pd.DataFrame | None, ...] | None:
+    """A stay/switch study's tables in `folder` (its table, drift model and turn-taking model, each
+    None where not written) and its record ({} where none), each read bounded and checked
+    (`readers.read_table`, `readers.load_json`: one line naming a damaged one); None where the study
+    wrote no table there."""
+    if not (folder / STAY_SWITCH_TABLES[0]).is_file():
+        return None
+    tables = tuple(read_table(folder / name, columns, numbers, STAY_SWITCH_REWRITE, dtype=dict.fromkeys(text, str))
+                   if (folder / name).is_file() else None
+                   for name, (columns, numbers, text) in zip(STAY_SWITCH_TABLES, _STAY_SWITCH_COLUMNS, strict=True))
+    path = folder / "stay_switch.json"
+    try:
+        record = load_json(path, advice=STAY_SWITCH_REWRITE) if path.is_file() else {}
+    except ValueError as exc:
+        raise TavcError(f"{path}: cannot be read ({str(exc).splitlines()[0]}); {STAY_SWITCH_REWRITE}") from None
+    measurement = record.get("measurement", {}) if isinstance(record, dict) else None
+    if not isinstance(measurement, dict) or any(not _is_number(v) for k, v in measurement.items() if k in _MEASURED):
+        raise TavcError(f"{path}: cannot be read (not a record of the study's measurement); {STAY_SWITCH_REWRITE}")
+    return (*tables, record)
+
+
+_MEASURED = ("trials_per_makeup", "measure_s", "warmup_s")  # numbers in a study's record, where it has them
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)

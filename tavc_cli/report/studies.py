@@ -16,8 +16,7 @@ from tavc_cli.analysis.turn_taking import RESAMPLES, state_shares
 from tavc_cli.analysis.value_ratio import predicted_shares
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
-from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
-from tavc_cli.readers import read_table
+from tavc_cli.ownership import READINGS_DIR, VALUE_RATIO_DIR
 from tavc_cli.report import files
 from tavc_cli.report.files import (
     config_of,
@@ -25,6 +24,7 @@ from tavc_cli.report.files import (
     model_learners,
     natural,
     read_or_refuse,
+    read_stay_switch,
     run_in,
     sweep_runs,
 )
@@ -169,15 +169,11 @@ def _study(results_dir: Path, folder: str) -> tuple | None:
     """A stay/switch study in results_dir/folder: its table, drift model and turn-taking model
     (None where not written) and its record ({} where none); None where it was not run or no
     make-up has both a low-value stayer and an alternator."""
-    path = results_dir / folder / "stay_switch.csv"
-    table = read_or_refuse(path, read_table) if path.is_file() else None
-    if table is None or table.dropna(subset=["ratio_low"]).empty:
+    study = read_stay_switch(results_dir / folder)
+    if study is None or study[0].dropna(subset=["ratio_low"]).empty:
         return None
-    model_path, turn_path, record_path = (path.parent / f for f in (*STAY_SWITCH_TABLES[1:], "stay_switch.json"))
-    model = read_or_refuse(model_path, read_table) if model_path.is_file() else None
-    turn = read_or_refuse(turn_path, read_table).set_index("reading") if turn_path.is_file() else None
-    record = read_or_refuse(record_path, lambda p: json.loads(p.read_text())) if record_path.is_file() else {}
-    return table, model, turn, record if isinstance(record, dict) else {}
+    table, model, turn, record = study
+    return table, model, turn.set_index("reading") if turn is not None else None, record
 
 
 def _study_rows(table: pd.DataFrame, model: pd.DataFrame | None, turn: pd.DataFrame | None,
