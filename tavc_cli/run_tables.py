@@ -11,10 +11,14 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis import ladder, sweep, value_ratio
+from tavc_cli.errors import TavcError
+from tavc_cli.notation import state_counts
+from tavc_cli.readers import read_table
 from tavc_cli.settings import from_yaml
 
 STATES = {"state": str}  # a state column read as text ("3:3"), never as a number or a time
-_RUNG_TABLES = ("claims", "convergence", "mechanism")  # a rung's tables the ladder reads where the run wrote them
+_RUNG_TABLES = ("claims", "convergence", "mechanism")
+MODEL_REWRITE = "run `tavc model` again to rewrite it"  # a rung's tables the ladder reads where the run wrote them
 
 
 def read_rung(folder: Path) -> ladder.Rung:
@@ -64,5 +68,13 @@ def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
 
 
 def model_rows(model_csv: Path) -> pd.DataFrame:
-    """A `model.csv` as `tavc model` wrote it, its split and state columns as text."""
-    return pd.read_csv(model_csv, dtype={"split": str, "state": str})
+    """A `model.csv` as `tavc model` wrote it, its split and state columns as text, read bounded and
+    checked for what its readers take from it (`model.api.table_from_rows`): one line naming it
+    where it is damaged."""
+    rows = read_table(model_csv, ("split", "circuit", "c_per_s", "task_time_s"), ("circuit", "c_per_s", "task_time_s"),
+                      MODEL_REWRITE, dtype={"split": str, "state": str})
+    bad = next((str(s) for s in rows["split"] if state_counts(s) is None), None)
+    if bad is not None or rows["circuit"].isna().any() or (rows["circuit"] < 0).any():
+        why = f"a split that is not one: {bad}" if bad is not None else "a row without its circuit"
+        raise TavcError(f"{model_csv}: cannot be read ({why}); {MODEL_REWRITE}")
+    return rows

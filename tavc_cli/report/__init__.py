@@ -38,7 +38,6 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
-from tavc_cli.readers import read_table
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines, compare_tables
 from tavc_cli.report.counterfactuals import calibration_lines, calibration_tables, counterfactual_lines, read_search
@@ -49,6 +48,7 @@ from tavc_cli.report.files import (
     horizon_folders,
     model_alternators,
     model_learners,
+    read_ladder,
     read_or_refuse,
     read_stay_switch,
     sweep_runs,
@@ -68,6 +68,7 @@ from tavc_cli.report.surrogate import study_tables, surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
 from tavc_cli.run_checks import check_run
+from tavc_cli.run_tables import model_rows
 
 
 def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: dict[str, list[Path]]) -> list[Path]:
@@ -93,7 +94,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
                           if (p.parent / "config.yaml").is_file())
     stale = _check_runs(folders, results_dir)
     for ladder in ladders:
-        read_or_refuse(ladder, read_table)
+        read_ladder(ladder)
     for d in STAY_SWITCH_DIRS:  # the stay/switch studies' tables, read as a whole
         read_stay_switch(results_dir / d)
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
@@ -152,6 +153,8 @@ def _check_run(folder: Path, root: Path) -> bool:
     check_run(folder, config_of)
     if (folder / "model" / "model.json").is_file():
         read_or_refuse(folder / "model" / "model.json", lambda p: json.loads(p.read_text()))
+    if (folder / "model" / "model.csv").is_file():
+        model_rows(folder / "model" / "model.csv")
     return bool(retested_tables(folder, root, config_of))
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.ladder import LADDER_COLUMNS
 from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_rows, seed_for_seed
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import STAY_SWITCH_TABLES
@@ -178,3 +179,13 @@ _MEASURED = ("trials_per_makeup", "measure_s", "warmup_s")  # numbers in a study
 
 def _is_number(value: object) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+LADDER_REWRITE = "run its `tavc ladder` again to rewrite it"
+
+
+def read_ladder(path: Path) -> pd.DataFrame:
+    """A horizon ladder's `ladder.csv` (`analysis.ladder.LADDER_COLUMNS`), read bounded and checked
+    (`readers.read_table`: one line naming a damaged one)."""
+    return read_table(path, LADDER_COLUMNS, [c for c in LADDER_COLUMNS if c not in ("controller", "quantity")],
+                      LADDER_REWRITE)

@@ -17,7 +17,7 @@ from tavc_cli import chapter
 from tavc_cli.analysis.ladder import ladder_value
 from tavc_cli.analysis.qvalues import policy_changes
 from tavc_cli.reference import chapter_table
-from tavc_cli.report.files import config_of
+from tavc_cli.report.files import config_of, read_ladder
 from tavc_cli.report.horizons import (
     Horizon,
     convergence,
@@ -172,7 +172,7 @@ def _ladder_policies(results_dir: Path, h: Horizon) -> list[str]:
     if not path.is_file():
         return []
 
-    share = ladder_value(pd.read_csv(path), "tavc", "policy_changed_share").dropna()
+    share = ladder_value(read_ladder(path), "tavc", "policy_changed_share").dropna()
     if not len(share):
         return []
     top, first = float(share.idxmax()), float(share.index.min())
@@ -189,7 +189,7 @@ def ladder_lines(results_dir: Path, h: Horizon) -> list[str]:
     # deferred: loads matplotlib
     from tavc_cli.viz.ladder import ladder_figure
 
-    table = pd.read_csv(path)
+    table = read_ladder(path)
     rel = path.parent.relative_to(results_dir)
     factors = sorted(set(table["factor"]))
     # redrawn from ladder.csv with the report's figures (its bars cut at 0 and 100 %, n named)
