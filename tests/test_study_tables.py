@@ -73,3 +73,26 @@ def test_a_damaged_model_table_names_the_command_that_rewrites_it(tmp_path):
                       ("1:0,1:0,0,fast,81\n", "column c_per_s holds something other than numbers")):
         path.write_text(header + rows)
         assert _refusal(model_rows, path) == f"{path}: cannot be read ({why}); run `tavc model` again to rewrite it"
+
+
+def test_a_model_file_without_what_the_report_reads_of_it_is_one_line(tmp_path):
+    import json
+
+    from tavc_cli.report.files import check_model
+
+    good = {"n_robots": 6, "predicted_state": "3:3", "measurement": {"trials_per_split": 12},
+            "by_team_size": {"5": {"predicted_state": "3:2"}},
+            "world": {"time_budget": [{"split": "3:3", "circuit": 0, "task_time_s": 90.0}]}}
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(good))
+    check_model(path)
+    for change, why in (({"n_robots": "six"}, "no team size and prediction, n_robots and predicted_state"),
+                        ({"measurement": None}, "no record of its measurement"),
+                        ({"by_team_size": {"five": {"predicted_state": "3:2"}}},
+                         "by_team_size is not a prediction for each team size"),
+                        ({"world": {"time_budget": [{"split": "3:3"}]}},
+                         "world.time_budget is not a task time for each split and circuit")):
+        path.write_text(json.dumps({**good, **change}))
+        assert _refusal(check_model, path) == f"{path}: cannot be read ({why}); run `tavc model` again to rewrite it"
+    path.write_text("[1, 2]")
+    assert "(not a JSON object)" in _refusal(check_model, path)

@@ -26,7 +26,6 @@ rewritten, and its `provenance.json` says by which tavc.
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from concurrent.futures.process import BrokenProcessPool
@@ -38,12 +37,14 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
+from tavc_cli.readers import load_json
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines, compare_tables
 from tavc_cli.report.counterfactuals import calibration_lines, calibration_tables, counterfactual_lines, read_search
 from tavc_cli.report.drawing import FigurePool, figure_files, remove_stale_figures
 from tavc_cli.report.figures import find_model
 from tavc_cli.report.files import (
+    check_model,
     config_of,
     horizon_folders,
     model_alternators,
@@ -103,7 +104,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     compare_tables(results_dir)  # the comparisons of other learners
     own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
     for path in sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")):  # the predictions
-        predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))
+        predicted = read_or_refuse(path, load_json)
         runs = (model_learners(path.parent, predicted), model_alternators(path.parent, predicted)) \
             if isinstance(predicted, dict) else ()
         own += [d for d in runs if d is not None and (d / "config.yaml").is_file()]
@@ -152,7 +153,7 @@ def _check_run(folder: Path, root: Path) -> bool:
 
     check_run(folder, config_of)
     if (folder / "model" / "model.json").is_file():
-        read_or_refuse(folder / "model" / "model.json", lambda p: json.loads(p.read_text()))
+        check_model(folder / "model" / "model.json")
     if (folder / "model" / "model.csv").is_file():
         model_rows(folder / "model" / "model.csv")
     return bool(retested_tables(folder, root, config_of))

@@ -15,7 +15,7 @@ from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_rows, 
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import STAY_SWITCH_TABLES
 from tavc_cli.readers import load_json, read_table
-from tavc_cli.run_tables import in_hidden_folder
+from tavc_cli.run_tables import MODEL_REWRITE, in_hidden_folder
 from tavc_cli.settings import TavcConfig, from_yaml
 
 
@@ -189,3 +189,32 @@ def read_ladder(path: Path) -> pd.DataFrame:
     (`readers.read_table`: one line naming a damaged one)."""
     return read_table(path, LADDER_COLUMNS, [c for c in LADDER_COLUMNS if c not in ("controller", "quantity")],
                       LADDER_REWRITE)
+
+
+def check_model(path: Path) -> None:
+    """A run's `model/model.json` (`tavc model`), checked for what the report reads of it: its team
+    size, prediction and measurement, each team size's prediction, the world's time budget; one
+    line naming what is not there otherwise (`readers.load_json`: read bounded)."""
+    model = read_or_refuse(path, load_json)
+    why = _model_fault(model)
+    if why:
+        raise TavcError(f"{path}: cannot be read ({why}); {MODEL_REWRITE}")
+
+
+def _model_fault(model: object) -> str:
+    if not isinstance(model, dict):
+        return "not a JSON object"
+    n, world = model.get("n_robots"), model.get("world", {})
+    if not (_is_number(n) and n == int(n) and n >= 1) or not isinstance(model.get("predicted_state"), str):
+        return "no team size and prediction, n_robots and predicted_state"
+    if not isinstance(model.get("measurement"), dict):
+        return "no record of its measurement"
+    sizes = model.get("by_team_size", {})
+    if not isinstance(sizes, dict) or not all(str(k).isdigit() and isinstance(v, dict)
+                                              and isinstance(v.get("predicted_state"), str) for k, v in sizes.items()):
+        return "by_team_size is not a prediction for each team size"
+    budget = world.get("time_budget", []) if isinstance(world, dict) else None
+    if not isinstance(budget, list) or not all(isinstance(b, dict) and isinstance(b.get("split"), str)
+                                               and _is_number(b.get("task_time_s")) for b in budget):
+        return "world.time_budget is not a task time for each split and circuit"
+    return ""
