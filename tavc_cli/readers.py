@@ -17,7 +17,7 @@ import json
 import os
 import re
 import stat
-from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -109,28 +109,60 @@ def json_depth(text: str) -> int:
     return deepest
 
 
-def read_table(path: Path, columns: Iterable[str] = (), numbers: Iterable[str] = (), advice: str = REWRITE,
-               limit: int = TABLE_LIMIT, **read_csv: Any) -> pd.DataFrame:
-    """The CSV table `path` as a DataFrame (`read_csv`: pandas' options, `dtype` say), read by
-    `read_bounded`. A table that is not UTF-8 CSV, that lacks one of `columns`, or that holds
-    anything but a number (or nothing) in one of `numbers` is refused: one `TavcError` line naming
-    the file, what is wrong and `advice`, what to do. `numbers` are checked where they are there;
-    name them in `columns` as well where they must be."""
+@dataclass(frozen=True)
+class TableSpec:
+    """What a reader takes from a table it reads whole (a study's, the model's): the `columns` it
+    reads, which of them hold numbers (or nothing), which are read as text whatever they hold (a
+    state such as ``3:3``), which are never empty, and which hold True, False or nothing. A run's
+    own tables are checked by `run_checks` against `analysis.table_schemas` instead."""
+
+    columns: tuple[str, ...] = ()
+    numbers: tuple[str, ...] = ()
+    text: tuple[str, ...] = ()
+    filled: tuple[str, ...] = ()
+    flags: tuple[str, ...] = ()
+
+    def fault(self, table: pd.DataFrame) -> str:
+        """What is wrong with `table` by this spec ("" where nothing)."""
+        import pandas as pd  # deferred: most of what reads a folder's files reads no table
+
+        missing = [c for c in self.columns if c not in table.columns]
+        if missing:
+            return f"no column {', '.join(missing)}"
+        for column in (c for c in self.filled if c in table.columns):
+            if table[column].isna().any():
+                return f"an empty cell in column {column}"
+        for column in (c for c in self.numbers if c in table.columns):
+            if not (pd.api.types.is_numeric_dtype(table[column]) or table[column].isna().all()):
+                return f"column {column} holds something other than numbers"
+        for column in (c for c in self.flags if c in table.columns):
+            if not set(table[column].dropna().astype(str)) <= {"True", "False"}:
+                return f"column {column} holds something other than True or False"
+        return ""
+
+
+def read_table(path: Path, spec: TableSpec = TableSpec(), advice: str = REWRITE,
+               limit: int = TABLE_LIMIT) -> pd.DataFrame:
+    """The CSV table `path` as a DataFrame, read by `read_bounded`, the columns `spec` names as text
+    read as text. A table that cannot be read (not there, not a file, empty, not UTF-8 CSV) or that
+    `spec` finds at fault is refused: one `TavcError` line naming the file, what is wrong and
+    `advice`, what to do."""
     import pandas as pd  # deferred: most of what reads a folder's files reads no table
 
-    data = read_bounded(path, limit, advice)
     try:
-        table = pd.read_csv(io.BytesIO(data), **read_csv)
-    except ValueError as exc:  # pandas' parser errors, an empty file, text that is not UTF-8
+        data = read_bounded(path, limit, advice)
+    except OSError as exc:  # gone, or a link that leads nowhere
+        raise _refused(path, exc.strerror or type(exc).__name__, advice) from None
+    if not data.strip():
+        raise _refused(path, "empty", advice)
+    try:
+        table = pd.read_csv(io.BytesIO(data), dtype=dict.fromkeys(spec.text, str))
+    except ValueError as exc:  # pandas' parser errors, text that is not UTF-8
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise _refused(path, detail, advice) from None
-    missing = [c for c in columns if c not in table.columns]
-    if missing:
-        raise _refused(path, f"no column {', '.join(missing)}", advice)
-    for column in (c for c in numbers if c in table.columns):
-        values = table[column]
-        if not (pd.api.types.is_numeric_dtype(values) or values.isna().all()):
-            raise _refused(path, f"column {column} holds something other than numbers", advice)
+    fault = spec.fault(table)
+    if fault:
+        raise _refused(path, fault, advice)
     return table
 
 

@@ -13,12 +13,14 @@ import pandas as pd
 from tavc_cli.analysis import ladder, sweep, value_ratio
 from tavc_cli.errors import TavcError
 from tavc_cli.notation import state_counts
-from tavc_cli.readers import read_table
+from tavc_cli.readers import TableSpec, read_table
 from tavc_cli.settings import from_yaml
 
 STATES = {"state": str}  # a state column read as text ("3:3"), never as a number or a time
-_RUNG_TABLES = ("claims", "convergence", "mechanism")
-MODEL_REWRITE = "run `tavc model` again to rewrite it"  # a rung's tables the ladder reads where the run wrote them
+_RUNG_TABLES = ("claims", "convergence", "mechanism")  # a rung's tables the ladder reads where the run wrote them
+MODEL_REWRITE = "run `tavc model` again to rewrite it"
+_MODEL = TableSpec(columns=("split", "circuit", "c_per_s", "task_time_s"),
+                   numbers=("circuit", "c_per_s", "task_time_s"), text=("split", "state"), filled=("split", "circuit"))
 
 
 def read_rung(folder: Path) -> ladder.Rung:
@@ -71,10 +73,9 @@ def model_rows(model_csv: Path) -> pd.DataFrame:
     """A `model.csv` as `tavc model` wrote it, its split and state columns as text, read bounded and
     checked for what its readers take from it (`model.api.table_from_rows`): one line naming it
     where it is damaged."""
-    rows = read_table(model_csv, ("split", "circuit", "c_per_s", "task_time_s"), ("circuit", "c_per_s", "task_time_s"),
-                      MODEL_REWRITE, dtype={"split": str, "state": str})
+    rows = read_table(model_csv, _MODEL, MODEL_REWRITE)
     bad = next((str(s) for s in rows["split"] if state_counts(s) is None), None)
-    if bad is not None or rows["circuit"].isna().any() or (rows["circuit"] < 0).any():
-        why = f"a split that is not one: {bad}" if bad is not None else "a row without its circuit"
+    if bad is not None or (rows["circuit"] < 0).any():
+        why = f"a split that is not one: {bad}" if bad is not None else "a circuit below 0"
         raise TavcError(f"{model_csv}: cannot be read ({why}); {MODEL_REWRITE}")
     return rows

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from tavc_cli.errors import TavcError
-from tavc_cli.readers import read_table
+from tavc_cli.readers import TableSpec, read_table
 from tavc_cli.report.files import read_ladder
 from tavc_cli.run_tables import model_rows
 
@@ -22,26 +22,33 @@ def _refusal(read, path) -> str:
 def test_a_table_is_read_whole_as_pandas_reads_it(tmp_path):
     path = tmp_path / "t.csv"
     path.write_text("state,mean\n3:3,1.5\n4:2,\n")
-    table = read_table(path, ("state", "mean"), ("mean",), dtype={"state": str})
+    table = read_table(path, TableSpec(columns=("state", "mean"), numbers=("mean",), text=("state",)))
     pd.testing.assert_frame_equal(table, pd.read_csv(path, dtype={"state": str}))
     assert list(table["state"]) == ["3:3", "4:2"] and table["mean"].isna().tolist() == [False, True]
     # a column of numbers left empty throughout is no text
     path.write_text("state,mean\n3:3,\n")
-    assert read_table(path, numbers=("mean",))["mean"].isna().all()
+    assert read_table(path, TableSpec(numbers=("mean",)))["mean"].isna().all()
 
 
 @pytest.mark.parametrize(("text", "why"), [
-    (b"", "No columns to parse from file"),
-    (b'a,b\n1,"2\n', "Error tokenizing data. C error: EOF inside string starting at row 1"),
-    (b"a,b\n\xff\xfe,1\n", "'utf-8' codec can't decode byte 0xff in position 0: invalid start byte"),
-    (b"a,c\n1,2\n", "no column b"),
-    (b"a,b\n1,many\n", "column b holds something other than numbers"),
+    (b"", "empty"),
+    (b"\n\n", "empty"),
+    (b'a,b,c\n1,"2\n', "Error tokenizing data. C error: EOF inside string starting at row 1"),
+    (b"a,b,c\n\xff\xfe,1,True\n", "'utf-8' codec can't decode byte 0xff in position 0: invalid start byte"),
+    (b"a,c\n1,True\n", "no column b"),
+    (b"a,b,c\n1,many,True\n", "column b holds something other than numbers"),
+    (b"a,b,c\n,2,True\n", "an empty cell in column a"),
+    (b"a,b,c\n1,2,maybe\n", "column c holds something other than True or False"),
 ])
 def test_a_damaged_table_is_one_line_naming_it(tmp_path, text, why):
+    spec = TableSpec(columns=("a", "b"), numbers=("b",), filled=("a",), flags=("c",))
     path = tmp_path / "t.csv"
     path.write_bytes(text)
-    assert _refusal(lambda p: read_table(p, ("a", "b"), ("b",), "do it again"), path) == \
+    assert _refusal(lambda p: read_table(p, spec, "do it again"), path) == \
         f"{path}: cannot be read ({why}); do it again"
+    # what the spec allows: empty numbers and flags, True and False
+    path.write_text("a,b,c\n1,,\n2,3,True\n3,,False\n")
+    assert list(read_table(path, spec)["a"]) == [1, 2, 3]
 
 
 def test_a_table_too_large_or_not_a_file_is_never_read(tmp_path):
@@ -52,6 +59,11 @@ def test_a_table_too_large_or_not_a_file_is_never_read(tmp_path):
     fifo = tmp_path / "fifo.csv"
     os.mkfifo(fifo)
     assert "it is a named pipe (FIFO), not a file" in _refusal(read_table, fifo)  # and never blocks
+    assert _refusal(read_table, tmp_path) == \
+        f"{tmp_path}: cannot be read (it is a folder, not a file); rerun its experiment to rewrite it"
+    (tmp_path / "gone.csv").symlink_to(tmp_path / "nowhere.csv")
+    assert _refusal(read_table, tmp_path / "gone.csv") == \
+        f"{tmp_path / 'gone.csv'}: cannot be read (No such file or directory); rerun its experiment to rewrite it"
 
 
 def test_a_damaged_ladder_names_the_command_that_rewrites_it(tmp_path):
@@ -68,7 +80,8 @@ def test_a_damaged_model_table_names_the_command_that_rewrites_it(tmp_path):
     header = "split,state,circuit,c_per_s,task_time_s\n"
     path.write_text(header + "1:0,1:0,0,0.0123,81.4\n1:0,1:0,1,0,\n")
     assert list(model_rows(path)["split"]) == ["1:0", "1:0"]
-    for rows, why in (("1:0,1:0,,0.01,81\n", "a row without its circuit"),
+    for rows, why in (("1:0,1:0,,0.01,81\n", "an empty cell in column circuit"),
+                      ("1:0,1:0,-1,0.01,81\n", "a circuit below 0"),
                       ("one,1:0,0,0.01,81\n", "a split that is not one: one"),
                       ("1:0,1:0,0,fast,81\n", "column c_per_s holds something other than numbers")):
         path.write_text(header + rows)
@@ -96,3 +109,41 @@ def test_a_model_file_without_what_the_report_reads_of_it_is_one_line(tmp_path):
         assert _refusal(check_model, path) == f"{path}: cannot be read ({why}); run `tavc model` again to rewrite it"
     path.write_text("[1, 2]")
     assert "(not a JSON object)" in _refusal(check_model, path)
+
+
+@pytest.mark.parametrize(("where", "text", "why", "advice"), [
+    ("compare/paper/compare.csv", "experiment,metric\nbreakdown,score_per_s\n", "no column controller, time_factor, "
+     "n_trials, mean, std, median, p_vs_tavc, p_vs_random, above_tavc, above_random", "run `tavc compare` again"),
+    ("stay_switch/stay_switch.csv", "reading,high_stayers,low_stayers,alternators,ratio_low,threshold_low,"
+     "stay_pays_low,stay_pays_low_source\narrival=dock,1,1,,1.1,1.05,True,False\n", "an empty cell in column "
+     "alternators", "run its `tavc stay-switch` again"),
+    ("stay_switch/stay_switch.json", '{"readings": []}', "its readings are not each reading's settings",
+     "run its `tavc stay-switch` again"),
+    ("surrogate/comparison.csv", None, "it is a folder, not a file", "run `tavc surrogate --study` again"),
+])
+def test_the_report_refuses_a_damaged_study_before_it_writes_anything(finished_run, tmp_path, where, text, why,
+                                                                     advice):
+    """Every study the report reads as a whole is checked with the runs, before the first write."""
+    import shutil
+
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+    from tests.helpers import SMOKE_BREAKDOWN
+
+    results = tmp_path / "results"
+    shutil.copytree(finished_run(*SMOKE_BREAKDOWN, name="breakdown"), results / "breakdown")
+    path = results / where
+    path.parent.mkdir(parents=True)
+    if where.startswith("stay_switch/") and not where.endswith(".csv"):  # a record beside a table that reads
+        (path.parent / "stay_switch.csv").write_text("reading,high_stayers,low_stayers,alternators,ratio_low,"
+                                                     "threshold_low,stay_pays_low,stay_pays_low_source\n")
+    if text is None:
+        path.mkdir()
+    else:
+        path.write_text(text)
+    before = {p: p.read_bytes() for p in results.rglob("*") if p.is_file()}
+    result = CliRunner().invoke(app, ["report", str(results)])
+    assert result.exit_code == 1
+    assert result.output.strip() == f"error: {path}: cannot be read ({why}); {advice} to rewrite it"
+    assert {p: p.read_bytes() for p in results.rglob("*") if p.is_file()} == before

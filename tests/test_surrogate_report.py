@@ -138,7 +138,11 @@ def test_a_surrogate_run_is_reported_as_such_and_never_in_the_simulators_place(t
                                                       "modal_state, model_state, regime)"),
     ("speed.csv", "engine,sim_s_per_wall_s\nsurrogate,fast\n", "cannot be read (column sim_s_per_wall_s holds "
                                                                "something other than numbers)"),
-    ("tasks/task_times.json", '{"measurement": [1, 2]}', "cannot be read (no record of its measurement)"),
+    ("tasks/task_times.json", '{"measurement": [1, 2]}', "cannot be read (not a record of the study's measurement)"),
+    ("tasks/task_times.json", '{"measurement": {"warmup_s": "x"}}',
+     "cannot be read (not a record of the study's measurement)"),
+    ("phase.csv", "engine,horizon,n_robots,ratio,n_trials,high_share,modal_state,model_state,regime\n"
+                  "surrogate,40x,3,1.1,,0.5,2:1,2:1,mixed\n", "cannot be read (an empty cell in column n_trials)"),
     ("tasks/task_times.json", "{", "cannot be read (Expecting property name enclosed in double quotes: line 1 "
                                    "column 2 (char 1))"),
 ])

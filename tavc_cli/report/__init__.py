@@ -53,6 +53,7 @@ from tavc_cli.report.files import (
     read_or_refuse,
     read_stay_switch,
     sweep_runs,
+    there,
 )
 from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
@@ -89,7 +90,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
         folders += [d for d in sweep_runs(results_dir, sweep) if (d / "trial_stats.csv").is_file()]
     for top in (results_dir, *horizon_folders(results_dir)):  # runs in other readings, read by the studies
         folders += [d for d in sweep_runs(top, READINGS_DIR) if (d / "trial_stats.csv").is_file()]
-    ladders = [d / LADDER / "ladder.csv" for d in horizon_dirs if (d / LADDER / "ladder.csv").is_file()]
+    ladders = [d / LADDER / "ladder.csv" for d in horizon_dirs if there(d / LADDER / "ladder.csv")]
     for ladder in ladders:  # the rungs whose claims the ladder's table tests again
         folders += sorted(p.parent for p in ladder.parent.glob("*/trial_stats.csv")
                           if (p.parent / "config.yaml").is_file())
@@ -152,9 +153,9 @@ def _check_run(folder: Path, root: Path) -> bool:
     from tavc_cli.retest import retested_tables
 
     check_run(folder, config_of)
-    if (folder / "model" / "model.json").is_file():
+    if there(folder / "model" / "model.json"):
         check_model(folder / "model" / "model.json")
-    if (folder / "model" / "model.csv").is_file():
+    if there(folder / "model" / "model.csv"):
         model_rows(folder / "model" / "model.csv")
     return bool(retested_tables(folder, root, config_of))
 

@@ -11,7 +11,8 @@ import pandas as pd
 
 from tavc_cli.analysis.claims import ALPHA
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS
-from tavc_cli.readers import read_table
+from tavc_cli.readers import TableSpec, read_table
+from tavc_cli.report.files import there
 from tavc_cli.report.text import fmt
 
 COMPARE_DIR = "compare"
@@ -20,6 +21,8 @@ HIGHER_IS_BETTER = {"score_per_s": True, "predicted_state_pct": True, "fill_dela
                     "fast_high_share": True}
 REWRITE = "run `tavc compare` again to rewrite it"
 _TEXT = ("experiment", "metric", "controller")  # compare.csv's other columns hold numbers
+_COMPARE = TableSpec(columns=tuple(TABLE_COLUMNS), numbers=tuple(c for c in TABLE_COLUMNS if c not in _TEXT),
+                     filled=(*_TEXT, "time_factor", "n_trials"))
 
 
 def compare_tables(results_dir: Path) -> dict[Path, pd.DataFrame]:
@@ -28,10 +31,9 @@ def compare_tables(results_dir: Path) -> dict[Path, pd.DataFrame]:
     root = Path(results_dir) / COMPARE_DIR
     if not root.is_dir():
         return {}
-    found = sorted((d for d in root.iterdir() if (d / "compare.csv").is_file()),
+    found = sorted((d for d in root.iterdir() if there(d / "compare.csv")),
                    key=lambda d: (SCALES.index(d.name) if d.name in SCALES else len(SCALES), d.name))
-    numbers = [c for c in TABLE_COLUMNS if c not in _TEXT]
-    return {d: read_table(d / "compare.csv", TABLE_COLUMNS, numbers, REWRITE) for d in found}
+    return {d: read_table(d / "compare.csv", _COMPARE, REWRITE) for d in found}
 
 
 def compare_lines(results_dir: Path) -> list[str]:

@@ -4,6 +4,7 @@ refused in one line naming it; and telling folders apart: a run's, a longer hori
 
 from __future__ import annotations
 
+import os
 import re
 from functools import lru_cache
 from pathlib import Path
@@ -14,7 +15,7 @@ from tavc_cli.analysis.ladder import LADDER_COLUMNS
 from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_rows, seed_for_seed
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import STAY_SWITCH_TABLES
-from tavc_cli.readers import load_json, read_table
+from tavc_cli.readers import TableSpec, load_json, read_table
 from tavc_cli.run_tables import MODEL_REWRITE, in_hidden_folder
 from tavc_cli.settings import TavcConfig, from_yaml
 
@@ -142,39 +143,62 @@ def _seed_table_of(path: str, mtime_ns: int, size: int, q_values: bool) -> pd.Da
 
 
 STAY_SWITCH_REWRITE = "run its `tavc stay-switch` again to rewrite it"
-# a stay/switch study's tables as the report reads them (`ownership.STAY_SWITCH_TABLES`): the columns
-# it reads, those of them that hold numbers, those read as text whatever they hold
-_STAY_SWITCH_COLUMNS = (
-    (("reading", "high_stayers", "low_stayers", "alternators", "ratio_low", "threshold_low", "stay_pays_low",
-      "stay_pays_low_source"), ("high_stayers", "low_stayers", "alternators", "ratio_low", "threshold_low"), ()),
-    (("reading", "regime", "basin", "robots_high"), ("basin", "robots_high"), ()),
-    (("reading", "regime", "robots_high", "modal_state", "modal_share_pct"), ("robots_high", "modal_share_pct"),
-     ("modal_state",)),
+# a stay/switch study's tables as the report reads them, in the order of `ownership.STAY_SWITCH_TABLES`
+_STAY_SWITCH_SPECS = (
+    TableSpec(columns=("reading", "high_stayers", "low_stayers", "alternators", "ratio_low", "threshold_low",
+                       "stay_pays_low", "stay_pays_low_source"),
+              numbers=("high_stayers", "low_stayers", "alternators", "ratio_low", "threshold_low"),
+              filled=("reading", "high_stayers", "low_stayers", "alternators", "threshold_low"),
+              flags=("stay_pays_low", "stay_pays_low_source")),
+    TableSpec(columns=("reading", "regime", "basin", "robots_high"), numbers=("basin", "robots_high"),
+              filled=("reading", "regime", "basin", "robots_high")),
+    TableSpec(columns=("reading", "regime", "robots_high", "modal_state", "modal_share_pct"),
+              numbers=("robots_high", "modal_share_pct"), text=("modal_state",), filled=("reading", "regime")),
 )
+
+
+def there(path: Path) -> bool:
+    """Whether anything is at `path`: a file, a folder, a link (one that leads nowhere too), which a
+    reader then reads or refuses, rather than taking it for a file not written."""
+    return os.path.lexists(path)
 
 
 def read_stay_switch(folder: Path) -> tuple[pd.DataFrame | None, ...] | None:
     """A stay/switch study's tables in `folder` (its table, drift model and turn-taking model, each
     None where not written) and its record ({} where none), each read bounded and checked
-    (`readers.read_table`, `readers.load_json`: one line naming a damaged one); None where the study
+    (`readers.read_table`, `read_record`: one line naming a damaged one); None where the study
     wrote no table there."""
-    if not (folder / STAY_SWITCH_TABLES[0]).is_file():
+    if not there(folder / STAY_SWITCH_TABLES[0]):
         return None
-    tables = tuple(read_table(folder / name, columns, numbers, STAY_SWITCH_REWRITE, dtype=dict.fromkeys(text, str))
-                   if (folder / name).is_file() else None
-                   for name, (columns, numbers, text) in zip(STAY_SWITCH_TABLES, _STAY_SWITCH_COLUMNS, strict=True))
+    tables = tuple(read_table(folder / name, spec, STAY_SWITCH_REWRITE) if there(folder / name) else None
+                   for name, spec in zip(STAY_SWITCH_TABLES, _STAY_SWITCH_SPECS, strict=True))
     path = folder / "stay_switch.json"
-    try:
-        record = load_json(path, advice=STAY_SWITCH_REWRITE) if path.is_file() else {}
-    except ValueError as exc:
-        raise TavcError(f"{path}: cannot be read ({str(exc).splitlines()[0]}); {STAY_SWITCH_REWRITE}") from None
-    measurement = record.get("measurement", {}) if isinstance(record, dict) else None
-    if not isinstance(measurement, dict) or any(not _is_number(v) for k, v in measurement.items() if k in _MEASURED):
-        raise TavcError(f"{path}: cannot be read (not a record of the study's measurement); {STAY_SWITCH_REWRITE}")
+    record = read_record(path, STAY_SWITCH_REWRITE) if there(path) else {}
+    readings = record.get("readings", {})
+    if not isinstance(readings, dict) or not all(
+            isinstance(r, dict) and isinstance(r.get("calibrated", []), list)
+            and all(isinstance(o, str) for o in r.get("calibrated", [])) for r in readings.values()):
+        raise TavcError(f"{path}: cannot be read (its readings are not each reading's settings); "
+                        f"{STAY_SWITCH_REWRITE}")
     return (*tables, record)
 
 
 _MEASURED = ("trials_per_makeup", "measure_s", "warmup_s")  # numbers in a study's record, where it has them
+
+
+def read_record(path: Path, advice: str) -> dict:
+    """A study's JSON record (`stay_switch.json`, the surrogate's `task_times.json`), read bounded
+    (`readers.load_json`), its ``measurement`` a map whose trials and times are numbers; one line
+    naming the file and `advice` otherwise."""
+    try:
+        record = load_json(path, advice=advice)
+    except (OSError, ValueError) as exc:
+        detail = getattr(exc, "strerror", None) or (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise TavcError(f"{path}: cannot be read ({detail}); {advice}") from None
+    measurement = record.get("measurement", {}) if isinstance(record, dict) else None
+    if not isinstance(measurement, dict) or any(not _is_number(v) for k, v in measurement.items() if k in _MEASURED):
+        raise TavcError(f"{path}: cannot be read (not a record of the study's measurement); {advice}")
+    return record
 
 
 def _is_number(value: object) -> bool:
@@ -182,13 +206,14 @@ def _is_number(value: object) -> bool:
 
 
 LADDER_REWRITE = "run its `tavc ladder` again to rewrite it"
+_LADDER = TableSpec(columns=tuple(LADDER_COLUMNS), numbers=("factor", "duration_s", "mean", "std", "n_trials"),
+                    filled=("factor", "controller", "quantity"))
 
 
 def read_ladder(path: Path) -> pd.DataFrame:
     """A horizon ladder's `ladder.csv` (`analysis.ladder.LADDER_COLUMNS`), read bounded and checked
     (`readers.read_table`: one line naming a damaged one)."""
-    return read_table(path, LADDER_COLUMNS, [c for c in LADDER_COLUMNS if c not in ("controller", "quantity")],
-                      LADDER_REWRITE)
+    return read_table(path, _LADDER, LADDER_REWRITE)
 
 
 def check_model(path: Path) -> None:

@@ -27,6 +27,7 @@ from tavc_cli.report.files import (
     read_stay_switch,
     run_in,
     sweep_runs,
+    there,
 )
 from tavc_cli.report.mechanism import convergence, mechanism, read_group
 from tavc_cli.report.tally import (
@@ -65,7 +66,7 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     write_text_atomic(root / "value_ratio.csv", points.to_csv(index=False, float_format="%.4f"))
     predicted = None
     model_csv = model_json.parent / "model.csv" if model_json is not None else None
-    if model_csv is not None and model_csv.is_file():
+    if model_csv is not None and there(model_csv):
         n_robots = int(json.loads(model_json.read_text())["n_robots"])
         fine = [round(1.0 + 0.01 * k, 2) for k in range(101)]
         predicted = predicted_shares(model_rows(model_csv), n_robots, fine)

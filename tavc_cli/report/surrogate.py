@@ -11,8 +11,8 @@ import pandas as pd
 
 from tavc_cli.analysis.mechanism import PERSISTENCE, TURN_TAKING
 from tavc_cli.chapter import base_case
-from tavc_cli.errors import TavcError
-from tavc_cli.readers import load_json, read_table
+from tavc_cli.readers import TableSpec, read_table
+from tavc_cli.report.files import read_record, there
 from tavc_cli.report.text import fmt
 
 STUDY_DIR = "surrogate"
@@ -21,45 +21,39 @@ ENGINE_WORDS = {"simulator": "simulator", "surrogate_makeup": "surrogate (make-u
 FAR_PTS = 10.0  # a difference in a state's share worth naming, in points (fixed with the study)
 REWRITE = "run `tavc surrogate --study` again to rewrite it"
 _RUNS = ("horizon", "engine", "modal_state", "at_state", "converged", "pct_modal", "n_alternators", "largest_diff_pts")
-# the study's tables the section reads (below the study's folder): the columns it reads, those of
-# them that hold numbers, those read as text whatever they hold (a state, "3:3")
+_RUN_NUMBERS = ("pct_modal", "n_alternators", "largest_diff_pts")
+# the study's tables the section reads (below the study's folder), as it reads them
 TABLES = {
-    "comparison.csv": ((*_RUNS, "experiment", "regime", "claims", "n_stayers_high", "n_stayers_low", "switch_share"),
-                       ("pct_modal", "n_alternators", "largest_diff_pts", "n_stayers_high", "n_stayers_low",
-                        "switch_share"), ("at_state", "modal_state")),
-    "ladder.csv": (_RUNS, ("pct_modal", "n_alternators", "largest_diff_pts"), ("at_state", "modal_state")),
-    "phase.csv": (("engine", "horizon", "n_robots", "ratio", "n_trials", "high_share", "modal_state", "model_state",
-                   "regime"), ("n_robots", "ratio", "n_trials", "high_share"), ("modal_state", "model_state")),
-    "horizon.csv": (("parameter", "value", "factor", "horizon"), ("value", "factor", "horizon"), ()),
-    "speed.csv": (("engine", "sim_s_per_wall_s"), ("sim_s_per_wall_s",), ()),
-    "tasks/task_times_summary.csv": (("team", "makeup", "n"), ("n",), ()),
+    "comparison.csv": TableSpec(
+        columns=(*_RUNS, "experiment", "regime", "claims", "n_stayers_high", "n_stayers_low", "switch_share"),
+        numbers=(*_RUN_NUMBERS, "n_stayers_high", "n_stayers_low", "switch_share"), text=("at_state", "modal_state"),
+        filled=("experiment", "horizon", "engine")),
+    "ladder.csv": TableSpec(columns=_RUNS, numbers=_RUN_NUMBERS, text=("at_state", "modal_state"),
+                            filled=("horizon", "engine")),
+    "phase.csv": TableSpec(
+        columns=("engine", "horizon", "n_robots", "ratio", "n_trials", "high_share", "modal_state", "model_state",
+                 "regime"),
+        numbers=("n_robots", "ratio", "n_trials", "high_share"), text=("modal_state", "model_state"),
+        filled=("engine", "horizon", "n_robots", "ratio", "n_trials")),
+    "horizon.csv": TableSpec(columns=("parameter", "value", "factor", "horizon"),
+                             numbers=("value", "factor", "horizon"), filled=("parameter", "factor")),
+    "speed.csv": TableSpec(columns=("engine", "sim_s_per_wall_s"), numbers=("sim_s_per_wall_s",), filled=("engine",)),
+    "tasks/task_times_summary.csv": TableSpec(columns=("team", "makeup", "n"), numbers=("n",),
+                                              filled=("team", "makeup", "n")),
 }
 
 
 def study_tables(results_dir: Path) -> tuple[dict[str, pd.DataFrame], dict | None]:
     """The study's tables in results_dir/surrogate that the section reads (`TABLES`, by name), each
     read bounded and checked (`readers.read_table`: one line naming a damaged one), and the
-    measurement its `tasks/task_times.json` records (None without one); no tables without its
-    comparison.csv, which makes the section."""
+    measurement its `tasks/task_times.json` records (`files.read_record`; None without one); no
+    tables without its comparison.csv, which makes the section."""
     root = Path(results_dir) / STUDY_DIR
-    if not (root / "comparison.csv").is_file():
+    if not there(root / "comparison.csv"):
         return {}, None
-    tables = {name: read_table(root / name, columns, numbers, REWRITE, dtype=dict.fromkeys(text, str))
-              for name, (columns, numbers, text) in TABLES.items() if (root / name).is_file()}
+    tables = {name: read_table(root / name, spec, REWRITE) for name, spec in TABLES.items() if there(root / name)}
     record = root / "tasks" / "task_times.json"
-    return tables, _read_record(record) if record.is_file() else None
-
-
-def _read_record(path: Path) -> dict:
-    """The measurement a study's `task_times.json` records (trials, warm-up, measured time)."""
-    try:
-        record = load_json(path, advice=REWRITE)
-    except ValueError as exc:
-        raise TavcError(f"{path}: cannot be read ({str(exc).splitlines()[0]}); {REWRITE}") from None
-    measurement = record.get("measurement", {}) if isinstance(record, dict) else None
-    if not isinstance(measurement, dict):
-        raise TavcError(f"{path}: cannot be read (no record of its measurement); {REWRITE}")
-    return measurement
+    return tables, read_record(record, REWRITE).get("measurement", {}) if there(record) else None
 
 
 def surrogate_lines(results_dir: Path) -> list[str]:
