@@ -113,14 +113,16 @@ def json_depth(text: str) -> int:
 class TableSpec:
     """What a reader takes from a table it reads whole (a study's, the model's): the `columns` it
     reads, which of them hold numbers (or nothing), which are read as text whatever they hold (a
-    state such as ``3:3``), which are never empty, and which hold True, False or nothing. A run's
-    own tables are checked by `run_checks` against `analysis.table_schemas` instead."""
+    state such as ``3:3``), which are never empty, which hold True, False or nothing, and whether
+    it is written only with rows. A run's own tables are checked by `run_checks` against
+    `analysis.table_schemas` instead."""
 
     columns: tuple[str, ...] = ()
     numbers: tuple[str, ...] = ()
     text: tuple[str, ...] = ()
     filled: tuple[str, ...] = ()
     flags: tuple[str, ...] = ()
+    rows: bool = False
 
     def fault(self, table: pd.DataFrame) -> str:
         """What is wrong with `table` by this spec ("" where nothing)."""
@@ -129,6 +131,8 @@ class TableSpec:
         missing = [c for c in self.columns if c not in table.columns]
         if missing:
             return f"no column {', '.join(missing)}"
+        if self.rows and not len(table):
+            return "no rows under its header"
         for column in (c for c in self.filled if c in table.columns):
             if table[column].isna().any():
                 return f"an empty cell in column {column}"

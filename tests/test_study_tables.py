@@ -73,6 +73,27 @@ def test_a_damaged_ladder_names_the_command_that_rewrites_it(tmp_path):
         f"{path}: cannot be read (no column controller); run its `tavc ladder` again to rewrite it"
     path.write_text("factor,duration_s,controller,quantity,mean,std,n_trials\nx1,18000,tavc,pct_3:3,30,10,20\n")
     assert "(column factor holds something other than numbers)" in _refusal(read_ladder, path)
+    path.write_text("factor,duration_s,controller,quantity,mean,std,n_trials\n")
+    assert "(no rows under its header)" in _refusal(read_ladder, path)
+
+
+def test_a_prediction_without_what_the_report_reads_of_it_is_one_line(tmp_path):
+    import json
+
+    from tavc_cli.report.files import read_prediction
+
+    good = {"regime": "turn-taking", "robots_high": 2.5, "modal_state": "3:2", "modal_share_pct": 45.0,
+            "modal_from": "alternators", "learners_run": "learners", "alternators_run": None}
+    path = tmp_path / "turn_taking.json"
+    path.write_text(json.dumps(good))
+    assert read_prediction(path) == good
+    for change in ({"modal_state": None}, {"robots_high": "2.5"}, {"learners_run": 3}):
+        path.write_text(json.dumps({**good, **change}))
+        assert _refusal(read_prediction, path) == (
+            f"{path}: cannot be read (not a prediction: a regime and modal state, robots_high and modal_share_pct); "
+            "run its `tavc model --turn-taking` again to rewrite it")
+    path.write_text("[1]")
+    assert "(not a prediction" in _refusal(read_prediction, path)
 
 
 def test_a_damaged_model_table_names_the_command_that_rewrites_it(tmp_path):

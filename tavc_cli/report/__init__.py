@@ -37,7 +37,6 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
-from tavc_cli.readers import load_json
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import compare_lines, compare_tables
 from tavc_cli.report.counterfactuals import calibration_lines, calibration_tables, counterfactual_lines, read_search
@@ -50,7 +49,7 @@ from tavc_cli.report.files import (
     model_alternators,
     model_learners,
     read_ladder,
-    read_or_refuse,
+    read_prediction,
     read_stay_switch,
     sweep_runs,
     there,
@@ -105,9 +104,8 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     compare_tables(results_dir)  # the comparisons of other learners
     own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
     for path in sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")):  # the predictions
-        predicted = read_or_refuse(path, load_json)
-        runs = (model_learners(path.parent, predicted), model_alternators(path.parent, predicted)) \
-            if isinstance(predicted, dict) else ()
+        predicted = read_prediction(path)
+        runs = (model_learners(path.parent, predicted), model_alternators(path.parent, predicted))
         own += [d for d in runs if d is not None and (d / "config.yaml").is_file()]
     return sorted({*stale, *_check_runs(own, results_dir)})
 

@@ -207,7 +207,7 @@ def _is_number(value: object) -> bool:
 
 LADDER_REWRITE = "run its `tavc ladder` again to rewrite it"
 _LADDER = TableSpec(columns=tuple(LADDER_COLUMNS), numbers=("factor", "duration_s", "mean", "std", "n_trials"),
-                    filled=("factor", "controller", "quantity"))
+                    filled=("factor", "controller", "quantity"), rows=True)
 
 
 def read_ladder(path: Path) -> pd.DataFrame:
@@ -243,3 +243,23 @@ def _model_fault(model: object) -> str:
                                                and _is_number(b.get("task_time_s")) for b in budget):
         return "world.time_budget is not a task time for each split and circuit"
     return ""
+
+
+PREDICTION_REWRITE = "run its `tavc model --turn-taking` again to rewrite it"
+_PREDICTED_TEXT = ("regime", "modal_state")  # what a prediction always names
+_PREDICTED_NAMES = ("modal_from", "learners_run", "alternators_run", "switches")  # text or null, where there
+
+
+def read_prediction(path: Path) -> dict:
+    """A turn-taking prediction (`turn_taking.json`), read bounded (`readers.load_json`) and checked
+    for what the report reads of it: its regime and modal state, its robots on the high-value
+    circuit and the modal state's share as numbers (or null), the names of its runs as text; one
+    line naming the file otherwise."""
+    predicted = read_or_refuse(path, load_json)
+    fine = isinstance(predicted, dict) and all(isinstance(predicted.get(k), str) for k in _PREDICTED_TEXT) \
+        and all(_is_number(predicted.get(k)) or predicted.get(k) is None for k in ("robots_high", "modal_share_pct")) \
+        and all(isinstance(predicted.get(k), str | None) for k in _PREDICTED_NAMES)
+    if not fine:
+        raise TavcError(f"{path}: cannot be read (not a prediction: a regime and modal state, robots_high and "
+                        f"modal_share_pct); {PREDICTION_REWRITE}")
+    return predicted

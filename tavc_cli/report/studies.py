@@ -4,7 +4,6 @@ against the learners."""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -17,6 +16,7 @@ from tavc_cli.analysis.value_ratio import predicted_shares
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, VALUE_RATIO_DIR
+from tavc_cli.readers import load_json
 from tavc_cli.report import files
 from tavc_cli.report.files import (
     config_of,
@@ -24,6 +24,7 @@ from tavc_cli.report.files import (
     model_learners,
     natural,
     read_or_refuse,
+    read_prediction,
     read_stay_switch,
     run_in,
     sweep_runs,
@@ -67,7 +68,7 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     predicted = None
     model_csv = model_json.parent / "model.csv" if model_json is not None else None
     if model_csv is not None and there(model_csv):
-        n_robots = int(json.loads(model_json.read_text())["n_robots"])
+        n_robots = int(load_json(model_json)["n_robots"])  # checked with its run (`files.check_model`)
         fine = [round(1.0 + 0.01 * k, 2) for k in range(101)]
         predicted = predicted_shares(model_rows(model_csv), n_robots, fine)
     value_ratio_figure(points, predicted, 1.1, "share of robots on the high-value circuit in the stable period",
@@ -207,7 +208,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
         if (results_dir / TURN_TAKING_RUNS).is_dir() else []
     rows, tallies = [], []
     for path in found:
-        predicted = read_or_refuse(path, lambda p: json.loads(p.read_text()))
+        predicted = read_prediction(path)
         name = path.parent.parent.name
         runs = [d for d in _learners_runs(results_dir, name, predicted, path.parent)
                 if all((d / f"{t}.csv").is_file() for t in ("mechanism", "state_time"))]
