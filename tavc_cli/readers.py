@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import os
 import re
 import stat
@@ -113,9 +114,9 @@ def json_depth(text: str) -> int:
 class TableSpec:
     """What a reader takes from a table it reads whole (a study's, the model's): the `columns` it
     reads, which of them hold numbers (or nothing), which are read as text whatever they hold (a
-    state such as ``3:3``), which are never empty, which hold True, False or nothing, and whether
-    it is written only with rows. A run's own tables are checked by `run_checks` against
-    `analysis.table_schemas` instead."""
+    state such as ``3:3``), which are never empty (and, where they hold numbers, finite), which
+    hold True, False or nothing, and whether it is written only with rows. A run's own tables are
+    checked by `run_checks` against `analysis.table_schemas` instead."""
 
     columns: tuple[str, ...] = ()
     numbers: tuple[str, ...] = ()
@@ -139,6 +140,8 @@ class TableSpec:
         for column in (c for c in self.numbers if c in table.columns):
             if not (pd.api.types.is_numeric_dtype(table[column]) or table[column].isna().all()):
                 return f"column {column} holds something other than numbers"
+            if column in self.filled and not table[column].map(math.isfinite).all():  # a count, a factor
+                return f"column {column} holds a number that is not finite"
         for column in (c for c in self.flags if c in table.columns):
             if not set(table[column].dropna().astype(str)) <= {"True", "False"}:
                 return f"column {column} holds something other than True or False"

@@ -38,10 +38,11 @@ def test_a_table_is_read_whole_as_pandas_reads_it(tmp_path):
     (b"a,c\n1,True\n", "no column b"),
     (b"a,b,c\n1,many,True\n", "column b holds something other than numbers"),
     (b"a,b,c\n,2,True\n", "an empty cell in column a"),
+    (b"a,b,c\ninf,2,True\n", "column a holds a number that is not finite"),
     (b"a,b,c\n1,2,maybe\n", "column c holds something other than True or False"),
 ])
 def test_a_damaged_table_is_one_line_naming_it(tmp_path, text, why):
-    spec = TableSpec(columns=("a", "b"), numbers=("b",), filled=("a",), flags=("c",))
+    spec = TableSpec(columns=("a", "b"), numbers=("a", "b"), filled=("a",), flags=("c",))
     path = tmp_path / "t.csv"
     path.write_bytes(text)
     assert _refusal(lambda p: read_table(p, spec, "do it again"), path) == \
@@ -87,7 +88,7 @@ def test_a_prediction_without_what_the_report_reads_of_it_is_one_line(tmp_path):
     path = tmp_path / "turn_taking.json"
     path.write_text(json.dumps(good))
     assert read_prediction(path) == good
-    for change in ({"modal_state": None}, {"robots_high": "2.5"}, {"learners_run": 3}):
+    for change in ({"modal_state": None}, {"robots_high": "2.5"}, {"modal_share_pct": None}, {"learners_run": 3}):
         path.write_text(json.dumps({**good, **change}))
         assert _refusal(read_prediction, path) == (
             f"{path}: cannot be read (not a prediction: a regime and modal state, robots_high and modal_share_pct); "
@@ -121,6 +122,7 @@ def test_a_model_file_without_what_the_report_reads_of_it_is_one_line(tmp_path):
     path.write_text(json.dumps(good))
     check_model(path)
     for change, why in (({"n_robots": "six"}, "no team size and prediction, n_robots and predicted_state"),
+                        ({"n_robots": float("nan")}, "no team size and prediction, n_robots and predicted_state"),
                         ({"measurement": None}, "no record of its measurement"),
                         ({"by_team_size": {"five": {"predicted_state": "3:2"}}},
                          "by_team_size is not a prediction for each team size"),

@@ -1,6 +1,8 @@
 """Reading a run's files for the report: each `config.yaml` parsed once per version of the
 file (the report reads every run's settings several times), a file no library can parse
-refused in one line naming it; and telling folders apart: a run's, a longer horizon's."""
+refused in one line naming it; telling folders apart: a run's, a longer horizon's; and the files
+of the studies the report reads as a whole (a ladder, the model's, the stay/switch studies', the
+turn-taking predictions), each read bounded and checked for what the report takes from it."""
 
 from __future__ import annotations
 
@@ -230,7 +232,8 @@ def _model_fault(model: object) -> str:
     if not isinstance(model, dict):
         return "not a JSON object"
     n, world = model.get("n_robots"), model.get("world", {})
-    if not (_is_number(n) and n == int(n) and n >= 1) or not isinstance(model.get("predicted_state"), str):
+    whole = isinstance(n, int) and not isinstance(n, bool) and n >= 1  # NaN and infinity are no team
+    if not whole or not isinstance(model.get("predicted_state"), str):
         return "no team size and prediction, n_robots and predicted_state"
     if not isinstance(model.get("measurement"), dict):
         return "no record of its measurement"
@@ -253,11 +256,11 @@ _PREDICTED_NAMES = ("modal_from", "learners_run", "alternators_run", "switches")
 def read_prediction(path: Path) -> dict:
     """A turn-taking prediction (`turn_taking.json`), read bounded (`readers.load_json`) and checked
     for what the report reads of it: its regime and modal state, its robots on the high-value
-    circuit and the modal state's share as numbers (or null), the names of its runs as text; one
+    circuit and the modal state's share as numbers, the names of its runs as text (or null); one
     line naming the file otherwise."""
     predicted = read_or_refuse(path, load_json)
     fine = isinstance(predicted, dict) and all(isinstance(predicted.get(k), str) for k in _PREDICTED_TEXT) \
-        and all(_is_number(predicted.get(k)) or predicted.get(k) is None for k in ("robots_high", "modal_share_pct")) \
+        and all(_is_number(predicted.get(k)) for k in ("robots_high", "modal_share_pct")) \
         and all(isinstance(predicted.get(k), str | None) for k in _PREDICTED_NAMES)
     if not fine:
         raise TavcError(f"{path}: cannot be read (not a prediction: a regime and modal state, robots_high and "
