@@ -115,14 +115,17 @@ class TableSpec:
     """What a reader takes from a table it reads whole (a study's, the model's): the `columns` it
     reads, which of them hold numbers (or nothing), which are read as text whatever they hold (a
     state such as ``3:3``), which are never empty (and, where they hold numbers, finite), which
-    hold True, False or nothing, and whether it is written only with rows. A run's own tables are
-    checked by `run_checks` against `analysis.table_schemas` instead."""
+    count something (whole numbers from 0, where there), which hold True, False or nothing, which
+    together name a row once at most (`unique`), and whether it is written only with rows. A run's
+    own tables are checked by `run_checks` against `analysis.table_schemas` instead."""
 
     columns: tuple[str, ...] = ()
     numbers: tuple[str, ...] = ()
     text: tuple[str, ...] = ()
     filled: tuple[str, ...] = ()
+    counts: tuple[str, ...] = ()
     flags: tuple[str, ...] = ()
+    unique: tuple[str, ...] = ()
     rows: bool = False
 
     def fault(self, table: pd.DataFrame) -> str:
@@ -142,10 +145,19 @@ class TableSpec:
                 return f"column {column} holds something other than numbers"
             if column in self.filled and not table[column].map(math.isfinite).all():  # a count, a factor
                 return f"column {column} holds a number that is not finite"
+            if column in self.counts and not table[column].dropna().map(_is_count).all():
+                return f"column {column} holds something other than a count (0, 1, 2, ...)"
         for column in (c for c in self.flags if c in table.columns):
             if not set(table[column].dropna().astype(str)) <= {"True", "False"}:
                 return f"column {column} holds something other than True or False"
+        if self.unique and table.duplicated(subset=list(self.unique)).any():
+            return f"two rows of the same {', '.join(self.unique)}"
         return ""
+
+
+def _is_count(value: float) -> bool:
+    """A whole number from 0 that a float holds exactly (below 2**53)."""
+    return 0 <= value < 2**53 and float(value).is_integer()
 
 
 def read_table(path: Path, spec: TableSpec = TableSpec(), advice: str = REWRITE,

@@ -5,6 +5,7 @@ out without touching a file."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -20,7 +21,8 @@ STATES = {"state": str}  # a state column read as text ("3:3"), never as a numbe
 _RUNG_TABLES = ("claims", "convergence", "mechanism")  # a rung's tables the ladder reads where the run wrote them
 MODEL_REWRITE = "run `tavc model` again to rewrite it"
 _MODEL = TableSpec(columns=("split", "circuit", "c_per_s", "task_time_s"),
-                   numbers=("circuit", "c_per_s", "task_time_s"), text=("split", "state"), filled=("split", "circuit"))
+                   numbers=("circuit", "c_per_s", "task_time_s"), text=("split", "state"), filled=("split", "circuit"),
+                   counts=("circuit",))
 
 
 def read_rung(folder: Path) -> ladder.Rung:
@@ -69,13 +71,29 @@ def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
     return value_ratio.points_table([p for p in points if p is not None])
 
 
-def model_rows(model_csv: Path) -> pd.DataFrame:
+def model_rows(model_csv: Path, n_robots: int | None = None) -> pd.DataFrame:
     """A `model.csv` as `tavc model` wrote it, its split and state columns as text, read bounded and
-    checked for what its readers take from it (`model.api.table_from_rows`): one line naming it
-    where it is damaged."""
+    checked for what its readers take from it (`model.api.table_from_rows`): every split over the
+    same circuits, with a row for each of its circuits once, and with `n_robots`, every split of
+    that team; one line naming it where it is damaged."""
     rows = read_table(model_csv, _MODEL, MODEL_REWRITE)
-    bad = next((str(s) for s in rows["split"] if state_counts(s) is None), None)
-    if bad is not None or (rows["circuit"] < 0).any():
-        why = f"a split that is not one: {bad}" if bad is not None else "a circuit below 0"
+    why = _model_rows_fault(rows, n_robots)
+    if why:
         raise TavcError(f"{model_csv}: cannot be read ({why}); {MODEL_REWRITE}")
     return rows
+
+
+def _model_rows_fault(rows: pd.DataFrame, n_robots: int | None) -> str:
+    counts = [state_counts(s) for s in rows["split"]]
+    bad = next((str(s) for s, c in zip(rows["split"], counts, strict=True) if c is None), None)
+    if bad is not None:
+        return f"a split that is not one: {bad}"
+    if len({len(c) for c in counts}) > 1:
+        return "splits over different numbers of circuits"
+    k = len(counts[0]) if counts else 0
+    if any(sorted(int(c) for c in g) != list(range(k)) for _, g in rows.groupby("split", sort=False)["circuit"]):
+        return "a split without a row for each of its circuits, once"
+    of_team = {c for c in counts if sum(c) == n_robots}
+    if n_robots is not None and k and len(of_team) != math.comb(n_robots + k - 1, k - 1):
+        return f"not every split of its team of {n_robots}"
+    return ""

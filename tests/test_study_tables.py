@@ -102,36 +102,54 @@ def test_a_damaged_model_table_names_the_command_that_rewrites_it(tmp_path):
     header = "split,state,circuit,c_per_s,task_time_s\n"
     path.write_text(header + "1:0,1:0,0,0.0123,81.4\n1:0,1:0,1,0,\n")
     assert list(model_rows(path)["split"]) == ["1:0", "1:0"]
+    once = "a split without a row for each of its circuits, once"
     for rows, why in (("1:0,1:0,,0.01,81\n", "an empty cell in column circuit"),
-                      ("1:0,1:0,-1,0.01,81\n", "a circuit below 0"),
+                      ("1:0,1:0,-1,0.01,81\n", "column circuit holds something other than a count (0, 1, 2, ...)"),
+                      ("1:0,1:0,30,0.01,81\n", once), ("1:0,1:0,0,0.01,81\n1:0,1:0,0,0.01,81\n", once),
+                      ("1:0,1:0,0,0.01,81\n1:0,1:0,1,0,\n1:0:0,1:0:0,0,0.01,81\n", "splits over different numbers of "
+                                                                                 "circuits"),
                       ("one,1:0,0,0.01,81\n", "a split that is not one: one"),
                       ("1:0,1:0,0,fast,81\n", "column c_per_s holds something other than numbers")):
         path.write_text(header + rows)
         assert _refusal(model_rows, path) == f"{path}: cannot be read ({why}); run `tavc model` again to rewrite it"
+    # with its team: every split of two robots over two circuits, 2:0, 1:1 and 0:2 (3 = C(3, 1))
+    path.write_text(header + "".join(f"{s},{s},{c},0.01,81\n" for s in ("2:0", "1:1", "0:2") for c in (0, 1)))
+    assert len(model_rows(path, 2)) == 6
+    path.write_text(header + "".join(f"{s},{s},{c},0.01,81\n" for s in ("2:0", "1:1") for c in (0, 1)))
+    assert "(not every split of its team of 2)" in _refusal(lambda p: model_rows(p, 2), path)
 
 
-def test_a_model_file_without_what_the_report_reads_of_it_is_one_line(tmp_path):
+def test_a_model_without_what_the_report_reads_of_it_is_one_line(tmp_path):
     import json
 
     from tavc_cli.report.files import check_model
 
-    good = {"n_robots": 6, "predicted_state": "3:3", "measurement": {"trials_per_split": 12},
-            "by_team_size": {"5": {"predicted_state": "3:2"}},
-            "world": {"time_budget": [{"split": "3:3", "circuit": 0, "task_time_s": 90.0}]}}
-    path = tmp_path / "model.json"
+    good = {"n_robots": 1, "predicted_state": "1:0", "measurement": {"trials_per_split": 12},
+            "by_team_size": {"1": {"predicted_state": "1:0"}},
+            "world": {"time_budget": [{"split": "1:0", "circuit": 0, "task_time_s": 90.0}]}}
+    path = tmp_path / "model" / "model.json"
+    path.parent.mkdir()
     path.write_text(json.dumps(good))
-    check_model(path)
-    for change, why in (({"n_robots": "six"}, "no team size and prediction, n_robots and predicted_state"),
-                        ({"n_robots": float("nan")}, "no team size and prediction, n_robots and predicted_state"),
-                        ({"measurement": None}, "no record of its measurement"),
+    (path.parent / "model.csv").write_text("split,state,circuit,c_per_s,task_time_s\n1:0,1:0,0,0.01,81\n1:0,1:0,1,0,\n"
+                                           "0:1,0:1,0,0,\n0:1,0:1,1,0.01,81\n")
+    check_model(tmp_path)
+    team = "no team size of 1 to 1,000 robots and prediction, n_robots and predicted_state"
+    for change, why in (({"n_robots": "six"}, team), ({"n_robots": float("nan")}, team), ({"n_robots": 100_000}, team),
+                        ({"measurement": {}}, "no record of its measurement, trials_per_split"),
                         ({"by_team_size": {"five": {"predicted_state": "3:2"}}},
+                         "by_team_size is not a prediction for each team size"),
+                        ({"by_team_size": {"\u00b2": {"predicted_state": "3:2"}}},
                          "by_team_size is not a prediction for each team size"),
                         ({"world": {"time_budget": [{"split": "3:3"}]}},
                          "world.time_budget is not a task time for each split and circuit")):
         path.write_text(json.dumps({**good, **change}))
-        assert _refusal(check_model, path) == f"{path}: cannot be read ({why}); run `tavc model` again to rewrite it"
+        assert _refusal(check_model, tmp_path) == \
+            f"{path}: cannot be read ({why}); run `tavc model` again to rewrite it"
     path.write_text("[1, 2]")
-    assert "(not a JSON object)" in _refusal(check_model, path)
+    assert "(not a JSON object)" in _refusal(check_model, tmp_path)
+    path.write_text(json.dumps({**good, "n_robots": 2, "by_team_size": {}}))  # a team its table has no splits of
+    assert _refusal(check_model, tmp_path) == (f"{path.parent / 'model.csv'}: cannot be read (not every split of its "
+                                               "team of 2); run `tavc model` again to rewrite it")
 
 
 @pytest.mark.parametrize(("where", "text", "why", "advice"), [
@@ -170,3 +188,33 @@ def test_the_report_refuses_a_damaged_study_before_it_writes_anything(finished_r
     assert result.exit_code == 1
     assert result.output.strip() == f"error: {path}: cannot be read ({why}); {advice} to rewrite it"
     assert {p: p.read_bytes() for p in results.rglob("*") if p.is_file()} == before
+
+
+def test_a_reading_never_leads_the_report_out_of_the_results_folder(tmp_path):
+    from tavc_cli.report.files import read_stay_switch
+
+    (tmp_path / "stay_switch.csv").write_text("reading,high_stayers,low_stayers,alternators,ratio_low,threshold_low,"
+                                              "stay_pays_low,stay_pays_low_source\n")
+    (tmp_path / "stay_switch_model.csv").write_text("reading,regime,basin,robots_high\n"
+                                                    "arrival=../../elsewhere,mixed,1,2\n")
+    assert _refusal(read_stay_switch, tmp_path) == (
+        f"{tmp_path / 'stay_switch_model.csv'}: cannot be read (a reading whose runs' folder leads elsewhere: "
+        "../../elsewhere); run its `tavc stay-switch` again to rewrite it")
+    (tmp_path / "stay_switch_model.csv").write_text("reading,regime,basin,robots_high\narrival=dock,mixed,1,2\n")
+    assert read_stay_switch(tmp_path)[1]["reading"].tolist() == ["arrival=dock"]
+
+
+def test_tables_repeating_a_row_or_miscounting_are_one_line(tmp_path):
+    from tavc_cli.report.compare import compare_tables
+
+    folder = tmp_path / "compare" / "paper"
+    folder.mkdir(parents=True)
+    row = "breakdown,score_per_s,tavc,1,8,1.0,0.1,1.0,,0.01,,0.9\n"
+    header = ("experiment,metric,controller,time_factor,n_trials,mean,std,median,p_vs_tavc,p_vs_random,above_tavc,"
+              "above_random\n")
+    (folder / "compare.csv").write_text(header + row + row)
+    assert "(two rows of the same experiment, metric, controller)" in _refusal(compare_tables, tmp_path)
+    (folder / "compare.csv").write_text(header + row.replace(",8,", ",2.5,"))
+    assert "(column n_trials holds something other than a count (0, 1, 2, ...))" in _refusal(compare_tables, tmp_path)
+    (folder / "compare.csv").write_text(header + row.replace("tavc", "7"))  # a controller named by digits is text
+    assert compare_tables(tmp_path)[folder]["controller"].tolist() == ["7"]

@@ -48,6 +48,7 @@ from tavc_cli.report.files import (
     horizon_folders,
     model_alternators,
     model_learners,
+    prediction_files,
     read_ladder,
     read_prediction,
     read_stay_switch,
@@ -61,7 +62,6 @@ from tavc_cli.report.sections import experiment_sections, submit_figures
 from tavc_cli.report.studies import (
     STAY_SWITCH_DIRS,
     SWEEPS,
-    TURN_TAKING_RUNS,
     stay_switch_lines,
     value_ratio_lines,
 )
@@ -69,7 +69,6 @@ from tavc_cli.report.surrogate import study_tables, surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
 from tavc_cli.run_checks import check_run
-from tavc_cli.run_tables import model_rows
 
 
 def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: dict[str, list[Path]]) -> list[Path]:
@@ -103,7 +102,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     study_tables(results_dir)  # the surrogate study's
     compare_tables(results_dir)  # the comparisons of other learners
     own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
-    for path in sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json")):  # the predictions
+    for path in prediction_files(results_dir):  # the predictions
         predicted = read_prediction(path)
         runs = (model_learners(path.parent, predicted), model_alternators(path.parent, predicted))
         own += [d for d in runs if d is not None and (d / "config.yaml").is_file()]
@@ -151,10 +150,7 @@ def _check_run(folder: Path, root: Path) -> bool:
     from tavc_cli.retest import retested_tables
 
     check_run(folder, config_of)
-    if there(folder / "model" / "model.json"):
-        check_model(folder / "model" / "model.json")
-    if there(folder / "model" / "model.csv"):
-        model_rows(folder / "model" / "model.csv")
+    check_model(folder)
     return bool(retested_tables(folder, root, config_of))
 
 

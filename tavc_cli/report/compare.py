@@ -22,7 +22,7 @@ HIGHER_IS_BETTER = {"score_per_s": True, "predicted_state_pct": True, "fill_dela
 REWRITE = "run `tavc compare` again to rewrite it"
 _TEXT = ("experiment", "metric", "controller")  # compare.csv's other columns hold numbers
 _COMPARE = TableSpec(columns=tuple(TABLE_COLUMNS), numbers=tuple(c for c in TABLE_COLUMNS if c not in _TEXT),
-                     filled=(*_TEXT, "time_factor", "n_trials"))
+                     text=_TEXT, filled=(*_TEXT, "time_factor", "n_trials"), counts=("n_trials",), unique=_TEXT)
 
 
 def compare_tables(results_dir: Path) -> dict[Path, pd.DataFrame]:

@@ -15,10 +15,11 @@ import pandas as pd
 
 from tavc_cli.analysis.ladder import LADDER_COLUMNS
 from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_rows, seed_for_seed
+from tavc_cli.analysis.stay_switch import parse_reading, reading_folder
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import STAY_SWITCH_TABLES
 from tavc_cli.readers import TableSpec, load_json, read_table
-from tavc_cli.run_tables import MODEL_REWRITE, in_hidden_folder
+from tavc_cli.run_tables import MODEL_REWRITE, in_hidden_folder, model_rows
 from tavc_cli.settings import TavcConfig, from_yaml
 
 
@@ -93,7 +94,12 @@ def model_alternators(where: Path, predicted: dict) -> Path | None:
 
 
 def _model_run(where: Path, name: str) -> Path | None:
-    return where / name if name not in ("", ".", "..") and "/" not in name and "\\" not in name else None
+    return where / name if plain_name(name) else None
+
+
+def plain_name(name: str) -> bool:
+    """Whether `name` names one folder in the folder it is read in: never a path that leads elsewhere."""
+    return name not in ("", ".", "..") and "/" not in name and "\\" not in name
 
 
 def sweep_runs(results_dir: Path, folder: str) -> list[Path]:
@@ -151,11 +157,12 @@ _STAY_SWITCH_SPECS = (
                        "stay_pays_low", "stay_pays_low_source"),
               numbers=("high_stayers", "low_stayers", "alternators", "ratio_low", "threshold_low"),
               filled=("reading", "high_stayers", "low_stayers", "alternators", "threshold_low"),
-              flags=("stay_pays_low", "stay_pays_low_source")),
+              counts=("high_stayers", "low_stayers", "alternators"), flags=("stay_pays_low", "stay_pays_low_source")),
     TableSpec(columns=("reading", "regime", "basin", "robots_high"), numbers=("basin", "robots_high"),
               filled=("reading", "regime", "basin", "robots_high")),
     TableSpec(columns=("reading", "regime", "robots_high", "modal_state", "modal_share_pct"),
-              numbers=("robots_high", "modal_share_pct"), text=("modal_state",), filled=("reading", "regime")),
+              numbers=("robots_high", "modal_share_pct"), text=("modal_state",), filled=("reading", "regime"),
+              unique=("reading",)),
 )
 
 
@@ -174,6 +181,12 @@ def read_stay_switch(folder: Path) -> tuple[pd.DataFrame | None, ...] | None:
         return None
     tables = tuple(read_table(folder / name, spec, STAY_SWITCH_REWRITE) if there(folder / name) else None
                    for name, spec in zip(STAY_SWITCH_TABLES, _STAY_SWITCH_SPECS, strict=True))
+    for name, table in zip(STAY_SWITCH_TABLES, tables, strict=True):  # a reading names a folder of its runs
+        folders = (reading_folder(parse_reading(str(r))) for r in (table["reading"] if table is not None else ()))
+        bad = next((f for f in folders if f and not plain_name(f)), None)
+        if bad is not None:
+            raise TavcError(f"{folder / name}: cannot be read (a reading whose runs' folder leads elsewhere: {bad}); "
+                            f"{STAY_SWITCH_REWRITE}")
     path = folder / "stay_switch.json"
     record = read_record(path, STAY_SWITCH_REWRITE) if there(path) else {}
     readings = record.get("readings", {})
@@ -188,15 +201,21 @@ def read_stay_switch(folder: Path) -> tuple[pd.DataFrame | None, ...] | None:
 _MEASURED = ("trials_per_makeup", "measure_s", "warmup_s")  # numbers in a study's record, where it has them
 
 
+def _load(path: Path, advice: str):
+    """The JSON file `path` (`readers.load_json`: bounded), or one line naming it and `advice`."""
+    try:
+        return load_json(path, advice=advice)
+    except (OSError, ValueError) as exc:
+        detail = exc.strerror if isinstance(exc, OSError) and exc.strerror else \
+            (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise TavcError(f"{path}: cannot be read ({detail}); {advice}") from None
+
+
 def read_record(path: Path, advice: str) -> dict:
     """A study's JSON record (`stay_switch.json`, the surrogate's `task_times.json`), read bounded
     (`readers.load_json`), its ``measurement`` a map whose trials and times are numbers; one line
     naming the file and `advice` otherwise."""
-    try:
-        record = load_json(path, advice=advice)
-    except (OSError, ValueError) as exc:
-        detail = getattr(exc, "strerror", None) or (str(exc).splitlines() or [type(exc).__name__])[0]
-        raise TavcError(f"{path}: cannot be read ({detail}); {advice}") from None
+    record = _load(path, advice)
     measurement = record.get("measurement", {}) if isinstance(record, dict) else None
     if not isinstance(measurement, dict) or any(not _is_number(v) for k, v in measurement.items() if k in _MEASURED):
         raise TavcError(f"{path}: cannot be read (not a record of the study's measurement); {advice}")
@@ -209,7 +228,8 @@ def _is_number(value: object) -> bool:
 
 LADDER_REWRITE = "run its `tavc ladder` again to rewrite it"
 _LADDER = TableSpec(columns=tuple(LADDER_COLUMNS), numbers=("factor", "duration_s", "mean", "std", "n_trials"),
-                    filled=("factor", "controller", "quantity"), rows=True)
+                    text=("controller", "quantity"), filled=("factor", "controller", "quantity"), counts=("n_trials",),
+                    unique=("factor", "controller", "quantity"), rows=True)
 
 
 def read_ladder(path: Path) -> pd.DataFrame:
@@ -218,27 +238,39 @@ def read_ladder(path: Path) -> pd.DataFrame:
     return read_table(path, _LADDER, LADDER_REWRITE)
 
 
-def check_model(path: Path) -> None:
-    """A run's `model/model.json` (`tavc model`), checked for what the report reads of it: its team
-    size, prediction and measurement, each team size's prediction, the world's time budget; one
-    line naming what is not there otherwise (`readers.load_json`: read bounded)."""
-    model = read_or_refuse(path, load_json)
-    why = _model_fault(model)
-    if why:
-        raise TavcError(f"{path}: cannot be read ({why}); {MODEL_REWRITE}")
+# a team the report predicts for from a model file: far more robots than any arena of tavc's starts
+# with (the chapter's six), few enough that every split of them is quick to go through
+MAX_MODEL_ROBOTS = 1000
+
+
+def check_model(folder: Path) -> None:
+    """A run's model (`model/model.json` and `model/model.csv`, `tavc model`), where it has one,
+    checked for what the report reads of it: the team size (at most `MAX_MODEL_ROBOTS`),
+    prediction and measurement, each team size's prediction, the world's time budget, and a table
+    (`run_tables.model_rows`) with every split of the team; one line naming what is wrong
+    (`readers.load_json`: read bounded)."""
+    path, table = folder / "model" / "model.json", folder / "model" / "model.csv"
+    if there(path):
+        model = _load(path, MODEL_REWRITE)
+        why = _model_fault(model)
+        if why:
+            raise TavcError(f"{path}: cannot be read ({why}); {MODEL_REWRITE}")
+    if there(table):
+        model_rows(table, model["n_robots"] if there(path) else None)
 
 
 def _model_fault(model: object) -> str:
     if not isinstance(model, dict):
         return "not a JSON object"
     n, world = model.get("n_robots"), model.get("world", {})
-    whole = isinstance(n, int) and not isinstance(n, bool) and n >= 1  # NaN and infinity are no team
+    whole = isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_MODEL_ROBOTS  # NaN, infinity: no team
     if not whole or not isinstance(model.get("predicted_state"), str):
-        return "no team size and prediction, n_robots and predicted_state"
-    if not isinstance(model.get("measurement"), dict):
-        return "no record of its measurement"
+        return f"no team size of 1 to {MAX_MODEL_ROBOTS:,} robots and prediction, n_robots and predicted_state"
+    measurement = model.get("measurement")
+    if not isinstance(measurement, dict) or not _is_number(measurement.get("trials_per_split")):
+        return "no record of its measurement, trials_per_split"
     sizes = model.get("by_team_size", {})
-    if not isinstance(sizes, dict) or not all(str(k).isdigit() and isinstance(v, dict)
+    if not isinstance(sizes, dict) or not all(str(k).isascii() and str(k).isdigit() and isinstance(v, dict)
                                               and isinstance(v.get("predicted_state"), str) for k, v in sizes.items()):
         return "by_team_size is not a prediction for each team size"
     budget = world.get("time_budget", []) if isinstance(world, dict) else None
@@ -258,7 +290,7 @@ def read_prediction(path: Path) -> dict:
     for what the report reads of it: its regime and modal state, its robots on the high-value
     circuit and the modal state's share as numbers, the names of its runs as text (or null); one
     line naming the file otherwise."""
-    predicted = read_or_refuse(path, load_json)
+    predicted = _load(path, PREDICTION_REWRITE)
     fine = isinstance(predicted, dict) and all(isinstance(predicted.get(k), str) for k in _PREDICTED_TEXT) \
         and all(_is_number(predicted.get(k)) for k in ("robots_high", "modal_share_pct")) \
         and all(isinstance(predicted.get(k), str | None) for k in _PREDICTED_NAMES)
@@ -266,3 +298,16 @@ def read_prediction(path: Path) -> dict:
         raise TavcError(f"{path}: cannot be read (not a prediction: a regime and modal state, robots_high and "
                         f"modal_share_pct); {PREDICTION_REWRITE}")
     return predicted
+
+
+TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
+
+
+def prediction_files(results_dir: Path) -> list[Path]:
+    """Every turn-taking prediction under results_dir/turn_taking (`<name>/turn_taking/turn_taking.json`),
+    in natural order of its name; a folder or a dangling link in a prediction's place too, for its
+    reader (`read_prediction`) to refuse."""
+    root = results_dir / TURN_TAKING_RUNS
+    folders = root.glob("*/turn_taking") if root.is_dir() else ()
+    return sorted((d / "turn_taking.json" for d in folders if there(d / "turn_taking.json")),
+                  key=lambda p: natural(p.as_posix()))

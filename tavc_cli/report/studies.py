@@ -19,10 +19,11 @@ from tavc_cli.ownership import READINGS_DIR, VALUE_RATIO_DIR
 from tavc_cli.readers import load_json
 from tavc_cli.report import files
 from tavc_cli.report.files import (
+    TURN_TAKING_RUNS,
     config_of,
     horizon_folders,
     model_learners,
-    natural,
+    prediction_files,
     read_or_refuse,
     read_prediction,
     read_stay_switch,
@@ -67,10 +68,11 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     write_text_atomic(root / "value_ratio.csv", points.to_csv(index=False, float_format="%.4f"))
     predicted = None
     model_csv = model_json.parent / "model.csv" if model_json is not None else None
-    if model_csv is not None and there(model_csv):
+    rows = model_rows(model_csv) if model_csv is not None and there(model_csv) else None
+    if rows is not None and set(rows["circuit"]) == {0, 1}:  # a model of two circuits' values
         n_robots = int(load_json(model_json)["n_robots"])  # checked with its run (`files.check_model`)
         fine = [round(1.0 + 0.01 * k, 2) for k in range(101)]
-        predicted = predicted_shares(model_rows(model_csv), n_robots, fine)
+        predicted = predicted_shares(rows, n_robots, fine)
     value_ratio_figure(points, predicted, 1.1, "share of robots on the high-value circuit in the stable period",
                        results_dir / "figures" / "value_ratio")
     columns = list(dict.fromkeys(zip(points["reading"], points["horizon"], strict=True)))
@@ -203,9 +205,7 @@ def turn_taking_check_lines(results_dir: Path) -> list[str]:
     today's world, and in worlds of their own: for each prediction
     `turn_taking/<name>/turn_taking/turn_taking.json` (`tavc model --turn-taking`), the learners'
     runs it predicts (`_learners_runs`), read as in `_beside`."""
-    found = sorted((results_dir / TURN_TAKING_RUNS).glob("*/turn_taking/turn_taking.json"),
-                   key=lambda p: natural(p.as_posix())) \
-        if (results_dir / TURN_TAKING_RUNS).is_dir() else []
+    found = prediction_files(results_dir)
     rows, tallies = [], []
     for path in found:
         predicted = read_prediction(path)
@@ -343,7 +343,6 @@ TEAM_SIZE_DIR = "team_size"  # under the results folder: the learners at other t
 SWEEPS = {VALUE_RATIO_DIR: "the value-ratio sweep, in *Learning values and time*",
           TEAM_SIZE_DIR: "the team-size sweep, in *The readings* (the turn-taking model's check points)"}
 WORLD = ("arena", "robot", "team", "tasks", "events")  # the settings that make a run's world and its task
-TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
 READINGS_RUNS = READINGS_DIR  # under a results or horizon folder: runs in a reading, <arrival>-<passing>-<arena>
 
 

@@ -34,12 +34,12 @@ TABLES = {
         columns=("engine", "horizon", "n_robots", "ratio", "n_trials", "high_share", "modal_state", "model_state",
                  "regime"),
         numbers=("n_robots", "ratio", "n_trials", "high_share"), text=("modal_state", "model_state"),
-        filled=("engine", "horizon", "n_robots", "ratio", "n_trials")),
+        filled=("engine", "horizon", "n_robots", "ratio", "n_trials"), counts=("n_robots", "n_trials")),
     "horizon.csv": TableSpec(columns=("parameter", "value", "factor", "horizon"),
                              numbers=("value", "factor", "horizon"), filled=("parameter", "factor")),
     "speed.csv": TableSpec(columns=("engine", "sim_s_per_wall_s"), numbers=("sim_s_per_wall_s",), filled=("engine",)),
     "tasks/task_times_summary.csv": TableSpec(columns=("team", "makeup", "n"), numbers=("n",),
-                                              filled=("team", "makeup", "n")),
+                                              filled=("team", "makeup", "n"), counts=("n",)),
 }
 
 

@@ -233,7 +233,8 @@ def ladder_lines(results_dir: Path, h: Horizon) -> list[str]:
         conv_word = ("yes" if float(conv[f]) == 1.0 else "no") if f in conv.index else ""
         stayers = (float(get["n_stayers_high"].get(f, math.nan)) + float(get["n_stayers_low"].get(f, math.nan)))
         lines.append(f"| {f:g}x | {hours[f]:.0f} | {cell('pct_2:4', f)} | {cell('pct_3:3', f)} ± "
-                     f"{fmt(float(std33.get(f)))} | {cell('pct_4:2', f)} | {verdict(3, f)} | {verdict(5, f)} | "
+                     f"{fmt(float(std33.get(f, math.nan)))} | {cell('pct_4:2', f)} | {verdict(3, f)} | "
+                     f"{verdict(5, f)} | "
                      f"{cell('q_drift', f, '.3f')} | {cell('policy_changed_share', f, '.2f')} | "
                      f"{cell('alloc_drift', f, '.2f')} | {conv_word} | {fmt(stayers)} | {cell('n_alternators', f)} |")
 
