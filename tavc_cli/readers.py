@@ -140,7 +140,7 @@ class TableSpec:
         for column in (c for c in self.filled if c in table.columns):
             if table[column].isna().any():
                 return f"an empty cell in column {column}"
-        for column in (c for c in self.numbers if c in table.columns):
+        for column in (c for c in dict.fromkeys((*self.numbers, *self.counts)) if c in table.columns):
             if not (pd.api.types.is_numeric_dtype(table[column]) or table[column].isna().all()):
                 return f"column {column} holds something other than numbers"
             if column in self.filled and not table[column].map(math.isfinite).all():  # a count, a factor

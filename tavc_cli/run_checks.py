@@ -39,12 +39,11 @@ from tavc_cli.experiments.plan import PLAN_FILE
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import file_digest
 from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
-from tavc_cli.readers import TABLE_LIMIT, YAML_LIMIT, load_json, read_bounded
+from tavc_cli.readers import REWRITE, TABLE_LIMIT, YAML_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig, from_yaml
 
 SECTIONS = ("arena", "robot", "team", "learner", "scale", "executor", "paper", "tasks", "events", "sim", "analysis",
             "model", "calibration")
-REWRITE = "rerun its experiment to rewrite it"
 
 
 def damaged(path: Path, what: str) -> TavcError:

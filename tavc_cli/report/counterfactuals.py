@@ -12,7 +12,6 @@ with its mechanism.
 
 from __future__ import annotations
 
-import json
 from functools import lru_cache
 from operator import attrgetter
 from pathlib import Path
@@ -25,7 +24,7 @@ from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.analysis.stay_switch import reading_name, split_folder
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import WORLD_SEARCH_DIR
-from tavc_cli.readers import read_table
+from tavc_cli.readers import load_json, read_table
 from tavc_cli.report.files import horizon_folders, is_run_folder, natural, read_or_refuse, seed_for_seed_cell
 from tavc_cli.report.horizons import Horizon, mechanism_cell, read_horizon
 from tavc_cli.report.runs import finished_runs
@@ -185,7 +184,7 @@ def _read_search(given: str, resolved: str, versions: tuple) -> tuple[pd.DataFra
     table = Path(given)
     search = read_or_refuse(table, read_table)
     record = table.with_suffix(".json")
-    facts = read_or_refuse(record, lambda p: json.loads(p.read_text())) if record.is_file() else {}
+    facts = read_or_refuse(record, load_json) if record.is_file() else {}
     needed = {"lone_leg_s", "arrivals_per_5h", "crowding_ratio_6", "feasible", "robust", "chosen"}
     if not needed <= set(search.columns) or not isinstance(facts, dict):
         missing = sorted(needed - set(search.columns))

@@ -18,7 +18,7 @@ from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_rows, 
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import STAY_SWITCH_TABLES
-from tavc_cli.readers import TableSpec, load_json, read_table
+from tavc_cli.readers import REWRITE, TableSpec, load_json, read_table
 from tavc_cli.run_tables import MODEL_REWRITE, in_hidden_folder, model_rows
 from tavc_cli.settings import TavcConfig, from_yaml
 
@@ -36,15 +36,17 @@ def _config_of(path: str, mtime_ns: int, size: int) -> TavcConfig:
     return from_yaml(Path(path))
 
 
-def read_or_refuse(path: Path, read):
-    """`read(path)`, with any failure to parse the file as one line naming it."""
+def read_or_refuse(path: Path, read, advice: str = REWRITE):
+    """`read(path)`, with any failure to read or parse the file as one line naming it and `advice`,
+    what to do."""
     try:
         return read(path)
     except TavcError:
         raise
     except Exception as exc:  # any library's parse error: the file is damaged, whatever the library
-        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise TavcError(f"{path}: cannot be read ({detail}); rerun its experiment to rewrite it") from None
+        detail = exc.strerror if isinstance(exc, OSError) and exc.strerror else \
+            (str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__)
+        raise TavcError(f"{path}: cannot be read ({detail}); {advice}") from None
 
 
 CONVERGED_DIR = "converged"  # `make reproduce-converged`'s horizon
@@ -201,21 +203,11 @@ def read_stay_switch(folder: Path) -> tuple[pd.DataFrame | None, ...] | None:
 _MEASURED = ("trials_per_makeup", "measure_s", "warmup_s")  # numbers in a study's record, where it has them
 
 
-def _load(path: Path, advice: str):
-    """The JSON file `path` (`readers.load_json`: bounded), or one line naming it and `advice`."""
-    try:
-        return load_json(path, advice=advice)
-    except (OSError, ValueError) as exc:
-        detail = exc.strerror if isinstance(exc, OSError) and exc.strerror else \
-            (str(exc).splitlines() or [type(exc).__name__])[0]
-        raise TavcError(f"{path}: cannot be read ({detail}); {advice}") from None
-
-
 def read_record(path: Path, advice: str) -> dict:
     """A study's JSON record (`stay_switch.json`, the surrogate's `task_times.json`), read bounded
     (`readers.load_json`), its ``measurement`` a map whose trials and times are numbers; one line
     naming the file and `advice` otherwise."""
-    record = _load(path, advice)
+    record = read_or_refuse(path, load_json, advice)
     measurement = record.get("measurement", {}) if isinstance(record, dict) else None
     if not isinstance(measurement, dict) or any(not _is_number(v) for k, v in measurement.items() if k in _MEASURED):
         raise TavcError(f"{path}: cannot be read (not a record of the study's measurement); {advice}")
@@ -249,14 +241,15 @@ def check_model(folder: Path) -> None:
     prediction and measurement, each team size's prediction, the world's time budget, and a table
     (`run_tables.model_rows`) with every split of the team; one line naming what is wrong
     (`readers.load_json`: read bounded)."""
-    path, table = folder / "model" / "model.json", folder / "model" / "model.csv"
+    path, table, n_robots = folder / "model" / "model.json", folder / "model" / "model.csv", None
     if there(path):
-        model = _load(path, MODEL_REWRITE)
+        model = read_or_refuse(path, load_json, MODEL_REWRITE)
         why = _model_fault(model)
         if why:
             raise TavcError(f"{path}: cannot be read ({why}); {MODEL_REWRITE}")
+        n_robots = model["n_robots"]
     if there(table):
-        model_rows(table, model["n_robots"] if there(path) else None)
+        model_rows(table, n_robots)
 
 
 def _model_fault(model: object) -> str:
@@ -290,7 +283,7 @@ def read_prediction(path: Path) -> dict:
     for what the report reads of it: its regime and modal state, its robots on the high-value
     circuit and the modal state's share as numbers, the names of its runs as text (or null); one
     line naming the file otherwise."""
-    predicted = _load(path, PREDICTION_REWRITE)
+    predicted = read_or_refuse(path, load_json, PREDICTION_REWRITE)
     fine = isinstance(predicted, dict) and all(isinstance(predicted.get(k), str) for k in _PREDICTED_TEXT) \
         and all(_is_number(predicted.get(k)) for k in ("robots_high", "modal_share_pct")) \
         and all(isinstance(predicted.get(k), str | None) for k in _PREDICTED_NAMES)
