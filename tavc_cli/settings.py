@@ -190,9 +190,8 @@ class ScaleConfig:
     time_factor: float = 1.0
     # section 1.4's trials end with a number of deliveries: that count's factor (null = time_factor)
     deliveries_factor: Optional[float] = None
-    # the baselines' (random, static) schedule: every time of theirs at this factor of the
-    # chapter's instead of time_factor (null = time_factor). They learn nothing, so their
-    # distribution does not depend on the horizon.
+    # the baselines' (random, static) schedule: every time of theirs at this factor of the chapter's
+    # instead of time_factor (null = time_factor); they learn nothing, so no horizon moves them
     baseline_time_factor: Optional[float] = None
     # the window the stable period's shares and rates are measured over: `whole`, the whole
     # stable period, or `chapter`, its last stretch as long as the chapter's stable period, so
@@ -208,6 +207,7 @@ class ExecutorConfig:
     n_jobs: Optional[int] = None
     batch_size: int = 8
     address: Optional[str] = None
+    confine: str = "auto"  # hold a learner from outside tavc to its run's folder: auto, on or off (`confine`)
 
 
 @dataclass

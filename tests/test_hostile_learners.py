@@ -17,7 +17,8 @@ from tavc_cli.learning.plugins import CONFIG_DIRS_ENV, check_choice, target_dige
 from tests.helpers import file_digests
 
 # A learner whose choose() answers `ANSWER` from its `bad_from`-th instance on (the made-up run
-# before the trials builds two; a trial run in this process builds the third), and 0 before.
+# before the trials builds two; a trial run in the same process, `executor.confine=off`, builds
+# the third), and 0 before.
 LEARNER = '''
 import random
 import sys
@@ -84,7 +85,7 @@ def test_a_bad_circuit_is_refused_before_any_trial_in_one_line(tmp_path, monkeyp
 
 
 def test_a_bad_circuit_inside_a_trial_fails_that_trial_in_one_line(tmp_path, monkeypatch):
-    result = _run(tmp_path, monkeypatch, "-1", "+learner.params.bad_from=3")
+    result = _run(tmp_path, monkeypatch, "-1", "+learner.params.bad_from=3", "executor.confine=off")
     assert result.exit_code == 1
     line = result.output.strip().splitlines()[-1]
     assert line.startswith("error: trial bad_000 (seed [")
@@ -99,7 +100,8 @@ def test_a_bad_circuit_inside_a_trial_fails_that_trial_in_one_line(tmp_path, mon
 ])
 def test_a_learner_that_raises_or_exits_is_one_line_and_exit_1(tmp_path, monkeypatch, raised, shown):
     for bad_from in (1, 3):  # in the made-up run, and inside a trial
-        result = _run(tmp_path / str(bad_from), monkeypatch, f"({raised})", f"+learner.params.bad_from={bad_from}")
+        result = _run(tmp_path / str(bad_from), monkeypatch, f"({raised})", f"+learner.params.bad_from={bad_from}",
+                      f"executor.confine={'off' if bad_from == 3 else 'auto'}")
         assert result.exit_code == 1, result.output
         line = result.output.strip().splitlines()[-1]
         assert "learner bad: choose(0, 0) " + shown in line or (bad_from == 3 and "learner bad: choose(" in line

@@ -27,6 +27,7 @@ from tavc_cli.config.validate_world import (
     validate_reachable,
     validate_start,
 )
+from tavc_cli.confine import CONFINE_CHOICES, confinement
 from tavc_cli.experiments.clock import due_tick, end_tick
 from tavc_cli.learning.registry import BASELINES, MODEL_LEARNERS
 from tavc_cli.settings import (
@@ -98,7 +99,10 @@ def validate(cfg: DictConfig, named: Optional[dict[str, str]] = None) -> None:
     validate_reachable(cfg.arena, cfg.robot)
     _validate_team(cfg.team, cfg.arena, cfg.robot)
     n_circuits, n_robots = len(cfg.arena.circuits), cfg.team.n_robots
-    validate_learner(cfg.learner, n_circuits, n_robots)
+    _validate_executor(cfg.executor)  # before the learner: where a learner from outside tavc may run
+    foreign = cfg.learner.target is not None
+    validate_learner(cfg.learner, n_circuits, n_robots,
+                     confined=foreign and confinement(str(cfg.executor.confine), str(cfg.executor.backend)))
     if cfg.learner.name in MODEL_LEARNERS and cfg.learner.target is None:
         validate_model_learner(cfg.learner, n_circuits, n_robots, len(cfg.events.breakdowns))
     _validate_run(cfg)
@@ -107,7 +111,6 @@ def validate(cfg: DictConfig, named: Optional[dict[str, str]] = None) -> None:
     _validate_tasks(cfg.tasks, n_circuits)
     _validate_sim(cfg.sim)
     _validate_control_period(cfg)
-    _validate_executor(cfg.executor)
     _validate_model(cfg.model)
     _validate_calibration(cfg.calibration)
     _validate_surrogate(cfg.surrogate)
@@ -387,3 +390,4 @@ def _validate_executor(executor: DictConfig) -> None:
           f"'{executor.backend}' needs {module}, which is not installed: pip install 'tavc[{executor.backend}]'")
     at_least("executor.n_jobs", executor.n_jobs, 1)
     at_least("executor.batch_size", executor.batch_size, 1)
+    one_of("executor.confine", executor.confine, CONFINE_CHOICES)

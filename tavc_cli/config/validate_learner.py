@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from omegaconf import DictConfig, OmegaConf
 
 from tavc_cli.config.checks import at_least, check, finite, per_circuit, positive, unit
+from tavc_cli.confine import run_confined
 from tavc_cli.learning.parameters import (
     ALLOCATION,
     FINITE,
@@ -44,13 +45,14 @@ def validate_model_learner(learner: DictConfig, n_circuits: int, n_robots: int, 
                   "with that team, or use learner=model")
 
 
-def validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> LearnerSettings:
+def validate_learner(learner: DictConfig, n_circuits: int, n_robots: int, confined: bool = False) -> LearnerSettings:
     """The learner's settings read into the class it declares (a key it does not take, a value of
     the wrong type: one line), then each parameter checked by the rule its declaration names and
-    each ordered pair in order (`learning.parameters`). Returns the typed settings."""
+    each ordered pair in order (`learning.parameters`); a learner from outside tavc is loaded and
+    tried in a process held to writing nowhere where `confined`. Returns the typed settings."""
     settings = settings_of(OmegaConf.to_container(learner, resolve=True))
     if isinstance(settings, PluginSettings):
-        _validate_plugin(settings, n_circuits, n_robots)
+        _validate_plugin(settings, n_circuits, n_robots, confined)
         return settings
     for name, _, rule in parameters(type(settings)):
         value = getattr(settings, name)
@@ -80,10 +82,12 @@ def validate_learner(learner: DictConfig, n_circuits: int, n_robots: int) -> Lea
 _NUMBER_RULES = {UNIT: unit, POSITIVE: positive, FINITE: finite}
 
 
-def _validate_plugin(learner: PluginSettings, n_circuits: int, n_robots: int) -> None:
+def _validate_plugin(learner: PluginSettings, n_circuits: int, n_robots: int, confined: bool) -> None:
     """A learner from outside tavc: a plain name of its own (its label and seed) that no table
     already gives a meaning, a class that loads, takes the parameters given, and answers a short
-    made-up run as a trial needs (`plugins.rehearse`; its warnings printed once per learner)."""
+    made-up run as a trial needs (`plugins.rehearse`; its warnings printed once per learner).
+    Where `confined`, its code runs only in a copy of this process that can write nowhere
+    (`confine.run_confined`): this process never imports it."""
     name = str(learner.name)
     check(name.isidentifier(), "learner.name",
           f"a learner's name is a plain word (its label in every output), got {name!r}")
@@ -91,14 +95,21 @@ def _validate_plugin(learner: PluginSettings, n_circuits: int, n_robots: int) ->
           f"{name!r} is a built-in learner's; give the learner from learner.target a name of its own")
     check(name not in RESERVED_LABELS, "learner.name",
           f"{name!r} names other rows of tavc's tables; give the learner from learner.target a name of its own")
-    check_params(load_target(str(learner.target)), dict(learner.params or {}))
-    for warning in rehearse(learner, n_robots, n_circuits):
+    tried = run_confined(_try_plugin, learner, n_circuits, n_robots) if confined else \
+        _try_plugin(learner, n_circuits, n_robots)
+    for warning in tried:
         if warning not in _WARNED:
             _WARNED.add(warning)
             print(f"warning: {warning}", file=sys.stderr, flush=True)
 
 
 _WARNED: set[str] = set()  # a plugin's warnings, said once per process
+
+
+def _try_plugin(learner: PluginSettings, n_circuits: int, n_robots: int) -> list[str]:
+    """Load the learner's class, check its parameters and rehearse it; its warnings."""
+    check_params(load_target(str(learner.target)), dict(learner.params or {}))
+    return rehearse(learner, n_robots, n_circuits)
 
 
 def validate_allocation(

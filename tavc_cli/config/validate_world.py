@@ -9,6 +9,7 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from tavc_cli.config.checks import at_least, check, fail, one_of, plain, positive, unique
+from tavc_cli.confine import stand_in
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.trial import TrialState
@@ -196,7 +197,7 @@ def validate_start(cfg: DictConfig) -> None:
     model = specs[0].build_arena()
     for spec in specs:
         try:
-            TrialState(spec, model, 0)
+            TrialState(stand_in(spec), model, 0)  # placed from its seed; a learner from outside tavc is not run here
         except TavcError:
             fail("team.n_robots",
                  f"cannot place {n_robots} robots of robot.radius_m = {robot.radius_m:g} at random "

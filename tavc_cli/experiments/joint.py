@@ -28,7 +28,7 @@ from tavc_cli.experiments.engine import BatchEngine
 from tavc_cli.experiments.lineage import Item, Node, TreeBatch, plan
 from tavc_cli.experiments.pool import batch_names, die_with_parent, run_pool
 from tavc_cli.experiments.spec import TrialSpec
-from tavc_cli.experiments.store import Executor, TrialStore, pending_batches, save_record, trial_done
+from tavc_cli.experiments.store import Executor, TrialStore, pending_batches, save_record, trial_done, trials_of
 
 CAN_FORK = hasattr(os, "fork") and sys.platform.startswith("linux")
 
@@ -63,7 +63,8 @@ def run_together(folders: Sequence[tuple[Path, Sequence[TrialSpec]]], executor: 
             if (spec.controller, spec.trial) in todo:
                 pending.add(item)
     batches = plan(items, pending, executor.batch_size, executor.n_jobs)
-    failures = run_pool([(b, run_tree_batch, (b,)) for b in batches], executor.n_jobs, progress)
+    failures = run_pool([(b, run_tree_batch, (b,)) for b in batches], executor.n_jobs, progress,
+                        executor.confine_to(trials_of(batches), [store.folder for store, _ in stores]))
     by_folder: dict[str, list[TrialFailure]] = {}
     for f in failures:
         by_folder.setdefault(f.folder, []).append(f)

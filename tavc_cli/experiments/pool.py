@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tavc_cli.behaviours.navigation import compiled
+from tavc_cli.confine import confine_writes, stand_in
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch
 from tavc_cli.experiments.engine import BatchEngine, run_trials
@@ -142,17 +143,19 @@ class Progress:
             self.bar.stop()
 
 
-def run_pool(units: list[tuple], n_jobs: int, shown: bool) -> list[TrialFailure]:
+def run_pool(units: list[tuple], n_jobs: int, shown: bool, confine_to: Sequence[Path] = ()) -> list[TrialFailure]:
     """Run units of work, each (batch, function, arguments), in this process (n_jobs 1 or a
     single unit) or a process pool of n_jobs workers, with one progress report over their
     simulated seconds if `shown` (`Progress`); `function(*arguments, report)` simulates the
     batch, writes its trials' files and returns (wall time, failed trials). Returns the trials
-    that failed."""
+    that failed. Where `confine_to` names folders, every unit runs in a worker process (one at
+    least) that can write only beneath them (`confine.confine_writes`), and this process runs no
+    learner from outside tavc, not even to load the kernels (`load_kernels`)."""
     pending = [u[0] for u in units]
     prog = Progress(pending, shown)
     failures: list[TrialFailure] = []
     try:
-        if n_jobs <= 1 or len(units) <= 1:
+        if (n_jobs <= 1 or len(units) <= 1) and not confine_to:
             for b, fn, args in units:
                 key = (b.controller, b.index)
                 failures += fn(*args, lambda f, k=key: prog.update(k, f))[1]
@@ -166,8 +169,8 @@ def run_pool(units: list[tuple], n_jobs: int, shown: bool) -> list[TrialFailure]
         manager.start(worker_start)  # the progress queue's server process: gone with the run too
         with manager:
             queue = manager.Queue()
-            pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(units)), mp_context=ctx,
-                                       initializer=worker_start)
+            pool = ProcessPoolExecutor(max_workers=max(1, min(n_jobs, len(units))), mp_context=ctx,
+                                       initializer=worker_start, initargs=(tuple(map(str, confine_to)),))
             try:
                 futures = {pool.submit(fn, *args, _QueueReporter(queue, (b.controller, b.index))): b
                            for b, fn, args in units}
@@ -205,13 +208,14 @@ def load_kernels(pending: Sequence[Batch]) -> None:
     computes is thrown away, and anything that goes wrong in it is left to the real run to
     report. Runs started together (`make reproduce-all` runs the experiments
     beside the model) take turns (`_compiling_alone`): the first compiles and writes the
-    cache, the others then load it."""
+    cache, the others then load it. A learner from outside tavc is not run here: a built-in one
+    stands in (`confine.stand_in`), as the kernels are the same."""
     seen: set[str] = set()
     with _compiling_alone():
         for b in pending:
             if b.controller in seen:
                 continue
-            spec = b.specs[0]
+            spec = stand_in(b.specs[0])  # a learner from outside tavc runs in its workers only
             short = replace(spec, warmup_s=0.0, start_s=0.0, duration_s=2 * NOISE_BLOCK_TICKS * spec.dt_s,
                             deliveries=None)
             try:
@@ -292,12 +296,15 @@ def stop_workers(pool: ProcessPoolExecutor) -> None:
     pool.shutdown(wait=True, cancel_futures=True)
 
 
-def worker_start() -> None:
+def worker_start(confine_to: Sequence[str] = ()) -> None:
     """A pool worker dies on SIGTERM (the run's own handler, inherited through fork, would
     only stop its current batch) and, on Linux, when the run that started it dies, even by
-    kill -9: no orphan goes on computing."""
+    kill -9: no orphan goes on computing. Given folders, it can write only beneath them from
+    now on (`confine.confine_writes`)."""
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     die_with_parent()
+    if confine_to:
+        confine_writes([Path(f) for f in confine_to])
 
 
 def die_with_parent(parent: int | None = None) -> None:

@@ -21,12 +21,13 @@ from __future__ import annotations
 import json
 import time
 import zipfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from tavc_cli.confine import confinement, foreign
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, make_batches
 from tavc_cli.experiments.contained import BatchResult, TrialFailure, simulate_contained
@@ -44,17 +45,26 @@ FAILURES_LOG = "failures.log"
 class Executor:
     """Where trials run: `backend` local (processes), dask or ray; `n_jobs` workers of a local
     pool or cluster; `batch_size` trials advanced together in one process; `address` of an
-    existing cluster (none: a local one is started)."""
+    existing cluster (none: a local one is started); `confine` whether a learner from outside
+    tavc runs held to its run's folder (`executor.confine`)."""
 
     backend: str = "local"
     n_jobs: int = 1
     batch_size: int = 8
     address: str | None = None
+    confine: str = "auto"
 
     @classmethod
     def from_config(cls, executor: ExecutorConfig) -> Executor:
         """From the resolved `executor` settings."""
-        return cls(str(executor.backend), int(executor.n_jobs), int(executor.batch_size), executor.address)
+        return cls(str(executor.backend), int(executor.n_jobs), int(executor.batch_size), executor.address,
+                   str(executor.confine))
+
+    def confine_to(self, specs: Iterable[TrialSpec], folders: Sequence[Path]) -> list[Path]:
+        """The folders the processes running these trials are held to (`pool.run_pool`):
+        `folders` where a trial runs a learner from outside tavc and `confine` asks for it where
+        this system can (`confine.confinement`), else none."""
+        return list(folders) if foreign(specs) and confinement(self.confine, self.backend) else []
 
     def check(self) -> None:
         """Stop with one line, before anything is written, if the cluster at `address` does not
@@ -87,7 +97,8 @@ class TrialStore:
         if announce:
             self.announce(len(specs), n_reused, redone)
         if ex.backend == "local":
-            failures = execute(pending, self.folder, ex.n_jobs, progress)
+            confine_to = ex.confine_to(trials_of(pending), [self.folder])
+            failures = execute(pending, self.folder, ex.n_jobs, progress, confine_to)
         else:
             failures = _execute_on_cluster(ex, pending, self.folder, progress)
         self.settle(failures, len(specs))
@@ -234,10 +245,16 @@ def save_record(rec: TrialRecord, spec: TrialSpec, out_dir: str | Path) -> None:
     rec.save(owned_path(Path(out_dir), trial_path(Path(out_dir), spec.controller, spec.trial)))
 
 
-def execute(pending: list[Batch], out_dir: Path, n_jobs: int, shown: bool) -> list[TrialFailure]:
-    """Run pending batches in this process (n_jobs 1 or a single batch) or a process pool;
-    return the trials that failed."""
-    return run_pool([(b, run_batch, (b, str(out_dir))) for b in pending], n_jobs, shown)
+def trials_of(batches: Iterable[Batch]) -> Iterator[TrialSpec]:
+    """Every trial the batches start as."""
+    return (spec for b in batches for spec in b.specs)
+
+
+def execute(pending: list[Batch], out_dir: Path, n_jobs: int, shown: bool,
+            confine_to: Sequence[Path] = ()) -> list[TrialFailure]:
+    """Run pending batches in this process (n_jobs 1 or a single batch) or a process pool,
+    held to `confine_to` where it names folders (`pool.run_pool`); return the trials that failed."""
+    return run_pool([(b, run_batch, (b, str(out_dir))) for b in pending], n_jobs, shown, confine_to)
 
 
 def _execute_on_cluster(ex: Executor, pending: list[Batch], out_dir: Path, shown: bool) -> list[TrialFailure]:

@@ -7,7 +7,7 @@ import hashlib
 import json
 import multiprocessing as mp
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, is_dataclass, replace
 from functools import cache
@@ -279,7 +279,8 @@ def run_surrogate(cfg: TavcConfig, *, times: TaskTimes | None = None, progress: 
         paths = [trial_path(folder, spec.controller, spec.trial) for spec in specs]
         pending = [(spec, path) for spec, path in zip(specs, paths, strict=True)
                    if _stored_key(path, whole=True) != spec.key()]
-        _draw_trials(pending, times, stayers, int(Executor.from_config(cfg.executor).n_jobs))
+        executor = Executor.from_config(cfg.executor)
+        _draw_trials(pending, times, stayers, executor.n_jobs, executor.confine_to((s for s, _ in pending), [folder]))
         records = [TrialRecord.load(path) for path in paths]
         run = Run(folder, plan, specs, records, len(specs) - len(pending), time.perf_counter() - start)
         summary = _finish(cfg, run, owned)
@@ -298,20 +299,21 @@ def _draw_one(k: int) -> None:
     rec.save(path)
 
 
-def _draw_trials(pending: list, times: TaskTimes, stayers: bool, n_jobs: int) -> None:
+def _draw_trials(pending: list, times: TaskTimes, stayers: bool, n_jobs: int, confine_to: Sequence[Path] = ()) -> None:
     """Draw and save the pending trials: in this process, or in `n_jobs` forked ones where
     the system forks and there are trials for more than one (each trial is its own seed's, so
-    the processes change nothing but the time)."""
+    the processes change nothing but the time); where `confine_to` names folders, always in
+    forked ones (one at least) that can write only beneath them (`pool.worker_start`)."""
     _SHARED.update(pending=pending, times=times, stayers=stayers)
     try:
-        if n_jobs <= 1 or len(pending) <= 1 or not CAN_FORK:
+        if (n_jobs <= 1 or len(pending) <= 1 or not CAN_FORK) and not confine_to:
             for k in range(len(pending)):
                 _draw_one(k)
             return
 
 
-        pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=mp.get_context("fork"),
-                                   initializer=worker_start)
+        pool = ProcessPoolExecutor(max_workers=max(1, min(n_jobs, len(pending))), mp_context=mp.get_context("fork"),
+                                   initializer=worker_start, initargs=(tuple(map(str, confine_to)),))
         try:
             for future in [pool.submit(_draw_one, k) for k in range(len(pending))]:
                 future.result()

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from tavc_cli.chapter import base_case, served_by
+from tavc_cli.confine import in_this_process
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.io import claim_folder, write_text_atomic
@@ -233,6 +234,7 @@ class Study:
                                     f"surrogate.tasks_dir={self.tasks_dir}"])
                 times = measure_tasks(cfg, progress=self.progress, echo=self.echo)
                 spec = surrogate_specs(cfg, times)[0]
+                in_this_process([spec], cfg.executor.confine, "the surrogate study's speed")
                 start = time.perf_counter()
                 run_trial(spec, times)
                 rows.append({"engine": "surrogate", "experiment": experiment, "scale": scale,

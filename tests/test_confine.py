@@ -1,0 +1,180 @@
+"""A learner from outside tavc runs in processes held to its run's folder (`confine`): what it
+writes elsewhere is refused by the kernel, and tavc's own process never runs its code."""
+
+from __future__ import annotations
+
+import os
+import sys
+import zlib
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from tavc_cli import confine
+from tavc_cli.cli import app
+from tavc_cli.errors import TavcError
+
+HAS_LANDLOCK = confine.landlock_abi() >= 1
+needs_landlock = pytest.mark.skipif(not HAS_LANDLOCK, reason="this kernel has no Landlock")
+
+# a learner that writes `where` when its module is imported (at_import) or on its 400th choice
+# (rehearsals choose fewer times than that; one trial of 30,000 s more)
+LEARNER = '''
+import os
+
+WHERE, AT_IMPORT = {where!r}, {at_import!r}
+if AT_IMPORT:
+    with open(WHERE, "w") as f:
+        f.write("written at import")
+
+
+class Writer:
+    calls = 0
+
+    def __init__(self, n_robots, n_circuits, rng):
+        pass
+
+    def choose(self, robot, state):
+        Writer.calls += 1
+        if not AT_IMPORT and Writer.calls == 400:
+            with open(WHERE, "w") as f:
+                f.write("written by a choice")
+        return robot % 2
+
+    def learn(self, robot, state, action, reward, next_state):
+        pass
+'''
+
+
+def _write(path: Path, text: str) -> str:
+    path.write_text(text)
+    return "written"
+
+
+@needs_landlock
+def test_a_confined_process_writes_beneath_its_folders_only(tmp_path):
+    inside, outside = tmp_path / "inside", tmp_path / "outside"
+    inside.mkdir()
+    outside.mkdir()
+    (inside / "kept").write_text("mine")
+    assert confine.run_confined(_write, inside / "table.csv", "a,b\n", folders=[inside]) == "written"
+    assert (inside / "table.csv").read_text() == "a,b\n"
+    with pytest.raises(TavcError, match=r"_write failed in its confined process: PermissionError: .*outside"):
+        confine.run_confined(_write, outside / "x", "no", folders=[inside])
+    with pytest.raises(TavcError, match="PermissionError"):  # moving a file out is writing outside
+        confine.run_confined(os.rename, inside / "kept", outside / "kept", folders=[inside])
+    with pytest.raises(TavcError, match="PermissionError"):  # held to nothing: not even its own folder
+        confine.run_confined(_write, inside / "y", "no", folders=[])
+    assert confine.run_confined(_write, Path(os.devnull), "x", folders=[]) == "written"  # holds nothing
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["inside", "kept", "outside", "table.csv"]
+    assert (tmp_path / "z").write_text("this process is not confined") > 0
+
+
+@needs_landlock
+def test_a_confined_process_compiles_a_kernel_without_writing_numbas_cache(tmp_path, monkeypatch):
+    import importlib
+
+    import numba.core.config
+
+    monkeypatch.setattr(numba.core.config, "CACHE_DIR", str(tmp_path / "cache"))  # outside the folder below
+    (tmp_path / "fresh_kernel.py").write_text("import numba\n\n\n@numba.njit(cache=True)\ndef doubled(x):\n"
+                                              "    return 2 * x\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    fresh = importlib.import_module("fresh_kernel")  # its cache folder chosen here, as tavc's kernels' are
+    (tmp_path / "run").mkdir()
+    assert confine.run_confined(fresh.doubled, 21, folders=[tmp_path / "run"]) == 42  # compiled there, not saved
+    assert not [p for p in (tmp_path / "cache").rglob("*") if p.is_file()]
+    assert fresh.doubled(4) == 8 and [p for p in (tmp_path / "cache").rglob("*") if p.is_file()]  # saved here
+
+
+def _refuse() -> None:
+    raise TavcError("learner.target: a line of its own")
+
+
+def _die() -> None:
+    os._exit(3)
+
+
+def test_what_a_confined_process_answers_comes_back_as_one_line(tmp_path):
+    if not HAS_LANDLOCK:
+        pytest.skip("this kernel has no Landlock")
+    with pytest.raises(TavcError, match=r"^learner.target: a line of its own$"):
+        confine.run_confined(_refuse)
+    with pytest.raises(TavcError, match=r"_die held to its folders ended without an answer \(exit status 3\)"):
+        confine.run_confined(_die)
+    assert confine.run_confined(sorted, [3, 1, 2]) == [1, 2, 3]
+
+
+def test_when_a_learner_from_outside_runs_confined(monkeypatch, capsys):
+    assert confine.confinement("off") is False
+    with pytest.raises(TavcError, match=r"executor.confine=on: .*executor.backend=dask"):
+        confine.confinement("on", "dask")
+    monkeypatch.setattr(confine, "landlock_abi", lambda: 0)
+    monkeypatch.setattr(confine, "_SAID", set())
+    with pytest.raises(TavcError, match="executor.confine=on: .*no Landlock"):
+        confine.confinement("on")
+    assert confine.confinement("auto") is False
+    assert confine.confinement("auto") is False
+    said = capsys.readouterr().err
+    assert said.count("note: a learner from outside tavc runs unconfined") == 1 and "no Landlock" in said
+    monkeypatch.setattr(confine, "landlock_abi", lambda: 3)
+    assert confine.confinement("auto") is True and confine.confinement("on") is True
+
+
+def _run(tmp_path: Path, at_import: bool, *extra: str):
+    (tmp_path / "writer.py").write_text(LEARNER.format(where=str(tmp_path / "outside.txt"), at_import=at_import))
+    args = ["run", "experiment=initial_distribution", "scale=smoke", "learner=plugin", "learner.name=writer",
+            f"learner.target={tmp_path / 'writer.py'}:Writer", "baselines=[]", "trials=1", "duration_s=30000",
+            "executor.n_jobs=1", f"output_dir={tmp_path / 'run'}", "--no-progress", *extra]
+    return CliRunner().invoke(app, args)
+
+
+@needs_landlock
+def test_a_learner_that_writes_outside_its_run_is_refused_as_it_loads(tmp_path):
+    result = _run(tmp_path, at_import=True)
+    assert result.exit_code == 1
+    assert "learner.target" in result.output and "PermissionError" in result.output
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "outside.txt").exists() and not (tmp_path / "run").exists()
+    loaded = f"tavc_plugin_{zlib.crc32(str((tmp_path / 'writer.py').resolve()).encode()):08x}"
+    assert loaded not in sys.modules  # tavc's own process never loaded it (`plugins.load_target` names it so)
+
+    result = _run(tmp_path, True, "executor.confine=off")  # unconfined, it writes (the test can fail)
+    assert (tmp_path / "outside.txt").read_text() == "written at import"
+
+
+@pytest.mark.slow
+@needs_landlock
+def test_a_learner_that_writes_outside_its_run_fails_its_trial(tmp_path):
+    result = _run(tmp_path, at_import=False)
+    assert result.exit_code == 1
+    assert "trial writer_000" in result.output and "PermissionError" in result.output
+    assert not (tmp_path / "outside.txt").exists()
+    assert "PermissionError" in (tmp_path / "run" / "failures.log").read_text()
+
+    result = _run(tmp_path, False, "executor.confine=off")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "outside.txt").read_text() == "written by a choice"
+
+
+def test_a_study_that_times_trials_here_refuses_a_learner_from_outside(tmp_path):
+    from tavc_cli import config
+    from tavc_cli.experiments.build import trial_specs
+
+    (tmp_path / "writer.py").write_text(LEARNER.format(where=str(tmp_path / "outside.txt"), at_import=False))
+    learner = ["learner=plugin", "learner.name=writer", f"learner.target={tmp_path / 'writer.py'}:Writer"]
+    specs = trial_specs(config.settings(config.load_config(["experiment=initial_distribution", "scale=smoke",
+                                                             "executor.confine=off", *learner])))
+    with pytest.raises(TavcError, match=r"^the study's speed runs its trials in its own process.*confine=off$"):
+        confine.in_this_process(specs, "auto", "the study's speed")
+    confine.in_this_process(specs, "off", "the study's speed")  # asked for: it may
+    tavc = [s for s in specs if s.controller == "random"]
+    confine.in_this_process(tavc, "on", "the study's speed")  # tavc's own learners run anywhere
+    assert not (tmp_path / "outside.txt").exists()
+
+
+def test_executor_confine_takes_its_three_words():
+    result = CliRunner().invoke(app, ["run", "experiment=initial_distribution", "scale=smoke", "executor.confine=yes"])
+    assert result.exit_code == 1
+    assert "executor.confine" in result.output and "auto" in result.output and "Traceback" not in result.output
