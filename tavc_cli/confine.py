@@ -17,15 +17,11 @@ from __future__ import annotations
 import os
 import signal
 import sys
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import replace
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import Any, TypeVar
 
 from tavc_cli.errors import TavcError
-
-if TYPE_CHECKING:
-    from tavc_cli.experiments.spec import TrialSpec
 
 CONFINE_CHOICES = ("auto", "on", "off")
 
@@ -42,7 +38,6 @@ _WRITES_BY_ABI = (  # (first ABI that has them, rights): every way to change wha
 )
 _TRUNCATE = 1 << 14
 _DEV_NULL = "/dev/null"  # written to by libraries that silence output: allowed, as it holds nothing
-STAND_IN = "random"  # the built-in learner that stands in for one from outside tavc (`stand_in`)
 T = TypeVar("T")
 
 
@@ -112,32 +107,6 @@ def _keep_compiled_code_here() -> None:
     caching = sys.modules.get("numba.core.caching")
     if caching is not None and hasattr(caching, "Cache"):
         caching.Cache.save_overload = lambda self, sig, data: None
-
-
-def foreign(specs: Iterable[TrialSpec]) -> bool:
-    """Whether any of these trials runs a learner from outside tavc (`learner.target`)."""
-    # deferred: the learners' settings, only where trials are run
-    from tavc_cli.learning.parameters import PluginSettings
-
-    return any(isinstance(spec.policy, PluginSettings) for spec in specs)
-
-
-def stand_in(spec: TrialSpec) -> TrialSpec:
-    """`spec`, with a built-in learner (`STAND_IN`) in place of one from outside tavc: for what
-    a process builds of a trial without running its learner (the kernels it compiles, the start it
-    places), where that learner's code must not run."""
-    # deferred: the learners' table, only where a trial is built
-    from tavc_cli.learning.registry import SETTINGS
-
-    return replace(spec, policy=SETTINGS[STAND_IN]()) if foreign([spec]) else spec
-
-
-def in_this_process(specs: Iterable[TrialSpec], choice: str, what: str) -> None:
-    """Refuse, in one line, to run a learner from outside tavc in this process (which is never
-    confined) for `what` (a command timing the simulator), unless ``executor.confine=off``."""
-    if choice != "off" and foreign(specs):
-        raise TavcError(f"{what} runs its trials in its own process, which is not held to a folder; a learner from "
-                        "outside tavc (learner.target) runs there only with executor.confine=off")
 
 
 def confinement(choice: str, backend: str = "local") -> bool:

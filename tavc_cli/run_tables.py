@@ -15,6 +15,7 @@ from tavc_cli.analysis import ladder, sweep, value_ratio
 from tavc_cli.errors import TavcError
 from tavc_cli.notation import state_counts
 from tavc_cli.readers import TableSpec, read_table
+from tavc_cli.run_checks import check_run
 from tavc_cli.settings import from_yaml
 
 STATES = {"state": str}  # a state column read as text ("3:3"), never as a number or a time
@@ -28,6 +29,7 @@ _MODEL = TableSpec(columns=("split", "circuit", "c_per_s", "task_time_s"),
 def read_rung(folder: Path) -> ladder.Rung:
     """One rung of the ladder as its folder holds it: its factor and duration (`config.yaml`), its
     state table and per-trial statistics, and its claims, convergence and mechanism tables where it has them."""
+    check_run(folder)  # read back as the report reads a run: bounded, whole, its own
     cfg = from_yaml(folder / "config.yaml")
     tables = {"state_time": pd.read_csv(folder / "state_time.csv", dtype=STATES),
               "trial_stats": pd.read_csv(folder / "trial_stats.csv")}
@@ -48,6 +50,7 @@ def sweep_table(jobs: Sequence[tuple[Mapping[str, str], Path]]) -> pd.DataFrame:
     for index, (values, folder) in enumerate(jobs):
         states, stats = Path(folder) / "state_time.csv", Path(folder) / "trial_stats.csv"
         if states.is_file():
+            check_run(Path(folder))  # read back as the report reads a run: bounded, whole, its own
             rows += sweep.job_rows(index, values, str(folder), pd.read_csv(states),
                                    pd.read_csv(stats) if stats.is_file() else None)
     return pd.DataFrame(rows)

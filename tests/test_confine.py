@@ -160,17 +160,17 @@ def test_a_learner_that_writes_outside_its_run_fails_its_trial(tmp_path):
 
 def test_a_study_that_times_trials_here_refuses_a_learner_from_outside(tmp_path):
     from tavc_cli import config
-    from tavc_cli.experiments.build import trial_specs
+    from tavc_cli.experiments.build import in_this_process, trial_specs
 
     (tmp_path / "writer.py").write_text(LEARNER.format(where=str(tmp_path / "outside.txt"), at_import=False))
     learner = ["learner=plugin", "learner.name=writer", f"learner.target={tmp_path / 'writer.py'}:Writer"]
     specs = trial_specs(config.settings(config.load_config(["experiment=initial_distribution", "scale=smoke",
                                                              "executor.confine=off", *learner])))
     with pytest.raises(TavcError, match=r"^the study's speed runs its trials in its own process.*confine=off$"):
-        confine.in_this_process(specs, "auto", "the study's speed")
-    confine.in_this_process(specs, "off", "the study's speed")  # asked for: it may
+        in_this_process(specs, "auto", "the study's speed")
+    in_this_process(specs, "off", "the study's speed")  # asked for: it may
     tavc = [s for s in specs if s.controller == "random"]
-    confine.in_this_process(tavc, "on", "the study's speed")  # tavc's own learners run anywhere
+    in_this_process(tavc, "on", "the study's speed")  # tavc's own learners run anywhere
     assert not (tmp_path / "outside.txt").exists()
 
 

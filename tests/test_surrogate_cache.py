@@ -149,6 +149,16 @@ def test_a_damaged_or_stale_cache_heals_with_one_note(clean, copy, damage, why):
     assert [sha(p) for p in others] == before
 
 
+def test_a_table_larger_than_tavc_reads_is_measured_again_with_one_note(clean, copy, monkeypatch):
+    size = (copy / "task_times.csv").stat().st_size
+    monkeypatch.setattr(surrogate_run, "TABLE_LIMIT", size - 1)  # as a table past 256 MiB is, without writing one
+    said: list[str] = []
+    measure_tasks(settings(copy), echo=said.append)
+    assert said[0] == (f"note: {copy}/task_times.csv: cannot be read ({size} bytes, more than the {size - 1} tavc "
+                       "reads of it); measuring the tasks again")
+    assert (copy / "task_times.csv").read_bytes() == (clean / "task_times.csv").read_bytes()
+
+
 def test_a_record_without_its_table_is_measured_again_quietly(clean, copy):
     """As results/ keeps them: the record and the summary, not the table; nothing to draw from."""
     (copy / "task_times.csv").unlink()

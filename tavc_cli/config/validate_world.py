@@ -9,9 +9,8 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from tavc_cli.config.checks import at_least, check, fail, one_of, plain, positive, unique
-from tavc_cli.confine import stand_in
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.build import stand_in, trial_specs
 from tavc_cli.experiments.trial import TrialState
 from tavc_cli.settings import MIN_DOCK_CLEARANCE_M, TARGET_KINDS, WALL_TOLERANCE_M, SimConfig
 from tavc_cli.sim.arena import (

@@ -15,10 +15,14 @@ results, and neither does the number of processes.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import RunPlan, plan_run
 from tavc_cli.experiments.spec import Breakdown, TrialSpec, ValueChange
+from tavc_cli.learning.parameters import PluginSettings
+from tavc_cli.learning.registry import SETTINGS
 from tavc_cli.settings import TavcConfig, settings_of
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}  # unit of t in r = w / t, in seconds
@@ -95,3 +99,28 @@ def make_batches(specs: list[TrialSpec], size: int, workers: int = 1) -> list[Ba
         for k in range(0, len(group), size):
             out.append(Batch(label, k // size, tuple(group[k:k + size])))
     return out
+
+
+# A learner from outside tavc runs only where `confine` holds it; what tavc builds of its trials elsewhere
+# is built with a built-in one standing in.
+STAND_IN = "random"
+
+
+def foreign(specs: Iterable[TrialSpec]) -> bool:
+    """Whether any of these trials runs a learner from outside tavc (`learner.target`)."""
+    return any(isinstance(spec.policy, PluginSettings) for spec in specs)
+
+
+def stand_in(spec: TrialSpec) -> TrialSpec:
+    """`spec`, with a built-in learner (`STAND_IN`) in place of one from outside tavc: for what
+    a process builds of a trial without running its learner (the kernels it compiles, the start it
+    places), where that learner's code must not run."""
+    return replace(spec, policy=SETTINGS[STAND_IN]()) if foreign([spec]) else spec
+
+
+def in_this_process(specs: Iterable[TrialSpec], choice: str, what: str) -> None:
+    """Refuse, in one line, to run a learner from outside tavc in this process (which is never
+    confined) for `what` (a command timing the simulator), unless ``executor.confine=off``."""
+    if choice != "off" and foreign(specs):
+        raise TavcError(f"{what} runs its trials in its own process, which is not held to a folder; a learner from "
+                        "outside tavc (learner.target) runs there only with executor.confine=off")

@@ -27,9 +27,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tavc_cli.behaviours.navigation import compiled
-from tavc_cli.confine import confine_writes, stand_in
+from tavc_cli.confine import confine_writes
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.build import Batch
+from tavc_cli.experiments.build import Batch, stand_in
 from tavc_cli.experiments.engine import BatchEngine, run_trials
 from tavc_cli.experiments.tick import NOISE_BLOCK_TICKS
 
@@ -209,7 +209,7 @@ def load_kernels(pending: Sequence[Batch]) -> None:
     report. Runs started together (`make reproduce-all` runs the experiments
     beside the model) take turns (`_compiling_alone`): the first compiles and writes the
     cache, the others then load it. A learner from outside tavc is not run here: a built-in one
-    stands in (`confine.stand_in`), as the kernels are the same."""
+    stands in (`build.stand_in`), as the kernels are the same."""
     seen: set[str] = set()
     with _compiling_alone():
         for b in pending:

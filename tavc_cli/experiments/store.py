@@ -27,9 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tavc_cli.confine import confinement, foreign
+from tavc_cli.confine import confinement
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.build import Batch, make_batches
+from tavc_cli.experiments.build import Batch, foreign, make_batches
 from tavc_cli.experiments.contained import BatchResult, TrialFailure, simulate_contained
 from tavc_cli.experiments.executors import probe, run_on_cluster
 from tavc_cli.experiments.pool import Progress, run_pool

@@ -24,10 +24,10 @@ from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.runner import Run
 from tavc_cli.experiments.spec import code_digest
 from tavc_cli.experiments.store import Executor, TrialStore, _stored_key, trial_path
-from tavc_cli.io import claim_folder, default_root, file_digest, write_bytes_atomic, write_text_atomic
+from tavc_cli.io import claim_folder, default_root, write_bytes_atomic, write_text_atomic
 from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_settings, take
 from tavc_cli.pipeline import CAN_FORK, _finish, take_run_folder
-from tavc_cli.readers import load_json
+from tavc_cli.readers import TABLE_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig
 from tavc_cli.settings_studies import ALTERNATORS, EXPLORERS
 from tavc_cli.surrogate.engine import run_trial
@@ -204,7 +204,13 @@ def _trusted_table(folder: Path, record: dict) -> pd.DataFrame:
         if recorded != today:
             said = f"no {key}" if recorded is None else f"another {key} ({recorded}; this tavc's is {today})"
             raise _Untrusted(f"{record_path} records {said}: its tasks were measured by other code")
-    if file_digest(table_path) != kept.get("task_times_sha256"):
+    try:  # a regular file no larger than any table tavc reads
+        data = read_bounded(table_path, TABLE_LIMIT)
+    except TavcError as error:  # its path and why, without the advice: the note gives its own
+        raise _Untrusted(str(error).rpartition("; ")[0]) from None
+    except OSError as error:
+        raise _Untrusted(f"{table_path} cannot be read ({error.strerror})") from None
+    if hashlib.sha256(data).hexdigest() != kept.get("task_times_sha256"):
         raise _Untrusted(f"{table_path} does not match the digest task_times.json recorded (edited or cut)")
     try:
         return TaskTimes.read(table_path).frame

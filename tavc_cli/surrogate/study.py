@@ -32,9 +32,8 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from tavc_cli.chapter import base_case, served_by
-from tavc_cli.confine import in_this_process
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.build import in_this_process, trial_specs
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.notation import high_of
 from tavc_cli.ownership import STUDY, take
