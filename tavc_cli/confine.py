@@ -4,8 +4,10 @@ A learner from outside tavc is code (docs/security.md). Where the kernel offers 
 5.13 and later, no privileges needed), the processes that run one restrict themselves, for the
 rest of their lives and for every process they start, to creating, writing, renaming and
 deleting files only beneath the folders they were given (`confine_writes`); anything else is
-refused by the kernel with a `PermissionError`, whatever the code does. Reading, and writing to
-files already open (the terminal, the pipes back to the run), stay as they were.
+refused by the kernel with a `PermissionError`, whatever the code does. They cannot type into a
+terminal either (a seccomp filter), and numba compiles for them without writing its cache.
+Reading, and writing to files already open, stay as they were: `confined` sets a process apart
+(closes what it need not hold) before it confines it.
 
 `executor.confine` says when: ``auto`` (the default) confines where the kernel can and says in
 one line where it cannot, ``on`` refuses to run a learner from outside tavc unconfined, ``off``
@@ -17,9 +19,8 @@ from __future__ import annotations
 import os
 import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, TypeVar
 
 from tavc_cli.errors import TavcError
 
@@ -38,7 +39,6 @@ _WRITES_BY_ABI = (  # (first ABI that has them, rights): every way to change wha
 )
 _TRUNCATE = 1 << 14
 _DEV_NULL = "/dev/null"  # written to by libraries that silence output: allowed, as it holds nothing
-T = TypeVar("T")
 
 
 def landlock_abi() -> int:
@@ -97,16 +97,82 @@ def confine_writes(folders: Sequence[Path]) -> None:
             raise _os_error(ctypes, "cannot confine this process")
     finally:
         os.close(ruleset)
+    _no_terminal_input()
     _keep_compiled_code_here()
 
 
+# seccomp: a filter the kernel runs on every system call of this process and those it starts
+_PR_SET_SECCOMP, _SECCOMP_MODE_FILTER = 22, 2
+_ALLOW, _DENY = 0x7FFF0000, 0x00050000 | 1  # SECCOMP_RET_ALLOW; SECCOMP_RET_ERRNO with EPERM
+_ARCHES = {"x86_64": (0xC000003E, 16), "aarch64": (0xC00000B7, 29)}  # AUDIT_ARCH_*, the number of ioctl
+_TERMINAL_INPUT = (0x5412, 0x541C)  # TIOCSTI (type into a terminal), TIOCLINUX (its subcommands can too)
+
+
+def _no_terminal_input() -> None:
+    """Refuse this process the two requests that type into a terminal (TIOCSTI, TIOCLINUX): a
+    confined process must not have a shell run what it types once tavc exits. Any system call
+    of another architecture's numbering (a 32-bit call on a 64-bit machine) is refused too, so
+    that none passes the filter by another number. Where the machine is neither x86_64 nor
+    aarch64, nothing is filtered."""
+    # deferred: only where a process is confined
+    import ctypes
+    import platform
+
+    arch = _ARCHES.get(platform.machine())
+    if arch is None:
+        return
+    audit_arch, ioctl = arch
+
+    class Filter(ctypes.Structure):
+        _fields_ = [("code", ctypes.c_uint16), ("jt", ctypes.c_uint8), ("jf", ctypes.c_uint8), ("k", ctypes.c_uint32)]
+
+    class Program(ctypes.Structure):
+        _fields_ = [("len", ctypes.c_uint16), ("filter", ctypes.POINTER(Filter))]
+
+    load, jeq, jge, ret = 0x20, 0x15, 0x35, 0x06  # BPF_LD|W|ABS, BPF_JMP|JEQ|K, BPF_JMP|JGE|K, BPF_RET|K
+    code = [
+        (load, 0, 0, 4),                   # 0: the call's architecture
+        (jeq, 1, 0, audit_arch),           # 1: this machine's: on to 3
+        (ret, 0, 0, _DENY),                # 2: another's: refused
+        (load, 0, 0, 0),                   # 3: the call's number
+        (jge, 5, 0, 0x40000000),           # 4: x32's numbering: refused (10)
+        (jeq, 0, 3, ioctl),                # 5: not ioctl: allowed (9)
+        (load, 0, 0, 24),                  # 6: ioctl's request (the low half of its second argument)
+        (jeq, 2, 0, _TERMINAL_INPUT[0]),   # 7: TIOCSTI: refused (10)
+        (jeq, 1, 0, _TERMINAL_INPUT[1]),   # 8: TIOCLINUX: refused (10)
+        (ret, 0, 0, _ALLOW),               # 9
+        (ret, 0, 0, _DENY),                # 10
+    ]
+    filters = (Filter * len(code))(*[Filter(*c) for c in code])
+    program = Program(len(code), filters)
+    if _libc().prctl(_PR_SET_SECCOMP, _SECCOMP_MODE_FILTER, ctypes.byref(program), 0, 0) != 0:
+        raise _os_error(ctypes, "cannot keep this process from typing into a terminal")
+
+
 def _keep_compiled_code_here() -> None:
-    """numba's cache of compiled kernels lies outside the folders (and a confined learner must
-    not write code that unconfined processes load): from now on this process loads kernels from
-    it as before, but what it compiles afresh it keeps to itself instead of failing to save it."""
-    caching = sys.modules.get("numba.core.caching")
-    if caching is not None and hasattr(caching, "Cache"):
-        caching.Cache.save_overload = lambda self, sig, data: None
+    """numba's cache of compiled code lies outside the folders (and a confined learner must not
+    write code that unconfined processes load): from now on this process loads tavc's kernels from
+    it as before, but what it compiles afresh it keeps to itself instead of failing to save it,
+    and a function of the learner's own asking for a cache (``cache=True``) is compiled without."""
+    try:
+        # deferred: numba is tavc's, but a process confined before it loads its kernels loads it here
+        from numba.core import caching, dispatcher
+    except ImportError:
+        return
+    caching.Cache.save_overload = lambda self, sig, data: None
+    dispatcher.Dispatcher.enable_caching = lambda self: None
+
+
+def die_with_parent(parent: int | None = None) -> None:
+    """On Linux, this process is killed when its parent dies (PR_SET_PDEATHSIG); given the
+    parent's pid, it also exits at once if that parent died before this could be asked."""
+    if not sys.platform.startswith("linux"):
+        return
+    libc = _libc()
+    if libc is not None:
+        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    if parent is not None and os.getppid() != parent:
+        os._exit(1)
 
 
 def confinement(choice: str, backend: str = "local") -> bool:
@@ -125,67 +191,6 @@ def confinement(choice: str, backend: str = "local") -> bool:
                         "give executor.confine=auto to run it unconfined")
     _say_once(f"note: a learner from outside tavc runs unconfined (it can write anywhere you can): {why}")
     return False
-
-
-def run_confined(function: Callable[..., T], *args: Any, folders: Sequence[Path] = ()) -> T:
-    """`function(*args)` in a forked copy of this process held to writing beneath `folders` (none:
-    nowhere; `confine_writes`), its result (which must pickle) returned here and a `TavcError` it
-    raises raised here; anything else it raises, or its process ending without an answer, is one
-    `TavcError` line. This process is never confined. Linux only (where Landlock is)."""
-    # deferred: only where something runs confined
-    import pickle
-
-    sys.stdout.flush()
-    sys.stderr.flush()
-    read_end, write_end = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # the copy: confine, run, answer, and leave without any of the parent's clean-up
-        code = 1
-        try:
-            os.close(read_end)
-            try:
-                confine_writes(folders)
-                answer = ("value", function(*args))
-            except TavcError as error:
-                answer = ("refused", str(error))
-            except BaseException as error:  # noqa: BLE001 - the learner's code: its error, as one line
-                answer = ("failed", f"{type(error).__name__}: {error}")
-            with os.fdopen(write_end, "wb") as out:
-                try:
-                    pickle.dump(answer, out)
-                except Exception as error:  # noqa: BLE001 - an answer that does not pickle
-                    pickle.dump(("failed", f"its answer cannot be sent back ({type(error).__name__})"), out)
-            code = 0
-        finally:
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(code)
-    os.close(write_end)
-    try:
-        with os.fdopen(read_end, "rb") as answers:
-            data = answers.read()
-    except BaseException:  # Ctrl-C while it runs: it stops too
-        _kill(pid)
-        raise
-    _, status = os.waitpid(pid, 0)
-    try:
-        kind, value = pickle.loads(data)
-    except Exception:  # noqa: BLE001 - nothing, or half an answer: the copy died
-        raise TavcError(f"the process running {getattr(function, '__name__', 'it')} held to its folders ended without "
-                        f"an answer (exit status {os.waitstatus_to_exitcode(status)})") from None
-    if kind == "value":
-        return value
-    if kind == "refused":
-        raise TavcError(value)
-    raise TavcError(f"{getattr(function, '__name__', 'it')} failed in its confined process: {value}")
-
-
-def _kill(pid: int) -> None:
-    try:
-        os.kill(pid, signal.SIGKILL)
-        os.waitpid(pid, 0)
-    except (ProcessLookupError, ChildProcessError):
-        pass
 
 
 _SAID: set[str] = set()

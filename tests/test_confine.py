@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from tavc_cli import confine
+from tavc_cli import confine, confined
 from tavc_cli.cli import app
 from tavc_cli.errors import TavcError
 
@@ -58,15 +58,15 @@ def test_a_confined_process_writes_beneath_its_folders_only(tmp_path):
     inside.mkdir()
     outside.mkdir()
     (inside / "kept").write_text("mine")
-    assert confine.run_confined(_write, inside / "table.csv", "a,b\n", folders=[inside]) == "written"
+    assert confined.run_confined(_write, inside / "table.csv", "a,b\n", folders=[inside]) == "written"
     assert (inside / "table.csv").read_text() == "a,b\n"
     with pytest.raises(TavcError, match=r"_write failed in its confined process: PermissionError: .*outside"):
-        confine.run_confined(_write, outside / "x", "no", folders=[inside])
+        confined.run_confined(_write, outside / "x", "no", folders=[inside])
     with pytest.raises(TavcError, match="PermissionError"):  # moving a file out is writing outside
-        confine.run_confined(os.rename, inside / "kept", outside / "kept", folders=[inside])
+        confined.run_confined(os.rename, inside / "kept", outside / "kept", folders=[inside])
     with pytest.raises(TavcError, match="PermissionError"):  # held to nothing: not even its own folder
-        confine.run_confined(_write, inside / "y", "no", folders=[])
-    assert confine.run_confined(_write, Path(os.devnull), "x", folders=[]) == "written"  # holds nothing
+        confined.run_confined(_write, inside / "y", "no", folders=[])
+    assert confined.run_confined(_write, Path(os.devnull), "x", folders=[]) == "written"  # holds nothing
     assert sorted(p.name for p in tmp_path.rglob("*")) == ["inside", "kept", "outside", "table.csv"]
     assert (tmp_path / "z").write_text("this process is not confined") > 0
 
@@ -83,9 +83,18 @@ def test_a_confined_process_compiles_a_kernel_without_writing_numbas_cache(tmp_p
     monkeypatch.syspath_prepend(str(tmp_path))
     fresh = importlib.import_module("fresh_kernel")  # its cache folder chosen here, as tavc's kernels' are
     (tmp_path / "run").mkdir()
-    assert confine.run_confined(fresh.doubled, 21, folders=[tmp_path / "run"]) == 42  # compiled there, not saved
+    assert confined.run_confined(fresh.doubled, 21, folders=[tmp_path / "run"]) == 42  # compiled there, not saved
     assert not [p for p in (tmp_path / "cache").rglob("*") if p.is_file()]
     assert fresh.doubled(4) == 8 and [p for p in (tmp_path / "cache").rglob("*") if p.is_file()]  # saved here
+    (tmp_path / "learners_kernel.py").write_text((tmp_path / "fresh_kernel.py").read_text())
+    # a learner's own cache=True function, decorated in the copy
+    assert confined.run_confined(_import_and_call, "learners_kernel", folders=[tmp_path / "run"]) == 6
+
+
+def _import_and_call(module: str) -> int:
+    import importlib
+
+    return importlib.import_module(module).doubled(3)
 
 
 def _refuse() -> None:
@@ -100,10 +109,102 @@ def test_what_a_confined_process_answers_comes_back_as_one_line(tmp_path):
     if not HAS_LANDLOCK:
         pytest.skip("this kernel has no Landlock")
     with pytest.raises(TavcError, match=r"^learner.target: a line of its own$"):
-        confine.run_confined(_refuse)
+        confined.run_confined(_refuse)
     with pytest.raises(TavcError, match=r"_die held to its folders ended without an answer \(exit status 3\)"):
-        confine.run_confined(_die)
-    assert confine.run_confined(sorted, [3, 1, 2]) == [1, 2, 3]
+        confined.run_confined(_die)
+    assert confined.run_confined(sorted, [3, 1, 2]) == [1, 2, 3]
+
+
+class _Payload:
+    """An object that would run code where it is unpickled."""
+
+    def __reduce__(self):
+        return (os.system, ("touch payload-ran",))
+
+
+def _payload() -> _Payload:
+    return _Payload()
+
+
+def _forged_answer() -> str:
+    import pickle
+
+    os.write(confined._MESSAGES, pickle.dumps(("value", _Payload())) + b"\n")  # straight into the channel
+    return "forged"
+
+
+def _held_file(fd: int) -> str:
+    try:
+        os.write(fd, b"overwritten")
+    except OSError as error:
+        return error.strerror
+    return "written"
+
+
+def _type_into(tty: str) -> str:
+    import fcntl
+    import termios
+
+    fd = os.open(tty, os.O_RDONLY | os.O_NOCTTY)
+    try:
+        fcntl.ioctl(fd, termios.TIOCSTI, b"x")
+    except OSError as error:
+        return error.strerror
+    return "typed"
+
+
+def _leave_a_helper() -> int:
+    pid = os.fork()
+    if pid == 0:
+        import time
+
+        time.sleep(120)
+        os._exit(0)
+    print("said by the copy")
+    return pid
+
+
+@needs_landlock
+def test_a_confined_process_can_touch_nothing_of_this_one(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(TavcError, match="TypeError: Object of type _Payload is not JSON serializable"):
+        confined.run_confined(_payload)  # its answer is JSON or nothing
+    with pytest.raises(TavcError, match="a worker process sent a message that is not one tavc reads"):
+        confined.run_confined(_forged_answer)  # a pickle is never read here
+    assert not (tmp_path / "payload-ran").exists()
+    with open(tmp_path / "mine.txt", "w") as held:  # a file the caller holds open is closed in the copy
+        assert confined.run_confined(_held_file, held.fileno()) == "Bad file descriptor"
+    assert (tmp_path / "mine.txt").read_text() == ""
+    _, tty = os.openpty()
+    assert confined.run_confined(_type_into, os.ttyname(tty)) == "Operation not permitted"  # no TIOCSTI
+    helper = confined.run_confined(_leave_a_helper)  # answers at once, and its helper goes with it
+    assert "said by the copy" in capsys.readouterr().out  # its output passed on here
+    for _ in range(100):
+        try:
+            os.kill(helper, 0)
+        except ProcessLookupError:
+            break
+        import time
+
+        time.sleep(0.05)
+    else:
+        pytest.fail("the helper the copy left is still running")
+
+
+def _unit(i: int, report) -> dict:
+    report(0.5)
+    if i == 2:
+        os._exit(7)
+    return {"square": i * i}
+
+
+@needs_landlock
+def test_units_run_in_confined_copies_and_a_copy_that_ends_is_named(tmp_path):
+    heard: list = []
+    results = confined.run_units(2, 2, [tmp_path], _unit, lambda i, f: heard.append((i, f)), str)
+    assert results == [{"square": 0}, {"square": 1}] and sorted(heard) == [(0, 0.5), (1, 0.5)]
+    with pytest.raises(TavcError, match=r"a worker process ended \(exit status 7\) while running trials 2 "):
+        confined.run_units(4, 2, [tmp_path], _unit, lambda i, f: None, str)
 
 
 def test_when_a_learner_from_outside_runs_confined(monkeypatch, capsys):

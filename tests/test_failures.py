@@ -350,7 +350,7 @@ def test_something_in_the_way_of_the_trial_records_is_one_line(tmp_path):
 def _deaf_to_sigterm(ready) -> None:
     """A pool worker that has not yet replaced a SIGTERM handler that lets it live (dying with the
     test all the same), counted in `ready` once it is so."""
-    from tavc_cli.experiments.pool import die_with_parent
+    from tavc_cli.confine import die_with_parent
 
     die_with_parent()
     signal.signal(signal.SIGTERM, lambda *_: None)

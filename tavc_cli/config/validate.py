@@ -100,9 +100,11 @@ def validate(cfg: DictConfig, named: Optional[dict[str, str]] = None) -> None:
     _validate_team(cfg.team, cfg.arena, cfg.robot)
     n_circuits, n_robots = len(cfg.arena.circuits), cfg.team.n_robots
     _validate_executor(cfg.executor)  # before the learner: where a learner from outside tavc may run
-    foreign = cfg.learner.target is not None
-    validate_learner(cfg.learner, n_circuits, n_robots,
-                     confined=foreign and confinement(str(cfg.executor.confine), str(cfg.executor.backend)))
+    confined = False
+    if cfg.learner.target is not None:  # a learner from outside tavc: where its trials run held, or said why not
+        confinement(str(cfg.executor.confine), str(cfg.executor.backend))
+        confined = confinement(str(cfg.executor.confine))  # loaded and rehearsed here, held where Landlock is
+    validate_learner(cfg.learner, n_circuits, n_robots, confined=confined)
     if cfg.learner.name in MODEL_LEARNERS and cfg.learner.target is None:
         validate_model_learner(cfg.learner, n_circuits, n_robots, len(cfg.events.breakdowns))
     _validate_run(cfg)

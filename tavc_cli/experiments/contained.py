@@ -32,6 +32,17 @@ class TrialFailure:
         """The failure of `spec`'s trial, its message on one line."""
         return cls(spec.controller, spec.trial, tuple(spec.seed), " ".join(message.split()), detail)
 
+    @classmethod
+    def from_data(cls, data: object) -> TrialFailure:
+        """A failure as a worker process sent it (`dataclasses.asdict`, through JSON), checked
+        field by field: anything else is one `TavcError` line."""
+        fields = {"controller": str, "trial": int, "seed": list, "message": str, "detail": str, "folder": str}
+        if (not isinstance(data, dict) or set(data) != set(fields)
+                or not all(type(data[k]) is kind for k, kind in fields.items())
+                or not all(type(x) is int for x in data["seed"])):
+            raise TavcError("a worker process sent a failed trial tavc does not know")
+        return cls(**{**data, "seed": tuple(data["seed"])})
+
     @property
     def name(self) -> str:
         """The trial's name, as its record file is named: ``<controller>_<trial>``."""

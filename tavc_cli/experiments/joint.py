@@ -22,11 +22,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 
+from tavc_cli.confine import die_with_parent
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.contained import TrialFailure, simulate_contained
 from tavc_cli.experiments.engine import BatchEngine
 from tavc_cli.experiments.lineage import Item, Node, TreeBatch, plan
-from tavc_cli.experiments.pool import batch_names, die_with_parent, run_pool
+from tavc_cli.experiments.pool import batch_names, run_pool
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.experiments.store import Executor, TrialStore, pending_batches, save_record, trial_done, trials_of
 

@@ -21,20 +21,18 @@ from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from dataclasses import replace
+from dataclasses import asdict, replace
 from multiprocessing.managers import SyncManager
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from tavc_cli.behaviours.navigation import compiled
-from tavc_cli.confine import confine_writes
+from tavc_cli.confine import die_with_parent
+from tavc_cli.confined import run_units
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import Batch, stand_in
+from tavc_cli.experiments.contained import TrialFailure
 from tavc_cli.experiments.engine import BatchEngine, run_trials
 from tavc_cli.experiments.tick import NOISE_BLOCK_TICKS
-
-if TYPE_CHECKING:
-    from tavc_cli.experiments.contained import TrialFailure
 
 
 class _QueueReporter:
@@ -149,13 +147,17 @@ def run_pool(units: list[tuple], n_jobs: int, shown: bool, confine_to: Sequence[
     simulated seconds if `shown` (`Progress`); `function(*arguments, report)` simulates the
     batch, writes its trials' files and returns (wall time, failed trials). Returns the trials
     that failed. Where `confine_to` names folders, every unit runs in a worker process (one at
-    least) that can write only beneath them (`confine.confine_writes`), and this process runs no
-    learner from outside tavc, not even to load the kernels (`load_kernels`)."""
+    least) that can write only beneath them and answers in JSON (`confined.run_units`), and this
+    process runs no learner from outside tavc, not even to load the kernels (`load_kernels`)."""
     pending = [u[0] for u in units]
     prog = Progress(pending, shown)
     failures: list[TrialFailure] = []
     try:
-        if (n_jobs <= 1 or len(units) <= 1) and not confine_to:
+        if confine_to:
+            load_kernels(pending)
+            prog.kernels_ready()
+            return _run_confined_units(units, n_jobs, confine_to, prog)
+        if n_jobs <= 1 or len(units) <= 1:
             for b, fn, args in units:
                 key = (b.controller, b.index)
                 failures += fn(*args, lambda f, k=key: prog.update(k, f))[1]
@@ -169,8 +171,7 @@ def run_pool(units: list[tuple], n_jobs: int, shown: bool, confine_to: Sequence[
         manager.start(worker_start)  # the progress queue's server process: gone with the run too
         with manager:
             queue = manager.Queue()
-            pool = ProcessPoolExecutor(max_workers=max(1, min(n_jobs, len(units))), mp_context=ctx,
-                                       initializer=worker_start, initargs=(tuple(map(str, confine_to)),))
+            pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(units)), mp_context=ctx, initializer=worker_start)
             try:
                 futures = {pool.submit(fn, *args, _QueueReporter(queue, (b.controller, b.index))): b
                            for b, fn, args in units}
@@ -197,6 +198,30 @@ def run_pool(units: list[tuple], n_jobs: int, shown: bool, confine_to: Sequence[
         return failures
     finally:
         prog.close()
+
+
+def _run_confined_units(units: list[tuple], n_jobs: int, folders: Sequence[Path], prog: Progress) -> list[TrialFailure]:
+    """`run_pool`'s units in confined workers (`confined.run_units`): each answers its wall time
+    and its failed trials as JSON, read back here as data (`TrialFailure.from_data`)."""
+
+    def run_unit(i: int, report) -> dict:
+        b, fn, args = units[i]
+        wall, failed = fn(*args, report)
+        return {"wall_s": wall, "failures": [asdict(f) for f in failed]}
+
+    def progress(i: int, frac: float) -> None:
+        prog.update((units[i][0].controller, units[i][0].index), frac)
+
+    results = run_units(len(units), n_jobs, folders, run_unit, progress, lambda i: batch_names(units[i][0]))
+    failures: list[TrialFailure] = []
+    for i, result in enumerate(results):
+        said = result.get("failures") if isinstance(result, dict) else None
+        if not isinstance(said, list):
+            raise TavcError(f"the worker process running trials {batch_names(units[i][0])} answered something else "
+                            "than its failed trials")
+        failures += [TrialFailure.from_data(f) for f in said]
+        prog.update((units[i][0].controller, units[i][0].index), 1.0)
+    return failures
 
 
 def load_kernels(pending: Sequence[Batch]) -> None:
@@ -296,31 +321,12 @@ def stop_workers(pool: ProcessPoolExecutor) -> None:
     pool.shutdown(wait=True, cancel_futures=True)
 
 
-def worker_start(confine_to: Sequence[str] = ()) -> None:
+def worker_start() -> None:
     """A pool worker dies on SIGTERM (the run's own handler, inherited through fork, would
     only stop its current batch) and, on Linux, when the run that started it dies, even by
-    kill -9: no orphan goes on computing. Given folders, it can write only beneath them from
-    now on (`confine.confine_writes`)."""
+    kill -9: no orphan goes on computing."""
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     die_with_parent()
-    if confine_to:
-        confine_writes([Path(f) for f in confine_to])
-
-
-def die_with_parent(parent: int | None = None) -> None:
-    """On Linux, this process is killed when its parent dies (PR_SET_PDEATHSIG); given the
-    parent's pid, it also exits at once if that parent died before this could be asked."""
-    if not sys.platform.startswith("linux"):
-        return
-    # deferred: only to read the processor's features
-    import ctypes
-
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-    if parent is not None and os.getppid() != parent:
-        os._exit(1)
 
 
 def batch_names(batch: Batch) -> str:

@@ -9,6 +9,7 @@ import multiprocessing as mp
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, is_dataclass, replace
 from functools import cache
 from pathlib import Path
@@ -16,6 +17,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli import meaning_digest
+from tavc_cli.confined import run_units
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.plan import RunPlan, plan_run
@@ -309,22 +311,31 @@ def _draw_trials(pending: list, times: TaskTimes, stayers: bool, n_jobs: int, co
     """Draw and save the pending trials: in this process, or in `n_jobs` forked ones where
     the system forks and there are trials for more than one (each trial is its own seed's, so
     the processes change nothing but the time); where `confine_to` names folders, always in
-    forked ones (one at least) that can write only beneath them (`pool.worker_start`)."""
+    forked ones (one at least) that can write only beneath them and answer in JSON
+    (`confined.run_units`)."""
     _SHARED.update(pending=pending, times=times, stayers=stayers)
     try:
-        if (n_jobs <= 1 or len(pending) <= 1 or not CAN_FORK) and not confine_to:
+        if confine_to:
+            run_units(len(pending), n_jobs, confine_to, lambda k, report: _draw_one(k), lambda k, frac: None,
+                      lambda k: pending[k][0].controller + f"_{pending[k][0].trial:03d}")
+            return
+        if n_jobs <= 1 or len(pending) <= 1 or not CAN_FORK:
             for k in range(len(pending)):
                 _draw_one(k)
             return
 
 
-        pool = ProcessPoolExecutor(max_workers=max(1, min(n_jobs, len(pending))), mp_context=mp.get_context("fork"),
-                                   initializer=worker_start, initargs=(tuple(map(str, confine_to)),))
+        pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(pending)), mp_context=mp.get_context("fork"),
+                                   initializer=worker_start)
         try:
             for future in [pool.submit(_draw_one, k) for k in range(len(pending))]:
                 future.result()
-        except BaseException:
+        except BaseException as error:
             stop_workers(pool)
+            if isinstance(error, BrokenProcessPool):
+                raise TavcError("a worker process died while drawing the surrogate's trials (a learner that exits or "
+                                "crashes, or out of memory); the trials finished before are kept and a rerun draws "
+                                "only the missing ones") from None
             raise
         pool.shutdown(wait=True)
     finally:

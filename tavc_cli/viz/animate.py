@@ -20,7 +20,7 @@ from matplotlib import animation
 from matplotlib.patches import Circle, Wedge
 
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.build import in_this_process, trial_specs
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import atomic_path, owned_path
@@ -41,6 +41,7 @@ def simulate_for_pictures(cfg: TavcConfig, duration_s: float, frame_every_s: flo
     spec = replace(spec, duration_s=duration_s, warmup_s=0.0, start_s=0.0, deliveries=None, pose_every_s=frame_every_s,
                    breakdowns=tuple(b for b in spec.breakdowns if b.time_s < duration_s),
                    value_changes=tuple(v for v in spec.value_changes if v.time_s < duration_s))
+    in_this_process([spec], cfg.executor.confine, "tavc animate")
     return run_trials([spec])[0], arena_from_config(spec.arena)
 
 
