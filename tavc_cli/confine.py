@@ -38,6 +38,8 @@ _WRITES_BY_ABI = (  # (first ABI that has them, rights): every way to change wha
     (3, 1 << 14),  # TRUNCATE
 )
 _TRUNCATE = 1 << 14
+_TCP = 1 | 2  # LANDLOCK_ACCESS_NET_BIND_TCP, _CONNECT_TCP
+_SCOPES = 1 | 2  # LANDLOCK_SCOPE_ABSTRACT_UNIX_SOCKET, _SIGNAL
 _DEV_NULL = "/dev/null"  # written to by libraries that silence output: allowed, as it holds nothing
 
 
@@ -54,8 +56,10 @@ def landlock_abi() -> int:
 
 def confine_writes(folders: Sequence[Path]) -> None:
     """From now on this process, and every process it starts, can make, change, move or remove
-    files only beneath `folders` (which must exist). Irrevocable. Raises `OSError` where the kernel
-    cannot (`landlock_abi` is 0) or refuses."""
+    files only beneath `folders` (which must exist); where the kernel knows how (Landlock 4 and 6),
+    it can neither bind nor connect a TCP socket, nor signal a process or reach an abstract socket
+    outside its confinement (tavc's own process among them). Irrevocable. Raises `OSError` where
+    the kernel cannot (`landlock_abi` is 0) or refuses."""
     # deferred: only where a process is confined
     import ctypes
 
@@ -69,14 +73,18 @@ def confine_writes(folders: Sequence[Path]) -> None:
             writes |= rights
 
     class RulesetAttr(ctypes.Structure):
-        _fields_ = [("handled_access_fs", ctypes.c_uint64)]
+        _fields_ = [("handled_access_fs", ctypes.c_uint64), ("handled_access_net", ctypes.c_uint64),
+                    ("scoped", ctypes.c_uint64)]
 
     class PathBeneath(ctypes.Structure):
         _pack_ = 1
         _fields_ = [("allowed_access", ctypes.c_uint64), ("parent_fd", ctypes.c_int32)]
 
-    attr = RulesetAttr(writes)
-    ruleset = libc.syscall(_CREATE_RULESET, ctypes.byref(attr), ctypes.c_size_t(ctypes.sizeof(attr)), 0)
+    # with no rule for them: no TCP port bound or connected to (ABI 4), no signal to a process and
+    # no abstract socket outside this process's own confinement (ABI 6)
+    attr = RulesetAttr(writes, _TCP if abi >= 4 else 0, _SCOPES if abi >= 6 else 0)
+    size = ctypes.sizeof(attr) if abi >= 6 else 16 if abi >= 4 else 8  # the fields this kernel knows
+    ruleset = libc.syscall(_CREATE_RULESET, ctypes.byref(attr), ctypes.c_size_t(size), 0)
     if ruleset < 0:
         raise _os_error(ctypes, "cannot make a Landlock ruleset")
     try:

@@ -191,6 +191,28 @@ def test_a_confined_process_can_touch_nothing_of_this_one(tmp_path, monkeypatch,
         pytest.fail("the helper the copy left is still running")
 
 
+def _reach_out() -> list:
+    import socket
+
+    said = []
+    for what, attempt in (("signal", lambda: os.kill(os.getppid(), 0)),
+                          ("tcp", lambda: socket.create_connection(("127.0.0.1", 9), timeout=1))):
+        try:
+            attempt()
+            said.append(f"{what}: done")
+        except OSError as error:
+            said.append(f"{what}: {error.errno}")
+    return said
+
+
+@pytest.mark.skipif(confine.landlock_abi() < 6, reason="this kernel's Landlock scopes neither signals nor TCP")
+def test_a_confined_process_neither_signals_this_one_nor_opens_a_tcp_connection():
+    import errno
+
+    assert confined.run_confined(_reach_out) == [f"signal: {errno.EPERM}", f"tcp: {errno.EACCES}"]
+    os.kill(os.getpid(), 0)  # this process is not confined
+
+
 def _unit(i: int, report) -> dict:
     report(0.5)
     if i == 2:
