@@ -297,6 +297,18 @@ def test_a_study_that_times_trials_here_refuses_a_learner_from_outside(tmp_path)
     assert not (tmp_path / "outside.txt").exists()
 
 
+def test_tavc_animate_refuses_to_run_a_learner_from_outside_in_its_own_process(tmp_path):
+    (tmp_path / "writer.py").write_text(LEARNER.format(where=str(tmp_path / "outside.txt"), at_import=False))
+    result = CliRunner().invoke(app, ["animate", "experiment=initial_distribution", "scale=smoke", "learner=plugin",
+                                      "learner.name=writer", f"learner.target={tmp_path / 'writer.py'}:Writer",
+                                      f"output_dir={tmp_path / 'anim'}", "--duration-s", "5", "--fps", "1"])
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    assert result.output.strip().splitlines()[-1] == (
+        "error: tavc animate runs its trials in its own process, which is not held to a folder; a learner from "
+        "outside tavc (learner.target) runs there only with executor.confine=off")
+    assert not (tmp_path / "anim").exists()
+
+
 def test_executor_confine_takes_its_three_words():
     result = CliRunner().invoke(app, ["run", "experiment=initial_distribution", "scale=smoke", "executor.confine=yes"])
     assert result.exit_code == 1

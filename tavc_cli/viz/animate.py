@@ -41,7 +41,6 @@ def simulate_for_pictures(cfg: TavcConfig, duration_s: float, frame_every_s: flo
     spec = replace(spec, duration_s=duration_s, warmup_s=0.0, start_s=0.0, deliveries=None, pose_every_s=frame_every_s,
                    breakdowns=tuple(b for b in spec.breakdowns if b.time_s < duration_s),
                    value_changes=tuple(v for v in spec.value_changes if v.time_s < duration_s))
-    in_this_process([spec], cfg.executor.confine, "tavc animate")
     return run_trials([spec])[0], arena_from_config(spec.arena)
 
 
@@ -158,6 +157,7 @@ def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float =
                         f"a frame every {frame_every_s:g} s), got {duration_s}")
     if fps < 1:
         raise TavcError(f"--fps: must be >= 1, got {fps}")
+    in_this_process(trial_specs(cfg)[:1], cfg.executor.confine, "tavc animate")  # before anything is written
     out = Path(out) if out is not None else Path(cfg.output_dir) / "animation.gif"
     if out.is_dir():
         raise TavcError(f"--out: {out} is a folder; give the file to write in it, e.g. --out {out / 'animation.gif'}")
