@@ -19,7 +19,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from tavc_cli.errors import TavcError
@@ -38,6 +38,7 @@ _WRITES_BY_ABI = (  # (first ABI that has them, rights): every way to change wha
     (3, 1 << 14),  # TRUNCATE
 )
 _TRUNCATE = 1 << 14
+_DEVICES = 1 << 6 | 1 << 11  # MAKE_CHAR, MAKE_BLOCK: handled, never granted
 _TCP = 1 | 2  # LANDLOCK_ACCESS_NET_BIND_TCP, _CONNECT_TCP
 _SCOPES = 1 | 2  # LANDLOCK_SCOPE_ABSTRACT_UNIX_SOCKET, _SIGNAL
 _DEV_NULL = "/dev/null"  # written to by libraries that silence output: allowed, as it holds nothing
@@ -88,7 +89,8 @@ def confine_writes(folders: Sequence[Path]) -> None:
     if ruleset < 0:
         raise _os_error(ctypes, "cannot make a Landlock ruleset")
     try:
-        rules = [(Path(f), writes) for f in folders]
+        granted = writes & ~_DEVICES  # a device made beneath a folder would reach the disk it stands for
+        rules = [(Path(f), granted) for f in folders]
         if os.path.exists(_DEV_NULL):
             rules.append((Path(_DEV_NULL), writes & (_WRITE_FILE | _TRUNCATE)))
         for path, rights in rules:
@@ -106,11 +108,52 @@ def confine_writes(folders: Sequence[Path]) -> None:
     finally:
         os.close(ruleset)
     _no_terminal_input()
+    _fewer_capabilities()
     _keep_compiled_code_here()
+
+
+# capabilities: what a process of root's may do beyond its files' permissions
+_PR_CAPBSET_DROP, _PR_CAP_AMBIENT, _PR_CAP_AMBIENT_CLEAR_ALL = 24, 47, 4
+_CAPABILITY_VERSION_3 = 0x20080522
+_KEPT_CAPABILITIES = 1 << 1 | 1 << 2  # CAP_DAC_OVERRIDE, CAP_DAC_READ_SEARCH: reading and writing as its files allow
+
+
+def _fewer_capabilities() -> None:
+    """A process of root's keeps only the capabilities to read and write its files as root does
+    (within its folders: Landlock still holds), and loses every other for good: devices, mounts,
+    kernel modules, ownership, other processes, the network's privileged parts. A process of
+    another user has none to lose."""
+    # deferred: only where a process is confined
+    import ctypes
+
+    libc = _libc()
+    last = int(Path("/proc/sys/kernel/cap_last_cap").read_text()) if os.path.exists("/proc/sys/kernel/cap_last_cap") \
+        else 40
+    for cap in range(last + 1):
+        if not _KEPT_CAPABILITIES >> cap & 1:
+            libc.prctl(_PR_CAPBSET_DROP, cap, 0, 0, 0)  # refused without CAP_SETPCAP: nothing to drop
+    libc.prctl(_PR_CAP_AMBIENT, _PR_CAP_AMBIENT_CLEAR_ALL, 0, 0, 0)
+
+    class Header(ctypes.Structure):
+        _fields_ = [("version", ctypes.c_uint32), ("pid", ctypes.c_int)]
+
+    class Data(ctypes.Structure):
+        _fields_ = [("effective", ctypes.c_uint32), ("permitted", ctypes.c_uint32), ("inheritable", ctypes.c_uint32)]
+
+    header, data = Header(_CAPABILITY_VERSION_3, 0), (Data * 2)()
+    if libc.capget(ctypes.byref(header), data) != 0:
+        raise _os_error(ctypes, "cannot read this process's capabilities")
+    for word, kept in zip(data, (_KEPT_CAPABILITIES, 0), strict=True):
+        word.effective &= kept
+        word.permitted &= kept
+        word.inheritable = 0
+    if libc.capset(ctypes.byref(header), data) != 0:
+        raise _os_error(ctypes, "cannot drop this process's capabilities")
 
 
 # seccomp: a filter the kernel runs on every system call of this process and those it starts
 _PR_SET_SECCOMP, _SECCOMP_MODE_FILTER = 22, 2
+_PR_SET_CHILD_SUBREAPER = 36
 _ALLOW, _DENY = 0x7FFF0000, 0x00050000 | 1  # SECCOMP_RET_ALLOW; SECCOMP_RET_ERRNO with EPERM
 _ARCHES = {"x86_64": (0xC000003E, 16), "aarch64": (0xC00000B7, 29)}  # AUDIT_ARCH_*, the number of ioctl
 _TERMINAL_INPUT = (0x5412, 0x541C)  # TIOCSTI (type into a terminal), TIOCLINUX (its subcommands can too)
@@ -171,16 +214,86 @@ def _keep_compiled_code_here() -> None:
     dispatcher.Dispatcher.enable_caching = lambda self: None
 
 
-def die_with_parent(parent: int | None = None) -> None:
-    """On Linux, this process is killed when its parent dies (PR_SET_PDEATHSIG); given the
-    parent's pid, it also exits at once if that parent died before this could be asked."""
+def die_with_parent(parent: int | None = None, sign: int = signal.SIGKILL) -> None:
+    """On Linux, this process is sent `sign` (killed, by default) when its parent dies
+    (PR_SET_PDEATHSIG); given the parent's pid, it also exits at once if that parent died before
+    this could be asked."""
     if not sys.platform.startswith("linux"):
         return
     libc = _libc()
     if libc is not None:
-        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+        libc.prctl(1, int(sign))  # PR_SET_PDEATHSIG
     if parent is not None and os.getppid() != parent:
         os._exit(1)
+
+
+# --- keeping what a confined process starts ---------------------------------------------------
+
+def keep_below(parent: int, copy: Callable[[int], None]) -> None:
+    """The keeper, a process of tavc's code alone, outside the confinement (so that nothing
+    confined can signal or trace it): a session of its own, in which every orphan of the copy it
+    starts (`copy(keeper_pid)`) becomes its child (PR_SET_CHILD_SUBREAPER). When the copy ends,
+    or this process is told to end (SIGTERM, sent too when `parent` dies), it kills every process
+    left below it and exits with the copy's status. Never returns."""
+    code = 1
+    try:
+        os.setsid()
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the run's to handle: it ends its copies
+        _libc().prctl(_PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
+        die_with_parent(parent, signal.SIGTERM)
+        me = os.getpid()
+        signal.signal(signal.SIGTERM, lambda *_: (end_below(me), os._exit(143)))
+        pid = os.fork()
+        if pid == 0:
+            copy(me)  # never returns
+        for fd in open_fds() - {0, 1, 2}:  # the copy's pipes are its own: this process holds none
+            close_quietly(fd)
+        _, status = os.waitpid(pid, 0)
+        code = os.waitstatus_to_exitcode(status)
+        end_below(me)
+    finally:
+        os._exit(code)
+
+
+def end_below(me: int) -> None:
+    """Kill every process below `me` (its children, and the orphans that become its children as
+    their parents die), until none is left."""
+    while children := [pid for pid in _pids() if _parent_of(pid) == me]:
+        for pid in children:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        for pid in children:
+            try:
+                os.waitpid(pid, 0)
+            except ChildProcessError:
+                pass
+
+
+def _pids() -> list[int]:
+    return [int(name) for name in os.listdir("/proc") if name.isdigit()]
+
+
+def _parent_of(pid: int) -> int | None:
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as stat:
+            return int(stat.read().rpartition(b")")[2].split()[1])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def open_fds() -> set[int]:
+    """The file descriptors this process holds."""
+    return {int(f) for f in os.listdir("/proc/self/fd")}
+
+
+def close_quietly(fd: int) -> None:
+    """Close `fd`, whether or not it is still open."""
+    try:
+        os.close(fd)
+    except OSError:
+        pass  # the listing's own descriptor, closed with it
 
 
 def confinement(choice: str, backend: str = "local") -> bool:

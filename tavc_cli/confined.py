@@ -16,21 +16,24 @@ from __future__ import annotations
 
 import codecs
 import json
+import math
 import os
 import selectors
 import signal
 import sys
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from tavc_cli.confine import confine_writes, die_with_parent
+from tavc_cli.confine import close_quietly, confine_writes, die_with_parent, keep_below, open_fds
 from tavc_cli.errors import TavcError
 
 MESSAGE_LIMIT = 16 << 20  # the longest line of JSON a copy may send (a failed trial's traceback is a few kB)
 _MESSAGES, _ORDERS = 3, 4  # the copy's ends of its two channels, as numbered in the copy
 _POLL_S = 0.2  # how often a copy that may have ended is looked for
+_KEEPER_S = 10.0  # how long a keeper told to end may take to end what is below it
 
 Send = Callable[[Any], None]
 Receive = Callable[[], "int | None"]
@@ -52,12 +55,13 @@ class _Copy:
     decoders: dict = field(default_factory=dict)
 
 
-def run_confined(function: Callable[..., Any], *args: Any, folders: Sequence[Path] = ()) -> Any:
+def run_confined(function: Callable[..., Any], *args: Any, folders: Sequence[Path] = (), name: str = "") -> Any:
     """`function(*args)` in a copy held to writing beneath `folders` (none: nowhere), its answer
     (JSON data: lists, dicts, strings, numbers) returned here; a `TavcError` it raises is raised
-    here with its line, anything else it raises, or the copy ending without an answer, is one
-    `TavcError` line naming the function. The copy's output is passed on to this process's."""
-    name = getattr(function, "__name__", "it")
+    here with its line, anything else it raises, or the copy ending without one answer, is one
+    `TavcError` line naming what ran (`name`, by default the function's). The copy's output is
+    passed on to this process's."""
+    name = name or getattr(function, "__name__", "it")
 
     def serve(send: Send, receive: Receive) -> None:
         send({"value": function(*args)})
@@ -68,7 +72,9 @@ def run_confined(function: Callable[..., Any], *args: Any, folders: Sequence[Pat
         _follow([copy], lambda c, message: answers.append(message), lambda c: None)
     finally:
         _end(copy)
-    if copy.ended != 0 or len(answers) != 1:
+    if len(answers) > 1:
+        raise TavcError(f"the process running {name} held to its folders answered {len(answers)} times")
+    if copy.ended != 0 or not answers:
         raise TavcError(f"the process running {name} held to its folders ended without an answer "
                         f"(exit status {copy.ended})")
     answer = answers[0]
@@ -111,7 +117,7 @@ def run_units(n_units: int, n_copies: int, folders: Sequence[Path], run_unit: Ca
             unit, frac = _pair(message["progress"])
             if unit == copy.unit:
                 progress(unit, frac)
-        elif "done" in message and message["done"] == copy.unit:
+        elif "done" in message and type(message["done"]) is int and message["done"] == copy.unit:
             results[copy.unit], done[copy.unit] = message.get("result"), True
             give(copy)
         elif "failed" in message or "refused" in message:
@@ -147,40 +153,32 @@ def _pair(value: Any) -> tuple[int, float]:
 
 
 def _text(value: Any, name: str) -> str:
+    """A text a copy sent, its control characters (a terminal's escapes among them) shown as `?`."""
     if isinstance(value, str):
-        return value
+        return plain(value)
     raise TavcError(f"the process running {name} sent an answer tavc does not know")
+
+
+def plain(text: str) -> str:
+    """`text` with every control character but a newline or a tab as `?`: a copy's words reach a
+    terminal and `failures.log` as words, never as a terminal's commands."""
+    return "".join("?" if (ord(c) < 32 and c not in "\n\t") or 127 <= ord(c) < 160 else c for c in text)
 
 
 # --- the copy ---------------------------------------------------------------------------------
 
 def _fork(folders: Sequence[Path], serve: Callable[[Send, Receive], None]) -> _Copy:
-    """A copy of this process, set apart and confined (the module's docstring), that runs
-    `serve(send, receive)`: `send` writes a JSON line to this process, `receive` reads the next
-    unit this process gives it (None when there are no more)."""
+    """A copy of this process that runs `serve(send, receive)` set apart and confined (the
+    module's docstring): `send` writes a JSON line to this process, `receive` reads the next unit
+    this process gives it (None when there are no more). The copy is the child of a keeper
+    (`confine.keep_below`), whose pid the `_Copy` holds."""
     messages, orders, out, err = os.pipe(), os.pipe(), os.pipe(), os.pipe()
     sys.stdout.flush()
     sys.stderr.flush()
     parent = os.getpid()
     pid = os.fork()
     if pid == 0:
-        code = 1
-        try:
-            _set_apart(parent, messages[1], orders[0], out[1], err[1])
-            confine_writes(folders)
-            try:
-                serve(_send, _receive)
-            except TavcError as error:
-                _send({"refused": str(error)})
-            except BaseException as error:  # noqa: BLE001 - the learner's code: its error, as one line
-                _send({"failed": f"{type(error).__name__}: {error}"})
-            code = 0
-        finally:
-            try:
-                sys.stdout.flush()
-                sys.stderr.flush()
-            finally:
-                os._exit(code)
+        keep_below(parent, lambda keeper: _serve(keeper, folders, serve, messages[1], orders[0], out[1], err[1]))
     for end in (messages[1], orders[0], out[1], err[1]):
         os.close(end)
     for end in (messages[0], out[0], err[0]):
@@ -188,15 +186,35 @@ def _fork(folders: Sequence[Path], serve: Callable[[Send, Receive], None]) -> _C
     return _Copy(pid, messages[0], orders[1], out[0], err[0])
 
 
+def _serve(keeper: int, folders: Sequence[Path], serve: Callable[[Send, Receive], None], messages: int, orders: int,
+           out: int, err: int) -> None:
+    """The copy: set apart, confined, then `serve`; its error as one message. Never returns."""
+    code = 1
+    try:
+        _set_apart(keeper, messages, orders, out, err)
+        confine_writes(folders)
+        try:
+            serve(_send, _receive)
+        except TavcError as error:
+            _send({"refused": str(error)})
+        except BaseException as error:  # noqa: BLE001 - the learner's code: its error, as one line
+            _send({"failed": f"{type(error).__name__}: {error}"})
+        code = 0
+    finally:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(code)
+
+
 def _set_apart(parent: int, messages: int, orders: int, out: int, err: int) -> None:
-    """In the copy: a session of its own, dying with `parent`; standard input /dev/null, output
-    and errors to this process's pipes; the channels as `_MESSAGES` and `_ORDERS`; every other
-    file closed."""
+    """In the copy (in its keeper's session): dying with its keeper (`parent`); standard input
+    /dev/null, output and errors to tavc's pipes; the channels as `_MESSAGES` and `_ORDERS`; every
+    other file closed."""
     # deferred: POSIX only, as Landlock is Linux's
     import fcntl
 
-    os.setsid()
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the run's to handle: it ends its copies
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     die_with_parent(parent)
     # each out of the way of 0 to 4 first, then into its place
@@ -204,13 +222,8 @@ def _set_apart(parent: int, messages: int, orders: int, out: int, err: int) -> N
                                                               orders)]
     for fd, place in zip(high, (0, 1, 2, _MESSAGES, _ORDERS), strict=True):
         os.dup2(fd, place)
-    keep = {0, 1, 2, _MESSAGES, _ORDERS}
-    for fd in [int(f) for f in os.listdir("/proc/self/fd")]:
-        if fd not in keep:
-            try:
-                os.close(fd)
-            except OSError:
-                pass  # the listing's own descriptor, closed with it
+    for fd in open_fds() - {0, 1, 2, _MESSAGES, _ORDERS}:
+        close_quietly(fd)
     sys.stdin = open(0, closefd=False)  # noqa: SIM115 - the process's own streams, for its life
     sys.stdout = open(1, "w", buffering=1, closefd=False)  # noqa: SIM115
     sys.stderr = open(2, "w", buffering=1, closefd=False)  # noqa: SIM115
@@ -256,7 +269,9 @@ def _follow(copies: list[_Copy], heard: Callable[[_Copy, dict], None], ended: Ca
                     copy.ended = os.waitstatus_to_exitcode(status)
                     for fd in (copy.messages, copy.out, copy.err):  # what it wrote before it ended
                         _read(fd, copy, heard)
+                        selector.unregister(fd)
                     live.remove(copy)
+                    _close_pipes(copy)
                     ended(copy)
     finally:
         selector.close()
@@ -290,7 +305,7 @@ def _message(line: bytes) -> dict:
         raise TavcError(f"a worker process sent a message longer than the {MESSAGE_LIMIT} bytes tavc reads")
     try:
         message = json.loads(line)
-    except ValueError:
+    except (ValueError, RecursionError):  # not JSON, or nested deeper than Python reads
         message = None
     if not isinstance(message, dict):
         raise TavcError("a worker process sent a message that is not one tavc reads")
@@ -298,20 +313,31 @@ def _message(line: bytes) -> dict:
 
 
 def _end(copy: _Copy) -> None:
-    """The copy and every process it started gone (its session's group killed), its pipes closed."""
-    try:
-        os.killpg(copy.pid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError):
-        pass
+    """The copy and every process it started gone (its keeper told to end them, `confine.keep_below`; killed
+    after `_KEEPER_S` if it has not), its pipes closed."""
     if copy.ended is None:
         try:
-            _, status = os.waitpid(copy.pid, 0)
-            copy.ended = os.waitstatus_to_exitcode(status)
-        except ChildProcessError:
+            os.kill(copy.pid, signal.SIGTERM)
+        except ProcessLookupError:
             pass
+        deadline = time.monotonic() + _KEEPER_S
+        while copy.ended is None:
+            try:
+                pid, status = os.waitpid(copy.pid, os.WNOHANG)
+            except ChildProcessError:
+                break
+            if pid:
+                copy.ended = os.waitstatus_to_exitcode(status)
+            elif time.monotonic() > deadline:
+                os.kill(copy.pid, signal.SIGKILL)
+                deadline = math.inf
+            else:
+                time.sleep(0.01)
+    _close_pipes(copy)
+
+
+def _close_pipes(copy: _Copy) -> None:
     for fd in (copy.messages, copy.orders, copy.out, copy.err):
         if fd >= 0:
-            try:
-                os.close(fd)
-            except OSError:
-                pass
+            close_quietly(fd)
+    copy.messages = copy.orders = copy.out = copy.err = -1

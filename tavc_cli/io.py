@@ -96,28 +96,45 @@ def atomic_path(path: Path, root: Path | None = None) -> Iterator[Path]:
     On any error the temporary file is removed and `path` is left as it was. `path` is
     checked first below `root`, the folder the command holds (`owned_path`; by default the
     folder written into): a link, a pipe or a device there is refused, and never written
-    through. The rename replaces only the name at `path`.
+    through. The rename replaces only the name at `path`, and only if the temporary name still
+    holds the file made for it (`_atomic`).
     """
+    with _atomic(path, root) as (tmp, _):
+        yield tmp
+
+
+@contextmanager
+def _atomic(path: Path, root: Path | None) -> Iterator[tuple[Path, int]]:
+    """`atomic_path`, yielding the temporary file's descriptor too, open for writing: what is
+    written through it, its flush to disk and its permissions never go through a name that
+    something else may have put a link at meanwhile."""
     path = Path(path)
     owned_path(path.parent if root is None else root, path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
     try:
-        yield Path(tmp)
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())  # the data is on disk before the name points at it
-        os.chmod(tmp, _FILE_MODE)  # mkstemp makes files private; results are for sharing
+        yield Path(tmp), fd
+        made, there = os.fstat(fd), os.stat(tmp, follow_symlinks=False)
+        if (made.st_dev, made.st_ino) != (there.st_dev, there.st_ino):
+            raise TavcError(f"{tmp}: replaced while tavc wrote it (by a link or another file); nothing was written "
+                            f"over {path}")
+        os.fsync(fd)  # the data is on disk before the name points at it
+        os.fchmod(fd, _FILE_MODE)  # mkstemp makes files private; results are for sharing
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    finally:
+        os.close(fd)
 
 
 def write_bytes_atomic(path: Path, data: bytes, root: Path | None = None) -> None:
-    """Write to a temporary file beside `path`, then rename it over `path` (`atomic_path`)."""
-    with atomic_path(path, root) as tmp:
-        tmp.write_bytes(data)
+    """Write to a temporary file beside `path`, then rename it over `path` (`atomic_path`),
+    through the file's descriptor."""
+    with _atomic(path, root) as (_, fd):
+        view = memoryview(data)
+        while view:
+            view = view[os.write(fd, view):]
 
 
 def write_text_atomic(path: Path, text: str, root: Path | None = None) -> None:

@@ -213,6 +213,51 @@ def test_a_confined_process_neither_signals_this_one_nor_opens_a_tcp_connection(
     os.kill(os.getpid(), 0)  # this process is not confined
 
 
+def _escape_and_stay() -> int:
+    """A helper that leaves the copy's session and its own parent, as a daemon does."""
+    read_end, write_end = os.pipe()
+    if os.fork() == 0:
+        os.setsid()
+        if os.fork() == 0:
+            os.write(write_end, f"{os.getpid()}\n".encode())
+            import time
+
+            time.sleep(120)
+        os._exit(0)
+    return int(os.read(read_end, 64))
+
+
+def _make_a_device(folder: str) -> str:
+    try:
+        os.mknod(os.path.join(folder, "disk"), 0o600 | 0o060000, os.makedev(7, 0))
+    except OSError as error:
+        return error.strerror
+    return "made"
+
+
+def _deep() -> str:
+    os.write(confined._MESSAGES, b"[" * 200_000 + b"\n")
+    return "sent"
+
+
+@needs_landlock
+def test_nothing_a_confined_process_starts_outlives_it_and_it_makes_no_device(tmp_path):
+    daemon = confined.run_confined(_escape_and_stay)
+    for _ in range(100):  # gone with the copy's keeper, though it left its session and its parent
+        try:
+            os.kill(daemon, 0)
+        except ProcessLookupError:
+            break
+        import time
+
+        time.sleep(0.05)
+    else:
+        pytest.fail("a process the copy started outlived it")
+    assert confined.run_confined(_make_a_device, str(tmp_path), folders=[tmp_path]) == "Permission denied"
+    with pytest.raises(TavcError, match="^a worker process sent a message that is not one tavc reads$"):
+        confined.run_confined(_deep)  # nested deeper than Python reads: one line
+
+
 def _unit(i: int, report) -> dict:
     report(0.5)
     if i == 2:

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from omegaconf import DictConfig, OmegaConf
 
 from tavc_cli.config.checks import at_least, check, finite, per_circuit, positive, unit
-from tavc_cli.confined import run_confined
+from tavc_cli.confined import plain, run_confined
 from tavc_cli.learning.parameters import (
     ALLOCATION,
     FINITE,
@@ -95,11 +95,11 @@ def _validate_plugin(learner: PluginSettings, n_circuits: int, n_robots: int, co
           f"{name!r} is a built-in learner's; give the learner from learner.target a name of its own")
     check(name not in RESERVED_LABELS, "learner.name",
           f"{name!r} names other rows of tavc's tables; give the learner from learner.target a name of its own")
-    tried = run_confined(_try_plugin, learner, n_circuits, n_robots) if confined else \
+    tried = run_confined(_try_plugin, learner, n_circuits, n_robots, name=f"learner {name}") if confined else \
         _try_plugin(learner, n_circuits, n_robots)
     check(isinstance(tried, list) and all(isinstance(w, str) for w in tried), "learner.target",  # a copy's: checked
           f"the rehearsal of {learner.target} answered something else than its warnings")
-    for warning in tried:
+    for warning in map(plain, tried):
         if warning not in _WARNED:
             _WARNED.add(warning)
             print(f"warning: {warning}", file=sys.stderr, flush=True)

@@ -41,7 +41,12 @@ class TrialFailure:
                 or not all(type(data[k]) is kind for k, kind in fields.items())
                 or not all(type(x) is int for x in data["seed"])):
             raise TavcError("a worker process sent a failed trial tavc does not know")
-        return cls(**{**data, "seed": tuple(data["seed"])})
+        # deferred: the copies' module, only where a failure came from one
+        from tavc_cli.confined import plain
+
+        return cls(**{**data, "seed": tuple(data["seed"]), "controller": plain(data["controller"]),
+                      "message": plain(data["message"]), "detail": plain(data["detail"]),
+                      "folder": plain(data["folder"])})
 
     @property
     def name(self) -> str:
