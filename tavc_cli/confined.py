@@ -192,7 +192,12 @@ def _serve(keeper: int, folders: Sequence[Path], serve: Callable[[Send, Receive]
     code = 1
     try:
         _set_apart(keeper, messages, orders, out, err)
-        confine_writes(folders)
+        try:
+            confine_writes(folders)
+        except OSError as error:  # a kernel or a container that refuses part of it
+            _send({"refused": f"cannot hold a learner from outside tavc to its folder here ({error}); give "
+                              "executor.confine=off to run it unconfined"})
+            os._exit(0)
         try:
             serve(_send, _receive)
         except TavcError as error:

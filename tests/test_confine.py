@@ -274,6 +274,19 @@ def test_units_run_in_confined_copies_and_a_copy_that_ends_is_named(tmp_path):
         confined.run_units(4, 2, [tmp_path], _unit, lambda i, f: None, str)
 
 
+def test_a_kernel_that_refuses_the_confinement_is_one_line(monkeypatch):
+    if not HAS_LANDLOCK:
+        pytest.skip("this kernel has no Landlock")
+
+    def refused(folders):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(confined, "confine_writes", refused)  # as a container's seccomp profile may
+    with pytest.raises(TavcError, match=r"^cannot hold a learner from outside tavc to its folder here \(\[Errno 1\] "
+                                        r"Operation not permitted\); give executor.confine=off"):
+        confined.run_confined(sorted, [2, 1])
+
+
 def test_when_a_learner_from_outside_runs_confined(monkeypatch, capsys):
     assert confine.confinement("off") is False
     with pytest.raises(TavcError, match=r"executor.confine=on: .*executor.backend=dask"):
