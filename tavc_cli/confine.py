@@ -19,6 +19,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -155,16 +156,18 @@ def _fewer_capabilities() -> None:
 _PR_SET_SECCOMP, _SECCOMP_MODE_FILTER = 22, 2
 _PR_SET_CHILD_SUBREAPER = 36
 _ALLOW, _DENY = 0x7FFF0000, 0x00050000 | 1  # SECCOMP_RET_ALLOW; SECCOMP_RET_ERRNO with EPERM
-_ARCHES = {"x86_64": (0xC000003E, 16), "aarch64": (0xC00000B7, 29)}  # AUDIT_ARCH_*, the number of ioctl
+# AUDIT_ARCH_*, and the numbers of ioctl, ptrace and process_vm_writev there
+_ARCHES = {"x86_64": (0xC000003E, 16, 101, 311), "aarch64": (0xC00000B7, 29, 117, 271)}
 _TERMINAL_INPUT = (0x5412, 0x541C)  # TIOCSTI (type into a terminal), TIOCLINUX (its subcommands can too)
 
 
 def _no_terminal_input() -> None:
     """Refuse this process the two requests that type into a terminal (TIOCSTI, TIOCLINUX): a
-    confined process must not have a shell run what it types once tavc exits. Any system call
-    of another architecture's numbering (a 32-bit call on a 64-bit machine) is refused too, so
-    that none passes the filter by another number. Where the machine is neither x86_64 nor
-    aarch64, nothing is filtered."""
+    confined process must not have a shell run what it types once tavc exits. Refuse it ptrace
+    and process_vm_writev too: a process tracing another keeps that one's end from its keeper
+    (`end_below`). Any system call of another architecture's numbering (a 32-bit call on a
+    64-bit machine) is refused, so that none passes the filter by another number. Where the
+    machine is neither x86_64 nor aarch64, nothing is filtered."""
     # deferred: only where a process is confined
     import ctypes
     import platform
@@ -172,7 +175,7 @@ def _no_terminal_input() -> None:
     arch = _ARCHES.get(platform.machine())
     if arch is None:
         return
-    audit_arch, ioctl = arch
+    audit_arch, ioctl, ptrace, vm_write = arch
 
     class Filter(ctypes.Structure):
         _fields_ = [("code", ctypes.c_uint16), ("jt", ctypes.c_uint8), ("jf", ctypes.c_uint8), ("k", ctypes.c_uint32)]
@@ -186,13 +189,15 @@ def _no_terminal_input() -> None:
         (jeq, 1, 0, audit_arch),           # 1: this machine's: on to 3
         (ret, 0, 0, _DENY),                # 2: another's: refused
         (load, 0, 0, 0),                   # 3: the call's number
-        (jge, 5, 0, 0x40000000),           # 4: x32's numbering: refused (10)
-        (jeq, 0, 3, ioctl),                # 5: not ioctl: allowed (9)
-        (load, 0, 0, 24),                  # 6: ioctl's request (the low half of its second argument)
-        (jeq, 2, 0, _TERMINAL_INPUT[0]),   # 7: TIOCSTI: refused (10)
-        (jeq, 1, 0, _TERMINAL_INPUT[1]),   # 8: TIOCLINUX: refused (10)
-        (ret, 0, 0, _ALLOW),               # 9
-        (ret, 0, 0, _DENY),                # 10
+        (jge, 7, 0, 0x40000000),           # 4: x32's numbering: refused (12)
+        (jeq, 6, 0, ptrace),               # 5: ptrace (a process tracing another below its keeper): refused
+        (jeq, 5, 0, vm_write),             # 6: process_vm_writev: refused
+        (jeq, 0, 3, ioctl),                # 7: not ioctl: allowed (11)
+        (load, 0, 0, 24),                  # 8: ioctl's request (the low half of its second argument)
+        (jeq, 2, 0, _TERMINAL_INPUT[0]),   # 9: TIOCSTI: refused (12)
+        (jeq, 1, 0, _TERMINAL_INPUT[1]),   # 10: TIOCLINUX: refused (12)
+        (ret, 0, 0, _ALLOW),               # 11
+        (ret, 0, 0, _DENY),                # 12
     ]
     filters = (Filter * len(code))(*[Filter(*c) for c in code])
     program = Program(len(code), filters)
@@ -257,18 +262,20 @@ def keep_below(parent: int, copy: Callable[[int], None]) -> None:
 
 def end_below(me: int) -> None:
     """Kill every process below `me` (its children, and the orphans that become its children as
-    their parents die), until none is left."""
+    their parents die), until none is left; reaped as they end, never waited for one by one (a
+    child another process traces reports its end to that one first)."""
     while children := [pid for pid in _pids() if _parent_of(pid) == me]:
         for pid in children:
             try:
                 os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
-        for pid in children:
-            try:
-                os.waitpid(pid, 0)
-            except ChildProcessError:
+        try:
+            while os.waitpid(-1, os.WNOHANG)[0]:
                 pass
+        except ChildProcessError:
+            pass
+        time.sleep(0.005)
 
 
 def _pids() -> list[int]:

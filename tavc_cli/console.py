@@ -13,7 +13,6 @@ that one trial has no spread (its std is shown as nan, not 0).
 from __future__ import annotations
 
 import errno
-import json
 import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -139,26 +138,16 @@ def summary_text(summary: dict[str, Any]) -> str:
         except Exception:  # the settings the run just wrote; one that cannot be read `tavc report` names
             short = ""
     text = run_summary_text({**summary, "tables": tables, "not_a_verdict": short})
-    silent = undelivered(Path(summary["output_dir"]))
+    silent = undelivered(summary.get("delivered", {}), int(summary.get("n_trials", 0)))
     if silent:
         text += "\n\n" + silent
     return text
 
 
-def undelivered(folder: Path) -> str:
-    """A line saying that no robot delivered anything in any trial of the run in `folder`, or
-    naming the controllers of which none did; empty when every controller delivered."""
-    # deferred: loads numpy
-    import numpy as np
-
-    delivered: dict[str, int] = {}
-    n_trials = 0
-    for path in sorted((folder / "trials").glob("*.npz")):
-        # only these two arrays of the record (`TrialRecord.save`'s layout): npz reads lazily
-        with np.load(path, allow_pickle=False) as data:
-            label = str(json.loads(str(data["meta"]))["controller"])
-            delivered[label] = delivered.get(label, 0) + len(data["deliveries__t_s"])
-        n_trials += 1
+def undelivered(delivered: dict[str, int], n_trials: int) -> str:
+    """A line saying that no robot delivered anything in any of the `n_trials` trials of a run,
+    or naming the controllers of which none did; empty when every controller delivered.
+    `delivered`: the run's deliveries per controller (`pipeline.delivered`)."""
     idle = [label for label, count in delivered.items() if count == 0]
     if not idle:
         return ""

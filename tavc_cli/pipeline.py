@@ -170,7 +170,15 @@ def _finish(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
     written = [n for n in owned.files if n.endswith(".csv") or n in ("config.yaml", PLAN_FILE)]
     write_provenance(cfg, run, sorted(n for n in written if (run.output_dir / n).is_file()))
     return {"output_dir": str(run.output_dir), "n_trials": len(run.specs), "n_reused": run.n_reused,
-            "wall_time_s": run.wall_time_s, "tables": tables, "claims": claims}
+            "wall_time_s": run.wall_time_s, "tables": tables, "claims": claims, "delivered": delivered(run)}
+
+
+def delivered(run: Run) -> dict[str, int]:
+    """Deliveries per controller over the run's trials, from the records its tables were made of."""
+    counts: dict[str, int] = {}
+    for spec, rec in zip(run.specs, run.records, strict=True):
+        counts[spec.controller] = counts.get(spec.controller, 0) + len(rec.table("deliveries")["t_s"])
+    return counts
 
 
 def write_sweep(values: list[dict[str, str]], folders: list[Path]) -> list[Path]:

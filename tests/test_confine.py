@@ -227,6 +227,15 @@ def _escape_and_stay() -> int:
     return int(os.read(read_end, 64))
 
 
+def _trace_me() -> str:
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.ptrace(0, 0, None, None) != 0:  # PTRACE_TRACEME
+        return os.strerror(ctypes.get_errno())
+    return "traced"
+
+
 def _make_a_device(folder: str) -> str:
     try:
         os.mknod(os.path.join(folder, "disk"), 0o600 | 0o060000, os.makedev(7, 0))
@@ -254,6 +263,7 @@ def test_nothing_a_confined_process_starts_outlives_it_and_it_makes_no_device(tm
     else:
         pytest.fail("a process the copy started outlived it")
     assert confined.run_confined(_make_a_device, str(tmp_path), folders=[tmp_path]) == "Permission denied"
+    assert confined.run_confined(_trace_me) == "Operation not permitted"  # no tracing: none hides from the keeper
     with pytest.raises(TavcError, match="^a worker process sent a message that is not one tavc reads$"):
         confined.run_confined(_deep)  # nested deeper than Python reads: one line
 

@@ -186,6 +186,28 @@ def test_the_stores_writer_refuses_a_link_as_trials_or_as_a_record(tmp_path, sib
     assert _snapshot(sibling) == before
 
 
+def test_a_record_put_in_another_trials_place_since_it_ran_is_refused_when_read_back(tmp_path):
+    """What the run reads back after its trials (`TrialStore.load`): each record only if its key is
+    its trial's, so another trial's record put in its place (by code that ran a trial) is one line."""
+    from tavc_cli import config
+    from tavc_cli.experiments.build import trial_specs
+
+    run = tmp_path / "run"
+    result = runner.invoke(app, ["run", "experiment=initial_distribution", "scale=smoke", "trials=2", "baselines=[]",
+                                 "duration_s=60", "convergence_s=20", f"output_dir={run}", "--no-progress"])
+    assert result.exit_code == 0, result.output
+    specs = trial_specs(config.settings(config.load_config(
+        ["experiment=initial_distribution", "scale=smoke", "trials=2", "baselines=[]", "duration_s=60",
+         "convergence_s=20"])))
+    assert len(TrialStore(run, Executor()).load(specs)) == 2  # as written: read
+    shutil.copyfile(run / "trials" / "tavc_000.npz", run / "trials" / "tavc_001.npz")
+    with pytest.raises(TavcError) as refused:
+        TrialStore(run, Executor()).load(specs)
+    assert str(refused.value) == (f"{run / 'trials' / 'tavc_001.npz'} is not the record its trial wrote (another "
+                                  "trial's, damaged, or larger than tavc reads); run the same command again to "
+                                  "compute it anew")
+
+
 def test_the_atomic_writer_refuses_a_link_as_parent_or_a_pipe_as_its_file(tmp_path, sibling):
     run = tmp_path / "run"
     run.mkdir()

@@ -148,8 +148,14 @@ class TrialStore:
                         f"{self.folder / 'trials'} and a rerun computes only the missing ones (details: {log})")
 
     def load(self, specs: Sequence[TrialSpec]) -> list[TrialRecord]:
-        """The records of trials that are done."""
+        """The records of trials that are done, each read only once its key is the spec's and its
+        arrays, as it declares them, at most `RECORD_LIMIT` bytes (`_stored_key`): a record
+        put in its place since it was written (by the code that ran the trial) is one line."""
         self.check_paths(specs)  # read nothing through a link either
+        for spec in specs:
+            if _stored_key(self.path(spec), limited=True) != spec.key():
+                raise TavcError(f"{self.path(spec)} is not the record its trial wrote (another trial's, damaged, or "
+                                "larger than tavc reads); run the same command again to compute it anew")
         return [TrialRecord.load(self.path(s)) for s in specs]
 
 
@@ -172,19 +178,20 @@ _MEMBERS = frozenset({"meta.npy", *(f"{name}.npy" for name in ARRAY_FIELDS),
 RECORD_LIMIT = 4 << 30
 
 
-def _stored_key(path: Path, whole: bool = False) -> str | None:
+def _stored_key(path: Path, whole: bool = False, limited: bool = False) -> str | None:
     """The key a trial record was made with; None if the file is missing or cannot be read.
     With `whole`, every byte of the record is read and checked against the checksums the
     archive keeps of each array (zip's CRC-32), every array a record holds must be there, and
     every member must read as an array (one can be whole to zip yet not an array), at most
-    `RECORD_LIMIT` bytes of them: a file damaged anywhere, not only in its header, gives None."""
+    `RECORD_LIMIT` bytes of them: a file damaged anywhere, not only in its header, gives None.
+    With `limited`, only the last: its arrays, as the archive declares them, within the limit."""
     try:
         with zipfile.ZipFile(path) as archive:
-            if whole:
-                members = archive.infolist()
-                if (not _MEMBERS <= {m.filename for m in members} or sum(m.file_size for m in members) > RECORD_LIMIT
-                        or archive.testzip() is not None):
-                    return None
+            members = archive.infolist()
+            if (whole or limited) and sum(m.file_size for m in members) > RECORD_LIMIT:
+                return None
+            if whole and (not _MEMBERS <= {m.filename for m in members} or archive.testzip() is not None):
+                return None
         with np.load(path, allow_pickle=False) as data:
             key = json.loads(str(data["meta"])).get("key")
             if whole and not all(isinstance(data[name], np.ndarray) for name in data.files):
