@@ -1,17 +1,20 @@
-"""Holding a process's writes to the folders it was given, with the Linux kernel's Landlock.
+"""Holding a process to the folders it was given, with the Linux kernel's Landlock.
 
 A learner from outside tavc is code (docs/security.md). Where the kernel offers Landlock (Linux
 5.13 and later, no privileges needed), the processes that run one restrict themselves, for the
 rest of their lives and for every process they start, to creating, writing, renaming and
 deleting files only beneath the folders they were given (`confine_writes`); anything else is
-refused by the kernel with a `PermissionError`, whatever the code does. They cannot type into a
-terminal either (a seccomp filter), and numba compiles for them without writing its cache.
-Reading, and writing to files already open, stay as they were: `confined` sets a process apart
-(closes what it need not hold) before it confines it.
+refused by the kernel with a `PermissionError`, whatever the code does. They make no device
+(Landlock), type into no terminal and trace no process (a seccomp filter), keep of root's
+capabilities only those to read and write files, and, where the kernel knows how, open no TCP
+connection and signal no process outside; numba compiles for them without writing its cache. Reading, and writing to
+files already open, stay as they were: `confined` sets a process apart (closes what it need not
+hold) before it confines it. `keep_below` is the keeper that ends every process a confined one
+starts.
 
-`executor.confine` says when: ``auto`` (the default) confines where the kernel can and says in
-one line where it cannot, ``on`` refuses to run a learner from outside tavc unconfined, ``off``
-never confines.
+`executor.confine` says when (`confinement`): ``auto`` (the default) confines where this system
+can (`refusal`) and says in one line where it cannot, ``on`` refuses to run a learner from
+outside tavc unconfined, ``off`` never confines.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable, Sequence
+from functools import cache
 from pathlib import Path
 
 from tavc_cli.errors import TavcError
@@ -311,7 +315,7 @@ def confinement(choice: str, backend: str = "local") -> bool:
     if choice == "off":
         return False
     why = ("its trials run on a cluster's workers (executor.backend=" + backend + ")" if backend != "local"
-           else None if landlock_abi() else "this system has no Landlock (Linux 5.13 or later)")
+           else refusal())
     if why is None:
         return True
     if choice == "on":
@@ -319,6 +323,35 @@ def confinement(choice: str, backend: str = "local") -> bool:
                         "give executor.confine=auto to run it unconfined")
     _say_once(f"note: a learner from outside tavc runs unconfined (it can write anywhere you can): {why}")
     return False
+
+
+@cache
+def refusal() -> str | None:
+    """Why this system cannot confine a process (`confine_writes`), None where it can: tried
+    once per process, in a copy of it that confines itself and ends (a kernel without Landlock,
+    or a container whose own filter refuses a part of it)."""
+    if not landlock_abi():
+        return "this system has no Landlock (Linux 5.13 or later)"
+    read_end, write_end = os.pipe()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    pid = os.fork()
+    if pid == 0:
+        code = 1
+        try:
+            os.close(read_end)
+            try:
+                confine_writes([])
+                code = 0
+            except OSError as error:
+                os.write(write_end, str(error).encode()[:1000])
+        finally:
+            os._exit(code)
+    os.close(write_end)
+    with os.fdopen(read_end, "rb") as said:
+        why = said.read(1001).decode(errors="replace")
+    _, status = os.waitpid(pid, 0)
+    return None if os.waitstatus_to_exitcode(status) == 0 else f"this system refuses it ({why or 'no reason given'})"
 
 
 _SAID: set[str] = set()

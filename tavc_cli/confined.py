@@ -1,11 +1,12 @@
 """Copies of this process held to folders (`confine.confine_writes`), and what they tell it.
 
 A learner from outside tavc runs only in such copies. Before anything of it runs, a copy is set
-apart: a session of its own (no terminal's signals reach it, and the whole group goes with it),
-its standard input /dev/null, its standard output and error pipes that this process reads and
-passes on, every other file it inherited closed (a file the caller holds open stays out of its
-reach), and then confined. It answers only in lines of JSON, each at most `MESSAGE_LIMIT` bytes,
-which this process reads as data: nothing a copy sends is ever unpickled or run here.
+apart: below a keeper (`confine.keep_below`) that ends every process it starts, in a session of
+their own (no terminal's signals reach it), its standard input /dev/null, its standard output and
+error pipes that this process reads and passes on, every other file it inherited closed (a file
+the caller holds open stays out of its reach), and then confined. It answers only in lines of
+JSON, each at most `MESSAGE_LIMIT` bytes, which this process reads as data: nothing a copy sends
+is ever unpickled or run here.
 
 `run_confined` runs one function in a copy and returns its answer; `run_units` runs numbered
 units of work in a few copies, each taking the next unit when it has finished one, and returns
@@ -92,6 +93,8 @@ def run_units(n_units: int, n_copies: int, folders: Sequence[Path], run_unit: Ca
     `progress(i, fraction)` here. Returns each unit's result (JSON data), in order. A copy's own
     error, or one that ends while running a unit, stops the rest and is one `TavcError` line
     naming the unit (`name(i)`)."""
+    if n_units == 0:
+        return []
     results: list = [None] * n_units
     done = [False] * n_units
     queue = list(range(n_units))
