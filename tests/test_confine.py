@@ -97,6 +97,19 @@ def _import_and_call(module: str) -> int:
     return importlib.import_module(module).doubled(3)
 
 
+def _gone(pid: int) -> bool:
+    """Whether `pid` is gone within 5 s (a process killed and reaped by another is so at once)."""
+    import time
+
+    for _ in range(100):
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return True
+        time.sleep(0.05)
+    return False
+
+
 def _refuse() -> None:
     raise TavcError("learner.target: a line of its own")
 
@@ -179,16 +192,7 @@ def test_a_confined_process_can_touch_nothing_of_this_one(tmp_path, monkeypatch,
     assert confined.run_confined(_type_into, os.ttyname(tty)) == "Operation not permitted"  # no TIOCSTI
     helper = confined.run_confined(_leave_a_helper)  # answers at once, and its helper goes with it
     assert "said by the copy" in capsys.readouterr().out  # its output passed on here
-    for _ in range(100):
-        try:
-            os.kill(helper, 0)
-        except ProcessLookupError:
-            break
-        import time
-
-        time.sleep(0.05)
-    else:
-        pytest.fail("the helper the copy left is still running")
+    assert _gone(helper), "the helper the copy left is still running"
 
 
 def _reach_out() -> list:
@@ -252,16 +256,7 @@ def _deep() -> str:
 @needs_landlock
 def test_nothing_a_confined_process_starts_outlives_it_and_it_makes_no_device(tmp_path):
     daemon = confined.run_confined(_escape_and_stay)
-    for _ in range(100):  # gone with the copy's keeper, though it left its session and its parent
-        try:
-            os.kill(daemon, 0)
-        except ProcessLookupError:
-            break
-        import time
-
-        time.sleep(0.05)
-    else:
-        pytest.fail("a process the copy started outlived it")
+    assert _gone(daemon), "a process the copy started outlived it"  # though it left its session and its parent
     assert confined.run_confined(_make_a_device, str(tmp_path), folders=[tmp_path]) == "Permission denied"
     assert confined.run_confined(_trace_me) == "Operation not permitted"  # no tracing: none hides from the keeper
     with pytest.raises(TavcError, match="^a worker process sent a message that is not one tavc reads$"):
