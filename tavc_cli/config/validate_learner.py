@@ -87,7 +87,7 @@ def _validate_plugin(learner: PluginSettings, n_circuits: int, n_robots: int, co
     already gives a meaning, a class that loads, takes the parameters given, and answers a short
     made-up run as a trial needs (`plugins.rehearse`; its warnings printed once per learner).
     Where `confined`, its code runs only in a copy of this process that can write nowhere
-    (`confine.run_confined`): this process never imports it."""
+    (`confined.run_confined`): this process never imports it."""
     name = str(learner.name)
     check(name.isidentifier(), "learner.name",
           f"a learner's name is a plain word (its label in every output), got {name!r}")

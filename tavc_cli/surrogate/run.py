@@ -22,7 +22,6 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.plan import RunPlan, plan_run
 from tavc_cli.experiments.pool import stop_workers, worker_start
-from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.runner import Run
 from tavc_cli.experiments.spec import code_digest
 from tavc_cli.experiments.store import Executor, TrialStore, _stored_key, trial_path
@@ -289,7 +288,7 @@ def run_surrogate(cfg: TavcConfig, *, times: TaskTimes | None = None, progress: 
                    if _stored_key(path, whole=True) != spec.key()]
         executor = Executor.from_config(cfg.executor)
         _draw_trials(pending, times, stayers, executor.n_jobs, executor.confine_to((s for s, _ in pending), [folder]))
-        records = [TrialRecord.load(path) for path in paths]
+        records = TrialStore(folder, executor).load(specs)  # each under its key, as the simulator's are read back
         run = Run(folder, plan, specs, records, len(specs) - len(pending), time.perf_counter() - start)
         summary = _finish(cfg, run, owned)
     return {**summary, "engine": f"the surrogate (surrogate.calibration={cfg.surrogate.calibration}, "
