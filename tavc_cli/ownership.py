@@ -252,11 +252,13 @@ def check_inside(folder: Path, kind: str, writes: Iterable[str], what: str = "ou
         owned_path(folder, folder / name, what=what)
     for name in _SUBFOLDERS.get(kind, ()):
         owned_path(folder, folder / name, folder=True, what=what)
-        for parent, folders, files in os.walk(folder / name):  # a link inside is listed, not followed
-            for entry in folders:
-                owned_path(folder, Path(parent) / entry, folder=True, what=what)
-            for entry in files:
-                owned_path(folder, Path(parent) / entry, what=what)
+        below = [folder / name] if (folder / name).is_dir() else []
+        while below:  # every level, without recursion (a tree of any depth); a link is listed, not followed
+            with os.scandir(below.pop()) as entries:
+                for entry in entries:
+                    owned_path(folder, Path(entry.path), folder=entry.is_dir(), what=what)
+                    if entry.is_dir(follow_symlinks=False):
+                        below.append(Path(entry.path))
 
 
 def _nested(path: Path) -> bool:

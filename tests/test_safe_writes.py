@@ -208,6 +208,50 @@ def test_a_record_put_in_another_trials_place_since_it_ran_is_refused_when_read_
                                   "compute it anew")
 
 
+def test_a_record_of_the_right_key_but_not_of_numbers_is_one_line(finished, tmp_path):
+    """Its key right, its contents not a record's (as code that ran the trial could leave it):
+    refused in one line when read back, never a traceback in the analysis."""
+    import numpy as np
+
+    from tavc_cli import config
+    from tavc_cli.experiments.build import trial_specs
+
+    run = tmp_path / "run"
+    shutil.copytree(finished, run)
+    path = next((run / "trials").glob("tavc_*.npz"))
+    record = TrialRecord.load(path)
+    record.tables["deliveries"]["t_s"] = np.array(["soon"] * len(record.tables["deliveries"]["t_s"]))
+    record.save(path)
+    specs = [s for s in trial_specs(config.settings(config.load_config(RUN[1:-1] + [RUN[-1]])))
+             if path.name == f"{s.controller}_{s.trial:03d}.npz"]
+    with pytest.raises(TavcError) as refused:
+        TrialStore(run, Executor()).load(specs)
+    assert str(refused.value) == (f"{path} is not the record its trial wrote (an array that is not of numbers, or a "
+                                  "column that is not flat); run the same command again to compute it anew")
+
+
+def test_a_trials_folder_of_any_depth_is_checked_without_recursion(tmp_path):
+    import sys
+
+    from tavc_cli.ownership import RUN as RUN_KIND
+    from tavc_cli.ownership import check_inside
+
+    deep = tmp_path / "run" / "trials"
+    deep.mkdir(parents=True)
+    for _ in range(400):  # made level by level (pathlib's mkdir recurses too)
+        deep = deep / "a"
+        deep.mkdir()
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(300)  # a tree deeper than recursion goes, as 1,500 levels are at Python's own limit
+    try:
+        check_inside(tmp_path / "run", RUN_KIND, [])  # folders only: nothing refused
+    finally:
+        sys.setrecursionlimit(limit)
+    (deep / "x.npz").symlink_to(tmp_path / "elsewhere.npz")
+    with pytest.raises(TavcError, match="x.npz is a symbolic link"):
+        check_inside(tmp_path / "run", RUN_KIND, [])
+
+
 def test_the_atomic_writer_refuses_a_link_as_parent_or_a_pipe_as_its_file(tmp_path, sibling):
     run = tmp_path / "run"
     run.mkdir()

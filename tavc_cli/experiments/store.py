@@ -154,9 +154,27 @@ class TrialStore:
         self.check_paths(specs)  # read nothing through a link either
         for spec in specs:
             if _stored_key(self.path(spec), limited=True) != spec.key():
-                raise TavcError(f"{self.path(spec)} is not the record its trial wrote (another trial's, damaged, or "
-                                "larger than tavc reads); run the same command again to compute it anew")
-        return [TrialRecord.load(self.path(s)) for s in specs]
+                raise _not_its_record(self.path(spec), "another trial's, damaged, or larger than tavc reads")
+        return [_checked_record(self.path(s)) for s in specs]
+
+
+def _not_its_record(path: Path, why: str) -> TavcError:
+    return TavcError(f"{path} is not the record its trial wrote ({why}); run the same command again to compute it anew")
+
+
+def _checked_record(path: Path) -> TrialRecord:
+    """The record at `path`, every array a record holds there and each a flat array of numbers
+    (the analysis reads nothing else): one line naming the file otherwise."""
+    try:
+        rec = TrialRecord.load(path)
+    except Exception as error:  # noqa: BLE001 - numpy's or zipfile's: the file is not a whole record
+        raise _not_its_record(path, f"{type(error).__name__}: {error}") from None
+    columns = [a for table in rec.tables.values() for a in table.values()]
+    arrays = [getattr(rec, name) for name in ARRAY_FIELDS]
+    if not all(isinstance(a, np.ndarray) and a.dtype.kind in "biuf" for a in (*columns, *arrays)) \
+            or not all(a.ndim == 1 for a in columns):
+        raise _not_its_record(path, "an array that is not of numbers, or a column that is not flat")
+    return rec
 
 
 def _stands(path: Path, what: str) -> TavcError:
