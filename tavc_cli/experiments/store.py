@@ -155,16 +155,17 @@ class TrialStore:
         for spec in specs:
             if _stored_key(self.path(spec), limited=True) != spec.key():
                 raise _not_its_record(self.path(spec), "another trial's, damaged, or larger than tavc reads")
-        return [_checked_record(self.path(s)) for s in specs]
+        return [_checked_record(self.path(s), s) for s in specs]
 
 
 def _not_its_record(path: Path, why: str) -> TavcError:
     return TavcError(f"{path} is not the record its trial wrote ({why}); run the same command again to compute it anew")
 
 
-def _checked_record(path: Path) -> TrialRecord:
-    """The record at `path`, every array a record holds there and each a flat array of numbers
-    (the analysis reads nothing else): one line naming the file otherwise."""
+def _checked_record(path: Path, spec: TrialSpec) -> TrialRecord:
+    """The record at `path` of `spec`'s trial, every array a record holds there, each a flat
+    array of numbers, its indices never negative and its robots and circuits the trial's (the
+    analysis reads nothing else): one line naming the file otherwise."""
     try:
         rec = TrialRecord.load(path)
     except Exception as error:  # noqa: BLE001 - numpy's or zipfile's: the file is not a whole record
@@ -174,6 +175,11 @@ def _checked_record(path: Path) -> TrialRecord:
     if not all(isinstance(a, np.ndarray) and a.dtype.kind in "biuf" for a in (*columns, *arrays)) \
             or not all(a.ndim == 1 for a in columns):
         raise _not_its_record(path, "an array that is not of numbers, or a column that is not flat")
+    bounds = {"robot": spec.n_robots, "circuit": len(spec.values)}
+    for table in rec.tables.values():
+        for name, a in table.items():
+            if a.dtype.kind in "iu" and len(a) and (a.min() < 0 or a.max() >= bounds.get(name, np.inf)):
+                raise _not_its_record(path, f"a {name} that is no {name} of its trial")
     return rec
 
 
