@@ -158,7 +158,6 @@ def _fewer_capabilities() -> None:
 
 # seccomp: a filter the kernel runs on every system call of this process and those it starts
 _PR_SET_SECCOMP, _SECCOMP_MODE_FILTER = 22, 2
-_PR_SET_CHILD_SUBREAPER = 36
 _ALLOW, _DENY = 0x7FFF0000, 0x00050000 | 1  # SECCOMP_RET_ALLOW; SECCOMP_RET_ERRNO with EPERM
 # AUDIT_ARCH_*, and the numbers of ioctl, ptrace and process_vm_writev there
 _ARCHES = {"x86_64": (0xC000003E, 16, 101, 311), "aarch64": (0xC00000B7, 29, 117, 271)}
@@ -237,6 +236,9 @@ def die_with_parent(parent: int | None = None, sign: int = signal.SIGKILL) -> No
 
 
 # --- keeping what a confined process starts ---------------------------------------------------
+
+_PR_SET_CHILD_SUBREAPER = 36  # a process's orphaned descendants become its children
+
 
 def keep_below(parent: int, copy: Callable[[int], None]) -> None:
     """The keeper, a process of tavc's code alone, outside the confinement (so that nothing

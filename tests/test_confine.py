@@ -3,17 +3,27 @@ writes elsewhere is refused by the kernel, and tavc's own process never runs its
 
 from __future__ import annotations
 
+import ctypes
+import errno
+import fcntl
+import importlib
 import os
+import pickle
+import socket
 import sys
+import termios
+import time
 import zlib
 from pathlib import Path
 
+import numba.core.config
 import pytest
 from typer.testing import CliRunner
 
-from tavc_cli import confine, confined
+from tavc_cli import config, confine, confined
 from tavc_cli.cli import app
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import in_this_process, trial_specs
 
 CAN_CONFINE = confine.refusal() is None  # Landlock, and nothing (a container's filter) refusing a part
 needs_landlock = pytest.mark.skipif(not CAN_CONFINE, reason="this system cannot confine a process")
@@ -73,10 +83,6 @@ def test_a_confined_process_writes_beneath_its_folders_only(tmp_path):
 
 @needs_landlock
 def test_a_confined_process_compiles_a_kernel_without_writing_numbas_cache(tmp_path, monkeypatch):
-    import importlib
-
-    import numba.core.config
-
     monkeypatch.setattr(numba.core.config, "CACHE_DIR", str(tmp_path / "cache"))  # outside the folder below
     (tmp_path / "fresh_kernel.py").write_text("import numba\n\n\n@numba.njit(cache=True)\ndef doubled(x):\n"
                                               "    return 2 * x\n")
@@ -92,15 +98,11 @@ def test_a_confined_process_compiles_a_kernel_without_writing_numbas_cache(tmp_p
 
 
 def _import_and_call(module: str) -> int:
-    import importlib
-
     return importlib.import_module(module).doubled(3)
 
 
 def _gone(pid: int) -> bool:
     """Whether `pid` is gone within 5 s (a process killed and reaped by another is so at once)."""
-    import time
-
     for _ in range(100):
         try:
             os.kill(pid, 0)
@@ -130,7 +132,6 @@ def test_what_a_confined_process_answers_comes_back_as_one_line(tmp_path):
 
 class _Payload:
     """An object that would run code where it is unpickled."""
-
     def __reduce__(self):
         return (os.system, ("touch payload-ran",))
 
@@ -140,8 +141,6 @@ def _payload() -> _Payload:
 
 
 def _forged_answer() -> str:
-    import pickle
-
     os.write(confined._MESSAGES, pickle.dumps(("value", _Payload())) + b"\n")  # straight into the channel
     return "forged"
 
@@ -155,9 +154,6 @@ def _held_file(fd: int) -> str:
 
 
 def _type_into(tty: str) -> str:
-    import fcntl
-    import termios
-
     fd = os.open(tty, os.O_RDONLY | os.O_NOCTTY)
     try:
         fcntl.ioctl(fd, termios.TIOCSTI, b"x")
@@ -169,8 +165,6 @@ def _type_into(tty: str) -> str:
 def _leave_a_helper() -> int:
     pid = os.fork()
     if pid == 0:
-        import time
-
         time.sleep(120)
         os._exit(0)
     print("said by the copy")
@@ -196,8 +190,6 @@ def test_a_confined_process_can_touch_nothing_of_this_one(tmp_path, monkeypatch,
 
 
 def _reach_out() -> list:
-    import socket
-
     said = []
     for what, attempt in (("signal", lambda: os.kill(os.getppid(), 0)),
                           ("tcp", lambda: socket.create_connection(("127.0.0.1", 9), timeout=1))):
@@ -211,8 +203,6 @@ def _reach_out() -> list:
 
 @pytest.mark.skipif(confine.landlock_abi() < 6, reason="this kernel's Landlock scopes neither signals nor TCP")
 def test_a_confined_process_neither_signals_this_one_nor_opens_a_tcp_connection():
-    import errno
-
     assert confined.run_confined(_reach_out) == [f"signal: {errno.EPERM}", f"tcp: {errno.EACCES}"]
     os.kill(os.getpid(), 0)  # this process is not confined
 
@@ -224,7 +214,6 @@ def _escape_and_stay() -> int:
         os.setsid()
         if os.fork() == 0:
             os.write(write_end, f"{os.getpid()}\n".encode())
-            import time
 
             time.sleep(120)
         os._exit(0)
@@ -232,8 +221,6 @@ def _escape_and_stay() -> int:
 
 
 def _trace_me() -> str:
-    import ctypes
-
     libc = ctypes.CDLL(None, use_errno=True)
     if libc.ptrace(0, 0, None, None) != 0:  # PTRACE_TRACEME
         return os.strerror(ctypes.get_errno())
@@ -354,9 +341,6 @@ def test_a_learner_that_writes_outside_its_run_fails_its_trial(tmp_path):
 
 
 def test_a_study_that_times_trials_here_refuses_a_learner_from_outside(tmp_path):
-    from tavc_cli import config
-    from tavc_cli.experiments.build import in_this_process, trial_specs
-
     (tmp_path / "writer.py").write_text(LEARNER.format(where=str(tmp_path / "outside.txt"), at_import=False))
     learner = ["learner=plugin", "learner.name=writer", f"learner.target={tmp_path / 'writer.py'}:Writer"]
     specs = trial_specs(config.settings(config.load_config(["experiment=initial_distribution", "scale=smoke",

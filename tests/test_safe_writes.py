@@ -7,18 +7,23 @@ the path, and the sibling's files are byte for byte as they were.
 
 import os
 import shutil
+import sys
 
 import matplotlib
+import numpy as np
 import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
+from tavc_cli import config
 from tavc_cli.cli import app
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.store import Executor, TrialStore, save_result
 from tavc_cli.io import LOCK_NAME, claim_folder, write_text_atomic
-from tavc_cli.ownership import take_report_folders
+from tavc_cli.ownership import RUN as RUN_KIND
+from tavc_cli.ownership import check_inside, take_report_folders
 from tavc_cli.viz.figures import plt, save_figure
 from tavc_cli.viz.sweep import sweep_figure
 
@@ -189,8 +194,6 @@ def test_the_stores_writer_refuses_a_link_as_trials_or_as_a_record(tmp_path, sib
 def test_a_record_put_in_another_trials_place_since_it_ran_is_refused_when_read_back(tmp_path):
     """What the run reads back after its trials (`TrialStore.load`): each record only if its key is
     its trial's, so another trial's record put in its place (by code that ran a trial) is one line."""
-    from tavc_cli import config
-    from tavc_cli.experiments.build import trial_specs
 
     run = tmp_path / "run"
     result = runner.invoke(app, ["run", "experiment=initial_distribution", "scale=smoke", "trials=2", "baselines=[]",
@@ -211,10 +214,6 @@ def test_a_record_put_in_another_trials_place_since_it_ran_is_refused_when_read_
 def test_a_record_of_the_right_key_but_not_of_numbers_is_one_line(finished, tmp_path):
     """Its key right, its contents not a record's (as code that ran the trial could leave it):
     refused in one line when read back, never a traceback in the analysis."""
-    import numpy as np
-
-    from tavc_cli import config
-    from tavc_cli.experiments.build import trial_specs
 
     run = tmp_path / "run"
     shutil.copytree(finished, run)
@@ -233,11 +232,6 @@ def test_a_record_of_the_right_key_but_not_of_numbers_is_one_line(finished, tmp_
 
 
 def test_a_trials_folder_of_any_depth_is_checked_without_recursion(tmp_path):
-    import sys
-
-    from tavc_cli.ownership import RUN as RUN_KIND
-    from tavc_cli.ownership import check_inside
-
     deep = tmp_path / "run" / "trials"
     deep.mkdir(parents=True)
     for _ in range(400):  # made level by level (pathlib's mkdir recurses too)

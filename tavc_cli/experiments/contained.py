@@ -8,6 +8,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from tavc_cli.confined import plain
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.records import TrialRecord
@@ -41,9 +42,6 @@ class TrialFailure:
                 or not all(type(data[k]) is kind for k, kind in fields.items())
                 or not all(type(x) is int for x in data["seed"])):
             raise TavcError("a worker process sent a failed trial tavc does not know")
-        # deferred: the copies' module, only where a failure came from one
-        from tavc_cli.confined import plain
-
         return cls(**{**data, "seed": tuple(data["seed"]), "controller": plain(data["controller"]),
                       "message": plain(data["message"]), "detail": plain(data["detail"]),
                       "folder": plain(data["folder"])})

@@ -316,7 +316,7 @@ def _draw_trials(pending: list, times: TaskTimes, stayers: bool, n_jobs: int, co
     try:
         if confine_to:
             run_units(len(pending), n_jobs, confine_to, lambda k, report: _draw_one(k), lambda k, frac: None,
-                      lambda k: pending[k][0].controller + f"_{pending[k][0].trial:03d}")
+                      lambda k: pending[k][1].stem)  # a trial named as its record is
             return
         if n_jobs <= 1 or len(pending) <= 1 or not CAN_FORK:
             for k in range(len(pending)):
