@@ -24,6 +24,7 @@ from tavc_cli.config import load_config
 from tavc_cli.config import settings as to_settings
 from tavc_cli.errors import TavcError
 from tavc_cli.io import file_digest
+from tavc_cli.ownership import TURN_TAKING_FILES, TURN_TAKING_KIND, take
 from tavc_cli.pipeline import run_experiment
 from tavc_cli.run_checks import RunFacts, check_run
 from tests.helpers import then_interrupted
@@ -272,13 +273,18 @@ def test_a_damaged_prediction_of_the_turn_taking_model_is_refused_before_anythin
     assert len(result.output.strip().splitlines()) == 1 and _files(results) == before
 
 
-def test_a_damaged_table_of_the_turn_taking_models_own_learners_is_refused(breakdown, tmp_path):
-    """The model's own learners' run, set beside the learners' runs seed for seed: checked like
-    any run the report reads (here: its robots' table without the kinds)."""
+@pytest.mark.parametrize("study", ["turn_taking", "stay_switch", "stay_switch_calibrated"])
+def test_a_damaged_table_of_the_turn_taking_models_own_learners_is_refused(breakdown, tmp_path, study):
+    """The model's own learners' run, set beside the learners' runs seed for seed (at the
+    chapter's scenarios, or in a stay/switch study's reading): checked like any run the report
+    reads (here: its robots' table without the kinds)."""
     results = _results_with(tmp_path, breakdown)
-    where = results / "turn_taking" / "breakdown" / "turn_taking"
+    where = results / study / "breakdown" / "turn_taking"
+    where.mkdir(parents=True)
+    take(where, TURN_TAKING_KIND, TURN_TAKING_FILES)  # read as the model's folder, not searched for runs
     shutil.copytree(breakdown, where / "learners")
     (where / "turn_taking.json").write_text(json.dumps({"regime": "turn-taking", "modal_state": "3:2",
+                                                        "robots_high": 2.5, "modal_share_pct": 46.0,
                                                         "learners_run": "learners"}))
     path = where / "learners" / "robots.csv"
     pd.read_csv(path).drop(columns="kind").to_csv(path, index=False)

@@ -77,9 +77,10 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`run_checks.check_run`:
     its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
     readings' study's tables, the calibration searches' tables, the surrogate study's tables, the
-    comparisons of other learners, the turn-taking model's predictions and its own learners' and
-    alternators' runs. The runs are checked two at a time (`_check_runs`). Returns the runs whose
-    claims or comparison today's rules make otherwise than their files say."""
+    comparisons of other learners, the turn-taking model's predictions (at the chapter's scenarios
+    and in the stay/switch studies' readings) and its own learners' and alternators' runs. The runs
+    are checked two at a time (`_check_runs`). Returns the runs whose claims or comparison today's
+    rules make otherwise than their files say."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")
@@ -102,7 +103,9 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     study_tables(results_dir)  # the surrogate study's
     compare_tables(results_dir)  # the comparisons of other learners
     own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
-    for path in prediction_files(results_dir):  # the predictions
+    studies = [p for d in STAY_SWITCH_DIRS for p in prediction_files(results_dir, d)]
+    predictions = prediction_files(results_dir) + studies
+    for path in predictions:  # the model's at the chapter's scenarios, and in the stay/switch studies' readings
         predicted = read_prediction(path)
         runs = (model_learners(path.parent, predicted), model_alternators(path.parent, predicted))
         own += [d for d in runs if d is not None and (d / "config.yaml").is_file()]

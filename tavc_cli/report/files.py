@@ -296,11 +296,12 @@ def read_prediction(path: Path) -> dict:
 TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
 
 
-def prediction_files(results_dir: Path) -> list[Path]:
-    """Every turn-taking prediction under results_dir/turn_taking (`<name>/turn_taking/turn_taking.json`),
-    in natural order of its name; a folder or a dangling link in a prediction's place too, for its
-    reader (`read_prediction`) to refuse."""
-    root = results_dir / TURN_TAKING_RUNS
+def prediction_files(results_dir: Path, under: str = TURN_TAKING_RUNS) -> list[Path]:
+    """Every turn-taking prediction under results_dir/`under` (`<name>/turn_taking/turn_taking.json`;
+    by default the model's at the chapter's scenarios, a stay/switch study's folder for its
+    readings'), in natural order of its name; a folder or a dangling link in a prediction's place
+    too, for its reader (`read_prediction`) to refuse."""
+    root = results_dir / under
     folders = root.glob("*/turn_taking") if root.is_dir() else ()
     return sorted((d / "turn_taking.json" for d in folders if there(d / "turn_taking.json")),
                   key=lambda p: natural(p.as_posix()))
