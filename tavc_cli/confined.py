@@ -3,10 +3,10 @@
 A learner from outside tavc runs only in such copies. Before anything of it runs, a copy is set
 apart: below a keeper (`confine.keep_below`) that ends every process it starts, in a session of
 their own (no terminal's signals reach it), its standard input /dev/null, its standard output and
-error pipes that this process reads and passes on, every other file it inherited closed (a file
-the caller holds open stays out of its reach), and then confined. It answers only in lines of
-JSON, each at most `MESSAGE_LIMIT` bytes, which this process reads as data: nothing a copy sends
-is ever unpickled or run here.
+error pipes that this process reads and passes on (their control characters shown as `?`), every
+other file it inherited closed (a file the caller holds open stays out of its reach), and then
+confined. It answers only in lines of JSON, each at most `MESSAGE_LIMIT` bytes, which this
+process reads as data: nothing a copy sends is ever unpickled or run here.
 
 `run_confined` runs one function in a copy and returns its answer; `run_units` runs numbered
 units of work in a few copies, each taking the next unit when it has finished one, and returns
@@ -296,7 +296,7 @@ def _read(fd: int, copy: _Copy, heard: Callable[[_Copy, dict], None]) -> None:
         if fd != copy.messages:
             stream = sys.stdout if fd == copy.out else sys.stderr
             decoder = copy.decoders.setdefault(fd, codecs.getincrementaldecoder("utf-8")(errors="replace"))
-            stream.write(decoder.decode(chunk))
+            stream.write(plain(decoder.decode(chunk)))  # its words, never a terminal's commands
             stream.flush()
             continue
         copy.pending.extend(chunk)

@@ -167,7 +167,7 @@ def _leave_a_helper() -> int:
     if pid == 0:
         time.sleep(120)
         os._exit(0)
-    print("said by the copy")
+    print("said by the copy\x1b]0;a title\x07", file=sys.stderr)
     return pid
 
 
@@ -185,7 +185,8 @@ def test_a_confined_process_can_touch_nothing_of_this_one(tmp_path, monkeypatch,
     _, tty = os.openpty()
     assert confined.run_confined(_type_into, os.ttyname(tty)) == "Operation not permitted"  # no TIOCSTI
     helper = confined.run_confined(_leave_a_helper)  # answers at once, and its helper goes with it
-    assert "said by the copy" in capsys.readouterr().out  # its output passed on here
+    said = capsys.readouterr().err  # its errors passed on here, a terminal's escape as words
+    assert "said by the copy?]0;a title?" in said and "\x1b" not in said and "\x07" not in said
     assert _gone(helper), "the helper the copy left is still running"
 
 
