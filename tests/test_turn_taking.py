@@ -159,7 +159,7 @@ def test_the_report_sets_a_scenarios_prediction_beside_its_learners_at_each_hori
     beside; without the learners' run there is no row."""
     import shutil
 
-    from tavc_cli.report.studies import turn_taking_check_lines
+    from tavc_cli.report.beside import turn_taking_check_lines
     from tests.helpers import REPO
 
     run = REPO / "results" / "converged" / "breakdown"
@@ -266,7 +266,7 @@ def test_a_post_hoc_prediction_stands_beside_its_scenarios_run_and_is_tallied_ap
     the model as it is at the same run (1 of 1)."""
     import shutil
 
-    from tavc_cli.report.studies import turn_taking_check_lines
+    from tavc_cli.report.beside import turn_taking_check_lines
     from tests.helpers import REPO
 
     assert base_name("team_size_3-explorers-post_hoc") == base_name("team_size_3-explorers") == "team_size_3"
@@ -306,7 +306,7 @@ def test_a_prediction_finds_its_learners_among_a_readings_experiments(tmp_path):
     set beside the base case's run inside it; a folder with neither gives no row."""
     import shutil
 
-    from tavc_cli.report.studies import turn_taking_check_lines
+    from tavc_cli.report.beside import turn_taking_check_lines
     from tests.helpers import REPO
 
     run = REPO / "results" / "converged" / "initial_distribution"
@@ -333,8 +333,8 @@ def test_a_team_of_two_groups_is_read_without_robots_on_the_high_circuit(tmp_pat
     """A run of a team of several groups writes no allocation.csv (its states count each group):
     its group is read all the same, the robots on the high-value circuit NaN, and the report's
     words show a dash for them."""
+    from tavc_cli.report.beside import prediction_words
     from tavc_cli.report.mechanism import read_group
-    from tavc_cli.report.studies import _prediction_words
 
     mech = _mechanism([("tavc", "stable", 3, 2, 1, 0)])
     mech.to_csv(tmp_path / "mechanism.csv", index=False)
@@ -342,7 +342,7 @@ def test_a_team_of_two_groups_is_read_without_robots_on_the_high_circuit(tmp_pat
     cfg = config.settings(config.load_config(["experiment=heterogeneous", "scale=smoke"]))
     got = read_group(tmp_path, cfg)
     assert got["regime"] == "persistence" and got["modal_state"] == "4:2" and math.isnan(got["robots_high"])
-    assert _prediction_words(got) == "persistence, -, 4:2 (31 %)"
+    assert prediction_words(got) == "persistence, -, 4:2 (31 %)"
 
 
 def test_a_prediction_at_other_values_is_set_beside_the_value_ratio_sweeps_run_at_those_values(tmp_path):
@@ -350,7 +350,7 @@ def test_a_prediction_at_other_values_is_set_beside_the_value_ratio_sweeps_run_a
     committed 40x run of the value-ratio sweep at those values, and beside no other."""
     import shutil
 
-    from tavc_cli.report.studies import turn_taking_check_lines
+    from tavc_cli.report.beside import turn_taking_check_lines
     from tests.helpers import REPO
 
     sweep = REPO / "results" / "value_ratio" / "converged"
@@ -389,8 +389,8 @@ def test_a_prediction_at_another_team_size_is_set_beside_the_team_size_sweeps_ru
     no runs of the chapter's horizon."""
     import shutil
 
+    from tavc_cli.report.beside import turn_taking_check_lines
     from tavc_cli.report.runs import run_folders
-    from tavc_cli.report.studies import turn_taking_check_lines
     from tests.helpers import REPO
 
     job = REPO / "results" / "value_ratio" / "converged" / "1_tasks.values=_2200,2000_"

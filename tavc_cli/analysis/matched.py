@@ -75,10 +75,15 @@ def seed_for_seed(robots_a: pd.DataFrame, q_a: pd.DataFrame, robots_b: pd.DataFr
     `TABLE_COLUMNS`) robot by robot: of the robots both ran from the same first Q-table, how
     many end as the same kind, against the number chance gives (the module's docstring). None
     where no robot was matched."""
-    tables_a, tables_b = first_tables(q_a), first_tables(q_b)
+    return matched_robots(kinds(robots_a), first_tables(q_a), kinds(robots_b), first_tables(q_b))
+
+
+def matched_robots(kinds_a: pd.Series, tables_a: pd.DataFrame, kinds_b: pd.Series,
+                   tables_b: pd.DataFrame) -> Matched | None:
+    """`seed_for_seed` on each run's robots' kinds (`kinds`) and first Q-tables (`first_tables`),
+    for a caller that sets one run beside several others and reads each once."""
     common = tables_a.index.intersection(tables_b.index)
     same_table = (tables_a.loc[common].to_numpy() == tables_b.loc[common].to_numpy()).all(axis=1)
-    kinds_a, kinds_b = kinds(robots_a), kinds(robots_b)
     matched = common[same_table].intersection(kinds_a.index).intersection(kinds_b.index)
     if len(matched) == 0:
         return None

@@ -43,6 +43,7 @@ from tavc_cli.report.counterfactuals import calibration_lines, calibration_table
 from tavc_cli.report.drawing import FigurePool, figure_files, remove_stale_figures
 from tavc_cli.report.figures import find_model
 from tavc_cli.report.files import (
+    SWEEPS,
     check_model,
     config_of,
     horizon_folders,
@@ -59,12 +60,7 @@ from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import LADDER, finished_runs, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
-from tavc_cli.report.studies import (
-    STAY_SWITCH_DIRS,
-    SWEEPS,
-    stay_switch_lines,
-    value_ratio_lines,
-)
+from tavc_cli.report.studies import STAY_SWITCH_DIRS, stay_switch_lines, value_ratio_lines
 from tavc_cli.report.surrogate import study_tables, surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
@@ -74,7 +70,7 @@ from tavc_cli.run_checks import check_run
 def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: dict[str, list[Path]]) -> list[Path]:
     """Check every file the report reads, and where it writes, before writing anything: a
     damaged file is one line naming it, not a half-built report. Every run of every horizon,
-    of the sweeps (`studies.SWEEPS`) and in other readings at every horizon (`run_checks.check_run`:
+    of the sweeps (`files.SWEEPS`) and in other readings at every horizon (`run_checks.check_run`:
     its config.yaml, provenance.json and tables), the models' outputs, the ladders' tables, the
     readings' study's tables, the calibration searches' tables, the surrogate study's tables, the
     comparisons of other learners, the turn-taking model's predictions (at the chapter's scenarios

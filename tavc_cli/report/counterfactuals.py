@@ -25,10 +25,16 @@ from tavc_cli.analysis.stay_switch import reading_name, split_folder
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import WORLD_SEARCH_DIR
 from tavc_cli.readers import load_json, read_table
-from tavc_cli.report.files import horizon_folders, is_run_folder, natural, read_or_refuse, seed_for_seed_cell
+from tavc_cli.report.files import (
+    READINGS_RUNS,
+    horizon_folders,
+    is_run_folder,
+    natural,
+    read_or_refuse,
+    seed_for_seed_cell,
+)
 from tavc_cli.report.horizons import Horizon, mechanism_cell, read_horizon
 from tavc_cli.report.runs import finished_runs
-from tavc_cli.report.studies import READINGS_RUNS
 from tavc_cli.report.text import p_cell
 
 

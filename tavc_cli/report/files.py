@@ -14,10 +14,10 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.ladder import LADDER_COLUMNS
-from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_rows, seed_for_seed
+from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_tables, kinds, matched_robots
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder
 from tavc_cli.errors import TavcError
-from tavc_cli.ownership import STAY_SWITCH_TABLES
+from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
 from tavc_cli.readers import REWRITE, TableSpec, load_json, read_table
 from tavc_cli.run_tables import MODEL_REWRITE, in_hidden_folder, model_rows
 from tavc_cli.settings import TavcConfig, from_yaml
@@ -31,7 +31,7 @@ def config_of(path: Path) -> TavcConfig:
     return _config_of(str(path.resolve()), stat.st_mtime_ns, stat.st_size)
 
 
-@lru_cache(maxsize=256)
+@lru_cache(maxsize=1024)  # a results folder holds hundreds of runs (425 today), each read by several sections
 def _config_of(path: str, mtime_ns: int, size: int) -> TavcConfig:
     return from_yaml(Path(path))
 
@@ -105,7 +105,7 @@ def plain_name(name: str) -> bool:
 
 
 def sweep_runs(results_dir: Path, folder: str) -> list[Path]:
-    """The runs of the sweep in `results_dir/folder` (`studies.SWEEPS`, or a horizon's readings), finished or
+    """The runs of the sweep in `results_dir/folder` (`files.SWEEPS`, or a horizon's readings), finished or
     not: every folder with a `config.yaml` at any depth but in hidden folders (`run_tables.in_hidden_folder`), in
     natural order of their paths."""
     root = results_dir / folder
@@ -130,26 +130,26 @@ def seed_for_seed_cell(base: Path | None, other: Path | None) -> str:
     paths = [d / f"{name}.csv" for d in (base, other) for name in ("robots", "q_values")]
     if not all(p.is_file() for p in paths):
         return ""
-    tables = [_seed_table(p) for p in paths]
-    matched = seed_for_seed(*tables)
+    matched = matched_robots(*(_seed_table(p) for p in paths))
     return "none matched" if matched is None else f"{matched.same} of {matched.robots} ({matched.chance:.0f})"
 
 
-def _seed_table(path: Path) -> pd.DataFrame:
-    """A run's robots' table, or its Q-values' first snapshots (`matched.first_rows`), read once
-    per version of the file (a run is set beside several others); refused in one line naming it
-    where a column `analysis.matched` needs is missing. Shared between callers: never changed."""
+def _seed_table(path: Path) -> pd.Series | pd.DataFrame:
+    """A run's robots' kinds (`matched.kinds`) or first Q-tables (`matched.first_tables`), from its
+    `robots.csv` or `q_values.csv`, read once per version of the file (a run is set beside several
+    others); refused in one line naming it where a column `analysis.matched` needs is missing.
+    Shared between callers: never changed."""
     stat = path.stat()
     return _seed_table_of(str(path), stat.st_mtime_ns, stat.st_size, path.name == "q_values.csv")  # named as given
 
 
-@lru_cache(maxsize=128)
-def _seed_table_of(path: str, mtime_ns: int, size: int, q_values: bool) -> pd.DataFrame:
+@lru_cache(maxsize=1024)  # two tables a run, for every run a prediction is set beside
+def _seed_table_of(path: str, mtime_ns: int, size: int, q_values: bool) -> pd.Series | pd.DataFrame:
     table = read_or_refuse(Path(path), read_table)
     missing = [c for c in (TABLE_COLUMNS if q_values else ROBOT_COLUMNS) if c not in table.columns]
     if missing:
         raise TavcError(f"{path}: cannot be read (no column {missing[0]!r}); rerun its experiment to rewrite it")
-    return first_rows(table) if q_values else table
+    return first_tables(table) if q_values else kinds(table)
 
 
 STAY_SWITCH_REWRITE = "run its `tavc stay-switch` again to rewrite it"
@@ -294,6 +294,12 @@ def read_prediction(path: Path) -> dict:
 
 
 TURN_TAKING_RUNS = "turn_taking"  # under the results folder: the turn-taking model at the chapter's scenarios
+TEAM_SIZE_DIR = "team_size"  # under the results folder: the learners at other team sizes (`make team-size-checks`)
+# the sweeps under the results folder the report reads as studies, not run by run, each with where
+# it is read: a prediction of the turn-taking model is set beside their runs at 40x in its world
+SWEEPS = {VALUE_RATIO_DIR: "the value-ratio sweep, in *Learning values and time*",
+          TEAM_SIZE_DIR: "the team-size sweep, in *The readings* (the turn-taking model's check points)"}
+READINGS_RUNS = READINGS_DIR  # under a results or horizon folder: runs in a reading, <arrival>-<passing>-<arena>
 
 
 def prediction_files(results_dir: Path, under: str = TURN_TAKING_RUNS) -> list[Path]:

@@ -33,6 +33,8 @@ from tavc_cli.ownership import (
 from tavc_cli.readers import load_json
 from tavc_cli.report.figures import experiment_figures
 from tavc_cli.report.files import (
+    READINGS_RUNS,
+    SWEEPS,
     config_of,
     horizon_folders,
     is_horizon_folder,
@@ -42,14 +44,13 @@ from tavc_cli.report.files import (
     sweep_runs,
 )
 from tavc_cli.report.spatiotemporal import spatiotemporal_lines
-from tavc_cli.report.studies import READINGS_RUNS, SWEEPS
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.settings import TavcConfig, to_yaml
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
 # folders directly under the results folder that the report reads otherwise than run by run:
 # the longer horizons (`horizon_folders`, their runs found there in turn), the sweeps of the value
-# ratio and the team size (`studies.SWEEPS`) and the runs in other readings (`studies.READINGS_RUNS`);
+# ratio and the team size (`files.SWEEPS`) and the runs in other readings (`files.READINGS_RUNS`);
 # under a horizon, the horizon ladder (`time_scale.ladder_lines`) and its readings
 LADDER = "ladder"
 
@@ -71,7 +72,7 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
     """Every run folder under `folder` at any depth (`is_run_folder`), in natural order of
     their paths: a run's own folder is not searched further (its `trials/`, `model/`), nor
     `figures/`, hidden folders, or what the report reads otherwise (directly under the results
-    folder, `top`: the longer horizons, the sweeps (`studies.SWEEPS`) and the runs in other readings of
+    folder, `top`: the longer horizons, the sweeps (`files.SWEEPS`) and the runs in other readings of
     the world, `readings/`; a `ladder/` with its `ladder.csv`). A link is not followed: each run
     is found once, where it lies, and a link that loops back leads nowhere."""
     out = []
@@ -105,7 +106,7 @@ def finished_runs(results_dir: Path) -> tuple[dict[str, list[Path]], list[Path]]
 
 def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
     """(what reads them, run folders) for the studies the report reads as a whole: the
-    horizon ladder's rungs, the runs in other readings, the sweeps' runs (`studies.SWEEPS`)."""
+    horizon ladder's rungs, the runs in other readings, the sweeps' runs (`files.SWEEPS`)."""
     out = []
     for horizon in horizon_folders(results_dir):
         ladder = horizon / LADDER
