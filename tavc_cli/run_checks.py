@@ -28,6 +28,7 @@ import csv
 import io
 import math
 import re
+from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from itertools import product
@@ -269,6 +270,31 @@ def _check_columns(path: Path, schema: TableSchema, header: list[str], rows: lis
                or c.startswith(schema.prefixes)]
     at = {c: k for k, c in enumerate(header)}
     keys = [c for c in schema.keys if c in at]
+    if not _all_fine(rows, [at[c] for c in keys], [at[c] for c in numbers],
+                     {at[c]: allowed for c, allowed in schema.choices.items()}):
+        _first_wrong_cell(path, schema, rows, at, keys, numbers)
+    _check_trials(path, header, rows, facts)
+    _check_states(path, header, rows, facts)
+
+
+def _all_fine(rows: list, keys: list[int], numbers: list[int], choices: dict[int, frozenset]) -> bool:
+    """Whether every cell of the columns at `keys` is filled, every one at `numbers` empty or a
+    number, and every one at `choices` one of its choices: column by column, each column's cells
+    checked in one pass (`_first_wrong_cell` finds the first line that is not, in line order)."""
+    columns = list(zip(*(row for _, row in rows), strict=True)) if rows else []
+    try:
+        for k in numbers:
+            deque(map(float, filter(None, columns[k])), maxlen=0)  # a ValueError where one is no number
+    except ValueError:
+        return False
+    return all("" not in columns[k] for k in keys) and all(set(columns[k]) <= allowed
+                                                          for k, allowed in choices.items())
+
+
+def _first_wrong_cell(path: Path, schema: TableSchema, rows: list, at: dict[str, int], keys: list[str],
+                      numbers: list[str]) -> None:
+    """One line naming the first line, in the table's order, with a key left empty, a number that
+    is none or a cell that is none of its column's choices."""
     for line, row in rows:
         for c in keys:
             if row[at[c]] == "":
@@ -279,8 +305,6 @@ def _check_columns(path: Path, schema: TableSchema, header: list[str], rows: lis
         for c, allowed in schema.choices.items():
             if row[at[c]] not in allowed:
                 raise damaged(path, f"line {line}: {c} {row[at[c]]!r} is none of {', '.join(sorted(allowed))}")
-    _check_trials(path, header, rows, facts)
-    _check_states(path, header, rows, facts)
 
 
 def _check_trials(path: Path, header: list[str], rows: list, facts: RunFacts) -> None:

@@ -172,6 +172,10 @@ def _insert_line(k: int, line: str):
     ("trial_stats.csv", _edit_line(3, 1, "7"), "line 3: tavc trial 7 is not among the trials provenance.json lists"),
     ("state_time.csv", _edit_line(4, 0, "4:4"), "line 4: state '4:4' is no state of this experiment's team"),
     ("robots.csv", _edit_line(2, 0, ""), "line 2: no controller"),
+    # two lines wrong: the first in the table's order is named, whatever its column and fault
+    ("robots.csv", lambda data: _edit_line(3, 0, "")(_edit_line(2, 5, "many")(data)),
+     "line 2: n_choices 'many' is not a number"),
+    ("robots.csv", lambda data: _edit_line(3, 5, "many")(_edit_line(2, 0, "")(data)), "line 2: no controller"),
 ])
 def test_a_readable_but_malformed_table_is_refused_before_anything_is_written(breakdown, tmp_path, name, edit, what):
     results = _results_with(tmp_path, breakdown)
