@@ -110,11 +110,8 @@ def reproduce(
         typer.Option("--experiments", help="Comma-separated experiment names (default: every one).",
                      show_default=False),
     ] = None,
-    results: Annotated[
-        Optional[Path],
-        typer.Option("--results", help="Folder that gets one folder per experiment (default: runs/<scale>).",
-                     show_default=False),
-    ] = None,
+    results: Annotated[Optional[Path], options.results("Folder that gets one folder per experiment (default: "
+                                                       "runs/<scale>).")] = None,
     ladder: Annotated[
         Optional[str],
         typer.Option("--ladder", help="Also the horizon ladder at these multiples of the chapter's durations "
@@ -139,11 +136,9 @@ def ladder_command(
     factors: Annotated[
         str, typer.Option("--factors", help="Multiples of the chapter's durations, comma-separated.")
     ] = "1,4,10,20,40",
-    results: Annotated[
-        Optional[Path],
-        typer.Option("--results", help="Folder whose ladder/ gets one folder per rung (default: runs/<scale>, "
-                                       "runs/converged unless a scale is given).", show_default=False),
-    ] = None,
+    results: Annotated[Optional[Path], options.results("Folder whose ladder/ gets one folder per rung (default: "
+                                                       "runs/<scale>, runs/converged unless a scale is given).")
+                       ] = None,
     progress: options.ProgressFlag = None,
 ) -> None:
     """initial_distribution at several multiples of the chapter's durations, history shared; ladder.csv."""
@@ -155,10 +150,9 @@ def ladder_command(
 @app.command("stay-switch")
 def stay_switch_command(
     overrides: options.overrides_of("seed=3 surrogate.trials_per_makeup=8") = None,
-    results: Annotated[
-        Path, typer.Option("--results", help="The study's folder: one folder per reading with its measured tasks, "
-                                             "stay_switch.csv and its figure beside them.")
-    ] = Path("runs/stay_switch"),
+    results: Annotated[Path, options.results("The study's folder: one folder per reading with its measured tasks, "
+                                             "stay_switch.csv and its figure beside them.", show_default=True)
+                       ] = Path("runs/stay_switch"),
     calibrated: options.CalibratedFrom = None,
     progress: options.ProgressFlag = None,
 ) -> None:
@@ -201,11 +195,7 @@ def surrogate(
         bool, typer.Option("--study", help="Check the surrogate against the simulator's runs and map what it "
                                             "answers: comparison, ladder, phase diagram, convergence horizon, speed.")
     ] = False,
-    results: Annotated[
-        Optional[Path],
-        typer.Option("--results", help="The study's folder (default: runs/surrogate-study).",
-                     show_default=False),
-    ] = None,
+    results: Annotated[Optional[Path], options.results("The study's folder (default: runs/surrogate-study).")] = None,
     simulator: Annotated[
         Path, typer.Option("--simulator", help="The simulator's runs the study compares with (their results root).")
     ] = Path("results"),
@@ -251,10 +241,8 @@ def compare(
         Optional[str], typer.Option("--experiments", help="Comma-separated scenarios; by default "
                                     f"{', '.join(SCENARIOS)}, and your own that compare serves.", show_default=False)
     ] = None,
-    results: Annotated[
-        Optional[Path],
-        typer.Option("--results", help="The comparison's folder (default: runs/<scale>/compare).", show_default=False),
-    ] = None,
+    results: Annotated[Optional[Path], options.results("The comparison's folder (default: runs/<scale>/compare).")
+                       ] = None,
     reuse: Annotated[
         Optional[list[str]],
         typer.Option("--reuse", help="CONTROLLER=FOLDER: take a controller's runs from a folder holding one per "
@@ -374,7 +362,7 @@ def animate(
 @app.command()
 def report(
     results_dir: Annotated[
-        Path, typer.Argument(help="Folder holding one folder per experiment run.", show_default=True)
+        Path, typer.Argument(help="Folder holding one folder per experiment run.", parser=options.folder)
     ] = Path("results"),
     progress: Annotated[
         Optional[bool],

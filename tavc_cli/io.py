@@ -30,6 +30,24 @@ def default_root(scale: str) -> Path:
     return Path(RUNS_DIR) / str(scale)
 
 
+def plain_name(name: str) -> bool:
+    """Whether `name` names one folder in the folder it is read in (a scale's, an experiment's):
+    never empty, never a path that leads elsewhere, no space at either end."""
+    return name not in ("", ".", "..") and not any(c in name for c in "/\\") and name == name.strip()
+
+
+def root_problem(folder: str | Path) -> str | None:
+    """What is wrong with `folder` as a folder tavc writes results into, or None: empty (an unset
+    variable, as a rule), or the root of the file system (where a run's files would lie among the
+    system's)."""
+    if not str(folder).strip():
+        return "must not be empty"
+    resolved = Path(folder).resolve()
+    if resolved == Path(resolved.anchor):
+        return f"{folder} is the root of the file system; give the results a folder of their own"
+    return None
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -186,6 +204,9 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
     # deferred: POSIX only
     import fcntl
 
+    problem = root_problem(folder)
+    if problem is not None:
+        raise TavcError(f"{what}: {problem}")
     folder = Path(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)

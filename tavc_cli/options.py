@@ -7,6 +7,8 @@ from typing import Annotated, Any, Optional
 import typer
 from typer.core import TyperArgument, TyperCommand, TyperGroup, TyperOption
 
+from tavc_cli.io import root_problem
+
 
 def overrides_of(example: str) -> Any:
     """The type of a command's Hydra overrides, its help showing `example`."""
@@ -31,6 +33,20 @@ ProgressFlag = Annotated[
         metavar="",  # a flag takes no value: no type label beside it
     ),
 ]
+
+
+def folder(text: str) -> Path:
+    """A folder named on the command line (`--results`, the report's RESULTS_DIR): one line where
+    it is empty or the root of the file system (`io.root_problem`)."""
+    problem = root_problem(text)
+    if problem is not None:
+        raise typer.BadParameter(problem)
+    return Path(text)
+
+
+def results(help_text: str, show_default: bool = False) -> Any:
+    """A command's ``--results`` option: the folder it writes, checked as `folder` checks it."""
+    return typer.Option("--results", help=help_text, show_default=show_default, parser=folder)
 
 
 def shown(progress: Optional[bool]) -> bool:

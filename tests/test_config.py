@@ -423,6 +423,19 @@ def test_load_sweep_validates_every_job_and_names_the_bad_one():
         load_sweep(["learner=tavc_egreedy", "learner.epsilon=0.1,1.5"])
 
 
+def test_a_sweep_too_large_to_be_a_study_is_refused_before_it_is_spelled_out():
+    """range() is read lazily: a slip of a few zeros is one line at once, not an hour of listing
+    jobs; so is a product of sweeps past the limit (10,000 jobs), and a range() that cannot count."""
+    with pytest.raises(TavcError, match="^seed: the sweep gives it more than 10,000 values; a sweep runs at most "
+                                        "10,000 jobs$"):
+        load_sweep(["seed=range(0,100000000000)"])
+    with pytest.raises(TavcError, match=r"^the sweep has 10,100 jobs \(101 x 100 values\); a sweep runs at most "
+                                        r"10,000 jobs$"):
+        load_sweep(["seed=range(0,101)", "trials=range(1,101)"])
+    with pytest.raises(TavcError, match="^seed: range\\(\\) arg 3 must not be zero$"):
+        load_sweep(["seed=range(0,3,0)"])
+
+
 # ------------------------------------------------------------------------------ experiments
 
 

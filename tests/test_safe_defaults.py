@@ -57,6 +57,45 @@ def test_a_scale_name_that_is_not_a_plain_name_is_refused(name):
         config.load_config([f"scale.name='{name}'"])
 
 
+@pytest.mark.parametrize("name", ["/tmp/elsewhere", "../../out", "a/b", "", "."])
+def test_an_experiment_name_that_is_not_a_plain_name_is_refused(name):
+    """The default folder is runs/<scale.name>/<experiment_name>: a name that is a path would lead out."""
+    with pytest.raises(TavcError, match="^experiment_name: .* is not a plain name"):
+        config.load_config([f"experiment_name='{name}'"])
+
+
+@pytest.mark.parametrize(("args", "line"), [
+    (["reproduce", "scale=smoke", "--experiments", "breakdown", "--results", "/"], "Invalid value for '--results': /"),
+    (["ladder", "scale=smoke", "--factors", "1", "--results", "/"], "Invalid value for '--results': /"),
+    (["compare", "scale=smoke", "--results", "/"], "Invalid value for '--results': /"),
+    (["report", "/"], "Invalid value for 'RESULTS_DIR': /"),
+    (["run", "-m", "scale=smoke", "trials=1", "seed=0,1", "output_dir=/"], "output_dir: /"),
+])
+def test_the_root_of_the_file_system_is_no_commands_folder(args, line, tmp_path):
+    """Refused in one line before anything is written: a sweep holds its jobs' folder, refused
+    before any job runs."""
+    result = helpers.tavc(*args, cwd=tmp_path)
+    assert result.returncode in (1, 2), result.stderr
+    assert result.stderr.startswith(f"error: {line} is the root of the file system; give the results a folder of "
+                                    "their own"), result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and list(tmp_path.iterdir()) == []
+    assert not Path("/0_seed=0").exists() and not Path("/breakdown").exists()
+
+
+@pytest.mark.parametrize(("args", "line"), [
+    (["reproduce", "scale=smoke", "--experiments", "breakdown", "--results", ""], "Invalid value for '--results': "),
+    (["stay-switch", "--results", ""], "Invalid value for '--results': "),
+    (["report", ""], "Invalid value for 'RESULTS_DIR': "),
+    (["run", "-m", "scale=smoke", "trials=1", "seed=0,1", "output_dir="],
+     "job 0 (scale=smoke trials=1 seed=0 output_dir=): output_dir: "),
+])
+def test_an_empty_folder_is_refused_not_taken_for_the_working_folder(args, line, tmp_path):
+    result = helpers.tavc(*args, cwd=tmp_path)
+    assert result.returncode in (1, 2), result.stderr
+    assert result.stderr.startswith(f"error: {line}must not be empty"), result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and list(tmp_path.iterdir()) == []
+
+
 def test_model_identity_is_what_model_json_records_at_that_scale():
     cfg = config.settings(config.load_config(["experiment=initial_distribution", "scale=smoke"]))
     identity = model_identity(cfg)

@@ -2,6 +2,7 @@
 `messages` turns failures into one line)."""
 
 import itertools
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Optional
@@ -16,7 +17,14 @@ from omegaconf.errors import (
 from tavc_cli.chapter import base_case
 from tavc_cli.config.limits import sources, validate_measurement_time
 from tavc_cli.config.messages import hydra_errors, omegaconf_message
-from tavc_cli.config.overrides import is_hydra_override, override_key, parse_overrides, slug, sweep_choices
+from tavc_cli.config.overrides import (
+    MAX_SWEEP_JOBS,
+    is_hydra_override,
+    override_key,
+    parse_overrides,
+    slug,
+    sweep_choices,
+)
 from tavc_cli.config.resolve import resolve
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
@@ -116,6 +124,11 @@ def plan_sweep(overrides: Sequence[str]) -> list[tuple[list[str], DictConfig]]:
     empty = [key for key, values in choices.items() if not values]
     if empty:
         raise TavcError(f"{empty[0]}: the sweep gives it no values, so there is no job to run")
+    n_jobs = math.prod(len(values) for values in choices.values())
+    if n_jobs > MAX_SWEEP_JOBS:
+        product = " x ".join(str(len(values)) for values in choices.values() if len(values) > 1)
+        raise TavcError(f"the sweep has {n_jobs:,} jobs ({product} values); a sweep runs at most "
+                        f"{MAX_SWEEP_JOBS:,} jobs")
     swept = {key for key, values in choices.items() if len(values) > 1}
     jobs = [list(job) for job in itertools.product(*choices.values())]
     width = len(str(len(jobs) - 1))

@@ -12,6 +12,9 @@ from hydra.errors import HydraException, OverrideParseException
 from tavc_cli.config.messages import override_syntax_message
 from tavc_cli.errors import TavcError
 
+# a sweep of more jobs is a slip (range(0,100000000)), not a study: each job is a run of its own
+MAX_SWEEP_JOBS = 10_000
+
 
 def is_hydra_override(text: str) -> bool:
     """Whether an override sets Hydra's own config (``hydra/launcher=...``, ``hydra.x=...``)."""
@@ -83,12 +86,18 @@ def sweep_choices(overrides: Sequence[str]) -> dict[str, list[str]]:
         if not override.is_sweep_override():
             choices[key] = [text]
         elif override.is_discrete_sweep():
-            try:
-                choices[key] = [f"{key}={value}" for value in override.sweep_string_iterator()]
+            try:  # read lazily: range() with a huge stop is refused, not spelled out
+                values = list(itertools.islice(override.sweep_string_iterator(), MAX_SWEEP_JOBS + 1))
             except HydraException:
                 raise TavcError(
                     f"{key}: glob() sweeps are not supported; list the options"
                 ) from None
+            except ValueError as error:  # range() with a step of 0, say
+                raise TavcError(f"{key}: {error}") from None
+            if len(values) > MAX_SWEEP_JOBS:
+                raise TavcError(f"{key}: the sweep gives it more than {MAX_SWEEP_JOBS:,} values; a sweep runs at most "
+                                f"{MAX_SWEEP_JOBS:,} jobs")
+            choices[key] = [f"{key}={value}" for value in values]
         else:
             raise TavcError(f"{key}: only lists, range() and choice() can be swept, not interval()")
     return choices

@@ -37,6 +37,7 @@ from typing import Optional
 
 from omegaconf import DictConfig
 
+from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.registry import MODEL_LEARNERS
 from tavc_cli.model.allocations import model_allocations
@@ -80,6 +81,8 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
         event.time_s = event.time_s * factor
     base_dir = cfg.output_dir if cfg.output_dir is not None else str(default_output_dir(cfg.scale.name,
                                                                                         cfg.experiment_name))
+    if job_dir and not str(base_dir).strip():  # a sweep's jobs would land in the working folder
+        raise TavcError("output_dir: must not be empty")
     cfg.output_dir = str(Path(base_dir) / job_dir) if job_dir else base_dir
     # (a team that could never start is left for validation to refuse: expanding it could take minutes)
     if cfg.team.members is None and 1 <= cfg.team.n_robots <= _most_robots(cfg):

@@ -2,7 +2,6 @@
 
 import importlib.util
 import math
-from pathlib import Path
 from typing import Optional
 
 from omegaconf import DictConfig, OmegaConf
@@ -29,6 +28,7 @@ from tavc_cli.config.validate_world import (
 )
 from tavc_cli.confine import CONFINE_CHOICES, confinement
 from tavc_cli.experiments.clock import due_tick, end_tick
+from tavc_cli.io import plain_name, root_problem
 from tavc_cli.learning.registry import BASELINES, MODEL_LEARNERS
 from tavc_cli.settings import (
     ANALYSIS_STATES,
@@ -57,9 +57,8 @@ def check_no_missing(cfg: DictConfig) -> None:
 
 def validate_scaling(cfg: DictConfig) -> None:
     """Check what resolution derives values from, so errors name the key the user set."""
-    name = str(cfg.scale.name)
-    if not name or name in (".", "..") or any(c in name for c in "/\\") or name != name.strip():
-        fail("scale.name", f"{name!r} is not a plain name; runs go to runs/<scale.name>/ by default")
+    if not plain_name(str(cfg.scale.name)):
+        fail("scale.name", f"{str(cfg.scale.name)!r} is not a plain name; runs go to runs/<scale.name>/ by default")
     positive("scale.time_factor", cfg.scale.time_factor)
     one_of("scale.stable_window", cfg.scale.stable_window, STABLE_WINDOWS)
     for key in ("deliveries_factor", "baseline_time_factor"):
@@ -256,9 +255,11 @@ def _validate_run(cfg: DictConfig) -> None:
     # a trial counted in deliveries counts them from t = 0: where its baselines start is no part of it
     check(not cfg.baselines or cfg.baseline_lead_s is None or cfg.deliveries is None, "baseline_lead_s",
           "baselines can start late only in runs without a delivery count (deliveries); set baseline_lead_s=null")
-    check(bool(cfg.output_dir), "output_dir", "must not be empty")
-    check(Path(cfg.output_dir).resolve() != Path(Path(cfg.output_dir).resolve().anchor), "output_dir",
-          f"{cfg.output_dir} is the root of the file system; give the results a folder of their own")
+    check(plain_name(str(cfg.experiment_name)), "experiment_name",
+          f"{str(cfg.experiment_name)!r} is not a plain name; runs go to runs/<scale.name>/<experiment_name>/ by "
+          "default")
+    problem = root_problem(cfg.output_dir or "")
+    check(problem is None, "output_dir", problem or "")
 
 
 def _validate_tasks(tasks: DictConfig, n_circuits: int) -> None:

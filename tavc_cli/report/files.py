@@ -17,6 +17,7 @@ from tavc_cli.analysis.ladder import LADDER_COLUMNS
 from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_tables, kinds, matched_robots
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder
 from tavc_cli.errors import TavcError
+from tavc_cli.io import plain_name
 from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
 from tavc_cli.readers import REWRITE, TableSpec, load_json, read_table
 from tavc_cli.run_tables import MODEL_REWRITE, in_hidden_folder, model_rows
@@ -97,11 +98,6 @@ def model_alternators(where: Path, predicted: dict) -> Path | None:
 
 def _model_run(where: Path, name: str) -> Path | None:
     return where / name if plain_name(name) else None
-
-
-def plain_name(name: str) -> bool:
-    """Whether `name` names one folder in the folder it is read in: never a path that leads elsewhere."""
-    return name not in ("", ".", "..") and "/" not in name and "\\" not in name
 
 
 def sweep_runs(results_dir: Path, folder: str) -> list[Path]:
