@@ -18,6 +18,7 @@ from tavc_cli.config import (
 )
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
+from tavc_cli.user_configs import using_config_dirs
 
 CONF_DIR = find_conf_dir()
 EXPERIMENTS = sorted(path.stem for path in (CONF_DIR / "experiment").glob("*.yaml"))
@@ -434,6 +435,48 @@ def test_a_sweep_too_large_to_be_a_study_is_refused_before_it_is_spelled_out():
         load_sweep(["seed=range(0,101)", "trials=range(1,101)"])
     with pytest.raises(TavcError, match="^seed: range\\(\\) arg 3 must not be zero$"):
         load_sweep(["seed=range(0,3,0)"])
+
+
+@pytest.mark.parametrize(("override", "line"), [
+    ("arena.targets.foo=1", "arena.targets.foo: 'arena.targets.foo=1' cannot be applied (ValueError: invalid "
+                            "literal for int() with base 10: 'foo')"),
+    ("~arena.targets.0", "arena.targets.0: '~arena.targets.0' cannot be applied (TypeError: "),
+    ("tasks=[1]", "tasks: 'tasks=[1]' cannot be applied (TypeError: "),
+    ("seed=" + "[" * 500 + "]" * 500, "seed: its value is nested too deeply to read"),
+    ("events.breakdowns=[{time_s:0,circuit:'²'}]", "events.breakdowns[0].circuit: must be null, high, low or a "
+                                                  "circuit index in [0, 2), got '²'"),
+])
+def test_an_override_hydra_cannot_apply_is_one_line_naming_it(override, line):
+    """Hydra lets some slips through as Python's errors (a list given a key that is no index, a
+    group given a list, a value nested past its parser): each is one line naming the override."""
+    with pytest.raises(TavcError) as caught:
+        load_config(["experiment=breakdown", override])
+    assert str(caught.value).startswith(line), str(caught.value)
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered")  # the arena's own area, computed on the way
+def test_an_arena_too_long_for_its_reach_grid_is_one_line():
+    """The grid on which the walls' free space is checked has at most `REACH_MAX_CELLS` cells a
+    side, however long and thin the arena (one 1e200 m long asked for more than numpy holds)."""
+    with pytest.raises(TavcError, match="^arena.walls: "):
+        load_config(["arena.walls=[[1,1,2,2]]", "arena.width_m=1e200"])
+
+
+@pytest.mark.parametrize(("name", "text", "why"), [
+    ("learner/bin.yaml", b"\x00\x01\xff\xfe", "(UnicodeDecodeError: 'utf-8' codec can't decode byte 0xff"),
+    ("experiment/selfref.yaml", b"defaults:\n  - /experiment/selfref\n",
+     "(nested too deeply, or a config file that includes itself)"),
+    ("experiment/five.yaml", b"defaults: 5\n", "(ValueError: Invalid defaults list in 'experiment/five', defaults "
+                                                "must be a list (got int))"),
+    ("experiment/alias.yaml", b"seed: &a [*a]\n", "(nested too deeply, or a config file that includes itself)"),
+])
+def test_a_config_file_of_ones_own_hydra_cannot_read_is_one_line_naming_it(tmp_path, name, text, why):
+    (tmp_path / name).parent.mkdir()
+    (tmp_path / name).write_bytes(text)
+    group, option = name.removesuffix(".yaml").split("/")
+    with using_config_dirs(tmp_path), pytest.raises(TavcError) as caught:
+        load_config([f"{group}={option}"])
+    assert str(caught.value).startswith(f"{group}: '{group}={option}' cannot be applied {why}"), str(caught.value)
 
 
 # ------------------------------------------------------------------------------ experiments

@@ -16,7 +16,7 @@ from omegaconf.errors import (
 
 from tavc_cli.chapter import base_case
 from tavc_cli.config.limits import sources, validate_measurement_time
-from tavc_cli.config.messages import hydra_errors, omegaconf_message
+from tavc_cli.config.messages import hydra_errors, omegaconf_message, uncaught_by_hydra, uncomposable_message
 from tavc_cli.config.overrides import (
     MAX_SWEEP_JOBS,
     is_hydra_override,
@@ -299,7 +299,21 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
     as an exception that becomes one ``TavcError`` line.
     """
     with hydra_errors(overrides), initialize_conf():
-        return compose(config_name="config", overrides=[*search_overrides(), *overrides])
+        try:
+            return compose(config_name="config", overrides=[*search_overrides(), *overrides])
+        except (ValueError, TypeError, KeyError, IndexError, RecursionError) as error:
+            if not uncaught_by_hydra(error):
+                raise  # Hydra's and OmegaConf's own, made one line by `hydra_errors`
+            culprit = next((o for o in overrides if not _composes([o])), None)
+            raise TavcError(uncomposable_message(overrides, culprit, error)) from None
+
+
+def _composes(overrides: Sequence[str]) -> bool:
+    try:
+        compose(config_name="config", overrides=[*search_overrides(), *overrides])
+    except Exception:  # noqa: BLE001 - only whether it composes
+        return False
+    return True
 
 
 def search_overrides() -> list[str]:

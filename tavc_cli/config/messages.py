@@ -45,6 +45,24 @@ def hydra_errors(overrides: Sequence[str]) -> Iterator[None]:
         raise TavcError(_group_value_message(overrides)) from None
 
 
+def uncaught_by_hydra(error: Exception) -> bool:
+    """Whether `error`, raised while composing, is one Hydra lets slip from an override or a config
+    file it cannot read (a list node given a key that is no index, a group given a list, a file
+    that is not UTF-8 or includes itself) rather than one of its own (`hydra_errors`)."""
+    own = isinstance(error, (HydraException, OmegaConfBaseException))
+    return not own and "Config group override must be" not in str(error)
+
+
+def uncomposable_message(overrides: Sequence[str], culprit: str | None, error: Exception) -> str:
+    """One line for an `uncaught_by_hydra` error: the override that does not compose even alone
+    (`culprit`), or all of them."""
+    why = ("nested too deeply, or a config file that includes itself" if isinstance(error, RecursionError)
+           else f"{type(error).__name__}: {error}")
+    if culprit is not None:
+        return f"{culprit.partition('=')[0].lstrip('+~')}: {culprit!r} cannot be applied ({why})"
+    return f"the overrides {' '.join(overrides)} cannot be applied together ({why})"
+
+
 def override_syntax_message(overrides: Sequence[str], index: int, error: Exception,
                             parses: Callable[[str], bool]) -> str:
     """One line for an override Hydra's grammar cannot read, with the quoting that would read it.

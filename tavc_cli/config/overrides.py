@@ -64,6 +64,8 @@ def parse_overrides(overrides: Sequence[str]) -> list:
             parsed.extend(parser.parse_overrides([text]))
         except OverrideParseException as error:
             raise TavcError(override_syntax_message(overrides, index, error, _parses(parser))) from None
+        except RecursionError:  # the grammar's parser recurses once a level: [[[...]]] a few hundred deep
+            raise TavcError(f"{override_key(text)}: its value is nested too deeply to read") from None
     return parsed
 
 

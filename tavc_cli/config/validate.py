@@ -359,7 +359,7 @@ def _validate_breakdown_target(
     if circuit is None or circuit in ("high", "low"):
         return
     check(
-        circuit.isdigit() and int(circuit) < n_circuits,
+        circuit.isascii() and circuit.isdigit() and int(circuit) < n_circuits,  # not "²", a digit to Python
         f"{key}.circuit",
         f"must be null, high, low or a circuit index in [0, {n_circuits}), got {circuit!r}",
     )

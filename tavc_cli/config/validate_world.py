@@ -148,7 +148,8 @@ def validate_reachable(arena: DictConfig, robot: DictConfig) -> None:
         return
     model = arena_from_config(arena)
     width, height, radius = model.width_m, model.height_m, float(robot.radius_m)
-    cell = max(min(REACH_CELL_M, radius / 4), math.sqrt(width * height / REACH_MAX_CELLS))
+    cell = max(min(REACH_CELL_M, radius / 4), math.sqrt(width * height / REACH_MAX_CELLS),
+               max(width, height) / REACH_MAX_CELLS)  # however long and thin: at most REACH_MAX_CELLS a side
     xs, ys = np.arange(cell / 2, width, cell), np.arange(cell / 2, height, cell)
     x, y = np.meshgrid(xs, ys)
     free = wall_distance(model.walls, x, y) > radius
