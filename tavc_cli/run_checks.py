@@ -36,7 +36,7 @@ from pathlib import Path
 
 from tavc_cli.analysis.table_schemas import TABLE_NAMES, TABLES, TableSchema
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.plan import PLAN_FILE
+from tavc_cli.experiments.plan import PLAN_FILE, read_plan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import file_digest
 from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
@@ -70,6 +70,7 @@ class RunFacts:
     fewest: int
     # a file whose rewrite by tavc was stopped before its end -> its digest before (None: it was not there)
     replaced: dict[str, str | None] = field(default_factory=dict)
+    cfg: TavcConfig | None = None  # the run's settings, its plan.json read against them
 
     @classmethod
     def of(cls, cfg: TavcConfig, provenance: dict | None, folder: Path) -> RunFacts:
@@ -91,7 +92,7 @@ class RunFacts:
             digests = provenance.get("tables")
             replaced = unfinished_rewrites(provenance)
         return cls(folder, trials, digests, scheme, sizes, len(cfg.arena.circuits),
-                   len(names) - len(cfg.events.breakdowns), replaced)
+                   len(names) - len(cfg.events.breakdowns), replaced, cfg)
 
     def valid_state(self, label: str) -> bool:
         """Whether `label` is a state of this team: robots per circuit (high-value circuit
@@ -199,10 +200,23 @@ def check_run(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) -> R
         if PLAN_FILE not in facts.digests:
             raise damaged(plan, "not among the files provenance.json lists (left by another run?)")
         _check_digest(plan, facts.digests)
+    if plan.is_file() and facts.cfg is not None:
+        _check_plan(plan, facts.cfg)
     for name in TABLE_NAMES:
         if (facts.folder / f"{name}.csv").is_file():
             check_table(facts.folder / f"{name}.csv", facts)
     return facts
+
+
+def _check_plan(path: Path, cfg: TavcConfig) -> None:
+    """The run's `plan.json` read as the report reads it (`plan.read_plan`): one line naming it
+    where it is no plan of the config beside it, not JSON, or lists no controller."""
+    try:
+        read_plan(path.parent, cfg)
+    except TavcError:
+        raise  # a refusal naming the file already
+    except Exception as exc:  # noqa: BLE001 - JSON's, a codec's, an empty list's: the file is damaged
+        raise damaged(path, f"cannot be read ({_first_line(exc)})") from None
 
 
 def load_record(path: Path) -> TrialRecord:
@@ -270,23 +284,39 @@ def _check_columns(path: Path, schema: TableSchema, header: list[str], rows: lis
                or c.startswith(schema.prefixes)]
     at = {c: k for k, c in enumerate(header)}
     keys = [c for c in schema.keys if c in at]
-    if not _all_fine(rows, [at[c] for c in keys], [at[c] for c in numbers],
+    columns = list(zip(*(row for _, row in rows), strict=True)) if rows else []
+    if not _all_fine(columns, [at[c] for c in keys], [at[c] for c in numbers],
                      {at[c]: allowed for c, allowed in schema.choices.items()}):
         _first_wrong_cell(path, schema, rows, at, keys, numbers)
+    _check_unique(path, [at[c] for c in schema.unique], columns, rows)
     _check_trials(path, header, rows, facts)
     _check_states(path, header, rows, facts)
 
 
-def _all_fine(rows: list, keys: list[int], numbers: list[int], choices: dict[int, frozenset]) -> bool:
-    """Whether every cell of the columns at `keys` is filled, every one at `numbers` empty or a
+def _check_unique(path: Path, unique: list[int], columns: list, rows: list) -> None:
+    """No two rows the same in the columns at `unique` (a row repeated, say), which a reader takes
+    for one: checked at once, and row by row only to name the first line that repeats one."""
+    if not unique or len(set(zip(*(columns[k] for k in unique), strict=True))) == len(rows):
+        return
+    seen: set[tuple] = set()
+    for line, row in rows:
+        key = tuple(row[k] for k in unique)
+        if key in seen:
+            raise damaged(path, f"line {line}: a second row for {', '.join(key)}")
+        seen.add(key)
+
+
+def _all_fine(columns: list, keys: list[int], numbers: list[int], choices: dict[int, frozenset]) -> bool:
+    """Whether every cell of the `columns` at `keys` is filled, every one at `numbers` empty or a
     number, and every one at `choices` one of its choices: column by column, each column's cells
     checked in one pass (`_first_wrong_cell` finds the first line that is not, in line order)."""
-    columns = list(zip(*(row for _, row in rows), strict=True)) if rows else []
     try:
         for k in numbers:
             deque(map(float, filter(None, columns[k])), maxlen=0)  # a ValueError where one is no number
     except ValueError:
         return False
+    if any(_LONG_WHOLE.search("\n".join(columns[k])) for k in numbers):
+        return False  # a whole number that may be too long for the tables' integers
     return all("" not in columns[k] for k in keys) and all(set(columns[k]) <= allowed
                                                           for k, allowed in choices.items())
 
@@ -301,7 +331,8 @@ def _first_wrong_cell(path: Path, schema: TableSchema, rows: list, at: dict[str,
                 raise damaged(path, f"line {line}: no {c}")
         for c in numbers:
             if row[at[c]] != "" and not _is_number(row[at[c]]):
-                raise damaged(path, f"line {line}: {c} {row[at[c]]!r} is not a number")
+                raise damaged(path, f"line {line}: {c} {row[at[c]]!r} is not a number" +
+                              (" a table holds (too large a whole number)" if _is_whole(row[at[c]]) else ""))
         for c, allowed in schema.choices.items():
             if row[at[c]] not in allowed:
                 raise damaged(path, f"line {line}: {c} {row[at[c]]!r} is none of {', '.join(sorted(allowed))}")
@@ -383,12 +414,22 @@ def _check_digest(path: Path, digests: dict[str, str] | None, table: bool = Fals
         raise damaged(path, "changed since its run wrote it (its SHA-256 is not the one provenance.json recorded)")
 
 
+_LONG_WHOLE = re.compile(r"^[ \t]*[+-]?\d{19}", re.M)  # a cell that starts with 19 digits may not fit 64 bits
+
+
 def _is_number(cell: str) -> bool:
+    """Whether `cell` is a number a table's reader takes: what `float` reads, and a whole number
+    only within 64-bit integers (a longer one is read as a Python integer no array holds)."""
     try:
         float(cell)
     except ValueError:
         return False
-    return True
+    return not _is_whole(cell) or -(2 ** 63) <= int(cell) < 2 ** 63
+
+
+def _is_whole(cell: str) -> bool:
+    digits = cell.strip().removeprefix("-").removeprefix("+")
+    return digits.isascii() and digits.isdigit()
 
 
 def _first_line(exc: Exception) -> str:

@@ -184,6 +184,42 @@ def test_a_readable_but_malformed_table_is_refused_before_anything_is_written(br
     _refused(results, path, what)
 
 
+def test_a_repeated_row_and_a_whole_number_past_64_bits_are_refused(breakdown, tmp_path):
+    """Both have a table's shape, and its digest would not say which line is wrong: a reader takes
+    a repeated state for one, and reads a whole number of 19 digits or more as no array holds it."""
+    results = _results_with(tmp_path, breakdown)
+    path = results / "breakdown" / "state_time.csv"
+    lines = path.read_text().split("\n")
+    path.write_text("\n".join([*lines[:2], lines[1], *lines[2:]]))
+    state, controller = lines[1].split(",")[:2]
+    _refused(results, path, f"line 3: a second row for {state}, {controller}")
+    results = _results_with(tmp_path / "big", breakdown)
+    path = results / "breakdown" / "allocation.csv"
+    path.write_bytes(_edit_line(2, 4, "9" * 19)(path.read_bytes()))
+    _refused(results, path, f"line 2: n_trials '{'9' * 19}' is not a number a table holds (too large a whole number)")
+    path.write_bytes(_edit_line(2, 4, str(2 ** 63 - 1))(path.read_bytes()))  # the largest that fits: its digest
+    _refused(results, path, "changed since its run wrote it (its SHA-256 is not the one provenance.json recorded)")
+
+
+@pytest.mark.parametrize(("text", "why"), [
+    (b"", "cannot be read (Expecting value: line 1 column 1 (char 0))"),
+    (b"\xff\xfe", "cannot be read ('utf-8' codec can't decode byte 0xff in position 0: invalid start byte)"),
+    (None, "cannot be read (tuple index out of range)"),  # no controller
+])
+def test_a_damaged_plan_is_refused_before_anything_is_written(breakdown, tmp_path, text, why):
+    """A run's plan.json, read for the learner its claims are about: checked with the run, also
+    where provenance.json records no digests (a folder of an older tavc, or made by hand)."""
+    results = _results_with(tmp_path, breakdown)
+    prov = json.loads((results / "breakdown" / "provenance.json").read_text())
+    del prov["tables"]
+    (results / "breakdown" / "provenance.json").write_text(json.dumps(prov))
+    path = results / "breakdown" / "plan.json"
+    if text is None:
+        text = json.dumps({**json.loads(path.read_text()), "controllers": []}).encode()
+    path.write_bytes(text)
+    _refused(results, path, why)
+
+
 def test_a_changed_number_is_caught_by_its_digest_alone(breakdown, tmp_path):
     results = _results_with(tmp_path, breakdown)
     path = results / "breakdown" / "trial_stats.csv"

@@ -24,8 +24,8 @@ class TableSchema:
     `text`; `optional` columns hold numbers where they are there (tables of runs written
     before they were added lack them); `keys` are never empty; columns whose names start
     with one of `prefixes` hold numbers too (one per state, per Q-table entry, ...);
-    `choices` limit a column's values; a table that a run writes only with rows in it is
-    not `empty_ok`."""
+    `choices` limit a column's values; no two rows have the same values in the `unique`
+    columns; a table that a run writes only with rows in it is not `empty_ok`."""
 
     columns: tuple[str, ...]
     text: tuple[str, ...] = ("controller",)
@@ -34,25 +34,28 @@ class TableSchema:
     prefixes: tuple[str, ...] = ()
     choices: dict[str, frozenset[str]] = field(default_factory=dict)
     empty_ok: bool = True
+    unique: tuple[str, ...] = ()
 
 
 TABLES: dict[str, TableSchema] = {
     "state_time": TableSchema(("state", "controller", "mean_pct", "std_pct", "n_trials"),
                               text=("state", "controller"),
                               # one trial has no spread: its std_pct is empty
-                              keys=("state", "controller", "mean_pct", "n_trials"), empty_ok=False),
+                              keys=("state", "controller", "mean_pct", "n_trials"), empty_ok=False,
+                              unique=("state", "controller")),
     "performance": TableSchema(("t_s", "controller", "mean", "std", "n_trials"),
-                               keys=("t_s", "controller", "n_trials")),
+                               keys=("t_s", "controller", "n_trials"), unique=("t_s", "controller")),
     "trial_stats": TableSchema(("controller", "trial", "value_rate_stable", "value_rate_convergence",
                                 "value_rate_before", "settle_s", "policy_settle_s", "policy_changes"),
                                keys=("controller", "trial", "duration_s"), optional=("duration_s",),
-                               prefixes=(STATE_PREFIX, Q_GAP_PREFIX)),
+                               prefixes=(STATE_PREFIX, Q_GAP_PREFIX), unique=("controller", "trial")),
     "allocation": TableSchema(("t_s", "controller", "mean_high", "std_high", "n_trials"),
-                              keys=("t_s", "controller", "n_trials")),
+                              keys=("t_s", "controller", "n_trials"), unique=("t_s", "controller")),
     "specialisation": TableSchema(("t_s", "controller", "group", "mean_share_high", "std_share_high", "n_trials"),
                                   text=("controller", "group"), keys=("t_s", "controller", "group", "n_trials")),
     "robots": TableSchema(("controller", "trial", "robot", "kind", "circuit", "n_choices", "share_main",
-                           "switch_rate"), text=("controller", "kind"), keys=("controller", "trial", "robot", "kind")),
+                           "switch_rate"), text=("controller", "kind"), keys=("controller", "trial", "robot", "kind"),
+                 unique=("controller", "trial", "robot")),
     "q_values": TableSchema(("controller", "trial", "robot", "t_s"), keys=("controller", "trial", "robot", "t_s"),
                             prefixes=("q_",)),
     "convergence": TableSchema(("controller", "trial", "t_from_s", "t_to_s", "q_drift", "policy_changed_share",
