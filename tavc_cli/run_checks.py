@@ -28,7 +28,6 @@ import csv
 import io
 import math
 import re
-from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from itertools import product
@@ -40,16 +39,12 @@ from tavc_cli.experiments.plan import PLAN_FILE, read_plan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import file_digest
 from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
-from tavc_cli.readers import REWRITE, TABLE_LIMIT, YAML_LIMIT, load_json, read_bounded
+from tavc_cli.readers import TABLE_LIMIT, YAML_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig, from_yaml
+from tavc_cli.table_cells import check_cells, damaged
 
 SECTIONS = ("arena", "robot", "team", "learner", "scale", "executor", "paper", "tasks", "events", "sim", "analysis",
             "model", "calibration")
-
-
-def damaged(path: Path, what: str) -> TavcError:
-    """The one-line error for a file of a run that cannot be trusted."""
-    return TavcError(f"{path}: {what}; {REWRITE}")
 
 
 @dataclass(frozen=True)
@@ -277,65 +272,9 @@ def check_table(path: Path, facts: RunFacts | None = None) -> None:
 
 
 def _check_columns(path: Path, schema: TableSchema, header: list[str], rows: list, facts: RunFacts) -> None:
-    missing = [c for c in schema.columns if c not in header]
-    if missing:
-        raise damaged(path, f"no column {missing[0]!r}")
-    numbers = [c for c in header if (c in schema.columns and c not in schema.text) or c in schema.optional
-               or c.startswith(schema.prefixes)]
-    at = {c: k for k, c in enumerate(header)}
-    keys = [c for c in schema.keys if c in at]
-    columns = list(zip(*(row for _, row in rows), strict=True)) if rows else []
-    if not _all_fine(columns, [at[c] for c in keys], [at[c] for c in numbers],
-                     {at[c]: allowed for c, allowed in schema.choices.items()}):
-        _first_wrong_cell(path, schema, rows, at, keys, numbers)
-    _check_unique(path, [at[c] for c in schema.unique], columns, rows)
+    check_cells(path, schema, header, rows)
     _check_trials(path, header, rows, facts)
     _check_states(path, header, rows, facts)
-
-
-def _check_unique(path: Path, unique: list[int], columns: list, rows: list) -> None:
-    """No two rows the same in the columns at `unique` (a row repeated, say), which a reader takes
-    for one: checked at once, and row by row only to name the first line that repeats one."""
-    if not unique or len(set(zip(*(columns[k] for k in unique), strict=True))) == len(rows):
-        return
-    seen: set[tuple] = set()
-    for line, row in rows:
-        key = tuple(row[k] for k in unique)
-        if key in seen:
-            raise damaged(path, f"line {line}: a second row for {', '.join(key)}")
-        seen.add(key)
-
-
-def _all_fine(columns: list, keys: list[int], numbers: list[int], choices: dict[int, frozenset]) -> bool:
-    """Whether every cell of the `columns` at `keys` is filled, every one at `numbers` empty or a
-    number, and every one at `choices` one of its choices: column by column, each column's cells
-    checked in one pass (`_first_wrong_cell` finds the first line that is not, in line order)."""
-    try:
-        for k in numbers:
-            deque(map(float, filter(None, columns[k])), maxlen=0)  # a ValueError where one is no number
-    except ValueError:
-        return False
-    if any(_LONG_WHOLE.search("\n".join(columns[k])) for k in numbers):
-        return False  # a whole number that may be too long for the tables' integers
-    return all("" not in columns[k] for k in keys) and all(set(columns[k]) <= allowed
-                                                          for k, allowed in choices.items())
-
-
-def _first_wrong_cell(path: Path, schema: TableSchema, rows: list, at: dict[str, int], keys: list[str],
-                      numbers: list[str]) -> None:
-    """One line naming the first line, in the table's order, with a key left empty, a number that
-    is none or a cell that is none of its column's choices."""
-    for line, row in rows:
-        for c in keys:
-            if row[at[c]] == "":
-                raise damaged(path, f"line {line}: no {c}")
-        for c in numbers:
-            if row[at[c]] != "" and not _is_number(row[at[c]]):
-                raise damaged(path, f"line {line}: {c} {row[at[c]]!r} is not a number" +
-                              (" a table holds (too large a whole number)" if _is_whole(row[at[c]]) else ""))
-        for c, allowed in schema.choices.items():
-            if row[at[c]] not in allowed:
-                raise damaged(path, f"line {line}: {c} {row[at[c]]!r} is none of {', '.join(sorted(allowed))}")
 
 
 def _check_trials(path: Path, header: list[str], rows: list, facts: RunFacts) -> None:
@@ -412,24 +351,6 @@ def _check_digest(path: Path, digests: dict[str, str] | None, table: bool = Fals
         raise damaged(path, "missing, though provenance.json lists it")
     if file_digest(path) != recorded:
         raise damaged(path, "changed since its run wrote it (its SHA-256 is not the one provenance.json recorded)")
-
-
-_LONG_WHOLE = re.compile(r"^[ \t]*[+-]?\d{19}", re.M)  # a cell that starts with 19 digits may not fit 64 bits
-
-
-def _is_number(cell: str) -> bool:
-    """Whether `cell` is a number a table's reader takes: what `float` reads, and a whole number
-    only within 64-bit integers (a longer one is read as a Python integer no array holds)."""
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return not _is_whole(cell) or -(2 ** 63) <= int(cell) < 2 ** 63
-
-
-def _is_whole(cell: str) -> bool:
-    digits = cell.strip().removeprefix("-").removeprefix("+")
-    return digits.isascii() and digits.isdigit()
 
 
 def _first_line(exc: Exception) -> str:

@@ -114,6 +114,8 @@ def test_a_learners_settings_are_checked_against_its_signature(tmp_path, monkeyp
         config.load_config([*base, "learner.target=nowhere.py:Stubborn"])
     with pytest.raises(TavcError, match="names no class"):
         config.load_config([*base, "learner.target=stubborn.py:Nothing"])
+    with pytest.raises(TavcError, match="^learner.target: /etc/passwd is not a Python file: give path/to/file"):
+        config.load_config([*base, "learner.target=/etc/passwd:Stubborn"])
 
 
 def test_a_learners_seed_code_comes_from_its_name():

@@ -172,6 +172,8 @@ def _insert_line(k: int, line: str):
     ("trial_stats.csv", _edit_line(3, 1, "7"), "line 3: tavc trial 7 is not among the trials provenance.json lists"),
     ("state_time.csv", _edit_line(4, 0, "4:4"), "line 4: state '4:4' is no state of this experiment's team"),
     ("robots.csv", _edit_line(2, 0, ""), "line 2: no controller"),
+    ("q_values.csv", lambda data: b"\n".join(line.rpartition(b",")[0] for line in data.split(b"\n")),
+     "no column 'q_1_1' (a Q-table's entry)"),  # the last column gone from every line
     # two lines wrong: the first in the table's order is named, whatever its column and fault
     ("robots.csv", lambda data: _edit_line(3, 0, "")(_edit_line(2, 5, "many")(data)),
      "line 2: n_choices 'many' is not a number"),

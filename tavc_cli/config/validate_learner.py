@@ -95,6 +95,9 @@ def _validate_plugin(learner: PluginSettings, n_circuits: int, n_robots: int, co
           f"{name!r} is a built-in learner's; give the learner from learner.target a name of its own")
     check(name not in RESERVED_LABELS, "learner.name",
           f"{name!r} names other rows of tavc's tables; give the learner from learner.target a name of its own")
+    file, colon, _ = str(learner.target).rpartition(":")
+    check(not colon or file.endswith(".py"), "learner.target",
+          f"{file} is not a Python file: give path/to/file.py:Class, or package.module.Class")
     tried = run_confined(_try_plugin, learner, n_circuits, n_robots, name=f"learner {name}") if confined else \
         _try_plugin(learner, n_circuits, n_robots)
     check(isinstance(tried, list) and all(isinstance(w, str) for w in tried), "learner.target",  # a copy's: checked
