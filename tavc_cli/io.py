@@ -36,7 +36,7 @@ def plain_name(name: str) -> bool:
     return name not in ("", ".", "..") and not any(c in name for c in "/\\") and name == name.strip()
 
 
-def root_problem(folder: str | Path) -> str | None:
+def folder_problem(folder: str | Path) -> str | None:
     """What is wrong with `folder` as a folder tavc writes results into, or None: empty (an unset
     variable, as a rule), or the root of the file system (where a run's files would lie among the
     system's)."""
@@ -204,7 +204,7 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
     # deferred: POSIX only
     import fcntl
 
-    problem = root_problem(folder)
+    problem = folder_problem(folder)
     if problem is not None:
         raise TavcError(f"{what}: {problem}")
     folder = Path(folder)

@@ -7,7 +7,7 @@ from typing import Annotated, Any, Optional
 import typer
 from typer.core import TyperArgument, TyperCommand, TyperGroup, TyperOption
 
-from tavc_cli.io import root_problem
+from tavc_cli.io import folder_problem
 
 
 def overrides_of(example: str) -> Any:
@@ -37,8 +37,8 @@ ProgressFlag = Annotated[
 
 def folder(text: str) -> Path:
     """A folder named on the command line (`--results`, the report's RESULTS_DIR): one line where
-    it is empty or the root of the file system (`io.root_problem`)."""
-    problem = root_problem(text)
+    it is empty or the root of the file system (`io.folder_problem`)."""
+    problem = folder_problem(text)
     if problem is not None:
         raise typer.BadParameter(problem)
     return Path(text)

@@ -55,7 +55,7 @@ TABLES: dict[str, TableSchema] = {
                                   text=("controller", "group"), keys=("t_s", "controller", "group", "n_trials")),
     "robots": TableSchema(("controller", "trial", "robot", "kind", "circuit", "n_choices", "share_main",
                            "switch_rate"), text=("controller", "kind"), keys=("controller", "trial", "robot", "kind"),
-                 unique=("controller", "trial", "robot")),
+                          unique=("controller", "trial", "robot")),
     "q_values": TableSchema(("controller", "trial", "robot", "t_s"), keys=("controller", "trial", "robot", "t_s"),
                             prefixes=("q_",)),
     "convergence": TableSchema(("controller", "trial", "t_from_s", "t_to_s", "q_drift", "policy_changed_share",

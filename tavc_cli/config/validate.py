@@ -28,7 +28,7 @@ from tavc_cli.config.validate_world import (
 )
 from tavc_cli.confine import CONFINE_CHOICES, confinement
 from tavc_cli.experiments.clock import due_tick, end_tick
-from tavc_cli.io import plain_name, root_problem
+from tavc_cli.io import folder_problem, plain_name
 from tavc_cli.learning.registry import BASELINES, MODEL_LEARNERS
 from tavc_cli.settings import (
     ANALYSIS_STATES,
@@ -258,7 +258,7 @@ def _validate_run(cfg: DictConfig) -> None:
     check(plain_name(str(cfg.experiment_name)), "experiment_name",
           f"{str(cfg.experiment_name)!r} is not a plain name; runs go to runs/<scale.name>/<experiment_name>/ by "
           "default")
-    problem = root_problem(cfg.output_dir or "")
+    problem = folder_problem(cfg.output_dir or "")
     check(problem is None, "output_dir", problem or "")
 
 
