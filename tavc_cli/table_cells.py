@@ -85,11 +85,16 @@ def _first_wrong_cell(path: Path, schema: TableSchema, rows: list, at: dict[str,
                 raise damaged(path, f"line {line}: no {c}")
         for c in numbers:
             if row[at[c]] != "" and not is_number(row[at[c]]):
-                raise damaged(path, f"line {line}: {c} {row[at[c]]!r} is not a number" +
+                raise damaged(path, f"line {line}: {c} {_shown(row[at[c]])} is not a number" +
                               (" a table holds (too large a whole number)" if _is_whole(row[at[c]]) else ""))
         for c, allowed in schema.choices.items():
             if row[at[c]] not in allowed:
-                raise damaged(path, f"line {line}: {c} {row[at[c]]!r} is none of {', '.join(sorted(allowed))}")
+                raise damaged(path, f"line {line}: {c} {_shown(row[at[c]])} is none of {', '.join(sorted(allowed))}")
+
+
+def _shown(cell: str, most: int = 40) -> str:
+    """A cell as a message quotes it: its first `most` characters, where it is longer."""
+    return repr(cell) if len(cell) <= most else repr(cell[:most]) + f"... ({len(cell):,} characters)"
 
 
 _Q_ENTRY = re.compile(r"q_(\d+)_(\d+)")  # a Q-table's entry: its state, its action

@@ -199,6 +199,9 @@ def test_a_repeated_row_and_a_whole_number_past_64_bits_are_refused(breakdown, t
     path = results / "breakdown" / "allocation.csv"
     path.write_bytes(_edit_line(2, 4, "9" * 19)(path.read_bytes()))
     _refused(results, path, f"line 2: n_trials '{'9' * 19}' is not a number a table holds (too large a whole number)")
+    path.write_bytes(_edit_line(2, 4, "9" * 400)(path.read_bytes()))  # quoted in part: one line, of a line's length
+    _refused(results, path, f"line 2: n_trials '{'9' * 40}'... (400 characters) is not a number a table holds (too "
+                            "large a whole number)")
     path.write_bytes(_edit_line(2, 4, str(2 ** 63 - 1))(path.read_bytes()))  # the largest that fits: its digest
     _refused(results, path, "changed since its run wrote it (its SHA-256 is not the one provenance.json recorded)")
 
