@@ -443,6 +443,8 @@ def test_a_sweep_too_large_to_be_a_study_is_refused_before_it_is_spelled_out():
     ("~arena.targets.0", "arena.targets.0: '~arena.targets.0' cannot be applied (TypeError: "),
     ("tasks=[1]", "tasks: 'tasks=[1]' cannot be applied (TypeError: "),
     ("seed=" + "[" * 500 + "]" * 500, "seed: its value is nested too deeply to read"),
+    ("+experiment=value_change", "experiment: a config group holds one option, and it was given two; choose it "
+                                 "once, without a + (which adds a second): experiment=<option>"),
     ("events.breakdowns=[{time_s:0,circuit:'²'}]", "events.breakdowns[0].circuit: must be null, high, low or a "
                                                   "circuit index in [0, 2), got '²'"),
 ])

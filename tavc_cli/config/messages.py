@@ -197,7 +197,12 @@ def _hydra_message(error: HydraException) -> str:
         full_key = re.search(r"full_key: (\S+)", text)
         key = full_key.group(1) if full_key else "config"
         return f"{key}: {_validation_detail(in_file.group(2))} (in conf/{in_file.group(1)}.yaml)"
-    match = re.search(r"override '?([^'=\s]+)", text)
+    twice = re.search(r"Multiple values for (\S+?)\.(?:\s|$)", text) or re.match(  # a group given again with a +
+        r"(\S+) appears more than once in the final defaults list", text)
+    if twice:
+        return (f"{twice.group(1)}: a config group holds one option, and it was given two; choose it once, "
+                f"without a + (which adds a second): {twice.group(1)}=<option>")
+    match = re.search(r"(?<!To )override '?([^'=\s]+)", text)
     context = match.group(1) if match else None
     if isinstance(error.__cause__, OmegaConfBaseException):
         return omegaconf_message(error.__cause__, context=context)
