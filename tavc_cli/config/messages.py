@@ -20,6 +20,8 @@ from omegaconf.errors import (
 
 from tavc_cli.errors import TavcError
 
+_GROUP_VALUE = "Config group override must be"  # Hydra's words for a group given null or a number
+
 
 @contextlib.contextmanager
 def hydra_errors(overrides: Sequence[str]) -> Iterator[None]:
@@ -40,7 +42,7 @@ def hydra_errors(overrides: Sequence[str]) -> Iterator[None]:
         raise TavcError(_null_parent_message(overrides, error)) from None
     except ValueError as error:
         # a config group given null or a number (``robot=null``, ``scale=123``)
-        if "Config group override must be" not in str(error):
+        if _GROUP_VALUE not in str(error):
             raise
         raise TavcError(_group_value_message(overrides)) from None
 
@@ -50,7 +52,7 @@ def uncaught_by_hydra(error: Exception) -> bool:
     file it cannot read (a list node given a key that is no index, a group given a list, a file
     that is not UTF-8 or includes itself) rather than one of its own (`hydra_errors`)."""
     own = isinstance(error, (HydraException, OmegaConfBaseException))
-    return not own and "Config group override must be" not in str(error)
+    return not own and _GROUP_VALUE not in str(error)
 
 
 def uncomposable_message(overrides: Sequence[str], culprit: str | None, error: Exception) -> str:

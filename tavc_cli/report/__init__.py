@@ -99,8 +99,8 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     study_tables(results_dir)  # the surrogate study's
     compare_tables(results_dir)  # the comparisons of other learners
     own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
-    studies = [p for d in STAY_SWITCH_DIRS for p in prediction_files(results_dir, d)]
-    predictions = prediction_files(results_dir) + studies
+    in_readings = [p for d in STAY_SWITCH_DIRS for p in prediction_files(results_dir, d)]
+    predictions = prediction_files(results_dir) + in_readings
     for path in predictions:  # the model's at the chapter's scenarios, and in the stay/switch studies' readings
         predicted = read_prediction(path)
         runs = (model_learners(path.parent, predicted), model_alternators(path.parent, predicted))

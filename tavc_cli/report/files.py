@@ -101,7 +101,7 @@ def _model_run(where: Path, name: str) -> Path | None:
 
 
 def sweep_runs(results_dir: Path, folder: str) -> list[Path]:
-    """The runs of the sweep in `results_dir/folder` (`files.SWEEPS`, or a horizon's readings), finished or
+    """The runs of the sweep in `results_dir/folder` (`SWEEPS`, or a horizon's readings), finished or
     not: every folder with a `config.yaml` at any depth but in hidden folders (`run_tables.in_hidden_folder`), in
     natural order of their paths."""
     root = results_dir / folder
