@@ -15,7 +15,8 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.experiments.records import TABLES, TrialRecord
 from tavc_cli.readers import load_yaml, read_text
-from tavc_cli.run_checks import check_table, load_record, read_provenance, read_trial
+from tavc_cli.run_checks import check_table, load_record, read_trial
+from tavc_cli.run_provenance import read_provenance
 from tavc_cli.settings import from_yaml
 
 SWEEP_LIMIT = 64 * 2**20  # sweep.csv read bounded, as every table is

@@ -39,7 +39,8 @@ from tavc_cli.experiments.plan import read_plan
 from tavc_cli.io import claim_folder, file_digest, owned_path, write_text_atomic
 from tavc_cli.outputs import claims_text, comparison_text, other_experiments
 from tavc_cli.readers import load_json
-from tavc_cli.run_checks import check_table, read_provenance, run_facts, unfinished_rewrites
+from tavc_cli.run_checks import check_table, run_facts
+from tavc_cli.run_provenance import read_provenance, unfinished_rewrites
 from tavc_cli.settings import TavcConfig
 
 CLAIMS = "claims.csv"

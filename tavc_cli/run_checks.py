@@ -35,13 +35,14 @@ from pathlib import Path
 
 from tavc_cli.analysis.table_schemas import TABLE_NAMES, TABLES, TableSchema
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.plan import PLAN_FILE, read_plan
+from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, read_plan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import file_digest
 from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
-from tavc_cli.readers import TABLE_LIMIT, YAML_LIMIT, load_json, read_bounded
+from tavc_cli.readers import TABLE_LIMIT, YAML_LIMIT, read_bounded
+from tavc_cli.run_provenance import check_planned, read_provenance, unfinished_rewrites
 from tavc_cli.settings import TavcConfig, from_yaml
-from tavc_cli.table_cells import check_cells, damaged
+from tavc_cli.table_cells import check_cells, damaged, unreadable
 
 SECTIONS = ("arena", "robot", "team", "learner", "scale", "executor", "paper", "tasks", "events", "sim", "analysis",
             "model", "calibration")
@@ -66,6 +67,10 @@ class RunFacts:
     # a file whose rewrite by tavc was stopped before its end -> its digest before (None: it was not there)
     replaced: dict[str, str | None] = field(default_factory=dict)
     cfg: TavcConfig | None = None  # the run's settings, its plan.json read against them
+    # provenance.json's trials in its order, (controller, trial, key or None), and the digest of the
+    # simulator's code that ran them (None where it records none)
+    listed: tuple[tuple[str, int, str | None], ...] = ()
+    code_digest: str | None = None
 
     @classmethod
     def of(cls, cfg: TavcConfig, provenance: dict | None, folder: Path) -> RunFacts:
@@ -79,15 +84,18 @@ class RunFacts:
         speeds = [float(m.speed_mps) for m in members] or [float(cfg.robot.speed_mps)] * len(names)
         scheme = str(cfg.analysis.state)
         sizes = tuple(names.count(g) for g in group_order(names, speeds)) if scheme == "groups" else (len(names),)
-        trials = digests = None
-        replaced = {}
+        trials = digests = code = None
+        replaced, listed = {}, ()
         if provenance is not None:
             # a provenance listing no trial (a folder made by hand) gives none to check against
             trials = frozenset((str(t["controller"]), int(t["trial"])) for t in provenance["trials"]) or None
+            listed = tuple((str(t["controller"]), int(t["trial"]), t.get("key")) for t in provenance["trials"])
             digests = provenance.get("tables")
             replaced = unfinished_rewrites(provenance)
+            code = provenance.get("code_digest")
         return cls(folder, trials, digests, scheme, sizes, len(cfg.arena.circuits),
-                   len(names) - len(cfg.events.breakdowns), replaced, cfg)
+                   len(names) - len(cfg.events.breakdowns), replaced, cfg, listed,
+                   code if isinstance(code, str) else None)
 
     def valid_state(self, label: str) -> bool:
         """Whether `label` is a state of this team: robots per circuit (high-value circuit
@@ -114,44 +122,14 @@ class RunFacts:
         return {join_counts(c) for c in product(range(n + 1), repeat=self.n_circuits) if sum(c) == n}
 
 
-def unfinished_rewrites(provenance: dict) -> dict[str, str | None]:
-    """The files of a run whose rewrite by tavc from the run's tables (`retest.rewrite_tables`) was
-    stopped before its end, as its `provenance.json` records them: each with its digest before the
-    rewrite (None: there was no file)."""
-    return {name: r["replaced"] for name, r in (provenance.get("rewritten") or {}).items() if "replaced" in r}
-
-
-def read_provenance(path: Path) -> dict:
-    """A run's `provenance.json`, checked: a JSON object listing its trials, each with its
-    controller, number and file."""
-    try:
-        prov = load_json(path)
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise damaged(path, f"cannot be read ({_first_line(exc)})") from None
-    trials = prov.get("trials") if isinstance(prov, dict) else None
-    if not isinstance(trials, list):
-        raise damaged(path, "cannot be read (no list of trials in it)")
-    for t in trials:
-        if not (isinstance(t, dict) and isinstance(t.get("controller"), str) and isinstance(t.get("trial"), int)
-                and isinstance(t.get("file"), str)):
-            raise damaged(path, f"cannot be read (a trial without its controller, number and file: {t!r:.60})")
-    tables = prov.get("tables")
-    if tables is not None and not (isinstance(tables, dict) and all(isinstance(v, str) for v in tables.values())):
-        raise damaged(path, "cannot be read (its tables are not a map of file names to digests)")
-    rewritten = prov.get("rewritten")
-    if "rewritten" in prov and not (isinstance(rewritten, dict) and all(
-            isinstance(r, dict) and isinstance(r.get("replaced", ""), str | None) for r in rewritten.values())):
-        raise damaged(path, "cannot be read (its rewritten files are not a map of file names to records)")
-    return prov
-
-
 def read_config(path: Path, digests: dict[str, str] | None = None,
                 load: Callable[[Path], TavcConfig] = from_yaml) -> TavcConfig:
     """A run's `config.yaml` read by `load`, checked: its digest where `provenance.json`
     recorded one, then whole (a newline at its end, every section of the settings there: a
-    file cut short loses its last, `calibration`), of the settings' types, with the
-    durations a finished run resolved. A cut inside the last section's last list leaves a
-    file that passes without a digest; the report reads nothing there."""
+    file cut short loses its last, `calibration`), of the settings' types, with the durations
+    and the team's members a finished run resolved. A cut inside the last section's last list
+    leaves a file that passes without a digest; the report reads nothing there. Whether its
+    settings are those its trials ran on is `run_provenance.check_planned`'s to say."""
     path = Path(path)
     try:
         raw = read_bounded(path, YAML_LIMIT)
@@ -159,7 +137,7 @@ def read_config(path: Path, digests: dict[str, str] | None = None,
     except TavcError:
         raise  # a refusal naming the file already
     except Exception as exc:  # any parser's or the schema's error: the file is damaged, whatever the library
-        raise damaged(path, f"cannot be read ({_first_line(exc)})") from None
+        raise damaged(path, f"cannot be read ({unreadable(exc)})") from None
     if not raw.endswith(b"\n"):
         raise damaged(path, "cut short (no newline at its end)")
     keys = set(re.findall(rb"^([A-Za-z_]\w*):", raw, re.M))  # the top level of a block mapping, as to_yaml writes
@@ -168,6 +146,9 @@ def read_config(path: Path, digests: dict[str, str] | None = None,
         raise damaged(path, f"cut short (no {missing[0]!r} section)")
     if cfg.duration_s is None or cfg.convergence_s is None:
         raise damaged(path, "cut short or edited (no duration_s or convergence_s, which a run always writes)")
+    if cfg.team.n_robots != len(cfg.team.members):
+        raise damaged(path, f"edited after its run (team.n_robots is {cfg.team.n_robots}, and it lists "
+                      f"{len(cfg.team.members)} members, which a run resolves them into)")
     _check_digest(path, digests)
     return cfg
 
@@ -186,6 +167,17 @@ def check_run(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) -> R
     """Check a run folder as a reader will take it: `provenance.json`, `config.yaml` (read by
     `load`), every table it holds of those a run writes, and every table its provenance
     lists being there."""
+    facts = checked_facts(folder, load)
+    for name in TABLE_NAMES:
+        if (facts.folder / f"{name}.csv").is_file():
+            check_table(facts.folder / f"{name}.csv", facts)
+    return facts
+
+
+def checked_facts(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) -> RunFacts:
+    """`run_facts`, with the run's files besides its tables checked: every file `provenance.json`
+    lists there, its `plan.json` by digest and as a plan of its config, and its settings held to
+    its trials (`run_provenance.check_planned`)."""
     facts = run_facts(folder, load)
     for name in sorted(facts.digests or {}):
         if not (facts.folder / name).is_file() and not (name in facts.replaced and facts.replaced[name] is None):
@@ -195,23 +187,21 @@ def check_run(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) -> R
         if PLAN_FILE not in facts.digests:
             raise damaged(plan, "not among the files provenance.json lists (left by another run?)")
         _check_digest(plan, facts.digests)
-    if plan.is_file() and facts.cfg is not None:
-        _check_plan(plan, facts.cfg)
-    for name in TABLE_NAMES:
-        if (facts.folder / f"{name}.csv").is_file():
-            check_table(facts.folder / f"{name}.csv", facts)
+    if facts.cfg is not None:
+        check_planned(facts, _check_plan(plan, facts.cfg))
     return facts
 
 
-def _check_plan(path: Path, cfg: TavcConfig) -> None:
-    """The run's `plan.json` read as the report reads it (`plan.read_plan`): one line naming it
-    where it is no plan of the config beside it, not JSON, or lists no controller."""
+def _check_plan(path: Path, cfg: TavcConfig) -> RunPlan:
+    """The run's `plan.json` read as the report reads it (`plan.read_plan`; without one, the plan its
+    config gives): one line naming it where it is no plan of the config beside it, not JSON, or
+    lists no controller."""
     try:
-        read_plan(path.parent, cfg)
+        return read_plan(path.parent, cfg)
     except TavcError:
         raise  # a refusal naming the file already
     except Exception as exc:  # noqa: BLE001 - JSON's, a codec's, an empty list's: the file is damaged
-        raise damaged(path, f"cannot be read ({_first_line(exc)})") from None
+        raise damaged(path, f"cannot be read ({unreadable(exc)})") from None
 
 
 def load_record(path: Path) -> TrialRecord:
@@ -239,10 +229,10 @@ def read_trial(folder: Path, trial: Mapping) -> TrialRecord:
 
 def check_table(path: Path, facts: RunFacts | None = None) -> None:
     """Check one table file of a run (see the module's docstring); `facts` as `run_facts`
-    gives them, read from the table's folder when not given."""
+    gives them, read and checked from the table's folder when not given (`checked_facts`)."""
     path = Path(path)
     if facts is None:
-        facts = run_facts(path.parent)
+        facts = checked_facts(path.parent)
     try:
         text = read_bounded(path, TABLE_LIMIT).decode()
     except UnicodeDecodeError:
@@ -351,8 +341,3 @@ def _check_digest(path: Path, digests: dict[str, str] | None, table: bool = Fals
         raise damaged(path, "missing, though provenance.json lists it")
     if file_digest(path) != recorded:
         raise damaged(path, "changed since its run wrote it (its SHA-256 is not the one provenance.json recorded)")
-
-
-def _first_line(exc: Exception) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__

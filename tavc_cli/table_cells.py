@@ -23,6 +23,12 @@ def damaged(path: Path, what: str) -> TavcError:
     return TavcError(f"{path}: {what}; {REWRITE}")
 
 
+def unreadable(exc: Exception) -> str:
+    """The first line of a parser's error, or its type where it says nothing: what a refusal quotes."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
 def check_cells(path: Path, schema: TableSchema, header: list[str], rows: list) -> None:
     """The table at `path` (its `header`, and its `rows` as (line, fields)) against `schema`: one
     line naming the first column missing, or the first line with a cell that is not what its

@@ -353,6 +353,76 @@ def test_a_truncated_config_is_refused_before_any_figure(breakdown, tmp_path, be
     _refused(results, path, what)
 
 
+def _re_signed(run: Path, name: str, old: bytes, new: bytes) -> Path:
+    """`run`'s file `name` with `old` replaced by `new` once, and provenance.json's digest of it made
+    the edited file's, as a hand could: the digest no longer tells the edit. Returns the file."""
+    path = run / name
+    data = path.read_bytes()
+    assert data.count(old) >= 1
+    path.write_bytes(data.replace(old, new, 1))
+    prov = json.loads((run / "provenance.json").read_text())
+    prov["tables"][name] = file_digest(path)
+    (run / "provenance.json").write_text(json.dumps(prov, indent=2))
+    return path
+
+
+TRIALS_PLANNED = "2 trials of tavc, 2 trials of random, 2 trials of static"
+
+
+@pytest.mark.parametrize(("old", "new", "where", "what"), [
+    # a value the trials ran on: every trial's key changes, and the first listed is named
+    (b"  - 2200.0\n", b"  - 2300.0\n", "provenance.json",
+     "tavc trial 0 is listed under a key its config.yaml and plan.json do not give it (edited after the run?)"),
+    # a count the table of runs shows: the plan the config gives is not the one recorded
+    (b"\ntrials: 2\n", b"\ntrials: -7\n", "config.yaml", "edited after its run (its controllers and trials, "
+     "-7 trials of tavc, 2 trials of random, 2 trials of static, are not those plan.json records)"),
+    (b"\nbaselines:\n- random\n", b"\nbaselines:\n", "config.yaml", "edited after its run (its controllers and "
+     "trials, 2 trials of tavc, 2 trials of static, are not those plan.json records)"),
+    # a team size the trials did not run with
+    (b"  n_robots: 6\n", b"  n_robots: 0\n", "config.yaml",
+     "edited after its run (team.n_robots is 0, and it lists 6 members, which a run resolves them into)"),
+])
+def test_settings_edited_after_the_run_are_refused_though_their_digest_was_re_signed(breakdown, tmp_path, old, new,
+                                                                                   where, what):
+    results = _results_with(tmp_path, breakdown)
+    _re_signed(results / "breakdown", "config.yaml", old, new)
+    _refused(results, results / "breakdown" / where, what)
+
+
+@pytest.mark.parametrize("edit", ["twice", "dropped", "other_name"])
+def test_a_provenance_listing_other_trials_than_the_plan_is_refused(breakdown, tmp_path, edit):
+    results = _results_with(tmp_path, breakdown)
+    path = results / "breakdown" / "provenance.json"
+    prov = json.loads(path.read_text())
+    trials = prov["trials"]
+    if edit == "twice":  # the tables' trials are all listed, one of them twice
+        trials.append(dict(trials[0]))
+    elif edit == "dropped":
+        trials.pop()
+    else:  # a trial number the plan never gave, its record moved there
+        trials[-1] = {**trials[-1], "trial": 7}
+    path.write_text(json.dumps(prov, indent=2))
+    _refused(results, path, f"its trials are not those config.yaml plans ({TRIALS_PLANNED})")
+
+
+def test_a_run_of_other_code_is_reported_as_such(breakdown, undamaged_report, tmp_path):
+    assert "Runs of other code" not in undamaged_report
+    results = _results_with(tmp_path, breakdown)
+    path = results / "breakdown" / "provenance.json"
+    prov = json.loads(path.read_text())
+    prov["code_digest"] = "0123456789abcdef"  # as a run of an earlier simulator records it
+    path.write_text(json.dumps(prov, indent=2))
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    assert ("runs of other code: 1 run(s) under breakdown/ were simulated by another version of tavc's simulator "
+            "(0123456789abcdef)") in result.output
+    text = (results / "REPORT.md").read_text()
+    paragraph = next(line for line in text.splitlines() if line.startswith("**Runs of other code.**"))
+    assert paragraph.startswith("**Runs of other code.** 1 of the runs this report reads were simulated by another "
+                                "version of tavc's simulator (code digest `0123456789abcdef`; this tavc's is `")
+    assert "): `breakdown`. Their numbers are shown as that code made them" in paragraph
+
+
 def test_every_committed_run_passes_the_checks():
     runs = sorted(p.parent for p in RESULTS.rglob("provenance.json"))
     assert len(runs) >= 12  # both horizons, the ladder's rungs, the value-ratio sweep
@@ -475,6 +545,18 @@ def test_the_api_checks_a_table_as_the_report_does(breakdown, tmp_path):
     with pytest.raises(TavcError) as info:
         api.load(folder).table("trial_stats")
     assert str(info.value) == f"{path}: line 3: tavc trial 7 is not among the trials provenance.json lists{REWRITE}"
+
+
+
+def test_the_api_holds_a_runs_settings_to_its_trials_as_the_report_does(breakdown, tmp_path):
+    folder = tmp_path / "breakdown"
+    shutil.copytree(breakdown, folder)
+    _re_signed(folder, "config.yaml", b"\ntrials: 2\n", b"\ntrials: 3\n")
+    with pytest.raises(TavcError) as info:
+        api.load(folder).table("trial_stats")
+    assert str(info.value) == (f"{folder / 'config.yaml'}: edited after its run (its controllers and trials, 3 trials "
+                               f"of tavc, 2 trials of random, 2 trials of static, are not those plan.json records)"
+                               f"{REWRITE}")
 
 
 # --- any damage to any table -------------------------------------------------------------------------

@@ -58,7 +58,7 @@ from tavc_cli.report.files import (
 )
 from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
-from tavc_cli.report.runs import LADDER, finished_runs, rel, run_list_lines, study_runs
+from tavc_cli.report.runs import LADDER, finished_runs, other_code, other_code_lines, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
 from tavc_cli.report.studies import STAY_SWITCH_DIRS, stay_switch_lines, value_ratio_lines
 from tavc_cli.report.surrogate import study_tables, surrogate_lines
@@ -67,7 +67,8 @@ from tavc_cli.report.time_scale import time_scale_lines
 from tavc_cli.run_checks import check_run
 
 
-def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: dict[str, list[Path]]) -> list[Path]:
+def _check_readable(results_dir: Path, horizon_dirs: list[Path],
+                    *horizon_runs: dict[str, list[Path]]) -> tuple[list[Path], dict[Path, str]]:
     """Check every file the report reads, and where it writes, before writing anything: a
     damaged file is one line naming it, not a half-built report. Every run of every horizon,
     of the sweeps (`files.SWEEPS`) and in other readings at every horizon (`run_checks.check_run`:
@@ -76,7 +77,8 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     comparisons of other learners, the turn-taking model's predictions (at the chapter's scenarios
     and in the stay/switch studies' readings) and its own learners' and alternators' runs. The runs
     are checked two at a time (`_check_runs`). Returns the runs whose claims or comparison today's
-    rules make otherwise than their files say."""
+    rules make otherwise than their files say, and the runs simulated by other code than this
+    tavc's, each with the digest of that code."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
             raise TavcError(f"RESULTS_DIR: {path} is a directory; the report writes a file there")
@@ -89,7 +91,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
     for ladder in ladders:  # the rungs whose claims the ladder's table tests again
         folders += sorted(p.parent for p in ladder.parent.glob("*/trial_stats.csv")
                           if (p.parent / "config.yaml").is_file())
-    stale = _check_runs(folders, results_dir)
+    stale, other = _check_runs(folders, results_dir)
     for ladder in ladders:
         read_ladder(ladder)
     for d in STAY_SWITCH_DIRS:  # the stay/switch studies' tables, read as a whole
@@ -105,24 +107,29 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path], *horizon_runs: 
         predicted = read_prediction(path)
         runs = (model_learners(path.parent, predicted), model_alternators(path.parent, predicted))
         own += [d for d in runs if d is not None and (d / "config.yaml").is_file()]
-    return sorted({*stale, *_check_runs(own, results_dir)})
+    own_stale, own_other = _check_runs(own, results_dir)
+    return sorted({*stale, *own_stale}), {**other, **own_other}
 
 
-def _check_runs(folders: list[Path], root: Path) -> list[Path]:
+def _check_runs(folders: list[Path], root: Path) -> tuple[list[Path], dict[Path, str]]:
     """`run_checks.check_run` on each folder, and its model's output, two folders at a time where the
     system forks (`FigurePool`); the first folder in their order with anything wrong is the one
     refused (or a failure of the check itself raised), as one by one, once the checks already
     handed to the processes have ended; where a check process dies, the folders from there on
     are checked here, one by one. Each folder's settings are then read here too, where the
     report reads them again (`files.config_of` keeps them). Returns the folders whose claims or
-    comparison are not what today's rules give (`_check_run`; `root`, the results folder)."""
-    refused, here_from, stale = None, len(folders), []
+    comparison are not what today's rules give, and those simulated by other code than this tavc's
+    with that code's digest (`_check_run`; `root`, the results folder)."""
+    refused, here_from, stale, other = None, len(folders), [], {}
     with FigurePool() as pool:
         pending = [pool.submit(_check_run, d, root) for d in folders]
         for i, (d, checked) in enumerate(zip(folders, pending, strict=True)):
             try:
-                if checked.result():
+                again, code = checked.result()
+                if again:
                     stale.append(d)
+                if code is not None:
+                    other[d] = code
             except BrokenProcessPool:  # a check process died: this folder and the rest are checked here
                 here_from = i
                 break
@@ -135,22 +142,26 @@ def _check_runs(folders: list[Path], root: Path) -> list[Path]:
     if refused is not None:
         raise refused
     for d in folders[here_from:]:
-        if _check_run(d, root):
+        again, code = _check_run(d, root)
+        if again:
             stale.append(d)
+        if code is not None:
+            other[d] = code
         config_of(d / "config.yaml")
-    return stale
+    return stale, other
 
 
-def _check_run(folder: Path, root: Path) -> bool:
-    """`run_checks.check_run` on one folder, and its model's output if it has one; True if its
+def _check_run(folder: Path, root: Path) -> tuple[bool, str | None]:
+    """`run_checks.check_run` on one folder, and its model's output if it has one; whether its
     claims or its comparison with the chapter, made again on its tables, are not what its files
-    hold and tavc may rewrite them (`retest.retested_tables`; `root`, the results folder)."""
+    hold and tavc may rewrite them (`retest.retested_tables`; `root`, the results folder), and the
+    digest of the simulator's code that ran its trials where it is not this tavc's (else None)."""
     # deferred: a run's analysis loads the simulator's kernels, which importing the report must not
     from tavc_cli.retest import retested_tables
 
-    check_run(folder, config_of)
+    facts = check_run(folder, config_of)
     check_model(folder)
-    return bool(retested_tables(folder, root, config_of))
+    return bool(retested_tables(folder, root, config_of)), other_code(facts)
 
 
 def _retest(folders: list[Path], root: Path) -> tuple[dict[Path, list[str]], list[str]]:
@@ -187,7 +198,8 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     found, unfinished = finished_runs(results_dir)
     longer_found = [(d, *finished_runs(d)) for d in horizon_folders(results_dir)]
     longer_found = [(d, runs, left) for d, runs, left in longer_found if runs]  # a horizon is its finished runs
-    stale = _check_readable(results_dir, [d for d, _, _ in longer_found], found, *(runs for _, runs, _ in longer_found))
+    stale, other = _check_readable(results_dir, [d for d, _, _ in longer_found], found,
+                                   *(runs for _, runs, _ in longer_found))
     experiments = {name: folders[0] for name, folders in found.items()}
     if not experiments and (results_dir / "state_time.csv").is_file():
         raise TavcError(f"RESULTS_DIR: {results_dir} is one run's folder; give the folder that holds the runs "
@@ -216,7 +228,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
             # every horizon's figures are drawn side by side from here, while the text is written
             ratio = pool.submit(value_ratio_lines, results_dir, model_json)
             figures = submit_figures(pool, every, results_dir, model_json)
-            lines = _front_lines(every, results_dir, model_json)
+            lines = _front_lines(every, results_dir, model_json, other)
             lines += experiment_sections(every, figures, results_dir, model_json)
             lines += ratio.result()
     except BaseException:
@@ -243,6 +255,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
            **({"page": str(results_dir / HTML_FILE)} if page else {}),
            "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished],
            "retested": {rel(d, results_dir): names for d, names in retested.items()}, "retest_left": left,
+           "other_code": {rel(d, results_dir): code for d, code in sorted(other.items())},
            "runs": _run_names(found, results_dir), "not_a_verdict": base.shortfalls,
            "studies": {what: [rel(d, results_dir) for d in folders] for what, folders in study_runs(results_dir)},
            "horizons": [{"folder": rel(h.folder, results_dir), "factor": h.factor, "experiments": list(h.experiments),
@@ -260,17 +273,18 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     return out
 
 
-def _front_lines(every: list, results_dir: Path, model_json: Path | None) -> list[str]:
-    """The report's text before the experiments' sections: the headline, the claims table, the
-    method, the time scale, the studies, the readings, the surrogate and `tavc compare`'s
-    comparisons (written while the figures are drawn)."""
+def _front_lines(every: list, results_dir: Path, model_json: Path | None, other: dict[Path, str]) -> list[str]:
+    """The report's text before the experiments' sections: the headline (and the runs of `other`
+    code, with its digests, where there are any), the claims table, the method, the time scale,
+    the studies, the readings, the surrogate and `tavc compare`'s comparisons (written while the
+    figures are drawn)."""
     base, longer = every[0], every[1:]
     runs, claims = base.runs, base.claims
     tested, n_ok = base.tested, base.n_reproduced
     lines = ["# tavc: the reproduction report", "",
              *horizons.not_a_verdict_lines(*every),
              "Built by `tavc report` from the saved results in this folder; nothing here was simulated "
-             "while writing it, and no number was typed in.", ""]
+             "while writing it, and no number was typed in.", "", *other_code_lines(other, results_dir)]
     if longer:
         lines += horizons.summary_lines(every)
         lines += horizons.claims_by_horizon_table(every)
@@ -325,6 +339,11 @@ def summary_lines(result: dict) -> list[str]:
                      f"runs they are compared with), now rewritten ({counts}); their provenance.json says by which "
                      "tavc")
     lines += result.get("retest_left", [])
+    other = result.get("other_code", {})
+    if other:
+        lines.append(f"runs of other code: {len(other)} run(s) under {_common(list(other))} were simulated by "
+                     f"another version of tavc's simulator ({', '.join(sorted(set(other.values())))}); the report "
+                     "shows their numbers as that code made them and says so: run each again to have this code's")
     return [*lines, result["report"], *([result["page"]] if "page" in result else [])]
 
 

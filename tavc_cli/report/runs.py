@@ -19,6 +19,7 @@ import yaml
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.chapter import order_key, state_table_id
+from tavc_cli.experiments.spec import code_digest
 from tavc_cli.ownership import (
     CALIBRATION,
     COMPARE,
@@ -45,6 +46,7 @@ from tavc_cli.report.files import (
 )
 from tavc_cli.report.spatiotemporal import spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
+from tavc_cli.run_checks import RunFacts
 from tavc_cli.settings import TavcConfig, to_yaml
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
@@ -243,6 +245,30 @@ def draw_figures(name: str, d: Path, cfg: TavcConfig, horizon: Path, results_dir
         return spatiotemporal_lines(name, d, cfg, results_dir, fig_dir, label)
     state_time = pd.read_csv(d / "state_time.csv", dtype={"state": str})
     return experiment_figures(name, d, cfg, state_time, results_dir, model_json, fig_dir, label)
+
+
+def other_code(facts: RunFacts) -> str | None:
+    """The digest of the simulator's code that ran a run's trials (its `provenance.json`'s), where
+    that is not this tavc's; None where it is, or where the run records none."""
+    return facts.code_digest if facts.code_digest not in (None, code_digest()) else None
+
+
+def other_code_lines(other: dict[Path, str], results_dir: Path) -> list[str]:
+    """The report's paragraph on the runs simulated by other code than this tavc's (`other`: each
+    with that code's digest), by folder; none where there are none."""
+    if not other:
+        return []
+    groups: dict[Path, list[Path]] = {}
+    for d in sorted(other, key=lambda d: natural(rel(d, results_dir))):
+        groups.setdefault(d.parent, []).append(d)
+    where = ", ".join(f"`{rel(parent, results_dir)}/` ({len(runs)} runs)" if len(runs) > 1 else
+                      f"`{rel(runs[0], results_dir)}`" for parent, runs in groups.items())
+    digests = ", ".join(f"`{c}`" for c in sorted(set(other.values())))
+    return [f"**Runs of other code.** {len(other)} of the runs this report reads were simulated by another version "
+            f"of tavc's simulator (code digest {digests}; this tavc's is `{code_digest()}`): {where}. Their numbers "
+            "are shown as that code made them, not as this code makes them; the command that made each, run again "
+            "with this tavc, simulates them anew (a trial is reused only under its key, which holds the code's "
+            "digest).", ""]
 
 
 def run_list_lines(results_dir: Path, horizons: list) -> list[str]:

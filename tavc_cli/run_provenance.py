@@ -1,0 +1,94 @@
+"""A run's `provenance.json` as a reader takes it: read and checked (`read_provenance`), the rewrites
+tavc stopped midway it records (`unfinished_rewrites`), and its trials held against the run's
+settings (`check_planned`): the trials its `config.yaml` and `plan.json` plan, each under the key
+they give it. A table or record that fails is one line naming the file (`table_cells.damaged`)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from tavc_cli.experiments.build import trial_specs
+from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, plan_run
+from tavc_cli.experiments.spec import code_digest
+from tavc_cli.learning.parameters import PluginSettings
+from tavc_cli.ownership import SURROGATE
+from tavc_cli.ownership import read as read_owned
+from tavc_cli.readers import load_json
+from tavc_cli.table_cells import damaged, unreadable
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from tavc_cli.run_checks import RunFacts
+
+
+def unfinished_rewrites(provenance: dict) -> dict[str, str | None]:
+    """The files of a run whose rewrite by tavc from the run's tables (`retest.rewrite_tables`) was
+    stopped before its end, as its `provenance.json` records them: each with its digest before the
+    rewrite (None: there was no file)."""
+    return {name: r["replaced"] for name, r in (provenance.get("rewritten") or {}).items() if "replaced" in r}
+
+
+def read_provenance(path: Path) -> dict:
+    """A run's `provenance.json`, checked: a JSON object listing its trials, each with its
+    controller, number and file."""
+    try:
+        prov = load_json(path)
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise damaged(path, f"cannot be read ({unreadable(exc)})") from None
+    trials = prov.get("trials") if isinstance(prov, dict) else None
+    if not isinstance(trials, list):
+        raise damaged(path, "cannot be read (no list of trials in it)")
+    for t in trials:
+        if not (isinstance(t, dict) and isinstance(t.get("controller"), str) and isinstance(t.get("trial"), int)
+                and isinstance(t.get("file"), str)):
+            raise damaged(path, f"cannot be read (a trial without its controller, number and file: {t!r:.60})")
+    tables = prov.get("tables")
+    if tables is not None and not (isinstance(tables, dict) and all(isinstance(v, str) for v in tables.values())):
+        raise damaged(path, "cannot be read (its tables are not a map of file names to digests)")
+    rewritten = prov.get("rewritten")
+    if "rewritten" in prov and not (isinstance(rewritten, dict) and all(
+            isinstance(r, dict) and isinstance(r.get("replaced", ""), str | None) for r in rewritten.values())):
+        raise damaged(path, "cannot be read (its rewritten files are not a map of file names to records)")
+    return prov
+
+
+def check_planned(facts: RunFacts, plan: RunPlan) -> None:
+    """The trials `provenance.json` lists are those the run's `config.yaml` and `plan.json` plan:
+    the controllers and trial counts the config gives, each trial listed once, and, where this
+    tavc's simulator ran them (the digest provenance.json records is this code's), each under the
+    key its settings give it (`TrialSpec.key`: everything that fixes its outcome). So a config.yaml
+    edited after its run is refused even where its digest was re-signed or never recorded. A run
+    on the surrogate, or of a learner from outside tavc, is checked for its trials but not their
+    keys: those hold the digest of the tasks it drew from, or of the learner's files, which the
+    run's folder does not keep."""
+    cfg, path = facts.cfg, facts.folder / "provenance.json"
+    try:
+        given = [(c.label, c.trials) for c in plan_run(cfg).controllers]
+    except Exception as exc:  # noqa: BLE001 - settings no run was made with: whatever fails in planning them
+        raise damaged(facts.folder / "config.yaml",
+                      f"edited after its run (it plans no run: {unreadable(exc)})") from None
+    if [(c.label, c.trials) for c in plan.controllers] != given:
+        raise damaged(facts.folder / "config.yaml", "edited after its run (its controllers and trials, "
+                      f"{_counts(given)}, are not those {PLAN_FILE} records)")
+    if not facts.listed:  # no provenance.json, or one listing no trial: nothing to check against
+        return
+    planned = [(c.label, j) for c in plan.controllers for j in range(c.trials)]
+    if sorted((c, j) for c, j, _ in facts.listed) != sorted(planned):
+        raise damaged(path, f"its trials are not those config.yaml plans ({_counts(given)})")
+    owned = read_owned(facts.folder)
+    if facts.code_digest != code_digest() or (owned is not None and owned.kind == SURROGATE):
+        return
+    specs = trial_specs(cfg, plan)
+    if any(isinstance(s.policy, PluginSettings) for s in specs):
+        return
+    keys = {(c, j): key for c, j, key in facts.listed}
+    for spec in specs:
+        listed = keys[spec.controller, spec.trial]
+        if listed is not None and listed != spec.key():
+            raise damaged(path, f"{spec.controller} trial {spec.trial} is listed under a key its config.yaml and "
+                          f"{PLAN_FILE} do not give it (edited after the run?)")
+
+
+def _counts(controllers: list[tuple[str, int]]) -> str:
+    return ", ".join(f"{n} trials of {label}" for label, n in controllers)
