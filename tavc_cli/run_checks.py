@@ -37,6 +37,7 @@ from tavc_cli.analysis.table_schemas import TABLE_NAMES, TABLES, TableSchema
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, read_plan
 from tavc_cli.experiments.records import TrialRecord
+from tavc_cli.experiments.spec import code_digest
 from tavc_cli.io import file_digest
 from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
 from tavc_cli.readers import TABLE_LIMIT, YAML_LIMIT, read_bounded
@@ -96,6 +97,12 @@ class RunFacts:
         return cls(folder, trials, digests, scheme, sizes, len(cfg.arena.circuits),
                    len(names) - len(cfg.events.breakdowns), replaced, cfg, listed,
                    code if isinstance(code, str) else None)
+
+    @property
+    def other_code(self) -> str | None:
+        """The digest of the simulator's code that ran the run's trials (provenance.json's
+        ``code_digest``) where it is not this tavc's; None where it is, or where none is recorded."""
+        return self.code_digest if self.code_digest not in (None, code_digest()) else None
 
     def valid_state(self, label: str) -> bool:
         """Whether `label` is a state of this team: robots per circuit (high-value circuit

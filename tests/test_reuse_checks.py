@@ -6,6 +6,7 @@ one line, exit 1, nothing written and nothing of the folders read changed."""
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from tavc_cli.cli import app
 from tavc_cli.config import load_config
 from tavc_cli.config import settings as to_settings
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.spec import code_digest
 from tavc_cli.pipeline import run_experiment
 from tests.helpers import file_digests
 
@@ -116,6 +118,16 @@ def test_a_run_without_provenance_is_not_finished(compared, tmp_path):
     (mine / "breakdown" / "provenance.json").unlink()
     _refused(tmp_path, f"--reuse: {mine / 'breakdown'}: holds no finished run of breakdown (no provenance.json)"
              + ADVICE, f"tavc={mine}")
+
+
+def test_a_run_of_another_simulator_is_refused(compared, tmp_path):
+    mine, _ = _copy_runs(compared, tmp_path)
+    path = mine / "initial_distribution" / "provenance.json"
+    prov = json.loads(path.read_text())
+    prov["code_digest"] = "0123456789abcdef"  # as a run of an earlier simulator records it
+    path.write_text(json.dumps(prov, indent=2))
+    _refused(tmp_path, f"--reuse: {mine / 'initial_distribution'}: simulated by another version of tavc's simulator "
+             f"(code digest 0123456789abcdef, this tavc's {code_digest()})" + ADVICE, f"tavc={mine}")
 
 
 def test_a_run_of_another_learner_is_refused(compared, tmp_path):

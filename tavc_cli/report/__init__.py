@@ -58,7 +58,7 @@ from tavc_cli.report.files import (
 )
 from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
-from tavc_cli.report.runs import LADDER, finished_runs, other_code, other_code_lines, rel, run_list_lines, study_runs
+from tavc_cli.report.runs import LADDER, finished_runs, other_code_lines, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
 from tavc_cli.report.studies import STAY_SWITCH_DIRS, stay_switch_lines, value_ratio_lines
 from tavc_cli.report.surrogate import study_tables, surrogate_lines
@@ -161,7 +161,7 @@ def _check_run(folder: Path, root: Path) -> tuple[bool, str | None]:
 
     facts = check_run(folder, config_of)
     check_model(folder)
-    return bool(retested_tables(folder, root, config_of)), other_code(facts)
+    return bool(retested_tables(folder, root, config_of)), facts.other_code
 
 
 def _retest(folders: list[Path], root: Path) -> tuple[dict[Path, list[str]], list[str]]:

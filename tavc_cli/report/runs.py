@@ -46,7 +46,6 @@ from tavc_cli.report.files import (
 )
 from tavc_cli.report.spatiotemporal import spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
-from tavc_cli.run_checks import RunFacts
 from tavc_cli.settings import TavcConfig, to_yaml
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
@@ -245,12 +244,6 @@ def draw_figures(name: str, d: Path, cfg: TavcConfig, horizon: Path, results_dir
         return spatiotemporal_lines(name, d, cfg, results_dir, fig_dir, label)
     state_time = pd.read_csv(d / "state_time.csv", dtype={"state": str})
     return experiment_figures(name, d, cfg, state_time, results_dir, model_json, fig_dir, label)
-
-
-def other_code(facts: RunFacts) -> str | None:
-    """The digest of the simulator's code that ran a run's trials (its `provenance.json`'s), where
-    that is not this tavc's; None where it is, or where the run records none."""
-    return facts.code_digest if facts.code_digest not in (None, code_digest()) else None
 
 
 def other_code_lines(other: dict[Path, str], results_dir: Path) -> list[str]:
