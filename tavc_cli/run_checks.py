@@ -71,7 +71,7 @@ class RunFacts:
     # provenance.json's trials in its order, (controller, trial, key or None), and the digest of the
     # simulator's code that ran them (None where it records none)
     listed: tuple[tuple[str, int, str | None], ...] = ()
-    code_digest: str | None = None
+    recorded_code: str | None = None
 
     @classmethod
     def of(cls, cfg: TavcConfig, provenance: dict | None, folder: Path) -> RunFacts:
@@ -102,7 +102,7 @@ class RunFacts:
     def other_code(self) -> str | None:
         """The digest of the simulator's code that ran the run's trials (provenance.json's
         ``code_digest``) where it is not this tavc's; None where it is, or where none is recorded."""
-        return self.code_digest if self.code_digest not in (None, code_digest()) else None
+        return self.recorded_code if self.recorded_code not in (None, code_digest()) else None
 
     def valid_state(self, label: str) -> bool:
         """Whether `label` is a state of this team: robots per circuit (high-value circuit

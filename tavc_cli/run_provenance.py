@@ -77,7 +77,7 @@ def check_planned(facts: RunFacts, plan: RunPlan) -> None:
     if sorted((c, j) for c, j, _ in facts.listed) != sorted(planned):
         raise damaged(path, f"its trials are not those config.yaml plans ({_counts(given)})")
     owned = read_owned(facts.folder)
-    if facts.code_digest != code_digest() or (owned is not None and owned.kind == SURROGATE):
+    if facts.recorded_code != code_digest() or (owned is not None and owned.kind == SURROGATE):
         return
     specs = trial_specs(cfg, plan)
     if any(isinstance(s.policy, PluginSettings) for s in specs):
