@@ -408,10 +408,12 @@ def test_a_provenance_listing_other_trials_than_the_plan_is_refused(breakdown, t
 def test_a_run_of_other_code_is_reported_as_such(breakdown, undamaged_report, tmp_path):
     assert "Runs of other code" not in undamaged_report
     results = _results_with(tmp_path, breakdown)
+    assert api.load(results / "breakdown").other_code is None
     path = results / "breakdown" / "provenance.json"
     prov = json.loads(path.read_text())
     prov["code_digest"] = "0123456789abcdef"  # as a run of an earlier simulator records it
     path.write_text(json.dumps(prov, indent=2))
+    assert api.load(results / "breakdown").other_code == "0123456789abcdef"
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
     assert ("runs of other code: 1 run(s) under breakdown/ were simulated by another version of tavc's simulator "
