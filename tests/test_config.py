@@ -559,3 +559,16 @@ def test_a_record_listing_every_learners_parameters_reads_as_the_learner_that_ra
     (tmp_path / "config.yaml").write_text(text.replace("\nscale:", "\n  alpah: 0.2\nscale:", 1))
     with pytest.raises(TavcError, match="learner.alpah: the learner tavc_egreedy takes no parameter alpah"):
         from_yaml(tmp_path / "config.yaml")
+
+
+def test_a_key_a_config_of_your_own_lacks_names_your_file_not_tavcs(tmp_path):
+    (tmp_path / "experiment").mkdir()
+    (tmp_path / "experiment" / "misplaced.yaml").write_text("seed: 3\n")  # no `# @package _global_`
+    with using_config_dirs(tmp_path), pytest.raises(TavcError) as info:
+        load_config(["experiment=misplaced"])
+    assert str(info.value) == ("experiment: Key 'experiment' not in 'TavcConfig' "
+                               f"(in {tmp_path / 'experiment' / 'misplaced.yaml'})")
+    # where tavc has a config of that name, Hydra takes tavc's, which `conf/...` names
+    (tmp_path / "experiment" / "breakdown.yaml").write_text("seed: 3\n")
+    with using_config_dirs(tmp_path):
+        assert load_config(["experiment=breakdown"]).seed == 0  # tavc's, found first
