@@ -10,12 +10,12 @@ a Hydra launcher.
 """
 
 from tavc_cli.config.experiments import describe_experiments
+from tavc_cli.config.folders import find_conf_dir
 from tavc_cli.config.ladder import ladder_folder, load_ladder, parse_factors
 from tavc_cli.config.loading import (
     check_measurement,
     experiment_lines,
     experiment_names,
-    find_conf_dir,
     list_experiments,
     load_config,
     load_experiments,

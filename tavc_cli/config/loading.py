@@ -15,6 +15,7 @@ from omegaconf.errors import (
 )
 
 from tavc_cli.chapter import base_case
+from tavc_cli.config.folders import config_folders, find_conf_dir
 from tavc_cli.config.limits import sources, validate_measurement_time
 from tavc_cli.config.messages import hydra_errors, omegaconf_message, uncaught_by_hydra, uncomposable_message
 from tavc_cli.config.overrides import (
@@ -36,28 +37,6 @@ from tavc_cli.settings import SCHEMA_NAME, TavcConfig, settings_of
 # --------------------------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------------------------
-
-
-def find_conf_dir() -> Path:
-    """Return the directory holding ``config.yaml`` and the config groups.
-
-    An installed wheel ships the configs as ``tavc_cli/conf``; a source checkout (or an
-    editable install) keeps them at the repository's top-level ``conf/``.
-
-    Returns:
-        The absolute path of the config directory.
-
-    Raises:
-        TavcError: If neither location holds a ``config.yaml``.
-    """
-    package_dir = Path(__file__).resolve().parent.parent
-    candidates = (package_dir / "conf", package_dir.parent / "conf")
-    for candidate in candidates:
-        if (candidate / "config.yaml").is_file():
-            return candidate
-    raise TavcError(
-        f"no config directory: looked for config.yaml in {candidates[0]} and {candidates[1]}"
-    )
 
 
 def load_config(overrides: Sequence[str] = ()) -> DictConfig:
@@ -173,8 +152,7 @@ def results_root(overrides: Sequence[str] = (), default_scale: str | None = None
 def experiment_names(own: bool = False) -> list[str]:
     """The experiments there are files for (``experiment/<name>.yaml``), sorted: tavc's and those of
     the user's config folders (``--config-dir``), or tavc's only (`own`)."""
-    folders = [find_conf_dir(), *([] if own else config_dirs())]
-    return sorted({p.stem for d in folders for p in (d / "experiment").glob("*.yaml")})
+    return sorted({p.stem for d in config_folders(own) for p in (d / "experiment").glob("*.yaml")})
 
 
 def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),

@@ -18,6 +18,7 @@ from omegaconf.errors import (
     ValidationError,
 )
 
+from tavc_cli.config.folders import config_file
 from tavc_cli.errors import TavcError
 
 _GROUP_VALUE = "Config group override must be"  # Hydra's words for a group given null or a number
@@ -190,21 +191,6 @@ def _missing_option_message(error: MissingConfigException) -> str:
     return f"{group}={option}: could not load {missing!r}"
 
 
-def _config_file(name: str) -> str:
-    """The file of the config Hydra names `name` (``experiment/fast``): ``conf/<name>.yaml`` where it
-    is tavc's own, else its path in the first of the user's config folders (``--config-dir``) that
-    has it, as Hydra searches them."""
-    # deferred: loading, which finds tavc's own folder, imports this module
-    from tavc_cli.config.loading import find_conf_dir
-    from tavc_cli.learning.plugins import config_dirs
-
-    if not (find_conf_dir() / f"{name}.yaml").is_file():
-        for folder in config_dirs():
-            if (folder / f"{name}.yaml").is_file():
-                return str(folder / f"{name}.yaml")
-    return f"conf/{name}.yaml"
-
-
 def _hydra_message(error: HydraException) -> str:
     """A composition error, reported against the override or config file that caused it."""
     text = str(error)
@@ -213,7 +199,7 @@ def _hydra_message(error: HydraException) -> str:
         # A config file itself is wrong (e.g. a key the schema lacks); name the key and file.
         full_key = re.search(r"full_key: (\S+)", text)
         key = full_key.group(1) if full_key else "config"
-        return f"{key}: {_validation_detail(in_file.group(2))} (in {_config_file(in_file.group(1))})"
+        return f"{key}: {_validation_detail(in_file.group(2))} (in {config_file(in_file.group(1))})"
     twice = re.search(r"Multiple values for (\S+?)\.(?:\s|$)", text) or re.match(  # a group given again with a +
         r"(\S+) appears more than once in the final defaults list", text)
     if twice:
