@@ -86,9 +86,10 @@ class Results:
 
     @cached_property
     def other_code(self) -> str | None:
-        """The digest of the simulator's code that ran the run's trials (its `provenance.json`
-        records it) where it is not this tavc's: the run's numbers are that code's, and running
-        it again gives this code's. None where it is this tavc's, or where the run records none."""
+        """The digest of tavc's code that computed the run's trials (its `provenance.json` records
+        it: the simulator's, or the surrogate's, "<digest> (the surrogate's)") where it is not this
+        tavc's: the run's numbers are that code's, and running it again gives this code's. None
+        where it is this tavc's, or where the run records none."""
         return checked_facts(self.path).other_code
 
     @property

@@ -43,6 +43,7 @@ from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
 from tavc_cli.readers import TABLE_LIMIT, YAML_LIMIT, read_bounded
 from tavc_cli.run_provenance import check_planned, read_provenance, unfinished_rewrites
 from tavc_cli.settings import TavcConfig, from_yaml
+from tavc_cli.surrogate.digest import engine_code, surrogate_code_digest
 from tavc_cli.table_cells import check_cells, damaged, unreadable
 
 SECTIONS = ("arena", "robot", "team", "learner", "scale", "executor", "paper", "tasks", "events", "sim", "analysis",
@@ -72,6 +73,8 @@ class RunFacts:
     # simulator's code that ran them (None where it records none)
     listed: tuple[tuple[str, int, str | None], ...] = ()
     recorded_code: str | None = None
+    # what computed them, as provenance.json records it (`TrialSpec.engine`; None where it does not)
+    engine: str | None = None
 
     @classmethod
     def of(cls, cfg: TavcConfig, provenance: dict | None, folder: Path) -> RunFacts:
@@ -85,7 +88,7 @@ class RunFacts:
         speeds = [float(m.speed_mps) for m in members] or [float(cfg.robot.speed_mps)] * len(names)
         scheme = str(cfg.analysis.state)
         sizes = tuple(names.count(g) for g in group_order(names, speeds)) if scheme == "groups" else (len(names),)
-        trials = digests = code = None
+        trials = digests = code = engine = None
         replaced, listed = {}, ()
         if provenance is not None:
             # a provenance listing no trial (a folder made by hand) gives none to check against
@@ -93,16 +96,21 @@ class RunFacts:
             listed = tuple((str(t["controller"]), int(t["trial"]), t.get("key")) for t in provenance["trials"])
             digests = provenance.get("tables")
             replaced = unfinished_rewrites(provenance)
-            code = provenance.get("code_digest")
+            code, engine = provenance.get("code_digest"), provenance.get("engine")
         return cls(folder, trials, digests, scheme, sizes, len(cfg.arena.circuits),
                    len(names) - len(cfg.events.breakdowns), replaced, cfg, listed,
-                   code if isinstance(code, str) else None)
+                   code if isinstance(code, str) else None, engine if isinstance(engine, str) else None)
 
     @property
     def other_code(self) -> str | None:
-        """The digest of the simulator's code that ran the run's trials (provenance.json's
-        ``code_digest``) where it is not this tavc's; None where it is, or where none is recorded."""
-        return self.recorded_code if self.recorded_code not in (None, code_digest()) else None
+        """The digest of tavc's code that computed the run's trials where it is not this tavc's: the
+        simulator's (provenance.json's ``code_digest``), or, for a run on the surrogate, the
+        surrogate's (named in its ``engine``, "<digest> (the surrogate's)"); None where both are
+        this tavc's, or where none is recorded."""
+        if self.recorded_code not in (None, code_digest()):
+            return self.recorded_code
+        surrogate = engine_code(self.engine or "")
+        return f"{surrogate} (the surrogate's)" if surrogate not in (None, surrogate_code_digest()) else None
 
     def valid_state(self, label: str) -> bool:
         """Whether `label` is a state of this team: robots per circuit (high-value circuit
@@ -127,6 +135,12 @@ class RunFacts:
             return {join_counts(c) for c in product(*(range(g + 1) for g in sizes))}
         n = sum(self.groups) if whole else sum(counts[0])
         return {join_counts(c) for c in product(range(n + 1), repeat=self.n_circuits) if sum(c) == n}
+
+
+def this_code() -> str:
+    """This tavc's code, as `RunFacts.other_code` is set against it: its simulator's digest and its
+    surrogate's."""
+    return f"simulator {code_digest()}, surrogate {surrogate_code_digest()}"
 
 
 def read_config(path: Path, digests: dict[str, str] | None = None,

@@ -5,11 +5,11 @@ they give it. A table or record that fails is one line naming the file (`table_c
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, plan_run
-from tavc_cli.experiments.spec import code_digest
 from tavc_cli.learning.parameters import PluginSettings
 from tavc_cli.ownership import SURROGATE
 from tavc_cli.ownership import read as read_owned
@@ -57,11 +57,12 @@ def check_planned(facts: RunFacts, plan: RunPlan) -> None:
     """The trials `provenance.json` lists are those the run's `config.yaml` and `plan.json` plan:
     the controllers and trial counts the config gives, each trial listed once, and, where this
     tavc's simulator ran them (the digest provenance.json records is this code's), each under the
-    key its settings give it (`TrialSpec.key`: everything that fixes its outcome). So a config.yaml
-    edited after its run is refused even where its digest was re-signed or never recorded. A run
-    on the surrogate, or of a learner from outside tavc, is checked for its trials but not their
-    keys: those hold the digest of the tasks it drew from, or of the learner's files, which the
-    run's folder does not keep."""
+    key its settings give it (`TrialSpec.key`: everything that fixes its outcome, with the engine
+    provenance.json records). So a config.yaml edited after its run is refused even where its
+    digest was re-signed or never recorded. A run of a learner from outside tavc, or on the
+    surrogate where provenance.json records no engine (runs written before it did), is checked
+    for its trials but not their keys: those hold the digest of the learner's files, or of the
+    tasks the run drew from, which the run's folder does not keep."""
     cfg, path = facts.cfg, facts.folder / "provenance.json"
     try:
         given = [(c.label, c.trials) for c in plan_run(cfg).controllers]
@@ -76,12 +77,16 @@ def check_planned(facts: RunFacts, plan: RunPlan) -> None:
     planned = [(c.label, j) for c in plan.controllers for j in range(c.trials)]
     if sorted((c, j) for c, j, _ in facts.listed) != sorted(planned):
         raise damaged(path, f"its trials are not those config.yaml plans ({_counts(given)})")
-    owned = read_owned(facts.folder)
-    if facts.recorded_code != code_digest() or (owned is not None and owned.kind == SURROGATE):
+    if facts.other_code is not None or facts.recorded_code is None:  # keys of other code, or none known
+        return
+    owned = read_owned(facts.folder) if facts.engine is None else None
+    if owned is not None and owned.kind == SURROGATE:  # its engine not recorded: the tasks it drew are unknown
         return
     specs = trial_specs(cfg, plan)
     if any(isinstance(s.policy, PluginSettings) for s in specs):
         return
+    if facts.engine is not None:
+        specs = [replace(s, engine=facts.engine) for s in specs]
     keys = {(c, j): key for c, j, key in facts.listed}
     for spec in specs:
         listed = keys[spec.controller, spec.trial]

@@ -26,7 +26,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import file_digest
 from tavc_cli.ownership import TURN_TAKING_FILES, TURN_TAKING_KIND, take
 from tavc_cli.pipeline import run_experiment
-from tavc_cli.run_checks import RunFacts, check_run
+from tavc_cli.run_checks import RunFacts, check_run, this_code
 from tests.helpers import then_interrupted
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
@@ -416,13 +416,13 @@ def test_a_run_of_other_code_is_reported_as_such(breakdown, undamaged_report, tm
     assert api.load(results / "breakdown").other_code == "0123456789abcdef"
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
-    assert ("runs of other code: 1 run(s) under breakdown/ were simulated by another version of tavc's simulator "
+    assert ("runs of other code: 1 run(s) under breakdown/ were computed by another version of tavc's code "
             "(0123456789abcdef)") in result.output
     text = (results / "REPORT.md").read_text()
     paragraph = next(line for line in text.splitlines() if line.startswith("**Runs of other code.**"))
-    assert paragraph.startswith("**Runs of other code.** 1 of the runs this report reads were simulated by another "
-                                "version of tavc's simulator (code digest `0123456789abcdef`; this tavc's is `")
-    assert "): `breakdown`. Their numbers are shown as that code made them" in paragraph
+    assert paragraph.startswith("**Runs of other code.** 1 of the runs this report reads were computed by another "
+                                f"version of tavc's code (digest `0123456789abcdef`; this tavc's: {this_code()}): "
+                                "`breakdown`. Their numbers are shown as that code made them")
 
 
 def test_every_committed_run_passes_the_checks():

@@ -18,8 +18,8 @@ from tavc_cli.cli import app
 from tavc_cli.config import load_config
 from tavc_cli.config import settings as to_settings
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.spec import code_digest
 from tavc_cli.pipeline import run_experiment
+from tavc_cli.run_checks import this_code
 from tests.helpers import file_digests
 
 SETTINGS = {"scale": "smoke", "duration_s": "120", "convergence_s": "20", "trials": "1", "executor.n_jobs": "1"}
@@ -126,8 +126,8 @@ def test_a_run_of_another_simulator_is_refused(compared, tmp_path):
     prov = json.loads(path.read_text())
     prov["code_digest"] = "0123456789abcdef"  # as a run of an earlier simulator records it
     path.write_text(json.dumps(prov, indent=2))
-    _refused(tmp_path, f"--reuse: {mine / 'initial_distribution'}: simulated by another version of tavc's simulator "
-             f"(code digest 0123456789abcdef, this tavc's {code_digest()})" + ADVICE, f"tavc={mine}")
+    _refused(tmp_path, f"--reuse: {mine / 'initial_distribution'}: computed by another version of tavc's code "
+             f"(0123456789abcdef; this tavc's: {this_code()})" + ADVICE, f"tavc={mine}")
 
 
 def test_a_run_of_another_learner_is_refused(compared, tmp_path):

@@ -13,6 +13,7 @@ import pytest
 
 from tavc_cli import config
 from tavc_cli.errors import TavcError
+from tavc_cli.surrogate import digest as surrogate_digest
 from tavc_cli.surrogate import run as surrogate_run
 from tavc_cli.surrogate.run import measure_tasks, surrogate_code_digest, surrogate_specs
 from tests.helpers import modules_reached
@@ -236,6 +237,33 @@ def test_a_surrogate_trial_drawn_by_other_surrogate_code_is_drawn_again(copy, tm
     assert all(TrialRecord.load(p).meta["engine"].endswith(":" + "0" * 16) for p in records)
 
 
+def test_a_surrogate_run_is_held_to_its_trials_keys_and_its_code_named(copy, tmp_path):
+    from tavc_cli.io import file_digest
+    from tavc_cli.run_checks import check_run
+    from tavc_cli.surrogate.run import run_surrogate
+
+    run = tmp_path / "run"
+    run_surrogate(settings(copy, "trials=1", f"output_dir={run}"), echo=lambda _: None)
+    prov = json.loads((run / "provenance.json").read_text())
+    assert prov["engine"].startswith("surrogate:") and prov["engine"].endswith(":" + surrogate_code_digest())
+    assert check_run(run).other_code is None
+    # the settings edited after the run, the digest written again: the keys tell
+    config_yaml = run / "config.yaml"
+    original = config_yaml.read_bytes()
+    config_yaml.write_bytes(original.replace(b"  - 2200.0\n", b"  - 2300.0\n", 1))
+    prov["tables"]["config.yaml"] = file_digest(config_yaml)
+    (run / "provenance.json").write_text(json.dumps(prov, indent=2))
+    with pytest.raises(TavcError, match=r"provenance.json: tavc trial 0 is listed under a key its config.yaml and "
+                                        r"plan.json do not give it"):
+        check_run(run)
+    # drawn by other surrogate code: said so, its keys not held to this code's
+    config_yaml.write_bytes(original)
+    prov["tables"]["config.yaml"] = file_digest(config_yaml)
+    prov["engine"] = prov["engine"].rsplit(":", 1)[0] + ":" + "0" * 16
+    (run / "provenance.json").write_text(json.dumps(prov, indent=2))
+    assert check_run(run).other_code == "0" * 16 + " (the surrogate's)"
+
+
 def test_the_surrogate_digest_covers_every_module_its_engine_runs():
     """As the simulator's trial key covers every module its engine reaches (test_structure), the
     surrogate's trials' keys cover every module its engine reaches: the simulator's code
@@ -244,7 +272,7 @@ def test_the_surrogate_digest_covers_every_module_its_engine_runs():
     from tavc_cli.experiments.spec import _OUTCOME_CODE
 
     root = Path(surrogate_run.__file__).resolve().parent.parent
-    covered = {p for p in (*_OUTCOME_CODE, *surrogate_run._SURROGATE_CODE) if p.endswith(".py")}
+    covered = {p for p in (*_OUTCOME_CODE, *surrogate_digest._SURROGATE_CODE) if p.endswith(".py")}
     covered.add("experiments/build.py")  # builds specs from settings (tasks.py's measuring trials): keyed as specs
     dirs = [p for p in _OUTCOME_CODE if not p.endswith(".py")]
     seen = modules_reached(root, "surrogate/engine.py", (*COMPILED_SOURCES, "surrogate"))

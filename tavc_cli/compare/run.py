@@ -27,13 +27,12 @@ from tavc_cli.analysis.claims import not_a_verdict
 from tavc_cli.compare.figures import comparison_figure
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order, trial_metrics
 from tavc_cli.errors import TavcError
-from tavc_cli.experiments.spec import code_digest
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.learning.registry import LEARNS_NOTHING, controller_label
 from tavc_cli.model.allocations import model_allocations
 from tavc_cli.ownership import COMPARE, COMPARE_FILES, config_differences, take
 from tavc_cli.readers import load_yaml
-from tavc_cli.run_checks import check_run
+from tavc_cli.run_checks import check_run, this_code
 from tavc_cli.settings import TavcConfig, to_yaml
 
 
@@ -74,7 +73,7 @@ def check_reused(folder: Path, planned: TavcConfig, label: str) -> None:
     comparison would read instead of running `planned` (the run it would make of one scenario
     for the controller whose trials are labelled `label`), unless it holds a finished run
     (its `provenance.json` there) whose files are whole and unchanged (`run_checks.check_run`,
-    as `tavc report` checks a run), simulated by this tavc's simulator, of that scenario, of
+    as `tavc report` checks a run), computed by this tavc's code, of that scenario, of
     that learner with trials of `label`, at `planned`'s settings but `REUSE_MAY_DIFFER`, and with
     at least `planned`'s trials."""
     experiment = str(planned.experiment_name)
@@ -86,8 +85,8 @@ def check_reused(folder: Path, planned: TavcConfig, label: str) -> None:
     except TavcError as error:
         raise TavcError(f"--reuse: {error}") from None
     if facts.other_code is not None:
-        raise _refused(folder, f"simulated by another version of tavc's simulator (code digest {facts.other_code}, "
-                       f"this tavc's {code_digest()})")
+        raise _refused(folder, f"computed by another version of tavc's code ({facts.other_code}; this tavc's: "
+                       f"{this_code()})")
     recorded = load_yaml(folder / "config.yaml")
     if recorded.get("experiment_name") != experiment:
         raise _refused(folder, f"a run of {recorded.get('experiment_name')}, not of {experiment}")

@@ -48,6 +48,8 @@ def provenance(cfg: TavcConfig, specs: list[TrialSpec], wall_time_s: float, n_re
         "tavc_version": __version__,
         "git_commit": git_commit(),
         "code_digest": code_digest(),
+        # what computed the trials: the simulator ("physics"), or the surrogate, its code's digest named
+        "engine": specs[0].engine if specs else "physics",
         **({"learner_code": learners} if learners else {}),  # the code of learners from outside tavc
         "packages": versions,
         "python": platform.python_version(),

@@ -77,7 +77,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path],
     comparisons of other learners, the turn-taking model's predictions (at the chapter's scenarios
     and in the stay/switch studies' readings) and its own learners' and alternators' runs. The runs
     are checked two at a time (`_check_runs`). Returns the runs whose claims or comparison today's
-    rules make otherwise than their files say, and the runs simulated by other code than this
+    rules make otherwise than their files say, and the runs computed by other code than this
     tavc's, each with the digest of that code."""
     for path in (results_dir / "REPORT.md", results_dir / "claims.csv", *(d / "claims.csv" for d in horizon_dirs)):
         if path.is_dir():
@@ -118,7 +118,7 @@ def _check_runs(folders: list[Path], root: Path) -> tuple[list[Path], dict[Path,
     handed to the processes have ended; where a check process dies, the folders from there on
     are checked here, one by one. Each folder's settings are then read here too, where the
     report reads them again (`files.config_of` keeps them). Returns the folders whose claims or
-    comparison are not what today's rules give, and those simulated by other code than this tavc's
+    comparison are not what today's rules give, and those computed by other code than this tavc's
     with that code's digest (`_check_run`; `root`, the results folder)."""
     refused, here_from, stale, other = None, len(folders), [], {}
     with FigurePool() as pool:
@@ -155,7 +155,8 @@ def _check_run(folder: Path, root: Path) -> tuple[bool, str | None]:
     """`run_checks.check_run` on one folder, and its model's output if it has one; whether its
     claims or its comparison with the chapter, made again on its tables, are not what its files
     hold and tavc may rewrite them (`retest.retested_tables`; `root`, the results folder), and the
-    digest of the simulator's code that ran its trials where it is not this tavc's (else None)."""
+    digest of tavc's code that computed its trials where it is not this tavc's (`RunFacts.other_code`;
+    else None)."""
     # deferred: a run's analysis loads the simulator's kernels, which importing the report must not
     from tavc_cli.retest import retested_tables
 
@@ -341,9 +342,9 @@ def summary_lines(result: dict) -> list[str]:
     lines += result.get("retest_left", [])
     other = result.get("other_code", {})
     if other:
-        lines.append(f"runs of other code: {len(other)} run(s) under {_common(list(other))} were simulated by "
-                     f"another version of tavc's simulator ({', '.join(sorted(set(other.values())))}); the report "
-                     "shows their numbers as that code made them and says so: run each again to have this code's")
+        lines.append(f"runs of other code: {len(other)} run(s) under {_common(list(other))} were computed by "
+                     f"another version of tavc's code ({', '.join(sorted(set(other.values())))}); the report shows "
+                     "their numbers as that code made them and says so: run each again to have this code's")
     return [*lines, result["report"], *([result["page"]] if "page" in result else [])]
 
 

@@ -19,7 +19,6 @@ import yaml
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.chapter import order_key, state_table_id
-from tavc_cli.experiments.spec import code_digest
 from tavc_cli.ownership import (
     CALIBRATION,
     COMPARE,
@@ -46,6 +45,7 @@ from tavc_cli.report.files import (
 )
 from tavc_cli.report.spatiotemporal import spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
+from tavc_cli.run_checks import this_code
 from tavc_cli.settings import TavcConfig, to_yaml
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
@@ -247,8 +247,8 @@ def draw_figures(name: str, d: Path, cfg: TavcConfig, horizon: Path, results_dir
 
 
 def other_code_lines(other: dict[Path, str], results_dir: Path) -> list[str]:
-    """The report's paragraph on the runs simulated by other code than this tavc's (`other`: each
-    with that code's digest), by folder; none where there are none."""
+    """The report's paragraph on the runs computed by other code than this tavc's (`other`: each
+    with that code's digest, `RunFacts.other_code`), by folder; none where there are none."""
     if not other:
         return []
     groups: dict[Path, list[Path]] = {}
@@ -257,11 +257,10 @@ def other_code_lines(other: dict[Path, str], results_dir: Path) -> list[str]:
     where = ", ".join(f"`{rel(parent, results_dir)}/` ({len(runs)} runs)" if len(runs) > 1 else
                       f"`{rel(runs[0], results_dir)}`" for parent, runs in groups.items())
     digests = ", ".join(f"`{c}`" for c in sorted(set(other.values())))
-    return [f"**Runs of other code.** {len(other)} of the runs this report reads were simulated by another version "
-            f"of tavc's simulator (code digest {digests}; this tavc's is `{code_digest()}`): {where}. Their numbers "
-            "are shown as that code made them, not as this code makes them; the command that made each, run again "
-            "with this tavc, simulates them anew (a trial is reused only under its key, which holds the code's "
-            "digest).", ""]
+    return [f"**Runs of other code.** {len(other)} of the runs this report reads were computed by another version "
+            f"of tavc's code (digest {digests}; this tavc's: {this_code()}): {where}. Their numbers are shown as "
+            "that code made them, not as this code makes them; the command that made each, run again with this "
+            "tavc, computes them anew (a trial is reused only under its key, which holds the code's digest).", ""]
 
 
 def run_list_lines(results_dir: Path, horizons: list) -> list[str]:

@@ -11,12 +11,10 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, is_dataclass, replace
-from functools import cache
 from pathlib import Path
 
 import pandas as pd
 
-from tavc_cli import meaning_digest
 from tavc_cli.confined import run_units
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
@@ -31,6 +29,7 @@ from tavc_cli.pipeline import CAN_FORK, _finish, take_run_folder
 from tavc_cli.readers import TABLE_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig
 from tavc_cli.settings_studies import ALTERNATORS, EXPLORERS
+from tavc_cli.surrogate.digest import surrogate_code_digest, surrogate_engine
 from tavc_cli.surrogate.engine import run_trial
 from tavc_cli.surrogate.explorers import (
     explore_trials,
@@ -243,27 +242,11 @@ def tasks_digest(times: TaskTimes) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
-# below tavc_cli/: `surrogate_code_digest` (the plan decides a drawn trial's seeds and schedule)
-_SURROGATE_CODE = ("surrogate/engine.py", "surrogate/tasks.py", "experiments/plan.py")
-_TAVC_CLI = Path(__file__).resolve().parent.parent
-
-
-@cache
-def surrogate_code_digest(root: Path = _TAVC_CLI) -> str:
-    """Digest of the surrogate's own code (`meaning_digest`), `_SURROGATE_CODE` under `root` (tavc_cli/): the engine
-    that draws a trial (`engine.py`) and the tasks it measures and draws them from (`tasks.py`).
-    The rest a drawn trial runs on (learners, events, the trial's book-keeping) is the
-    simulator's and in `experiments.spec.code_digest`. Named in every surrogate trial's engine
-    (`surrogate_specs`), so an edit draws the trials again, and recorded in `task_times.json`,
-    so an edit measures the tasks again (`kept_tasks`)."""
-    return meaning_digest(root, _SURROGATE_CODE)
-
-
 def surrogate_specs(cfg: TavcConfig, times: TaskTimes, plan: RunPlan | None = None) -> list:
     """The experiment's trials (`trial_specs` of its `plan`: the same controllers, seeds and events), computed
     by the surrogate: their engine names the calibration, the tasks drawn from and the
     surrogate's code (`surrogate_code_digest`), all three in each trial's key."""
-    engine = f"surrogate:{cfg.surrogate.calibration}:{tasks_digest(times)}:{surrogate_code_digest()}"
+    engine = surrogate_engine(str(cfg.surrogate.calibration), tasks_digest(times), surrogate_code_digest())
     return [replace(s, engine=engine) for s in trial_specs(cfg, plan)]
 
 
