@@ -56,9 +56,9 @@ def read_provenance(path: Path) -> dict:
 def check_planned(facts: RunFacts, plan: RunPlan) -> None:
     """The trials `provenance.json` lists are those the run's `config.yaml` and `plan.json` plan:
     the controllers and trial counts the config gives, each trial listed once, and, where this
-    tavc's simulator ran them (the digest provenance.json records is this code's), each under the
-    key its settings give it (`TrialSpec.key`: everything that fixes its outcome, with the engine
-    provenance.json records). So a config.yaml edited after its run is refused even where its
+    tavc's code computed them (`RunFacts.other_code` is None), each under the key its settings
+    give it (`TrialSpec.key`: everything that fixes its outcome, with the engine provenance.json
+    records). So a config.yaml edited after its run is refused even where its
     digest was re-signed or never recorded. A run of a learner from outside tavc, or on the
     surrogate where provenance.json records no engine (runs written before it did), is checked
     for its trials but not their keys: those hold the digest of the learner's files, or of the

@@ -20,22 +20,22 @@ def surrogate_code_digest(root: Path = _TAVC_CLI) -> str:
     that draws a trial (`engine.py`) and the tasks it measures and draws them from (`tasks.py`).
     The rest a drawn trial runs on (learners, events, the trial's book-keeping) is the
     simulator's and in `experiments.spec.code_digest`. Named in every surrogate trial's engine
-    (`surrogate_specs`), so an edit draws the trials again, and recorded in `task_times.json`,
-    so an edit measures the tasks again (`kept_tasks`)."""
+    (`run.surrogate_specs`), so an edit draws the trials again, and recorded in `task_times.json`,
+    so an edit measures the tasks again (`run.kept_tasks`)."""
     return meaning_digest(root, _SURROGATE_CODE)
 
 
-SURROGATE = "surrogate"  # the first field of a surrogate trial's engine
+SURROGATE_ENGINE = "surrogate"  # the first field of a surrogate trial's engine
 
 
 def surrogate_engine(calibration: str, tasks: str, code: str) -> str:
     """The engine of a trial the surrogate draws (`TrialSpec.engine`, in its key): the calibration,
     the digest of the tasks it draws from (`run.tasks_digest`) and of the surrogate's code."""
-    return f"{SURROGATE}:{calibration}:{tasks}:{code}"
+    return f"{SURROGATE_ENGINE}:{calibration}:{tasks}:{code}"
 
 
 def engine_code(engine: str) -> str | None:
     """The digest of the surrogate's code a trial's engine names (`surrogate_engine`); None for the
     physical simulator's."""
     fields = engine.split(":")
-    return fields[-1] if fields[0] == SURROGATE and len(fields) == 4 else None
+    return fields[-1] if fields[0] == SURROGATE_ENGINE and len(fields) == 4 else None
