@@ -58,11 +58,11 @@ def check_planned(facts: RunFacts, plan: RunPlan) -> None:
     the controllers and trial counts the config gives, each trial listed once, and, where this
     tavc's code computed them (`RunFacts.other_code` is None), each under the key its settings
     give it (`TrialSpec.key`: everything that fixes its outcome, with the engine provenance.json
-    records). So a config.yaml edited after its run is refused even where its
-    digest was re-signed or never recorded. A run of a learner from outside tavc, or on the
-    surrogate where provenance.json records no engine (runs written before it did), is checked
-    for its trials but not their keys: those hold the digest of the learner's files, or of the
-    tasks the run drew from, which the run's folder does not keep."""
+    records). So a config.yaml edited after its run is refused even where its digest was
+    re-signed or never recorded. A run of a learner from outside tavc, or on the surrogate where
+    provenance.json records no engine (runs written before it did), is checked for its trials but
+    not their keys: those hold the digest of the learner's files, or of the tasks the run drew
+    from, which the run's folder does not keep."""
     cfg, path = facts.cfg, facts.folder / "provenance.json"
     try:
         given = [(c.label, c.trials) for c in plan_run(cfg).controllers]

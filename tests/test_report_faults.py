@@ -549,7 +549,6 @@ def test_the_api_checks_a_table_as_the_report_does(breakdown, tmp_path):
     assert str(info.value) == f"{path}: line 3: tavc trial 7 is not among the trials provenance.json lists{REWRITE}"
 
 
-
 def test_the_api_holds_a_runs_settings_to_its_trials_as_the_report_does(breakdown, tmp_path):
     folder = tmp_path / "breakdown"
     shutil.copytree(breakdown, folder)

@@ -120,7 +120,7 @@ def test_a_run_without_provenance_is_not_finished(compared, tmp_path):
              + ADVICE, f"tavc={mine}")
 
 
-def test_a_run_of_another_simulator_is_refused(compared, tmp_path):
+def test_a_run_of_another_version_of_tavcs_code_is_refused(compared, tmp_path):
     mine, _ = _copy_runs(compared, tmp_path)
     path = mine / "initial_distribution" / "provenance.json"
     prov = json.loads(path.read_text())
