@@ -46,7 +46,7 @@ def main(
         bool, typer.Option("--version", help="Print the version and exit.", callback=_show_version, is_eager=True),
     ] = False,
     config_dir: Annotated[
-        Optional[list[Path]],
+        Optional[list[str]],  # as typed: an empty name is refused, not taken for the working folder
         typer.Option("--config-dir", help="A folder of your own configs (learner/, experiment/, team/ ...) and "
                                           "learners' files, searched besides tavc's; repeatable.",
                      show_default=False),

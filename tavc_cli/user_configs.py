@@ -16,6 +16,8 @@ from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
 def extended_config_dirs(dirs: Sequence[str | Path], what: str = "--config-dir") -> str:
     """The value of the variable with the folders `dirs` added after those already there; a folder
     that is not one is a `TavcError` naming it (`what`: the option or argument that gave it)."""
+    if any(not str(d).strip() for d in dirs):  # not the working folder, which "." names
+        raise TavcError(f"{what}: an empty folder name; give the folder of your configs ('.' for the working folder)")
     missing = [Path(d) for d in dirs if not Path(d).is_dir()]
     if missing:
         raise TavcError(f"{what}: {missing[0]} is not a folder")

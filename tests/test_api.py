@@ -92,6 +92,8 @@ def test_config_dir_gives_the_api_a_folder_of_the_users_own(tmp_path, monkeypatc
     assert CONFIG_DIRS_ENV not in __import__("os").environ
     with pytest.raises(TavcError, match=r"^config_dir: .*nowhere is not a folder$"):
         api.run(["scale=smoke"], config_dir=tmp_path / "nowhere")
+    with pytest.raises(TavcError, match=r"^config_dir: an empty folder name; give the folder of your configs"):
+        api.run(["scale=smoke"], config_dir="")  # not the working folder taken silently
 
 
 def test_a_sweep_opens_as_a_sweep_with_its_jobs(tmp_path):

@@ -181,6 +181,16 @@ def test_a_refused_launcher_writes_nothing(tmp_path):
     assert not out.exists()
 
 
+def test_an_empty_config_dir_is_refused_not_taken_for_the_working_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # a working folder that holds configs: '' would have read them
+    (tmp_path / "experiment").mkdir()
+    (tmp_path / "experiment" / "mine.yaml").write_text("# @package _global_\nseed: 3\n")
+    result = runner.invoke(app, ["--config-dir", "", "config", "experiment=mine"], catch_exceptions=False)
+    assert result.exit_code == 1
+    assert result.output.strip() == ("error: --config-dir: an empty folder name; give the folder of your configs "
+                                     "('.' for the working folder)")
+
+
 @pytest.mark.parametrize(("args", "line"), [
     (["bench", "--batch", "0"], "error: Invalid value for '--batch': Input should be greater than or equal to 1"),
     (["nosuch"], "error: No such command 'nosuch'."),
