@@ -48,6 +48,13 @@ def folder_problem(folder: str | Path) -> str | None:
     return None
 
 
+def refuse_folder_problem(folder: str | Path, what: str) -> None:
+    """One line naming `what` (the option or key that gave `folder`) where `folder_problem` finds one."""
+    problem = folder_problem(folder)
+    if problem is not None:
+        raise TavcError(f"{what}: {problem}")
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -204,9 +211,7 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
     # deferred: POSIX only
     import fcntl
 
-    problem = folder_problem(folder)
-    if problem is not None:
-        raise TavcError(f"{what}: {problem}")
+    refuse_folder_problem(folder, what)
     folder = Path(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)

@@ -33,7 +33,7 @@ import yaml
 
 from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.errors import TavcError
-from tavc_cli.io import LOCK_NAME, folder_problem, owned_path, write_text_atomic
+from tavc_cli.io import LOCK_NAME, owned_path, refuse_folder_problem, write_text_atomic
 from tavc_cli.readers import load_json, load_yaml
 
 MANIFEST = ".tavc.json"
@@ -205,9 +205,7 @@ def expect(folder: Path, kind: str, what: str = "output_dir") -> None:
     """Refuse, with one line and before anything is run, a folder that holds another kind of
     output than `kind` (a command that writes there at its end checks early with this), and the
     root of the file system (`io.folder_problem`)."""
-    problem = folder_problem(folder)
-    if problem is not None:
-        raise TavcError(f"{what}: {problem}")
+    refuse_folder_problem(folder, what)
     owned = read(Path(folder)) if Path(folder).is_dir() else None
     if owned is not None and owned.kind != kind:
         raise TavcError(f"{what}: {folder} is {_WHAT.get(owned.kind, owned.kind)}, not {_WHAT[kind]}; "

@@ -15,7 +15,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.experiments.records import TABLES, TrialRecord
 from tavc_cli.readers import load_yaml, read_text
-from tavc_cli.run_checks import check_table, checked_facts, load_record, read_trial
+from tavc_cli.run_checks import check_table, load_record, read_trial, run_facts
 from tavc_cli.run_provenance import read_provenance
 from tavc_cli.settings import from_yaml
 
@@ -90,7 +90,7 @@ class Results:
         it: the simulator's, or the surrogate's, "<digest> (the surrogate's)") where it is not this
         tavc's: the run's numbers are that code's, and running it again gives this code's. None
         where it is this tavc's, or where the run records none."""
-        return checked_facts(self.path).other_code
+        return run_facts(self.path).other_code
 
     @property
     def claims(self) -> pd.DataFrame:

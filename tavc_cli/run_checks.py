@@ -30,6 +30,7 @@ import math
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from itertools import product
 from pathlib import Path
 
@@ -54,13 +55,11 @@ SECTIONS = ("arena", "robot", "team", "learner", "scale", "executor", "paper", "
 class RunFacts:
     """What a run's tables are checked against: the trials its `provenance.json` lists
     ((controller, trial) pairs; None where it lists none, or there is none), the digests it
-    recorded (None without),
-    and the states its team can be in: `scheme` (`analysis.state`), the robots per
+    recorded (None without), and the states its team can be in: `scheme` (`analysis.state`), the robots per
     `groups` fastest first (one group for the circuits scheme), the circuits, and the
     fewest robots working at once (after every breakdown)."""
 
     folder: Path
-    trials: frozenset[tuple[str, int]] | None
     digests: dict[str, str] | None
     scheme: str
     groups: tuple[int, ...]
@@ -88,18 +87,22 @@ class RunFacts:
         speeds = [float(m.speed_mps) for m in members] or [float(cfg.robot.speed_mps)] * len(names)
         scheme = str(cfg.analysis.state)
         sizes = tuple(names.count(g) for g in group_order(names, speeds)) if scheme == "groups" else (len(names),)
-        trials = digests = code = engine = None
+        digests = code = engine = None
         replaced, listed = {}, ()
         if provenance is not None:
-            # a provenance listing no trial (a folder made by hand) gives none to check against
-            trials = frozenset((str(t["controller"]), int(t["trial"])) for t in provenance["trials"]) or None
             listed = tuple((str(t["controller"]), int(t["trial"]), t.get("key")) for t in provenance["trials"])
             digests = provenance.get("tables")
             replaced = unfinished_rewrites(provenance)
             code, engine = provenance.get("code_digest"), provenance.get("engine")
-        return cls(folder, trials, digests, scheme, sizes, len(cfg.arena.circuits),
+        return cls(folder, digests, scheme, sizes, len(cfg.arena.circuits),
                    len(names) - len(cfg.events.breakdowns), replaced, cfg, listed,
                    code if isinstance(code, str) else None, engine if isinstance(engine, str) else None)
+
+    @cached_property
+    def trials(self) -> frozenset[tuple[str, int]] | None:
+        """The (controller, trial) pairs provenance.json lists; None where it lists none (a folder
+        made by hand gives none to check against) or there is none."""
+        return frozenset((c, j) for c, j, _ in self.listed) or None
 
     @property
     def other_code(self) -> str | None:

@@ -13,9 +13,11 @@ import pytest
 
 from tavc_cli import config
 from tavc_cli.errors import TavcError
+from tavc_cli.io import file_digest
+from tavc_cli.run_checks import check_run
 from tavc_cli.surrogate import digest as surrogate_digest
 from tavc_cli.surrogate import run as surrogate_run
-from tavc_cli.surrogate.run import measure_tasks, surrogate_code_digest, surrogate_specs
+from tavc_cli.surrogate.run import measure_tasks, run_surrogate, surrogate_code_digest, surrogate_specs
 from tests.helpers import modules_reached
 
 # two robots at the smoke scale: 6 make-ups, 2 static trials of 66 s each (about two seconds)
@@ -224,7 +226,6 @@ def test_the_surrogates_code_is_in_its_digest_and_its_trials_keys(clean, tmp_pat
 
 def test_a_surrogate_trial_drawn_by_other_surrogate_code_is_drawn_again(copy, tmp_path, monkeypatch):
     from tavc_cli.experiments.records import TrialRecord
-    from tavc_cli.surrogate.run import run_surrogate
 
     cfg = settings(copy, "trials=1", f"output_dir={tmp_path / 'run'}")
     run_surrogate(cfg, echo=lambda _: None)
@@ -238,10 +239,6 @@ def test_a_surrogate_trial_drawn_by_other_surrogate_code_is_drawn_again(copy, tm
 
 
 def test_a_surrogate_run_is_held_to_its_trials_keys_and_its_code_named(copy, tmp_path):
-    from tavc_cli.io import file_digest
-    from tavc_cli.run_checks import check_run
-    from tavc_cli.surrogate.run import run_surrogate
-
     run = tmp_path / "run"
     run_surrogate(settings(copy, "trials=1", f"output_dir={run}"), echo=lambda _: None)
     prov = json.loads((run / "provenance.json").read_text())

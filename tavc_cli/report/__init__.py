@@ -120,16 +120,12 @@ def _check_runs(folders: list[Path], root: Path) -> tuple[list[Path], dict[Path,
     report reads them again (`files.config_of` keeps them). Returns the folders whose claims or
     comparison are not what today's rules give, and those computed by other code than this tavc's
     with that code's digest (`_check_run`; `root`, the results folder)."""
-    refused, here_from, stale, other = None, len(folders), [], {}
+    refused, here_from, found = None, len(folders), {}
     with FigurePool() as pool:
         pending = [pool.submit(_check_run, d, root) for d in folders]
         for i, (d, checked) in enumerate(zip(folders, pending, strict=True)):
             try:
-                again, code = checked.result()
-                if again:
-                    stale.append(d)
-                if code is not None:
-                    other[d] = code
+                found[d] = checked.result()
             except BrokenProcessPool:  # a check process died: this folder and the rest are checked here
                 here_from = i
                 break
@@ -142,13 +138,9 @@ def _check_runs(folders: list[Path], root: Path) -> tuple[list[Path], dict[Path,
     if refused is not None:
         raise refused
     for d in folders[here_from:]:
-        again, code = _check_run(d, root)
-        if again:
-            stale.append(d)
-        if code is not None:
-            other[d] = code
+        found[d] = _check_run(d, root)
         config_of(d / "config.yaml")
-    return stale, other
+    return [d for d, (again, _) in found.items() if again], {d: code for d, (_, code) in found.items() if code}
 
 
 def _check_run(folder: Path, root: Path) -> tuple[bool, str | None]:
