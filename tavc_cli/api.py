@@ -29,6 +29,7 @@ from tavc_cli import config
 from tavc_cli.analysis import tasks_seen
 from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
+from tavc_cli.config.overrides import setting_key
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import ModelSettings
@@ -108,7 +109,7 @@ def surrogate_summary(overrides: Sequence[str] = (), *, progress: bool = False,
 
     overrides = list(overrides)
     cfg = config.load_config(overrides)
-    if not any(o.split("=", 1)[0].lstrip("+~") == "output_dir" for o in overrides):
+    if not any(setting_key(o) == "output_dir" for o in overrides):
         overrides.append(f"output_dir={default_root(cfg.scale.name) / 'surrogate' / cfg.experiment_name}")
         cfg = config.load_config(overrides)
     return run_surrogate(config.settings(cfg), progress=progress, echo=echo)
@@ -227,7 +228,7 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
 
     # learner.model_file is the comparison's: the model its predicted states come from, and the one the
     # model's controllers follow; every other controller's learner has no such key
-    model_keys = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") == "learner.model_file"]
+    model_keys = [o for o in overrides if setting_key(o) == "learner.model_file"]
     overrides = [o for o in overrides if o not in model_keys]
     model_file = model_keys[-1].split("=", 1)[1] if model_keys else ModelSettings().model_file
     learners = list(CONTROLLERS if learners is None else learners)
@@ -271,7 +272,7 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, turn
             # deferred: pandas and the model's modules, only with turn_taking
             from tavc_cli.turn_taking import check_overrides
 
-            check_overrides([o for o in overrides if o.split("=", 1)[0].lstrip("+~") != "output_dir"])
+            check_overrides([o for o in overrides if setting_key(o) != "output_dir"])
         result = _model(overrides, save_calibration, progress, echo)
         if turn_taking:
             result["turn_taking"] = _turn_taking(overrides, progress, echo)
@@ -283,7 +284,7 @@ def _turn_taking(overrides: Sequence[str], progress: bool, echo: Callable[[str],
     from tavc_cli.turn_taking import TURN_TAKING_FOLDER, predict_turn_taking, prediction_lines
 
     out = Path(config.load_config(list(overrides)).output_dir) / TURN_TAKING_FOLDER
-    mine = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") != "output_dir"]
+    mine = [o for o in overrides if setting_key(o) != "output_dir"]
     result = predict_turn_taking(mine, out, lambda o: config.settings(config.load_config(o)), progress=progress,
                                  echo=echo)
     echo("\n".join(prediction_lines(result)))
@@ -327,7 +328,7 @@ def _calibrate(overrides: Sequence[str], save: bool, progress: bool, echo: Calla
 
     overrides = list(overrides)
     config.check_measurement(overrides, "calibration")  # its time on this machine, before anything runs
-    if not any(o.split("=", 1)[0].lstrip("+~") == "experiment" for o in overrides):
+    if not any(setting_key(o) == "experiment" for o in overrides):
         overrides = [f"experiment={base_case().name}", *overrides]  # six robots, the chapter's values
     base = config.settings(config.load_config(overrides))
     if not base.calibration.grid:

@@ -33,12 +33,13 @@ import pandas as pd
 from tavc_cli.analysis.makeup_model import predict, readings_summary, times_of, values_high_low
 from tavc_cli.analysis.stay_switch import GRID, reading_folder, reading_name, readings, stay_switch_table
 from tavc_cli.chapter import base_case
+from tavc_cli.config.overrides import setting_key
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.ownership import READINGS, READINGS_DIR, STAY_SWITCH_FILES, WORLD_SEARCH_DIR, take
 from tavc_cli.settings import TavcConfig
 from tavc_cli.surrogate.tasks import Team
-from tavc_cli.turn_taking import PREDICTED, TURN_TAKING_FOLDER, override_setting, predict_turn_taking
+from tavc_cli.turn_taking import PREDICTED, TURN_TAKING_FOLDER, predict_turn_taking
 
 DEFAULT_EXPERIMENT = base_case().name  # the chapter's base case: its team of six, no events
 SET_BY_THE_STUDY = ("arrival", "passing", "arena", "surrogate.tasks_dir", "output_dir")
@@ -58,8 +59,8 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
 
     chosen = {reading_folder(r): calibrated_overrides(Path(calibrated), reading_folder(r)) for r in readings()} \
         if calibrated is not None else {}
-    by_search = {override_setting(o) for c in chosen.values() for o in c}
-    set_here = [k for k in map(override_setting, overrides) if k in (*SET_BY_THE_STUDY, *by_search)]
+    by_search = {setting_key(o) for c in chosen.values() for o in c}
+    set_here = [k for k in map(setting_key, overrides) if k in (*SET_BY_THE_STUDY, *by_search)]
     if set_here:
         raise TavcError(f"{set_here[0]}: set by each reading's calibration search (--calibrated)"
                         if set_here[0] in by_search else f"{set_here[0]}: set by the study for each reading (its grid: "

@@ -26,6 +26,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.turn_taking import ALTERNATOR, HORIZON, TURN_TAKING, modal_state, prediction
+from tavc_cli.config.overrides import setting_key
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.ownership import TURN_TAKING_FILES, TURN_TAKING_KIND, take
@@ -42,14 +43,9 @@ SET_HERE = ("learner", "output_dir", "surrogate.tasks_dir", "baseline_trials", "
 Compose = Callable[[list[str]], TavcConfig]
 
 
-def override_setting(override: str) -> str:
-    """The setting an override names, without Hydra's `+` or `~`."""
-    return override.split("=", 1)[0].lstrip("+~")
-
-
 def check_overrides(overrides: Sequence[str]) -> None:
     """Refuse, in one line, a setting the model sets for its runs (`SET_HERE`)."""
-    given = [k for k in map(override_setting, overrides) if k in SET_HERE]
+    given = [k for k in map(setting_key, overrides) if k in SET_HERE]
     if given:
         raise TavcError(f"{given[0]}: set by the model that knows turn-taking for each of its runs (its "
                         f"learners on the surrogate at {HORIZON:g} times the scale's durations, static alternators at "

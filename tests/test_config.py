@@ -440,7 +440,6 @@ def test_a_sweep_too_large_to_be_a_study_is_refused_before_it_is_spelled_out():
 @pytest.mark.parametrize(("override", "line"), [
     ("arena.targets.foo=1", "arena.targets.foo: 'arena.targets.foo=1' cannot be applied (ValueError: invalid "
                             "literal for int() with base 10: 'foo')"),
-    ("~arena.targets.0", "arena.targets.0: '~arena.targets.0' cannot be applied (TypeError: "),
     ("tasks=[1]", "tasks: 'tasks=[1]' cannot be applied (TypeError: "),
     ("seed=" + "[" * 500 + "]" * 500, "seed: its value is nested too deeply to read"),
     ("+experiment=value_change", "experiment: a config group holds one option, and it was given two; choose it "
@@ -454,6 +453,25 @@ def test_an_override_hydra_cannot_apply_is_one_line_naming_it(override, line):
     with pytest.raises(TavcError) as caught:
         load_config(["experiment=breakdown", override])
     assert str(caught.value).startswith(line), str(caught.value)
+
+
+@pytest.mark.parametrize(("override", "line"), [
+    ("~seed", "seed: every run reads it, so ~ cannot remove it (the schema's default would take its place); set "
+              "it (seed=<value>)"),
+    ("~seed=3", "seed: every run reads it"),
+    ("~team", "team: every run reads it, so ~ cannot remove it (the schema's default would take its place); "
+              "choose an option (team=<option>)"),
+    ("~learner.alpha", "learner.alpha: every run reads it"),
+    ("~arena.targets.0", "arena.targets.0: every run reads it"),
+])
+def test_a_setting_cannot_be_removed(override, line):
+    """Hydra's ``~key`` would not remove a setting tavc reads but put the schema's default in its
+    place: the heterogeneous experiment ran a homogeneous team under ``~team``, and ``~seed`` seed 0."""
+    with pytest.raises(TavcError) as caught:
+        load_config(["experiment=heterogeneous", override])
+    assert str(caught.value).startswith(line), str(caught.value)
+    with pytest.raises(TavcError, match="^job 0 .*: seed: every run reads it"):
+        load_sweep(["learner.epsilon=0.05,0.1", "~seed"])
 
 
 @pytest.mark.filterwarnings("ignore:overflow encountered")  # the arena's own area, computed on the way

@@ -9,7 +9,7 @@ from omegaconf import DictConfig
 
 from tavc_cli.chapter import base_case
 from tavc_cli.config.loading import load_config, results_root
-from tavc_cli.config.overrides import override_key as _override_key
+from tavc_cli.config.overrides import setting_key
 from tavc_cli.errors import TavcError
 
 LADDER_EXPERIMENT = base_case().name
@@ -53,12 +53,12 @@ def load_ladder(factors: Sequence[float], overrides: Sequence[str] = (),
     if len(set(factors)) != len(factors):
         raise TavcError("ladder factors: a factor is given twice")
     for override in overrides:
-        key = _override_key(override).lstrip("+~")
+        key = setting_key(override)
         if key in ("experiment", "output_dir", "scale.time_factor"):
             raise TavcError(f"{key}: set by the ladder for each rung; choose the factors and the results folder "
                             "instead (--ladder, --results)")
-    scale = [o for o in overrides if _override_key(o).lstrip("+~") == "scale"] or ["scale=converged"]
-    rest = [o for o in overrides if _override_key(o).lstrip("+~") != "scale"]
+    scale = [o for o in overrides if setting_key(o) == "scale"] or ["scale=converged"]
+    rest = [o for o in overrides if setting_key(o) != "scale"]
     if results_dir is None:
         results_dir = results_root(overrides, "converged")
     return [load_config([f"experiment={LADDER_EXPERIMENT}", *scale, f"scale.time_factor={f!r}", *rest,

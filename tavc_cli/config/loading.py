@@ -23,6 +23,8 @@ from tavc_cli.config.overrides import (
     is_hydra_override,
     override_key,
     parse_overrides,
+    refuse_deletions,
+    setting_key,
     slug,
     sweep_choices,
 )
@@ -73,7 +75,7 @@ def check_measurement(overrides: Sequence[str], group: str) -> None:
         TavcError: On a bad config, or a measurement longer than a day.
     """
     overrides = list(overrides)
-    if group == "calibration" and not any(override_key(o).lstrip("+~") == "experiment" for o in overrides):
+    if group == "calibration" and not any(setting_key(o) == "experiment" for o in overrides):
         overrides = [f"experiment={base_case().name}", *overrides]  # as `api.calibrate` composes it
     validate_measurement_time(load_config(overrides), group)
 
@@ -143,8 +145,8 @@ def results_root(overrides: Sequence[str] = (), default_scale: str | None = None
     """The folder `tavc reproduce` and `tavc ladder` write into when none is named: ``runs/<scale>``
     (`io.default_root`), the scale as the overrides compose it (else `default_scale`, else
     the config's default)."""
-    scale = [o for o in overrides if override_key(o).lstrip("+~").split(".")[0] == "scale"]
-    if default_scale is not None and not any(override_key(o).lstrip("+~") == "scale" for o in scale):
+    scale = [o for o in overrides if setting_key(o).split(".")[0] == "scale"]
+    if default_scale is not None and not any(setting_key(o) == "scale" for o in scale):
         scale = [f"scale={default_scale}", *scale]
     return default_root(load_config(scale).scale.name)
 
@@ -178,7 +180,7 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
         raise TavcError(f"--experiments: no experiment {unknown[0] if unknown else ''!r} "
                         f"(known: {', '.join(known)})")
     for override in overrides:
-        key = override_key(override).lstrip("+~")
+        key = setting_key(override)
         if key in ("experiment", "output_dir"):
             raise TavcError(f"{key}: set for each experiment by itself; choose experiments and the results folder "
                             "instead (--experiments, --results)")
@@ -276,6 +278,7 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
     ``HYDRA_FULL_ERROR`` traceback switch) is never involved, and every failure surfaces here
     as an exception that becomes one ``TavcError`` line.
     """
+    refuse_deletions(overrides, [p.name for p in find_conf_dir().iterdir() if p.is_dir()])
     with hydra_errors(overrides), initialize_conf():
         try:
             return compose(config_name="config", overrides=[*search_overrides(), *overrides])

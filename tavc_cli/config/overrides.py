@@ -110,6 +110,30 @@ def override_key(text: str) -> str:
     return text.split("=", 1)[0].strip() or text
 
 
+def setting_key(text: str) -> str:
+    """The setting an override names: its key without Hydra's ``+``, ``++`` or ``~`` in front."""
+    return override_key(text).lstrip("+~")
+
+
+def refuse_deletions(overrides: Sequence[str], groups: Sequence[str]) -> None:
+    """Refuse ``~key`` overrides: tavc reads every setting of its schema, so Hydra's deletion would
+    not remove one but put the schema's default in its place, silently (``~seed`` ran seed 0).
+
+    Args:
+        overrides: The overrides as written.
+        groups: The config groups (``team``, ``learner``, ...), whose value is an option's name.
+
+    Raises:
+        TavcError: Naming the first key given with ``~``.
+    """
+    for text in overrides:
+        if text.lstrip().startswith("~"):
+            key = setting_key(text)
+            instead = f"choose an option ({key}=<option>)" if key in groups else f"set it ({key}=<value>)"
+            raise TavcError(f"{key}: every run reads it, so ~ cannot remove it (the schema's default would "
+                            f"take its place); {instead}")
+
+
 def slug(choices: Any) -> str:
     """A short, filesystem-safe folder name from ``key=value`` overrides."""
     text = ",".join(choices)

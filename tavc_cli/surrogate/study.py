@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from tavc_cli.chapter import base_case, served_by
+from tavc_cli.config.overrides import setting_key
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import in_this_process, trial_specs
 from tavc_cli.io import claim_folder, write_text_atomic
@@ -260,9 +261,9 @@ def run_study(out: Path, results: Path, overrides: Sequence[str], compose: Compo
     """Run the study (or only `parts` of it: compare, ladder, phase, horizon, speed) into `out`,
     composing each run's settings with `compose`, and write its tables and figures; returns the
     files written."""
-    set_here = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") in STUDY_KEYS]
+    set_here = [o for o in overrides if setting_key(o) in STUDY_KEYS]
     if set_here:
-        raise TavcError(f"{set_here[0].split('=', 1)[0].lstrip('+~')}: set by the study for each of its runs; "
+        raise TavcError(f"{setting_key(set_here[0])}: set by the study for each of its runs; "
                         "overrides apply to all of them (e.g. seed=3, executor.n_jobs=2)")
     wanted = list(parts or ("compare", "ladder", "phase", "horizon", "speed"))
     unknown = [p for p in wanted if p not in ("compare", "ladder", "phase", "horizon", "speed")]
