@@ -29,12 +29,12 @@ from tavc_cli import config
 from tavc_cli.analysis import tasks_seen
 from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
-from tavc_cli.config.overrides import setting_key
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import ModelSettings
 from tavc_cli.learning.registry import MODEL_LEARNERS
 from tavc_cli.model.report import measurement_shortfall, model_text
+from tavc_cli.override_keys import setting_key
 from tavc_cli.ownership import COMPARE, LADDER, RESULTS, expect, refuse_other_settings
 from tavc_cli.reading import Results, Sweep, load, load_sweep  # noqa: F401 - the API reads through these
 from tavc_cli.settings import from_yaml

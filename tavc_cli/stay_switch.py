@@ -33,9 +33,9 @@ import pandas as pd
 from tavc_cli.analysis.makeup_model import predict, readings_summary, times_of, values_high_low
 from tavc_cli.analysis.stay_switch import GRID, reading_folder, reading_name, readings, stay_switch_table
 from tavc_cli.chapter import base_case
-from tavc_cli.config.overrides import setting_key
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.override_keys import setting_key
 from tavc_cli.ownership import READINGS, READINGS_DIR, STAY_SWITCH_FILES, WORLD_SEARCH_DIR, take
 from tavc_cli.settings import TavcConfig
 from tavc_cli.surrogate.tasks import Team

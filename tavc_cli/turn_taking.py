@@ -26,9 +26,9 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.turn_taking import ALTERNATOR, HORIZON, TURN_TAKING, modal_state, prediction
-from tavc_cli.config.overrides import setting_key
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.override_keys import setting_key
 from tavc_cli.ownership import TURN_TAKING_FILES, TURN_TAKING_KIND, take
 from tavc_cli.report.mechanism import read_group
 from tavc_cli.settings import TavcConfig

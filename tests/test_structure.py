@@ -169,12 +169,13 @@ def test_no_module_imports_its_way_back_to_itself():
 
 
 def test_each_layer_imports_only_the_layers_below_it():
-    """The vocabulary and the reader of its notation import nothing of tavc's; the compiled
+    """The vocabulary, the reader of its notation and of an override's key import nothing of tavc's; the compiled
     kernels' set-up only the package's digests; the simulator and behaviours no learner or trial
     code; the learners no simulator internals; the analysis no simulator; the model no analysis."""
     forbidden = {
         "tavc_cli.vocabulary": ("tavc_cli",),
         "tavc_cli.notation": ("tavc_cli",),
+        "tavc_cli.override_keys": ("tavc_cli",),
         "tavc_cli.kernel": ("tavc_cli.",),
         "tavc_cli.sim": ("tavc_cli.learning", "tavc_cli.experiments", "tavc_cli.settings", "tavc_cli.analysis"),
         "tavc_cli.behaviours": ("tavc_cli.learning", "tavc_cli.experiments", "tavc_cli.settings"),

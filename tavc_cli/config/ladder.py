@@ -9,8 +9,8 @@ from omegaconf import DictConfig
 
 from tavc_cli.chapter import base_case
 from tavc_cli.config.loading import load_config, results_root
-from tavc_cli.config.overrides import setting_key
 from tavc_cli.errors import TavcError
+from tavc_cli.override_keys import setting_key
 
 LADDER_EXPERIMENT = base_case().name
 

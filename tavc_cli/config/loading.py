@@ -21,10 +21,8 @@ from tavc_cli.config.messages import hydra_errors, omegaconf_message, uncaught_b
 from tavc_cli.config.overrides import (
     MAX_SWEEP_JOBS,
     is_hydra_override,
-    override_key,
     parse_overrides,
     refuse_deletions,
-    setting_key,
     slug,
     sweep_choices,
 )
@@ -34,6 +32,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import settings_mapping
 from tavc_cli.learning.plugins import config_dirs
+from tavc_cli.override_keys import override_key, setting_key
 from tavc_cli.settings import SCHEMA_NAME, TavcConfig, settings_of
 
 # --------------------------------------------------------------------------------------------

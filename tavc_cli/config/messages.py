@@ -20,6 +20,7 @@ from omegaconf.errors import (
 
 from tavc_cli.config.folders import config_file
 from tavc_cli.errors import TavcError
+from tavc_cli.override_keys import setting_key
 
 _GROUP_VALUE = "Config group override must be"  # Hydra's words for a group given null or a number
 
@@ -62,7 +63,7 @@ def uncomposable_message(overrides: Sequence[str], culprit: str | None, error: E
     why = ("nested too deeply, or a config file that includes itself" if isinstance(error, RecursionError)
            else f"{type(error).__name__}: {error}")
     if culprit is not None:
-        return f"{culprit.partition('=')[0].lstrip('+~')}: {culprit!r} cannot be applied ({why})"
+        return f"{setting_key(culprit)}: {culprit!r} cannot be applied ({why})"
     return f"the overrides {' '.join(overrides)} cannot be applied together ({why})"
 
 
@@ -131,7 +132,7 @@ def _offending(text: str, error: Exception) -> str:
 def _null_parent_message(overrides: Sequence[str], error: AssertionError) -> str:
     """``team.members.0.speed_mps: team.members is null here; give the whole list ...``."""
     for override in overrides:
-        key = override.split("=", 1)[0].lstrip("+~")
+        key = setting_key(override)
         parts = key.split(".")
         index = next((i for i, part in enumerate(parts) if part.isdigit()), None)
         if index:

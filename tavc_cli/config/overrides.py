@@ -11,6 +11,7 @@ from hydra.errors import HydraException, OverrideParseException
 
 from tavc_cli.config.messages import override_syntax_message
 from tavc_cli.errors import TavcError
+from tavc_cli.override_keys import override_key, setting_key
 
 # a sweep of more jobs is a slip (range(0,100000000)), not a study: each job is a run of its own
 MAX_SWEEP_JOBS = 10_000
@@ -103,16 +104,6 @@ def sweep_choices(overrides: Sequence[str]) -> dict[str, list[str]]:
         else:
             raise TavcError(f"{key}: only lists, range() and choice() can be swept, not interval()")
     return choices
-
-
-def override_key(text: str) -> str:
-    """The key part of an override string (everything before the first ``=``)."""
-    return text.split("=", 1)[0].strip() or text
-
-
-def setting_key(text: str) -> str:
-    """The setting an override names: its key without Hydra's ``+``, ``++`` or ``~`` in front."""
-    return override_key(text).lstrip("+~")
 
 
 def refuse_deletions(overrides: Sequence[str], groups: Sequence[str]) -> None:

@@ -32,11 +32,11 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from tavc_cli.chapter import base_case, served_by
-from tavc_cli.config.overrides import setting_key
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import in_this_process, trial_specs
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.notation import high_of
+from tavc_cli.override_keys import setting_key
 from tavc_cli.ownership import STUDY, take
 from tavc_cli.settings import to_yaml
 from tavc_cli.surrogate.compare import comparison_rows, high_share, predicted_state, run_facts
