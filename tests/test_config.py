@@ -474,12 +474,17 @@ def test_a_setting_cannot_be_removed(override, line):
         load_sweep(["learner.epsilon=0.05,0.1", "~seed"])
 
 
-@pytest.mark.filterwarnings("ignore:overflow encountered")  # the arena's own area, computed on the way
 def test_an_arena_too_long_for_its_reach_grid_is_one_line():
     """The grid on which the walls' free space is checked has at most `REACH_MAX_CELLS` cells a
-    side, however long and thin the arena (one 1e200 m long asked for more than numpy holds)."""
-    with pytest.raises(TavcError, match="^arena.walls: "):
+    side, however long and thin the arena: 1,000 km by 8 m, the longest side allowed, is checked
+    on 2 m cells (its full grid would have 2e10); a side longer than that is refused by itself."""
+    cfg = load_config(["arena.walls=[[1,1,2,2]]", "arena.width_m=1e6"])
+    assert cfg.arena.width_m == 1e6
+    with pytest.raises(TavcError, match=r"^arena.width_m: must be at most 1,000,000 m \(1,000 km\), got 1e\+200$"):
         load_config(["arena.walls=[[1,1,2,2]]", "arena.width_m=1e200"])
+    with pytest.raises(TavcError, match=r"^arena.height_m: must be at most 1,000,000 m \(1,000 km\), got "
+                                        r"1,000,001$"):
+        load_config(["arena.height_m=1000001"])
 
 
 @pytest.mark.parametrize(("name", "text", "why"), [

@@ -30,6 +30,10 @@ START_MIN_CHANCE = 0.01
 # no more than this many cells (a very large arena gets coarser cells).
 REACH_CELL_M = 0.02
 REACH_MAX_CELLS = 2_000_000
+# The longest side an arena may have (1,000 km): there a double still tells positions 1.2e-10 m
+# apart, far below anything the simulator resolves. Without a bound a side of 1e200 m passed, its
+# areas overflowing on the way to the start checks, and ran trials in which nothing was delivered.
+MAX_ARENA_M = 1e6
 
 
 def validate_arena(arena: DictConfig) -> None:
@@ -40,6 +44,8 @@ def validate_arena(arena: DictConfig) -> None:
         check(arena[name] >= low, f"arena.{name}",
               f"must be at least {low:g} m (robots start at least {START_WALL_MARGIN_M:g} m from every wall), "
               f"got {arena[name]:g}")
+        check(arena[name] <= MAX_ARENA_M, f"arena.{name}",
+              f"must be at most {MAX_ARENA_M:,.0f} m (1,000 km), got {arena[name]:,.10g}")
     positive("arena.barcode_width_m", arena.barcode_width_m)
     for index, wall in enumerate(arena.walls):
         _validate_wall(f"arena.walls[{index}]", wall, arena)
