@@ -105,7 +105,7 @@ VERIFY_WORLD := search sensitivity
 verify-outcomes: venv ## Recompute the base case (initial_distribution) and the world search at paper scale; tables must match the committed ones byte for byte
 	rm -rf $(VERIFY_DIR)
 	$(BIN)/tavc run experiment=$(BASE) scale=paper output_dir=$(VERIFY_DIR)/$(BASE)
-	$(BIN)/tavc calibrate scale=paper output_dir=$(VERIFY_DIR)/$(BASE)
+	$(BIN)/tavc calibrate scale=paper output_dir=$(VERIFY_DIR)
 	@for f in $(VERIFY_RUN); do cmp results/$(BASE)/$$f.csv $(VERIFY_DIR)/$(BASE)/$$f.csv || exit 1; done
 	@for f in $(VERIFY_WORLD); do cmp results/calibration/world/$$f.csv $(VERIFY_DIR)/calibration/world/$$f.csv || exit 1; done
 	@echo "outcomes identical: $(words $(VERIFY_RUN)) tables of $(BASE), $(words $(VERIFY_WORLD)) of the world search"
@@ -281,10 +281,10 @@ RANGE_GRID := [{key:robot.behaviour.read_range_m,values:[1.0,1.5,2.0]},{key:robo
 calibrate-readings: venv ## Each reading's calibration search against the chapter's facts (results/readings/<reading>/calibration/world/)
 	for r in $(DOCK_READINGS); do set -- $$(echo $$r | tr - ' '); \
 		$(BIN)/tavc calibrate scale=paper arrival=$$1 passing=$$2 arena=$$3 \
-			output_dir=results/readings/$$r/$(BASE) || exit 1; done
+			output_dir=results/readings/$$r || exit 1; done
 	for r in $(RANGE_READINGS); do set -- $$(echo $$r | tr - ' '); \
 		$(BIN)/tavc calibrate scale=paper arrival=$$1 passing=$$2 arena=$$3 'calibration.grid=$(RANGE_GRID)' \
-			output_dir=results/readings/$$r/$(BASE) || exit 1; done
+			output_dir=results/readings/$$r || exit 1; done
 
 # The chapter's five task-allocation experiments in other readings: labelled counterfactuals (docs/readings.md)
 # (the registry's task-allocation experiments, those `tavc compare` serves; read only when a target uses them)

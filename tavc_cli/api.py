@@ -315,7 +315,8 @@ def calibrate(overrides: Sequence[str] = (), *, save: bool = False, progress: bo
               echo: Callable[[str], None] = print, config_dir: ConfigDirs = None) -> None:
     """Search the reconstructed docking world over `calibration.grid` as `tavc calibrate` does
     (initial_distribution's six robots and the chapter's values unless an experiment is
-    given), printing through `echo`; with `save`, record the choice as world=calibrated.
+    given), printing through `echo`, into ``<output_dir>/calibration/world/`` (``output_dir``
+    ``runs/<scale>`` unless given); with `save`, record the choice as world=calibrated.
     `config_dir`: folders of your own configs, as ``--config-dir``."""
     with using_config_dirs(config_dir):
         _calibrate(overrides, save, progress, echo)
@@ -331,6 +332,9 @@ def _calibrate(overrides: Sequence[str], save: bool, progress: bool, echo: Calla
     if not any(setting_key(o) == "experiment" for o in overrides):
         overrides = [f"experiment={base_case().name}", *overrides]  # six robots, the chapter's values
     base = config.settings(config.load_config(overrides))
+    if not any(setting_key(o) == "output_dir" for o in overrides):  # the scale's folder, not an experiment's
+        overrides.append(f"output_dir={default_root(base.scale.name)}")
+        base = config.settings(config.load_config(overrides))
     if not base.calibration.grid:
         raise TavcError("calibration.grid: empty; nothing to search")
     points = [(p, config.settings(config.load_config([*overrides, *point_overrides(p)])))

@@ -265,7 +265,23 @@ def test_a_calibration_search_records_the_world_it_was_asked_beside_its_choice(t
 
     result = CliRunner().invoke(app, ["calibrate", "scale=smoke", "robot.dock.dwell_s=2.5",
                                       "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0,5.0]}]",
-                                      f"output_dir={tmp_path / 'initial_distribution'}"])
+                                      f"output_dir={tmp_path}"])
     assert result.exit_code == 0, result.output
     record = json.loads((tmp_path / "calibration" / "world" / "search.json").read_text())
     assert record["configured"] == {"robot.dock.dwell_s": 2.5} and record["n_points"] == 2
+
+
+def test_a_calibration_search_writes_into_its_output_dir_and_nowhere_beside_it(tmp_path):
+    """`tavc calibrate output_dir=X` writes X/calibration/world/: a file named as X is one line,
+    with nothing written next to it (the search went into X's parent)."""
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    (tmp_path / "notes.txt").write_text("mine")
+    result = CliRunner().invoke(app, ["calibrate", "scale=smoke", f"output_dir={tmp_path / 'notes.txt'}",
+                                      "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0]}]"])
+    assert result.exit_code == 1
+    world = tmp_path / "notes.txt" / "calibration" / "world"
+    assert result.output.strip() == f"error: output_dir: cannot create {world}: Not a directory"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]

@@ -26,7 +26,7 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
     trials = int(cal.trials_per_split)
     if base.scale.trials:
         trials = max(2, min(trials, int(base.scale.trials)))
-    out_dir = Path(base.output_dir).parent / WORLD_SEARCH_DIR
+    out_dir = Path(base.output_dir) / WORLD_SEARCH_DIR
     measurement = dict(
         n_robots=int(base.team.n_robots), trials=trials, warmup_s=float(cal.warmup_s) * factor,
         measure_s=float(cal.measure_s) * factor, confidence=float(base.model.confidence),
