@@ -129,10 +129,7 @@ def seen_tasks(run_dir: str | Path, *, controller: str = "tavc", from_share: flo
     provenance lists, each checked to be its own: `Results.records`), by the robots on circuit 0
     once the chooser had chosen, the kind of task and its circuit, from `from_share` of each
     trial on (`analysis.tasks_seen.seen_tasks`)."""
-    records = [r for r in load(run_dir).records() if r.meta.get("controller") == controller]
-    if not records:
-        raise TavcError(f"{run_dir}: no trials of {controller} to read")
-    return tasks_seen.seen_tasks(records, from_share)
+    return tasks_seen.seen_tasks(load(run_dir).records(controller), from_share)
 
 
 def surrogate_seen_switches(prediction: str | Path, learners_run: str | Path, *, output_dir: str | Path) -> Results:

@@ -18,6 +18,7 @@ import math
 import os
 import re
 import stat
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -49,6 +50,10 @@ MAX_ALIASES = 0
 # tavc's largest table is 3.4 MB (a nine-robot turn-taking prediction's task_times.csv); 256 MiB is
 # some 75 times that: a table is read whole, only a regular file (`read_bounded`) and at most this
 TABLE_LIMIT = 256 << 20
+# tavc's largest trial record holds 43 MB of arrays (a trial of 40 times the chapter's duration);
+# a record declaring more than 100 times that is not read: its arrays would be unpacked into
+# memory, and a file of a few kilobytes can declare gigabytes
+RECORD_LIMIT = 4 << 30
 
 
 class _Refusal(Exception):
@@ -265,3 +270,14 @@ def load_yaml(path: Path, limit: int = YAML_LIMIT, advice: str = REWRITE, loader
         if "maximum nesting depth" in str(exc):  # libyaml's own bound (deeper than MAX_DEPTH), met first
             raise _refused(path, f"nested more than {MAX_DEPTH} levels deep", advice) from None
         raise
+
+
+def record_size(path: Path) -> int:
+    """Bytes of arrays the trial record (a NumPy archive) at `path` declares, read from its
+    directory without unpacking anything.
+
+    Raises:
+        OSError, zipfile.BadZipFile: The file is missing or no archive.
+    """
+    with zipfile.ZipFile(path) as archive:
+        return sum(member.file_size for member in archive.infolist())

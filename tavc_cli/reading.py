@@ -12,9 +12,10 @@ import pandas as pd
 import yaml
 
 from tavc_cli.errors import TavcError
+from tavc_cli.estimates import physical_memory
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.experiments.records import TABLES, TrialRecord
-from tavc_cli.readers import load_yaml, read_text
+from tavc_cli.readers import load_yaml, read_text, record_size
 from tavc_cli.run_checks import check_table, load_record, read_trial, run_facts
 from tavc_cli.run_provenance import read_provenance
 from tavc_cli.settings import from_yaml
@@ -104,23 +105,32 @@ class Results:
         code and schedule (its periods on the record's clock, when its trials start)."""
         return read_plan(self.path, from_yaml(self.path / "config.yaml"))
 
-    def records(self) -> list[TrialRecord]:
-        """The raw record of every trial of the run, in file-name order: the files its
-        `provenance.json` lists (a rerun with fewer trials leaves the others' files in
-        `trials/`, and they are not this run's), each checked to be this run's own
-        (`run_checks.read_trial`: a record missing, damaged, or of another configuration
-        or seed is one line naming it). A folder without a `provenance.json` (a run that did
-        not finish) gives every file in `trials/`, unchecked: there is no list to check them
-        against."""
+    def records(self, controller: str | None = None) -> list[TrialRecord]:
+        """The raw record of every trial of the run (or of `controller`'s only), in file-name
+        order: the files its `provenance.json` lists (a rerun with fewer trials leaves the
+        others' files in `trials/`, and they are not this run's), each checked to be this run's
+        own (`run_checks.read_trial`: a record missing, damaged, or of another configuration or
+        seed is one line naming it). A folder without a `provenance.json` (a run that did not
+        finish) gives every file in `trials/`, unchecked: there is no list to check them against.
+        Records that declare more arrays together than this machine has memory are refused
+        before any is read."""
         if not (self.path / "provenance.json").is_file():
             files = sorted((self.path / "trials").glob("*.npz"))
+            if controller is not None:
+                files = [f for f in files if f.stem.rpartition("_")[0] == controller]
             if not files:
                 raise TavcError(_NO_RECORDS.format(self.path))
+            _check_memory(self.path, files)
             return [load_record(f) for f in files]
 
         listed = sorted(read_provenance(self.path / "provenance.json")["trials"], key=lambda t: t["file"])
+        if controller is not None:
+            listed = [t for t in listed if t["controller"] == controller]
+            if not listed:
+                raise TavcError(f"{self.path}: no trials of {controller} to read")
         if not any((self.path / t["file"]).is_file() for t in listed):  # a folder kept without trials/
             raise TavcError(_NO_RECORDS.format(self.path))
+        _check_memory(self.path, [self.path / t["file"] for t in listed])
         return [read_trial(self.path, t) for t in listed]
 
     def events(self, kind: str) -> pd.DataFrame:
@@ -138,6 +148,22 @@ class Results:
 
 
 _NO_RECORDS = "{}: no trial records in trials/ (tables only: rerun with tavc run to get the events)"
+
+
+def _check_memory(folder: Path, files: list[Path]) -> None:
+    """Refuse records whose arrays, as their archives declare them, would not fit in this
+    machine's memory together (a file that cannot be read is left to `load_record` to name)."""
+    sizes = []
+    for path in files:
+        try:
+            sizes.append(record_size(path))
+        except Exception:  # noqa: BLE001 - missing or damaged: `load_record` names it
+            sizes.append(0)
+    memory = physical_memory()
+    if sum(sizes) > memory:
+        raise TavcError(f"{folder}: its {len(files)} trial records declare {sum(sizes) / 2**30:,.1f} GiB of arrays, "
+                        f"more than this machine's {memory / 2**30:,.1f} GiB of memory; read one controller's at a "
+                        "time (records(controller=...))")
 
 
 def load(path: str | Path) -> Results:

@@ -41,7 +41,7 @@ from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import code_digest
 from tavc_cli.io import file_digest
 from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
-from tavc_cli.readers import TABLE_LIMIT, YAML_LIMIT, read_bounded
+from tavc_cli.readers import RECORD_LIMIT, TABLE_LIMIT, YAML_LIMIT, read_bounded, record_size
 from tavc_cli.run_provenance import check_planned, read_provenance, unfinished_rewrites
 from tavc_cli.settings import TavcConfig, from_yaml
 from tavc_cli.surrogate.digest import engine_code, surrogate_code_digest
@@ -229,9 +229,16 @@ def _check_plan(path: Path, cfg: TavcConfig) -> RunPlan:
 
 
 def load_record(path: Path) -> TrialRecord:
-    """The trial record at `path`; a damaged file is one line naming it."""
+    """The trial record at `path`; a damaged file, or one declaring more arrays than a record of
+    tavc's holds (`readers.RECORD_LIMIT`), is one line naming it."""
     try:
+        size = record_size(path)
+        if size > RECORD_LIMIT:
+            raise damaged(path, f"declares {size / 2**30:,.1f} GiB of arrays, more than a trial record of tavc's "
+                                f"holds ({RECORD_LIMIT >> 30} GiB at the most)")
         return TrialRecord.load(path)
+    except TavcError:
+        raise
     except Exception as exc:  # numpy's or zipfile's error: the file is damaged, whatever the library
         raise damaged(path, f"cannot be read ({type(exc).__name__}: {exc})") from None
 

@@ -13,11 +13,12 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from tavc_cli import api
+from tavc_cli import api, reading, run_checks
 from tavc_cli.cli import app
 from tavc_cli.config import load_config
 from tavc_cli.config import settings as to_settings
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.pipeline import run_experiment
 from tavc_cli.run_checks import this_code
 from tests.helpers import file_digests
@@ -172,6 +173,41 @@ def test_a_record_of_another_seed_is_refused(compared, seed3, tmp_path):
     assert result.exit_code == 1, result.output
     assert result.output.strip().splitlines() == ["error: " + line.replace(str(folder), str(results / "breakdown"))]
     assert file_digests(results) == before
+
+
+def test_a_record_declaring_more_arrays_than_tavc_writes_is_refused_unread(seed3, tmp_path, monkeypatch):
+    """A trial record is a zip archive whose directory declares its arrays' sizes, and a file of
+    kilobytes can declare gigabytes: one declaring more than a record of tavc's holds (4 GiB) is
+    one line, nothing of it unpacked."""
+    folder = tmp_path / "breakdown"
+    shutil.copytree(seed3, folder)
+    declared = {"random_000.npz": 5 << 30}
+    monkeypatch.setattr(run_checks, "record_size", lambda path: declared.get(Path(path).name, 1))
+
+    def unpacked(path):
+        raise AssertionError(f"{path} was unpacked")
+
+    monkeypatch.setattr(TrialRecord, "load", unpacked)
+    with pytest.raises(TavcError) as info:
+        api.load(folder).records("random")
+    assert str(info.value) == (f"{folder / 'trials' / 'random_000.npz'}: declares 5.0 GiB of arrays, more than a "
+                               "trial record of tavc's holds (4 GiB at the most)" + REWRITE)
+
+
+def test_records_that_would_not_fit_in_memory_together_are_refused_before_any_is_read(seed3, tmp_path,
+                                                                                         monkeypatch):
+    folder = tmp_path / "breakdown"
+    shutil.copytree(seed3, folder)
+    assert [r.meta["controller"] for r in api.load(folder).records("random")] == ["random"]
+    monkeypatch.setattr(reading, "record_size", lambda path: 1 << 30)
+    monkeypatch.setattr(reading, "physical_memory", lambda: 1.5 * 2**30)
+    with pytest.raises(TavcError) as info:
+        api.load(folder).records()
+    assert str(info.value) == (f"{folder}: its 2 trial records declare 2.0 GiB of arrays, more than this machine's "
+                               "1.5 GiB of memory; read one controller's at a time (records(controller=...))")
+    assert [r.meta["controller"] for r in api.load(folder).records("tavc")] == ["tavc"]  # 1 GiB: read
+    with pytest.raises(TavcError, match=f"^{folder}: no trials of static to read$"):
+        api.load(folder).records("static")
 
 
 def test_a_record_provenance_lists_but_missing_is_named(seed3, tmp_path):

@@ -36,6 +36,7 @@ from tavc_cli.experiments.pool import Progress, run_pool
 from tavc_cli.experiments.records import ARRAY_FIELDS, TABLES, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.io import owned_path, write_text_atomic
+from tavc_cli.readers import RECORD_LIMIT
 from tavc_cli.settings import ExecutorConfig
 
 FAILURES_LOG = "failures.log"
@@ -195,11 +196,6 @@ def trial_path(out_dir: Path, controller: str, trial: int) -> Path:
 # the members every trial record holds (`TrialRecord.save`)
 _MEMBERS = frozenset({"meta.npy", *(f"{name}.npy" for name in ARRAY_FIELDS),
                       *(f"{name}__{col}.npy" for name, cols in TABLES.items() for col in cols)})
-
-
-# tavc's largest record holds 43 MB of arrays (a trial of 40 times the chapter's duration); a
-# record claiming more than 100 times that is not read (its arrays would be unpacked into memory)
-RECORD_LIMIT = 4 << 30
 
 
 def _stored_key(path: Path, whole: bool = False, limited: bool = False) -> str | None:
