@@ -15,10 +15,13 @@ from tavc_cli.errors import TavcError
 from tavc_cli.estimates import physical_memory
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.experiments.records import TABLES, TrialRecord
+from tavc_cli.ownership import SURROGATE
+from tavc_cli.ownership import read as read_owned
 from tavc_cli.readers import load_yaml, read_text, record_size
 from tavc_cli.run_checks import check_table, load_record, read_trial, run_facts
-from tavc_cli.run_provenance import read_provenance
+from tavc_cli.run_provenance import keys_of, read_provenance
 from tavc_cli.settings import from_yaml
+from tavc_cli.table_cells import damaged, unreadable
 
 SWEEP_LIMIT = 64 * 2**20  # sweep.csv read bounded, as every table is
 
@@ -110,19 +113,15 @@ class Results:
         order: the files its `provenance.json` lists (a rerun with fewer trials leaves the
         others' files in `trials/`, and they are not this run's), each checked to be this run's
         own (`run_checks.read_trial`: a record missing, damaged, or of another configuration or
-        seed is one line naming it). A folder without a `provenance.json` (a run that did not
-        finish) gives every file in `trials/`, unchecked: there is no list to check them against.
-        Records that declare more arrays together than this machine has memory are refused
-        before any is read."""
+        seed is one line naming it). Of a run that did not finish (no `provenance.json`), the
+        trials finished so far: each record in `trials/` of a trial its `config.yaml` and
+        `plan.json` plan, under its own file name and the key this tavc's code gives it (a record
+        of other settings or code, which resuming the run computes anew, is left out; a learner
+        from outside tavc, or the surrogate, gives keys its folder does not keep, and every
+        planned trial's file is taken as it is). Records that declare more arrays together than
+        this machine has memory are refused before any is read."""
         if not (self.path / "provenance.json").is_file():
-            files = sorted((self.path / "trials").glob("*.npz"))
-            if controller is not None:
-                files = [f for f in files if f.stem.rpartition("_")[0] == controller]
-            if not files:
-                raise TavcError(_NO_RECORDS.format(self.path))
-            _check_memory(self.path, files)
-            return [load_record(f) for f in files]
-
+            return self._finished_so_far(controller)
         listed = sorted(read_provenance(self.path / "provenance.json")["trials"], key=lambda t: t["file"])
         if controller is not None:
             listed = [t for t in listed if t["controller"] == controller]
@@ -132,6 +131,34 @@ class Results:
             raise TavcError(_NO_RECORDS.format(self.path))
         _check_memory(self.path, [self.path / t["file"] for t in listed])
         return [read_trial(self.path, t) for t in listed]
+
+    def _finished_so_far(self, controller: str | None) -> list[TrialRecord]:
+        """`records` of a run that did not finish (see there)."""
+        if not sorted((self.path / "trials").glob("*.npz")):
+            raise TavcError(_NO_RECORDS.format(self.path))
+        owned = read_owned(self.path)
+        try:  # a surrogate run's keys hold the digest of the tasks it drew, which its folder does not keep
+            surrogate = owned is not None and owned.kind == SURROGATE
+            keys = None if surrogate else keys_of(from_yaml(self.path / "config.yaml"), self.plan)
+        except TavcError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - settings no run was made with: whatever fails in planning them
+            raise damaged(self.path / "config.yaml", f"plans no run ({unreadable(exc)})") from None
+        planned = {f"{c.label}_{j:03d}.npz": (c.label, j) for c in self.plan.controllers for j in range(c.trials)
+                   if controller in (None, c.label)}
+        files = [f for f in sorted((self.path / "trials").glob("*.npz")) if f.name in planned]
+        _check_memory(self.path, files)
+        records = []
+        for path in files:
+            record = load_record(path)
+            trial = planned[path.name]
+            if (record.meta.get("controller"), record.meta.get("trial")) == trial and (
+                    keys is None or record.meta.get("key") == keys[trial]):
+                records.append(record)
+        if not records:
+            raise TavcError(f"{self.path}: no trial of its run has finished yet"
+                            + (f" for {controller}" if controller is not None else ""))
+        return records
 
     def events(self, kind: str) -> pd.DataFrame:
         """Every event of one kind (arrivals, deliveries, choices, breakdowns) of every trial, with the

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from tavc_cli.run_checks import RunFacts
+    from tavc_cli.settings import TavcConfig
 
 
 def unfinished_rewrites(provenance: dict) -> dict[str, str | None]:
@@ -82,17 +83,27 @@ def check_planned(facts: RunFacts, plan: RunPlan) -> None:
     owned = read_owned(facts.folder) if facts.engine is None else None
     if owned is not None and owned.kind == SURROGATE:  # its engine not recorded: the tasks it drew are unknown
         return
+    planned_keys = keys_of(cfg, plan, facts.engine)
+    if planned_keys is None:
+        return
+    listed_keys = {(c, j): key for c, j, key in facts.listed}
+    for (controller, trial), key in planned_keys.items():
+        listed = listed_keys[controller, trial]
+        if listed is not None and listed != key:
+            raise damaged(path, f"{controller} trial {trial} is listed under a key its config.yaml and "
+                          f"{PLAN_FILE} do not give it (edited after the run?)")
+
+
+def keys_of(cfg: TavcConfig, plan: RunPlan, engine: str | None = None) -> dict[tuple[str, int], str] | None:
+    """The key this tavc's code gives each trial `cfg` and `plan` plan (`TrialSpec.key`, on
+    `engine` where the run records one), by controller and trial; None for a run of a learner from
+    outside tavc, whose keys hold the digest of files the run's folder does not keep."""
     specs = trial_specs(cfg, plan)
     if any(isinstance(s.policy, PluginSettings) for s in specs):
-        return
-    if facts.engine is not None:
-        specs = [replace(s, engine=facts.engine) for s in specs]
-    keys = {(c, j): key for c, j, key in facts.listed}
-    for spec in specs:
-        listed = keys[spec.controller, spec.trial]
-        if listed is not None and listed != spec.key():
-            raise damaged(path, f"{spec.controller} trial {spec.trial} is listed under a key its config.yaml and "
-                          f"{PLAN_FILE} do not give it (edited after the run?)")
+        return None
+    if engine is not None:
+        specs = [replace(s, engine=engine) for s in specs]
+    return {(s.controller, s.trial): s.key() for s in specs}
 
 
 def _counts(controllers: list[tuple[str, int]]) -> str:

@@ -515,7 +515,7 @@ def test_a_run_where_no_robot_delivered_says_so(nothing_delivered, tmp_path):
 # --- 5. the API reads the run's own trials ------------------------------------------------------------
 
 
-def test_the_api_reads_only_the_trials_provenance_lists(breakdown, tmp_path):
+def test_the_api_reads_only_the_trials_provenance_lists(breakdown, breakdown_seed1, tmp_path):
     folder = tmp_path / "breakdown"
     shutil.copytree(breakdown, folder)
     listed = json.loads((folder / "provenance.json").read_text())["trials"]
@@ -525,9 +525,20 @@ def test_the_api_reads_only_the_trials_provenance_lists(breakdown, tmp_path):
     assert sorted((r.meta["controller"], int(r.meta["trial"])) for r in records) == sorted(
         (t["controller"], t["trial"]) for t in listed)
     assert len(res.events("deliveries")) == sum(len(r.table("deliveries")["t_s"]) for r in records)
-    # a folder without provenance.json (a run that did not finish) reads every file in trials/
+    # a folder without provenance.json (a run that did not finish) reads the trials its plan lists, each
+    # under its own name and the key its settings give it: not the copy, nor a record of other settings
     (folder / "provenance.json").unlink()
-    assert len(api.load(folder).records()) == len(listed) + 1
+    assert sorted((r.meta["controller"], int(r.meta["trial"])) for r in api.load(folder).records()) == sorted(
+        (t["controller"], t["trial"]) for t in listed)
+    shutil.copy(breakdown_seed1 / "trials" / "tavc_000.npz", folder / "trials" / "tavc_000.npz")  # another seed's
+    assert sorted((r.meta["controller"], int(r.meta["trial"])) for r in api.load(folder).records()) == sorted(
+        (t["controller"], t["trial"]) for t in listed if (t["controller"], t["trial"]) != ("tavc", 0))
+    assert [r.meta["controller"] for r in api.load(folder).records("random")] == ["random"] * sum(
+        t["controller"] == "random" for t in listed)
+    for trial in (folder / "trials").glob("tavc_*.npz"):
+        trial.unlink()
+    with pytest.raises(TavcError, match=f"^{folder}: no trial of its run has finished yet for tavc$"):
+        api.load(folder).records("tavc")
 
 
 def test_the_api_names_a_listed_trial_file_that_is_gone(breakdown, tmp_path):
