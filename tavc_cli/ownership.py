@@ -92,6 +92,11 @@ def run_files() -> tuple[str, ...]:
     return (*RUN_FILES, *(f"{name}.csv" for name in TABLE_NAMES))
 
 
+def trial_path(out_dir: Path, controller: str, trial: int) -> Path:
+    """Where the record of `controller`'s trial number `trial` is saved below `out_dir`."""
+    return out_dir / "trials" / f"{controller}_{trial:03d}.npz"
+
+
 def is_trial_record(name: str) -> bool:
     """True for a trial record's path relative to its run folder (``trials/random_003.npz``)."""
     parts = name.split("/")

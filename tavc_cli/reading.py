@@ -15,7 +15,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.estimates import physical_memory
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.experiments.records import TABLES, TrialRecord
-from tavc_cli.ownership import SURROGATE
+from tavc_cli.ownership import SURROGATE, trial_path
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.readers import load_yaml, read_text, record_size
 from tavc_cli.run_checks import check_table, load_record, read_trial, run_facts
@@ -144,14 +144,14 @@ class Results:
             raise
         except Exception as exc:  # noqa: BLE001 - settings no run was made with: whatever fails in planning them
             raise damaged(self.path / "config.yaml", f"plans no run ({unreadable(exc)})") from None
-        planned = {f"{c.label}_{j:03d}.npz": (c.label, j) for c in self.plan.controllers for j in range(c.trials)
-                   if controller in (None, c.label)}
-        files = [f for f in sorted((self.path / "trials").glob("*.npz")) if f.name in planned]
+        planned = {trial_path(self.path, c.label, j): (c.label, j) for c in self.plan.controllers
+                   for j in range(c.trials) if controller in (None, c.label)}
+        files = [f for f in sorted((self.path / "trials").glob("*.npz")) if f in planned]
         _check_memory(self.path, files)
         records = []
         for path in files:
             record = load_record(path)
-            trial = planned[path.name]
+            trial = planned[path]
             if (record.meta.get("controller"), record.meta.get("trial")) == trial and (
                     keys is None or record.meta.get("key") == keys[trial]):
                 records.append(record)

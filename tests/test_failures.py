@@ -23,9 +23,9 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments import engine
 from tavc_cli.experiments.arrivals import ArrivalDesk
 from tavc_cli.experiments.build import trial_specs
-from tavc_cli.experiments.store import FAILURES_LOG, trial_path
+from tavc_cli.experiments.store import FAILURES_LOG
 from tavc_cli.io import LOCK_NAME, claim_folder
-from tavc_cli.ownership import MANIFEST
+from tavc_cli.ownership import MANIFEST, trial_path
 from tavc_cli.pipeline import run_experiment
 from tests.helpers import run_settings
 

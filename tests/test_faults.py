@@ -26,7 +26,7 @@ from tavc_cli import pipeline
 from tavc_cli.cli import app
 from tavc_cli.errors import Terminated, sigterm_raises
 from tavc_cli.experiments.records import TrialRecord, records_differ
-from tavc_cli.experiments.store import trial_path
+from tavc_cli.ownership import trial_path
 from tavc_cli.pipeline import run_experiment
 from tests.helpers import run_settings, then_interrupted
 

@@ -18,7 +18,8 @@ from tavc_cli.experiments.joint import run_together
 from tavc_cli.experiments.lineage import Item, plan, trees
 from tavc_cli.experiments.records import ARRAY_FIELDS, TrialRecord, records_differ
 from tavc_cli.experiments.spec import Breakdown
-from tavc_cli.experiments.store import Executor, trial_path
+from tavc_cli.experiments.store import Executor
+from tavc_cli.ownership import trial_path
 
 SECTION_1_5 = ("initial_distribution", "breakdown", "breakdown_no_vacancy", "value_change")
 

@@ -13,7 +13,7 @@ from tavc_cli.config import load_config, settings
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.records import TrialRecord, records_differ
-from tavc_cli.experiments.store import trial_path
+from tavc_cli.ownership import trial_path
 from tavc_cli.pipeline import run_experiment
 from tests.helpers import run_settings
 

@@ -22,10 +22,11 @@ from tavc_cli.experiments.joint import run_together
 from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import TrialSpec, code_digest
-from tavc_cli.experiments.store import Executor, TrialStore, trial_path
+from tavc_cli.experiments.store import Executor, TrialStore
 from tavc_cli.io import file_digest, write_text_atomic
 from tavc_cli.learning.parameters import PluginSettings
 from tavc_cli.learning.plugins import target_digest, target_files
+from tavc_cli.ownership import trial_path
 from tavc_cli.settings import TavcConfig
 
 _PACKAGES = ("numpy", "scipy", "pandas", "pymunk", "numba", "hydra-core", "omegaconf", "typer", "matplotlib")

@@ -36,6 +36,7 @@ from tavc_cli.experiments.pool import Progress, run_pool
 from tavc_cli.experiments.records import ARRAY_FIELDS, TABLES, TrialRecord
 from tavc_cli.experiments.spec import TrialSpec
 from tavc_cli.io import owned_path, write_text_atomic
+from tavc_cli.ownership import trial_path
 from tavc_cli.readers import RECORD_LIMIT
 from tavc_cli.settings import ExecutorConfig
 
@@ -186,11 +187,6 @@ def _checked_record(path: Path, spec: TrialSpec) -> TrialRecord:
 
 def _stands(path: Path, what: str) -> TavcError:
     return TavcError(f"{path}: a {what} stands where tavc writes its trial records; move it away")
-
-
-def trial_path(out_dir: Path, controller: str, trial: int) -> Path:
-    """Where the record of `controller`'s trial number `trial` is saved below `out_dir`."""
-    return out_dir / "trials" / f"{controller}_{trial:03d}.npz"
 
 
 # the members every trial record holds (`TrialRecord.save`)

@@ -22,9 +22,9 @@ from tavc_cli.experiments.plan import RunPlan, plan_run
 from tavc_cli.experiments.pool import stop_workers, worker_start
 from tavc_cli.experiments.runner import Run
 from tavc_cli.experiments.spec import code_digest
-from tavc_cli.experiments.store import Executor, TrialStore, _stored_key, trial_path
+from tavc_cli.experiments.store import Executor, TrialStore, _stored_key
 from tavc_cli.io import claim_folder, default_root, write_bytes_atomic, write_text_atomic
-from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_settings, take
+from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_settings, take, trial_path
 from tavc_cli.pipeline import CAN_FORK, _finish, take_run_folder
 from tavc_cli.readers import TABLE_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig
