@@ -33,6 +33,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import ModelSettings
 from tavc_cli.learning.registry import MODEL_LEARNERS
+from tavc_cli.model.allocations import model_file_path
 from tavc_cli.model.report import measurement_shortfall, model_text
 from tavc_cli.override_keys import setting_key
 from tavc_cli.ownership import COMPARE, LADDER, RESULTS, expect, refuse_other_settings
@@ -225,9 +226,11 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
 
     # learner.model_file is the comparison's: the model its predicted states come from, and the one the
     # model's controllers follow; every other controller's learner has no such key
+    config.refuse_deletions(overrides)
     model_keys = [o for o in overrides if setting_key(o) == "learner.model_file"]
     overrides = [o for o in overrides if o not in model_keys]
-    model_file = model_keys[-1].split("=", 1)[1] if model_keys else ModelSettings().model_file
+    model_file = model_file_path(config.parse_overrides(model_keys[-1:])[0].value() if model_keys
+                                 else ModelSettings().model_file)
     learners = list(CONTROLLERS if learners is None else learners)
     if experiments is None:
         experiments = scenarios()

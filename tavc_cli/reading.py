@@ -118,8 +118,9 @@ class Results:
         `plan.json` plan, under its own file name and the key this tavc's code gives it (a record
         of other settings or code, which resuming the run computes anew, is left out; a learner
         from outside tavc, or the surrogate, gives keys its folder does not keep, and every
-        planned trial's file is taken as it is). Records that declare more arrays together than
-        this machine has memory are refused before any is read."""
+        planned trial's file is taken as it is; a file that cannot be read is left out too). Records
+        that declare more arrays together than this machine has memory are refused before any is
+        read."""
         if not (self.path / "provenance.json").is_file():
             return self._finished_so_far(controller)
         listed = sorted(read_provenance(self.path / "provenance.json")["trials"], key=lambda t: t["file"])
@@ -144,13 +145,18 @@ class Results:
             raise
         except Exception as exc:  # noqa: BLE001 - settings no run was made with: whatever fails in planning them
             raise damaged(self.path / "config.yaml", f"plans no run ({unreadable(exc)})") from None
+        if controller is not None and controller not in [c.label for c in self.plan.controllers]:
+            raise TavcError(f"{self.path}: no trials of {controller} to read")
         planned = {trial_path(self.path, c.label, j): (c.label, j) for c in self.plan.controllers
                    for j in range(c.trials) if controller in (None, c.label)}
         files = [f for f in sorted((self.path / "trials").glob("*.npz")) if f in planned]
         _check_memory(self.path, files)
         records = []
         for path in files:
-            record = load_record(path)
+            try:
+                record = load_record(path)
+            except TavcError:  # damaged, or of an earlier version's format: resuming the run computes it anew
+                continue
             trial = planned[path]
             if (record.meta.get("controller"), record.meta.get("trial")) == trial and (
                     keys is None or record.meta.get("key") == keys[trial]):
@@ -160,13 +166,14 @@ class Results:
                             + (f" for {controller}" if controller is not None else ""))
         return records
 
-    def events(self, kind: str) -> pd.DataFrame:
-        """Every event of one kind (arrivals, deliveries, choices, breakdowns) of every trial, with the
-        trial's controller and number as the first columns."""
+    def events(self, kind: str, controller: str | None = None) -> pd.DataFrame:
+        """Every event of one kind (arrivals, deliveries, choices, breakdowns) of every trial (or of
+        `controller`'s only) `records` gives, with the trial's controller and number as the first
+        columns."""
         if kind not in TABLES:
             raise TavcError(f"events: no kind {kind!r}; one of {', '.join(TABLES)}")
         frames = []
-        for rec in self.records():
+        for rec in self.records(controller):
             frame = pd.DataFrame(rec.table(kind))
             frame.insert(0, "trial", rec.meta["trial"])
             frame.insert(0, "controller", rec.meta["controller"])
@@ -190,7 +197,7 @@ def _check_memory(folder: Path, files: list[Path]) -> None:
     if sum(sizes) > memory:
         raise TavcError(f"{folder}: its {len(files)} trial records declare {sum(sizes) / 2**30:,.1f} GiB of arrays, "
                         f"more than this machine's {memory / 2**30:,.1f} GiB of memory; read one controller's at a "
-                        "time (records(controller=...))")
+                        "time (records(controller), events(kind, controller))")
 
 
 def load(path: str | Path) -> Results:

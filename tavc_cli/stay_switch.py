@@ -66,30 +66,26 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
                         if set_here[0] in by_search else f"{set_here[0]}: set by the study for each reading (its grid: "
                         + "; ".join(f"{k} {', '.join(v)}" for k, v in GRID) + ")")
     out = Path(out)
-    with claim_folder(out):
-        owned = take(out, READINGS, STAY_SWITCH_FILES, "--results")
     base = [f"experiment={DEFAULT_EXPERIMENT}", *overrides]
-    frames, models, learners = [], [], []
-    record: dict = {"grid": {k: list(v) for k, v in GRID}, "overrides": list(overrides), "readings": {},
-                    **({"calibrated_from": str(calibrated)} if chosen else {})}
+    studied = []  # every reading's settings, composed and checked before anything is written
     for reading in readings():
         name, folder = reading_name(reading), reading_folder(reading)
         world = [*name.split(), *chosen.get(folder, [])]
         cfg = compose([*base, *world, f"surrogate.tasks_dir={out / folder / 'tasks'}"])
+        _check_studied(cfg)
+        studied.append((name, folder, world, cfg))
+    with claim_folder(out):
+        owned = take(out, READINGS, STAY_SWITCH_FILES, "--results")
+    frames, models, learners = [], [], []
+    record: dict = {"grid": {k: list(v) for k, v in GRID}, "overrides": list(overrides), "readings": {},
+                    **({"calibrated_from": str(calibrated)} if chosen else {})}
+    for name, folder, world, cfg in studied:
         groups = tuple(m.group for m in cfg.team.members)
-        if len(set(groups)) != 1:
-            raise TavcError(f"experiment={cfg.experiment_name}: stay and switch are measured on a team of one group; "
-                            f"this team has {len(set(groups))} ({', '.join(dict.fromkeys(groups))})")
-        if len(cfg.tasks.values) != 2:
-            raise TavcError(f"arena: stay and switch need two circuits; {cfg.arena.name} has {len(cfg.tasks.values)}")
         team = Team.of(groups, tuple(m.speed_mps for m in cfg.team.members))
         echo(f"stay-switch: {name}")
         times = measure_tasks(cfg, [team], progress=progress, echo=echo)
         frames.append(stay_switch_table(times.frame, [float(v) for v in cfg.tasks.values], name))
         values, high = values_high_low(cfg.tasks.values)
-        if not hasattr(cfg.learner, "epsilon"):
-            raise TavcError(f"learner={cfg.learner.name}: the drift model takes an epsilon-greedy learner's "
-                            "exploration (learner.epsilon); this learner has none")
         epsilon = float(cfg.learner.epsilon)
         prediction = predict(times_of(times.frame, high), len(groups), values, epsilon)
         models.append(prediction.assign(reading=name, epsilon=epsilon))
@@ -116,6 +112,20 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
         figures = stay_switch_figure(table, out / "stay_switch")
     return [out / "stay_switch.csv", out / "stay_switch_model.csv", out / "stay_switch_turn_taking.csv",
             out / "stay_switch.json", *figures]
+
+
+def _check_studied(cfg: TavcConfig) -> None:
+    """What the study needs of a reading's settings: a team of one group, two circuits, and an
+    epsilon-greedy learner (the drift model takes its exploration)."""
+    groups = tuple(m.group for m in cfg.team.members)
+    if len(set(groups)) != 1:
+        raise TavcError(f"experiment={cfg.experiment_name}: stay and switch are measured on a team of one group; "
+                        f"this team has {len(set(groups))} ({', '.join(dict.fromkeys(groups))})")
+    if len(cfg.tasks.values) != 2:
+        raise TavcError(f"arena: stay and switch need two circuits; {cfg.arena.name} has {len(cfg.tasks.values)}")
+    if not hasattr(cfg.learner, "epsilon"):
+        raise TavcError(f"learner={cfg.learner.name}: the drift model takes an epsilon-greedy learner's "
+                        "exploration (learner.epsilon); this learner has none")
 
 
 def calibrated_overrides(results_dir: Path, folder: str) -> list[str]:

@@ -181,6 +181,30 @@ def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_pat
     assert not (tmp_path / "d" / "runs").exists() and not (tmp_path / "e" / "runs").exists()
 
 
+@pytest.mark.parametrize(("override", "line"), [
+    ("~learner.model_file", "error: learner.model_file: every run reads it, so ~ cannot remove it (the schema's "
+                            "default would take its place); set it (learner.model_file=<value>)"),
+    ("learner.model_file", "error: learner.model_file: not an override (key=value); to set a key, write "
+                           "learner.model_file=<value>"),
+    ("learner.model_file=null", "error: learner.model_file: must be the path of a model.json (`tavc model` writes "
+                                "one), got null"),
+    ("learner.model_file='/nowhere/m.json'", "error: learner.model_file: no model at /nowhere/m.json; run `tavc "
+                                             "model` first, or name its model.json"),
+])
+def test_the_comparisons_model_file_is_read_as_any_override(override, line, tmp_path):
+    """The comparison takes learner.model_file out of the overrides its controllers share (only the
+    model's read it), so it reads that one override itself: by Hydra's grammar, quotes and all,
+    never ~ (a traceback once) and never null (`no model at None`)."""
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    result = CliRunner().invoke(app, ["compare", "scale=smoke", "--learners", "tavc,random", "--results",
+                                      str(tmp_path / "c"), override])
+    assert result.exit_code == 1 and result.output.strip() == line
+    assert not (tmp_path / "c").exists()
+
+
 def test_the_report_section_marks_differences_from_tavc_by_hand(tmp_path):
     from tavc_cli.report.compare import compare_lines
 

@@ -1,6 +1,7 @@
 """Composing, resolving and validating configs (tavc_cli.config)."""
 
 import os
+import re
 from collections import Counter
 
 import pytest
@@ -470,8 +471,20 @@ def test_a_setting_cannot_be_removed(override, line):
     with pytest.raises(TavcError) as caught:
         load_config(["experiment=heterogeneous", override])
     assert str(caught.value).startswith(line), str(caught.value)
-    with pytest.raises(TavcError, match="^job 0 .*: seed: every run reads it"):
+    with pytest.raises(TavcError, match="^seed: every run reads it"):  # before any job is composed
         load_sweep(["learner.epsilon=0.05,0.1", "~seed"])
+    with pytest.raises(TavcError, match="^seed: every run reads it"):  # not told to write ~seed=[a,b]
+        load_config(["~seed=1,2"])
+
+
+@pytest.mark.parametrize(("value", "shown"), [("null", "null"), ("''", "''"), ("[1]", "[1]"), ("true", "true")])
+def test_a_model_learners_model_file_must_be_a_path(value, shown):
+    """learner.model_file is read while the config resolves, before the learner's settings type it:
+    null was a TypeError's traceback."""
+    with pytest.raises(TavcError, match=r"^learner.model_file: must be the path of a model.json \(`tavc model` "
+                                        rf"writes one\), got {re.escape(shown)}$"):
+        load_config(["learner=model", f"learner.model_file={value}"])
+
 
 
 def test_an_arena_too_long_for_its_reach_grid_is_one_line():
@@ -485,6 +498,9 @@ def test_an_arena_too_long_for_its_reach_grid_is_one_line():
     with pytest.raises(TavcError, match=r"^arena.height_m: must be at most 1,000,000 m \(1,000 km\), got "
                                         r"1,000,001$"):
         load_config(["arena.height_m=1000001"])
+    with pytest.raises(TavcError, match=r"^arena.height_m: must be at most 1,000,000 m \(1,000 km\), got "
+                                        r"1000000.0000001$"):
+        load_config(["arena.height_m=1000000.0000001"])
 
 
 @pytest.mark.parametrize(("name", "text", "why"), [

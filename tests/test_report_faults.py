@@ -535,10 +535,12 @@ def test_the_api_reads_only_the_trials_provenance_lists(breakdown, breakdown_see
         (t["controller"], t["trial"]) for t in listed if (t["controller"], t["trial"]) != ("tavc", 0))
     assert [r.meta["controller"] for r in api.load(folder).records("random")] == ["random"] * sum(
         t["controller"] == "random" for t in listed)
-    for trial in (folder / "trials").glob("tavc_*.npz"):
-        trial.unlink()
+    for trial in (folder / "trials").glob("tavc_*.npz"):  # damaged, or an earlier version's: computed anew
+        trial.write_bytes(b"not a record")
     with pytest.raises(TavcError, match=f"^{folder}: no trial of its run has finished yet for tavc$"):
         api.load(folder).records("tavc")
+    with pytest.raises(TavcError, match=f"^{folder}: no trials of wolf_phc to read$"):  # not in its plan
+        api.load(folder).records("wolf_phc")
 
 
 def test_the_api_names_a_listed_trial_file_that_is_gone(breakdown, tmp_path):

@@ -204,8 +204,10 @@ def test_records_that_would_not_fit_in_memory_together_are_refused_before_any_is
     with pytest.raises(TavcError) as info:
         api.load(folder).records()
     assert str(info.value) == (f"{folder}: its 2 trial records declare 2.0 GiB of arrays, more than this machine's "
-                               "1.5 GiB of memory; read one controller's at a time (records(controller=...))")
+                               "1.5 GiB of memory; read one controller's at a time (records(controller), events(kind, "
+                               "controller))")
     assert [r.meta["controller"] for r in api.load(folder).records("tavc")] == ["tavc"]  # 1 GiB: read
+    assert set(api.load(folder).events("deliveries", "tavc")["controller"]) == {"tavc"}
     with pytest.raises(TavcError, match=f"^{folder}: no trials of static to read$"):
         api.load(folder).records("static")
 

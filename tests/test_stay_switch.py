@@ -79,13 +79,19 @@ def test_the_grid_is_every_combination_with_todays_world_first():
     (["arrival=range"], "error: arrival: set by the study for each reading"),
     (["experiment=heterogeneous", "scale=smoke"], "error: experiment=heterogeneous: stay and switch are measured on a "
                                                   "team of one group; this team has 2"),
+    (["learner=random", "scale=smoke"], "error: learner=random: the drift model takes an epsilon-greedy learner's "
+                                        "exploration"),
+    (["seed=x"], "error: seed: expected an integer, got 'x'"),
 ])
 def test_what_the_study_sets_or_cannot_measure_is_one_line(tmp_path, args, message):
+    """Refused before anything is written: not even the folder's list of tavc's files (each
+    reading's settings are composed and checked first; a learner without epsilon was refused
+    only after the first reading's tasks were measured)."""
     result = CliRunner().invoke(app, ["stay-switch", *args, "--results", str(tmp_path / "out"), "--no-progress"])
     assert result.exit_code == 1
     lines = result.output.strip().splitlines()
-    assert lines[-1].startswith(message), result.output
-    assert not (tmp_path / "out" / "stay_switch.csv").exists()
+    assert len(lines) == 1 and lines[0].startswith(message), result.output
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.slow

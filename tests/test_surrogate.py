@@ -225,4 +225,6 @@ def test_the_study_refuses_what_it_sets_for_each_run(tmp_path):
         run_study(tmp_path / "study", tmp_path, ["scale=smoke"], compose)
     with pytest.raises(TavcError, match="no part 'phases'"):
         run_study(tmp_path / "study", tmp_path, [], compose, parts=["phases"])
+    with pytest.raises(TavcError, match="^seed: expected an integer, got 'x'$"):  # before the folder is taken
+        run_study(tmp_path / "study", tmp_path, ["seed=x"], compose)
     assert not (tmp_path / "study").exists()

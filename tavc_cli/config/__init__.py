@@ -25,7 +25,7 @@ from tavc_cli.config.loading import (
     to_container,
     to_yaml,
 )
-from tavc_cli.config.overrides import expand_sweep, is_hydra_override, swept_values
+from tavc_cli.config.overrides import expand_sweep, is_hydra_override, parse_overrides, refuse_deletions, swept_values
 from tavc_cli.settings import TavcConfig
 
 __all__ = [
@@ -37,6 +37,8 @@ __all__ = [
     "experiment_names",
     "find_conf_dir",
     "is_hydra_override",
+    "parse_overrides",
+    "refuse_deletions",
     "ladder_folder",
     "list_experiments",
     "load_config",

@@ -54,6 +54,7 @@ def load_config(overrides: Sequence[str] = ()) -> DictConfig:
         TavcError: On an unknown key, option or override syntax, a wrong type, or a value out of
             range; the message is one line naming the key.
     """
+    refuse_deletions(overrides)
     for text in overrides:
         if is_hydra_override(text):
             raise TavcError(f"{override_key(text)}: Hydra's own settings (its launcher) apply to sweeps; add -m")
@@ -100,6 +101,7 @@ def load_sweep(overrides: Sequence[str]) -> list[DictConfig]:
 
 def plan_sweep(overrides: Sequence[str]) -> list[tuple[list[str], DictConfig]]:
     """Every job of a sweep as (its plain overrides, its resolved config); see ``load_sweep``."""
+    refuse_deletions(overrides)
     choices = sweep_choices(overrides)
     empty = [key for key, values in choices.items() if not values]
     if empty:
@@ -277,7 +279,7 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
     ``HYDRA_FULL_ERROR`` traceback switch) is never involved, and every failure surfaces here
     as an exception that becomes one ``TavcError`` line.
     """
-    refuse_deletions(overrides, [p.name for p in find_conf_dir().iterdir() if p.is_dir()])
+    refuse_deletions(overrides)
     with hydra_errors(overrides), initialize_conf():
         try:
             return compose(config_name="config", overrides=[*search_overrides(), *overrides])

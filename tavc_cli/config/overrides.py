@@ -9,6 +9,7 @@ from typing import Any
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException, OverrideParseException
 
+from tavc_cli.config.folders import find_conf_dir
 from tavc_cli.config.messages import override_syntax_message
 from tavc_cli.errors import TavcError
 from tavc_cli.override_keys import override_key, setting_key
@@ -106,21 +107,20 @@ def sweep_choices(overrides: Sequence[str]) -> dict[str, list[str]]:
     return choices
 
 
-def refuse_deletions(overrides: Sequence[str], groups: Sequence[str]) -> None:
+def refuse_deletions(overrides: Sequence[str]) -> None:
     """Refuse ``~key`` overrides: tavc reads every setting of its schema, so Hydra's deletion would
     not remove one but put the schema's default in its place, silently (``~seed`` ran seed 0).
 
-    Args:
-        overrides: The overrides as written.
-        groups: The config groups (``team``, ``learner``, ...), whose value is an option's name.
-
     Raises:
-        TavcError: Naming the first key given with ``~``.
+        TavcError: Naming the first key given with ``~``; a config group's (``team``, ``learner``,
+            ...) is told to choose an option.
     """
     for text in overrides:
         if text.lstrip().startswith("~"):
             key = setting_key(text)
-            instead = f"choose an option ({key}=<option>)" if key in groups else f"set it ({key}=<value>)"
+            group = key.split("@", 1)[0]
+            instead = (f"choose an option ({group}=<option>)" if (find_conf_dir() / group).is_dir()
+                       else f"set it ({key}=<value>)")
             raise TavcError(f"{key}: every run reads it, so ~ cannot remove it (the schema's default would "
                             f"take its place); {instead}")
 

@@ -45,7 +45,7 @@ def validate_arena(arena: DictConfig) -> None:
               f"must be at least {low:g} m (robots start at least {START_WALL_MARGIN_M:g} m from every wall), "
               f"got {arena[name]:g}")
         check(arena[name] <= MAX_ARENA_M, f"arena.{name}",
-              f"must be at most {MAX_ARENA_M:,.0f} m (1,000 km), got {arena[name]:,.10g}")
+              f"must be at most {MAX_ARENA_M:,.0f} m (1,000 km), got {_exact(arena[name])}")
     positive("arena.barcode_width_m", arena.barcode_width_m)
     for index, wall in enumerate(arena.walls):
         _validate_wall(f"arena.walls[{index}]", wall, arena)
@@ -61,6 +61,12 @@ def validate_arena(arena: DictConfig) -> None:
             key, name = f"arena.circuits[{index}].{end}", circuit[end]
             check(name in kinds, key, f"no target named {name!r} in arena.targets")
             check(kinds[name] == end, key, f"target {name!r} is a {kinds[name]}, not a {end}")
+
+
+def _exact(value: float) -> str:
+    """`value` with every digit that tells it from a bound: 1,000,001, or 1000000.0000001."""
+    value = float(value)
+    return f"{value:,.0f}" if value.is_integer() and abs(value) < 1e15 else repr(value)
 
 
 def _arena_size(arena: DictConfig) -> str:

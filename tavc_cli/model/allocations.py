@@ -41,12 +41,24 @@ def _counts(path: Path, size: str, prediction: object, n_circuits: int | None) -
     return list(counts)
 
 
-def model_allocations(path: str | Path, n_circuits: int | None = None) -> dict[str, list[int]]:
+def model_file_path(value: object) -> Path:
+    """The file ``learner.model_file`` names: a path, or a number Hydra read from one
+    (``learner.model_file=3``); anything else (null, empty, a list) is one line."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = str(value)
+    if not isinstance(value, (str, Path)) or str(value) == "":
+        shown = ("null" if value is None else str(value).lower() if isinstance(value, bool)
+                 else repr(value) if isinstance(value, str) else str(value))
+        raise TavcError(f"learner.model_file: must be the path of a model.json (`tavc model` writes one), got {shown}")
+    return Path(value)
+
+
+def model_allocations(path: object, n_circuits: int | None = None) -> dict[str, list[int]]:
     """Robots per circuit, the most valuable circuit first, for every team size the model file
     predicts (``by_team_size``): e.g. ``{"5": [3, 2], "6": [3, 3]}`` (the model writes its states
     most valuable circuit first, `analysis.states.split_label`). `n_circuits`, when given, is the
     number of circuits every state must have."""
-    path = Path(path)
+    path = model_file_path(path)
     try:
         model = load_json(path, MODEL_LIMIT, REMAKE)
     except FileNotFoundError:
