@@ -206,6 +206,11 @@ def _earlier_kind(folder: Path) -> str | None:
     return None
 
 
+def describe(kind: str) -> str:
+    """What a folder of `kind` is, as messages name it ("a tavc run's folder")."""
+    return _WHAT.get(kind, kind)
+
+
 def expect(folder: Path, kind: str, what: str = "output_dir") -> None:
     """Refuse, with one line and before anything is run, a folder that holds another kind of
     output than `kind` (a command that writes there at its end checks early with this), and the
@@ -213,7 +218,7 @@ def expect(folder: Path, kind: str, what: str = "output_dir") -> None:
     refuse_folder_problem(folder, what)
     owned = read(Path(folder)) if Path(folder).is_dir() else None
     if owned is not None and owned.kind != kind:
-        raise TavcError(f"{what}: {folder} is {_WHAT.get(owned.kind, owned.kind)}, not {_WHAT[kind]}; "
+        raise TavcError(f"{what}: {folder} is {describe(owned.kind)}, not {describe(kind)}; "
                         "choose another folder")
 
 

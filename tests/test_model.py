@@ -285,3 +285,14 @@ def test_a_calibration_search_writes_into_its_output_dir_and_nowhere_beside_it(t
     world = tmp_path / "notes.txt" / "calibration" / "world"
     assert result.output.strip() == f"error: output_dir: cannot create {world}: Not a directory"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+    # an experiment's folder, which the search once took to write beside: refused, naming the folder above it
+    run = tmp_path / "runs" / "initial_distribution"
+    run.mkdir(parents=True)
+    (run / ".tavc.json").write_text('{"tavc": "run", "files": []}')
+    result = CliRunner().invoke(app, ["calibrate", "scale=smoke", f"output_dir={run}",
+                                      "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0]}]"])
+    assert result.exit_code == 1
+    assert result.output.strip() == (f"error: output_dir: {run} is a tavc run's folder; the search goes into "
+                                     f"{run / 'calibration' / 'world'}: name the folder that holds it "
+                                     f"({run.parent}), or another")
+    assert sorted(p.name for p in run.iterdir()) == [".tavc.json"]

@@ -9,11 +9,21 @@ from collections.abc import Callable, Sequence
 from operator import attrgetter
 from pathlib import Path
 
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.store import Executor
 from tavc_cli.io import claim_folder
 from tavc_cli.model.report import search_text, sensitivity_text
 from tavc_cli.model.world_search import Point, one_axis_variants, point_id, run_search, run_sensitivity, save_world
-from tavc_cli.ownership import CALIBRATION, CALIBRATION_FILES, WORLD_SEARCH_DIR, refuse_other_settings, take
+from tavc_cli.ownership import (
+    CALIBRATION,
+    CALIBRATION_FILES,
+    RESULTS,
+    WORLD_SEARCH_DIR,
+    describe,
+    refuse_other_settings,
+    take,
+)
+from tavc_cli.ownership import read as read_owned
 from tavc_cli.settings import TavcConfig
 
 
@@ -26,7 +36,12 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
     trials = int(cal.trials_per_split)
     if base.scale.trials:
         trials = max(2, min(trials, int(base.scale.trials)))
-    out_dir = Path(base.output_dir) / WORLD_SEARCH_DIR
+    holder = Path(base.output_dir)
+    owned = read_owned(holder) if holder.is_dir() else None
+    if owned is not None and owned.kind != RESULTS:  # an experiment's folder, as the search took it once
+        raise TavcError(f"output_dir: {holder} is {describe(owned.kind)}; the search goes into "
+                        f"{holder / WORLD_SEARCH_DIR}: name the folder that holds it ({holder.parent}), or another")
+    out_dir = holder / WORLD_SEARCH_DIR
     measurement = dict(
         n_robots=int(base.team.n_robots), trials=trials, warmup_s=float(cal.warmup_s) * factor,
         measure_s=float(cal.measure_s) * factor, confidence=float(base.model.confidence),
