@@ -224,9 +224,9 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     # deferred: loads scipy
     from tavc_cli.compare.run import controller_overrides, run_compare
 
+    config.refuse_deletions(overrides)
     # learner.model_file is the comparison's: the model its predicted states come from, and the one the
     # model's controllers follow; every other controller's learner has no such key
-    config.refuse_deletions(overrides)
     model_keys = [o for o in overrides if setting_key(o) == "learner.model_file"]
     overrides = [o for o in overrides if o not in model_keys]
     model_file = model_file_path(config.parse_overrides(model_keys[-1:])[0].value() if model_keys

@@ -186,7 +186,8 @@ _NO_RECORDS = "{}: no trial records in trials/ (tables only: rerun with tavc run
 
 def _check_memory(folder: Path, files: list[Path]) -> None:
     """Refuse records whose arrays, as their archives declare them, would not fit in this
-    machine's memory together (a file that cannot be read is left to `load_record` to name)."""
+    machine's memory together (a file that cannot be read counts for nothing here: reading it is
+    `load_record`'s to refuse)."""
     sizes = []
     for path in files:
         try:
