@@ -33,7 +33,6 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import ModelSettings
 from tavc_cli.learning.registry import MODEL_LEARNERS
-from tavc_cli.model.allocations import model_file_path
 from tavc_cli.model.report import measurement_shortfall, model_text
 from tavc_cli.override_keys import setting_key
 from tavc_cli.ownership import COMPARE, LADDER, RESULTS, expect, refuse_other_settings
@@ -229,8 +228,10 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     # model's controllers follow; every other controller's learner has no such key
     model_keys = [o for o in overrides if setting_key(o) == "learner.model_file"]
     overrides = [o for o in overrides if o not in model_keys]
-    model_file = model_file_path(config.parse_overrides(model_keys[-1:])[0].value() if model_keys
-                                 else ModelSettings().model_file)
+    config.parse_overrides(model_keys)  # a slip in one is named as itself
+    # read as a model learner's run reads it (its grammar, interpolations, and the file itself checked)
+    model_file = config.load_config(["learner=model", *model_keys[-1:]]).learner.model_file if model_keys \
+        else ModelSettings().model_file
     learners = list(CONTROLLERS if learners is None else learners)
     if experiments is None:
         experiments = scenarios()

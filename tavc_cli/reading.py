@@ -13,12 +13,12 @@ import yaml
 
 from tavc_cli.errors import TavcError
 from tavc_cli.estimates import physical_memory
-from tavc_cli.experiments.plan import RunPlan, read_plan
+from tavc_cli.experiments.plan import PLAN_FILE, RunPlan
 from tavc_cli.experiments.records import TABLES, TrialRecord
 from tavc_cli.ownership import SURROGATE, trial_path
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.readers import load_yaml, read_text, record_size
-from tavc_cli.run_checks import check_table, load_record, read_trial, run_facts
+from tavc_cli.run_checks import check_table, checked_plan, load_record, read_trial, run_facts
 from tavc_cli.run_provenance import keys_of, read_provenance
 from tavc_cli.settings import from_yaml
 from tavc_cli.table_cells import damaged, unreadable
@@ -106,7 +106,7 @@ class Results:
     def plan(self) -> RunPlan:
         """The run's plan (`plan.json`): each controller's label, learner settings, trial count, seed
         code and schedule (its periods on the record's clock, when its trials start)."""
-        return read_plan(self.path, from_yaml(self.path / "config.yaml"))
+        return checked_plan(self.path / PLAN_FILE, from_yaml(self.path / "config.yaml"))
 
     def records(self, controller: str | None = None) -> list[TrialRecord]:
         """The raw record of every trial of the run (or of `controller`'s only), in file-name
@@ -130,27 +130,27 @@ class Results:
                 raise TavcError(f"{self.path}: no trials of {controller} to read")
         if not any((self.path / t["file"]).is_file() for t in listed):  # a folder kept without trials/
             raise TavcError(_NO_RECORDS.format(self.path))
-        _check_memory(self.path, [self.path / t["file"] for t in listed])
+        _check_memory(self.path, [self.path / t["file"] for t in listed], controller)
         return [read_trial(self.path, t) for t in listed]
 
     def _finished_so_far(self, controller: str | None) -> list[TrialRecord]:
         """`records` of a run that did not finish (see there)."""
         if not sorted((self.path / "trials").glob("*.npz")):
             raise TavcError(_NO_RECORDS.format(self.path))
-        owned = read_owned(self.path)
+        owned, plan = read_owned(self.path), self.plan
         try:  # a surrogate run's keys hold the digest of the tasks it drew, which its folder does not keep
             surrogate = owned is not None and owned.kind == SURROGATE
-            keys = None if surrogate else keys_of(from_yaml(self.path / "config.yaml"), self.plan)
+            keys = None if surrogate else keys_of(from_yaml(self.path / "config.yaml"), plan)
         except TavcError:
             raise
         except Exception as exc:  # noqa: BLE001 - settings no run was made with: whatever fails in planning them
             raise damaged(self.path / "config.yaml", f"plans no run ({unreadable(exc)})") from None
-        if controller is not None and controller not in [c.label for c in self.plan.controllers]:
+        if controller is not None and controller not in [c.label for c in plan.controllers]:
             raise TavcError(f"{self.path}: no trials of {controller} to read")
-        planned = {trial_path(self.path, c.label, j): (c.label, j) for c in self.plan.controllers
+        planned = {trial_path(self.path, c.label, j): (c.label, j) for c in plan.controllers
                    for j in range(c.trials) if controller in (None, c.label)}
         files = [f for f in sorted((self.path / "trials").glob("*.npz")) if f in planned]
-        _check_memory(self.path, files)
+        _check_memory(self.path, files, controller)
         records = []
         for path in files:
             try:
@@ -184,7 +184,7 @@ class Results:
 _NO_RECORDS = "{}: no trial records in trials/ (tables only: rerun with tavc run to get the events)"
 
 
-def _check_memory(folder: Path, files: list[Path]) -> None:
+def _check_memory(folder: Path, files: list[Path], controller: str | None) -> None:
     """Refuse records whose arrays, as their archives declare them, would not fit in this
     machine's memory together (a file that cannot be read counts for nothing here: reading it is
     `load_record`'s to refuse)."""
@@ -196,9 +196,11 @@ def _check_memory(folder: Path, files: list[Path]) -> None:
             sizes.append(0)
     memory = physical_memory()
     if sum(sizes) > memory:
-        raise TavcError(f"{folder}: its {len(files)} trial records declare {sum(sizes) / 2**30:,.1f} GiB of arrays, "
-                        f"more than this machine's {memory / 2**30:,.1f} GiB of memory; read one controller's at a "
-                        "time (records(controller), events(kind, controller))")
+        advice = ("read one controller's at a time (records(controller), events(kind, controller))"
+                  if controller is None else "read them on a machine with more")
+        raise TavcError(f"{folder}: its {len(files)} trial records{'' if controller is None else ' of ' + controller} "
+                        f"declare {sum(sizes) / 2**30:,.1f} GiB of arrays, more than this machine's "
+                        f"{memory / 2**30:,.1f} GiB of memory; {advice}")
 
 
 def load(path: str | Path) -> Results:

@@ -212,11 +212,11 @@ def checked_facts(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) 
             raise damaged(plan, "not among the files provenance.json lists (left by another run?)")
         _check_digest(plan, facts.digests)
     if facts.cfg is not None:
-        check_planned(facts, _check_plan(plan, facts.cfg))
+        check_planned(facts, checked_plan(plan, facts.cfg))
     return facts
 
 
-def _check_plan(path: Path, cfg: TavcConfig) -> RunPlan:
+def checked_plan(path: Path, cfg: TavcConfig) -> RunPlan:
     """The run's `plan.json` read as the report reads it (`plan.read_plan`; without one, the plan its
     config gives): one line naming it where it is no plan of the config beside it, not JSON, or
     lists no controller."""

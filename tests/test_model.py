@@ -271,7 +271,7 @@ def test_a_calibration_search_records_the_world_it_was_asked_beside_its_choice(t
     assert record["configured"] == {"robot.dock.dwell_s": 2.5} and record["n_points"] == 2
 
 
-def test_a_calibration_search_writes_into_its_output_dir_and_nowhere_beside_it(tmp_path):
+def test_a_calibration_search_writes_into_its_output_dir_and_nowhere_beside_it(tmp_path, monkeypatch):
     """`tavc calibrate output_dir=X` writes X/calibration/world/: a file named as X is one line,
     with nothing written next to it (the search went into X's parent)."""
     from typer.testing import CliRunner
@@ -296,3 +296,8 @@ def test_a_calibration_search_writes_into_its_output_dir_and_nowhere_beside_it(t
                                      f"{run / 'calibration' / 'world'}: name the folder that holds it "
                                      f"({run.parent}), or another")
     assert sorted(p.name for p in run.iterdir()) == [".tavc.json"]
+    monkeypatch.chdir(run)  # the folder above it is named as it lies, not as `.`'s parent (`.`)
+    result = CliRunner().invoke(app, ["calibrate", "scale=smoke", "output_dir=.",
+                                      "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0]}]"])
+    assert result.exit_code == 1 and result.output.strip().endswith(f"name the folder that holds it "
+                                                                     f"({run.resolve().parent}), or another")

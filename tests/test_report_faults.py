@@ -541,6 +541,9 @@ def test_the_api_reads_only_the_trials_provenance_lists(breakdown, breakdown_see
         api.load(folder).records("tavc")
     with pytest.raises(TavcError, match=f"^{folder}: no trials of wolf_phc to read$"):  # not in its plan
         api.load(folder).records("wolf_phc")
+    (folder / "plan.json").write_text("{bad")
+    with pytest.raises(TavcError, match=f"^{folder / 'plan.json'}: cannot be read "):
+        api.load(folder).records()
 
 
 def test_the_api_names_a_listed_trial_file_that_is_gone(breakdown, tmp_path):

@@ -228,3 +228,20 @@ def test_the_study_refuses_what_it_sets_for_each_run(tmp_path):
     with pytest.raises(TavcError, match="^seed: expected an integer, got 'x'$"):  # before the folder is taken
         run_study(tmp_path / "study", tmp_path, ["seed=x"], compose)
     assert not (tmp_path / "study").exists()
+
+
+def test_the_study_checks_its_overrides_as_its_runs_compose_them(tmp_path, monkeypatch):
+    """Checked before its folder is taken, at the chapter's scale its runs use: 5000 s of
+    convergence is past the end of a quick run (4500 s), not of the study's."""
+    from tavc_cli.surrogate import study
+
+    class Taken(Exception):
+        pass
+
+    def take(*args, **kwargs):
+        raise Taken
+
+    monkeypatch.setattr(study, "take", take)
+    with pytest.raises(Taken):
+        study.run_study(tmp_path / "study", tmp_path, ["convergence_s=5000"],
+                        lambda overrides: config.settings(config.load_config(overrides)))

@@ -40,7 +40,8 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
     owned = read_owned(holder) if holder.is_dir() else None
     if owned is not None and owned.kind != RESULTS:  # an experiment's folder, as the search took it once
         raise TavcError(f"output_dir: {holder} is {describe(owned.kind)}; the search goes into "
-                        f"{holder / WORLD_SEARCH_DIR}: name the folder that holds it ({holder.parent}), or another")
+                        f"{holder / WORLD_SEARCH_DIR}: name the folder that holds it ({holder.resolve().parent}), "
+                        "or another")
     out_dir = holder / WORLD_SEARCH_DIR
     measurement = dict(
         n_robots=int(base.team.n_robots), trials=trials, warmup_s=float(cal.warmup_s) * factor,

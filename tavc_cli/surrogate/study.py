@@ -270,7 +270,7 @@ def run_study(out: Path, results: Path, overrides: Sequence[str], compose: Compo
     if unknown:
         raise TavcError(f"--parts: no part {unknown[0]!r} (compare, ladder, phase, horizon, speed)")
     out = Path(out)
-    compose([*overrides, f"experiment={BASE}"])  # the overrides refused before anything is written
+    compose([*overrides, f"experiment={BASE}", "scale=paper"])  # as its runs compose them, before anything is written
     with claim_folder(out):
         owned = take(out, STUDY, STUDY_FILES, "--results")
     study = Study(out, results, overrides, compose, progress=progress, echo=echo)
