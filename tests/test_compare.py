@@ -193,7 +193,7 @@ def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_pat
     ("learner.model_file=a.json,b.json", "error: learner.model_file: a sweep needs -m/--multirun (to set a list, "
                                          "write learner.model_file=[a,b])"),
 ])
-def test_the_comparisons_model_file_is_read_as_any_override(override, line, tmp_path):
+def test_the_comparisons_model_file_is_read_as_a_model_learners_run_reads_it(override, line, tmp_path):
     """The comparison takes learner.model_file out of the overrides its controllers share (only the
     model's read it), so it reads that one override as a model learner's run does: quotes and all,
     never ~ (a traceback once), never null (`no model at None`) and never a sweep."""
