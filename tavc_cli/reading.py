@@ -135,7 +135,8 @@ class Results:
 
     def _finished_so_far(self, controller: str | None) -> list[TrialRecord]:
         """`records` of a run that did not finish (see there)."""
-        if not sorted((self.path / "trials").glob("*.npz")):
+        present = sorted((self.path / "trials").glob("*.npz"))
+        if not present:
             raise TavcError(_NO_RECORDS.format(self.path))
         owned, plan = read_owned(self.path), self.plan
         try:  # a surrogate run's keys hold the digest of the tasks it drew, which its folder does not keep
@@ -149,7 +150,7 @@ class Results:
             raise TavcError(f"{self.path}: no trials of {controller} to read")
         planned = {trial_path(self.path, c.label, j): (c.label, j) for c in plan.controllers
                    for j in range(c.trials) if controller in (None, c.label)}
-        files = [f for f in sorted((self.path / "trials").glob("*.npz")) if f in planned]
+        files = [f for f in present if f in planned]
         _check_memory(self.path, files, controller)
         records = []
         for path in files:

@@ -5,9 +5,11 @@ each refused in one line naming the file, at once, and never end in a traceback 
 import json
 import os
 import signal
+import zipfile
 from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from omegaconf._utils import get_yaml_loader
@@ -174,10 +176,6 @@ def test_libyaml_reads_every_committed_config_as_pyyaml_does_and_keeps_the_loade
 def test_a_records_size_is_what_its_archive_declares_unpacked(tmp_path):
     """Each member of a NumPy archive is a .npy file: a 128-byte header, then the array's bytes;
     1,000 float64 and 10 int8 declare 128 + 8,000 and 128 + 10."""
-    import zipfile
-
-    import numpy as np
-
     path = tmp_path / "record.npz"
     np.savez_compressed(path, a=np.zeros(1000), b=np.zeros(10, dtype=np.int8))
     assert path.stat().st_size < 1000  # zeros pack small; their declared size is what counts

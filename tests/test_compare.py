@@ -10,7 +10,9 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
+from typer.testing import CliRunner
 
+from tavc_cli.cli import app
 from tavc_cli.compare.metrics import (
     above,
     comparison_table,
@@ -197,10 +199,6 @@ def test_the_comparisons_model_file_is_read_as_a_model_learners_run_reads_it(ove
     """The comparison takes learner.model_file out of the overrides its controllers share (only the
     model's read it), so it reads that one override as a model learner's run does: quotes and all,
     never ~ (a traceback once), never null (`no model at None`) and never a sweep."""
-    from typer.testing import CliRunner
-
-    from tavc_cli.cli import app
-
     result = CliRunner().invoke(app, ["compare", "scale=smoke", "--learners", "tavc,random", "--results",
                                       str(tmp_path / "c"), override])
     assert result.exit_code == 1 and result.output.strip() == line

@@ -5,7 +5,9 @@ import math
 
 import pandas as pd
 import pytest
+from typer.testing import CliRunner
 
+from tavc_cli.cli import app
 from tavc_cli.config import load_config, settings
 from tavc_cli.experiments.store import Executor
 from tavc_cli.model import core
@@ -257,12 +259,6 @@ def test_a_circuit_that_delivered_nothing_is_left_for_one_that_pays():
 def test_a_calibration_search_records_the_world_it_was_asked_beside_its_choice(tmp_path):
     """`tavc calibrate` with the dwell set to 2.5 s, off its grid over the dwell, writes the world
     as asked (`configured`) in search.json, the report's way to judge a reading as configured."""
-    import json
-
-    from typer.testing import CliRunner
-
-    from tavc_cli.cli import app
-
     result = CliRunner().invoke(app, ["calibrate", "scale=smoke", "robot.dock.dwell_s=2.5",
                                       "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0,5.0]}]",
                                       f"output_dir={tmp_path}"])
@@ -273,11 +269,7 @@ def test_a_calibration_search_records_the_world_it_was_asked_beside_its_choice(t
 
 def test_a_calibration_search_writes_into_its_output_dir_and_nowhere_beside_it(tmp_path, monkeypatch):
     """`tavc calibrate output_dir=X` writes X/calibration/world/: a file named as X is one line,
-    with nothing written next to it (the search went into X's parent)."""
-    from typer.testing import CliRunner
-
-    from tavc_cli.cli import app
-
+    with nothing written next to it."""
     (tmp_path / "notes.txt").write_text("mine")
     result = CliRunner().invoke(app, ["calibrate", "scale=smoke", f"output_dir={tmp_path / 'notes.txt'}",
                                       "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0]}]"])

@@ -109,7 +109,7 @@ def sweep_choices(overrides: Sequence[str]) -> dict[str, list[str]]:
 
 def refuse_deletions(overrides: Sequence[str]) -> None:
     """Refuse ``~key`` overrides: tavc reads every setting of its schema, so Hydra's deletion would
-    not remove one but put the schema's default in its place, silently (``~seed`` ran seed 0).
+    not remove one but put the schema's default in its place, silently (``~seed`` would run seed 0).
 
     Raises:
         TavcError: Naming the first key given with ``~``; a config group's (``team``, ``learner``,

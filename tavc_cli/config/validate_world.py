@@ -31,8 +31,8 @@ START_MIN_CHANCE = 0.01
 REACH_CELL_M = 0.02
 REACH_MAX_CELLS = 2_000_000
 # The longest side an arena may have (1,000 km): there a double still tells positions 1.2e-10 m
-# apart, far below anything the simulator resolves. Without a bound a side of 1e200 m passed, its
-# areas overflowing on the way to the start checks, and ran trials in which nothing was delivered.
+# apart, far below anything the simulator resolves; far longer sides overflow the areas the start
+# checks compute (1e200 m does), and robots started that far from the targets deliver nothing.
 MAX_ARENA_M = 1e6
 
 

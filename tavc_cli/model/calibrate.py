@@ -38,7 +38,7 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
         trials = max(2, min(trials, int(base.scale.trials)))
     holder = Path(base.output_dir)
     owned = read_owned(holder) if holder.is_dir() else None
-    if owned is not None and owned.kind != RESULTS:  # an experiment's folder, as the search took it once
+    if owned is not None and owned.kind != RESULTS:  # a run's folder: the search would nest inside it
         raise TavcError(f"output_dir: {holder} is {describe(owned.kind)}; the search goes into "
                         f"{holder / WORLD_SEARCH_DIR}: name the folder that holds it ({holder.resolve().parent}), "
                         "or another")
