@@ -34,7 +34,7 @@ from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import ModelSettings
 from tavc_cli.learning.registry import MODEL_LEARNERS
 from tavc_cli.model.report import measurement_shortfall, model_text
-from tavc_cli.override_keys import setting_key
+from tavc_cli.override_keys import setting, setting_key
 from tavc_cli.ownership import COMPARE, LADDER, RESULTS, expect, refuse_other_settings
 from tavc_cli.reading import Results, Sweep, load, load_sweep  # noqa: F401 - the API reads through these
 from tavc_cli.settings import from_yaml
@@ -57,7 +57,7 @@ def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, 
     """
     overrides = list(overrides)
     if output_dir is not None:
-        overrides.append(f"output_dir={Path(output_dir)}")
+        overrides.append(setting("output_dir", Path(output_dir)))
     with using_config_dirs(config_dir):
         return Results(run_summary(overrides, progress=progress)["output_dir"])
 
@@ -96,7 +96,7 @@ def surrogate(overrides: Sequence[str] = (), *, output_dir: str | Path | None = 
     """
     overrides = list(overrides)
     if output_dir is not None:
-        overrides.append(f"output_dir={Path(output_dir)}")
+        overrides.append(setting("output_dir", Path(output_dir)))
     with using_config_dirs(config_dir):
         return Results(surrogate_summary(overrides, progress=progress, echo=lambda _: None)["output_dir"])
 
@@ -110,7 +110,7 @@ def surrogate_summary(overrides: Sequence[str] = (), *, progress: bool = False,
     overrides = list(overrides)
     cfg = config.load_config(overrides)
     if not any(setting_key(o) == "output_dir" for o in overrides):
-        overrides.append(f"output_dir={default_root(cfg.scale.name) / 'surrogate' / cfg.experiment_name}")
+        overrides.append(setting("output_dir", default_root(cfg.scale.name) / "surrogate" / cfg.experiment_name))
         cfg = config.load_config(overrides)
     return run_surrogate(config.settings(cfg), progress=progress, echo=echo)
 
@@ -334,7 +334,7 @@ def _calibrate(overrides: Sequence[str], save: bool, progress: bool, echo: Calla
         overrides = [f"experiment={base_case().name}", *overrides]  # six robots, the chapter's values
     base = config.settings(config.load_config(overrides))
     if not any(setting_key(o) == "output_dir" for o in overrides):  # the scale's folder, not an experiment's
-        overrides.append(f"output_dir={default_root(base.scale.name)}")
+        overrides.append(setting("output_dir", default_root(base.scale.name)))
         base = config.settings(config.load_config(overrides))
     if not base.calibration.grid:
         raise TavcError("calibration.grid: empty; nothing to search")

@@ -35,7 +35,7 @@ from tavc_cli.analysis.stay_switch import GRID, reading_folder, reading_name, re
 from tavc_cli.chapter import base_case
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
-from tavc_cli.override_keys import setting_key
+from tavc_cli.override_keys import setting, setting_key
 from tavc_cli.ownership import READINGS, READINGS_DIR, STAY_SWITCH_FILES, WORLD_SEARCH_DIR, take
 from tavc_cli.settings import TavcConfig
 from tavc_cli.surrogate.tasks import Team
@@ -71,7 +71,7 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
     for reading in readings():
         name, folder = reading_name(reading), reading_folder(reading)
         world = [*name.split(), *chosen.get(folder, [])]
-        cfg = compose([*base, *world, f"surrogate.tasks_dir={out / folder / 'tasks'}"])
+        cfg = compose([*base, *world, setting("surrogate.tasks_dir", out / folder / "tasks")])
         _check_studied(cfg)
         studied.append((name, folder, world, cfg))
     with claim_folder(out):

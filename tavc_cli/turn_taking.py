@@ -28,7 +28,7 @@ import pandas as pd
 from tavc_cli.analysis.turn_taking import ALTERNATOR, HORIZON, TURN_TAKING, modal_state, prediction
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
-from tavc_cli.override_keys import setting_key
+from tavc_cli.override_keys import setting, setting_key
 from tavc_cli.ownership import TURN_TAKING_FILES, TURN_TAKING_KIND, take
 from tavc_cli.report.mechanism import read_group
 from tavc_cli.settings import TavcConfig
@@ -71,18 +71,18 @@ def predict_turn_taking(overrides: Sequence[str], out: Path, compose: Compose, *
         owned = take(out, TURN_TAKING_KIND, TURN_TAKING_FILES, "output_dir")
     here = compose(list(overrides))
     factor = HORIZON if horizon is None else float(horizon)
+    tasks = setting("surrogate.tasks_dir", tasks_dir or out / "tasks")
     learners_cfg = compose([*overrides, f"scale.time_factor={factor * float(here.scale.time_factor)!r}",
                             "scale.stable_window=chapter", "baseline_trials=1",
-                            f"surrogate.tasks_dir={tasks_dir or out / 'tasks'}", f"output_dir={out / LEARNERS}"])
+                            tasks, setting("output_dir", out / LEARNERS)])
     echo(f"turn-taking model: the chapter's learners on the surrogate, {float(learners_cfg.scale.time_factor):g}x")
-    times = measure_tasks(compose([*overrides, f"surrogate.tasks_dir={tasks_dir or out / 'tasks'}"]),
-                          progress=progress, echo=echo)
+    times = measure_tasks(compose([*overrides, tasks]), progress=progress, echo=echo)
     run_surrogate(learners_cfg, times=times, progress=progress, echo=lambda _: None)
     learners = read_group(out / LEARNERS, learners_cfg)
     alternators, alternators_cfg = None, None
     if learners["regime"] == TURN_TAKING:
         alternators_cfg = compose([*overrides, "learner=alternate", "learner.allocation=[0,0]", "baseline_trials=1",
-                                   f"output_dir={out / ALTERNATORS}"])
+                                   setting("output_dir", out / ALTERNATORS)])
         echo("turn-taking model: every robot alternating, in the simulator")
         run_experiment(alternators_cfg, progress=progress)
         alternators = modal_state(pd.read_csv(out / ALTERNATORS / "state_time.csv"), ALTERNATOR)

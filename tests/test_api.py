@@ -27,9 +27,16 @@ def test_the_readme_example_runs(tmp_path, monkeypatch, capsys):
     assert "state_time" in out and "claim_id" in out
 
 
+# a folder's name may hold what Hydra's override grammar reads as its own (a sweep's comma, quotes,
+# brackets, an equals sign, a backslash): the API's folders are paths, never overrides
+ODD_NAME = "Dahl, Mataric's [runs]=\\b"
+
+
 def test_results_read_back_what_the_run_wrote(tmp_path):
-    run = api.run(["experiment=breakdown", "scale=smoke"], output_dir=tmp_path / "b")
-    written = pd.read_csv(tmp_path / "b" / "state_time.csv")
+    folder = tmp_path / ODD_NAME
+    run = api.run(["experiment=breakdown", "scale=smoke"], output_dir=folder)
+    assert run.path == folder and run.config["output_dir"] == str(folder)
+    written = pd.read_csv(folder / "state_time.csv")
     pd.testing.assert_frame_equal(run.state_time, written)
     deliveries = run.events("deliveries")
     # every trial of every controller contributes, and each row is one delivery of its record
@@ -38,7 +45,7 @@ def test_results_read_back_what_the_run_wrote(tmp_path):
     assert set(deliveries["controller"]) == {r.meta["controller"] for r in records}
     assert run.config["experiment_name"] == "breakdown"
     # reading again reuses every finished trial and gives the same tables
-    again = api.run(["experiment=breakdown", "scale=smoke"], output_dir=tmp_path / "b")
+    again = api.run(["experiment=breakdown", "scale=smoke"], output_dir=folder)
     pd.testing.assert_frame_equal(again.state_time, run.state_time)
 
 
@@ -58,11 +65,12 @@ def test_errors_are_one_line(tmp_path):
 
 
 def test_reproduce_opens_each_experiments_results(tmp_path):
+    results = tmp_path / ODD_NAME
     together = api.reproduce(["scale=smoke", "trials=1", "baselines=[]"],
-                             experiments=["breakdown_no_vacancy", "initial_distribution"], results_dir=tmp_path)
+                             experiments=["breakdown_no_vacancy", "initial_distribution"], results_dir=results)
     assert sorted(together) == ["breakdown_no_vacancy", "initial_distribution"]
     for name, res in together.items():
-        assert res.path == tmp_path / name and res.config["experiment_name"] == name
+        assert res.path == results / name and res.config["experiment_name"] == name
         assert len(res.records()) == 1
     with pytest.raises(TavcError, match="no experiment 'nope'"):
         api.reproduce(["scale=smoke"], experiments=["nope"], results_dir=tmp_path / "x")
@@ -101,9 +109,10 @@ def test_a_sweep_opens_as_a_sweep_with_its_jobs(tmp_path):
 
     from tavc_cli.cli import app
 
-    out = tmp_path / "eps"
-    result = CliRunner().invoke(app, ["run", "-m", *SMOKE_SWEEP, "learner.epsilon=0.05,0.3", f"output_dir={out}"])
+    out = tmp_path / "eps\\x"  # a backslash in the sweep's folder: its jobs go below it, nowhere else
+    result = CliRunner().invoke(app, ["run", "-m", *SMOKE_SWEEP, "learner.epsilon=0.05,0.3", f"output_dir='{out}'"])
     assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == [out.name]
     with pytest.raises(TavcError, match="a sweep's folder .* api.load_sweep"):
         api.load(out)
     sweep = api.load_sweep(out)

@@ -9,6 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from hydra.core.override_parser.overrides_parser import OverridesParser
 from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
@@ -18,6 +19,7 @@ from tavc_cli.cli import app
 from tavc_cli.config import load_config
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.registry import controller_label
+from tavc_cli.override_keys import setting
 
 runner = CliRunner()
 # one line `error: <key>: <rule>`, the key a dotted path with optional [index] parts
@@ -384,6 +386,14 @@ def test_a_team_that_always_fits_is_placed_at_every_seed(width_m, height_m, alwa
     arena = SimpleNamespace(width_m=width_m, height_m=height_m, walls=np.zeros((4, 4)))  # the outer ones only
     for seed in range(20):
         assert len(start_poses(arena, np.full(always, 0.22), np.random.default_rng(seed))) == always
+
+
+@settings(max_examples=300, deadline=None, database=None)
+@given(text=st.text().filter(lambda t: "${" not in t))
+def test_a_value_set_to_the_letter_is_read_back_as_written(text):
+    """A folder tavc names in an override it writes (a run's under a results folder the user chose)
+    reads back as the same text, whatever its characters: a comma is no sweep, a backslash is one."""
+    assert OverridesParser.create().parse_override(setting("output_dir", text)).value() == text
 
 
 def test_the_root_of_the_file_system_is_no_output_dir():

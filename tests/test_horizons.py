@@ -100,10 +100,11 @@ def test_a_factor_that_is_not_positive_is_refused_naming_the_key(override, key):
 
 
 def test_the_ladders_rungs_are_initial_distribution_at_each_factor(tmp_path):
-    rungs = config.load_ladder([1, 4, 40], [], tmp_path)
+    results = tmp_path / "a, b's [c]=d"  # characters of the override grammar: a folder's name, taken as written
+    rungs = config.load_ladder([1, 4, 40], [], results)
     assert [(c.scale.time_factor, c.duration_s, c.convergence_s) for c in rungs] == [
         (1.0, 18000.0, 4500.0), (4.0, 72000.0, 18000.0), (40.0, 720000.0, 180000.0)]
-    assert [Path(c.output_dir) for c in rungs] == [tmp_path / "ladder" / f"x{f}" for f in (1, 4, 40)]
+    assert [Path(c.output_dir) for c in rungs] == [results / "ladder" / f"x{f}" for f in (1, 4, 40)]
     # every rung's random trials are the same trials: the chapter's schedule
     specs = [trial_specs(config.settings(c)) for c in rungs]
     assert len({tuple(s.key() for s in sp if s.controller == "random") for sp in specs}) == 1

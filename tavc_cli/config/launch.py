@@ -31,6 +31,7 @@ from tavc_cli.config.messages import hydra_errors
 from tavc_cli.config.overrides import is_hydra_override
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder
+from tavc_cli.override_keys import setting
 from tavc_cli.ownership import SWEEP, SWEEP_FILES, take
 
 # Hydra writes nothing of its own into a job's folder (config.yaml and provenance.json are
@@ -64,13 +65,13 @@ def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any],
     plan = plan_sweep(ours)
     folders = [Path(cfg.output_dir) for _, cfg in plan]
     common = _common_parent(folders)
-    jobs = [[*search_overrides(), *job, f"hydra.sweep.dir={_quoted(str(folder.parent))}",
-             f"hydra.sweep.subdir={_quoted(folder.name)}"] for (job, _), folder in zip(plan, folders, strict=True)]
+    jobs = [[*search_overrides(), *job, setting("hydra.sweep.dir", folder.parent),
+             setting("hydra.sweep.subdir", folder.name)] for (job, _), folder in zip(plan, folders, strict=True)]
     with hydra_errors(theirs), initialize_conf():
         hydra = GlobalHydra.instance().hydra
         assert hydra is not None
         master = hydra.compose_config("config", overrides=[*_QUIET, *search_overrides(), *theirs,
-                                                           f"hydra.sweep.dir={_quoted(common)}"],
+                                                           setting("hydra.sweep.dir", common)],
                                       run_mode=RunMode.MULTIRUN)
         launcher = Plugins.instance().instantiate_launcher(
             hydra_context=HydraContext(config_loader=hydra.config_loader, callbacks=Callbacks(master)),
@@ -104,8 +105,3 @@ class _Job:
 def _common_parent(folders: Sequence[Path]) -> str:
     parents = {str(folder.parent) for folder in folders}
     return parents.pop() if len(parents) == 1 else "."
-
-
-def _quoted(text: str) -> str:
-    """A value the override grammar takes literally (paths hold ``=`` and ``,``)."""
-    return "'" + text.replace("\\", "\\\\").replace("'", "\\'") + "'"

@@ -32,7 +32,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.parameters import settings_mapping
 from tavc_cli.learning.plugins import config_dirs
-from tavc_cli.override_keys import override_key, setting_key
+from tavc_cli.override_keys import override_key, setting, setting_key
 from tavc_cli.settings import SCHEMA_NAME, TavcConfig, settings_of
 
 # --------------------------------------------------------------------------------------------
@@ -190,7 +190,8 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
     cfgs = []
     for name in dict.fromkeys(chosen):
         try:
-            cfgs.append(load_config([f"experiment={name}", *overrides, f"output_dir={Path(results_dir) / name}"]))
+            folder = setting("output_dir", Path(results_dir) / name)
+            cfgs.append(load_config([f"experiment={name}", *overrides, folder]))
         except TavcError as error:
             raise TavcError(f"{error} (experiment={name})") from None
     return cfgs

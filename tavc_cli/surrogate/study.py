@@ -36,7 +36,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import in_this_process, trial_specs
 from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.notation import high_of
-from tavc_cli.override_keys import setting_key
+from tavc_cli.override_keys import setting, setting_key
 from tavc_cli.ownership import STUDY, take
 from tavc_cli.settings import to_yaml
 from tavc_cli.surrogate.compare import comparison_rows, high_share, predicted_state, run_facts
@@ -91,8 +91,8 @@ class Study:
         # deferred: loads the simulator's compiled kernels
         from tavc_cli.surrogate.run import run_surrogate
 
-        cfg = self.compose([*self.overrides, *overrides, f"surrogate.tasks_dir={self.tasks_dir}",
-                            f"output_dir={folder}"])
+        cfg = self.compose([*self.overrides, *overrides, setting("surrogate.tasks_dir", self.tasks_dir),
+                            setting("output_dir", folder)])
         if not _finished_as(folder, cfg):
             run_surrogate(cfg, progress=self.progress, echo=self.echo)
         self.echo(f"surrogate: {folder}")
@@ -104,7 +104,7 @@ class Study:
         # deferred: loads the simulator's compiled kernels
         from tavc_cli.pipeline import run_experiment
 
-        cfg = self.compose([*self.overrides, *overrides, f"output_dir={folder}"])
+        cfg = self.compose([*self.overrides, *overrides, setting("output_dir", folder)])
         if not _finished_as(folder, cfg):
             run_experiment(cfg, progress=self.progress)
         self.echo(f"simulator: {folder}")
@@ -162,7 +162,7 @@ class Study:
         predicted = []
         for n in PHASE_TEAMS:
             cfg = self.compose([*self.overrides, f"experiment={BASE}", "scale=paper", f"team.n_robots={n}",
-                                f"surrogate.tasks_dir={self.tasks_dir}"])
+                                setting("surrogate.tasks_dir", self.tasks_dir)])
             times = measure_tasks(cfg, progress=self.progress, echo=self.echo)
             team = Team.of(["all"] * n, [float(cfg.robot.speed_mps)] * n)
             for ratio in PHASE_RATIOS:
@@ -231,7 +231,7 @@ class Study:
         for experiment in served_by("surrogate"):
             for scale in HORIZONS:
                 cfg = self.compose([*self.overrides, f"experiment={experiment}", f"scale={scale}",
-                                    f"surrogate.tasks_dir={self.tasks_dir}"])
+                                    setting("surrogate.tasks_dir", self.tasks_dir)])
                 times = measure_tasks(cfg, progress=self.progress, echo=self.echo)
                 spec = surrogate_specs(cfg, times)[0]
                 in_this_process([spec], cfg.executor.confine, "the surrogate study's speed")
