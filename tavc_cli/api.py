@@ -31,7 +31,7 @@ from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
-from tavc_cli.learning.parameters import ModelSettings
+from tavc_cli.learning.parameters import ModelSettings, PluginSettings
 from tavc_cli.learning.registry import MODEL_LEARNERS
 from tavc_cli.model.report import measurement_shortfall, model_text
 from tavc_cli.override_keys import setting, setting_key
@@ -138,8 +138,12 @@ def surrogate_seen_switches(prediction: str | Path, learners_run: str | Path, *,
     settings, the tasks it measured), every switching task of a make-up with one switcher
     shifted to the mean the learners of `learners_run` met in the state it makes
     (`analysis.tasks_seen.seen_switches`), into `output_dir`. Tasks measured by other code or
-    settings, or edited since, are refused in one line, as the surrogate refuses them."""
+    settings, or edited since, are refused in one line, as the surrogate refuses them. The folder
+    is read as data: its learners must be tavc's own (a learner from outside tavc it names is
+    refused, not run), and the trials run where this machine's settings run them, not where its
+    `executor` says."""
     # deferred: loads the simulator's compiled kernels
+    from tavc_cli.experiments.build import trial_specs
     from tavc_cli.surrogate.run import kept_tasks, measurement_record, run_surrogate
     from tavc_cli.surrogate.tasks import TaskTimes
 
@@ -147,7 +151,11 @@ def surrogate_seen_switches(prediction: str | Path, learners_run: str | Path, *,
     own = prediction / LEARNERS / "config.yaml"
     if not own.is_file():
         raise TavcError(f"{prediction}: not a turn-taking prediction's folder (no {LEARNERS}/config.yaml in it)")
-    cfg = replace(from_yaml(own), output_dir=str(output_dir))
+    here = config.settings(config.load_config([]))
+    cfg = replace(from_yaml(own), output_dir=str(output_dir), executor=here.executor)
+    if any(isinstance(spec.policy, PluginSettings) for spec in trial_specs(cfg)):
+        raise TavcError(f"{own}: its learners are from outside tavc (learner.target), code a folder cannot vouch "
+                        "for; a prediction's learners are tavc's own (rerun tavc model --turn-taking)")
     # the tasks are drawn only where the surrogate itself would draw them (this code, these settings)
     why: list[str] = []
     frame = kept_tasks(prediction / "tasks", measurement_record(cfg), overwrite=False, echo=why.append)

@@ -74,3 +74,28 @@ def test_the_api_reads_a_runs_own_learners(finished_run, tmp_path):
         api.seen_tasks(folder, controller="nobody")
     with pytest.raises(TavcError, match="not a turn-taking prediction's folder"):
         api.surrogate_seen_switches(tmp_path, folder, output_dir=tmp_path / "out")
+
+
+def test_a_predictions_folder_naming_a_learner_from_outside_tavc_is_refused_not_run(tmp_path):
+    """The diagnostic reads a prediction's folder as data: a learner its settings name (code the
+    folder cannot vouch for, which would run with the folder's own executor settings) is one line,
+    and nothing is run or written."""
+    from tavc_cli import api, config
+    from tavc_cli.errors import TavcError
+    from tavc_cli.settings import to_yaml
+
+    marker = tmp_path / "ran"
+    (tmp_path / "mine.py").write_text(f"open({str(marker)!r}, 'w').close()\n"
+                                      "class Mine:\n    def __init__(self, n_robots, n_circuits, rng):\n"
+                                      "        pass\n    def choose(self, robot, state):\n        return 0\n"
+                                      "    def learn(self, *args):\n        pass\n")
+    theirs = config.settings(config.load_config([*BREAKDOWN, "learner=plugin", "learner.name=mine",
+                                                 f"learner.target={tmp_path / 'mine.py'}:Mine",
+                                                 "executor.confine=off"]))
+    prediction = tmp_path / "prediction"
+    (prediction / "learners").mkdir(parents=True)
+    (prediction / "learners" / "config.yaml").write_text(to_yaml(theirs))
+    marker.unlink(missing_ok=True)  # composing their settings here rehearsed the learner, unconfined as they say
+    with pytest.raises(TavcError, match="learners are from outside tavc"):
+        api.surrogate_seen_switches(prediction, tmp_path, output_dir=tmp_path / "out")
+    assert not marker.exists() and not (tmp_path / "out").exists()
