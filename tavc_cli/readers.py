@@ -6,7 +6,7 @@ file (a named pipe never blocks, a device such as ``/dev/zero`` is never read), 
 size, JSON at most `MAX_DEPTH` levels deep, and YAML without aliases (tavc's own files never use
 them; a document of nested aliases would expand without end), parsed by libyaml where PyYAML has
 it (a results folder's hundreds of config.yaml files are what `tavc report` spends most on). A
-refusal is one `TavcError` line naming the file and what to do, worded as `run_checks.damaged`
+refusal is one `TavcError` line naming the file and what to do, worded as `table_cells.damaged`
 words its own.
 """
 

@@ -126,7 +126,7 @@ def _known(text: str) -> bool:
 
 def _pending(folder: Path) -> set[str]:
     """The files whose rewrite the run's `provenance.json` records as stopped before its end
-    (`run_checks.unfinished_rewrites`)."""
+    (`run_provenance.unfinished_rewrites`)."""
     try:
         return set(unfinished_rewrites(read_provenance(folder / PROVENANCE)))
     except TavcError:
