@@ -30,7 +30,7 @@ from tavc_cli.analysis import tasks_seen
 from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
 from tavc_cli.errors import TavcError
-from tavc_cli.io import default_root
+from tavc_cli.io import default_root, refuse_folder_problem
 from tavc_cli.learning.parameters import ModelSettings, PluginSettings
 from tavc_cli.learning.registry import MODEL_LEARNERS
 from tavc_cli.model.report import measurement_shortfall, model_text
@@ -44,6 +44,16 @@ from tavc_cli.user_configs import using_config_dirs
 ConfigDirs = str | Path | Sequence[str | Path] | None  # a folder of the user's configs, or several
 
 
+def _folder_setting(output_dir: str | Path | None) -> list[str]:
+    """The override that sets ``output_dir`` to the folder the caller named (none where it named
+    none), taken as named: one line where it is empty (``Path("")`` is the working folder), the
+    root of the file system, or holds ``${``."""
+    if output_dir is None:
+        return []
+    refuse_folder_problem(output_dir, "output_dir", in_setting=True)
+    return [setting("output_dir", Path(output_dir))]
+
+
 def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, progress: bool = False,
         config_dir: ConfigDirs = None) -> Results:
     """Run an experiment as `tavc run` does (finished trials in the folder are reused) and open its results.
@@ -55,9 +65,7 @@ def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, 
         config_dir: A folder of your own configs and learners (or several), searched besides
             tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
-    overrides = list(overrides)
-    if output_dir is not None:
-        overrides.append(setting("output_dir", Path(output_dir)))
+    overrides = [*overrides, *_folder_setting(output_dir)]
     with using_config_dirs(config_dir):
         return Results(run_summary(overrides, progress=progress)["output_dir"])
 
@@ -94,9 +102,7 @@ def surrogate(overrides: Sequence[str] = (), *, output_dir: str | Path | None = 
         config_dir: A folder of your own configs and learners (or several), searched besides
             tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
-    overrides = list(overrides)
-    if output_dir is not None:
-        overrides.append(setting("output_dir", Path(output_dir)))
+    overrides = [*overrides, *_folder_setting(output_dir)]
     with using_config_dirs(config_dir):
         return Results(surrogate_summary(overrides, progress=progress, echo=lambda _: None)["output_dir"])
 
@@ -252,6 +258,8 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
         raise TavcError("--experiments: no scenario given")
     if not learners or len(set(learners)) != len(learners):
         raise TavcError(f"--learners: name each learner once ({', '.join(learners) or 'none given'})")
+    if results_dir is not None:
+        refuse_folder_problem(results_dir, "--results", in_setting=True)
     results = Path(results_dir) if results_dir is not None else config.results_root(overrides) / "compare"
     expect(results, COMPARE, "--results")  # checked before hours of runs
     reuse = {name: Path(folder) for name, folder in (reuse or {}).items()}

@@ -36,21 +36,24 @@ def plain_name(name: str) -> bool:
     return name not in ("", ".", "..") and not any(c in name for c in "/\\") and name == name.strip()
 
 
-def folder_problem(folder: str | Path) -> str | None:
+def folder_problem(folder: str | Path, *, in_setting: bool = False) -> str | None:
     """What is wrong with `folder` as a folder tavc writes results into, or None: empty (an unset
     variable, as a rule), or the root of the file system (where a run's files would lie among the
-    system's)."""
+    system's); `in_setting`, a folder tavc will name in a setting of its own (`--results`, the
+    API's folders), also one holding ``${``, which a setting reads as an interpolation."""
     if not str(folder).strip():
         return "must not be empty"
+    if in_setting and "${" in str(folder):
+        return f"{folder} holds '${{', which tavc's settings read as an interpolation; name a folder without it"
     resolved = Path(folder).resolve()
     if resolved == Path(resolved.anchor):
         return f"{folder} is the root of the file system; give the results a folder of their own"
     return None
 
 
-def refuse_folder_problem(folder: str | Path, what: str) -> None:
+def refuse_folder_problem(folder: str | Path, what: str, *, in_setting: bool = False) -> None:
     """One line naming `what` (the option or key that gave `folder`) where `folder_problem` finds one."""
-    problem = folder_problem(folder)
+    problem = folder_problem(folder, in_setting=in_setting)
     if problem is not None:
         raise TavcError(f"{what}: {problem}")
 

@@ -1,6 +1,7 @@
 """The arguments several commands of ``tavc`` share (their Hydra overrides, the progress flag)
 and how every command's help lists them: without type labels."""
 
+from functools import partial
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -35,18 +36,21 @@ ProgressFlag = Annotated[
 ]
 
 
-def folder(text: str) -> Path:
+def folder(text: str, *, in_setting: bool = False) -> Path:
     """A folder named on the command line (`--results`, the report's RESULTS_DIR): one line where
-    it is empty or the root of the file system (`io.folder_problem`)."""
-    problem = folder_problem(text)
+    it is empty or the root of the file system (`io.folder_problem`; `in_setting`, a folder the
+    command names in its settings, also where it holds ``${``)."""
+    problem = folder_problem(text, in_setting=in_setting)
     if problem is not None:
         raise typer.BadParameter(problem)
     return Path(text)
 
 
 def results(help_text: str, show_default: bool = False) -> Any:
-    """A command's ``--results`` option: the folder it writes, checked as `folder` checks it."""
-    return typer.Option("--results", help=help_text, show_default=show_default, parser=folder)
+    """A command's ``--results`` option: the folder it writes, whose folders it names in its runs'
+    settings, checked as `folder` checks such a folder."""
+    return typer.Option("--results", help=help_text, show_default=show_default,
+                        parser=partial(folder, in_setting=True))
 
 
 def shown(progress: Optional[bool]) -> bool:

@@ -64,6 +64,25 @@ def test_errors_are_one_line(tmp_path):
         api.run(["team.n_robots=-1"], output_dir=tmp_path / "x")
 
 
+def test_an_empty_folder_or_one_holding_an_interpolation_is_refused_before_anything_is_written(tmp_path,
+                                                                                                 monkeypatch):
+    """``Path("")`` is the working folder, and a ``${`` in a folder's name would be read as an
+    interpolation (``${oc.env:HOME}`` put the run under the home folder): both are one line."""
+    monkeypatch.chdir(tmp_path)
+    smoke = ["experiment=initial_distribution", "scale=smoke"]
+    with pytest.raises(TavcError, match="^output_dir: must not be empty$"):
+        api.run(smoke, output_dir="")
+    with pytest.raises(TavcError, match="^--results: must not be empty$"):
+        api.reproduce(["scale=smoke"], experiments=["initial_distribution"], results_dir="")
+    with pytest.raises(TavcError, match="^--results: must not be empty$"):
+        api.compare(["scale=smoke"], learners=["tavc"], experiments=["initial_distribution"], results_dir="")
+    with pytest.raises(TavcError, match=r"holds '\$\{', which tavc's settings read as an interpolation"):
+        api.surrogate(smoke, output_dir=tmp_path / "x${oc.env:HOME}")
+    with pytest.raises(TavcError, match=r"^--results: .* holds '\$\{'"):
+        api.reproduce_summaries(["scale=smoke"], experiments=[], results_dir=tmp_path / "x${oc.env:HOME}", ladder=[1])
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_reproduce_opens_each_experiments_results(tmp_path):
     results = tmp_path / ODD_NAME
     together = api.reproduce(["scale=smoke", "trials=1", "baselines=[]"],

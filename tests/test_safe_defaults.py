@@ -96,6 +96,18 @@ def test_an_empty_folder_is_refused_not_taken_for_the_working_folder(args, line,
     assert len(result.stderr.strip().splitlines()) == 1 and list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("command", [["reproduce", "--experiments", "breakdown"], ["ladder", "--factors", "1"],
+                                     ["compare"], ["stay-switch"]])
+def test_a_results_folder_holding_an_interpolation_is_refused(command, tmp_path):
+    """Its runs' folders are named in their settings, where ``${oc.env:HOME}`` would be read: the
+    run would go under the home folder."""
+    result = helpers.tavc(*command, "scale=smoke", "--results", "x${oc.env:HOME}", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.startswith("error: Invalid value for '--results': x${oc.env:HOME} holds '${', which "
+                                    "tavc's settings read as an interpolation"), result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and list(tmp_path.iterdir()) == []
+
+
 def test_model_identity_is_what_model_json_records_at_that_scale():
     cfg = config.settings(config.load_config(["experiment=initial_distribution", "scale=smoke"]))
     identity = model_identity(cfg)

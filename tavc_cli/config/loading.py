@@ -29,7 +29,7 @@ from tavc_cli.config.overrides import (
 from tavc_cli.config.resolve import resolve
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
-from tavc_cli.io import default_root
+from tavc_cli.io import default_root, refuse_folder_problem
 from tavc_cli.learning.parameters import settings_mapping
 from tavc_cli.learning.plugins import config_dirs
 from tavc_cli.override_keys import override_key, setting, setting_key
@@ -187,6 +187,7 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
                             "instead (--experiments, --results)")
     if results_dir is None:
         results_dir = results_root(overrides)
+    refuse_folder_problem(results_dir, "--results", in_setting=True)  # '' would be the working folder
     cfgs = []
     for name in dict.fromkeys(chosen):
         try:
