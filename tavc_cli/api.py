@@ -30,7 +30,7 @@ from tavc_cli.analysis import tasks_seen
 from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
 from tavc_cli.errors import TavcError
-from tavc_cli.io import default_root, refuse_folder_problem
+from tavc_cli.io import default_root, owned_path, refuse_folder_problem
 from tavc_cli.learning.parameters import ModelSettings, PluginSettings
 from tavc_cli.learning.registry import MODEL_LEARNERS
 from tavc_cli.model.report import measurement_shortfall, model_text
@@ -262,6 +262,8 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
         refuse_folder_problem(results_dir, "--results", in_setting=True)
     results = Path(results_dir) if results_dir is not None else config.results_root(overrides) / "compare"
     expect(results, COMPARE, "--results")  # checked before hours of runs
+    for name in learners:  # its runs' folders are named below it: a link there is refused, not followed
+        owned_path(results, results / "runs" / name, folder=True, what="--results")
     reuse = {name: Path(folder) for name, folder in (reuse or {}).items()}
     base = config.load_config([f"experiment={experiments[0]}", *overrides])
     scale = config.to_container(base.scale)
@@ -287,9 +289,11 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, turn
     with using_config_dirs(config_dir):
         if turn_taking:
             # deferred: pandas and the model's modules, only with turn_taking
-            from tavc_cli.turn_taking import check_overrides
+            from tavc_cli.turn_taking import TURN_TAKING_FOLDER, check_overrides
 
             check_overrides([o for o in overrides if setting_key(o) != "output_dir"])
+            folder = Path(config.load_config(list(overrides)).output_dir)  # its folder checked before the model runs
+            owned_path(folder, folder / TURN_TAKING_FOLDER, folder=True, what="output_dir")
         result = _model(overrides, save_calibration, progress, echo)
         if turn_taking:
             result["turn_taking"] = _turn_taking(overrides, progress, echo)

@@ -94,8 +94,8 @@ def owned_path(root: Path, path: Path, *, folder: bool = False, what: str = "") 
             raise TavcError(f"{what + ': ' if what else ''}{path} leads out of {root}; tavc writes only inside it")
         try:
             mode = os.lstat(here).st_mode
-        except FileNotFoundError:
-            break  # nothing exists below a missing part
+        except (FileNotFoundError, NotADirectoryError):
+            break  # nothing exists below a missing part, or below a file (making a folder there fails on its own)
         wants_folder = folder or k < len(parts) - 1
         if wants_folder and stat.S_ISREG(mode):
             break
@@ -200,8 +200,10 @@ os.register_at_fork(after_in_child=_forget_held)
 
 
 @contextmanager
-def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
-    """Create `folder` and hold it for this process alone until the block ends.
+def claim_folder(folder: Path, what: str = "output_dir", *, within: Path | None = None) -> Iterator[Path]:
+    """Create `folder` and hold it for this process alone until the block ends; `within`, the
+    folder its user named where tavc names `folder` below it, which no part of `folder` below it
+    may lead out of (`owned_path`: a link there is refused, not followed).
 
     The claim is an advisory lock (``flock``) on ``<folder>/.tavc.lock``: a second run on the
     same folder stops at once with a line naming the run that holds it, instead of
@@ -216,6 +218,8 @@ def claim_folder(folder: Path, what: str = "output_dir") -> Iterator[Path]:
 
     refuse_folder_problem(folder, what)
     folder = Path(folder)
+    if within is not None:
+        owned_path(Path(within), folder, folder=True, what=what)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -34,7 +34,7 @@ from tavc_cli.analysis.makeup_model import predict, readings_summary, times_of, 
 from tavc_cli.analysis.stay_switch import GRID, reading_folder, reading_name, readings, stay_switch_table
 from tavc_cli.chapter import base_case
 from tavc_cli.errors import TavcError
-from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.io import claim_folder, owned_path, write_text_atomic
 from tavc_cli.override_keys import setting, setting_key
 from tavc_cli.ownership import READINGS, READINGS_DIR, STAY_SWITCH_FILES, WORLD_SEARCH_DIR, take
 from tavc_cli.settings import TavcConfig
@@ -70,6 +70,7 @@ def run_stay_switch(out: Path, overrides: Sequence[str], compose: Compose, *, pr
     studied = []  # every reading's settings, composed and checked before anything is written
     for reading in readings():
         name, folder = reading_name(reading), reading_folder(reading)
+        owned_path(out, out / folder / "tasks", folder=True, what="--results")  # a link there is refused
         world = [*name.split(), *chosen.get(folder, [])]
         cfg = compose([*base, *world, setting("surrogate.tasks_dir", out / folder / "tasks")])
         _check_studied(cfg)

@@ -27,7 +27,7 @@ import pandas as pd
 
 from tavc_cli.analysis.turn_taking import ALTERNATOR, HORIZON, TURN_TAKING, modal_state, prediction
 from tavc_cli.errors import TavcError
-from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.io import claim_folder, owned_path, write_text_atomic
 from tavc_cli.override_keys import setting, setting_key
 from tavc_cli.ownership import TURN_TAKING_FILES, TURN_TAKING_KIND, take
 from tavc_cli.report.mechanism import read_group
@@ -67,7 +67,9 @@ def predict_turn_taking(overrides: Sequence[str], out: Path, compose: Compose, *
 
     check_overrides(overrides)
     out = Path(out)
-    with claim_folder(out):
+    for below in (LEARNERS, ALTERNATORS, *([] if tasks_dir else ["tasks"])):  # its runs' folders: no link there
+        owned_path(out, out / below, folder=True, what="output_dir")
+    with claim_folder(out, within=out.parent):
         owned = take(out, TURN_TAKING_KIND, TURN_TAKING_FILES, "output_dir")
     here = compose(list(overrides))
     factor = HORIZON if horizon is None else float(horizon)

@@ -282,3 +282,36 @@ def test_a_normal_run_still_writes_its_lock_figures_and_records(finished, tmp_pa
     assert sorted(p.name for p in stem.parent.iterdir()) == ["state.png", "state.svg"]  # no temporary left
     assert stem.with_suffix(".png").read_bytes().startswith(b"\x89PNG")
     assert b"<svg" in stem.with_suffix(".svg").read_bytes()
+
+
+# each command names a folder below the one its user named; the link stands there
+_BELOW = [
+    ("initial_distribution", ["reproduce", "scale=smoke", "--experiments", "initial_distribution", "--results", "{X}"]),
+    ("0_seed=0", ["run", "-m", *RUN[1:], "seed=0,1", "output_dir={X}"]),
+    ("ladder", ["ladder", "--factors", "1", "scale=smoke", "--results", "{X}"]),
+    ("ladder/x1", ["ladder", "--factors", "1", "scale=smoke", "--results", "{X}"]),
+    ("runs", ["compare", "scale=smoke", "--learners", "tavc", "--experiments", "initial_distribution",
+              "--results", "{X}"]),
+    ("runs/tavc/initial_distribution", ["compare", "scale=smoke", "--learners", "tavc", "--experiments",
+                                        "initial_distribution", "--results", "{X}"]),
+    ("calibration", ["calibrate", "scale=smoke", "output_dir={X}"]),
+    ("calibration/world", ["calibrate", "scale=smoke", "output_dir={X}"]),
+    ("model", ["model", "experiment=initial_distribution", "scale=smoke", "output_dir={X}"]),
+    ("turn_taking", ["model", "--turn-taking", "experiment=initial_distribution", "scale=smoke", "output_dir={X}"]),
+]
+
+
+@pytest.mark.parametrize(("below", "args"), _BELOW, ids=[b for b, _ in _BELOW])
+def test_a_link_where_tavc_names_a_folder_below_the_users_is_refused_not_followed(below, args, tmp_path, sibling):
+    """The folder the user names may be a link (their choice); the folders tavc makes below it may
+    not: a link there, to a folder or dangling, is one line naming it, and nothing is written
+    where it leads."""
+    named = tmp_path / "named"
+    (named / below).parent.mkdir(parents=True, exist_ok=True)
+    (named / below).symlink_to(sibling, target_is_directory=True)
+    before = _snapshot(sibling)
+    result = runner.invoke(app, [a.replace("{X}", str(named)) for a in args])
+    assert result.exit_code == 1, result.output
+    assert result.output.startswith("error: ") and len(result.output.strip().splitlines()) == 1, result.output
+    assert f"{named / below} is a symbolic link to {sibling}" in result.output, result.output
+    assert _snapshot(sibling) == before

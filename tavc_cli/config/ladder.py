@@ -10,7 +10,7 @@ from omegaconf import DictConfig
 from tavc_cli.chapter import base_case
 from tavc_cli.config.loading import load_config, results_root
 from tavc_cli.errors import TavcError
-from tavc_cli.io import refuse_folder_problem
+from tavc_cli.io import owned_path, refuse_folder_problem
 from tavc_cli.override_keys import setting, setting_key
 
 LADDER_EXPERIMENT = base_case().name
@@ -63,5 +63,7 @@ def load_ladder(factors: Sequence[float], overrides: Sequence[str] = (),
     if results_dir is None:
         results_dir = results_root(overrides, "converged")
     refuse_folder_problem(results_dir, "--results", in_setting=True)
+    folders = [owned_path(Path(results_dir), ladder_folder(results_dir, f), folder=True, what="--results")
+               for f in factors]
     return [load_config([f"experiment={LADDER_EXPERIMENT}", *scale, f"scale.time_factor={f!r}", *rest,
-                         setting("output_dir", ladder_folder(results_dir, f))]) for f in factors]
+                         setting("output_dir", folder)]) for f, folder in zip(factors, folders, strict=True)]

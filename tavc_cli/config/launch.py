@@ -30,7 +30,7 @@ from tavc_cli.config.loading import complete, initialize_conf, plan_sweep, searc
 from tavc_cli.config.messages import hydra_errors
 from tavc_cli.config.overrides import is_hydra_override
 from tavc_cli.errors import TavcError
-from tavc_cli.io import claim_folder
+from tavc_cli.io import claim_folder, owned_path
 from tavc_cli.override_keys import setting
 from tavc_cli.ownership import SWEEP, SWEEP_FILES, take
 
@@ -63,7 +63,9 @@ def launch_sweep(overrides: Sequence[str], task: Callable[[DictConfig], Any],
     ours = [o for o in overrides if not is_hydra_override(o)]
     theirs = [o for o in overrides if is_hydra_override(o)]
     plan = plan_sweep(ours)
-    folders = [Path(cfg.output_dir) for _, cfg in plan]
+    # a job's folder is named below the sweep's output_dir: a link there is refused, not followed
+    folders = [owned_path(Path(cfg.output_dir).parent, Path(cfg.output_dir), folder=True, what="output_dir")
+               for _, cfg in plan]
     common = _common_parent(folders)
     jobs = [[*search_overrides(), *job, setting("hydra.sweep.dir", folder.parent),
              setting("hydra.sweep.subdir", folder.name)] for (job, _), folder in zip(plan, folders, strict=True)]

@@ -29,7 +29,7 @@ from tavc_cli.config.overrides import (
 from tavc_cli.config.resolve import resolve
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
-from tavc_cli.io import default_root, refuse_folder_problem
+from tavc_cli.io import default_root, owned_path, refuse_folder_problem
 from tavc_cli.learning.parameters import settings_mapping
 from tavc_cli.learning.plugins import config_dirs
 from tavc_cli.override_keys import override_key, setting, setting_key
@@ -191,8 +191,8 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
     cfgs = []
     for name in dict.fromkeys(chosen):
         try:
-            folder = setting("output_dir", Path(results_dir) / name)
-            cfgs.append(load_config([f"experiment={name}", *overrides, folder]))
+            folder = owned_path(Path(results_dir), Path(results_dir) / name, folder=True, what="--results")
+            cfgs.append(load_config([f"experiment={name}", *overrides, setting("output_dir", folder)]))
         except TavcError as error:
             raise TavcError(f"{error} (experiment={name})") from None
     return cfgs

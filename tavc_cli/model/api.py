@@ -202,7 +202,7 @@ def run_model(cfg: TavcConfig, *, progress: bool = False) -> dict:
     values = [float(v) for v in cfg.tasks.values]
     out_dir = Path(cfg.output_dir) / "model"
     Executor.from_config(cfg.executor).check()
-    with claim_folder(out_dir):
+    with claim_folder(out_dir, within=Path(cfg.output_dir)):
         owned = take(out_dir, MODEL, MODEL_FILES, save=False)  # nothing written until the checks pass
         if owned.owns("model.json"):
             refuse_other_settings(out_dir / "model.json", model_identity(cfg), "output_dir", cfg.overwrite)

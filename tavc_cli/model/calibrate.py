@@ -57,7 +57,7 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
         refuse_other_settings(world_dir / "calibration" / "search.json", identity, "--save", base.overwrite,
                               allow=f"add overwrite=true to replace {world_dir / 'calibrated.yaml'} with this "
                                     "search's choice, or leave out --save")
-    with claim_folder(out_dir):
+    with claim_folder(out_dir, within=holder):
         owned = take(out_dir, CALIBRATION, CALIBRATION_FILES, save=False)  # nothing written until the checks pass
         if owned.owns("search.json"):
             refuse_other_settings(out_dir / "search.json", identity, "output_dir", base.overwrite)

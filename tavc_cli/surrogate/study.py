@@ -34,7 +34,7 @@ import pandas as pd
 from tavc_cli.chapter import base_case, served_by
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import in_this_process, trial_specs
-from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.io import claim_folder, owned_path, write_text_atomic
 from tavc_cli.notation import high_of
 from tavc_cli.override_keys import setting, setting_key
 from tavc_cli.ownership import STUDY, take
@@ -83,7 +83,12 @@ class Study:
         from overrides, `echo` prints."""
         self.out, self.results, self.overrides, self.compose = Path(out), Path(results), list(overrides), compose
         self.progress, self.echo = progress, echo
-        self.tasks_dir = self.out / "tasks"
+        self.tasks_dir = self.below(self.out / "tasks")
+
+    def below(self, folder: Path) -> Path:
+        """`folder`, a run's folder the study names below its own, once no part of it there is a link
+        (`io.owned_path`: refused, not followed)."""
+        return owned_path(self.out, folder, folder=True, what="--results")
 
     def surrogate(self, folder: Path, overrides: Sequence[str]) -> Path:
         """A surrogate run of `overrides` into `folder` (its tasks measured in the study's own tasks folder),
@@ -92,7 +97,7 @@ class Study:
         from tavc_cli.surrogate.run import run_surrogate
 
         cfg = self.compose([*self.overrides, *overrides, setting("surrogate.tasks_dir", self.tasks_dir),
-                            setting("output_dir", folder)])
+                            setting("output_dir", self.below(folder))])
         if not _finished_as(folder, cfg):
             run_surrogate(cfg, progress=self.progress, echo=self.echo)
         self.echo(f"surrogate: {folder}")
@@ -104,7 +109,7 @@ class Study:
         # deferred: loads the simulator's compiled kernels
         from tavc_cli.pipeline import run_experiment
 
-        cfg = self.compose([*self.overrides, *overrides, setting("output_dir", folder)])
+        cfg = self.compose([*self.overrides, *overrides, setting("output_dir", self.below(folder))])
         if not _finished_as(folder, cfg):
             run_experiment(cfg, progress=self.progress)
         self.echo(f"simulator: {folder}")
