@@ -39,7 +39,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, read_plan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.experiments.spec import code_digest
-from tavc_cli.io import file_digest
+from tavc_cli.io import file_digest, plain_name
 from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
 from tavc_cli.readers import RECORD_LIMIT, TABLE_LIMIT, YAML_LIMIT, read_bounded, record_size
 from tavc_cli.run_provenance import check_planned, read_provenance, unfinished_rewrites
@@ -170,6 +170,10 @@ def read_config(path: Path, digests: dict[str, str] | None = None,
         raise damaged(path, f"cut short (no {missing[0]!r} section)")
     if cfg.duration_s is None or cfg.convergence_s is None:
         raise damaged(path, "cut short or edited (no duration_s or convergence_s, which a run always writes)")
+    named = next((k for k, v in (("experiment_name", cfg.experiment_name), ("scale.name", cfg.scale.name))
+                  if not plain_name(str(v))), None)  # a name the report gives its files: never a path
+    if named is not None:
+        raise damaged(path, f"edited after its run ({named} is not a plain name, which a run's always is)")
     if cfg.team.n_robots != len(cfg.team.members):
         raise damaged(path, f"edited after its run (team.n_robots is {cfg.team.n_robots}, and it lists "
                       f"{len(cfg.team.members)} members, which a run resolves them into)")

@@ -405,6 +405,27 @@ def test_a_provenance_listing_other_trials_than_the_plan_is_refused(breakdown, t
     _refused(results, path, f"its trials are not those config.yaml plans ({TRIALS_PLANNED})")
 
 
+@pytest.mark.parametrize(("key", "name"), [("experiment_name", "../../ESCAPED"), ("scale", "/tmp")])
+def test_a_name_edited_into_a_path_is_refused_and_nothing_is_written_where_it_leads(breakdown, tmp_path, key, name):
+    """The report names its figures after a run's experiment: a config.yaml whose name was edited
+    into a path (its digest taken out of provenance.json, so that no digest tells) is refused, and
+    nothing is written outside the results folder, nor a file of the user's there replaced."""
+    results = _results_with(tmp_path, breakdown)
+    path = results / "breakdown" / "config.yaml"
+    text = path.read_text()
+    old = "experiment_name: breakdown\n" if key == "experiment_name" else "scale:\n  name: smoke\n"
+    assert old in text
+    path.write_text(text.replace(old, old.replace("breakdown" if key == "experiment_name" else "smoke", name)))
+    prov = json.loads((results / "breakdown" / "provenance.json").read_text())
+    del prov["tables"]["config.yaml"]
+    (results / "breakdown" / "provenance.json").write_text(json.dumps(prov, indent=2))
+    (tmp_path / "ESCAPED.png").write_text("mine")
+    dotted = "experiment_name" if key == "experiment_name" else "scale.name"
+    _refused(results, path, f"edited after its run ({dotted} is not a plain name, which a run's always is)")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ESCAPED.png", "results"]
+    assert (tmp_path / "ESCAPED.png").read_text() == "mine"
+
+
 def test_a_run_of_other_code_is_reported_as_such(breakdown, undamaged_report, tmp_path):
     assert "Runs of other code" not in undamaged_report
     results = _results_with(tmp_path, breakdown)
