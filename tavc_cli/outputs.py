@@ -54,8 +54,21 @@ def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[
 
 def _other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, pd.DataFrame]:
     """The `trial_stats.csv` of each other experiment of the chapter's claims beside this run's
-    folder, where there is one (claim 7 compares breakdown_no_vacancy with breakdown)."""
-    return {other: pd.read_csv(path) for other, path in other_experiments(cfg, out_dir).items() if path.is_file()}
+    folder, where there is one (claim 7 compares breakdown_no_vacancy with breakdown): of a run that
+    finished there, checked as the report checks it (`run_checks.check_table`: a table edited or
+    cut is one line naming it); of one still being made beside it, by the same `tavc reproduce`,
+    as it stands."""
+    # deferred: run_checks reads the runs' settings, which a run's own analysis never needs
+    from tavc_cli.run_checks import check_table, run_facts
+
+    others = {}
+    for other, path in other_experiments(cfg, out_dir).items():
+        if not path.is_file():
+            continue
+        if (path.parent / "provenance.json").is_file():
+            check_table(path, run_facts(path.parent))
+        others[other] = pd.read_csv(path)
+    return others
 
 
 def other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, Path]:

@@ -15,6 +15,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.estimates import physical_memory
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan
 from tavc_cli.experiments.records import TABLES, TrialRecord
+from tavc_cli.io import plain_name
 from tavc_cli.ownership import SURROGATE, trial_path
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.readers import load_yaml, read_text, record_size
@@ -47,7 +48,7 @@ class Results:
         as `tavc report` checks it first (`run_checks.check_table`: a damaged table is one
         line naming it)."""
         path = self.path / f"{name}.csv"
-        if not path.is_file():
+        if not plain_name(str(name)) or not path.is_file():  # a name, never a path to another run's table
             have = ", ".join(sorted(p.stem for p in self.path.glob("*.csv"))) or "none"
             raise TavcError(f"{self.path}: no table {name!r} (tables here: {have})")
         if not (self.path / "provenance.json").is_file():  # its tables may be an earlier run's

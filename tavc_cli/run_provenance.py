@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, plan_run
+from tavc_cli.experiments.spec import code_digest
 from tavc_cli.learning.parameters import PluginSettings
 from tavc_cli.ownership import SURROGATE
 from tavc_cli.ownership import read as read_owned
@@ -47,6 +48,11 @@ def read_provenance(path: Path) -> dict:
     tables = prov.get("tables")
     if tables is not None and not (isinstance(tables, dict) and all(isinstance(v, str) for v in tables.values())):
         raise damaged(path, "cannot be read (its tables are not a map of file names to digests)")
+    if prov.get("code_digest") == code_digest():  # this tavc's code writes both; without them nothing would be checked
+        if not isinstance(tables, dict):
+            raise damaged(path, "edited (it lists no digests of its tables, which this tavc's runs always record)")
+        if any(not isinstance(t.get("key"), str) for t in trials):
+            raise damaged(path, "edited (a trial is listed without its key, which this tavc's runs always record)")
     rewritten = prov.get("rewritten")
     if "rewritten" in prov and not (isinstance(rewritten, dict) and all(
             isinstance(r, dict) and isinstance(r.get("replaced", ""), str | None) for r in rewritten.values())):

@@ -217,6 +217,7 @@ def test_a_damaged_plan_is_refused_before_anything_is_written(breakdown, tmp_pat
     results = _results_with(tmp_path, breakdown)
     prov = json.loads((results / "breakdown" / "provenance.json").read_text())
     del prov["tables"]
+    prov["code_digest"] = "0123456789abcdef"  # an earlier tavc's, which recorded no digests
     (results / "breakdown" / "provenance.json").write_text(json.dumps(prov))
     path = results / "breakdown" / "plan.json"
     if text is None:
@@ -231,11 +232,32 @@ def test_a_changed_number_is_caught_by_its_digest_alone(breakdown, tmp_path):
     duration = path.read_text().splitlines()[1].split(",")[2]
     path.write_bytes(_edit_line(2, 2, f"{float(duration) + 1:.4f}")(path.read_bytes()))
     _refused(results, path, "changed since its run wrote it (its SHA-256 is not the one provenance.json recorded)")
-    # without the digests (runs written before them) such a change has the shape of a table
+    # the digests taken out: this tavc's runs always record them, so their absence is refused
     prov = json.loads((results / "breakdown" / "provenance.json").read_text())
     del prov["tables"]
     (results / "breakdown" / "provenance.json").write_text(json.dumps(prov))
+    with pytest.raises(TavcError, match="edited .it lists no digests of its tables, which this tavc's runs always"):
+        check_run(results / "breakdown")
+    # a run of an earlier tavc, written before the digests: such a change has the shape of a table
+    prov["code_digest"] = "0123456789abcdef"
+    (results / "breakdown" / "provenance.json").write_text(json.dumps(prov))
     check_run(results / "breakdown")
+
+
+def test_a_trial_listed_without_its_key_or_a_table_named_as_a_path_is_refused(breakdown, breakdown_seed1, tmp_path):
+    """A run of this tavc lists every trial's key: without it, another seed's record put in its
+    place would be read as the run's. A table is named, never a path to another run's."""
+    results = _results_with(tmp_path, breakdown)
+    run = results / "breakdown"
+    prov = json.loads((run / "provenance.json").read_text())
+    for trial in prov["trials"]:
+        del trial["key"]
+    (run / "provenance.json").write_text(json.dumps(prov))
+    shutil.copy(breakdown_seed1 / "trials" / "tavc_000.npz", run / "trials" / "tavc_000.npz")
+    with pytest.raises(TavcError, match="edited .a trial is listed without its key, which this tavc's runs always"):
+        api.load(run).records("tavc")
+    with pytest.raises(TavcError, match=r"no table '\.\./breakdown/state_time'"):
+        api.load(breakdown).table("../breakdown/state_time")
 
 
 def test_a_damaged_trial_record_the_report_reads_is_refused_before_anything_is_written(breakdown, tmp_path):

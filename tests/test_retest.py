@@ -358,3 +358,25 @@ def test_a_rewrite_of_both_files_stopped_between_them_is_finished_by_the_next_re
     assert all("replaced" not in r for r in record["rewritten"].values())
     assert {record["tables"][n] for n in ("comparison.csv", "claims.csv")} == \
         {file_digest(run / n) for n in ("comparison.csv", "claims.csv")}
+
+
+def test_a_run_tests_its_claims_against_the_run_beside_it_only_as_that_run_wrote_it(one_run, tmp_path):
+    """`tavc run` of breakdown_no_vacancy tests claim 7 on breakdown's trial_stats.csv beside it:
+    where that run finished, the table is checked as the report checks it (an edited cell is one
+    line naming it, not a number in the claims); of a run still being made there, as it stands."""
+    from tavc_cli import config
+    from tavc_cli.errors import TavcError
+    from tavc_cli.outputs import _other_experiments
+
+    results, run = _copy(one_run, tmp_path)
+    cfg = config.settings(config.load_config(["experiment=breakdown_no_vacancy", "scale=smoke"]))
+    beside = results / "breakdown_no_vacancy"
+    assert _other_experiments(cfg, beside)["breakdown"].equals(pd.read_csv(run / "trial_stats.csv"))
+    lines = (run / "trial_stats.csv").read_text().splitlines(keepends=True)
+    cells = lines[1].split(",")
+    cells[3] = "0.9999"  # one score per second, the claim's number
+    (run / "trial_stats.csv").write_text("".join([lines[0], ",".join(cells), *lines[2:]]))
+    with pytest.raises(TavcError, match=f"^{run / 'trial_stats.csv'}: changed since its run wrote it"):
+        _other_experiments(cfg, beside)
+    (run / "provenance.json").unlink()  # being run again, by the same reproduce: read as it stands
+    assert _other_experiments(cfg, beside)["breakdown"].iloc[0, 3] == 0.9999
