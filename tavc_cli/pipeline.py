@@ -28,7 +28,7 @@ from tavc_cli.outputs import write_analysis
 from tavc_cli.ownership import LADDER, LADDER_FILES, RUN, SWEEP, SWEEP_FILES, Owned, config_differences, run_files, take
 from tavc_cli.readers import YAML_LIMIT, load_json, read_text
 from tavc_cli.run_checks import SECTIONS
-from tavc_cli.run_tables import ladder_table, sweep_table
+from tavc_cli.run_tables import ladder_table, summary_text, sweep_table
 from tavc_cli.settings import TavcConfig, from_yaml, to_yaml
 
 
@@ -198,7 +198,7 @@ def write_sweep(values: list[dict[str, str]], folders: list[Path]) -> list[Path]
             owned.remove(name)
         return []
     owned.wrote(*SWEEP_FILES)
-    write_text_atomic(parent / "sweep.csv", table.to_csv(index=False, float_format="%.4f"))
+    write_text_atomic(parent / "sweep.csv", summary_text(table))
     # the jobs' scale is one (a sweep over scale= would mix verdicts): the first job's says it
     with marked(not_a_verdict(from_yaml(folders[0] / "config.yaml"))):
         return [parent / "sweep.csv", *sweep_figure(table, next(iter(values[0])), parent / "sweep")]
@@ -214,5 +214,5 @@ def write_ladder(ladder_dir: Path, folders: list[Path]) -> list[Path]:
     table = ladder_table(folders)
     owned.wrote(*LADDER_FILES)
     path = Path(ladder_dir) / "ladder.csv"
-    write_text_atomic(path, table.to_csv(index=False, float_format="%.4f"))
+    write_text_atomic(path, summary_text(table))
     return [path, *ladder_figure(table, Path(ladder_dir) / "ladder")]

@@ -4,7 +4,6 @@
 
 from __future__ import annotations
 
-import io
 from functools import cached_property
 from pathlib import Path
 
@@ -18,13 +17,12 @@ from tavc_cli.experiments.records import TABLES, TrialRecord
 from tavc_cli.io import plain_name
 from tavc_cli.ownership import SURROGATE, trial_path
 from tavc_cli.ownership import read as read_owned
-from tavc_cli.readers import load_yaml, read_text, record_size
+from tavc_cli.readers import load_yaml, record_size
 from tavc_cli.run_checks import check_table, checked_plan, load_record, read_trial, run_facts
 from tavc_cli.run_provenance import keys_of, read_provenance
+from tavc_cli.run_tables import checked_sweep
 from tavc_cli.settings import from_yaml
 from tavc_cli.table_cells import damaged, unreadable
-
-SWEEP_LIMIT = 64 * 2**20  # sweep.csv read bounded, as every table is
 
 
 class Results:
@@ -226,8 +224,9 @@ class Sweep:
     @cached_property
     def table(self) -> pd.DataFrame:
         """`sweep.csv`: one row per job and state: the job's index, its swept values, its folder
-        (`output_dir`), its time in each state and its score."""
-        return pd.read_csv(io.StringIO(read_text(self.path / "sweep.csv", SWEEP_LIMIT)))
+        (`output_dir`), its time in each state and its score; checked against its jobs' own tables
+        (`run_tables.checked_sweep`: a job run again since, or the table edited, is one line)."""
+        return checked_sweep(self.path / "sweep.csv")
 
     @property
     def jobs(self) -> dict[str, Results]:

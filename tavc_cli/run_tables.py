@@ -5,6 +5,7 @@ out without touching a file."""
 
 from __future__ import annotations
 
+import io
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -13,10 +14,13 @@ import pandas as pd
 
 from tavc_cli.analysis import ladder, sweep, value_ratio
 from tavc_cli.errors import TavcError
+from tavc_cli.io import ladder_folder
 from tavc_cli.notation import state_counts
-from tavc_cli.readers import TableSpec, read_table
+from tavc_cli.readers import TableSpec, read_table, read_text
 from tavc_cli.run_checks import check_run
 from tavc_cli.settings import from_yaml
+
+SUMMARY_LIMIT = 64 * 2**20  # a study's table of its runs (ladder.csv, sweep.csv), read bounded as every table is
 
 STATES = {"state": str}  # a state column read as text ("3:3"), never as a number or a time
 _RUNG_TABLES = ("claims", "convergence", "mechanism")  # a rung's tables the ladder reads where the run wrote them
@@ -43,17 +47,55 @@ def ladder_table(folders: Sequence[Path]) -> pd.DataFrame:
     return ladder.ladder_table([read_rung(f) for f in folders])
 
 
+def summary_text(table: pd.DataFrame) -> str:
+    """A table of a study's runs side by side (`ladder.csv`, `sweep.csv`) as tavc writes it."""
+    return table.to_csv(index=False, float_format="%.4f")
+
+
+def check_ladder(path: Path, table: pd.DataFrame) -> None:
+    """One line where `ladder.csv` at `path` (read as `table`) is not what the rungs it lists give
+    now (`ladder_table`): a rung run again since would put its claims beside another run's numbers."""
+    folders = [ladder_folder(path.parent.parent, f) for f in sorted(set(table["factor"]))]
+    if summary_text(ladder_table(folders)) != read_text(path, SUMMARY_LIMIT):
+        raise TavcError(f"{path}: not what its rungs give now (one of them run again since it was written?); "
+                        "run its `tavc ladder` again to rewrite it")
+
+
 def sweep_table(jobs: Sequence[tuple[Mapping[str, str], Path]]) -> pd.DataFrame:
     """`sweep.csv`: one row per job, controller and state (`analysis.sweep.job_rows`), from each job's
     `state_time.csv` and `trial_stats.csv`. Jobs without a state table (one-circuit runs) give no rows."""
+    return pd.DataFrame([row for index, (values, folder) in enumerate(jobs)
+                         for row in _job_rows(index, values, Path(folder), str(folder))])
+
+
+def _job_rows(index: int, values: Mapping[str, str], folder: Path, shown: str) -> list[dict]:
+    """Job `index`'s rows of `sweep.csv` from its folder, named there as `shown`."""
+    states, stats = folder / "state_time.csv", folder / "trial_stats.csv"
+    if not states.is_file():
+        return []
+    check_run(folder)  # read back as the report reads a run: bounded, whole, its own
+    return sweep.job_rows(index, values, shown, pd.read_csv(states), pd.read_csv(stats) if stats.is_file() else None)
+
+
+def checked_sweep(path: Path) -> pd.DataFrame:
+    """A sweep's `sweep.csv`, once it is what its jobs' own tables give now (each job's folder beside
+    it, by the name the table gives it): one line where a job was run again since, or the table
+    edited. Its swept values as the table holds them, as text."""
+    text = read_text(path, SUMMARY_LIMIT)
+    table = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False)
+    columns = list(table.columns)
+    if columns[:1] != ["job"] or "output_dir" not in columns:
+        raise TavcError(f"{path}: cannot be read (no job and output_dir columns); run the sweep again to rewrite it")
+    swept = columns[1:columns.index("output_dir")]
     rows = []
-    for index, (values, folder) in enumerate(jobs):
-        states, stats = Path(folder) / "state_time.csv", Path(folder) / "trial_stats.csv"
-        if states.is_file():
-            check_run(Path(folder))  # read back as the report reads a run: bounded, whole, its own
-            rows += sweep.job_rows(index, values, str(folder), pd.read_csv(states),
-                                   pd.read_csv(stats) if stats.is_file() else None)
-    return pd.DataFrame(rows)
+    for job, group in table.groupby("job", sort=False):
+        first = group.iloc[0]
+        rows += _job_rows(int(job), {c: first[c] for c in swept}, path.parent / Path(first["output_dir"]).name,
+                          first["output_dir"])
+    if summary_text(pd.DataFrame(rows)) != text:
+        raise TavcError(f"{path}: not what its jobs give now (one of them run again since it was written, or the "
+                        "table edited); run the sweep again to rewrite it")
+    return pd.read_csv(io.StringIO(text))
 
 
 def in_hidden_folder(folder: Path, root: Path) -> bool:

@@ -141,6 +141,12 @@ def test_a_sweep_opens_as_a_sweep_with_its_jobs(tmp_path):
     assert job.config["learner"]["epsilon"] == 0.3
     with pytest.raises(TavcError, match="no sweep.csv"):
         api.load_sweep(out / "0_learner.epsilon=0.05")
+    # a job run again since (another seed, into its folder): sweep.csv no longer holds its numbers
+    again = CliRunner().invoke(app, ["run", *SMOKE_SWEEP, "learner.epsilon=0.3", "seed=5", "overwrite=true",
+                                     f"output_dir='{out / '1_learner.epsilon=0.3'}'"])
+    assert again.exit_code == 0, again.output
+    with pytest.raises(TavcError, match=r"sweep.csv: not what its jobs give now \(one of them run again since"):
+        _ = api.load_sweep(out).table
 
 
 def test_results_say_in_their_data_whether_they_are_a_verdict(tmp_path):

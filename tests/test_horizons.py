@@ -183,6 +183,26 @@ def test_the_ladder_table_holds_each_rungs_states_and_claims(two_horizons):
     assert (two_horizons / "converged" / "ladder" / "ladder.png").is_file()
 
 
+def test_a_ladder_table_that_is_not_what_its_rungs_give_now_is_refused(two_horizons, tmp_path):
+    """The report sets the ladder's numbers beside its rungs' claims: a rung run again since the
+    table was written (another seed, here) would put one run's claims beside another's numbers."""
+    import shutil
+
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    results = tmp_path / "results"
+    shutil.copytree(two_horizons, results)
+    shutil.rmtree(results / "converged" / "ladder" / "x1")
+    _run_folder(results / "converged" / "ladder" / "x1", "converged", 1.0, 30.0, seed=99)
+    result = CliRunner().invoke(app, ["report", str(results)])
+    assert result.exit_code == 1
+    assert result.output.strip() == (f"error: {results / 'converged' / 'ladder' / 'ladder.csv'}: not what its "
+                                     "rungs give now (one of them run again since it was written?); run its "
+                                     "`tavc ladder` again to rewrite it")
+
+
 def test_a_claim_that_fails_at_1x_and_holds_at_40x_is_reported_as_such(two_horizons):
     # the rungs' own claims.csv are not written by hand: the report tests both horizons itself
     from tavc_cli.report import build_report

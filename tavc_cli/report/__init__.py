@@ -65,6 +65,7 @@ from tavc_cli.report.surrogate import study_tables, surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
 from tavc_cli.run_checks import check_run
+from tavc_cli.run_tables import check_ladder
 
 
 def _check_readable(results_dir: Path, horizon_dirs: list[Path],
@@ -92,8 +93,8 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path],
         folders += sorted(p.parent for p in ladder.parent.glob("*/trial_stats.csv")
                           if (p.parent / "config.yaml").is_file())
     stale, other = _check_runs(folders, results_dir)
-    for ladder in ladders:
-        read_ladder(ladder)
+    for ladder in ladders:  # its numbers beside its rungs' claims: both as the rungs give them now
+        check_ladder(ladder, read_ladder(ladder))
     for d in STAY_SWITCH_DIRS:  # the stay/switch studies' tables, read as a whole
         read_stay_switch(results_dir / d)
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
