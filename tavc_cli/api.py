@@ -30,7 +30,7 @@ from tavc_cli.analysis import tasks_seen
 from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
 from tavc_cli.errors import TavcError
-from tavc_cli.io import default_root, owned_path, refuse_folder_problem
+from tavc_cli.io import default_root, owned_path, path_of, refuse_folder_problem
 from tavc_cli.learning.parameters import ModelSettings, PluginSettings
 from tavc_cli.learning.registry import MODEL_LEARNERS
 from tavc_cli.model.report import measurement_shortfall, model_text
@@ -42,6 +42,15 @@ from tavc_cli.turn_taking import LEARNERS
 from tavc_cli.user_configs import using_config_dirs
 
 ConfigDirs = str | Path | Sequence[str | Path] | None  # a folder of the user's configs, or several
+
+
+def _overrides(overrides: Sequence[str]) -> list[str]:
+    """The caller's overrides as a list of strings: one line where they are one string (which would
+    be taken a character at a time) or hold anything but strings."""
+    if isinstance(overrides, str | bytes) or not all(isinstance(o, str) for o in overrides):
+        raise TavcError(f"overrides: a list of strings such as ['experiment=breakdown', 'scale=smoke'], "
+                        f"not {overrides!r:.80}")
+    return list(overrides)
 
 
 def _folder_setting(output_dir: str | Path | None) -> list[str]:
@@ -65,7 +74,7 @@ def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, 
         config_dir: A folder of your own configs and learners (or several), searched besides
             tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
-    overrides = [*overrides, *_folder_setting(output_dir)]
+    overrides = [*_overrides(overrides), *_folder_setting(output_dir)]
     with using_config_dirs(config_dir):
         return Results(run_summary(overrides, progress=progress)["output_dir"])
 
@@ -84,6 +93,7 @@ def reproduce(overrides: Sequence[str] = (), *, experiments: Sequence[str] | Non
         config_dir: A folder of your own configs and learners (or several), searched besides
             tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
+    overrides = _overrides(overrides)
     with using_config_dirs(config_dir):
         return {name: Results(summary["output_dir"])
                 for name, summary in reproduce_summaries(overrides, experiments=experiments,
@@ -102,7 +112,7 @@ def surrogate(overrides: Sequence[str] = (), *, output_dir: str | Path | None = 
         config_dir: A folder of your own configs and learners (or several), searched besides
             tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
-    overrides = [*overrides, *_folder_setting(output_dir)]
+    overrides = [*_overrides(overrides), *_folder_setting(output_dir)]
     with using_config_dirs(config_dir):
         return Results(surrogate_summary(overrides, progress=progress, echo=lambda _: None)["output_dir"])
 
@@ -110,10 +120,10 @@ def surrogate(overrides: Sequence[str] = (), *, output_dir: str | Path | None = 
 def surrogate_summary(overrides: Sequence[str] = (), *, progress: bool = False,
                       echo: Callable[[str], None] = print) -> dict:
     """`surrogate`'s work, returning the run's summary as `tavc surrogate` prints it."""
+    overrides = _overrides(overrides)
     # deferred: loads the simulator's compiled kernels
     from tavc_cli.surrogate.run import run_surrogate
 
-    overrides = list(overrides)
     cfg = config.load_config(overrides)
     if not any(setting_key(o) == "output_dir" for o in overrides):
         overrides.append(setting("output_dir", default_root(cfg.scale.name) / "surrogate" / cfg.experiment_name))
@@ -124,6 +134,7 @@ def surrogate_summary(overrides: Sequence[str] = (), *, progress: bool = False,
 def run_summary(overrides: Sequence[str] = (), *, progress: bool = False) -> dict:
     """`run`'s work, returning the run's summary (where it went, its tables and claims) as
     `tavc run` prints it."""
+    overrides = _overrides(overrides)
     # deferred: loads the simulator's compiled kernels
     from tavc_cli.pipeline import run_experiment
 
@@ -180,6 +191,7 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
     them. With `ladder` (multiples of the chapter's durations), the horizon ladder's rungs run
     in the same job, their history shared with the experiments' trials (`config.load_ladder`),
     and follow the experiments as ``ladder x<factor>``; ``experiments=[]`` runs the ladder alone."""
+    overrides = _overrides(overrides)
     # deferred: loads the simulator's compiled kernels
     from tavc_cli.pipeline import run_experiments
 
@@ -224,6 +236,7 @@ def compare(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = N
         config_dir: A folder of your own configs and learners (or several), searched besides
             tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
+    overrides = _overrides(overrides)
     with using_config_dirs(config_dir):
         return compare_summary(overrides, learners=learners, experiments=experiments, results_dir=results_dir,
                                reuse=reuse, progress=progress)["table"]
@@ -234,6 +247,7 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
                     reuse: Mapping[str, str | Path] | None = None, progress: bool = False) -> dict:
     """`compare`'s work: each controller's runs composed here (the config stays at the front
     doors), run and read by `compare.run.run_compare`; returns its summary."""
+    overrides = _overrides(overrides)
     # deferred: loads scipy
     from tavc_cli.compare.run import controller_overrides, run_compare
 
@@ -264,7 +278,7 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     expect(results, COMPARE, "--results")  # checked before hours of runs
     for name in learners:  # its runs' folders are named below it: a link there is refused, not followed
         owned_path(results, results / "runs" / name, folder=True, what="--results")
-    reuse = {name: Path(folder) for name, folder in (reuse or {}).items()}
+    reuse = {name: path_of(folder, f"reuse[{name!r}]") for name, folder in (reuse or {}).items()}
     base = config.load_config([f"experiment={experiments[0]}", *overrides])
     scale = config.to_container(base.scale)
     plans = {}
@@ -286,6 +300,7 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, turn
     `turn_taking`, the model that knows turn-taking beside it (its prediction under the result's
     ``turn_taking`` key, its runs in ``<output_dir>/turn_taking``). Returns the model's result.
     `config_dir`: folders of your own configs, as ``--config-dir``."""
+    overrides = _overrides(overrides)
     with using_config_dirs(config_dir):
         if turn_taking:
             # deferred: pandas and the model's modules, only with turn_taking
@@ -339,6 +354,7 @@ def calibrate(overrides: Sequence[str] = (), *, save: bool = False, progress: bo
     given), printing through `echo`, into ``<output_dir>/calibration/world/`` (``output_dir``
     ``runs/<scale>`` unless given); with `save`, record the choice as world=calibrated.
     `config_dir`: folders of your own configs, as ``--config-dir``."""
+    overrides = _overrides(overrides)
     with using_config_dirs(config_dir):
         _calibrate(overrides, save, progress, echo)
 

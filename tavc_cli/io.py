@@ -30,6 +30,14 @@ def default_root(scale: str) -> Path:
     return Path(RUNS_DIR) / str(scale)
 
 
+def path_of(value: object, what: str) -> Path:
+    """`value`, a path a caller of the API gave (`what` names the argument), as a `Path`: one line
+    where it is none (None, a number, a list)."""
+    if not isinstance(value, str | os.PathLike):
+        raise TavcError(f"{what}: a folder's path, not {value!r:.80}")
+    return Path(value)
+
+
 def ladder_folder(results_dir: str | Path, factor: float) -> Path:
     """Where a rung of the horizon ladder goes: ``<results_dir>/ladder/x<factor>``."""
     return Path(results_dir) / "ladder" / f"x{factor:g}"

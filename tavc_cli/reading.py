@@ -14,7 +14,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.estimates import physical_memory
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan
 from tavc_cli.experiments.records import TABLES, TrialRecord
-from tavc_cli.io import plain_name
+from tavc_cli.io import path_of, plain_name
 from tavc_cli.ownership import SURROGATE, trial_path
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.readers import load_yaml, record_size
@@ -30,7 +30,7 @@ class Results:
 
     def __init__(self, path: str | Path) -> None:
         """Open the folder at `path`; fails in one line unless it holds a run's `config.yaml`."""
-        self.path = Path(path)
+        self.path = path_of(path, "path")
         if not (self.path / "config.yaml").is_file():
             if (self.path / "sweep.csv").is_file():
                 raise TavcError(f"{self.path}: a sweep's folder (sweep.csv, one folder per job): open it with "
@@ -213,7 +213,7 @@ class Sweep:
 
     def __init__(self, path: str | Path) -> None:
         """Open the sweep at `path`; fails in one line unless it holds a `sweep.csv`."""
-        self.path = Path(path)
+        self.path = path_of(path, "path")
         if not (self.path / "sweep.csv").is_file():
             raise TavcError(f"{self.path}: not a sweep's folder of tavc run -m (no sweep.csv in it)")
 

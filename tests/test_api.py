@@ -62,6 +62,17 @@ def test_errors_are_one_line(tmp_path):
         res.events("crashes")
     with pytest.raises(TavcError, match="team.n_robots"):
         api.run(["team.n_robots=-1"], output_dir=tmp_path / "x")
+    # arguments of the wrong kind: one line, not a TypeError from deep inside
+    with pytest.raises(TavcError, match="^path: a folder's path, not None$"):
+        api.load(None)
+    with pytest.raises(TavcError, match="^overrides: a list of strings .*, not 'scale=smoke'$"):
+        api.run("scale=smoke", output_dir=tmp_path / "x")  # would be read a character at a time
+    with pytest.raises(TavcError, match=r"^overrides: a list of strings .*, not \[3\]$"):
+        api.surrogate([3], output_dir=tmp_path / "x")
+    with pytest.raises(TavcError, match=r"^reuse\['tavc'\]: a folder's path, not None$"):
+        api.compare(["scale=smoke"], learners=["tavc"], experiments=["initial_distribution"],
+                    results_dir=tmp_path / "x", reuse={"tavc": None})
+    assert not (tmp_path / "x").exists()
 
 
 def test_an_empty_folder_or_one_holding_an_interpolation_is_refused_before_anything_is_written(tmp_path,

@@ -207,6 +207,9 @@ REFUSED = [
     # a learner from a file takes its own parameters under learner.params
     (["learner=plugin", "learner.name=mine", "learner.target=x.py:C", "learner.alpha=0.1"],
      "learner.alpha: the learner mine comes from learner.target and takes its parameters as learner.params.<key>"),
+    # its trials' records are files named after it: a name longer than a file name may be is refused up front
+    (["learner=plugin", f"learner.name={'a' * 129}", "learner.target=x.py:C"],
+     "learner.name: at most 128 bytes (its trials' records are files named after it), got 129"),
     (["learner=random", "+learner.params.a=1"],
      "learner.params: only a learner from learner.target takes params; set random's parameters as learner.<name>"),
     # the warm-up is checked as written (before smoke's 0.02 would make it -0.1)

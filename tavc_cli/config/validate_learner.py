@@ -25,6 +25,9 @@ from tavc_cli.learning.registry import NAMES as LEARNERS
 from tavc_cli.learning.registry import RESERVED_LABELS, SEED_CODES
 from tavc_cli.settings import settings_of
 
+# a label names its trials' records (`<label>_<trial>.npz`): kept well inside a file name's 255 bytes
+MAX_LABEL_BYTES = 128
+
 
 def validate_model_learner(learner: DictConfig, n_circuits: int, n_robots: int, n_breakdowns: int) -> None:
     """The model's allocations (`learning.informed`): one for the starting team, each placing its
@@ -91,6 +94,8 @@ def _validate_plugin(learner: PluginSettings, n_circuits: int, n_robots: int, co
     name = str(learner.name)
     check(name.isidentifier(), "learner.name",
           f"a learner's name is a plain word (its label in every output), got {name!r}")
+    check(len(name.encode()) <= MAX_LABEL_BYTES, "learner.name",  # its trials' files are named after it
+          f"at most {MAX_LABEL_BYTES} bytes (its trials' records are files named after it), got {len(name.encode())}")
     check(name not in LEARNERS and name not in SEED_CODES, "learner.name",
           f"{name!r} is a built-in learner's; give the learner from learner.target a name of its own")
     check(name not in RESERVED_LABELS, "learner.name",
