@@ -448,6 +448,20 @@ def test_a_name_edited_into_a_path_is_refused_and_nothing_is_written_where_it_le
     assert (tmp_path / "ESCAPED.png").read_text() == "mine"
 
 
+def test_a_report_of_a_folder_another_command_holds_is_one_line_and_writes_nothing(breakdown, tmp_path):
+    """Two reports of one folder at once would write over each other's files (each took the
+    other's temporary files for a stranger's): the second is refused while the first holds it."""
+    from tavc_cli.io import claim_folder
+
+    results = _results_with(tmp_path, breakdown)
+    before = _files(results)
+    with claim_folder(results, what="RESULTS_DIR"):
+        result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 1
+    assert result.output.startswith(f"error: RESULTS_DIR: {results} is in use by another tavc run (")
+    assert len(result.output.strip().splitlines()) == 1 and _files(results) == before
+
+
 def test_a_run_of_other_code_is_reported_as_such(breakdown, undamaged_report, tmp_path):
     assert "Runs of other code" not in undamaged_report
     results = _results_with(tmp_path, breakdown)
@@ -701,6 +715,12 @@ def test_links_in_a_results_tree_are_not_followed(breakdown, tmp_path):
     assert result.exit_code == 0, result.output
     assert {p: p.read_bytes() for p in sorted(elsewhere.rglob("*")) if p.is_file()} == before
     assert "breakdown_seed9" not in (results / "REPORT.md").read_text()
+    # each link is said to be left out, so that a run reached through one is not taken for a run not made
+    said = "a symbolic link, which the report does not follow (it reads each run where it lies)"
+    assert [line for line in result.output.splitlines() if line.startswith("left out")] == [
+        f"left out {results / 'loop'}: {said}", f"left out {results / 'theirs'}: {said}"]
+    report = (results / "REPORT.md").read_text()
+    assert all(f"| `{name}` | - | - | - | left out: {said} |" in report for name in ("loop", "theirs"))
 
 
 def test_a_hidden_folder_in_a_sweep_is_not_read(breakdown, tmp_path):

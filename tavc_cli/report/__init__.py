@@ -34,7 +34,7 @@ from pathlib import Path
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.errors import TavcError
-from tavc_cli.io import write_text_atomic
+from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.report import horizons
@@ -58,7 +58,7 @@ from tavc_cli.report.files import (
 )
 from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
-from tavc_cli.report.runs import LADDER, finished_runs, other_code_lines, rel, run_list_lines, study_runs
+from tavc_cli.report.runs import LADDER, LINK_LEFT_OUT, finished_runs, other_code_lines, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
 from tavc_cli.report.studies import STAY_SWITCH_DIRS, stay_switch_lines, value_ratio_lines
 from tavc_cli.report.surrogate import study_tables, surrogate_lines
@@ -188,9 +188,16 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     page = page or (owned is not None and owned.owns(HTML_FILE))  # a page tavc wrote there stays in step
     if not results_dir.is_dir():
         raise TavcError(f"RESULTS_DIR: {results_dir} is not a directory")
+    with claim_folder(results_dir, what="RESULTS_DIR"):  # a second report of the folder meanwhile: one line
+        return _build(results_dir, say, page, start)
+
+
+def _build(results_dir: Path, say: Callable[[str], None], page: bool, start: float) -> dict:
+    """`build_report`'s work, the folder held."""
     say(f"report: reading the runs under {results_dir}")
-    found, unfinished = finished_runs(results_dir)
-    longer_found = [(d, *finished_runs(d)) for d in horizon_folders(results_dir)]
+    links: list[Path] = []
+    found, unfinished = finished_runs(results_dir, links)
+    longer_found = [(d, *finished_runs(d, links)) for d in horizon_folders(results_dir)]
     longer_found = [(d, runs, left) for d, runs, left in longer_found if runs]  # a horizon is its finished runs
     stale, other = _check_readable(results_dir, [d for d, _, _ in longer_found], found,
                                    *(runs for _, runs, _ in longer_found))
@@ -248,6 +255,7 @@ def build_report(results_dir: Path, progress: Callable[[str], None] | None = Non
     out = {"report": str(results_dir / "REPORT.md"), "experiments": list(experiments), "claims": claims,
            **({"page": str(results_dir / HTML_FILE)} if page else {}),
            "n_reproduced": n_ok, "n_tested": len(tested), "unfinished": [str(d) for d in unfinished],
+           "links": [str(d) for d in links],
            "retested": {rel(d, results_dir): names for d, names in retested.items()}, "retest_left": left,
            "other_code": {rel(d, results_dir): code for d, code in sorted(other.items())},
            "runs": _run_names(found, results_dir), "not_a_verdict": base.shortfalls,
@@ -318,6 +326,7 @@ def summary_lines(result: dict) -> list[str]:
     made again, where the report went."""
     lines = [f"left out {folder}: its run did not finish (no provenance.json); run it again to complete it"
              for folder in result["unfinished"]]
+    lines += [f"left out {folder}: {LINK_LEFT_OUT}" for folder in result.get("links", [])]
     lines += _count_lines(result, "claims reproduced", "")
     for h in result.get("horizons", []):
         where = f" at {h['factor']:g} times the chapter's durations"

@@ -69,14 +69,22 @@ def on_surrogate(d: Path) -> bool:
     return folder_kind(d) == SURROGATE
 
 
-def run_folders(folder: Path, top: bool = True) -> list[Path]:
+# what a link to a folder in a results folder is, where the report names it
+LINK_LEFT_OUT = "a symbolic link, which the report does not follow (it reads each run where it lies)"
+
+
+def run_folders(folder: Path, top: bool = True, links: list[Path] | None = None) -> list[Path]:
     """Every run folder under `folder` at any depth (`is_run_folder`), in natural order of
     their paths: a run's own folder is not searched further (its `trials/`, `model/`), nor
     `figures/`, hidden folders, or what the report reads otherwise (directly under the results
     folder, `top`: the longer horizons, the sweeps (`files.SWEEPS`) and the runs in other readings of
     the world, `readings/`; a `ladder/` with its `ladder.csv`). A link is not followed: each run
-    is found once, where it lies, and a link that loops back leads nowhere."""
+    is found once, where it lies, and a link that loops back leads nowhere; the links to folders
+    passed over are added to `links`, where given, so that a run reached only through one is said
+    to be left out."""
     out = []
+    if links is not None:
+        links += sorted((p for p in folder.iterdir() if p.is_symlink() and p.is_dir()), key=lambda p: natural(p.name))
     for d in sorted((p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()),
                     key=lambda p: natural(p.name)):
         read_otherwise = top and (d.name in (*SWEEPS, READINGS_RUNS) or is_horizon_folder(d))
@@ -85,18 +93,19 @@ def run_folders(folder: Path, top: bool = True) -> list[Path]:
             continue
         if folder_kind(d) in (STUDY, TASKS, COMPARE, READINGS, MODEL, TURN_TAKING_KIND, CALIBRATION):  # read as a whole
             continue
-        out += [d] if is_run_folder(d) else run_folders(d, top=False)
+        out += [d] if is_run_folder(d) else run_folders(d, top=False, links=links)
     return out
 
 
-def finished_runs(results_dir: Path) -> tuple[dict[str, list[Path]], list[Path]]:
+def finished_runs(results_dir: Path, links: list[Path] | None = None) -> tuple[dict[str, list[Path]], list[Path]]:
     """experiment name -> the folders of its finished runs (their `provenance.json`, written
     last, is there) at any depth under results_dir (`run_folders`: not a longer horizon's nor a
     study's), the one its claims are tested on first (`designated_first`), in the chapter's
-    order; and the folders of runs that did not finish."""
+    order; and the folders of runs that did not finish (the links to folders passed over added to
+    `links`, where given: `run_folders`)."""
     found: dict[str, list[Path]] = {}
     unfinished = []
-    for d in run_folders(results_dir):
+    for d in run_folders(results_dir, links=links):
         if (d / "state_time.csv").is_file() and (d / "config.yaml").is_file() and (d / "provenance.json").is_file():
             found.setdefault(str(read_or_refuse(d / "config.yaml", config_of).experiment_name or d.name), []).append(d)
         else:
@@ -274,11 +283,16 @@ def run_list_lines(results_dir: Path, horizons: list) -> list[str]:
             rows.append((d, f"the claims about {name} {h.named} are tested on it"))
             rows += [(o, f"a section of its own, under {name}") for o in h.others.get(name, [])]
         rows += [(d, "left out: the run did not finish (no provenance.json)") for d in h.unfinished]
+    linked: list[Path] = []
+    run_folders(results_dir, links=linked)
+    for h in horizons[1:]:
+        run_folders(h.folder, links=linked)
     lines = ["## The runs in this folder", "",
              "Every run under this folder, and where this report uses it.", "",
              "| run | experiment | scale | trials | in this report |", "|---|---|---|---|---|"]
     for d, use in sorted(rows, key=lambda r: natural(rel(r[0], results_dir))):
         lines.append(f"| `{rel(d, results_dir)}` | {_facts(d)} | {use} |")
+    lines += [f"| `{rel(d, results_dir)}` | - | - | - | left out: {LINK_LEFT_OUT} |" for d in linked]
     for what, folders in study_runs(results_dir):
         groups: dict[Path, list[Path]] = {}
         for d in folders:
