@@ -110,6 +110,15 @@ def test_calibration_reports_infeasible_targets():
     assert math.isnan(cal["ratio"])
 
 
+def test_a_measurement_that_delivered_nothing_calibrates_nothing():
+    """Every task time infinite (no robot delivered in the measurement): each bound on the ratio
+    is infinite over infinite, unknown, so no values are calibrated, and none called robust."""
+    nothing = table_from({n: ((0.0, INF), (0.0, INF)) for n in [(3, 3), (4, 2), (2, 4), (3, 2), (4, 1), (2, 3)]})
+    assert all(math.isnan(b) for b in core.ratio_bounds(nothing, [(6, (3, 3)), (5, (3, 2))]))
+    cal = core.calibrate(nothing, [(6, (3, 3)), (5, (3, 2))], low_value=2000.0)
+    assert not cal["feasible"] and not cal["robust"] and math.isnan(cal["values"][0])
+
+
 def test_model_smoke_measurement_end_to_end(tmp_path):
     cfg = settings(load_config(["arena=two_circuits", "team.n_robots=3", "scale=smoke", f"output_dir={tmp_path}",
                                 "model.trials_per_split=2", "model.measure_s=3000", "tasks.values=[2200,2000]"]))

@@ -220,7 +220,9 @@ def ratio_bounds(table: CTable, targets: Iterable[tuple[int, Split]], high: int 
 
     For a robot on circuit i in split n moving to j (split m), staying pays iff
     w_i / t_i(n) >= w_j / t_j(m): with w_high = rho w_low this is a bound on rho.
-    `pessimistic` uses each task time's confidence bound that makes the bound tighter.
+    `pessimistic` uses each task time's confidence bound that makes the bound tighter. A bound on
+    a task time the measurement did not give (no task delivered there: infinite over infinite)
+    is unknown, and so is the interval: (nan, nan), which no calibration satisfies.
     """
     lo, hi = 0.0, math.inf
     for _n_robots, n in targets:
@@ -235,10 +237,14 @@ def ratio_bounds(table: CTable, targets: Iterable[tuple[int, Split]], high: int 
             if i == high:  # rho / t_stay >= 1 / t_move  ->  rho >= t_stay / t_move
                 ts = t_stay.t_hi if pessimistic else t_stay.t
                 tm = t_move.t_lo if pessimistic else t_move.t
+                if math.isnan(ts / tm):
+                    return math.nan, math.nan
                 lo = max(lo, ts / tm)
             else:  # 1 / t_stay >= rho / t_move  ->  rho <= t_move / t_stay
                 ts = t_stay.t_hi if pessimistic else t_stay.t
                 tm = t_move.t_lo if pessimistic else t_move.t
+                if math.isnan(tm / ts):
+                    return math.nan, math.nan
                 hi = min(hi, tm / ts)
     return lo, hi
 

@@ -101,6 +101,10 @@ def model_text(result: dict, shortfall: str = "") -> str:
             lines.append(f"calibrated values {cal['values']} (w_high / w_low in [{_fmt(lo)}, {_fmt(hi)}], "
                          f"robust to the 90% intervals: {'yes' if cal['robust'] else 'no'}); "
                          f"predicted then: {cal['predicted_state']}")
+        elif math.isnan(lo):
+            lines.append(f"no calibration: the measurement gave no task time in a split "
+                         f"{[t['split'] for t in cal['targets']]} are compared with (nothing delivered there; "
+                         "measure longer, model.measure_s)")
         else:
             lines.append(f"no task values make {[t['split'] for t in cal['targets']]} the equilibria "
                          f"(w_high / w_low would need to lie in [{_fmt(lo)}, {_fmt(hi)}])")
