@@ -48,7 +48,7 @@ def _overrides(overrides: Sequence[str]) -> list[str]:
     """The caller's overrides as a list of strings: one line where they are one string (which would
     be taken a character at a time) or hold anything but strings."""
     if isinstance(overrides, str | bytes) or not all(isinstance(o, str) for o in overrides):
-        raise TavcError(f"overrides: a list of strings such as ['experiment=breakdown', 'scale=smoke'], "
+        raise TavcError(f"overrides: a list of strings such as ['scale=smoke', 'seed=3'], "
                         f"not {overrides!r:.80}")
     return list(overrides)
 
@@ -270,6 +270,10 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     experiments = list(experiments)
     if not experiments:
         raise TavcError("--experiments: no scenario given")
+    served = scenarios()
+    if other := next((name for name in experiments if name not in served), None):  # before any run
+        raise TavcError(f"--experiments: {other!r} is not a scenario compare serves (it serves {', '.join(served)}; "
+                        "an experiment of your own, where its registry entry says compare=True)")
     if not learners or len(set(learners)) != len(learners):
         raise TavcError(f"--learners: name each learner once ({', '.join(learners) or 'none given'})")
     if results_dir is not None:

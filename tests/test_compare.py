@@ -181,6 +181,12 @@ def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_pat
                   "--results", str(tmp_path / "e"))
     assert result.returncode == 1 and "--reuse:" in result.stderr and "holds no finished run" in result.stderr
     assert not (tmp_path / "d" / "runs").exists() and not (tmp_path / "e" / "runs").exists()
+    # an experiment compare does not serve: refused before its runs, which it could not compare
+    result = tavc("compare", "scale=smoke", "--experiments", "spatiotemporal", "--learners", "tavc",
+                  "--results", str(tmp_path / "f"))
+    assert result.returncode == 1 and len(result.stderr.strip().splitlines()) == 1
+    assert result.stderr.startswith("error: --experiments: 'spatiotemporal' is not a scenario compare serves")
+    assert not (tmp_path / "f").exists()
 
 
 @pytest.mark.parametrize(("override", "line"), [
