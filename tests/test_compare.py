@@ -243,3 +243,23 @@ def test_the_report_section_marks_differences_from_tavc_by_hand(tmp_path):
     pd.DataFrame(rows).assign(p_vs_tavc="small").to_csv(table, index=False)
     with pytest.raises(TavcError, match=r"cannot be read \(column p_vs_tavc holds something other than numbers\)"):
         compare_lines(tmp_path)
+
+
+def test_a_comparison_table_edited_apart_from_its_trials_is_refused(tmp_path):
+    """The report reads compare.csv only while it is what compare_trials.csv beside it gives: the
+    committed comparison as written passes; one mean edited (0.33 -> 0.93) is one line."""
+    import shutil
+
+    from tavc_cli.errors import TavcError
+    from tavc_cli.report.compare import compare_tables
+
+    committed = Path(__file__).resolve().parent.parent / "results" / "compare" / "paper"
+    shutil.copytree(committed, tmp_path / "compare" / "paper")
+    assert list(compare_tables(tmp_path)) == [tmp_path / "compare" / "paper"]
+    path = tmp_path / "compare" / "paper" / "compare.csv"
+    lines = path.read_text().splitlines(keepends=True)
+    cells = lines[1].split(",")
+    cells[5] = str(float(cells[5]) + 0.6)  # the mean of the first row
+    path.write_text("".join([lines[0], ",".join(cells), *lines[2:]]))
+    with pytest.raises(TavcError, match=r"compare.csv: not what compare_trials.csv beside it gives \(one of them"):
+        compare_tables(tmp_path)

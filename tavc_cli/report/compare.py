@@ -4,16 +4,20 @@ with TAVC's difference marked where the rank test finds one, and the sentences r
 
 from __future__ import annotations
 
+import io
 import math
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.claims import ALPHA
-from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS
-from tavc_cli.readers import TableSpec, read_table
+from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, order
+from tavc_cli.errors import TavcError
+from tavc_cli.readers import TABLE_LIMIT, TableSpec, read_table, read_text
 from tavc_cli.report.files import there
 from tavc_cli.report.text import fmt
+from tavc_cli.table_cells import damaged, unreadable
 
 COMPARE_DIR = "compare"
 SCALES = ("paper", "converged")  # read first, in this order; any other comparison after them
@@ -33,7 +37,31 @@ def compare_tables(results_dir: Path) -> dict[Path, pd.DataFrame]:
         return {}
     found = sorted((d for d in root.iterdir() if there(d / "compare.csv")),
                    key=lambda d: (SCALES.index(d.name) if d.name in SCALES else len(SCALES), d.name))
-    return {d: read_table(d / "compare.csv", _COMPARE, REWRITE) for d in found}
+    return {d: _as_its_trials_give(d, read_table(d / "compare.csv", _COMPARE, REWRITE)) for d in found}
+
+
+def _as_its_trials_give(folder: Path, table: pd.DataFrame) -> pd.DataFrame:
+    """`table`, `folder`'s compare.csv, once it is what `compare_trials.csv` beside it gives
+    (`compare.metrics.comparison_table`), within the six significant digits both are written
+    with: one line where either was edited alone, or the trials are missing."""
+    path = folder / "compare_trials.csv"
+    if not there(path):
+        raise TavcError(f"{path}: missing, though compare.csv beside it is drawn from it; {REWRITE}")
+    try:
+        trials = pd.read_csv(io.StringIO(read_text(path, TABLE_LIMIT)))
+        factors = table.groupby("controller", sort=False)["time_factor"].first().to_dict()
+        fresh = order(comparison_table(trials, factors), list(dict.fromkeys(table["experiment"])),
+                      list(dict.fromkeys(table["controller"])))[list(TABLE_COLUMNS)].reset_index(drop=True)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise damaged(path, f"cannot be read ({unreadable(exc)})") from None
+    numbers = [c for c in TABLE_COLUMNS if c not in _TEXT]
+    same = len(fresh) == len(table) and (fresh[list(_TEXT)].to_numpy() == table[list(_TEXT)].to_numpy()).all() \
+        and np.allclose(fresh[numbers].to_numpy(float), table[numbers].to_numpy(float), rtol=1e-4, atol=1e-9,
+                        equal_nan=True)
+    if not same:
+        raise TavcError(f"{folder / 'compare.csv'}: not what compare_trials.csv beside it gives (one of them "
+                        f"edited?); {REWRITE}")
+    return table
 
 
 def compare_lines(results_dir: Path) -> list[str]:
