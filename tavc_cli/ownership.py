@@ -78,7 +78,7 @@ _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODE
 _WITH_TRIALS = (RUN, MODEL, SURROGATE, TASKS)  # folders whose trials/ holds tavc's records
 _SUBFOLDERS = {**dict.fromkeys(_WITH_TRIALS, ("trials",)), RESULTS: ("figures",)}  # tavc's folders in a folder
 # folders of their own a run's folder may hold before the run (`_nested`)
-_NESTED = {"model": MODEL, "turn_taking": TURN_TAKING_KIND}
+_NESTED = {"model": MODEL, "turn_taking": TURN_TAKING_KIND, "tasks": TASKS}
 
 # settings that decide where and how fast a run goes, not what it computes
 _NOT_RESULTS = ("executor", "output_dir", "overwrite", "force")
@@ -274,8 +274,9 @@ def check_inside(folder: Path, kind: str, writes: Iterable[str], what: str = "ou
 
 
 def _nested(path: Path) -> bool:
-    """True for a folder tavc keeps inside a run's (the model `tavc model` measures there, an
-    animation), which a command may have written before the run itself."""
+    """True for a folder tavc keeps inside a run's (the model `tavc model` measures there, the
+    turn-taking model's runs, a surrogate run's measured tasks), which a command may have written
+    before the run itself."""
     if not path.is_dir() or path.name not in _NESTED:
         return False
     owned = read(path)

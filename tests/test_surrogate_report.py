@@ -117,6 +117,9 @@ def test_a_surrogate_run_is_reported_as_such_and_never_in_the_simulators_place(t
     runner = CliRunner()
     assert runner.invoke(app, ["surrogate", "experiment=breakdown", "scale=smoke", "--no-progress",
                                "output_dir=runs/smoke/breakdown_surrogate"]).exit_code == 0
+    # a run in a folder of the user's keeps its measured tasks there, not in the scale's shared folder
+    assert (tmp_path / "runs/smoke/breakdown_surrogate/tasks/task_times.csv").is_file()
+    assert sorted(p.name for p in (tmp_path / "runs/smoke").iterdir()) == ["breakdown_surrogate"]
     alone = runner.invoke(app, ["report", "runs/smoke"])
     assert alone.exit_code == 0
     text = (tmp_path / "runs/smoke/REPORT.md").read_text()

@@ -53,9 +53,16 @@ from tavc_cli.surrogate.tasks import (
 
 
 def tasks_dir(cfg: TavcConfig) -> Path:
-    """Where the measured tasks are kept: `surrogate.tasks_dir`, else runs/<scale>/surrogate/tasks."""
+    """Where the measured tasks are kept: `surrogate.tasks_dir`; else, for a run in its default
+    folder (runs/<scale>/surrogate/<experiment>), runs/<scale>/surrogate/tasks, shared by the
+    scale's runs there; else `tasks/` in the run's own folder, so that a run in a folder the user
+    named writes nothing outside it."""
     given = cfg.surrogate.tasks_dir
-    return Path(given) if given else default_root(cfg.scale.name) / "surrogate" / "tasks"
+    if given:
+        return Path(given)
+    shared = default_root(cfg.scale.name) / "surrogate"
+    out = Path(cfg.output_dir)
+    return shared / "tasks" if out == shared / cfg.experiment_name else out / "tasks"
 
 
 def surrogate_supports(cfg: TavcConfig) -> None:
