@@ -27,6 +27,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -209,7 +210,8 @@ def checked_facts(folder: Path, load: Callable[[Path], TavcConfig] = from_yaml) 
     facts = run_facts(folder, load)
     for name in sorted(facts.digests or {}):
         if not (facts.folder / name).is_file() and not (name in facts.replaced and facts.replaced[name] is None):
-            raise damaged(facts.folder / name, "missing, though provenance.json lists it")
+            raise damaged(facts.folder / name, "not a regular file, where provenance.json lists a table"
+                          if os.path.lexists(facts.folder / name) else "missing, though provenance.json lists it")
     plan = facts.folder / PLAN_FILE
     if plan.is_file() and facts.digests is not None:
         if PLAN_FILE not in facts.digests:

@@ -462,6 +462,18 @@ def test_a_report_of_a_folder_another_command_holds_is_one_line_and_writes_nothi
     assert len(result.output.strip().splitlines()) == 1 and _files(results) == before
 
 
+@pytest.mark.parametrize(("name", "what"), [("config.yaml", "not a regular file, where a finished run keeps one"),
+                                           ("robots.csv", "not a regular file, where provenance.json lists a table")])
+def test_a_pipe_in_a_finished_runs_file_is_named_for_what_it_is(breakdown, tmp_path, name, what):
+    """A named pipe where a finished run keeps a file: said to be one, not taken for a run that did
+    not finish or a file that is missing (and never opened: the report would wait on it)."""
+    results = _results_with(tmp_path, breakdown)
+    path = results / "breakdown" / name
+    path.unlink()
+    os.mkfifo(path)
+    _refused(results, path, what)
+
+
 def test_a_run_of_other_code_is_reported_as_such(breakdown, undamaged_report, tmp_path):
     assert "Runs of other code" not in undamaged_report
     results = _results_with(tmp_path, breakdown)

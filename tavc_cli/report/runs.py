@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 
 import pandas as pd
@@ -47,6 +48,7 @@ from tavc_cli.report.spatiotemporal import spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.run_checks import this_code
 from tavc_cli.settings import TavcConfig, to_yaml
+from tavc_cli.table_cells import damaged
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
 # folders directly under the results folder that the report reads otherwise than run by run:
@@ -106,6 +108,11 @@ def finished_runs(results_dir: Path, links: list[Path] | None = None) -> tuple[d
     found: dict[str, list[Path]] = {}
     unfinished = []
     for d in run_folders(results_dir, links=links):
+        if (d / "provenance.json").is_file():  # finished: its settings and states are files, whatever stands there
+            odd = next((d / n for n in ("config.yaml", "state_time.csv")
+                        if os.path.lexists(d / n) and not (d / n).is_file()), None)
+            if odd is not None:
+                raise damaged(odd, "not a regular file, where a finished run keeps one")
         if (d / "state_time.csv").is_file() and (d / "config.yaml").is_file() and (d / "provenance.json").is_file():
             found.setdefault(str(read_or_refuse(d / "config.yaml", config_of).experiment_name or d.name), []).append(d)
         else:
