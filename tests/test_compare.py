@@ -251,15 +251,18 @@ def test_a_comparison_table_edited_apart_from_its_trials_is_refused(tmp_path):
     import shutil
 
     from tavc_cli.errors import TavcError
-    from tavc_cli.report.compare import compare_tables
+    from tavc_cli.report.compare import check_compare_tables
 
     committed = Path(__file__).resolve().parent.parent / "results" / "compare" / "paper"
     shutil.copytree(committed, tmp_path / "compare" / "paper")
-    assert list(compare_tables(tmp_path)) == [tmp_path / "compare" / "paper"]
+    check_compare_tables(tmp_path)
     path = tmp_path / "compare" / "paper" / "compare.csv"
     lines = path.read_text().splitlines(keepends=True)
     cells = lines[1].split(",")
     cells[5] = str(float(cells[5]) + 0.6)  # the mean of the first row
     path.write_text("".join([lines[0], ",".join(cells), *lines[2:]]))
     with pytest.raises(TavcError, match=r"compare.csv: not what compare_trials.csv beside it gives \(one of them"):
-        compare_tables(tmp_path)
+        check_compare_tables(tmp_path)
+    (tmp_path / "compare" / "paper" / "compare_trials.csv").unlink()
+    with pytest.raises(TavcError, match=r"compare_trials.csv: missing, though compare.csv beside it is drawn"):
+        check_compare_tables(tmp_path)

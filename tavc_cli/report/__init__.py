@@ -38,7 +38,7 @@ from tavc_cli.io import claim_folder, write_text_atomic
 from tavc_cli.ownership import READINGS_DIR, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.report import horizons
-from tavc_cli.report.compare import compare_lines, compare_tables
+from tavc_cli.report.compare import check_compare_tables, compare_lines
 from tavc_cli.report.counterfactuals import calibration_lines, calibration_tables, counterfactual_lines, read_search
 from tavc_cli.report.drawing import FigurePool, figure_files, remove_stale_figures
 from tavc_cli.report.figures import find_model
@@ -100,7 +100,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path],
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records
         read_search(table)
     study_tables(results_dir)  # the surrogate study's
-    compare_tables(results_dir)  # the comparisons of other learners
+    check_compare_tables(results_dir)  # the comparisons of other learners, each held to its trials
     own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
     in_readings = [p for d in STAY_SWITCH_DIRS for p in prediction_files(results_dir, d)]
     predictions = prediction_files(results_dir) + in_readings

@@ -37,10 +37,17 @@ def compare_tables(results_dir: Path) -> dict[Path, pd.DataFrame]:
         return {}
     found = sorted((d for d in root.iterdir() if there(d / "compare.csv")),
                    key=lambda d: (SCALES.index(d.name) if d.name in SCALES else len(SCALES), d.name))
-    return {d: _as_its_trials_give(d, read_table(d / "compare.csv", _COMPARE, REWRITE)) for d in found}
+    return {d: read_table(d / "compare.csv", _COMPARE, REWRITE) for d in found}
 
 
-def _as_its_trials_give(folder: Path, table: pd.DataFrame) -> pd.DataFrame:
+def check_compare_tables(results_dir: Path) -> None:
+    """Each comparison's `compare.csv` checked (`compare_tables`) and held to its trials
+    (`as_its_trials_give`), as the report reads them."""
+    for folder, table in compare_tables(results_dir).items():
+        as_its_trials_give(folder, table)
+
+
+def as_its_trials_give(folder: Path, table: pd.DataFrame) -> pd.DataFrame:
     """`table`, `folder`'s compare.csv, once it is what `compare_trials.csv` beside it gives
     (`compare.metrics.comparison_table`), within the six significant digits both are written
     with: one line where either was edited alone, or the trials are missing."""
