@@ -27,6 +27,7 @@ import pandas as pd
 
 from tavc_cli import config
 from tavc_cli.analysis import tasks_seen
+from tavc_cli.arguments import factors_of, folder_setting, mapping_of, names_of, overrides_of
 from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
 from tavc_cli.errors import TavcError
@@ -44,25 +45,6 @@ from tavc_cli.user_configs import using_config_dirs
 ConfigDirs = str | Path | Sequence[str | Path] | None  # a folder of the user's configs, or several
 
 
-def _overrides(overrides: Sequence[str]) -> list[str]:
-    """The caller's overrides as a list of strings: one line where they are one string (which would
-    be taken a character at a time) or hold anything but strings."""
-    if isinstance(overrides, str | bytes) or not all(isinstance(o, str) for o in overrides):
-        raise TavcError(f"overrides: a list of strings such as ['scale=smoke', 'seed=3'], "
-                        f"not {overrides!r:.80}")
-    return list(overrides)
-
-
-def _folder_setting(output_dir: str | Path | None) -> list[str]:
-    """The override that sets ``output_dir`` to the folder the caller named (none where it named
-    none), taken as named: one line where it is empty (``Path("")`` is the working folder), the
-    root of the file system, or holds ``${``."""
-    if output_dir is None:
-        return []
-    refuse_folder_problem(output_dir, "output_dir", in_setting=True)
-    return [setting("output_dir", Path(output_dir))]
-
-
 def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, progress: bool = False,
         config_dir: ConfigDirs = None) -> Results:
     """Run an experiment as `tavc run` does (finished trials in the folder are reused) and open its results.
@@ -74,7 +56,7 @@ def run(overrides: Sequence[str] = (), *, output_dir: str | Path | None = None, 
         config_dir: A folder of your own configs and learners (or several), searched besides
             tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
-    overrides = [*_overrides(overrides), *_folder_setting(output_dir)]
+    overrides = [*overrides_of(overrides), *folder_setting(output_dir)]
     with using_config_dirs(config_dir):
         return Results(run_summary(overrides, progress=progress)["output_dir"])
 
@@ -93,7 +75,7 @@ def reproduce(overrides: Sequence[str] = (), *, experiments: Sequence[str] | Non
         config_dir: A folder of your own configs and learners (or several), searched besides
             tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
-    overrides = _overrides(overrides)
+    overrides = overrides_of(overrides)
     with using_config_dirs(config_dir):
         return {name: Results(summary["output_dir"])
                 for name, summary in reproduce_summaries(overrides, experiments=experiments,
@@ -112,7 +94,7 @@ def surrogate(overrides: Sequence[str] = (), *, output_dir: str | Path | None = 
         config_dir: A folder of your own configs and learners (or several), searched besides
             tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
-    overrides = [*_overrides(overrides), *_folder_setting(output_dir)]
+    overrides = [*overrides_of(overrides), *folder_setting(output_dir)]
     with using_config_dirs(config_dir):
         return Results(surrogate_summary(overrides, progress=progress, echo=lambda _: None)["output_dir"])
 
@@ -120,7 +102,7 @@ def surrogate(overrides: Sequence[str] = (), *, output_dir: str | Path | None = 
 def surrogate_summary(overrides: Sequence[str] = (), *, progress: bool = False,
                       echo: Callable[[str], None] = print) -> dict:
     """`surrogate`'s work, returning the run's summary as `tavc surrogate` prints it."""
-    overrides = _overrides(overrides)
+    overrides = overrides_of(overrides)
     # deferred: loads the simulator's compiled kernels
     from tavc_cli.surrogate.run import run_surrogate
 
@@ -134,7 +116,7 @@ def surrogate_summary(overrides: Sequence[str] = (), *, progress: bool = False,
 def run_summary(overrides: Sequence[str] = (), *, progress: bool = False) -> dict:
     """`run`'s work, returning the run's summary (where it went, its tables and claims) as
     `tavc run` prints it."""
-    overrides = _overrides(overrides)
+    overrides = overrides_of(overrides)
     # deferred: loads the simulator's compiled kernels
     from tavc_cli.pipeline import run_experiment
 
@@ -164,7 +146,8 @@ def surrogate_seen_switches(prediction: str | Path, learners_run: str | Path, *,
     from tavc_cli.surrogate.run import kept_tasks, measurement_record, run_surrogate
     from tavc_cli.surrogate.tasks import TaskTimes
 
-    prediction = Path(prediction)
+    prediction, output_dir = path_of(prediction, "prediction"), path_of(output_dir, "output_dir")
+    path_of(learners_run, "learners_run")
     own = prediction / LEARNERS / "config.yaml"
     if not own.is_file():
         raise TavcError(f"{prediction}: not a turn-taking prediction's folder (no {LEARNERS}/config.yaml in it)")
@@ -191,11 +174,14 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
     them. With `ladder` (multiples of the chapter's durations), the horizon ladder's rungs run
     in the same job, their history shared with the experiments' trials (`config.load_ladder`),
     and follow the experiments as ``ladder x<factor>``; ``experiments=[]`` runs the ladder alone."""
-    overrides = _overrides(overrides)
+    overrides = overrides_of(overrides)
     # deferred: loads the simulator's compiled kernels
     from tavc_cli.pipeline import run_experiments
 
-    names = [experiments] if isinstance(experiments, str) else experiments
+    names = names_of(experiments, "experiments")
+    factors_of(ladder)
+    if results_dir is not None:
+        path_of(results_dir, "results_dir")
     if results_dir is None:  # runs/<scale>: the ladder's scale is converged unless one is given
         results_dir = config.results_root(overrides, None if names != [] else "converged")
     cfgs = config.load_experiments(names, list(overrides), results_dir) if names != [] else []
@@ -236,7 +222,7 @@ def compare(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = N
         config_dir: A folder of your own configs and learners (or several), searched besides
             tavc's as ``--config-dir`` makes them (docs/plugins.md).
     """
-    overrides = _overrides(overrides)
+    overrides = overrides_of(overrides)
     with using_config_dirs(config_dir):
         return compare_summary(overrides, learners=learners, experiments=experiments, results_dir=results_dir,
                                reuse=reuse, progress=progress)["table"]
@@ -247,7 +233,11 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
                     reuse: Mapping[str, str | Path] | None = None, progress: bool = False) -> dict:
     """`compare`'s work: each controller's runs composed here (the config stays at the front
     doors), run and read by `compare.run.run_compare`; returns its summary."""
-    overrides = _overrides(overrides)
+    overrides = overrides_of(overrides)
+    learners, experiments = names_of(learners, "learners"), names_of(experiments, "experiments")
+    if results_dir is not None:
+        path_of(results_dir, "results_dir")
+    mapping_of(reuse, "reuse")
     # deferred: loads scipy
     from tavc_cli.compare.run import controller_overrides, run_compare
 
@@ -263,7 +253,7 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     learners = list(CONTROLLERS if learners is None else learners)
     if experiments is None:
         experiments = scenarios()
-        files = config.experiment_names()
+        files = config.experimentnames_of()
         if missing := [name for name in experiments if name not in files]:
             raise TavcError(f"chapter: {missing[0]}'s registry entry says compare serves it, but no "
                             f"experiment/{missing[0]}.yaml is in tavc's configs or a --config-dir folder")
@@ -304,7 +294,7 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, turn
     `turn_taking`, the model that knows turn-taking beside it (its prediction under the result's
     ``turn_taking`` key, its runs in ``<output_dir>/turn_taking``). Returns the model's result.
     `config_dir`: folders of your own configs, as ``--config-dir``."""
-    overrides = _overrides(overrides)
+    overrides = overrides_of(overrides)
     with using_config_dirs(config_dir):
         if turn_taking:
             # deferred: pandas and the model's modules, only with turn_taking
@@ -358,7 +348,7 @@ def calibrate(overrides: Sequence[str] = (), *, save: bool = False, progress: bo
     given), printing through `echo`, into ``<output_dir>/calibration/world/`` (``output_dir``
     ``runs/<scale>`` unless given); with `save`, record the choice as world=calibrated.
     `config_dir`: folders of your own configs, as ``--config-dir``."""
-    overrides = _overrides(overrides)
+    overrides = overrides_of(overrides)
     with using_config_dirs(config_dir):
         _calibrate(overrides, save, progress, echo)
 

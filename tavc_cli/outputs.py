@@ -72,10 +72,11 @@ def _other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, pd.DataFrame
 
 
 def other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, Path]:
-    """Where the `trial_stats.csv` of each other experiment of the chapter's claims would be beside
-    this run's folder (`out_dir`), by experiment name."""
+    """Where the `trial_stats.csv` of each experiment this run's claims compare it with
+    (`Claim.against`: claims 7 and 8) would be beside its folder (`out_dir`), by experiment name."""
     name = str(cfg.experiment_name or "")
-    return {other: out_dir.parent / other / "trial_stats.csv" for other in {e for e, _ in claims()} - {name}}
+    compared = {c.against for own, c in claims() if own == name and c.against and c.against != name}
+    return {other: out_dir.parent / other / "trial_stats.csv" for other in sorted(compared)}
 
 
 def comparison_text(experiment: str, state_time: pd.DataFrame) -> str | None:

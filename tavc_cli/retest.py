@@ -140,11 +140,9 @@ def _finished_others(cfg: TavcConfig, folder: Path, read_config) -> dict[str, pd
     `provenance.json` or `trial_stats.csv`: being run again, say) or its table does not check out
     (`run_checks.check_table`): the claims cannot be tested as a run would test them now. A folder
     that is not there is a run not made, as `tavc run` takes it."""
-    own = str(cfg.experiment_name or "")
-    compared = {c.against for name, c in claims() if name == own and c.against}
     others = {}
     for name, path in other_experiments(cfg, folder).items():
-        if name not in compared or not (path.parent.exists() or path.parent.is_symlink()):
+        if not (path.parent.exists() or path.parent.is_symlink()):
             continue
         if not (path.parent / PROVENANCE).is_file() or not path.is_file():
             return None

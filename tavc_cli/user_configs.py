@@ -5,7 +5,7 @@ environment variable `plugins.CONFIG_DIRS_ENV`, which worker processes inherit."
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -33,7 +33,9 @@ def using_config_dirs(dirs: str | Path | Sequence[str | Path] | None, what: str 
     if dirs is None:
         yield
         return
-    folders = [dirs] if isinstance(dirs, (str, Path)) else list(dirs)
+    folders = [dirs] if isinstance(dirs, (str, os.PathLike)) else list(dirs) if isinstance(dirs, Iterable) else [dirs]
+    if bad := next((d for d in folders if not isinstance(d, (str, os.PathLike))), None):
+        raise TavcError(f"{what}: a folder's path, or a list of them, not {bad!r:.80}")
     before = os.environ.get(CONFIG_DIRS_ENV)
     os.environ[CONFIG_DIRS_ENV] = extended_config_dirs(folders, what)
     try:

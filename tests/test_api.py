@@ -73,6 +73,17 @@ def test_errors_are_one_line(tmp_path):
         api.compare(["scale=smoke"], learners=["tavc"], experiments=["initial_distribution"],
                     results_dir=tmp_path / "x", reuse={"tavc": None})
     assert not (tmp_path / "x").exists()
+    for call, line in [(lambda: api.run(["scale=smoke"], output_dir=5), "output_dir: a folder's path, not 5"),
+                       (lambda: api.reproduce(["scale=smoke"], experiments=5), "experiments: a name or a list"),
+                       (lambda: api.reproduce_summaries(["scale=smoke"], ladder="1,4"), "ladder: a list of multiples"),
+                       (lambda: api.compare(["scale=smoke"], reuse=["a"]), "reuse: a mapping of learner to folder"),
+                       (lambda: api.model(["scale=smoke"], config_dir=5), "config_dir: a folder's path, or a list")]:
+        with pytest.raises(TavcError, match=f"^{re.escape(line)}"):
+            call()
+    # overrides given as any iterable of strings are all taken, a generator's too
+    from tavc_cli.arguments import overrides_of
+
+    assert overrides_of(o for o in ["scale=smoke", "seed=3"]) == ["scale=smoke", "seed=3"]
 
 
 def test_an_empty_folder_or_one_holding_an_interpolation_is_refused_before_anything_is_written(tmp_path,

@@ -195,8 +195,11 @@ def test_a_run_beside_one_that_did_not_finish_is_left_as_it_is(one_run, tmp_path
     (beside / "trial_stats.csv").write_text('controller,"trial\n')
     assert R.retested_tables(run, results, from_yaml) == {"claims.csv": one_run[1]}  # compared with none
     # as if a claim about breakdown compared it with initial_distribution
+    from tavc_cli import outputs
+
     compared = [(e, replace(c, against="initial_distribution") if e == "breakdown" else c) for e, c in R.claims()]
     monkeypatch.setattr(R, "claims", lambda: compared)
+    monkeypatch.setattr(outputs, "claims", lambda: compared)
     assert R.retested_tables(run, results, from_yaml) == {}
     result = runner.invoke(app, ["report", str(results)])
     assert result.exit_code == 0, result.output
@@ -380,3 +383,7 @@ def test_a_run_tests_its_claims_against_the_run_beside_it_only_as_that_run_wrote
         _other_experiments(cfg, beside)
     (run / "provenance.json").unlink()  # being run again, by the same reproduce: read as it stands
     assert _other_experiments(cfg, beside)["breakdown"].iloc[0, 3] == 0.9999
+    # a run whose claims compare it with none reads no run beside it, damaged or not
+    shutil.copytree(run, results / "heterogeneous")
+    breakdown = config.settings(config.load_config(["experiment=breakdown", "scale=smoke"]))
+    assert _other_experiments(breakdown, run) == {}

@@ -221,8 +221,9 @@ def ratio_bounds(table: CTable, targets: Iterable[tuple[int, Split]], high: int 
     For a robot on circuit i in split n moving to j (split m), staying pays iff
     w_i / t_i(n) >= w_j / t_j(m): with w_high = rho w_low this is a bound on rho.
     `pessimistic` uses each task time's confidence bound that makes the bound tighter. A bound on
-    a task time the measurement did not give (no task delivered there: infinite over infinite)
-    is unknown, and so is the interval: (nan, nan), which no calibration satisfies.
+    a task time the measurement did not give is unknown, and so is the interval: (nan, nan), which
+    no calibration satisfies: no task delivered there (infinite over infinite), or, pessimistic,
+    a confidence bound that one trial cannot give (nan).
     """
     lo, hi = 0.0, math.inf
     for _n_robots, n in targets:

@@ -1,0 +1,55 @@
+"""The Python API's arguments checked as the command line's parser checks its own: a value of the
+wrong kind is one line naming the argument (`TavcError`), never a `TypeError` from deep inside,
+and a string where a list belongs is never taken a character at a time."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+from tavc_cli.errors import TavcError
+from tavc_cli.io import path_of, refuse_folder_problem
+from tavc_cli.override_keys import setting
+
+
+def overrides_of(overrides: object) -> list[str]:
+    """The caller's overrides as a list of strings (any iterable of them)."""
+    given = None if isinstance(overrides, str | bytes) or not isinstance(overrides, Iterable) else list(overrides)
+    if given is None or not all(isinstance(o, str) for o in given):
+        raise TavcError(f"overrides: a list of strings such as ['scale=smoke', 'seed=3'], not {overrides!r:.80}")
+    return given
+
+
+def names_of(names: object, what: str) -> list[str] | None:
+    """The caller's experiment or learner names as a list (None: the default; one string: that one
+    name)."""
+    if names is None or isinstance(names, str):
+        return None if names is None else [names]
+    given = list(names) if isinstance(names, Iterable) and not isinstance(names, bytes) else None
+    if given is None or not all(isinstance(n, str) for n in given):
+        raise TavcError(f"{what}: a name or a list of names, not {names!r:.80}")
+    return given
+
+
+def factors_of(factors: object) -> None:
+    """The horizon ladder's factors: None, or numbers (the ladder checks their values)."""
+    if factors is not None and (isinstance(factors, str) or not isinstance(factors, Iterable) or not all(
+            isinstance(f, int | float) and not isinstance(f, bool) for f in factors)):
+        raise TavcError(f"ladder: a list of multiples of the chapter's durations, e.g. [1, 4, 40], not {factors!r:.80}")
+
+
+def mapping_of(value: object, what: str) -> None:
+    """A mapping the caller gives (learner to folder), or None."""
+    if value is not None and not isinstance(value, Mapping):
+        raise TavcError(f"{what}: a mapping of learner to folder such as {{'tavc': 'results'}}, not {value!r:.80}")
+
+
+def folder_setting(output_dir: object) -> list[str]:
+    """The override that sets ``output_dir`` to the folder the caller named (none where it named
+    none), taken as named: one line where it is no path, empty (``Path("")`` is the working
+    folder), the root of the file system, or holds ``${``."""
+    if output_dir is None:
+        return []
+    path_of(output_dir, "output_dir")
+    refuse_folder_problem(output_dir, "output_dir", in_setting=True)
+    return [setting("output_dir", Path(output_dir))]
