@@ -315,3 +315,23 @@ def test_a_link_where_tavc_names_a_folder_below_the_users_is_refused_not_followe
     assert result.output.startswith("error: ") and len(result.output.strip().splitlines()) == 1, result.output
     assert f"{named / below} is a symbolic link to {sibling}" in result.output, result.output
     assert _snapshot(sibling) == before
+
+
+def test_a_surrogate_run_checks_its_folder_before_measuring_its_tasks_into_it(tmp_path, sibling):
+    """A surrogate run in a folder of the user's keeps its measured tasks in its tasks/: a link
+    there, or a file of the user's in the folder, is refused before anything is measured, and
+    nothing is written where the link leads or beside the user's file."""
+    linked = tmp_path / "linked"
+    linked.mkdir()
+    (linked / "tasks").symlink_to(sibling, target_is_directory=True)
+    before = _snapshot(sibling)
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    (theirs / "notes.txt").write_bytes(THEIRS)
+    for folder in (linked, theirs):
+        result = runner.invoke(app, ["surrogate", "experiment=breakdown", "scale=smoke", f"output_dir={folder}",
+                                     "--no-progress"])
+        assert result.exit_code == 1 and len(result.output.strip().splitlines()) == 1, result.output
+        assert result.output.startswith(f"error: output_dir: {folder} holds files tavc did not write"), result.output
+    assert _snapshot(sibling) == before
+    assert sorted(p.name for p in theirs.iterdir()) == ["notes.txt"]

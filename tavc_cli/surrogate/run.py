@@ -24,7 +24,7 @@ from tavc_cli.experiments.runner import Run
 from tavc_cli.experiments.spec import code_digest
 from tavc_cli.experiments.store import Executor, TrialStore, _stored_key
 from tavc_cli.io import claim_folder, default_root, write_bytes_atomic, write_text_atomic
-from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_settings, take, trial_path
+from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_settings, run_files, take, trial_path
 from tavc_cli.pipeline import CAN_FORK, _finish, take_run_folder
 from tavc_cli.readers import TABLE_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig
@@ -106,7 +106,9 @@ def measure_tasks(cfg: TavcConfig, teams: list[Team] | None = None, *, progress:
     explorers = explorer_specs(cfg, teams) if cfg.surrogate.switches == EXPLORERS else {}
     trials, warmup_s, measure_s = measurement(cfg)
     record = measurement_record(cfg)
-    with claim_folder(folder):
+    # in the run's own folder (`tasks_dir`), a link there is refused, not followed
+    inside = None if cfg.surrogate.tasks_dir or folder.parent != Path(cfg.output_dir) else folder.parent
+    with claim_folder(folder, within=inside):
         # every file of TASKS_FILES already there is tavc's: `take` refuses one it did not write
         owned = take(folder, TASKS, TASKS_FILES, "surrogate.tasks_dir", save=False)
         kept = kept_tasks(folder, record, overwrite=cfg.overwrite, echo=echo)
@@ -264,11 +266,13 @@ def run_surrogate(cfg: TavcConfig, *, times: TaskTimes | None = None, progress: 
     finished one of the same key reused), then the tables, claims and provenance of `tavc run`.
     Returns the run's summary, as `pipeline.run_experiment` does."""
     surrogate_supports(cfg)
+    folder = Path(cfg.output_dir)
     if times is None:
+        with claim_folder(folder):  # the run's folder checked before its tasks are measured, into it or elsewhere
+            take(folder, SURROGATE, run_files(), save=False)
         times = measure_tasks(cfg, progress=progress, echo=echo)
     plan = plan_run(cfg)
     specs = surrogate_specs(cfg, times, plan)
-    folder = Path(cfg.output_dir)
     stayers = cfg.surrogate.calibration == "stayers"
     with claim_folder(folder):
         owned = take_run_folder(cfg, plan, SURROGATE)
