@@ -171,6 +171,20 @@ def test_a_sweep_opens_as_a_sweep_with_its_jobs(tmp_path):
         _ = api.load_sweep(out).table
 
 
+def test_a_sweep_over_output_dir_opens_with_its_jobs_where_it_put_them(tmp_path, monkeypatch):
+    """Each job of a sweep over output_dir lies in a folder of its own; the sweep's table, written
+    beside the first, is checked against every job where it lies."""
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(app, ["run", "-m", *SMOKE_SWEEP, "output_dir=a,b"])
+    assert result.exit_code == 0, result.output
+    table = api.load_sweep(tmp_path / "a").table
+    assert sorted(table["job"].unique()) == [0, 1] and len(table) == 2 * len(table[table["job"] == 0])
+
+
 def test_results_say_in_their_data_whether_they_are_a_verdict(tmp_path):
     quick = api.run([*SMOKE_SWEEP], output_dir=tmp_path / "quick")
     assert quick.not_a_verdict.startswith("not a verdict: scale=smoke (")

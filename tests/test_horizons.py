@@ -191,9 +191,15 @@ def test_a_ladder_table_that_is_not_what_its_rungs_give_now_is_refused(two_horiz
     from typer.testing import CliRunner
 
     from tavc_cli.cli import app
+    from tavc_cli.pipeline import write_ladder
 
     results = tmp_path / "results"
     shutil.copytree(two_horizons, results)
+    # a rung whose factor ladder.csv rounds (x0.123456 is 0.1235 there) is found all the same
+    ladder = results / "converged" / "ladder"
+    _run_folder(ladder / "x0.123456", "converged", 0.123456, 20.0, seed=12)
+    write_ladder(ladder, [ladder / "x0.123456", ladder / "x1", ladder / "x40"])
+    assert CliRunner().invoke(app, ["report", str(results)]).exit_code == 0
     shutil.rmtree(results / "converged" / "ladder" / "x1")
     _run_folder(results / "converged" / "ladder" / "x1", "converged", 1.0, 30.0, seed=99)
     result = CliRunner().invoke(app, ["report", str(results)])

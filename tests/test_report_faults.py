@@ -721,6 +721,9 @@ def test_links_in_a_results_tree_are_not_followed(breakdown, tmp_path):
     shutil.copytree(breakdown, elsewhere / "breakdown_seed9")
     (results / "loop").symlink_to(results, target_is_directory=True)
     (results / "theirs").symlink_to(elsewhere, target_is_directory=True)
+    (tmp_path / "empty").mkdir()  # links the search would never have read a run through: not named
+    (results / ".cache").symlink_to(tmp_path / "empty", target_is_directory=True)
+    (results / "extra").symlink_to(tmp_path / "empty", target_is_directory=True)
     before = {p: p.read_bytes() for p in sorted(elsewhere.rglob("*")) if p.is_file()}
     assert run_folders(results) == [results / "breakdown"]
     result = runner.invoke(app, ["report", str(results)])

@@ -94,7 +94,8 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path],
                           if (p.parent / "config.yaml").is_file())
     stale, other = _check_runs(folders, results_dir)
     for ladder in ladders:  # its numbers beside its rungs' claims: both as the rungs give them now
-        check_ladder(ladder, read_ladder(ladder))
+        read_ladder(ladder)
+        check_ladder(ladder)
     for d in STAY_SWITCH_DIRS:  # the stay/switch studies' tables, read as a whole
         read_stay_switch(results_dir / d)
     for _, table in calibration_tables(results_dir):  # the calibration searches' tables and records

@@ -85,8 +85,9 @@ def run_folders(folder: Path, top: bool = True, links: list[Path] | None = None)
     passed over are added to `links`, where given, so that a run reached only through one is said
     to be left out."""
     out = []
-    if links is not None:
-        links += sorted((p for p in folder.iterdir() if p.is_symlink() and p.is_dir()), key=lambda p: natural(p.name))
+    if links is not None:  # a link the search would have entered, to a run or a folder of runs
+        links += sorted((p for p in folder.iterdir() if p.is_symlink() and p.is_dir() and not p.name.startswith(".")
+                         and p.name != "figures" and _holds_runs(p)), key=lambda p: natural(p.name))
     for d in sorted((p for p in folder.iterdir() if p.is_dir() and not p.is_symlink()),
                     key=lambda p: natural(p.name)):
         read_otherwise = top and (d.name in (*SWEEPS, READINGS_RUNS) or is_horizon_folder(d))
@@ -97,6 +98,14 @@ def run_folders(folder: Path, top: bool = True, links: list[Path] | None = None)
             continue
         out += [d] if is_run_folder(d) else run_folders(d, top=False, links=links)
     return out
+
+
+def _holds_runs(folder: Path) -> bool:
+    """Whether `folder` is a run's folder or holds one directly (looked into, never written)."""
+    try:
+        return is_run_folder(folder) or any(is_run_folder(d) for d in folder.iterdir() if d.is_dir())
+    except OSError:  # a folder that cannot be listed holds nothing the report could read
+        return False
 
 
 def finished_runs(results_dir: Path, links: list[Path] | None = None) -> tuple[dict[str, list[Path]], list[Path]]:
