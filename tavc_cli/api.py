@@ -253,7 +253,7 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     learners = list(CONTROLLERS if learners is None else learners)
     if experiments is None:
         experiments = scenarios()
-        files = config.experimentnames_of()
+        files = config.experiment_names()
         if missing := [name for name in experiments if name not in files]:
             raise TavcError(f"chapter: {missing[0]}'s registry entry says compare serves it, but no "
                             f"experiment/{missing[0]}.yaml is in tavc's configs or a --config-dir folder")

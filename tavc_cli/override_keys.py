@@ -1,8 +1,8 @@
 """Overrides read and written the one way every layer does: the key an override string names
 (the config package composing, the commands refusing keys they set themselves, the studies that
 run others' settings), and the override that sets a key to a value taken to the letter (a folder
-tavc derives from one the user named, whose name may hold the grammar's own characters). Like `notation`, it imports
-nothing of tavc's, so any layer may import it."""
+tavc derives from one the user named, whose name may hold the grammar's own characters). Like
+`notation`, it imports nothing of tavc's, so any layer may import it."""
 
 import re
 
