@@ -88,8 +88,9 @@ def _job_rows(index: int, values: Mapping[str, str], folder: Path, shown: str) -
 
 def checked_sweep(path: Path) -> pd.DataFrame:
     """A sweep's `sweep.csv`, once it is what its jobs' own tables give now (each job's folder beside
-    it, by the name the table gives it): one line where a job was run again since, or the table
-    edited. Its swept values as the table holds them, as text."""
+    it, by the name the table gives it, else where the table says the sweep put it; the swept
+    values compared as the text the table holds): one line where a job was run again since, its
+    folder is gone, or the table edited."""
     text = read_text(path, SUMMARY_LIMIT)
     table = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False)
     columns = list(table.columns)
