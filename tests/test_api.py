@@ -80,6 +80,10 @@ def test_errors_are_one_line(tmp_path):
                        (lambda: api.model(["scale=smoke"], config_dir=5), "config_dir: a folder's path, or a list")]:
         with pytest.raises(TavcError, match=f"^{re.escape(line)}"):
             call()
+    # every scenario by default, each known: the unknown learner is what is refused, before any run
+    with pytest.raises(TavcError, match="nobody"):
+        api.compare(["scale=smoke"], learners=["tavc", "nobody"], results_dir=tmp_path / "x")
+    assert not (tmp_path / "x").exists()
     # overrides given as any iterable of strings are all taken, a generator's too
     from tavc_cli.arguments import overrides_of
 

@@ -304,8 +304,7 @@ _BELOW = [
 @pytest.mark.parametrize(("below", "args"), _BELOW, ids=[b for b, _ in _BELOW])
 def test_a_link_where_tavc_names_a_folder_below_the_users_is_refused_not_followed(below, args, tmp_path, sibling):
     """The folder the user names may be a link (their choice); the folders tavc makes below it may
-    not: a link there, to a folder or dangling, is one line naming it, and nothing is written
-    where it leads."""
+    not: a link there is one line naming it, and nothing is written where it leads."""
     named = tmp_path / "named"
     (named / below).parent.mkdir(parents=True, exist_ok=True)
     (named / below).symlink_to(sibling, target_is_directory=True)
