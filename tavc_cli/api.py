@@ -179,7 +179,7 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
     from tavc_cli.pipeline import run_experiments
 
     names = names_of(experiments, "experiments")
-    factors_of(ladder)
+    ladder = factors_of(ladder)
     if results_dir is not None:
         path_of(results_dir, "results_dir")
     if results_dir is None:  # runs/<scale>: the ladder's scale is converged unless one is given

@@ -5,6 +5,7 @@ and a string where a list belongs is never taken a character at a time."""
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from numbers import Real
 from pathlib import Path
 
 from tavc_cli.errors import TavcError
@@ -31,11 +32,15 @@ def names_of(names: object, what: str) -> list[str] | None:
     return given
 
 
-def factors_of(factors: object) -> None:
-    """The horizon ladder's factors: None, or numbers (the ladder checks their values)."""
-    if factors is not None and (isinstance(factors, str) or not isinstance(factors, Iterable) or not all(
-            isinstance(f, int | float) and not isinstance(f, bool) for f in factors)):
+def factors_of(factors: object) -> list[float] | None:
+    """The horizon ladder's factors as a list (any iterable of real numbers, numpy's included), or
+    None (the ladder checks their values)."""
+    if factors is None:
+        return None
+    given = None if isinstance(factors, str | bytes) or not isinstance(factors, Iterable) else list(factors)
+    if given is None or not all(isinstance(f, Real) and not isinstance(f, bool) for f in given):
         raise TavcError(f"ladder: a list of multiples of the chapter's durations, e.g. [1, 4, 40], not {factors!r:.80}")
+    return [float(f) for f in given]
 
 
 def mapping_of(value: object, what: str) -> None:

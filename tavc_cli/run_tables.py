@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import io
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 import pandas as pd
@@ -51,19 +51,40 @@ def summary_text(table: pd.DataFrame) -> str:
     return table.to_csv(index=False, float_format="%.4f")
 
 
+def rung_folders(ladder_dir: Path, factors: Iterable[float]) -> dict[float, Path]:
+    """The rung of each of `factors` (as `ladder.csv` gives them, rounded to four places) among the
+    folders in `ladder_dir`: the one whose `config.yaml` holds that multiple of the chapter's
+    durations. Hidden folders (a user's copies) are passed over, as everywhere in a results tree."""
+    wanted = {f"{float(f):.4f}": float(f) for f in factors}
+    found: dict[float, Path] = {}
+    for d in sorted(ladder_dir.iterdir(), key=lambda p: p.name):
+        if d.name.startswith(".") or d.is_symlink() or not (d / "config.yaml").is_file():
+            continue
+        try:  # its settings as a run keeps them, or it is no rung of this table
+            factor = f"{float(from_yaml(d / 'config.yaml').scale.time_factor):.4f}"
+        except Exception:  # noqa: BLE001 - an unreadable config is the run checks' to name, where it is read
+            continue
+        if factor in wanted:
+            found.setdefault(wanted[factor], d)
+    return found
+
+
 def check_ladder(path: Path) -> None:
-    """One line where `ladder.csv` at `path` is not what the rungs beside it give now
-    (`ladder_table`, row for row at the factors it lists): a rung run again since would put its
-    claims beside another run's numbers. The claims' rows are left out: the report tests every
-    rung's claims again by today's rules, and reads them from the rungs."""
+    """One line where `ladder.csv` at `path` is not what its rungs (`rung_folders`) give now
+    (`ladder_table`, row for row): a rung run again since would put its claims beside another
+    run's numbers. The claims' rows are left out: the report tests every rung's claims again by
+    today's rules, on the rungs themselves."""
     stored = pd.read_csv(io.StringIO(read_text(path, SUMMARY_LIMIT)), dtype=str, keep_default_na=False)
-    rungs = sorted(d for d in path.parent.iterdir() if d.is_dir() and not d.is_symlink()
-                   and (d / "config.yaml").is_file())
-    fresh = pd.read_csv(io.StringIO(summary_text(ladder_table(rungs))), dtype=str, keep_default_na=False)
+    factors = sorted({float(f) for f in stored["factor"]})
+    rungs = rung_folders(path.parent, factors)
+    if missing := [f for f in factors if f not in rungs]:
+        raise TavcError(f"{path}: lists a rung at {missing[0]:g} times the chapter's durations that is not beside "
+                        "it; run its `tavc ladder` again to rewrite it")
+    fresh = pd.read_csv(io.StringIO(summary_text(ladder_table([rungs[f] for f in factors]))), dtype=str,
+                        keep_default_na=False)
 
     def compared(t: pd.DataFrame) -> pd.DataFrame:
-        kept = t["factor"].isin(set(stored["factor"])) & ~t["quantity"].str.startswith("claim")
-        return t[kept].reset_index(drop=True)
+        return t[~t["quantity"].str.startswith("claim")].reset_index(drop=True)
 
     if not compared(fresh).equals(compared(stored)):
         raise TavcError(f"{path}: not what its rungs give now (one of them run again since it was written?); "

@@ -34,8 +34,9 @@ def using_config_dirs(dirs: str | Path | Sequence[str | Path] | None, what: str 
         yield
         return
     folders = [dirs] if isinstance(dirs, (str, os.PathLike)) else list(dirs) if isinstance(dirs, Iterable) else [dirs]
-    if bad := next((d for d in folders if not isinstance(d, (str, os.PathLike))), None):
-        raise TavcError(f"{what}: a folder's path, or a list of them, not {bad!r:.80}")
+    bad = [d for d in folders if not isinstance(d, (str, os.PathLike))]
+    if bad:
+        raise TavcError(f"{what}: a folder's path, or a list of them, not {bad[0]!r:.80}")
     before = os.environ.get(CONFIG_DIRS_ENV)
     os.environ[CONFIG_DIRS_ENV] = extended_config_dirs(folders, what)
     try:

@@ -199,7 +199,19 @@ def test_a_ladder_table_that_is_not_what_its_rungs_give_now_is_refused(two_horiz
     ladder = results / "converged" / "ladder"
     _run_folder(ladder / "x0.123456", "converged", 0.123456, 20.0, seed=12)
     write_ladder(ladder, [ladder / "x0.123456", ladder / "x1", ladder / "x40"])
+    # a user's hidden copy of a rung and a rung the table does not list (one being run) are not its rungs
+    shutil.copytree(ladder / "x1", ladder / ".backup_x1")
+    (ladder / "x3").mkdir()
+    shutil.copy(ladder / "x1" / "config.yaml", ladder / "x3" / "config.yaml")
+    # the claims' rows are never read from the table: a verdict edited there is not the report's
+    text = (ladder / "ladder.csv").read_text()
+    duration = next(line.split(",")[1] for line in text.splitlines() if line.startswith("0.1235,"))
+    forged = [f"0.1235,{duration},tavc,claim3_p,0.0001,,0", f"0.1235,{duration},tavc,claim3_reproduced,1.0000,,0"]
+    (ladder / "ladder.csv").write_text(text + "\n".join(forged) + "\n")
     assert CliRunner().invoke(app, ["report", str(results)]).exit_code == 0
+    assert "(0.0001)" not in (results / "REPORT.md").read_text()
+    shutil.rmtree(ladder / "x3")
+    shutil.rmtree(ladder / ".backup_x1")
     shutil.rmtree(results / "converged" / "ladder" / "x1")
     _run_folder(results / "converged" / "ladder" / "x1", "converged", 1.0, 30.0, seed=99)
     result = CliRunner().invoke(app, ["report", str(results)])

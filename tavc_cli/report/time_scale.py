@@ -28,6 +28,7 @@ from tavc_cli.report.horizons import (
 )
 from tavc_cli.report.runs import LADDER
 from tavc_cli.report.text import fmt
+from tavc_cli.run_tables import rung_folders
 
 
 def time_scale_lines(results_dir: Path, horizons: list[Horizon], model_json: Path | None) -> list[str]:
@@ -194,7 +195,8 @@ def ladder_lines(results_dir: Path, h: Horizon) -> list[str]:
     factors = sorted(set(table["factor"]))
     # redrawn from ladder.csv with the report's figures (its bars cut at 0 and 100 %, n named)
     ladder_figure(table, h.folder / "figures" / "ladder")
-    deciding = {f: rung_claims(path.parent / f"x{f:g}") for f in factors}
+    rungs = rung_folders(path.parent, factors)
+    deciding = {f: rung_claims(rungs[f]) if f in rungs else None for f in factors}
     lines = ["### The horizon ladder", "",
              f"{STAY_EXPERIMENT} with the same seeds at several multiples of the chapter's 5 h (`tavc ladder`; "
              "each rung's trials are the first part of the longer rungs'). The learner-side measures are fixed in "
