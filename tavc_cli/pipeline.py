@@ -44,6 +44,24 @@ def run_experiment(cfg: TavcConfig, *, progress: bool = False) -> dict:
         return _finish(cfg, run, owned)
 
 
+def check_run_folder(cfg: TavcConfig, kind: str = RUN) -> tuple[Owned, list[str]]:
+    """What `take_run_folder` checks, writing nothing: the folder new, empty or tavc's, nothing of
+    anybody else's in the way, not another configuration's run unless ``overwrite``. Returns what
+    tavc owns there and how a run there differs from `cfg` (empty: none, or the same settings)."""
+    folder = Path(cfg.output_dir)
+    owned = take(folder, kind, run_files(), save=False)
+    unknown = recorded_config_problem(folder)
+    differ = [unknown] if unknown else (
+        config_differences(folder / "config.yaml", to_yaml(cfg)) if (folder / "config.yaml").is_file() else [])
+    if differ and not cfg.overwrite:
+        state = "a finished run" if (folder / "provenance.json").is_file() else "an unfinished run"
+        what = (f"whose {unknown}, so it may be of another configuration" if unknown else
+                f"of another configuration ({'; '.join(differ)})")
+        raise TavcError(f"output_dir: {folder} holds {state} {what}; add overwrite=true to replace it, or choose "
+                        "another output_dir")
+    return owned, differ
+
+
 def take_run_folder(cfg: TavcConfig, plan: RunPlan, kind: str = RUN) -> Owned:
     """Check that the run may write its folder (`ownership.take`: new, empty or tavc's, nothing
     of anybody else's in the way, not another configuration's run unless ``overwrite``) and
@@ -51,17 +69,8 @@ def take_run_folder(cfg: TavcConfig, plan: RunPlan, kind: str = RUN) -> Owned:
     run, the folder stops being a finished run (its `provenance.json` goes) before anything
     of the new one is written."""
     folder = Path(cfg.output_dir)
-    owned = take(folder, kind, run_files(), save=False)  # nothing written until every check has passed
+    owned, differ = check_run_folder(cfg, kind)
     text = to_yaml(cfg)
-    unknown = recorded_config_problem(folder)
-    differ = [unknown] if unknown else (
-        config_differences(folder / "config.yaml", text) if (folder / "config.yaml").is_file() else [])
-    if differ and not cfg.overwrite:
-        state = "a finished run" if (folder / "provenance.json").is_file() else "an unfinished run"
-        what = (f"whose {unknown}, so it may be of another configuration" if unknown else
-                f"of another configuration ({'; '.join(differ)})")
-        raise TavcError(f"output_dir: {folder} holds {state} {what}; add overwrite=true to replace it, or choose "
-                        "another output_dir")
     owned.wrote("config.yaml", PLAN_FILE)
     owned.remove_temporaries()
     if differ or _recorded_text(folder / "config.yaml") != text:

@@ -120,6 +120,11 @@ def test_a_surrogate_run_is_reported_as_such_and_never_in_the_simulators_place(t
     # a run in a folder of the user's keeps its measured tasks there, not in the scale's shared folder
     assert (tmp_path / "runs/smoke/breakdown_surrogate/tasks/task_times.csv").is_file()
     assert sorted(p.name for p in (tmp_path / "runs/smoke").iterdir()) == ["breakdown_surrogate"]
+    # another configuration into the same folder: refused before any task is measured, anywhere
+    other = runner.invoke(app, ["surrogate", "experiment=breakdown", "scale=smoke", "--no-progress", "seed=5",
+                                "surrogate.tasks_dir=elsewhere", "output_dir=runs/smoke/breakdown_surrogate"])
+    assert other.exit_code == 1 and "holds a finished run of another configuration" in other.output
+    assert not (tmp_path / "elsewhere").exists()
     alone = runner.invoke(app, ["report", "runs/smoke"])
     assert alone.exit_code == 0
     text = (tmp_path / "runs/smoke/REPORT.md").read_text()

@@ -24,8 +24,8 @@ from tavc_cli.experiments.runner import Run
 from tavc_cli.experiments.spec import code_digest
 from tavc_cli.experiments.store import Executor, TrialStore, _stored_key
 from tavc_cli.io import claim_folder, default_root, write_bytes_atomic, write_text_atomic
-from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_settings, run_files, take, trial_path
-from tavc_cli.pipeline import CAN_FORK, _finish, take_run_folder
+from tavc_cli.ownership import SURROGATE, TASKS, TASKS_FILES, refuse_other_settings, take, trial_path
+from tavc_cli.pipeline import CAN_FORK, _finish, check_run_folder, take_run_folder
 from tavc_cli.readers import TABLE_LIMIT, load_json, read_bounded
 from tavc_cli.settings import TavcConfig
 from tavc_cli.settings_studies import ALTERNATORS, EXPLORERS
@@ -268,8 +268,9 @@ def run_surrogate(cfg: TavcConfig, *, times: TaskTimes | None = None, progress: 
     surrogate_supports(cfg)
     folder = Path(cfg.output_dir)
     if times is None:
-        with claim_folder(folder):  # the run's folder checked before its tasks are measured, into it or elsewhere
-            take(folder, SURROGATE, run_files(), save=False)
+        if folder.exists() or folder.is_symlink():  # checked before its tasks are measured, into it or elsewhere
+            with claim_folder(folder):
+                check_run_folder(cfg, SURROGATE)
         times = measure_tasks(cfg, progress=progress, echo=echo)
     plan = plan_run(cfg)
     specs = surrogate_specs(cfg, times, plan)
