@@ -721,6 +721,8 @@ def test_links_in_a_results_tree_are_not_followed(breakdown, tmp_path):
     shutil.copytree(breakdown, elsewhere / "breakdown_seed9")
     (results / "loop").symlink_to(results, target_is_directory=True)
     (results / "theirs").symlink_to(elsewhere, target_is_directory=True)
+    shutil.copytree(breakdown, tmp_path / "deeper" / "set1" / "breakdown")
+    (results / "deep").symlink_to(tmp_path / "deeper", target_is_directory=True)  # a run two levels down
     (tmp_path / "empty").mkdir()  # links the search would never have read a run through: not named
     (results / ".cache").symlink_to(tmp_path / "empty", target_is_directory=True)
     (results / "extra").symlink_to(tmp_path / "empty", target_is_directory=True)
@@ -733,9 +735,9 @@ def test_links_in_a_results_tree_are_not_followed(breakdown, tmp_path):
     # each link is said to be left out, so that a run reached through one is not taken for a run not made
     said = "a symbolic link, which the report does not follow (it reads each run where it lies)"
     assert [line for line in result.output.splitlines() if line.startswith("left out")] == [
-        f"left out {results / 'loop'}: {said}", f"left out {results / 'theirs'}: {said}"]
+        f"left out {results / name}: {said}" for name in ("deep", "loop", "theirs")]
     report = (results / "REPORT.md").read_text()
-    assert all(f"| `{name}` | - | - | - | left out: {said} |" in report for name in ("loop", "theirs"))
+    assert all(f"| `{name}` | - | - | - | left out: {said} |" in report for name in ("deep", "loop", "theirs"))
 
 
 def test_a_hidden_folder_in_a_sweep_is_not_read(breakdown, tmp_path):

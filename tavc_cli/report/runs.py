@@ -82,8 +82,8 @@ def run_folders(folder: Path, top: bool = True, links: list[Path] | None = None)
     folder, `top`: the longer horizons, the sweeps (`files.SWEEPS`) and the runs in other readings of
     the world, `readings/`; a `ladder/` with its `ladder.csv`). A link is not followed: each run
     is found once, where it lies, and a link that loops back leads nowhere; the links to folders
-    passed over are added to `links`, where given, so that a run reached only through one is said
-    to be left out."""
+    passed over are added to `links`, where given (those that lead to a run within three levels),
+    so that a run reached only through one is said to be left out."""
     out = []
     if links is not None:  # a link the search would have entered, to a run or a folder of runs
         links += sorted((p for p in folder.iterdir() if p.is_symlink() and p.is_dir() and not p.name.startswith(".")
@@ -100,12 +100,16 @@ def run_folders(folder: Path, top: bool = True, links: list[Path] | None = None)
     return out
 
 
-def _holds_runs(folder: Path) -> bool:
-    """Whether `folder` is a run's folder or holds one directly (looked into, never written)."""
+def _holds_runs(folder: Path, depth: int = 3) -> bool:
+    """Whether `folder` is a run's folder or holds one within `depth` levels below it (looked into,
+    never written; no link below it followed)."""
+    if is_run_folder(folder):
+        return True
     try:
-        return is_run_folder(folder) or any(is_run_folder(d) for d in folder.iterdir() if d.is_dir())
+        below = [d for d in folder.iterdir() if d.is_dir() and not d.is_symlink()] if depth else []
     except OSError:  # a folder that cannot be listed holds nothing the report could read
         return False
+    return any(_holds_runs(d, depth - 1) for d in below)
 
 
 def finished_runs(results_dir: Path, links: list[Path] | None = None) -> tuple[dict[str, list[Path]], list[Path]]:
@@ -300,9 +304,8 @@ def run_list_lines(results_dir: Path, horizons: list) -> list[str]:
             rows += [(o, f"a section of its own, under {name}") for o in h.others.get(name, [])]
         rows += [(d, "left out: the run did not finish (no provenance.json)") for d in h.unfinished]
     linked: list[Path] = []
-    run_folders(results_dir, links=linked)
-    for h in horizons[1:]:
-        run_folders(h.folder, links=linked)
+    for top in (results_dir, *horizon_folders(results_dir)):  # every horizon's, as the report's own line
+        run_folders(top, links=linked)
     lines = ["## The runs in this folder", "",
              "Every run under this folder, and where this report uses it.", "",
              "| run | experiment | scale | trials | in this report |", "|---|---|---|---|---|"]
