@@ -20,7 +20,7 @@ from tavc_cli.ownership import read as read_owned
 from tavc_cli.readers import load_yaml, record_size
 from tavc_cli.run_checks import check_table, checked_plan, load_record, read_trial, run_facts
 from tavc_cli.run_provenance import keys_of, read_provenance
-from tavc_cli.run_tables import checked_sweep
+from tavc_cli.run_tables import checked_sweep, job_folder
 from tavc_cli.settings import from_yaml
 from tavc_cli.table_cells import damaged, unreadable
 
@@ -231,8 +231,8 @@ class Sweep:
     @property
     def jobs(self) -> dict[str, Results]:
         """Each job's results, by its folder's name (``0_learner.epsilon=0.05`` ...), in sweep order."""
-        names = list(dict.fromkeys(Path(str(folder)).name for folder in self.table["output_dir"]))
-        return {name: Results(self.path / name) for name in names}
+        recorded = list(dict.fromkeys(str(folder) for folder in self.table["output_dir"]))
+        return {Path(r).name: Results(job_folder(self.path / "sweep.csv", r)) for r in recorded}
 
 
 def load_sweep(path: str | Path) -> Sweep:

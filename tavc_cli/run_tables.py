@@ -107,6 +107,20 @@ def _job_rows(index: int, values: Mapping[str, str], folder: Path, shown: str) -
     return sweep.job_rows(index, values, shown, pd.read_csv(states), pd.read_csv(stats) if stats.is_file() else None)
 
 
+def job_folder(path: Path, recorded: str) -> Path:
+    """The folder of a job `sweep.csv` at `path` records as `recorded`: beside the table (wherever
+    the sweep now lies), else, for a sweep over output_dir whose jobs lie apart, the recorded path
+    (a relative one read from the table's folder or a folder above it, as the sweep was run from
+    one of them); one line where it is in none of these places."""
+    given = Path(recorded)
+    tried = [path.parent / given.name, *([given] if given.is_absolute() else
+                                         [a / given for a in (path.parent, *path.parent.parents)])]
+    found = next((folder for folder in tried if folder.is_dir()), None)
+    if found is None:
+        raise TavcError(f"{path}: a job's folder, {recorded}, is not there, nor beside it")
+    return found
+
+
 def checked_sweep(path: Path) -> pd.DataFrame:
     """A sweep's `sweep.csv`, once it is what its jobs' own tables give now (each job's folder beside
     it, by the name the table gives it, else where the table says the sweep put it; the swept
@@ -121,12 +135,8 @@ def checked_sweep(path: Path) -> pd.DataFrame:
     rows = []
     for job, group in table.groupby("job", sort=False):
         first = group.iloc[0]
-        folder = path.parent / Path(first["output_dir"]).name  # beside it, wherever the sweep now lies
-        if not folder.is_dir():  # a sweep over output_dir: its jobs lie where it put them
-            folder = Path(first["output_dir"])
-        if not folder.is_dir():
-            raise TavcError(f"{path}: job {job}'s folder {first['output_dir']} is not there, nor beside it")
-        rows += _job_rows(int(job), {c: first[c] for c in swept}, folder, first["output_dir"])
+        rows += _job_rows(int(job), {c: first[c] for c in swept}, job_folder(path, first["output_dir"]),
+                          first["output_dir"])
     if summary_text(pd.DataFrame(rows)) != text:
         raise TavcError(f"{path}: not what its jobs give now (one of them run again since it was written, or the "
                         "table edited); run the sweep again to rewrite it")

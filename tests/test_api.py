@@ -185,8 +185,11 @@ def test_a_sweep_over_output_dir_opens_with_its_jobs_where_it_put_them(tmp_path,
     monkeypatch.chdir(tmp_path)
     result = CliRunner().invoke(app, ["run", "-m", *SMOKE_SWEEP, "output_dir=a,b"])
     assert result.exit_code == 0, result.output
-    table = api.load_sweep(tmp_path / "a").table
-    assert sorted(table["job"].unique()) == [0, 1] and len(table) == 2 * len(table[table["job"] == 0])
+    monkeypatch.chdir(tmp_path / "a")  # read from another folder: the jobs are found all the same
+    sweep = api.load_sweep(tmp_path / "a")
+    assert sorted(sweep.table["job"].unique()) == [0, 1] and len(sweep.table) == 2 * len(sweep.table.query("job == 0"))
+    assert {name: job.path for name, job in sweep.jobs.items()} == {
+        "0_output_dir=a": tmp_path / "a" / "0_output_dir=a", "1_output_dir=b": tmp_path / "b" / "1_output_dir=b"}
 
 
 def test_results_say_in_their_data_whether_they_are_a_verdict(tmp_path):
