@@ -27,7 +27,7 @@ import pandas as pd
 
 from tavc_cli import config
 from tavc_cli.analysis import tasks_seen
-from tavc_cli.arguments import factors_of, folder_setting, mapping_of, names_of, overrides_of
+from tavc_cli.arguments import factors_of, folder_of, folder_setting, mapping_of, names_of, overrides_of
 from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
 from tavc_cli.errors import TavcError
@@ -180,8 +180,7 @@ def reproduce_summaries(overrides: Sequence[str] = (), *, experiments: Sequence[
 
     names = names_of(experiments, "experiments")
     ladder = factors_of(ladder)
-    if results_dir is not None:
-        path_of(results_dir, "results_dir")
+    folder_of(results_dir, "results_dir")
     if results_dir is None:  # runs/<scale>: the ladder's scale is converged unless one is given
         results_dir = config.results_root(overrides, None if names != [] else "converged")
     cfgs = config.load_experiments(names, list(overrides), results_dir) if names != [] else []
@@ -235,8 +234,7 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     doors), run and read by `compare.run.run_compare`; returns its summary."""
     overrides = overrides_of(overrides)
     learners, experiments = names_of(learners, "learners"), names_of(experiments, "experiments")
-    if results_dir is not None:
-        path_of(results_dir, "results_dir")
+    folder_of(results_dir, "results_dir")
     mapping_of(reuse, "reuse")
     # deferred: loads scipy
     from tavc_cli.compare.run import controller_overrides, run_compare

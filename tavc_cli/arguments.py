@@ -13,10 +13,19 @@ from tavc_cli.io import path_of, refuse_folder_problem
 from tavc_cli.override_keys import setting
 
 
+def _items(value: object, kinds: type | tuple[type, ...]) -> list | None:
+    """`value`'s items as a list where it is an iterable (never a string, which would be taken a
+    character at a time) of `kinds` only (never a bool for a number); else None."""
+    if isinstance(value, str | bytes) or not isinstance(value, Iterable):
+        return None
+    given = list(value)  # once: a generator is used up by reading it
+    return given if all(isinstance(v, kinds) and not isinstance(v, bool) for v in given) else None
+
+
 def overrides_of(overrides: object) -> list[str]:
     """The caller's overrides as a list of strings (any iterable of them)."""
-    given = None if isinstance(overrides, str | bytes) or not isinstance(overrides, Iterable) else list(overrides)
-    if given is None or not all(isinstance(o, str) for o in given):
+    given = _items(overrides, str)
+    if given is None:
         raise TavcError(f"overrides: a list of strings such as ['scale=smoke', 'seed=3'], not {overrides!r:.80}")
     return given
 
@@ -26,8 +35,8 @@ def names_of(names: object, what: str) -> list[str] | None:
     name)."""
     if names is None or isinstance(names, str):
         return None if names is None else [names]
-    given = list(names) if isinstance(names, Iterable) and not isinstance(names, bytes) else None
-    if given is None or not all(isinstance(n, str) for n in given):
+    given = _items(names, str)
+    if given is None:
         raise TavcError(f"{what}: a name or a list of names, not {names!r:.80}")
     return given
 
@@ -37,10 +46,16 @@ def factors_of(factors: object) -> list[float] | None:
     None (the ladder checks their values)."""
     if factors is None:
         return None
-    given = None if isinstance(factors, str | bytes) or not isinstance(factors, Iterable) else list(factors)
-    if given is None or not all(isinstance(f, Real) and not isinstance(f, bool) for f in given):
+    given = _items(factors, Real)
+    if given is None:
         raise TavcError(f"ladder: a list of multiples of the chapter's durations, e.g. [1, 4, 40], not {factors!r:.80}")
     return [float(f) for f in given]
+
+
+def folder_of(value: object, what: str) -> None:
+    """A folder the caller gives, or None: one line where it is no path (`io.path_of`)."""
+    if value is not None:
+        path_of(value, what)
 
 
 def mapping_of(value: object, what: str) -> None:

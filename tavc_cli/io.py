@@ -38,11 +38,6 @@ def path_of(value: object, what: str) -> Path:
     return Path(value)
 
 
-def ladder_folder(results_dir: str | Path, factor: float) -> Path:
-    """Where a rung of the horizon ladder goes: ``<results_dir>/ladder/x<factor>``."""
-    return Path(results_dir) / "ladder" / f"x{factor:g}"
-
-
 def plain_name(name: str) -> bool:
     """Whether `name` names one folder in the folder it is read in (a scale's, an experiment's):
     never empty, never a path that leads elsewhere, no space at either end."""

@@ -17,6 +17,7 @@ from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import Owned
+from tavc_cli.run_checks import check_table, run_facts
 from tavc_cli.settings import TavcConfig
 
 
@@ -58,9 +59,6 @@ def _other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, pd.DataFrame
     finished there, checked as the report checks it (`run_checks.check_table`: a table edited or
     cut is one line naming it); of one still being made beside it, by the same `tavc reproduce`,
     as it stands."""
-    # deferred: run_checks reads the runs' settings, which a run's own analysis never needs
-    from tavc_cli.run_checks import check_table, run_facts
-
     others = {}
     for other, path in other_experiments(cfg, out_dir).items():
         if not path.is_file():

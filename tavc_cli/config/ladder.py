@@ -10,7 +10,7 @@ from omegaconf import DictConfig
 from tavc_cli.chapter import base_case
 from tavc_cli.config.loading import load_config, results_root
 from tavc_cli.errors import TavcError
-from tavc_cli.io import ladder_folder, owned_path, refuse_folder_problem
+from tavc_cli.io import owned_path, refuse_folder_problem
 from tavc_cli.override_keys import setting, setting_key
 
 LADDER_EXPERIMENT = base_case().name
@@ -25,6 +25,11 @@ def parse_factors(text: str | None) -> list[float] | None:
     except ValueError:
         raise TavcError(f"ladder factors: {text!r} is not a comma-separated list of numbers, "
                         "e.g. 1,4,10,20,40") from None
+
+
+def ladder_folder(results_dir: str | Path, factor: float) -> Path:
+    """Where a rung of the horizon ladder goes: ``<results_dir>/ladder/x<factor>``."""
+    return Path(results_dir) / "ladder" / f"x{factor:g}"
 
 
 def load_ladder(factors: Sequence[float], overrides: Sequence[str] = (),

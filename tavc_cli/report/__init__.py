@@ -240,7 +240,7 @@ def _build(results_dir: Path, say: Callable[[str], None], page: bool, start: flo
         list_figures(taken)
         raise
     lines += chapter_check_lines()
-    lines += ["", *run_list_lines(results_dir, every)]
+    lines += ["", *run_list_lines(results_dir, every, links)]
     lines += gaps_lines()
     write_text_atomic(results_dir / "claims.csv", claims.to_csv(index=False, float_format="%.6g"))
     for h in longer:

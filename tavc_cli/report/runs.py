@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import pandas as pd
@@ -292,20 +293,18 @@ def other_code_lines(other: dict[Path, str], results_dir: Path) -> list[str]:
             "tavc, computes them anew (a trial is reused only under its key, which holds the code's digest).", ""]
 
 
-def run_list_lines(results_dir: Path, horizons: list) -> list[str]:
+def run_list_lines(results_dir: Path, horizons: list, linked: Sequence[Path] = ()) -> list[str]:
     """*The runs in this folder*: every run folder under results_dir, finished or not, with
     its experiment, scale and trials, and where the report uses it: the run a claim is tested
     on, a section of its own, a study read as a whole, or left out (and why). `horizons` are
-    the report's (`horizons.Horizon`), the chapter's durations first."""
+    the report's (`horizons.Horizon`), the chapter's durations first; `linked`, the links to
+    folders of runs its search passed over (`finished_runs`)."""
     rows = []
     for h in horizons:
         for name, d in h.experiments.items():
             rows.append((d, f"the claims about {name} {h.named} are tested on it"))
             rows += [(o, f"a section of its own, under {name}") for o in h.others.get(name, [])]
         rows += [(d, "left out: the run did not finish (no provenance.json)") for d in h.unfinished]
-    linked: list[Path] = []
-    for top in (results_dir, *horizon_folders(results_dir)):  # every horizon's, as the report's own line
-        run_folders(top, links=linked)
     lines = ["## The runs in this folder", "",
              "Every run under this folder, and where this report uses it.", "",
              "| run | experiment | scale | trials | in this report |", "|---|---|---|---|---|"]
