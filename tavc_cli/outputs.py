@@ -10,14 +10,15 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli.analysis.comparison import experiment_comparison
-from tavc_cli.analysis.experiment import analyse, experiment_claims
+from tavc_cli.analysis.experiment import analyse, experiment_claims, unlike_settings
 from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.chapter import claims
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import Owned
-from tavc_cli.run_checks import check_table, run_facts
+from tavc_cli.run_checks import check_table, read_config, run_facts
 from tavc_cli.settings import TavcConfig
 
 
@@ -53,19 +54,28 @@ def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[
     return tables, claims
 
 
-def _other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, pd.DataFrame]:
+def _other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, pd.DataFrame | str]:
     """The `trial_stats.csv` of each other experiment of the chapter's claims beside this run's
     folder, where there is one (claim 7 compares breakdown_no_vacancy with breakdown): of a run that
     finished there, checked as the report checks it (`run_checks.check_table`: a table edited or
     cut is one line naming it); of one still being made beside it, by the same `tavc reproduce`,
-    as it stands."""
-    others = {}
+    as it stands. In its place, for a run made with other settings than this one's, those
+    settings (`unlike_settings`): its trials are no comparison for this run's."""
+    others: dict[str, pd.DataFrame | str] = {}
     for other, path in other_experiments(cfg, out_dir).items():
         if not path.is_file():
             continue
         if (path.parent / "provenance.json").is_file():
-            check_table(path, run_facts(path.parent))
-        others[other] = pd.read_csv(path)
+            facts = run_facts(path.parent)
+            check_table(path, facts)
+            theirs = facts.cfg
+        else:
+            try:
+                theirs = read_config(path.parent / "config.yaml")
+            except TavcError:  # being written, or not a run's: nothing to compare with
+                others[other] = "its config.yaml unreadable"
+                continue
+        others[other] = unlike_settings(cfg, theirs) or pd.read_csv(path)
     return others
 
 

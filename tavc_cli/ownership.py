@@ -32,6 +32,7 @@ from pathlib import Path
 import yaml
 
 from tavc_cli.analysis.table_schemas import TABLE_NAMES
+from tavc_cli.dotted import dotted
 from tavc_cli.errors import TavcError
 from tavc_cli.io import LOCK_NAME, owned_path, refuse_folder_problem, write_text_atomic
 from tavc_cli.readers import load_json, load_yaml
@@ -300,7 +301,7 @@ def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3, ignore: It
     except (OSError, UnicodeDecodeError, yaml.YAMLError, TavcError):
         return [f"{Path(old_yaml).name} unreadable"]
     new = yaml.safe_load(new_yaml)
-    a, b = _flat(old if isinstance(old, dict) else {}), _flat(new)
+    a, b = dotted(old if isinstance(old, dict) else {}), dotted(new)
     ignore = set(ignore)
     keys = sorted(k for k in set(a) & set(b)
                   if a[k] != b[k] and k.split(".")[0] not in _NOT_RESULTS and k not in ignore)
@@ -320,7 +321,7 @@ def recorded_differences(record: Path, new: dict, limit: int = 3) -> list[str]:
         old = load_json(record)
     except (OSError, ValueError, TavcError):
         return [f"{record.name} unreadable"]
-    a, b = _flat(old if isinstance(old, dict) else {}), _flat(json.loads(json.dumps(new)))
+    a, b = dotted(old if isinstance(old, dict) else {}), dotted(json.loads(json.dumps(new)))
     keys = sorted(k for k in set(a) & set(b) if a[k] != b[k])
     shown = [f"{k}: {a[k]} -> {b[k]}" for k in keys[:limit]]
     return [*shown, f"{len(keys) - limit} more"] if len(keys) > limit else shown
@@ -333,15 +334,6 @@ def refuse_other_settings(record: Path, new: dict, what: str, overwrite: bool, *
     differ = recorded_differences(record, new)
     if differ and not overwrite:
         raise TavcError(f"{what}: {record} was made with other settings ({'; '.join(differ)}); {allow}")
-
-
-def _flat(tree, prefix: str = "") -> dict[str, object]:
-    if isinstance(tree, dict):
-        out: dict[str, object] = {}
-        for key, value in tree.items():
-            out.update(_flat(value, f"{prefix}{key}."))
-        return out or {prefix.rstrip("."): {}}
-    return {prefix.rstrip("."): tree}
 
 
 def take_report_folders(results_dir: Path, horizon_dirs: Sequence[Path] = (), page: bool = False) -> list:

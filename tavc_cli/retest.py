@@ -32,7 +32,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli import __version__, ownership
-from tavc_cli.analysis.experiment import experiment_claims
+from tavc_cli.analysis.experiment import experiment_claims, unlike_settings
 from tavc_cli.chapter import claims
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import read_plan
@@ -133,24 +133,26 @@ def _pending(folder: Path) -> set[str]:
         return set()
 
 
-def _finished_others(cfg: TavcConfig, folder: Path, read_config) -> dict[str, pd.DataFrame] | None:
+def _finished_others(cfg: TavcConfig, folder: Path, read_config) -> dict[str, pd.DataFrame | str] | None:
     """The `trial_stats.csv` of the runs beside `folder` its claims compare it with (`Claim.against`:
     claims 7 and 8), where `tavc run` reads them (`outputs.other_experiments`), each from a finished
     run that checks out. None where such a run's folder is there but the run did not finish (no
     `provenance.json` or `trial_stats.csv`: being run again, say) or its table does not check out
     (`run_checks.check_table`): the claims cannot be tested as a run would test them now. A folder
-    that is not there is a run not made, as `tavc run` takes it."""
-    others = {}
+    that is not there is a run not made, as `tavc run` takes it; a run made with other settings
+    than this one's gives those settings in its table's place (`unlike_settings`), as it does there."""
+    others: dict[str, pd.DataFrame | str] = {}
     for name, path in other_experiments(cfg, folder).items():
         if not (path.parent.exists() or path.parent.is_symlink()):
             continue
         if not (path.parent / PROVENANCE).is_file() or not path.is_file():
             return None
         try:  # the table the claims read, as that run wrote it (its digest, columns, trials, states)
-            check_table(path, run_facts(path.parent, read_config))
+            facts = run_facts(path.parent, read_config)
+            check_table(path, facts)
         except TavcError:
             return None
-        others[name] = pd.read_csv(path)
+        others[name] = unlike_settings(cfg, facts.cfg) or pd.read_csv(path)
     return others
 
 

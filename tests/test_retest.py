@@ -387,3 +387,38 @@ def test_a_run_tests_its_claims_against_the_run_beside_it_only_as_that_run_wrote
     shutil.copytree(run, results / "heterogeneous")
     breakdown = config.settings(config.load_config(["experiment=breakdown", "scale=smoke"]))
     assert _other_experiments(breakdown, run) == {}
+
+
+def test_a_run_beside_made_with_other_settings_is_no_comparison_for_claims_7_and_8(one_run, tmp_path):
+    """Claim 7 sets breakdown_no_vacancy's trials beside breakdown's, claim 8 value_change's: only
+    where the two ran in the same world, team, learner, tasks and horizon. A run beside of a faster
+    robot is named in the claim's parts in place of a comparison, by `tavc run` and by the report's
+    retest alike; another seed is another sample of the same, compared."""
+    from tavc_cli import config
+    from tavc_cli.analysis.claim_rules import claim_7, claim_8, unlike_run
+    from tavc_cli.outputs import _other_experiments
+
+    results, run = _copy(one_run, tmp_path)
+    beside = results / "breakdown_no_vacancy"
+
+    def settings(*overrides):
+        return config.settings(config.load_config(["experiment=breakdown_no_vacancy", "scale=smoke", *overrides]))
+
+    faster = settings("robot.speed_mps=0.3")
+    # the run beside's value, then this one's; each robot of the team takes the robot's speed
+    why = "robot.speed_mps 0.25 (this run: 0.3); team.members (other values)"
+    assert _other_experiments(faster, beside) == {"breakdown": why}
+    assert R._finished_others(faster, beside, from_yaml) == {"breakdown": why}
+    assert _other_experiments(settings("seed=5"), beside)["breakdown"].equals(pd.read_csv(run / "trial_stats.csv"))
+    assert _other_experiments(settings("scale=quick"), beside) == {  # conf/scale/: smoke 0.02, quick 0.25
+        "breakdown": "scale.baseline_time_factor 0.02 (this run: 0.25); scale.time_factor 0.02 (this run: 0.25)"}
+
+    stats = pd.read_csv(run / "trial_stats.csv")
+    for rule, own in ((claim_7, "breakdown_no_vacancy"), (claim_8, "value_change")):
+        texts = [p.text() for p in rule({own: stats, "breakdown": unlike_run(why)})]
+        compared = [t for t in texts if "against breakdown's" in t or "the same as breakdown's" in t]
+        assert compared and all(f"breakdown beside it ran with other settings ({why})" in t for t in compared), texts
+
+    (run / "provenance.json").unlink()  # being made again beside it: its settings must be read to compare
+    (run / "config.yaml").write_text("seed: [\n")
+    assert _other_experiments(faster, beside) == {"breakdown": "its config.yaml unreadable"}

@@ -121,10 +121,26 @@ def _run(runs: Mapping[str, pd.DataFrame], claim_id: int, table: str | None = No
     return name, runs.get(name if table is None else f"{name}/{table}")
 
 
-def _against(runs: Mapping[str, pd.DataFrame], claim_id: int) -> tuple[str, pd.DataFrame | None]:
-    """The experiment claim `claim_id` compares its own with (`Claim.against`), and its run."""
+def _against(runs: Mapping[str, pd.DataFrame], claim_id: int) -> tuple[str, pd.DataFrame | None, str]:
+    """The experiment claim `claim_id` compares its own with (`Claim.against`), its run (None where
+    there is none to compare with) and, for that case, why: not run, or run with other settings
+    (`unlike_run`)."""
     other = chapter.claim(claim_id)[1].against
-    return other, runs.get(other)
+    b = runs.get(other)
+    if b is not None and b.attrs.get(UNLIKE):
+        return other, None, f"{other} beside it ran with other settings ({b.attrs[UNLIKE]})"
+    return other, b, f"{other} not run"
+
+
+UNLIKE = "unlike"  # the attrs key of `unlike_run`'s stand-in
+
+
+def unlike_run(why: str) -> pd.DataFrame:
+    """What stands in a claim's `runs` for the run of the experiment it compares with, where that
+    run was made with other settings than this one's (`why` names them): no trials to compare."""
+    frame = pd.DataFrame()
+    frame.attrs[UNLIKE] = why
+    return frame
 
 
 def claim_3(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
@@ -192,11 +208,11 @@ def claim_7(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
     if s is None:
         return [_missing(f"{name} not run")]
     tavc, rnd = _ctrl(s, learner), _ctrl(s, "random")
-    other, b = _against(runs, 7)
+    other, b, absent = _against(runs, 7)
     bt = _ctrl(b, learner) if b is not None else None
     parts = []
     if bt is None:
-        parts.append(_missing(f"distribution against {other}'s: {other} not run"))
+        parts.append(_missing(f"distribution against {other}'s: {absent}"))
     else:
         parts.append(all_equivalent(f"{who(learner)}'s share of each state, the same as {other}'s (%)",
                                     [(st, _share(tavc, st), _share(bt, st)) for st in states_of(s)],
@@ -206,7 +222,7 @@ def claim_7(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
     parts.append(greater(f"score per second, {who(learner)} above random", tavc["value_rate_stable"],
                          rnd["value_rate_stable"]))
     if bt is None:
-        parts.append(_missing(f"stable-period score per second against {other}'s: {other} not run"))
+        parts.append(_missing(f"stable-period score per second against {other}'s: {absent}"))
     else:
         parts.append(equivalent(f"{who(learner)} score per second in the stable period, the same as {other}'s",
                                 tavc["value_rate_stable"], bt["value_rate_stable"], PERFORMANCE_MARGIN,
@@ -224,11 +240,11 @@ def claim_8(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
     if s is None:
         return [_missing(f"{name} not run")]
     tavc, rnd = _ctrl(s, learner), _ctrl(s, "random")
-    other, b = _against(runs, 8)
+    other, b, absent = _against(runs, 8)
     parts = []
     for st in ("3:2", "4:1"):
         if b is None:
-            parts.append(_missing(f"time in {st} against {other}'s: {other} not run"))
+            parts.append(_missing(f"time in {st} against {other}'s: {absent}"))
         else:
             parts.append(greater(f"time in {st}, {who(learner)} above {other}'s (%)", _share(tavc, st),
                                  _share(_ctrl(b, learner), st)))

@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import pandas as pd
+import yaml
 
 from tavc_cli.analysis import spatiotemporal as st
 from tavc_cli.analysis.convergence import convergence_table
@@ -17,10 +18,11 @@ from tavc_cli.analysis.robots import robot_table
 from tavc_cli.analysis.states import allocation_table, specialisation_table, state_time_table
 from tavc_cli.analysis.trial_stats import stable_from, trial_stats
 from tavc_cli.analysis.vacancy import vacancy_table
+from tavc_cli.dotted import dotted
 from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.learning.parameters import CHAPTER_GAMMA
-from tavc_cli.settings import TavcConfig
+from tavc_cli.settings import TavcConfig, to_yaml
 
 
 def analyse(cfg: TavcConfig, plan: RunPlan, records: list[TrialRecord]) -> dict[str, pd.DataFrame]:
@@ -91,16 +93,49 @@ def spatiotemporal_tables(cfg: TavcConfig, records: list[TrialRecord]) -> dict[s
 
 
 def experiment_claims(cfg: TavcConfig, plan: RunPlan, tables: Mapping[str, pd.DataFrame],
-                      others: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+                      others: Mapping[str, pd.DataFrame | str]) -> pd.DataFrame:
     """The chapter's claims about this experiment, tested on its trials (and, where a claim
-    compares two experiments, on the other's `trial_stats` in `others`, by experiment name); the
-    claims about learning on the trials of the run's learner, the first controller of its `plan`."""
+    compares two experiments, on the other's `trial_stats` in `others`, by experiment name, or
+    not where `others` holds, in its place, the settings in which that run differs from this one:
+    `unlike_settings`); the claims about learning on the trials of the run's learner, the first
+    controller of its `plan`."""
     # deferred: loads scipy
+    from tavc_cli.analysis.claim_rules import unlike_run
     from tavc_cli.analysis.claims import CLAIM_TABLES, claim_rows, learner_under_test
 
     name = str(cfg.experiment_name or "")
     runs = {name: tables["trial_stats"]}
     runs.update({f"{name}/{t}": tables[t] for t in CLAIM_TABLES if t in tables})
-    runs.update({other: table for other, table in others.items() if other != name})
+    runs.update({other: unlike_run(table) if isinstance(table, str) else table
+                 for other, table in others.items() if other != name})
     # the claims about learning test this run's own learner (TAVC's runs: TAVC)
     return claim_rows(runs, only_experiment=name, learner=learner_under_test([plan.controllers[0].label]))
+
+
+# What claims 7 and 8 (`Claim.against`) take to be alike in the runs of the two experiments they
+# compare: the world, the team, the learner, the tasks, the horizon and the simulation's step. The
+# rest is each experiment's own (its events, durations, warm-up, baselines) or draws other samples
+# of the same (the seed, the trial counts).
+ALIKE = ("arena", "robot", "team", "learner", "tasks", "scale.time_factor", "scale.deliveries_factor",
+         "scale.baseline_time_factor", "scale.stable_window", "sim.dt_s", "sim.physics_substeps",
+         "sim.solver_iterations", "analysis.state")
+
+
+def unlike_settings(cfg: TavcConfig, other: TavcConfig, limit: int = 3) -> str:
+    """The settings of `ALIKE` in which the run of `other` differs from this one's (`cfg`), each as
+    ``key value (this run: value)`` (a long value, such as a list of targets, as ``key (other
+    values)``), at most `limit` of them and then how many more; "" where there are none: the two
+    runs may be compared."""
+    ours, theirs = (dotted(yaml.safe_load(to_yaml(c))) for c in (cfg, other))
+    keys = [k for k in sorted({*ours, *theirs}) if any(k == a or k.startswith(f"{a}.") for a in ALIKE)
+            and ours.get(k) != theirs.get(k)]
+    shown = [_difference(k, theirs.get(k, "not set"), ours.get(k, "not set")) for k in keys[:limit]]
+    return "; ".join([*shown, *([f"{len(keys) - limit} more"] if len(keys) > limit else [])])
+
+
+def _difference(key: str, theirs, ours) -> str:
+    """One setting in which two runs differ, as `unlike_settings` names it."""
+    if max(len(str(theirs)), len(str(ours))) > 24:
+        return f"{key} (other values)"
+    return f"{key} {theirs} (this run: {ours})"
+

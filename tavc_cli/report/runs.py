@@ -21,6 +21,7 @@ import yaml
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.chapter import order_key, state_table_id
+from tavc_cli.dotted import dotted
 from tavc_cli.ownership import (
     CALIBRATION,
     COMPARE,
@@ -215,17 +216,7 @@ def _settings(d: Path) -> dict:
     """Run `d`'s settings as today's tavc reads its config.yaml (`from_yaml`: a record written
     before a key existed reads with its default, and its learner's node as the learner declares
     it), as dotted keys."""
-    return _flat(yaml.safe_load(to_yaml(config_of(d / "config.yaml"))))
-
-
-def _flat(data, prefix: str = "") -> dict:
-    """A nested mapping as dotted keys (lists stay whole: `tasks.values`)."""
-    if not isinstance(data, dict):
-        return {prefix.rstrip("."): data}
-    out: dict = {}
-    for key, value in data.items():
-        out.update(_flat(value, f"{prefix}{key}.") if isinstance(value, dict) else {f"{prefix}{key}": value})
-    return out
+    return dotted(yaml.safe_load(to_yaml(config_of(d / "config.yaml"))))
 
 
 def _show(value) -> str:

@@ -1,0 +1,17 @@
+"""Settings as dotted keys (`robot.dock.dwell_s`), the one form in which tavc compares two
+configurations: a run's against the one already in its folder, a run's against the runs its
+claims compare it with, a run's against the one its report sets beside it. Like `vocabulary`, it
+imports nothing of tavc's, so any layer may use it."""
+
+from __future__ import annotations
+
+
+def dotted(tree, prefix: str = "") -> dict[str, object]:
+    """A nested mapping as ``{dotted key: value}``; lists stay whole (`tasks.values`), and an empty
+    mapping is a value of its own (so that ``{}`` and ``{"x": 1}`` differ at a key)."""
+    if isinstance(tree, dict):
+        out: dict[str, object] = {}
+        for key, value in tree.items():
+            out.update(dotted(value, f"{prefix}{key}."))
+        return out or {prefix.rstrip("."): {}}
+    return {prefix.rstrip("."): tree}
