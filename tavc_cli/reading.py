@@ -118,8 +118,9 @@ class Results:
         of other settings or code, which resuming the run computes anew, is left out; a learner
         from outside tavc, or the surrogate, gives keys its folder does not keep, and every
         planned trial's file is taken as it is; a file that cannot be read is left out too). Records
-        that declare more arrays together than this machine has memory are refused before any is
-        read."""
+        that declare more arrays together than this machine has memory are refused: of a finished
+        run before any is read; of one that did not finish, whose files are known to be its own
+        only once read, as soon as those it keeps and the next would."""
         if not (self.path / "provenance.json").is_file():
             return self._finished_so_far(controller)
         listed = sorted(read_provenance(self.path / "provenance.json")["trials"], key=lambda t: t["file"])
@@ -149,10 +150,11 @@ class Results:
             raise TavcError(f"{self.path}: no trials of {controller} to read")
         planned = {trial_path(self.path, c.label, j): (c.label, j) for c in plan.controllers
                    for j in range(c.trials) if controller in (None, c.label)}
-        files = [f for f in present if f in planned]
-        _check_memory(self.path, files, controller)
-        records = []
-        for path in files:
+        memory, held, records = physical_memory(), 0, []
+        for path in (f for f in present if f in planned):
+            size = _declared(path)
+            if held + size > memory:  # counting only the records kept: one of other settings is not
+                _refuse_memory(self.path, len(records) + 1, held + size, memory, controller)
             try:
                 record = load_record(path)
             except TavcError:  # damaged, or of an earlier version's format: resuming the run computes it anew
@@ -161,6 +163,7 @@ class Results:
             if (record.meta.get("controller"), record.meta.get("trial")) == trial and (
                     keys is None or record.meta.get("key") == keys[trial]):
                 records.append(record)
+                held += size
         if not records:
             raise TavcError(f"{self.path}: no trial of its run has finished yet"
                             + (f" for {controller}" if controller is not None else ""))
@@ -186,21 +189,28 @@ _NO_RECORDS = "{}: no trial records in trials/ (tables only: rerun with tavc run
 
 def _check_memory(folder: Path, files: list[Path], controller: str | None) -> None:
     """Refuse records whose arrays, as their archives declare them, would not fit in this
-    machine's memory together (a file that cannot be read counts for nothing here: reading it is
-    `load_record`'s to refuse)."""
-    sizes = []
-    for path in files:
-        try:
-            sizes.append(record_size(path))
-        except Exception:  # noqa: BLE001 - missing or damaged: `load_record` names it
-            sizes.append(0)
-    memory = physical_memory()
-    if sum(sizes) > memory:
-        advice = ("read one controller's at a time (records(controller), events(kind, controller))"
-                  if controller is None else "read them on a machine with more")
-        raise TavcError(f"{folder}: its {len(files)} trial records{'' if controller is None else ' of ' + controller} "
-                        f"declare {sum(sizes) / 2**30:,.1f} GiB of arrays, more than this machine's "
-                        f"{memory / 2**30:,.1f} GiB of memory; {advice}")
+    machine's memory together."""
+    total = sum(_declared(path) for path in files)
+    if total > physical_memory():
+        _refuse_memory(folder, len(files), total, physical_memory(), controller)
+
+
+def _declared(path: Path) -> int:
+    """Bytes of arrays the record at `path` declares (`readers.record_size`); a file that cannot
+    be read counts for nothing here: reading it is `load_record`'s to refuse."""
+    try:
+        return record_size(path)
+    except Exception:  # noqa: BLE001 - missing or damaged: `load_record` names it
+        return 0
+
+
+def _refuse_memory(folder: Path, count: int, total: int, memory: float, controller: str | None) -> None:
+    """One line: `count` of `folder`'s records declare `total` bytes of arrays, more than `memory`."""
+    advice = ("read one controller's at a time (records(controller), events(kind, controller))"
+              if controller is None else "read them on a machine with more")
+    raise TavcError(f"{folder}: its {count} trial records{'' if controller is None else ' of ' + controller} "
+                    f"declare {total / 2**30:,.1f} GiB of arrays, more than this machine's "
+                    f"{memory / 2**30:,.1f} GiB of memory; {advice}")
 
 
 def load(path: str | Path) -> Results:

@@ -212,6 +212,30 @@ def test_records_that_would_not_fit_in_memory_together_are_refused_before_any_is
         api.load(folder).records("static")
 
 
+def test_a_run_that_did_not_finish_is_held_to_memory_by_the_records_it_keeps(seed3, tmp_path, monkeypatch):
+    """Of a run stopped before its end, a record in trials/ of other settings is left out, so it
+    does not count against this machine's memory: with 1 GiB declared by each of two records and
+    1.5 GiB of memory, random's of another key is read and dropped, TAVC's kept; with both this
+    run's own, the second is refused in one line."""
+    folder = tmp_path / "breakdown"
+    shutil.copytree(seed3, folder)
+    (folder / "provenance.json").unlink()
+    monkeypatch.setattr(reading, "record_size", lambda path: 1 << 30)
+    monkeypatch.setattr(reading, "physical_memory", lambda: 1.5 * 2**30)
+    with pytest.raises(TavcError) as info:
+        api.load(folder).records()
+    assert str(info.value) == (f"{folder}: its 2 trial records declare 2.0 GiB of arrays, more than this machine's "
+                               "1.5 GiB of memory; read one controller's at a time (records(controller), events(kind, "
+                               "controller))")
+    keys = reading.keys_of
+
+    def random_of_other_settings(cfg, plan):
+        return {**keys(cfg, plan), ("random", 0): "another"}
+
+    monkeypatch.setattr(reading, "keys_of", random_of_other_settings)
+    assert [r.meta["controller"] for r in api.load(folder).records()] == ["tavc"]
+
+
 def test_a_record_provenance_lists_but_missing_is_named(seed3, tmp_path):
     folder = tmp_path / "breakdown"
     shutil.copytree(seed3, folder)
