@@ -6,12 +6,13 @@ imports nothing of tavc's, so any layer may use it."""
 from __future__ import annotations
 
 
-def dotted(tree, prefix: str = "") -> dict[str, object]:
-    """A nested mapping as ``{dotted key: value}``; lists stay whole (`tasks.values`), and an empty
-    mapping is a value of its own (so that ``{}`` and ``{"x": 1}`` differ at a key)."""
+def dotted(tree, prefix: str = "", keep_empty: bool = True) -> dict[str, object]:
+    """A nested mapping as ``{dotted key: value}``; lists stay whole (`tasks.values`). An empty
+    mapping is a value of its own where `keep_empty` (so that ``{}`` and ``None`` differ at a key),
+    else it gives no key (so that ``{}`` and ``{"x": 1}`` differ at ``x`` alone)."""
     if isinstance(tree, dict):
         out: dict[str, object] = {}
         for key, value in tree.items():
-            out.update(dotted(value, f"{prefix}{key}."))
-        return out or {prefix.rstrip("."): {}}
+            out.update(dotted(value, f"{prefix}{key}.", keep_empty))
+        return out or ({prefix.rstrip("."): {}} if keep_empty else {})
     return {prefix.rstrip("."): tree}

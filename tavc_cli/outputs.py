@@ -5,29 +5,30 @@ module of a run's analysis that touches files)."""
 from __future__ import annotations
 
 import io
+from collections.abc import Mapping
 from pathlib import Path
 
 import pandas as pd
 
 from tavc_cli.analysis.comparison import experiment_comparison
-from tavc_cli.analysis.experiment import analyse, experiment_claims, unlike_settings
+from tavc_cli.analysis.experiment import analyse, experiment_claims, unlike
 from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.chapter import claims
-from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import RunPlan
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import write_text_atomic
 from tavc_cli.ownership import Owned
-from tavc_cli.run_checks import check_table, read_config, run_facts
+from tavc_cli.run_checks import check_table, run_facts
 from tavc_cli.settings import TavcConfig
 
 
-def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[TrialRecord],
+def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[TrialRecord], made_by: Mapping,
                    owned: Owned | None = None) -> tuple[dict[str, pd.DataFrame], pd.DataFrame]:
     """Compute and write (atomically) every table, the comparison with the chapter and the
     claims, and remove the tables of an earlier run in the folder that this one does not
     write (another experiment's, or one without the event), where `owned` says tavc wrote
-    them; return the tables and the claims."""
+    them; return the tables and the claims. `made_by`: what computed the trials, as the run's
+    `provenance.json` records it (`runner.made_by`)."""
     tables = analyse(cfg, plan, records)
     if owned is not None:  # listed before they are written: a run stopped midway still owns them
         owned.wrote(*(f"{name}.csv" for name in [*tables, "comparison", "claims"]))
@@ -44,7 +45,7 @@ def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[
     comparison = comparison_text(str(cfg.experiment_name or ""), written_tables["state_time"])
     if comparison is not None:
         write_text_atomic(out_dir / "comparison.csv", comparison)
-    claims = experiment_claims(cfg, plan, written_tables, _other_experiments(cfg, out_dir))
+    claims = experiment_claims(cfg, plan, written_tables, _other_experiments(cfg, out_dir, made_by))
     if len(claims):
         write_text_atomic(out_dir / "claims.csv", claims_text(claims))
     written = {*tables, *(["comparison"] if comparison is not None else []), *(["claims"] if len(claims) else [])}
@@ -54,28 +55,23 @@ def write_analysis(cfg: TavcConfig, plan: RunPlan, out_dir: Path, records: list[
     return tables, claims
 
 
-def _other_experiments(cfg: TavcConfig, out_dir: Path) -> dict[str, pd.DataFrame | str]:
+def _other_experiments(cfg: TavcConfig, out_dir: Path, made_by: Mapping) -> dict[str, pd.DataFrame | str]:
     """The `trial_stats.csv` of each other experiment of the chapter's claims beside this run's
-    folder, where there is one (claim 7 compares breakdown_no_vacancy with breakdown): of a run that
-    finished there, checked as the report checks it (`run_checks.check_table`: a table edited or
-    cut is one line naming it); of one still being made beside it, by the same `tavc reproduce`,
-    as it stands. In its place, for a run made with other settings than this one's, those
-    settings (`unlike_settings`): its trials are no comparison for this run's."""
+    folder (claim 7 compares breakdown_no_vacancy with breakdown), of a run that finished there,
+    checked as the report checks it (`run_checks.check_table`: a table edited or cut is one line
+    naming it). In its place, why it is no comparison for this run's trials: a run there not
+    finished (its table may be an earlier run's), or one made otherwise than this one (`unlike`;
+    `made_by`: what computed this run's trials, as its `provenance.json` will record it)."""
     others: dict[str, pd.DataFrame | str] = {}
     for other, path in other_experiments(cfg, out_dir).items():
-        if not path.is_file():
+        if not (path.parent / "config.yaml").is_file():  # no run made there
             continue
-        if (path.parent / "provenance.json").is_file():
-            facts = run_facts(path.parent)
-            check_table(path, facts)
-            theirs = facts.cfg
-        else:
-            try:
-                theirs = read_config(path.parent / "config.yaml")
-            except TavcError:  # being written, or not a run's: nothing to compare with
-                others[other] = "its config.yaml unreadable"
-                continue
-        others[other] = unlike_settings(cfg, theirs) or pd.read_csv(path)
+        if not (path.parent / "provenance.json").is_file() or not path.is_file():
+            others[other] = "not finished"
+            continue
+        facts = run_facts(path.parent)
+        check_table(path, facts)
+        others[other] = unlike(cfg, made_by, facts.cfg, facts.made_by) or pd.read_csv(path)
     return others
 
 

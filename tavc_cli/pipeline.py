@@ -11,6 +11,7 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 from tavc_cli.analysis.claims import not_a_verdict
+from tavc_cli.chapter import claims
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.joint import CAN_FORK
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, plan_run, write_plan
@@ -18,6 +19,7 @@ from tavc_cli.experiments.pool import stop_workers, worker_start
 from tavc_cli.experiments.runner import (
     Run,
     load_records,
+    made_by,
     run_experiment_trials,
     run_trials_together,
     write_provenance,
@@ -148,24 +150,32 @@ def _failures_listed(owned: list[Owned]) -> Iterator[None]:
 
 def _finish_all(cfgs: list[TavcConfig], runs: list[Run], owned: list[Owned]) -> list[dict]:
     """`_finish` for every experiment: in forked processes on the cores the executor was given,
-    where the system forks and there is more than one, else one after another."""
+    where the system forks and there is more than one, else one after another. The experiments
+    other experiments' claims compare with (`Claim.against`: breakdown, for claims 7 and 8) are
+    finished first, so that those claims read their finished runs beside them."""
     n_jobs = min(len(cfgs), Executor.from_config(cfgs[0].executor).n_jobs if cfgs else 1)
     jobs = list(zip(cfgs, runs, owned, strict=True))
+    compared = {c.against for _, c in claims() if c.against}
+    waves = [[k for k, cfg in enumerate(cfgs) if (str(cfg.experiment_name) in compared) == first]
+             for first in (True, False)]
+    done: dict[int, dict] = {}
     if n_jobs <= 1 or not CAN_FORK:
-        return [_finish_loaded(*job) for job in jobs]
-
+        for k in [*waves[0], *waves[1]]:
+            done[k] = _finish_loaded(*jobs[k])
+        return [done[k] for k in range(len(jobs))]
 
     pool = ProcessPoolExecutor(max_workers=n_jobs, mp_context=mp.get_context("fork"), initializer=worker_start)
     try:
-        futures = [pool.submit(_finish_loaded, *job) for job in jobs]
-        done = [f.result() for f in futures]
+        for wave in waves:
+            futures = {k: pool.submit(_finish_loaded, *jobs[k]) for k in wave}
+            done.update({k: f.result() for k, f in futures.items()})
     except BaseException:
         # Ctrl-C, SIGTERM or an error: the workers stop now (each table they wrote is whole,
         # and provenance.json comes last), rather than the run waiting for them to finish
         stop_workers(pool)
         raise
     pool.shutdown(wait=True)
-    return done
+    return [done[k] for k in range(len(jobs))]
 
 
 def _finish_loaded(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
@@ -174,7 +184,7 @@ def _finish_loaded(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
 
 def _finish(cfg: TavcConfig, run: Run, owned: Owned) -> dict:
     """An experiment's tables, claims and provenance from its trials; its summary."""
-    tables, claims = write_analysis(cfg, run.plan, run.output_dir, run.records, owned)
+    tables, claims = write_analysis(cfg, run.plan, run.output_dir, run.records, made_by(run.specs), owned)
     owned.wrote("provenance.json")
     written = [n for n in owned.files if n.endswith(".csv") or n in ("config.yaml", PLAN_FILE)]
     write_provenance(cfg, run, sorted(n for n in written if (run.output_dir / n).is_file()))

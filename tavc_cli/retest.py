@@ -32,7 +32,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli import __version__, ownership
-from tavc_cli.analysis.experiment import experiment_claims, unlike_settings
+from tavc_cli.analysis.experiment import experiment_claims, unlike
 from tavc_cli.chapter import claims
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import read_plan
@@ -140,9 +140,14 @@ def _finished_others(cfg: TavcConfig, folder: Path, read_config) -> dict[str, pd
     `provenance.json` or `trial_stats.csv`: being run again, say) or its table does not check out
     (`run_checks.check_table`): the claims cannot be tested as a run would test them now. A folder
     that is not there is a run not made, as `tavc run` takes it; a run made with other settings
-    than this one's gives those settings in its table's place (`unlike_settings`), as it does there."""
+    than this one's gives why in its table's place (`unlike`), as it does there."""
     others: dict[str, pd.DataFrame | str] = {}
-    for name, path in other_experiments(cfg, folder).items():
+    compared = other_experiments(cfg, folder)
+    try:  # what computed this run's trials, to be what computed theirs
+        ours = run_facts(folder, read_config).made_by if compared else {}
+    except TavcError:
+        return None
+    for name, path in compared.items():
         if not (path.parent.exists() or path.parent.is_symlink()):
             continue
         if not (path.parent / PROVENANCE).is_file() or not path.is_file():
@@ -152,7 +157,7 @@ def _finished_others(cfg: TavcConfig, folder: Path, read_config) -> dict[str, pd
             check_table(path, facts)
         except TavcError:
             return None
-        others[name] = unlike_settings(cfg, facts.cfg) or pd.read_csv(path)
+        others[name] = unlike(cfg, ours, facts.cfg, facts.made_by) or pd.read_csv(path)
     return others
 
 

@@ -75,6 +75,8 @@ class RunFacts:
     recorded_code: str | None = None
     # what computed them, as provenance.json records it (`TrialSpec.engine`; None where it does not)
     engine: str | None = None
+    # the code of the learners from outside tavc that ran them, by target ({} where none is recorded)
+    learner_code: dict = field(default_factory=dict)
 
     @classmethod
     def of(cls, cfg: TavcConfig, provenance: dict | None, folder: Path) -> RunFacts:
@@ -89,15 +91,17 @@ class RunFacts:
         scheme = str(cfg.analysis.state)
         sizes = tuple(names.count(g) for g in group_order(names, speeds)) if scheme == "groups" else (len(names),)
         digests = code = engine = None
-        replaced, listed = {}, ()
+        replaced, listed, learners = {}, (), {}
         if provenance is not None:
             listed = tuple((str(t["controller"]), int(t["trial"]), t.get("key")) for t in provenance["trials"])
             digests = provenance.get("tables")
             replaced = unfinished_rewrites(provenance)
             code, engine = provenance.get("code_digest"), provenance.get("engine")
+            learners = provenance.get("learner_code") or {}
         return cls(folder, digests, scheme, sizes, len(cfg.arena.circuits),
                    len(names) - len(cfg.events.breakdowns), replaced, cfg, listed,
-                   code if isinstance(code, str) else None, engine if isinstance(engine, str) else None)
+                   code if isinstance(code, str) else None, engine if isinstance(engine, str) else None,
+                   learners if isinstance(learners, dict) else {})
 
     @cached_property
     def trials(self) -> frozenset[tuple[str, int]] | None:
@@ -115,6 +119,11 @@ class RunFacts:
             return self.recorded_code
         surrogate = engine_code(self.engine or "")
         return f"{surrogate} (the surrogate's)" if surrogate not in (None, surrogate_code_digest()) else None
+
+    @property
+    def made_by(self) -> dict:
+        """What computed the run's trials, as `provenance.json` records it (`runner.made_by`)."""
+        return {"code_digest": self.recorded_code, "engine": self.engine, "learner_code": self.learner_code}
 
     def valid_state(self, label: str) -> bool:
         """Whether `label` is a state of this team: robots per circuit (high-value circuit

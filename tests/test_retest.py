@@ -366,59 +366,108 @@ def test_a_rewrite_of_both_files_stopped_between_them_is_finished_by_the_next_re
 def test_a_run_tests_its_claims_against_the_run_beside_it_only_as_that_run_wrote_it(one_run, tmp_path):
     """`tavc run` of breakdown_no_vacancy tests claim 7 on breakdown's trial_stats.csv beside it:
     where that run finished, the table is checked as the report checks it (an edited cell is one
-    line naming it, not a number in the claims); of a run still being made there, as it stands."""
+    line naming it, not a number in the claims); a run there that did not finish, whose table may
+    be an earlier run's, is no comparison."""
     from tavc_cli import config
     from tavc_cli.errors import TavcError
     from tavc_cli.outputs import _other_experiments
 
     results, run = _copy(one_run, tmp_path)
+    made = _made_by(run)
     cfg = config.settings(config.load_config(["experiment=breakdown_no_vacancy", "scale=smoke"]))
     beside = results / "breakdown_no_vacancy"
-    assert _other_experiments(cfg, beside)["breakdown"].equals(pd.read_csv(run / "trial_stats.csv"))
+    assert _other_experiments(cfg, beside, made)["breakdown"].equals(pd.read_csv(run / "trial_stats.csv"))
     lines = (run / "trial_stats.csv").read_text().splitlines(keepends=True)
     cells = lines[1].split(",")
     cells[3] = "0.9999"  # one score per second, the claim's number
     (run / "trial_stats.csv").write_text("".join([lines[0], ",".join(cells), *lines[2:]]))
     with pytest.raises(TavcError, match=f"^{run / 'trial_stats.csv'}: changed since its run wrote it"):
-        _other_experiments(cfg, beside)
-    (run / "provenance.json").unlink()  # being run again, by the same reproduce: read as it stands
-    assert _other_experiments(cfg, beside)["breakdown"].iloc[0, 3] == 0.9999
+        _other_experiments(cfg, beside, made)
+    (run / "provenance.json").unlink()  # being run again: its table may be the earlier run's
+    assert _other_experiments(cfg, beside, made) == {"breakdown": "not finished"}
+    (run / "trial_stats.csv").unlink()  # nor is a run there without its table yet
+    assert _other_experiments(cfg, beside, made) == {"breakdown": "not finished"}
+    os.rename(run / "config.yaml", run / "config.bak")  # no run made there
+    assert _other_experiments(cfg, beside, made) == {}
+    os.rename(run / "config.bak", run / "config.yaml")
     # a run whose claims compare it with none reads no run beside it, damaged or not
     shutil.copytree(run, results / "heterogeneous")
     breakdown = config.settings(config.load_config(["experiment=breakdown", "scale=smoke"]))
-    assert _other_experiments(breakdown, run) == {}
+    assert _other_experiments(breakdown, run, made) == {}
 
 
-def test_a_run_beside_made_with_other_settings_is_no_comparison_for_claims_7_and_8(one_run, tmp_path):
+def _made_by(run) -> dict:
+    """What computed a run's trials, as its provenance.json records it (`runner.made_by`)."""
+    record = json.loads((run / "provenance.json").read_text())
+    return {k: record[k] for k in ("code_digest", "engine", "learner_code") if k in record}
+
+
+def test_a_run_beside_made_otherwise_is_no_comparison_for_claims_7_and_8(one_run, tmp_path):
     """Claim 7 sets breakdown_no_vacancy's trials beside breakdown's, claim 8 value_change's: only
-    where the two ran in the same world, team, learner, tasks and horizon. A run beside of a faster
-    robot is named in the claim's parts in place of a comparison, by `tavc run` and by the report's
-    retest alike; another seed is another sample of the same, compared."""
+    where the two ran in the same world, team, learner, tasks and horizon, computed by the same
+    code. A run beside that differs is named in the claim's parts in place of a comparison, by
+    `tavc run` and by the report's retest alike; another seed is another sample of the same."""
     from tavc_cli import config
     from tavc_cli.analysis.claim_rules import claim_7, claim_8, unlike_run
     from tavc_cli.outputs import _other_experiments
 
     results, run = _copy(one_run, tmp_path)
     beside = results / "breakdown_no_vacancy"
+    made = _made_by(run)
 
     def settings(*overrides):
         return config.settings(config.load_config(["experiment=breakdown_no_vacancy", "scale=smoke", *overrides]))
 
+    def why(*differences):
+        return {"breakdown": f"ran with other settings ({'; '.join(differences)})"}
+
     faster = settings("robot.speed_mps=0.3")
     # the run beside's value, then this one's; each robot of the team takes the robot's speed
-    why = "robot.speed_mps 0.25 (this run: 0.3); team.members (other values)"
-    assert _other_experiments(faster, beside) == {"breakdown": why}
-    assert R._finished_others(faster, beside, from_yaml) == {"breakdown": why}
-    assert _other_experiments(settings("seed=5"), beside)["breakdown"].equals(pd.read_csv(run / "trial_stats.csv"))
-    assert _other_experiments(settings("scale=quick"), beside) == {  # conf/scale/: smoke 0.02, quick 0.25
-        "breakdown": "scale.baseline_time_factor 0.02 (this run: 0.25); scale.time_factor 0.02 (this run: 0.25)"}
+    assert _other_experiments(faster, beside, made) == why("robot.speed_mps 0.25 (this run: 0.3)",
+                                                           "team.members (other values)")
+    assert _other_experiments(settings("seed=5"), beside, made)["breakdown"].equals(
+        pd.read_csv(run / "trial_stats.csv"))
+    # the horizon, by scale (conf/scale/: smoke 0.02, quick 0.25 of the chapter's durations; breakdown
+    # warms up for 18,000 s of the chapter's before its event) or set by hand (5,000 s of its 27,000)
+    assert _other_experiments(settings("scale=quick"), beside, made) == why(
+        "duration_s (of the chapter's) 0.02 (this run: 0.25)", "convergence_s (of the chapter's) 0.02 (this run: 0.25)",
+        "learning before the first event (s) 360.0 (this run: 4500.0)")
+    assert _other_experiments(settings("duration_s=5000"), beside, made) == why(
+        "duration_s (of the chapter's) 0.02 (this run: 0.185185185)",
+        "convergence_s (of the chapter's) 0.02 (this run: 0.185185185)")
+    other_code = {**made, "code_digest": "0" * 16}
+    assert _other_experiments(settings(), beside, other_code) == why(
+        f"the simulator's code {made['code_digest']} (this run: {'0' * 16})")
+    plugin = {**made, "learner_code": {"mine.py:Mine": {"digest": "1" * 16, "files": ["mine.py"]}}}
+    assert _other_experiments(settings(), beside, plugin) == why("the learner's code (other values)")
+
+    # the report's retest, with this run's own record: a copy of the run beside as breakdown_no_vacancy's
+    # at a faster robot's settings, its record of them rewritten to match
+    shutil.copytree(run, beside)
+    cfg = (beside / "config.yaml").read_text().replace("speed_mps: 0.25", "speed_mps: 0.3")
+    (beside / "config.yaml").write_text(cfg.replace("experiment_name: breakdown", "experiment_name: "
+                                                    "breakdown_no_vacancy"))
+    record = json.loads((beside / "provenance.json").read_text())
+    record["tables"]["config.yaml"] = file_digest(beside / "config.yaml")
+    (beside / "provenance.json").write_text(json.dumps(record))
+    assert R._finished_others(from_yaml(beside / "config.yaml"), beside, from_yaml) == why(
+        "robot.speed_mps 0.25 (this run: 0.3)", "team.members (other values)")
 
     stats = pd.read_csv(run / "trial_stats.csv")
+    reason = why("robot.speed_mps 0.25 (this run: 0.3)")["breakdown"]
     for rule, own in ((claim_7, "breakdown_no_vacancy"), (claim_8, "value_change")):
-        texts = [p.text() for p in rule({own: stats, "breakdown": unlike_run(why)})]
+        texts = [p.text() for p in rule({own: stats, "breakdown": unlike_run(reason)})]
         compared = [t for t in texts if "against breakdown's" in t or "the same as breakdown's" in t]
-        assert compared and all(f"breakdown beside it ran with other settings ({why})" in t for t in compared), texts
+        assert compared and all(f"breakdown beside it {reason}" in t for t in compared), texts
 
-    (run / "provenance.json").unlink()  # being made again beside it: its settings must be read to compare
-    (run / "config.yaml").write_text("seed: [\n")
-    assert _other_experiments(faster, beside) == {"breakdown": "its config.yaml unreadable"}
+
+def test_a_reproduce_finishes_the_run_others_compare_with_first(tmp_path):
+    """`tavc reproduce` finishes breakdown before the experiments whose claims compare with it,
+    whatever order they are named in, so that their claims read it finished."""
+    from tavc_cli import api
+
+    results = tmp_path / "results"
+    api.reproduce(["scale=smoke", "trials=2", "baselines=[]", "executor.n_jobs=1"],
+                  experiments=["breakdown_no_vacancy", "breakdown"], results_dir=results)
+    detail = pd.read_csv(results / "breakdown_no_vacancy" / "claims.csv").set_index("claim_id").loc[7, "detail"]
+    assert "the same as breakdown's" in detail and "breakdown not" not in detail and "beside it" not in detail, detail

@@ -123,12 +123,12 @@ def _run(runs: Mapping[str, pd.DataFrame], claim_id: int, table: str | None = No
 
 def _against(runs: Mapping[str, pd.DataFrame], claim_id: int) -> tuple[str, pd.DataFrame | None, str]:
     """The experiment claim `claim_id` compares its own with (`Claim.against`), its run (None where
-    there is none to compare with) and, for that case, why: not run, or run with other settings
-    (`unlike_run`)."""
+    there is none to compare with) and, for that case, why: not run, or a run beside that is no
+    comparison (`unlike_run`: not finished, made otherwise)."""
     other = chapter.claim(claim_id)[1].against
     b = runs.get(other)
     if b is not None and b.attrs.get(UNLIKE):
-        return other, None, f"{other} beside it ran with other settings ({b.attrs[UNLIKE]})"
+        return other, None, f"{other} beside it {b.attrs[UNLIKE]}"
     return other, b, f"{other} not run"
 
 
@@ -137,7 +137,8 @@ UNLIKE = "unlike"  # the attrs key of `unlike_run`'s stand-in
 
 def unlike_run(why: str) -> pd.DataFrame:
     """What stands in a claim's `runs` for the run of the experiment it compares with, where that
-    run was made with other settings than this one's (`why` names them): no trials to compare."""
+    run is no comparison for this one's (`why`, as "<experiment> beside it" goes on: "not
+    finished", "ran with other settings (...)"): no trials to compare."""
     frame = pd.DataFrame()
     frame.attrs[UNLIKE] = why
     return frame

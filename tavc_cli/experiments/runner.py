@@ -43,15 +43,10 @@ def provenance(cfg: TavcConfig, specs: list[TrialSpec], wall_time_s: float, n_re
             versions[pkg] = metadata.version(pkg)
         except metadata.PackageNotFoundError:
             versions[pkg] = None
-    targets = sorted({str(s.policy.target) for s in specs if isinstance(s.policy, PluginSettings)})
-    learners = {t: {"digest": target_digest(t), "files": [p.name for p in target_files(t)]} for t in targets}
     return {
         "tavc_version": __version__,
         "git_commit": git_commit(),
-        "code_digest": code_digest(),
-        # what computed the trials: the simulator ("physics"), or the surrogate, its code's digest named
-        "engine": specs[0].engine if specs else "physics",
-        **({"learner_code": learners} if learners else {}),  # the code of learners from outside tavc
+        **made_by(specs),
         "packages": versions,
         "python": platform.python_version(),
         "root_seed": int(cfg.seed),
@@ -69,6 +64,19 @@ def provenance(cfg: TavcConfig, specs: list[TrialSpec], wall_time_s: float, n_re
         "n_trials_reused": n_reused,
         "machine": {"platform": platform.platform(), "processor": platform.processor(),
                     "cpu_count": os.cpu_count()},
+    }
+
+
+def made_by(specs: list[TrialSpec]) -> dict:
+    """What computed a run's trials, as its `provenance.json` records it: tavc's simulator
+    (``code_digest``), the engine and the code of learners from outside tavc."""
+    targets = sorted({str(s.policy.target) for s in specs if isinstance(s.policy, PluginSettings)})
+    learners = {t: {"digest": target_digest(t), "files": [p.name for p in target_files(t)]} for t in targets}
+    return {
+        "code_digest": code_digest(),
+        # what computed the trials: the simulator ("physics"), or the surrogate, its code's digest named
+        "engine": specs[0].engine if specs else "physics",
+        **({"learner_code": learners} if learners else {}),  # the code of learners from outside tavc
     }
 
 

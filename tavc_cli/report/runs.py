@@ -216,7 +216,7 @@ def _settings(d: Path) -> dict:
     """Run `d`'s settings as today's tavc reads its config.yaml (`from_yaml`: a record written
     before a key existed reads with its default, and its learner's node as the learner declares
     it), as dotted keys."""
-    return dotted(yaml.safe_load(to_yaml(config_of(d / "config.yaml"))))
+    return dotted(yaml.safe_load(to_yaml(config_of(d / "config.yaml"))), keep_empty=False)
 
 
 def _show(value) -> str:
