@@ -10,8 +10,9 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.alike import unlike
 from tavc_cli.analysis.comparison import experiment_comparison
-from tavc_cli.analysis.experiment import analyse, experiment_claims, unlike
+from tavc_cli.analysis.experiment import analyse, experiment_claims
 from tavc_cli.analysis.table_schemas import TABLE_NAMES
 from tavc_cli.chapter import claims
 from tavc_cli.experiments.plan import RunPlan

@@ -32,7 +32,8 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli import __version__, ownership
-from tavc_cli.analysis.experiment import experiment_claims, unlike
+from tavc_cli.analysis.alike import unlike
+from tavc_cli.analysis.experiment import experiment_claims
 from tavc_cli.chapter import claims
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import read_plan

@@ -43,7 +43,7 @@ from tavc_cli.experiments.spec import code_digest
 from tavc_cli.io import file_digest, plain_name
 from tavc_cli.notation import column_state, counts_of, join_counts, state_counts
 from tavc_cli.readers import RECORD_LIMIT, TABLE_LIMIT, YAML_LIMIT, read_bounded, record_size
-from tavc_cli.run_provenance import check_planned, read_provenance, unfinished_rewrites
+from tavc_cli.run_provenance import check_planned, made_by_of, read_provenance, unfinished_rewrites
 from tavc_cli.settings import TavcConfig, from_yaml
 from tavc_cli.surrogate.digest import engine_code, surrogate_code_digest
 from tavc_cli.table_cells import check_cells, damaged, unreadable
@@ -90,18 +90,16 @@ class RunFacts:
         speeds = [float(m.speed_mps) for m in members] or [float(cfg.robot.speed_mps)] * len(names)
         scheme = str(cfg.analysis.state)
         sizes = tuple(names.count(g) for g in group_order(names, speeds)) if scheme == "groups" else (len(names),)
-        digests = code = engine = None
-        replaced, listed, learners = {}, (), {}
+        digests = None
+        replaced, listed = {}, ()
         if provenance is not None:
             listed = tuple((str(t["controller"]), int(t["trial"]), t.get("key")) for t in provenance["trials"])
             digests = provenance.get("tables")
             replaced = unfinished_rewrites(provenance)
-            code, engine = provenance.get("code_digest"), provenance.get("engine")
-            learners = provenance.get("learner_code") or {}
+        made = made_by_of(provenance)
         return cls(folder, digests, scheme, sizes, len(cfg.arena.circuits),
                    len(names) - len(cfg.events.breakdowns), replaced, cfg, listed,
-                   code if isinstance(code, str) else None, engine if isinstance(engine, str) else None,
-                   learners if isinstance(learners, dict) else {})
+                   made["code_digest"], made["engine"], made["learner_code"])
 
     @cached_property
     def trials(self) -> frozenset[tuple[str, int]] | None:

@@ -5,6 +5,7 @@ they give it. A table or record that fails is one line naming the file (`table_c
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -29,6 +30,17 @@ def unfinished_rewrites(provenance: dict) -> dict[str, str | None]:
     stopped before its end, as its `provenance.json` records them: each with its digest before the
     rewrite (None: there was no file)."""
     return {name: r["replaced"] for name, r in (provenance.get("rewritten") or {}).items() if "replaced" in r}
+
+
+def made_by_of(provenance: Mapping | None) -> dict:
+    """What computed a run's trials, as its `provenance.json` records it (`runner.made_by`): tavc's
+    simulator (``code_digest``) and the engine (None where it records none, or a value of another
+    kind), and the code of learners from outside tavc ({} where none)."""
+    record = provenance or {}
+    code, engine, learners = record.get("code_digest"), record.get("engine"), record.get("learner_code")
+    return {"code_digest": code if isinstance(code, str) else None,
+            "engine": engine if isinstance(engine, str) else None,
+            "learner_code": learners if isinstance(learners, dict) else {}}
 
 
 def read_provenance(path: Path) -> dict:

@@ -471,3 +471,18 @@ def test_a_reproduce_finishes_the_run_others_compare_with_first(tmp_path):
                   experiments=["breakdown_no_vacancy", "breakdown"], results_dir=results)
     detail = pd.read_csv(results / "breakdown_no_vacancy" / "claims.csv").set_index("claim_id").loc[7, "detail"]
     assert "the same as breakdown's" in detail and "breakdown not" not in detail and "beside it" not in detail, detail
+
+
+def test_the_reports_claims_compare_two_experiments_runs_only_where_they_were_made_alike(one_run, tmp_path):
+    """The report tests claim 7 across its designated runs as each run tests its own: a
+    breakdown_no_vacancy run of another exploration rate beside breakdown's is no comparison, in
+    the run's claims.csv and in the report's."""
+    results, run = _copy(one_run, tmp_path)
+    result = runner.invoke(app, ["run", "experiment=breakdown_no_vacancy", *SMOKE_BREAKDOWN[1:], "learner.epsilon=0.5",
+                                 f"output_dir={results / 'breakdown_no_vacancy'}"])
+    assert result.exit_code == 0, result.output
+    reason = "breakdown beside it ran with other settings (learner.epsilon 0.1 (this run: 0.5))"
+    assert reason in pd.read_csv(results / "breakdown_no_vacancy" / "claims.csv").set_index("claim_id").loc[7, "detail"]
+    result = runner.invoke(app, ["report", str(results)])
+    assert result.exit_code == 0, result.output
+    assert reason in pd.read_csv(results / "claims.csv").set_index("claim_id").loc[7, "detail"]

@@ -42,6 +42,7 @@ from tavc_cli.analysis.claim_rules import (
     largest_relative_increase,
     learner_under_test,
     mean_above,
+    unlike_run,
 )
 from tavc_cli.analysis.significance import (
     ALPHA,
@@ -134,22 +135,25 @@ HOLDS_IF = {"differs": f"p < {ALPHA:g}", "same": f"p >= {ALPHA:g}", "means": "a 
 
 
 def claim_table(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None,
-                learner: str = LEARNER) -> pd.DataFrame:
+                learner: str = LEARNER, apart: Mapping[int, str] | None = None) -> pd.DataFrame:
     """COLUMNS, DECIDING_COLUMNS, then OBSERVATION_COLUMNS: for claims 1-9 (those of one experiment if given), the
     verdict and every part (`claim_rows`), and the part that decides the verdict (`deciding`):
     its question, statistic and p-value, and why the claim could not be decided, if it could
-    not; and the observations reported beside the verdict. `runs` as `claim_rows` takes them."""
+    not; and the observations reported beside the verdict. `runs` as `claim_rows` takes them;
+    `apart`: for a claim that compares two experiments' runs (`Claim.against`) by its id, why the
+    other's run in `runs` is no comparison for its own (`alike.unlike`)."""
     rows = []
     for experiment, claim in chapter.claims():
         if only_experiment is not None and experiment != only_experiment:
             continue
         cid, text = claim.id, claim.text
         test = TESTS[cid] if cid in TESTS else claim.test()  # a claim of an experiment of the user's own
+        read = {**runs, claim.against: unlike_run(apart[cid])} if apart and cid in apart else runs
         with warnings.catch_warnings():
             # scipy warns when samples are nearly identical (a state never visited in any trial);
             # the test's result says as much, and a run's output stays free of library noise
             warnings.filterwarnings("ignore", "Precision loss occurred", RuntimeWarning)
-            found = test(runs, learner=learner)
+            found = test(read, learner=learner)
         parts = [p for p in found if not p.observation]
         decider = deciding(parts)
         v = verdict(parts)
@@ -167,7 +171,7 @@ def claim_table(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = 
 
 
 def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = None,
-               learner: str = LEARNER) -> pd.DataFrame:
+               learner: str = LEARNER, apart: Mapping[int, str] | None = None) -> pd.DataFrame:
     """`claim_id,claim,verdict,statistic,p_value,detail,observations` for claims 1-9 (those of one
     experiment if given): the table a run writes as its `claims.csv`. `runs` maps an
     experiment's name to its `trial_stats.csv` and `<experiment>/<table>` to its other tables
@@ -176,7 +180,7 @@ def claim_rows(runs: Mapping[str, pd.DataFrame], only_experiment: str | None = N
     the verdict (`Part.observation`). The part that decides each verdict
     (`claim_table`'s DECIDING_COLUMNS) rides along in the frame's ``attrs["deciding"]``
     (claim_id -> those columns), which a file written from the frame does not hold."""
-    table = claim_table(runs, only_experiment, learner)
+    table = claim_table(runs, only_experiment, learner, apart)
     frame = table[[*COLUMNS, *OBSERVATION_COLUMNS]].copy()
     frame.attrs["deciding"] = {int(r["claim_id"]): {c: r[c] for c in DECIDING_COLUMNS}
                                for r in table.to_dict("records")}

@@ -22,6 +22,7 @@ from pathlib import Path
 import pandas as pd
 
 from tavc_cli import chapter
+from tavc_cli.analysis.alike import claims_apart
 from tavc_cli.analysis.claims import CLAIM_TABLES, claim_table, learner_under_test, not_a_verdict, verdict_words
 from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
 from tavc_cli.analysis.mechanism import PERSISTENCE
@@ -33,6 +34,7 @@ from tavc_cli.report.files import CONVERGED_DIR, config_of
 from tavc_cli.report.mechanism import convergence, mechanism, mechanism_words
 from tavc_cli.report.runs import on_surrogate
 from tavc_cli.report.text import delivery_lines, fmt, p_cell
+from tavc_cli.run_provenance import made_by_of
 from tavc_cli.settings import TavcConfig
 
 # the claims whose chapter's mechanism is persistence: robots staying on one circuit, a vacancy
@@ -141,8 +143,11 @@ def read_horizon(folder: Path, found: dict[str, list[Path]], unfinished: list[Pa
     deliveries = {d: delivery_lines(d, load_json(d / "provenance.json"))
                   for folders in found.values() for d in folders}
     learner = under_test(read_plan(experiments[name], cfg) for name, (cfg, _) in read.items())
-    return Horizon(folder, experiments, read, runs, claim_table(runs, learner=learner), unfinished, others,
-                   deliveries, index)
+    # claims 7 and 8 compare two experiments' runs only where they were made alike, as each run's own claims do
+    apart = claims_apart({name: (cfg, made_by_of(load_json(experiments[name] / "provenance.json")))
+                          for name, (cfg, _) in read.items()})
+    return Horizon(folder, experiments, read, runs, claim_table(runs, learner=learner, apart=apart), unfinished,
+                   others, deliveries, index)
 
 
 def under_test(plans: Iterable[RunPlan]) -> str:
