@@ -122,13 +122,17 @@ def test_a_bad_ladder_is_one_error(tmp_path, factors, overrides):
 STATES = ["0:6", "1:5", "2:4", "3:3", "4:2", "5:1", "6:0"]
 
 
-def _run_folder(folder: Path, scale: str, factor: float, pct_33_tavc: float, seed: int) -> None:
+RANGE_LEFT_PARALLEL = ("arrival=range", "passing=left", "arena=two_circuits_parallel")  # a reading's overrides
+
+
+def _run_folder(folder: Path, scale: str, factor: float, pct_33_tavc: float, seed: int, *overrides: str) -> None:
     """A finished initial_distribution run folder with hand-made tables: 20 TAVC trials whose
     share of 3:3 is about `pct_33_tavc` (the rest spread evenly), 20 random trials at the
-    binomial shares; TAVC delivers more per second than random at the long horizon only."""
+    binomial shares; TAVC delivers more per second than random at the long horizon only.
+    `overrides`: settings besides (a reading's world)."""
     rng = np.random.default_rng(seed)
     cfg = config.settings(config.load_config(["experiment=initial_distribution", f"scale={scale}",
-                                              f"scale.time_factor={factor!r}", f"output_dir={folder}"]))
+                                              f"scale.time_factor={factor!r}", *overrides, f"output_dir={folder}"]))
     folder.mkdir(parents=True)
     (folder / "config.yaml").write_text(to_yaml(cfg))
     (folder / "provenance.json").write_text(json.dumps({"trials": [], "wall_time_s": 1.0}))
@@ -334,7 +338,7 @@ def test_the_chapters_experiments_in_another_reading_are_counterfactual_rows_nev
                                                                          ".tavc.json", ".tavc.lock"))
     before = build_report(results)
     _run_folder(results / "readings" / "range-left-two_circuits_parallel" / "initial_distribution", "paper", 1.0,
-                60.0, seed=7)
+                60.0, 7, *RANGE_LEFT_PARALLEL)
     after = build_report(results)
     assert after["n_reproduced"] == before["n_reproduced"] and after["n_reproduced_long"] == before["n_reproduced_long"]
     pd.testing.assert_frame_equal(after["claims"], before["claims"])
@@ -360,7 +364,7 @@ def test_the_chapters_experiments_in_another_reading_are_counterfactual_rows_nev
         search / "search.csv", index=False)
     # and the reading at 40x too: today's world at 40x comes before it, after the rows at 1x
     _run_folder(results / "converged" / "readings" / "range-left-two_circuits_parallel" / "initial_distribution",
-                "converged", 40.0, 60.0, seed=8)
+                "converged", 40.0, 60.0, 8, *RANGE_LEFT_PARALLEL)
     build_report(results)
     report = (results / "REPORT.md").read_text()
     note = next(line for line in report.splitlines()
@@ -374,6 +378,38 @@ def test_the_chapters_experiments_in_another_reading_are_counterfactual_rows_nev
     assert [w.split(" (")[0] for w in worlds] == ["today's world", reading, "today's world", reading]
     assert "(40x, `converged`)" in worlds[2]
     assert "(40x, `converged/readings/range-left-two_circuits_parallel`)" in worlds[3]
+
+
+def test_a_readings_folder_holds_only_runs_made_in_the_reading_its_name_says(two_horizons, tmp_path):
+    """A run under `readings/<reading>/` is reported under that reading's name: one of today's world
+    there, or one of another robot beside the others of a reading's variant, is refused in one
+    line naming it, before anything is written."""
+    import shutil
+
+    from tavc_cli.errors import TavcError
+    from tavc_cli.report import build_report
+
+    results = tmp_path / "results"
+    shutil.copytree(two_horizons, results, ignore=shutil.ignore_patterns("REPORT.md", "claims.csv", "figures",
+                                                                         ".tavc.json", ".tavc.lock"))
+    reading = results / "readings" / "range-left-two_circuits_parallel"
+    _run_folder(reading / "initial_distribution", "paper", 1.0, 60.0, 7)  # today's world
+    with pytest.raises(TavcError) as info:
+        build_report(results)
+    assert str(info.value) == (f"{reading / 'initial_distribution'}: made in the reading arrival=dock passing=nearest "
+                               "arena=two_circuits, not in the one its folder names (arrival=range passing=left "
+                               "arena=two_circuits_parallel); move it, or run it again in that reading")
+    assert not (results / "REPORT.md").exists()
+    shutil.rmtree(reading)
+    variant = results / "readings" / "range-left-two_circuits_parallel-calibrated"
+    _run_folder(variant / "a" / "initial_distribution", "paper", 1.0, 60.0, 7, *RANGE_LEFT_PARALLEL)
+    _run_folder(variant / "b" / "initial_distribution", "paper", 1.0, 60.0, 8, *RANGE_LEFT_PARALLEL,
+                "robot.dock.dwell_s=5.0")
+    with pytest.raises(TavcError) as info:
+        build_report(results)
+    assert str(info.value) == (f"{variant / 'b' / 'initial_distribution'}: its robot settings are not those of "
+                               f"{variant / 'a' / 'initial_distribution'} beside it, in one reading's folder; move it, "
+                               "or run it again in that world")
 
 
 def test_the_turn_taking_models_and_a_calibrations_folders_are_never_runs_of_the_report(tmp_path):

@@ -21,12 +21,13 @@ import pandas as pd
 
 from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
-from tavc_cli.analysis.stay_switch import reading_name, split_folder
+from tavc_cli.analysis.stay_switch import reading_name, reading_of, split_folder
 from tavc_cli.errors import TavcError
 from tavc_cli.ownership import WORLD_SEARCH_DIR
 from tavc_cli.readers import load_json, read_table
 from tavc_cli.report.files import (
     READINGS_RUNS,
+    config_of,
     horizon_folders,
     is_run_folder,
     natural,
@@ -62,8 +63,28 @@ def reading_horizons(results_dir: Path) -> list[tuple[str, Horizon]]:
                         key=lambda p: natural(p.name)):
             found, unfinished = finished_runs(d)
             if found:
+                _check_reading(d, [run for folders in found.values() for run in folders])
                 out.append((d.relative_to(results_dir).as_posix(), read_horizon(d, found, unfinished)))
     return out
+
+
+def _check_reading(d: Path, runs: list[Path]) -> None:
+    """Refuse a reading's folder `d` whose `runs` were not all made in one world, the reading its
+    name says (`split_folder`: arrival, passing, arena) and, where the name adds a variant, one and
+    the same robot and arena: their verdicts go under its name."""
+    split = split_folder(d.name)
+    first = None
+    for run in runs:
+        cfg = config_of(run / "config.yaml")
+        if split is not None and reading_of(cfg) != split[0]:
+            raise TavcError(f"{run}: made in the reading {reading_name(reading_of(cfg))}, not in the one its folder "
+                            f"names ({reading_name(split[0])}); move it, or run it again in that reading")
+        if first is None:
+            first = (run, cfg)
+        elif (cfg.robot, cfg.arena) != (first[1].robot, first[1].arena):
+            group = "robot" if cfg.robot != first[1].robot else "arena"
+            raise TavcError(f"{run}: its {group} settings are not those of {first[0]} beside it, in one reading's "
+                            "folder; move it, or run it again in that world")
 
 
 def counterfactual_lines(base: Horizon, results_dir: Path, longer: list[Horizon] = ()) -> list[str]:
