@@ -788,3 +788,25 @@ def test_a_table_larger_than_any_tavc_writes_is_refused_unread(breakdown, tmp_pa
     assert line.startswith(f"error: {results / 'breakdown' / 'trial_stats.csv'}: cannot be read (")
     assert "bytes, more than the" in line
     assert not (results / "REPORT.md").exists()
+
+
+def test_a_model_of_other_settings_is_never_set_beside_a_run(finished_run, run_copy, tmp_path):
+    """`tavc model ... output_dir=<a run's folder>` puts a model beside a run whatever its settings:
+    the report sets its prediction beside the run's states only where the model was measured with
+    the run's values, arena, unit of t and robot speed, for a team as large; else it says why."""
+    run = run_copy(finished_run("experiment=initial_distribution", *SMOKE, "trials=2", "baseline_trials=2",
+                                "static_trials=2", name="initial_distribution"), into="results")
+    results = run.parent
+    (run / "model").mkdir()
+    model = json.loads((Path(__file__).parents[1] / "results" / "initial_distribution" / "model" / "model.json")
+                       .read_text())  # the committed model: 2200/2000, two_circuits, ms, 0.25 m/s, six robots
+    (run / "model" / "model.json").write_text(json.dumps(model))
+    report.build_report(results)
+    assert f"predicts **{model['predicted_state']}** for 6 robots" in (results / "REPORT.md").read_text()
+    (run / "model" / "model.json").write_text(json.dumps({**model, "values": [8000.0, 2000.0], "n_robots": 4}))
+    report.build_report(results)
+    text = (results / "REPORT.md").read_text()
+    assert "predicts **" not in text
+    assert ("The model beside this run (`initial_distribution/model/`) was measured with other settings "
+            "(tasks.values [8000.0, 2000.0] (the run: [2200.0, 2000.0]); team sizes up to 4 (the run: 6)): not set "
+            "beside it.") in text

@@ -14,23 +14,25 @@ from tavc_cli.chapter import EXPERIMENTS, base_case, state_table_id
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.notation import state_counts
 from tavc_cli.reference import chapter_table
+from tavc_cli.report.files import config_of, model_misfit
 from tavc_cli.settings import TavcConfig
 
 
 def find_model(experiments: dict[str, Path]) -> Path | None:
     """The model's output to draw predictions from: the chapter's base case's (`make model` measures
-    it there), else any run's."""
+    it there), else any run's; only a model of the run it sits in (`files.model_misfit`)."""
     base = base_case().name
     folders = sorted(experiments.items(), key=lambda kv: kv[0] != base)
     for _, d in folders:
-        if (d / "model" / "model.json").is_file():
-            return d / "model" / "model.json"
+        path = d / "model" / "model.json"
+        if path.is_file() and not model_misfit(path, config_of(d / "config.yaml")):
+            return path
     return None
 
 
 def predicted_segments(cfg: TavcConfig, model_json: Path | None) -> list[tuple[float, float, str, float]]:
     """(from s, to s, label, robots on the high circuit) the model predicts between breakdowns."""
-    if model_json is None or len(cfg.arena.circuits) != 2:
+    if model_json is None or len(cfg.arena.circuits) != 2 or model_misfit(model_json, cfg):
         return []
     by_size = json.loads(model_json.read_text()).get("by_team_size", {})
     start, end = -float(cfg.sim.warmup_s), float(cfg.duration_s)

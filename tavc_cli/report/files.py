@@ -248,6 +248,24 @@ def check_model(folder: Path) -> None:
         model_rows(table, n_robots)
 
 
+def model_misfit(model_json: Path, cfg: TavcConfig) -> str:
+    """Why the model at `model_json` (a `check_model`-checked `model.json`) is no model of the run
+    of `cfg`, in the settings its file records (`model.api.model_identity`: a setting it does not
+    record is not compared): another arena, task values, unit of t or robot speed, or a team
+    smaller than the run's; "" where it is one."""
+    model = load_json(model_json)
+    speed = model.get("measurement", {}).get("robot_speed_mps")
+    recorded = {"arena": (model.get("arena"), cfg.arena.name),
+                "tasks.values": (model.get("values"), [float(v) for v in cfg.tasks.values]),
+                "tasks.time_unit": (model.get("time_unit"), cfg.tasks.time_unit),
+                "robot.speed_mps": (speed, float(cfg.robot.speed_mps))}
+    differ = [f"{key} {theirs} (the run: {ours})" for key, (theirs, ours) in recorded.items()
+              if theirs is not None and theirs != ours]
+    if int(model["n_robots"]) < int(cfg.team.n_robots):
+        differ.append(f"team sizes up to {model['n_robots']} (the run: {cfg.team.n_robots})")
+    return "; ".join(differ)
+
+
 def _model_fault(model: object) -> str:
     if not isinstance(model, dict):
         return "not a JSON object"

@@ -30,7 +30,7 @@ from tavc_cli.analysis.trial_stats import stable_from
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.notation import state_counts
 from tavc_cli.readers import load_json
-from tavc_cli.report.files import CONVERGED_DIR, config_of
+from tavc_cli.report.files import CONVERGED_DIR, config_of, model_misfit
 from tavc_cli.report.mechanism import convergence, mechanism, mechanism_words
 from tavc_cli.report.runs import on_surrogate
 from tavc_cli.report.text import delivery_lines, fmt, p_cell
@@ -321,7 +321,7 @@ def convergence_sentence(d: Path) -> list[str]:
 def model_lines(name: str, d: Path, cfg: TavcConfig, model_json: Path | None) -> list[str]:
     """The model's predicted allocation beside the learners' modal state and robots on the
     high-value circuit, before the event and in the stable period after it."""
-    if model_json is None or not (d / "allocation.csv").is_file():
+    if model_json is None or not (d / "allocation.csv").is_file() or model_misfit(model_json, cfg):
         return []
     by_size = json.loads(model_json.read_text()).get("by_team_size", {})
     alloc = pd.read_csv(d / "allocation.csv")

@@ -19,7 +19,7 @@ from tavc_cli.readers import load_json
 from tavc_cli.reference import chapter_table
 from tavc_cli.report.drawing import FigurePool
 from tavc_cli.report.figures import experiment_figures
-from tavc_cli.report.files import config_of
+from tavc_cli.report.files import config_of, model_misfit
 from tavc_cli.report.horizons import (
     Horizon,
     convergence_sentence,
@@ -157,9 +157,12 @@ def section_lines(name: str, h: Horizon, figures: dict[Path, Future], results_di
             lines += settle_lines(h.runs[name], cfg)
             lines += q_gap_lines(h.runs[name])
     if h.headline:
-        lines += own_model_lines(d / "model" / "model.json", state_time)
-        if (d / "model" / "model.json").is_file():
-            lines.append("")
+        own = d / "model" / "model.json"
+        if own.is_file():
+            misfit = model_misfit(own, cfg)
+            lines += [f"The model beside this run (`{own.parent.relative_to(results_dir).as_posix()}/`) was measured "
+                      f"with other settings ({misfit}): not set beside it.", ""] if misfit else \
+                [*own_model_lines(own, state_time), ""]
         lines += figures[d].result()
         lines += mechanism_lines(d)
     else:
