@@ -156,9 +156,27 @@ def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
     root = Path(root)
     runs = sorted(p.parent for p in root.rglob("trial_stats.csv")
                   if (p.parent / "config.yaml").is_file() and not in_hidden_folder(p.parent, root))
-    points = (value_ratio.ratio_point(from_yaml(d / "config.yaml"), pd.read_csv(d / "trial_stats.csv"),
-                                      str(d.relative_to(root)), controller) for d in runs)
-    return value_ratio.points_table([p for p in points if p is not None])
+    points, cells, columns = [], {}, {}
+    for d in runs:
+        cfg = from_yaml(d / "config.yaml")
+        point = value_ratio.ratio_point(cfg, pd.read_csv(d / "trial_stats.csv"), str(d.relative_to(root)), controller)
+        if point is None:
+            continue
+        # a cell holds one run, and a column (a reading) runs alike in what its label does not name
+        cell = (point["reading"], point["horizon"], point["ratio"])
+        if cell in cells:
+            raise TavcError(f"{d}: a second run at ratio {point['ratio']:g}, {point['horizon']}, "
+                            f"{point['reading']}, beside {cells[cell]}; the value-ratio table has one cell for each: "
+                            f"move one of them out of {root}")
+        cells[cell] = d
+        first = columns.setdefault(cell[:2], (d, value_ratio.unnamed_settings(cfg)))
+        differ = sorted(k for k, v in value_ratio.unnamed_settings(cfg).items() if first[1].get(k) != v)
+        if differ:
+            raise TavcError(f"{d}: its {differ[0]} is not that of {first[0]}, in the same column of the value-ratio "
+                            f"table ({point['reading']}, {point['horizon']}); move one of them out of {root}, or "
+                            "run it again alike")
+        points.append(point)
+    return value_ratio.points_table(points)
 
 
 def model_rows(model_csv: Path, n_robots: int | None = None) -> pd.DataFrame:

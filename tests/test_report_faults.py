@@ -810,3 +810,28 @@ def test_a_model_of_other_settings_is_never_set_beside_a_run(finished_run, run_c
     assert ("The model beside this run (`initial_distribution/model/`) was measured with other settings "
             "(tasks.values [8000.0, 2000.0] (the run: [2200.0, 2000.0]); team sizes up to 4 (the run: 6)): not set "
             "beside it.") in text
+
+
+def test_the_value_ratio_table_holds_one_run_to_a_cell_and_alike_runs_in_a_column(finished_run, run_copy, tmp_path):
+    """The value-ratio table has a cell for each reading, horizon and ratio, and names nothing else
+    of its runs: a second run in a cell (it would go unshown), or a run of another team in a column,
+    is refused in one line naming both, before anything is written."""
+    base = ("experiment=initial_distribution", *SMOKE, "trials=2", "baselines=[]")
+    chapter = finished_run(*base, name="initial_distribution")
+    root = tmp_path / "results" / "value_ratio" / "paper"
+    first = run_copy(chapter, into=root / "a")
+    second = run_copy(chapter, into=root / "b")
+    result = runner.invoke(app, ["report", str(tmp_path / "results")])
+    assert result.exit_code == 1, result.output
+    assert result.output.strip() == (
+        f"error: {second}: a second run at ratio 1.1, 0.0333333 h, t in ms (the default), beside {first}; the "
+        f"value-ratio table has one cell for each: move one of them out of {root.parent}")
+    assert not (tmp_path / "results" / "REPORT.md").exists()
+    shutil.rmtree(second.parent)
+    smaller = run_copy(finished_run(*base, "team.n_robots=4", "tasks.values=[2400,2000]", name="initial_distribution"),
+                       into=root / "b")
+    result = runner.invoke(app, ["report", str(tmp_path / "results")])
+    assert result.exit_code == 1, result.output
+    assert result.output.strip() == (
+        f"error: {smaller}: its team is not that of {first}, in the same column of the value-ratio table (t in ms "
+        f"(the default), 0.0333333 h); move one of them out of {root.parent}, or run it again alike")

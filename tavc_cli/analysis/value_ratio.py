@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from tavc_cli.analysis.stay_switch import reading_name, reading_of, readings, split_folder
-from tavc_cli.learning.parameters import CHAPTER_GAMMA
+from tavc_cli.learning.parameters import CHAPTER_GAMMA, settings_mapping
 from tavc_cli.model import core
 from tavc_cli.notation import column_state, counts_of
 from tavc_cli.settings import TavcConfig
@@ -78,6 +78,15 @@ def ratio_point(cfg: TavcConfig, stats: pd.DataFrame, run: str, controller: str 
             "n_trials": len(share),
             "policy_changes_per_trial": float(np.nanmean(changes)) if np.isfinite(changes).any() else math.nan,
             "run": run}
+
+
+def unnamed_settings(cfg: TavcConfig) -> dict[str, object]:
+    """What a run's row of the table does not name but its column presumes alike (`ratio_point`
+    names the unit of t, a discount other than the chapter's, the reading and the horizon): the
+    experiment, the team, the learner (but its discount), the robot and the time factor."""
+    learner = {k: v for k, v in settings_mapping(cfg.learner).items() if k != "gamma"}
+    return {"experiment_name": cfg.experiment_name, "team": cfg.team, "learner": learner, "robot": cfg.robot,
+            "scale.time_factor": float(cfg.scale.time_factor)}
 
 
 def points_table(rows: Sequence[dict]) -> pd.DataFrame:

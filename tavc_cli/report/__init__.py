@@ -35,11 +35,17 @@ from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
-from tavc_cli.ownership import READINGS_DIR, list_figures, take_report_folders
+from tavc_cli.ownership import READINGS_DIR, VALUE_RATIO_DIR, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.report import horizons
 from tavc_cli.report.compare import check_compare_tables, compare_lines
-from tavc_cli.report.counterfactuals import calibration_lines, calibration_tables, counterfactual_lines, read_search
+from tavc_cli.report.counterfactuals import (
+    calibration_lines,
+    calibration_tables,
+    check_readings,
+    counterfactual_lines,
+    read_search,
+)
 from tavc_cli.report.drawing import FigurePool, figure_files, remove_stale_figures
 from tavc_cli.report.figures import find_model
 from tavc_cli.report.files import (
@@ -65,7 +71,7 @@ from tavc_cli.report.surrogate import study_tables, surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
 from tavc_cli.run_checks import check_run
-from tavc_cli.run_tables import check_ladder
+from tavc_cli.run_tables import check_ladder, ratio_points
 
 
 def _check_readable(results_dir: Path, horizon_dirs: list[Path],
@@ -102,6 +108,9 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path],
         read_search(table)
     study_tables(results_dir)  # the surrogate study's
     check_compare_tables(results_dir)  # the comparisons of other learners, each held to its trials
+    check_readings(results_dir)  # each reading's runs made in that reading, whose name their verdicts carry
+    if (results_dir / VALUE_RATIO_DIR).is_dir():  # one run to a cell of the value-ratio table, its columns alike
+        ratio_points(results_dir / VALUE_RATIO_DIR)
     own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
     in_readings = [p for d in STAY_SWITCH_DIRS for p in prediction_files(results_dir, d)]
     predictions = prediction_files(results_dir) + in_readings

@@ -54,6 +54,20 @@ def reading_horizons(results_dir: Path) -> list[tuple[str, Horizon]]:
     finished runs of the chapter's experiments: `readings/<reading>/` under the results folder
     and under each longer horizon's, in natural order (a reading's folder that is itself a run,
     a check point of the models, is read by the readings' section instead)."""
+    return [(d.relative_to(results_dir).as_posix(), read_horizon(d, found, unfinished))
+            for d, found, unfinished in _reading_folders(results_dir)]
+
+
+def check_readings(results_dir: Path) -> None:
+    """Refuse a reading's folder whose runs were not all made in the reading its name says
+    (`_check_reading`), before the report writes anything."""
+    for d, found, _ in _reading_folders(results_dir):
+        _check_reading(d, [run for folders in found.values() for run in folders])
+
+
+def _reading_folders(results_dir: Path) -> list[tuple[Path, dict[str, list[Path]], list[Path]]]:
+    """(the folder, its finished runs by experiment, its unfinished ones) for every reading's folder
+    `reading_horizons` reads."""
     out = []
     for top in (results_dir, *horizon_folders(results_dir)):
         base = top / READINGS_RUNS
@@ -63,8 +77,7 @@ def reading_horizons(results_dir: Path) -> list[tuple[str, Horizon]]:
                         key=lambda p: natural(p.name)):
             found, unfinished = finished_runs(d)
             if found:
-                _check_reading(d, [run for folders in found.values() for run in folders])
-                out.append((d.relative_to(results_dir).as_posix(), read_horizon(d, found, unfinished)))
+                out.append((d, found, unfinished))
     return out
 
 
