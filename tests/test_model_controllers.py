@@ -13,7 +13,7 @@ import pytest
 
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.informed import InformedPolicy, ModelPolicy, ranked
-from tavc_cli.model.allocations import model_allocations
+from tavc_cli.model.allocations import model_allocations, model_differences
 from tests.helpers import REPO, tavc
 
 
@@ -28,6 +28,25 @@ def test_allocations_are_read_most_valuable_circuit_first(tmp_path):
     # circuit 1 the more valuable, "3:2" is still 3 robots on the high circuit, 2 on the low one
     model = write_model(tmp_path / "model.json", [2000.0, 2200.0], {"5": "3:2", "6": "4:2"})
     assert model_allocations(model) == {"5": [3, 2], "6": [4, 2]}
+
+
+def test_a_model_measured_with_other_settings_than_the_run_is_refused_in_one_line(tmp_path):
+    """The model's allocations stand for a run only where its model.json records the run's arena,
+    values, unit of t and robot speed (a setting it does not record is not compared)."""
+    model = json.loads((REPO / "results/initial_distribution/model/model.json").read_text())
+    world = {"arena": "two_circuits", "tasks.values": [2200.0, 2000.0], "tasks.time_unit": "ms",
+             "robot.speed_mps": 0.25}  # the chapter's, as the committed model was measured
+    assert model_differences(model, world) == []
+    assert model_differences(model, {**world, "tasks.values": [4000.0, 2000.0], "robot.speed_mps": 0.3}) == [
+        "tasks.values [2200.0, 2000.0] (the run: [4000.0, 2000.0])", "robot.speed_mps 0.25 (the run: 0.3)"]
+    assert model_differences({"by_team_size": {}}, world) == []
+    result = tavc("config", "experiment=initial_distribution", "learner=model", "scale=smoke",
+                  f"learner.model_file={REPO / 'results/initial_distribution/model/model.json'}",
+                  "arena=two_circuits_parallel")
+    assert result.returncode != 0 and len(result.stderr.strip().splitlines()) == 1
+    assert result.stderr.strip().endswith(
+        "was measured with other settings than this run's (arena two_circuits (the run: two_circuits_parallel)); run "
+        "`tavc model` at this run's settings and name its model.json"), result.stderr
 
 
 def test_the_committed_model_gives_the_chapter_team_three_and_three():

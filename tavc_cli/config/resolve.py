@@ -40,7 +40,7 @@ from omegaconf import DictConfig
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root
 from tavc_cli.learning.registry import MODEL_LEARNERS
-from tavc_cli.model.allocations import model_allocations
+from tavc_cli.model.allocations import model_allocations, model_world
 from tavc_cli.settings import MemberConfig
 from tavc_cli.sim.arena import most_robots
 
@@ -96,7 +96,7 @@ def resolve(cfg: DictConfig, *, job_dir: Optional[str] = None) -> None:
     if cfg.executor.n_jobs is None:
         cfg.executor.n_jobs = os.cpu_count() or 1
     if cfg.learner.name in MODEL_LEARNERS and cfg.learner.target is None and cfg.learner.allocations is None:
-        cfg.learner.allocations = model_allocations(cfg.learner.model_file, len(cfg.arena.circuits))
+        cfg.learner.allocations = model_allocations(cfg.learner.model_file, len(cfg.arena.circuits), model_world(cfg))
 
 
 def default_output_dir(scale: str, experiment: str) -> Path:

@@ -11,6 +11,7 @@ command runs once the file is fixed.
 from __future__ import annotations
 
 import reprlib
+from collections.abc import Mapping
 from pathlib import Path
 
 from tavc_cli.errors import TavcError
@@ -53,11 +54,34 @@ def model_file_path(value: object) -> Path:
     return Path(value)
 
 
-def model_allocations(path: object, n_circuits: int | None = None) -> dict[str, list[int]]:
+def model_differences(model: dict, world: dict[str, object]) -> list[str]:
+    """The settings in which a `model.json` (`model`) was measured otherwise than a run's `world`
+    (``{"arena": name, "tasks.values": [...], "tasks.time_unit": unit, "robot.speed_mps": speed}``),
+    as far as the model records them (`model.api.model_identity`; one it does not record is not
+    compared): ``key value (the run: value)``."""
+    speed = model.get("measurement", {}).get("robot_speed_mps") if isinstance(model.get("measurement"), dict) else None
+    recorded = {"arena": model.get("arena"), "tasks.values": model.get("values"),
+                "tasks.time_unit": model.get("time_unit"), "robot.speed_mps": speed}
+    return [f"{key} {recorded[key]} (the run: {ours})" for key, ours in world.items()
+            if recorded.get(key) is not None and recorded[key] != ours]
+
+
+def model_world(cfg) -> dict[str, object]:
+    """The settings of a run (`cfg`: its settings, or the composed config they are read from) a
+    model must have been measured with to stand for it (`model_differences`)."""
+    tasks = cfg.tasks
+    values = tasks["values"] if isinstance(tasks, Mapping) else tasks.values  # on a config, .values is a method
+    return {"arena": str(cfg.arena.name), "tasks.values": [float(v) for v in values],
+            "tasks.time_unit": str(tasks.time_unit), "robot.speed_mps": float(cfg.robot.speed_mps)}
+
+
+def model_allocations(path: object, n_circuits: int | None = None,
+                      world: dict[str, object] | None = None) -> dict[str, list[int]]:
     """Robots per circuit, the most valuable circuit first, for every team size the model file
     predicts (``by_team_size``): e.g. ``{"5": [3, 2], "6": [3, 3]}`` (the model writes its states
     most valuable circuit first, `analysis.states.split_label`). `n_circuits`, when given, is the
-    number of circuits every state must have."""
+    number of circuits every state must have; `world`, when given, the run's settings the model
+    must have been measured with (`model_differences`)."""
     path = model_file_path(path)
     try:
         model = load_json(path, MODEL_LIMIT, REMAKE)
@@ -71,6 +95,10 @@ def model_allocations(path: object, n_circuits: int | None = None) -> dict[str, 
     sizes = model.get("by_team_size") if isinstance(model, dict) else None
     if not isinstance(sizes, dict) or not sizes:
         raise _bad(path, "has no `by_team_size`; is it tavc model's model.json?")
+    differ = model_differences(model, world or {})
+    if differ:
+        raise TavcError(f"learner.model_file: {path} was measured with other settings than this run's "
+                        f"({'; '.join(differ)}); run `tavc model` at this run's settings and name its model.json")
     for size in sizes:
         if not (isinstance(size, str) and size.isdigit() and int(size) >= 1):
             raise _bad(path, f"has a team size {size!r} in by_team_size (not a whole number of robots)")

@@ -18,6 +18,7 @@ from tavc_cli.analysis.matched import ROBOT_COLUMNS, TABLE_COLUMNS, first_tables
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder
 from tavc_cli.errors import TavcError
 from tavc_cli.io import plain_name
+from tavc_cli.model.allocations import model_differences, model_world
 from tavc_cli.ownership import READINGS_DIR, STAY_SWITCH_TABLES, VALUE_RATIO_DIR
 from tavc_cli.readers import REWRITE, TableSpec, load_json, read_table
 from tavc_cli.run_tables import MODEL_REWRITE, in_hidden_folder, model_rows
@@ -254,13 +255,7 @@ def model_misfit(model_json: Path, cfg: TavcConfig) -> str:
     record is not compared): another arena, task values, unit of t or robot speed, or a team
     smaller than the run's; "" where it is one."""
     model = load_json(model_json)
-    speed = model.get("measurement", {}).get("robot_speed_mps")
-    recorded = {"arena": (model.get("arena"), cfg.arena.name),
-                "tasks.values": (model.get("values"), [float(v) for v in cfg.tasks.values]),
-                "tasks.time_unit": (model.get("time_unit"), cfg.tasks.time_unit),
-                "robot.speed_mps": (speed, float(cfg.robot.speed_mps))}
-    differ = [f"{key} {theirs} (the run: {ours})" for key, (theirs, ours) in recorded.items()
-              if theirs is not None and theirs != ours]
+    differ = model_differences(model, model_world(cfg))
     if int(model["n_robots"]) < int(cfg.team.n_robots):
         differ.append(f"team sizes up to {model['n_robots']} (the run: {cfg.team.n_robots})")
     return "; ".join(differ)
