@@ -32,7 +32,7 @@ from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root, owned_path, path_of, refuse_folder_problem
-from tavc_cli.learning.parameters import ModelSettings, PluginSettings
+from tavc_cli.learning.parameters import PluginSettings
 from tavc_cli.learning.registry import MODEL_LEARNERS
 from tavc_cli.model.report import measurement_shortfall, model_text
 from tavc_cli.override_keys import setting, setting_key
@@ -245,9 +245,6 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     model_keys = [o for o in overrides if setting_key(o) == "learner.model_file"]
     overrides = [o for o in overrides if o not in model_keys]
     config.parse_overrides(model_keys)  # a slip in one is named as itself
-    # read as a model learner's run reads it (its grammar, interpolations, and the file itself checked)
-    model_file = config.load_config(["learner=model", *model_keys[-1:]]).learner.model_file if model_keys \
-        else ModelSettings().model_file
     learners = list(CONTROLLERS if learners is None else learners)
     if experiments is None:
         experiments = scenarios()
@@ -272,6 +269,11 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
         owned_path(results, results / "runs" / name, folder=True, what="--results")
     reuse = {name: path_of(folder, f"reuse[{name!r}]") for name, folder in (reuse or {}).items()}
     base = config.load_config([f"experiment={experiments[0]}", *overrides])
+    # read as a model learner's run in the comparison's world reads it (its grammar, interpolations, the
+    # file itself, and that it was measured in that world): the other learners' settings are no part of it
+    world = [o for o in overrides if setting_key(o).split(".")[0] != "learner"]
+    model_file = config.load_config([f"experiment={experiments[0]}", *world, "learner=model", *model_keys[-1:]]
+                                    ).learner.model_file
     scale = config.to_container(base.scale)
     plans = {}
     for name in learners:  # a reused controller's too: its folder is checked against them

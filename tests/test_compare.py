@@ -26,6 +26,7 @@ from tavc_cli.compare.run import controller_overrides, parse_reuse
 from tavc_cli.errors import TavcError
 from tests.helpers import tavc
 
+REPO = Path(__file__).resolve().parent.parent
 SAME = [{"speed_mps": 0.25, "group": "all"}] * 6
 MIXED = [{"speed_mps": 0.3, "group": "fast"}] * 3 + [{"speed_mps": 0.2, "group": "slow"}] * 3
 
@@ -177,6 +178,11 @@ def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_pat
     result = tavc("compare", "scale=smoke", "--learners", "tavc,random", "learner.model_file=/nowhere/model.json",
                   "--results", str(tmp_path / "d"))
     assert result.returncode == 1 and "learner.model_file: no model at /nowhere/model.json" in result.stderr
+    # the model the predicted states come from is one of the comparison's world, whoever is compared
+    result = tavc("compare", "scale=smoke", "--learners", "tavc,random", "arena=two_circuits_parallel",
+                  f"learner.model_file={REPO / 'results/initial_distribution/model/model.json'}",
+                  "--results", str(tmp_path / "d"))
+    assert result.returncode == 1 and "(arena two_circuits (the run: two_circuits_parallel))" in result.stderr
     result = tavc("compare", "scale=smoke", "--learners", "tavc,random", "--reuse", f"tavc={tmp_path}",
                   "--results", str(tmp_path / "e"))
     assert result.returncode == 1 and "--reuse:" in result.stderr and "holds no finished run" in result.stderr

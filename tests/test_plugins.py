@@ -197,6 +197,16 @@ def test_the_docs_example_learner_runs_through_reproduce_and_compare(tmp_path, m
     assert set(table["controller"]) == {"tavc", "random", "model", "informed", "decaying"}
     mine = table[table["controller"] == "decaying"]
     assert mine["p_vs_tavc"].notna().all() and mine["p_vs_random"].notna().all()
+    # its runs are reused as they are while its code is, and refused once the code changed
+    reuse = ["--config-dir", "mine", "compare", "--learners", "random,decaying", "--experiments",
+             "initial_distribution", "scale=smoke", f"learner.model_file={model}", "--reuse",
+             "decaying=runs/smoke/compare/runs/decaying", "--results", "again", "--no-progress"]
+    result = runner.invoke(app, reuse)
+    assert result.exit_code == 0, result.output
+    with (tmp_path / "mine" / "greedy.py").open("a") as code:
+        code.write("# changed\n")
+    result = runner.invoke(app, [*reuse[:-2], "again2", "--no-progress"])
+    assert result.exit_code == 1 and "computed by other code of the learner" in result.output, result.output
 
 
 # --- learners from the literature -----------------------------------------------------------------

@@ -28,6 +28,8 @@ from tavc_cli.compare.figures import comparison_figure
 from tavc_cli.compare.metrics import METRICS, TABLE_COLUMNS, comparison_table, cut_fill_delays, order, trial_metrics
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
+from tavc_cli.learning.parameters import PluginSettings
+from tavc_cli.learning.plugins import target_digest
 from tavc_cli.learning.registry import LEARNS_NOTHING, controller_label
 from tavc_cli.model.allocations import model_allocations
 from tavc_cli.ownership import COMPARE, COMPARE_FILES, config_differences, take
@@ -74,8 +76,8 @@ def check_reused(folder: Path, planned: TavcConfig, label: str) -> None:
     for the controller whose trials are labelled `label`), unless it holds a finished run
     (its `provenance.json` there) whose files are whole and unchanged (`run_checks.check_run`,
     as `tavc report` checks a run), computed by this tavc's code, of that scenario, of
-    that learner with trials of `label`, at `planned`'s settings but `REUSE_MAY_DIFFER`, and with
-    at least `planned`'s trials."""
+    that learner with trials of `label` (of a learner from outside tavc, by its code as it is now),
+    at `planned`'s settings but `REUSE_MAY_DIFFER`, and with at least `planned`'s trials."""
     experiment = str(planned.experiment_name)
     for name in ("provenance.json", "trial_stats.csv"):
         if not (folder / name).is_file():
@@ -87,6 +89,12 @@ def check_reused(folder: Path, planned: TavcConfig, label: str) -> None:
     if facts.other_code is not None:
         raise _refused(folder, f"computed by another version of tavc's code ({facts.other_code}; this tavc's: "
                        f"{this_code()})")
+    if isinstance(planned.learner, PluginSettings):  # a learner from outside tavc: its code as it is now
+        ours = target_digest(str(planned.learner.target))
+        theirs = sorted({str(d.get("digest")) for d in facts.learner_code.values() if isinstance(d, dict)})
+        if ours not in theirs:
+            raise _refused(folder, f"computed by other code of the learner ({', '.join(theirs) or 'none recorded'}; "
+                           f"its code now: {ours})")
     recorded = load_yaml(folder / "config.yaml")
     if recorded.get("experiment_name") != experiment:
         raise _refused(folder, f"a run of {recorded.get('experiment_name')}, not of {experiment}")
