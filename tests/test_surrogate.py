@@ -162,9 +162,16 @@ def test_measured_tasks_come_from_static_runs_of_every_makeup(tmp_path):
 
 # --- the study: the side-by-side comparison on synthetic runs ------------------------------------
 
-def _run_folder(folder, shares: dict, rate: float, alternators: int, verdict: str):
-    """A run's folder with just the tables the comparison reads, of one controller `tavc`."""
+def _run_folder(folder, shares: dict, rate: float, alternators: int, verdict: str, *overrides: str):
+    """A run's folder with just the tables the comparison reads, of one controller `tavc`, and the
+    settings of initial_distribution at 40x (and `overrides`)."""
+    from tavc_cli.config import load_config
+    from tavc_cli.config import settings as to_settings
+    from tavc_cli.settings import to_yaml
+
     folder.mkdir(parents=True)
+    (folder / "config.yaml").write_text(to_yaml(to_settings(load_config(
+        ["experiment=initial_distribution", "scale=converged", *overrides]))))
     pd.DataFrame({"state": list(shares), "controller": "tavc", "mean_pct": list(shares.values()), "std_pct": 0.0,
                   "n_trials": 2}).to_csv(folder / "state_time.csv", index=False)
     pd.DataFrame({"controller": "tavc", "trial": [0, 1], "value_rate_stable": [rate - 0.01, rate + 0.01]}).to_csv(
@@ -197,6 +204,14 @@ def test_the_comparison_reads_each_engine_against_the_simulator(tmp_path):
     assert simulator["claims"] == "3:yes" and surrogate["claims"] == "3:no"
     # share of robot-time on the high-value circuit, by hand: (0.2 * 2 + 0.6 * 3 + 0.2 * 4) / 6
     assert high_share({"2:4": 20.0, "3:3": 60.0, "4:2": 20.0}, 6) == pytest.approx(0.5)
+    # a simulator's run is set beside the surrogate's only where it was made alike, on the same seed
+    for override, why in (("seed=3", "ran with another seed (3; the surrogate's: 0)"),
+                          ("learner.epsilon=0.2", "ran with other settings (learner.epsilon 0.2 (this run: 0.1))")):
+        other = _run_folder(tmp_path / override, {"3:3": 100.0}, 0.41, 6, "reproduced", override)
+        with pytest.raises(TavcError) as info:
+            comparison_rows("initial_distribution", "40x", other, {"surrogate_makeup": sur})
+        assert str(info.value) == (f"{other}: is no simulator's run of the surrogate's {sur}: it {why}; name the "
+                                   "results folder that holds the runs the study compares with (--simulator)")
 
 
 def test_the_models_prediction_from_the_stay_tasks_by_hand():

@@ -9,11 +9,14 @@ from pathlib import Path
 
 import pandas as pd
 
+from tavc_cli.analysis.alike import unlike
 from tavc_cli.analysis.convergence import convergence_verdict
 from tavc_cli.analysis.mechanism import mechanism_summary
 from tavc_cli.analysis.turn_taking import state_shares
+from tavc_cli.errors import TavcError
 from tavc_cli.model import core
 from tavc_cli.notation import high_of
+from tavc_cli.settings import from_yaml
 from tavc_cli.surrogate.tasks import STAY
 
 
@@ -62,6 +65,8 @@ def comparison_rows(experiment: str, horizon: str, simulator: Path | None, engin
     horizon; the differences are against the simulator's run."""
     rows, reference = [], None
     runs = ([("simulator", simulator)] if simulator is not None and (simulator / "state_time.csv").is_file() else [])
+    if runs:
+        _check_beside(simulator, engines.values())
     for engine, folder in [*runs, *engines.items()]:
         if not (folder / "state_time.csv").is_file():
             continue
@@ -79,6 +84,22 @@ def comparison_rows(experiment: str, horizon: str, simulator: Path | None, engin
                                                             "policy_changed_share", "converged",
                                                             "value_rate_stable", "claims")}})
     return rows
+
+
+def _check_beside(simulator: Path, folders) -> None:
+    """Refuse a simulator's run set beside the surrogate's runs in `folders` that was not made as
+    they were: the same world, team, learner, tasks and horizon (`alike.unlike`; what computed the
+    trials differs by design) and the same seed, so that trial j draws the same start in both."""
+    theirs = from_yaml(simulator / "config.yaml")
+    for folder in folders:
+        if not (folder / "config.yaml").is_file():
+            continue
+        ours = from_yaml(folder / "config.yaml")
+        why = unlike(ours, {}, theirs, {}) or (f"ran with another seed ({theirs.seed}; the surrogate's: {ours.seed})"
+                                               if int(ours.seed) != int(theirs.seed) else "")
+        if why:
+            raise TavcError(f"{simulator}: is no simulator's run of the surrogate's {folder}: it {why}; name the "
+                            "results folder that holds the runs the study compares with (--simulator)")
 
 
 def stayer_table(times, team_name: str, n_robots: int):
