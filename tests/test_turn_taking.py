@@ -524,3 +524,32 @@ def test_only_converged_learners_at_the_checks_horizon_are_a_check():
     assert no_check_note(False, 80.0) == no_check_note(False, 40.0) == " (not a check: the learners did not converge)"
     assert trials_words({"trials": 20, "factor": 40.0}) == "20 trials"
     assert trials_words({"trials": 8, "factor": 80.0}) == "8 trials, 80x"
+
+
+def test_a_run_a_prediction_finds_by_its_name_must_be_of_its_own_learners_world(tmp_path):
+    """A prediction reads the learners' run at `<horizon>/<name>` as its check: one of another world
+    than the prediction's own learners (another arena, here) is refused in one line, before the
+    report writes anything."""
+    import shutil
+
+    from tavc_cli.errors import TavcError
+    from tavc_cli.report.beside import check_named_runs
+    from tests.helpers import REPO
+
+    today = REPO / "results" / "converged" / "breakdown" / "config.yaml"
+    parallel = REPO / "results" / "converged" / "readings" / "dock-nearest-two_circuits_parallel" / "breakdown"
+    where = tmp_path / "turn_taking" / "breakdown" / "turn_taking"
+    (where / "learners").mkdir(parents=True)
+    (where / "turn_taking.json").write_text(json.dumps({"regime": "turn-taking", "robots_high": 2.5,
+                                                        "modal_state": "3:2", "modal_share_pct": 40.0}))
+    shutil.copy(today, where / "learners" / "config.yaml")
+    run = tmp_path / "converged" / "breakdown"
+    run.mkdir(parents=True)
+    shutil.copy(today, run / "config.yaml")
+    check_named_runs(tmp_path)  # the same world: read as its check
+    shutil.copy(parallel / "config.yaml", run / "config.yaml")
+    with pytest.raises(TavcError) as info:
+        check_named_runs(tmp_path)
+    assert str(info.value) == (f"{run}: its arena settings are not those of the learners of the prediction "
+                               "turn_taking/breakdown that reads it by its name as its check; move it, or run it "
+                               "again in that world")

@@ -35,9 +35,10 @@ from tavc_cli import chapter
 from tavc_cli.analysis.claims import verdict_words
 from tavc_cli.errors import TavcError
 from tavc_cli.io import claim_folder, write_text_atomic
-from tavc_cli.ownership import READINGS_DIR, VALUE_RATIO_DIR, list_figures, take_report_folders
+from tavc_cli.ownership import READINGS_DIR, list_figures, take_report_folders
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.report import horizons
+from tavc_cli.report.beside import check_named_runs
 from tavc_cli.report.compare import check_compare_tables, compare_lines
 from tavc_cli.report.counterfactuals import (
     calibration_lines,
@@ -66,12 +67,12 @@ from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
 from tavc_cli.report.runs import LADDER, LINK_LEFT_OUT, finished_runs, other_code_lines, rel, run_list_lines, study_runs
 from tavc_cli.report.sections import experiment_sections, submit_figures
-from tavc_cli.report.studies import STAY_SWITCH_DIRS, stay_switch_lines, value_ratio_lines
+from tavc_cli.report.studies import STAY_SWITCH_DIRS, check_value_ratio, stay_switch_lines, value_ratio_lines
 from tavc_cli.report.surrogate import study_tables, surrogate_lines
 from tavc_cli.report.text import p_cell
 from tavc_cli.report.time_scale import time_scale_lines
 from tavc_cli.run_checks import check_run
-from tavc_cli.run_tables import check_ladder, ratio_points
+from tavc_cli.run_tables import check_ladder
 
 
 def _check_readable(results_dir: Path, horizon_dirs: list[Path],
@@ -109,8 +110,8 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path],
     study_tables(results_dir)  # the surrogate study's
     check_compare_tables(results_dir)  # the comparisons of other learners, each held to its trials
     check_readings(results_dir)  # each reading's runs made in that reading, whose name their verdicts carry
-    if (results_dir / VALUE_RATIO_DIR).is_dir():  # one run to a cell of the value-ratio table, its columns alike
-        ratio_points(results_dir / VALUE_RATIO_DIR)
+    check_named_runs(results_dir)  # a prediction's learners found by its name: of its own learners' world
+    check_value_ratio(results_dir)  # one run to a cell of the value-ratio table, its columns alike
     own = []  # the predictions' own learners (set beside the learners' runs seed for seed) and alternators
     in_readings = [p for d in STAY_SWITCH_DIRS for p in prediction_files(results_dir, d)]
     predictions = prediction_files(results_dir) + in_readings

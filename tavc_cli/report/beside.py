@@ -14,6 +14,7 @@ from tavc_cli.analysis.makeup_model import expected_high, predicted_regime
 from tavc_cli.analysis.stay_switch import parse_reading, reading_folder, readings
 from tavc_cli.analysis.turn_taking import RESAMPLES, state_shares
 from tavc_cli.chapter import base_case
+from tavc_cli.errors import TavcError
 from tavc_cli.report import files
 from tavc_cli.report.files import (
     READINGS_RUNS,
@@ -139,6 +140,30 @@ def _learners_runs(results_dir: Path, name: str, predicted: dict, where: Path,
                 all(getattr(cfg, k) == getattr(own, k) for k in WORLD):
             runs.append(d)
     return runs
+
+
+def check_named_runs(results_dir: Path) -> None:
+    """Refuse a run where a prediction looks for its learners by name (`<horizon>/<name>`,
+    `<horizon>/readings/<name>`) that was not made in the world the prediction's own learners ran
+    in (`WORLD`), before the report writes anything: it would be set beside the prediction as its
+    check."""
+    for path in prediction_files(results_dir):
+        predicted = read_prediction(path)
+        own_dir = model_learners(path.parent, predicted)
+        if own_dir is None or not (own_dir / "config.yaml").is_file():
+            continue
+        own = read_or_refuse(own_dir / "config.yaml", config_of)
+        name = base_name(path.parent.parent.name)
+        for h in horizon_folders(results_dir):
+            for d in (run_in(h / name, own.experiment_name), run_in(h / READINGS_RUNS / name, own.experiment_name)):
+                if not (d / "config.yaml").is_file():
+                    continue
+                cfg = read_or_refuse(d / "config.yaml", config_of)
+                differ = next((k for k in WORLD if getattr(cfg, k) != getattr(own, k)), None)
+                if differ is not None:
+                    raise TavcError(f"{d}: its {differ} settings are not those of the learners of the prediction "
+                                    f"{path.parent.parent.relative_to(results_dir).as_posix()} that reads it by its "
+                                    "name as its check; move it, or run it again in that world")
 
 
 def _learners(d: Path) -> dict:

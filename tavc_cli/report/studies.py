@@ -20,6 +20,13 @@ from tavc_cli.report.text import fmt
 from tavc_cli.run_tables import model_rows, ratio_points
 
 
+def check_value_ratio(results_dir: Path) -> None:
+    """Refuse a value-ratio sweep (`run_tables.ratio_points`) with two runs in a cell of its table,
+    or a column of runs made otherwise in what the column's label does not name."""
+    if (results_dir / VALUE_RATIO_DIR).is_dir():
+        ratio_points(results_dir / VALUE_RATIO_DIR)
+
+
 def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
     """The value-ratio sweep (`make value-ratio`), if it was run into results_dir/value_ratio:
     its table (also written as value_ratio.csv there), a figure, and the model's prediction."""
