@@ -507,3 +507,18 @@ def test_a_longer_horizon_below_the_chapters_scale_is_named_in_the_not_a_verdict
     build_report(tmp_path)
     first = next(line for line in (tmp_path / "REPORT.md").read_text().splitlines() if "not a verdict" in line)
     assert "initial_distribution in converged:" in first
+
+
+def test_a_folders_runs_at_two_horizons_are_refused_as_one_horizon(tmp_path):
+    """A horizon's claims and its label are one horizon's: runs at 1x and 40x among a folder's
+    designated runs are refused in one line naming both, before anything is written."""
+    from tavc_cli.errors import TavcError
+    from tavc_cli.report.horizons import read_horizon
+
+    _run_folder(tmp_path / "a", "paper", 1.0, 20.0, seed=1)
+    _run_folder(tmp_path / "b", "converged", 40.0, 60.0, seed=2)
+    with pytest.raises(TavcError) as info:
+        read_horizon(tmp_path, {"initial_distribution": [tmp_path / "a"], "breakdown": [tmp_path / "b"]}, [])
+    assert str(info.value) == (f"{tmp_path}: its runs are at 1 and 40 times the chapter's durations ({tmp_path / 'a'}, "
+                               f"{tmp_path / 'b'}); a folder's runs are tested as one horizon: move one of them into "
+                               "the folder of its horizon (converged/, x<factor>/)")

@@ -27,6 +27,7 @@ from tavc_cli.analysis.claims import CLAIM_TABLES, claim_table, learner_under_te
 from tavc_cli.analysis.ladder import CLAIM_CONTROLLER
 from tavc_cli.analysis.mechanism import PERSISTENCE
 from tavc_cli.analysis.trial_stats import stable_from
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.plan import RunPlan, read_plan
 from tavc_cli.notation import state_counts
 from tavc_cli.readers import load_json
@@ -139,6 +140,12 @@ def read_horizon(folder: Path, found: dict[str, list[Path]], unfinished: list[Pa
                  for t in CLAIM_TABLES if (d / f"{t}.csv").is_file()})
     read = {name: (config_of(d / "config.yaml"), pd.read_csv(d / "state_time.csv", dtype={"state": str}))
             for name, d in experiments.items()}
+    at = {float(cfg.scale.time_factor): experiments[name] for name, (cfg, _) in read.items()}
+    if len(at) > 1:  # the horizon's claims, and its label, are those of one horizon
+        (a, run_a), (b, run_b) = sorted(at.items())[:2]
+        raise TavcError(f"{folder}: its runs are at {a:g} and {b:g} times the chapter's durations ({run_a}, {run_b}); "
+                        "a folder's runs are tested as one horizon: move one of them into the folder of its horizon "
+                        "(converged/, x<factor>/)")
     others = {name: folders[1:] for name, folders in found.items() if len(folders) > 1}
     deliveries = {d: delivery_lines(d, load_json(d / "provenance.json"))
                   for folders in found.values() for d in folders}
