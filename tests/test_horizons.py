@@ -313,9 +313,10 @@ def test_runs_in_another_reading_of_the_world_are_never_a_horizons_claims(two_ho
     results = tmp_path / "results"
     shutil.copytree(two_horizons, results, ignore=shutil.ignore_patterns("REPORT.md", "claims.csv", "figures",
                                                                          ".tavc.json", ".tavc.lock"))
-    _run_folder(results / "x80" / "readings" / "range-left-two_circuits_parallel", "converged", 80.0, 10.0, seed=5)
+    _run_folder(results / "x80" / "readings" / "range-left-two_circuits_parallel", "converged", 80.0, 10.0, 5,
+                *RANGE_LEFT_PARALLEL)
     _run_folder(results / "converged" / "readings" / "dock-nearest-two_circuits_parallel", "converged", 40.0, 10.0,
-                seed=6)
+                6, "arena=two_circuits_parallel")
     result = build_report(results)
     assert [h["folder"] for h in result["horizons"]] == ["converged"]
     report = (results / "REPORT.md").read_text()
@@ -400,6 +401,10 @@ def test_a_readings_folder_holds_only_runs_made_in_the_reading_its_name_says(two
                                "arena=two_circuits, not in the one its folder names (arrival=range passing=left "
                                "arena=two_circuits_parallel); move it, or run it again in that reading")
     assert not (results / "REPORT.md").exists()
+    shutil.rmtree(reading)
+    _run_folder(reading, "paper", 1.0, 60.0, 7)  # a reading's folder that is itself a run, a models' check point
+    with pytest.raises(TavcError, match=f"^{reading}: made in the reading arrival=dock passing=nearest "):
+        build_report(results)
     shutil.rmtree(reading)
     variant = results / "readings" / "range-left-two_circuits_parallel-calibrated"
     _run_folder(variant / "a" / "initial_distribution", "paper", 1.0, 60.0, 7, *RANGE_LEFT_PARALLEL)

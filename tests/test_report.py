@@ -269,3 +269,22 @@ def test_the_report_says_what_it_is_doing_when_asked_and_is_quiet_otherwise(tmp_
     quiet = CliRunner().invoke(app, ["report", str(tmp_path)])  # not a terminal: no progress by default
     assert quiet.exit_code == 0 and quiet.stderr == "", quiet.stderr
     assert quiet.stdout.splitlines()[-1] == str(tmp_path / "REPORT.md")
+
+
+def test_a_runs_settings_that_differ_from_the_chapters_name_a_reading_of_the_world_other_than_todays():
+    """The headline's world is today's reading (dock, nearest, the crossing circuits); a run in
+    another is said to be, and section 1.4's one circuit, an arena of its own, is no reading."""
+    from tavc_cli.config import load_config
+    from tavc_cli.config import settings as to_settings
+    from tavc_cli.report.text import differences
+
+    def said(*overrides):
+        return differences(to_settings(load_config(["scale=paper", *overrides])))
+
+    assert said("experiment=initial_distribution") == []
+    assert said("experiment=initial_distribution", "passing=left", "arena=two_circuits_parallel") == [
+        "the world read as arrival=dock passing=left arena=two_circuits_parallel (today's: arrival=dock "
+        "passing=nearest arena=two_circuits; docs/readings.md)"]
+    assert said("experiment=spatiotemporal") == []
+    assert said("experiment=spatiotemporal", "arrival=range") == [
+        "the world read as arrival=range passing=nearest (today's: arrival=dock passing=nearest; docs/readings.md)"]

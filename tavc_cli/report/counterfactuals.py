@@ -60,9 +60,15 @@ def reading_horizons(results_dir: Path) -> list[tuple[str, Horizon]]:
 
 def check_readings(results_dir: Path) -> None:
     """Refuse a reading's folder whose runs were not all made in the reading its name says
-    (`_check_reading`), before the report writes anything."""
+    (`_check_reading`), before the report writes anything: a folder of the experiments' runs, or
+    a reading's folder that is itself a run (a check point of the models)."""
     for d, found, _ in _reading_folders(results_dir):
         _check_reading(d, [run for folders in found.values() for run in folders])
+    for top in (results_dir, *horizon_folders(results_dir)):
+        base = top / READINGS_RUNS
+        for d in sorted(base.iterdir()) if base.is_dir() else []:
+            if d.is_dir() and is_run_folder(d) and (d / "config.yaml").is_file():
+                _check_reading(d, [d])
 
 
 def _reading_folders(results_dir: Path) -> list[tuple[Path, dict[str, list[Path]], list[Path]]]:

@@ -11,6 +11,7 @@ import pandas as pd
 
 from tavc_cli.analysis.claims import not_a_verdict, verdict_words
 from tavc_cli.analysis.robots import ALTERNATOR_RATE, STAYER_SHARE, robot_summary
+from tavc_cli.analysis.stay_switch import reading_name, reading_of, readings
 from tavc_cli.analysis.table_schemas import Q_GAP_PREFIX
 from tavc_cli.analysis.trial_stats import SETTLE_TOL
 from tavc_cli.analysis.vacancy import SETTLE_TASKS, vacancy_summary
@@ -169,6 +170,13 @@ def differences(cfg: TavcConfig) -> list[str]:
     chapter_values = known is None or known.learns == "tasks"  # section 1.4's one circuit has no such pair
     if values is not None and chapter_values and [float(v) for v in values] != [2200.0, 2000.0]:
         out.append(f"task values {values} (the chapter: [2200, 2000])")
+    # the headline's world is today's reading of what the chapter leaves unsaid (section 1.4's one circuit is
+    # its own arena, no reading)
+    own_arena = cfg.arena.name not in {r["arena"] for r in readings()}
+    world, today = ({k: v for k, v in r.items() if not (own_arena and k == "arena")} for r in (reading_of(cfg),
+                                                                                             readings()[0]))
+    if world != today:
+        out.append(f"the world read as {reading_name(world)} (today's: {reading_name(today)}; docs/readings.md)")
     return out
 
 
