@@ -67,7 +67,8 @@ def check_readings(results_dir: Path) -> None:
     for top in (results_dir, *horizon_folders(results_dir)):
         base = top / READINGS_RUNS
         for d in sorted(base.iterdir()) if base.is_dir() else []:
-            if d.is_dir() and is_run_folder(d) and (d / "config.yaml").is_file():
+            if d.is_dir() and not d.is_symlink() and not d.name.startswith(".") and is_run_folder(d) \
+                    and (d / "config.yaml").is_file():  # a link or a hidden copy is no run of the report's
                 _check_reading(d, [d])
 
 
