@@ -227,6 +227,10 @@ def compare(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = N
                                reuse=reuse, progress=progress)["table"]
 
 
+# what makes the world a model is measured in: the groups and keys `model_world` reads, and those setting them
+WORLD_GROUPS = ("arena", "robot", "tasks", "world", "arrival", "passing")
+
+
 def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = None,
                     experiments: Sequence[str] | None = None, results_dir: str | Path | None = None,
                     reuse: Mapping[str, str | Path] | None = None, progress: bool = False) -> dict:
@@ -270,8 +274,9 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     reuse = {name: path_of(folder, f"reuse[{name!r}]") for name, folder in (reuse or {}).items()}
     base = config.load_config([f"experiment={experiments[0]}", *overrides])
     # read as a model learner's run in the comparison's world reads it (its grammar, interpolations, the
-    # file itself, and that it was measured in that world): the other learners' settings are no part of it
-    world = [o for o in overrides if setting_key(o).split(".")[0] != "learner"]
+    # file itself, and that it was measured in that world, `model.allocations.model_world`); the team is
+    # the model's controllers' own to check, where they are compared
+    world = [o for o in overrides if setting_key(o).split(".")[0] in WORLD_GROUPS]
     model_file = config.load_config([f"experiment={experiments[0]}", *world, "learner=model", *model_keys[-1:]]
                                     ).learner.model_file
     scale = config.to_container(base.scale)

@@ -206,7 +206,9 @@ def test_the_comparison_reads_each_engine_against_the_simulator(tmp_path):
     assert high_share({"2:4": 20.0, "3:3": 60.0, "4:2": 20.0}, 6) == pytest.approx(0.5)
     # a simulator's run is set beside the surrogate's only where it was made alike, on the same seed
     for override, why in (("seed=3", "ran with another seed (3; the surrogate's: 0)"),
-                          ("learner.epsilon=0.2", "ran with other settings (learner.epsilon 0.2 (this run: 0.1))")):
+                          ("learner.epsilon=0.2", "ran with other settings (learner.epsilon 0.2 (the surrogate's: "
+                                                  "0.1))"),
+                          ("experiment=breakdown", "is a run of breakdown (the surrogate's: initial_distribution)")):
         other = _run_folder(tmp_path / override, {"3:3": 100.0}, 0.41, 6, "reproduced", override)
         with pytest.raises(TavcError) as info:
             comparison_rows("initial_distribution", "40x", other, {"surrogate_makeup": sur})

@@ -88,15 +88,22 @@ def comparison_rows(experiment: str, horizon: str, simulator: Path | None, engin
 
 def _check_beside(simulator: Path, folders) -> None:
     """Refuse a simulator's run set beside the surrogate's runs in `folders` that was not made as
-    they were: the same world, team, learner, tasks and horizon (`alike.unlike`; what computed the
-    trials differs by design) and the same seed, so that trial j draws the same start in both."""
+    they were: of the same experiment and events, in the same world, team, learner, tasks and
+    horizon (`alike.unlike`; what computed the trials differs by design), on the same seed, so
+    that trial j draws the same start in both."""
     theirs = from_yaml(simulator / "config.yaml")
     for folder in folders:
         if not (folder / "config.yaml").is_file():
             continue
         ours = from_yaml(folder / "config.yaml")
-        why = unlike(ours, {}, theirs, {}) or (f"ran with another seed ({theirs.seed}; the surrogate's: {ours.seed})"
-                                               if int(ours.seed) != int(theirs.seed) else "")
+        if ours.experiment_name != theirs.experiment_name:
+            why = f"is a run of {theirs.experiment_name} (the surrogate's: {ours.experiment_name})"
+        elif ours.events != theirs.events:
+            why = "ran with other events (breakdowns, value changes)"
+        elif int(ours.seed) != int(theirs.seed):
+            why = f"ran with another seed ({theirs.seed}; the surrogate's: {ours.seed})"
+        else:
+            why = unlike(ours, {}, theirs, {}).replace("(this run: ", "(the surrogate's: ")
         if why:
             raise TavcError(f"{simulator}: is no simulator's run of the surrogate's {folder}: it {why}; name the "
                             "results folder that holds the runs the study compares with (--simulator)")
