@@ -34,6 +34,7 @@ from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root, owned_path, path_of, refuse_folder_problem
 from tavc_cli.learning.parameters import PluginSettings
 from tavc_cli.learning.registry import MODEL_LEARNERS
+from tavc_cli.model.allocations import model_allocations, model_world
 from tavc_cli.model.report import measurement_shortfall, model_text
 from tavc_cli.override_keys import setting, setting_key
 from tavc_cli.ownership import COMPARE, LADDER, RESULTS, expect, refuse_other_settings
@@ -227,10 +228,6 @@ def compare(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = N
                                reuse=reuse, progress=progress)["table"]
 
 
-# what makes the world a model is measured in: the groups and keys `model_world` reads, and those setting them
-WORLD_GROUPS = ("arena", "robot", "tasks", "world", "arrival", "passing")
-
-
 def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | None = None,
                     experiments: Sequence[str] | None = None, results_dir: str | Path | None = None,
                     reuse: Mapping[str, str | Path] | None = None, progress: bool = False) -> dict:
@@ -273,12 +270,11 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
         owned_path(results, results / "runs" / name, folder=True, what="--results")
     reuse = {name: path_of(folder, f"reuse[{name!r}]") for name, folder in (reuse or {}).items()}
     base = config.load_config([f"experiment={experiments[0]}", *overrides])
-    # read as a model learner's run in the comparison's world reads it (its grammar, interpolations, the
-    # file itself, and that it was measured in that world, `model.allocations.model_world`); the team is
-    # the model's controllers' own to check, where they are compared
-    world = [o for o in overrides if setting_key(o).split(".")[0] in WORLD_GROUPS]
-    model_file = config.load_config([f"experiment={experiments[0]}", *world, "learner=model", *model_keys[-1:]]
-                                    ).learner.model_file
+    # read as a model learner's run reads it (its grammar and interpolations), then the file itself and
+    # the world it was measured in, the comparison's (`model.allocations.model_world`); the teams it
+    # predicts for are the model's controllers' own to check, where they are compared
+    model_file = config.setting_of(["learner=model", *model_keys[-1:]], "learner.model_file")
+    model_allocations(model_file, len(base.arena.circuits), model_world(base))
     scale = config.to_container(base.scale)
     plans = {}
     for name in learners:  # a reused controller's too: its folder is checked against them

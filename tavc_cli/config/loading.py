@@ -5,7 +5,7 @@ import itertools
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 from hydra import compose, initialize_config_dir
 from hydra.core.config_store import ConfigStore
@@ -54,6 +54,12 @@ def load_config(overrides: Sequence[str] = ()) -> DictConfig:
         TavcError: On an unknown key, option or override syntax, a wrong type, or a value out of
             range; the message is one line naming the key.
     """
+    _refuse_sweeps(overrides)
+    return _load(overrides)
+
+
+def _refuse_sweeps(overrides: Sequence[str]) -> None:
+    """One line for a deletion, Hydra's own setting or a sweep among `overrides`: a single run's."""
     refuse_deletions(overrides)
     for text in overrides:
         if is_hydra_override(text):
@@ -64,7 +70,6 @@ def load_config(overrides: Sequence[str] = ()) -> DictConfig:
             raise TavcError(
                 f"{key}: a sweep needs -m/--multirun (to set a list, write {key}=[a,b])"
             )
-    return _load(overrides)
 
 
 def check_measurement(overrides: Sequence[str], group: str) -> None:
@@ -272,6 +277,18 @@ def complete(cfg: DictConfig, *, job_dir: Optional[str] = None) -> DictConfig:
         raise TavcError(omegaconf_message(error)) from None
     OmegaConf.set_readonly(cfg, True)
     return cfg
+
+
+def setting_of(overrides: Sequence[str], key: str) -> Any:
+    """The value `overrides` give the dotted `key`, as composed and its interpolations resolved, the
+    rest neither resolved nor validated (a setting read before the run it belongs to is made)."""
+    _refuse_sweeps(overrides)
+    cfg = _compose(overrides)
+    with hydra_errors(overrides):
+        try:
+            return OmegaConf.select(cfg, key, throw_on_missing=True)
+        except (ValueError, TypeError, KeyError) as error:
+            raise TavcError(f"{key}: {str(error).splitlines()[0]}") from None
 
 
 def _compose(overrides: Sequence[str]) -> DictConfig:
