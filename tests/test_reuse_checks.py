@@ -194,11 +194,9 @@ def test_a_record_declaring_more_arrays_than_tavc_writes_is_refused_unread(seed3
                                "trial record of tavc's holds (4 GiB at the most)" + REWRITE)
 
 
-def test_records_that_would_not_fit_in_memory_together_are_refused_before_any_is_read(seed3, tmp_path,
-                                                                                         monkeypatch):
-    folder = tmp_path / "breakdown"
-    shutil.copytree(seed3, folder)
-    assert [r.meta["controller"] for r in api.load(folder).records("random")] == ["random"]
+def _two_gib_in_one_and_a_half(folder, monkeypatch) -> None:
+    """With every record declaring 1 GiB and 1.5 GiB of memory, the folder's two records together
+    are refused in one line."""
     monkeypatch.setattr(reading, "record_size", lambda path: 1 << 30)
     monkeypatch.setattr(reading, "physical_memory", lambda: 1.5 * 2**30)
     with pytest.raises(TavcError) as info:
@@ -206,6 +204,14 @@ def test_records_that_would_not_fit_in_memory_together_are_refused_before_any_is
     assert str(info.value) == (f"{folder}: its 2 trial records declare 2.0 GiB of arrays, more than this machine's "
                                "1.5 GiB of memory; read one controller's at a time (records(controller), events(kind, "
                                "controller))")
+
+
+def test_records_that_would_not_fit_in_memory_together_are_refused_before_any_is_read(seed3, tmp_path,
+                                                                                         monkeypatch):
+    folder = tmp_path / "breakdown"
+    shutil.copytree(seed3, folder)
+    assert [r.meta["controller"] for r in api.load(folder).records("random")] == ["random"]
+    _two_gib_in_one_and_a_half(folder, monkeypatch)
     assert [r.meta["controller"] for r in api.load(folder).records("tavc")] == ["tavc"]  # 1 GiB: read
     assert set(api.load(folder).events("deliveries", "tavc")["controller"]) == {"tavc"}
     with pytest.raises(TavcError, match=f"^{folder}: no trials of static to read$"):
@@ -220,13 +226,7 @@ def test_a_run_that_did_not_finish_is_held_to_memory_by_the_records_it_keeps(see
     folder = tmp_path / "breakdown"
     shutil.copytree(seed3, folder)
     (folder / "provenance.json").unlink()
-    monkeypatch.setattr(reading, "record_size", lambda path: 1 << 30)
-    monkeypatch.setattr(reading, "physical_memory", lambda: 1.5 * 2**30)
-    with pytest.raises(TavcError) as info:
-        api.load(folder).records()
-    assert str(info.value) == (f"{folder}: its 2 trial records declare 2.0 GiB of arrays, more than this machine's "
-                               "1.5 GiB of memory; read one controller's at a time (records(controller), events(kind, "
-                               "controller))")
+    _two_gib_in_one_and_a_half(folder, monkeypatch)
     keys = reading.keys_of
 
     def random_of_other_settings(cfg, plan):
