@@ -398,8 +398,9 @@ def test_a_run_tests_its_claims_against_the_run_beside_it_only_as_that_run_wrote
 
 def _made_by(run) -> dict:
     """What computed a run's trials, as its provenance.json records it (`runner.made_by`)."""
-    record = json.loads((run / "provenance.json").read_text())
-    return {k: record[k] for k in ("code_digest", "engine", "learner_code") if k in record}
+    from tavc_cli.run_provenance import made_by_of
+
+    return made_by_of(json.loads((run / "provenance.json").read_text()))
 
 
 def test_a_run_beside_made_otherwise_is_no_comparison_for_claims_7_and_8(one_run, tmp_path):
