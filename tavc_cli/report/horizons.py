@@ -147,12 +147,11 @@ def read_horizon(folder: Path, found: dict[str, list[Path]], unfinished: list[Pa
                         "a folder's runs are tested as one horizon: move one of them into the folder of its horizon "
                         "(converged/, x<factor>/)")
     others = {name: folders[1:] for name, folders in found.items() if len(folders) > 1}
-    deliveries = {d: delivery_lines(d, load_json(d / "provenance.json"))
-                  for folders in found.values() for d in folders}
+    records = {d: load_json(d / "provenance.json") for folders in found.values() for d in folders}
+    deliveries = {d: delivery_lines(d, record) for d, record in records.items()}
     learner = under_test(read_plan(experiments[name], cfg) for name, (cfg, _) in read.items())
     # claims 7 and 8 compare two experiments' runs only where they were made alike, as each run's own claims do
-    apart = claims_apart({name: (cfg, made_by_of(load_json(experiments[name] / "provenance.json")))
-                          for name, (cfg, _) in read.items()})
+    apart = claims_apart({name: (cfg, made_by_of(records[experiments[name]])) for name, (cfg, _) in read.items()})
     return Horizon(folder, experiments, read, runs, claim_table(runs, learner=learner, apart=apart), unfinished,
                    others, deliveries, index)
 

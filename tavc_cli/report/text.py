@@ -172,9 +172,9 @@ def differences(cfg: TavcConfig) -> list[str]:
         out.append(f"task values {values} (the chapter: [2200, 2000])")
     # the headline's world is today's reading of what the chapter leaves unsaid (section 1.4's one circuit is
     # its own arena, no reading)
-    own_arena = cfg.arena.name not in {r["arena"] for r in readings()}
-    world, today = ({k: v for k, v in r.items() if not (own_arena and k == "arena")} for r in (reading_of(cfg),
-                                                                                             readings()[0]))
+    skip = set() if cfg.arena.name in {r["arena"] for r in readings()} else {"arena"}
+    world = {k: v for k, v in reading_of(cfg).items() if k not in skip}
+    today = {k: v for k, v in readings()[0].items() if k not in skip}
     if world != today:
         out.append(f"the world read as {reading_name(world)} (today's: {reading_name(today)}; docs/readings.md)")
     return out
