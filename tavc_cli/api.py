@@ -356,7 +356,7 @@ def calibrate(overrides: Sequence[str] = (), *, save: bool = False, progress: bo
 
 def _calibrate(overrides: Sequence[str], save: bool, progress: bool, echo: Callable[[str], None]) -> None:
     # deferred: loads the simulator's compiled kernels
-    from tavc_cli.model.calibrate import calibrate_world
+    from tavc_cli.model.calibrate import calibrate_world, plan_search
     from tavc_cli.model.world_search import grid_points, point_overrides
 
     overrides = list(overrides)
@@ -369,6 +369,8 @@ def _calibrate(overrides: Sequence[str], save: bool, progress: bool, echo: Calla
         base = config.settings(config.load_config(overrides))
     if not base.calibration.grid:
         raise TavcError("calibration.grid: empty; nothing to search")
-    points = [(p, config.settings(config.load_config([*overrides, *point_overrides(p)])))
-              for p in grid_points(base.calibration.grid)]
-    calibrate_world(base, points, config.find_conf_dir() / "world", save=save, progress=progress, echo=echo)
+    world_dir = config.find_conf_dir() / "world"
+    grid = grid_points(base.calibration.grid)
+    plan_search(base, len(grid), world_dir, save=save, progress=progress)  # its checks, before composing the points
+    points = [(p, config.settings(config.load_config([*overrides, *point_overrides(p)]))) for p in grid]
+    calibrate_world(base, points, world_dir, save=save, progress=progress, echo=echo)

@@ -302,3 +302,30 @@ def test_a_calibration_search_writes_into_its_output_dir_and_nowhere_beside_it(t
                                       "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0]}]"])
     assert result.exit_code == 1 and result.output.strip().endswith(f"name the folder that holds it "
                                                                      f"({run.resolve().parent}), or another")
+
+
+def test_a_calibration_search_is_refused_before_its_grid_is_composed(tmp_path, monkeypatch):
+    """Composing the grid's points takes the better part of a minute; a link where the search
+    writes, a run's folder, and `--save` over a world searched otherwise are each refused before
+    a single point is composed."""
+    import tavc_cli.model.world_search as world_search
+
+    def composed(point):
+        raise AssertionError(f"grid point {point} composed before the refusal")
+
+    monkeypatch.setattr(world_search, "point_overrides", composed)
+    sibling = tmp_path / "sibling"
+    sibling.mkdir()
+    named = tmp_path / "named"
+    (named / "calibration").mkdir(parents=True)
+    (named / "calibration" / "world").symlink_to(sibling, target_is_directory=True)
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / ".tavc.json").write_text('{"tavc": "run", "files": []}')
+    for args, words in [([f"output_dir={named}"], "is a symbolic link to"),
+                        ([f"output_dir={run}"], "is a tavc run's folder"),
+                        (["--save", f"output_dir={tmp_path / 'fresh'}"], "was made with other settings")]:
+        result = CliRunner().invoke(app, ["calibrate", "scale=smoke", *args])
+        assert result.exit_code == 1 and len(result.output.strip().splitlines()) == 1, result.output
+        assert result.output.startswith("error: ") and words in result.output, result.output
+    assert not (tmp_path / "fresh").exists() and list(sibling.iterdir()) == []

@@ -262,3 +262,29 @@ def test_the_study_checks_its_overrides_as_its_runs_compose_them(tmp_path, monke
     with pytest.raises(Taken):
         study.run_study(tmp_path / "study", tmp_path, ["convergence_s=5000"],
                         lambda overrides: config.settings(config.load_config(overrides)))
+
+
+@pytest.mark.parametrize("part", ["ladder", "phase", "horizon"])
+def test_the_study_refuses_a_simulators_run_of_other_settings_before_its_own_runs(tmp_path, monkeypatch, part):
+    """The ladder's rung, the phase diagram's chapter point and a rung behind the horizon's
+    ladder.csv are each compared with the settings the study's run beside it will have, before
+    any run is made: a rung of another seed is one line naming it, and nothing runs."""
+    from tavc_cli.surrogate import study
+
+    def ran(*args, **kwargs):
+        raise AssertionError("a run was made before the check")
+
+    monkeypatch.setattr(study.Study, "surrogate", ran)
+    monkeypatch.setattr(study.Study, "simulator", ran)
+    results = tmp_path / "results"
+    where = {"ladder": results / "converged" / "ladder" / "x4", "horizon": results / "converged" / "ladder" / "x4",
+             "phase": results / "converged" / "initial_distribution"}[part]
+    factor = "4.0" if part != "phase" else "40.0"
+    other = _run_folder(where, {"3:3": 100.0}, 0.41, 6, "reproduced", f"scale.time_factor={factor}", "seed=3")
+    (results / "converged" / "ladder" / "ladder.csv").parent.mkdir(parents=True, exist_ok=True)
+    (results / "converged" / "ladder" / "ladder.csv").write_text("factor\n")
+    with pytest.raises(TavcError) as info:
+        study.run_study(tmp_path / "study", results, [], lambda o: config.settings(config.load_config(o)),
+                        parts=[part])
+    assert str(info.value).startswith(f"{other}: is no simulator's run of the surrogate's {tmp_path / 'study'}")
+    assert "it ran with another seed (3; the surrogate's: 0)" in str(info.value)

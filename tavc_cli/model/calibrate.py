@@ -6,12 +6,13 @@ composes the points' settings."""
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from operator import attrgetter
 from pathlib import Path
 
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.store import Executor
-from tavc_cli.io import claim_folder
+from tavc_cli.io import claim_folder, owned_path, refuse_folder_problem
 from tavc_cli.model.report import search_text, sensitivity_text
 from tavc_cli.model.world_search import Point, one_axis_variants, point_id, run_search, run_sensitivity, save_world
 from tavc_cli.ownership import (
@@ -27,11 +28,24 @@ from tavc_cli.ownership import read as read_owned
 from tavc_cli.settings import TavcConfig
 
 
-def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]], world_dir: Path, *, save: bool,
-                    progress: bool, echo: Callable[[str], None]) -> None:
-    """Run the search over `points` (each grid point with its settings; `base` holds the
-    search's own settings) and the sensitivity step, printing through `echo` as each finishes.
-    With `save`, the chosen world is recorded in `world_dir` (conf/world/)."""
+@dataclass(frozen=True)
+class SearchPlan:
+    """Where a search writes (`out_dir`, below `holder`, the folder its user named), how it
+    measures each split (`measurement`, `run_search`'s keywords) and the settings it records
+    (`identity`), checked against what stands there already."""
+
+    holder: Path
+    out_dir: Path
+    measurement: dict
+    identity: dict
+
+
+def plan_search(base: TavcConfig, n_points: int, world_dir: Path, *, save: bool, progress: bool) -> SearchPlan:
+    """The search of `n_points` grid points `base` asks for, once every check that needs no
+    point's settings has passed: the folder its user named is no run's, nothing between it and
+    the search's folder is a link or stands in the way, the executor can run, and with `save`,
+    the world recorded in `world_dir` (conf/world/) was searched with the same settings or
+    `overwrite` is set. Cheap: a command plans before it composes the grid's points."""
     cal, factor = base.calibration, float(base.scale.time_factor)
     trials = int(cal.trials_per_split)
     if base.scale.trials:
@@ -42,14 +56,15 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
         raise TavcError(f"output_dir: {holder} is {describe(owned.kind)}; the search goes into "
                         f"{holder / WORLD_SEARCH_DIR}: name the folder that holds it ({holder.resolve().parent}), "
                         "or another")
-    out_dir = holder / WORLD_SEARCH_DIR
+    refuse_folder_problem(holder, "output_dir")
+    out_dir = owned_path(holder, holder / WORLD_SEARCH_DIR, folder=True, what="output_dir")
     measurement = dict(
         n_robots=int(base.team.n_robots), trials=trials, warmup_s=float(cal.warmup_s) * factor,
         measure_s=float(cal.measure_s) * factor, confidence=float(base.model.confidence),
         executor=Executor.from_config(base.executor), progress=progress,
     )
     measurement["executor"].check()
-    identity = {"n_points": len(points), "values": [float(v) for v in base.tasks.values],
+    identity = {"n_points": n_points, "values": [float(v) for v in base.tasks.values],
                 "measurement": {"trials_per_split": trials, "warmup_s": measurement["warmup_s"],
                                 "measure_s": measurement["measure_s"], "confidence": measurement["confidence"],
                                 "n_robots": measurement["n_robots"]}}
@@ -57,13 +72,23 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
         refuse_other_settings(world_dir / "calibration" / "search.json", identity, "--save", base.overwrite,
                               allow=f"add overwrite=true to replace {world_dir / 'calibrated.yaml'} with this "
                                     "search's choice, or leave out --save")
-    with claim_folder(out_dir, within=holder):
+    return SearchPlan(holder, out_dir, measurement, identity)
+
+
+def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]], world_dir: Path, *, save: bool,
+                    progress: bool, echo: Callable[[str], None]) -> None:
+    """Run the search over `points` (each grid point with its settings; `base` holds the
+    search's own settings) and the sensitivity step, printing through `echo` as each finishes.
+    With `save`, the chosen world is recorded in `world_dir` (conf/world/)."""
+    plan = plan_search(base, len(points), world_dir, save=save, progress=progress)
+    out_dir = plan.out_dir
+    with claim_folder(out_dir, within=plan.holder):
         owned = take(out_dir, CALIBRATION, CALIBRATION_FILES, save=False)  # nothing written until the checks pass
         if owned.owns("search.json"):
-            refuse_other_settings(out_dir / "search.json", identity, "output_dir", base.overwrite)
+            refuse_other_settings(out_dir / "search.json", plan.identity, "output_dir", base.overwrite)
         owned.wrote(*CALIBRATION_FILES)
         owned.remove_temporaries()
-        _search_and_measure(base, points, out_dir, world_dir, measurement, save=save, echo=echo)
+        _search_and_measure(base, points, out_dir, world_dir, plan.measurement, save=save, echo=echo)
 
 
 def _search_and_measure(base: TavcConfig, points, out_dir: Path, world_dir: Path, measurement: dict, *, save: bool,

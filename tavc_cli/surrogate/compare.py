@@ -66,7 +66,8 @@ def comparison_rows(experiment: str, horizon: str, simulator: Path | None, engin
     rows, reference = [], None
     runs = ([("simulator", simulator)] if simulator is not None and (simulator / "state_time.csv").is_file() else [])
     if runs:
-        _check_beside(simulator, engines.values())
+        check_beside(simulator, [(f, from_yaml(f / "config.yaml")) for f in engines.values()
+                                 if (f / "config.yaml").is_file()])
     for engine, folder in [*runs, *engines.items()]:
         if not (folder / "state_time.csv").is_file():
             continue
@@ -86,16 +87,14 @@ def comparison_rows(experiment: str, horizon: str, simulator: Path | None, engin
     return rows
 
 
-def _check_beside(simulator: Path, folders) -> None:
-    """Refuse a simulator's run set beside the surrogate's runs in `folders` that was not made as
-    they were: of the same experiment and events, in the same world, team, learner, tasks and
-    horizon (`alike.unlike`; what computed the trials differs by design), on the same seed, so
-    that trial j draws the same start in both."""
+def check_beside(simulator: Path, runs) -> None:
+    """Refuse a simulator's run set beside the surrogate's `runs` ((folder, settings) each) that
+    was not made as they were: of the same experiment and events, in the same world, team,
+    learner, tasks and horizon (`alike.unlike`; what computed the trials differs by design), on
+    the same seed, so that trial j draws the same start in both. The study checks the settings
+    it will run with before it runs; the comparison checks the runs it reads."""
     theirs = from_yaml(simulator / "config.yaml")
-    for folder in folders:
-        if not (folder / "config.yaml").is_file():
-            continue
-        ours = from_yaml(folder / "config.yaml")
+    for folder, ours in runs:
         if ours.experiment_name != theirs.experiment_name:
             why = f"is a run of {theirs.experiment_name} (the surrogate's: {ours.experiment_name})"
         elif ours.events != theirs.events:

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -39,7 +39,7 @@ from tavc_cli.notation import high_of
 from tavc_cli.override_keys import setting, setting_key
 from tavc_cli.ownership import STUDY, take
 from tavc_cli.settings import to_yaml
-from tavc_cli.surrogate.compare import comparison_rows, high_share, predicted_state, run_facts
+from tavc_cli.surrogate.compare import check_beside, comparison_rows, high_share, predicted_state, run_facts
 from tavc_cli.surrogate.engine import run_trial
 from tavc_cli.surrogate.tasks import Team
 
@@ -84,6 +84,7 @@ class Study:
         self.out, self.results, self.overrides, self.compose = Path(out), Path(results), list(overrides), compose
         self.progress, self.echo = progress, echo
         self.tasks_dir = self.below(self.out / "tasks")
+        self._settings: dict[Path, TavcConfig] = {}
 
     def below(self, folder: Path) -> Path:
         """`folder`, a run's folder the study names below its own, once no part of it there is a link
@@ -96,12 +97,19 @@ class Study:
         # deferred: loads the simulator's compiled kernels
         from tavc_cli.surrogate.run import run_surrogate
 
-        cfg = self.compose([*self.overrides, *overrides, setting("surrogate.tasks_dir", self.tasks_dir),
-                            setting("output_dir", self.below(folder))])
+        cfg = self.settings(folder, overrides)
         if not _finished_as(folder, cfg):
             run_surrogate(cfg, progress=self.progress, echo=self.echo)
         self.echo(f"surrogate: {folder}")
         return folder
+
+    def settings(self, folder: Path, overrides: Sequence[str]) -> TavcConfig:
+        """The settings of the surrogate run of `overrides` into `folder`, composed once."""
+        if folder not in self._settings:
+            self._settings[folder] = self.compose([*self.overrides, *overrides,
+                                                   setting("surrogate.tasks_dir", self.tasks_dir),
+                                                   setting("output_dir", self.below(folder))])
+        return self._settings[folder]
 
     def simulator(self, folder: Path, overrides: Sequence[str]) -> Path:
         """A run of `overrides` in the physical simulator into `folder`, unless it is finished there as
@@ -115,29 +123,71 @@ class Study:
         self.echo(f"simulator: {folder}")
         return folder
 
+    # -- what stands beside the surrogate's runs
+    def compared(self, part: str) -> Iterator[tuple[str, str, Path, dict[str, tuple[Path, list[str]]]]]:
+        """What `part` (compare, ladder) sets side by side, row group by row group: the experiment,
+        the horizon's label, the simulator's run, and each surrogate engine's folder and overrides."""
+        if part == "ladder":
+            for f in LADDER:
+                yield BASE, f"{f:g}x", self.results / "converged" / "ladder" / f"x{f:g}", {"surrogate_makeup": (
+                    self.out / "makeup" / "ladder" / f"x{f:g}",
+                    [f"experiment={BASE}", "scale=converged", f"scale.time_factor={f!r}"])}
+            return
+        for scale, factor in HORIZONS.items():
+            for experiment in served_by("surrogate"):
+                engines = {f"surrogate_{c}": (self.out / c / scale / experiment, [
+                    f"experiment={experiment}", f"scale={scale}", f"surrogate.calibration={c}"]) for c in CALIBRATIONS}
+                simulator = self.results / experiment if scale == "paper" else self.results / scale / experiment
+                yield experiment, f"{factor:g}x", simulator, engines
+
+    def chapter_point(self, scale: str) -> tuple[Path, Path, list[str]]:
+        """The simulator's run of the chapter's own point (six robots, its values) the phase diagram
+        shows at `scale`, beside the surrogate's folder and overrides of the same point."""
+        chapter = self.results / BASE if scale == "paper" else self.results / "converged" / BASE
+        return chapter, *self._phase_point(scale, 6, 1.1)
+
+    def _phase_point(self, scale: str, n: int, ratio: float) -> tuple[Path, list[str]]:
+        """A surrogate run of the phase diagram: its folder and overrides (`n` robots, the high value
+        `ratio` times the low one)."""
+        values = [ratio * LOW_VALUE, LOW_VALUE]
+        return self.out / "phase" / scale / f"n{n}_r{ratio:g}", [
+            f"experiment={BASE}", f"scale={scale}", f"team.n_robots={n}", f"tasks.values=[{values[0]!r},{values[1]!r}]",
+            "baselines=[]", f"trials={PHASE_TRIALS}"]
+
+    def check_beside(self, parts: Sequence[str]) -> None:
+        """Before anything runs: every simulator's run the `parts` will set beside a surrogate's
+        run (the comparison's, the ladder's rungs, the phase diagram's chapter point, the rungs
+        behind the horizon's ladder.csv) made as that run will be (`compare.check_beside`)."""
+        for part in ("compare", "ladder"):
+            for _, _, simulator, engines in (self.compared(part) if part in parts else ()):
+                if (simulator / "state_time.csv").is_file():
+                    check_beside(simulator, [(f, self.settings(f, o)) for f, o in engines.values()])
+        for scale in HORIZONS if "phase" in parts else ():
+            chapter, folder, point = self.chapter_point(scale)
+            if (chapter / "state_time.csv").is_file():
+                check_beside(chapter, [(folder, self.settings(folder, point))])
+        if "horizon" in parts and (self.results / "converged" / "ladder" / "ladder.csv").is_file():
+            for f in HORIZON_FACTORS:
+                rung = self.results / "converged" / "ladder" / f"x{f:g}"
+                if (rung / "config.yaml").is_file():
+                    folder = self.out / "horizon" / "chapter" / f"x{f:g}"
+                    check_beside(rung, [(folder, self.settings(folder, self._horizon_point(f, [])))])
+
     # -- the parts
     def compare(self) -> pd.DataFrame:
         """The side-by-side comparison: every served experiment, both horizons, both calibrations."""
         rows = []
-        for scale, factor in HORIZONS.items():
-            for experiment in served_by("surrogate"):
-                engines = {}
-                for calibration in CALIBRATIONS:
-                    folder = self.out / calibration / scale / experiment
-                    engines[f"surrogate_{calibration}"] = self.surrogate(
-                        folder, [f"experiment={experiment}", f"scale={scale}", f"surrogate.calibration={calibration}"])
-                simulator = self.results / experiment if scale == "paper" else self.results / scale / experiment
-                rows += comparison_rows(experiment, f"{factor:g}x", simulator, engines)
+        for experiment, horizon, simulator, engines in self.compared("compare"):
+            folders = {engine: self.surrogate(f, o) for engine, (f, o) in engines.items()}
+            rows += comparison_rows(experiment, horizon, simulator, folders)
         return pd.DataFrame(rows)
 
     def ladder(self) -> pd.DataFrame:
         """The surrogate's horizon ladder of the base case."""
         rows = []
-        for f in LADDER:
-            folder = self.out / "makeup" / "ladder" / f"x{f:g}"
-            self.surrogate(folder, [f"experiment={BASE}", "scale=converged", f"scale.time_factor={f!r}"])
-            simulator = self.results / "converged" / "ladder" / f"x{f:g}"
-            rows += comparison_rows(BASE, f"{f:g}x", simulator, {"surrogate_makeup": folder})
+        for experiment, horizon, simulator, engines in self.compared("ladder"):
+            folders = {engine: self.surrogate(f, o) for engine, (f, o) in engines.items()}
+            rows += comparison_rows(experiment, horizon, simulator, folders)
         return pd.DataFrame(rows)
 
     def phase(self) -> pd.DataFrame:
@@ -149,17 +199,14 @@ class Study:
         for scale, factor in HORIZONS.items():
             for n in PHASE_TEAMS:
                 for ratio in PHASE_RATIOS:
-                    values = [ratio * LOW_VALUE, LOW_VALUE]
-                    point = [f"experiment={BASE}", f"scale={scale}", f"team.n_robots={n}",
-                             f"tasks.values=[{values[0]!r},{values[1]!r}]", "baselines=[]", f"trials={PHASE_TRIALS}"]
-                    folder = self.out / "phase" / scale / f"n{n}_r{ratio:g}"
+                    folder, point = self._phase_point(scale, n, ratio)
                     self.surrogate(folder, point)
                     rows.append(self._phase_row("surrogate", scale, factor, n, ratio, folder))
                     if (n, ratio) in CHECKED:
                         checked = self.out / "phase" / "checked" / scale / f"n{n}_r{ratio:g}"
                         self.simulator(checked, [*point[:-1], f"trials={CHECKED_TRIALS[scale]}"])
                         rows.append(self._phase_row("simulator", scale, factor, n, ratio, checked))
-            chapter = self.results / BASE if scale == "paper" else self.results / "converged" / BASE
+            chapter = self.chapter_point(scale)[0]
             if (chapter / "state_time.csv").is_file():  # the chapter's own point, as committed
                 rows.append(self._phase_row("simulator", scale, factor, 6, 1.1, chapter))
         table = pd.DataFrame(rows)
@@ -195,8 +242,7 @@ class Study:
             mine = []
             for f in HORIZON_FACTORS:
                 folder = self.out / "horizon" / label / f"x{f:g}"
-                self.surrogate(folder, [f"experiment={BASE}", "scale=converged", f"scale.time_factor={f!r}",
-                                        "baselines=[]", f"trials={HORIZON_TRIALS}", *setting])
+                self.surrogate(folder, self._horizon_point(f, setting))
                 facts = run_facts(folder)
                 mine.append({"parameter": name, "value": math.nan if value is None else value, "factor": f,
                              "n_trials": facts["n_trials"],
@@ -211,6 +257,13 @@ class Study:
             rows += mine
         rows += self._simulator_horizon()
         return pd.DataFrame(rows)
+
+    @staticmethod
+    def _horizon_point(factor: float, learner: list[str]) -> list[str]:
+        """A surrogate run of the horizon part: the base case at `factor` times the chapter's durations,
+        with the `learner` settings it varies."""
+        return [f"experiment={BASE}", "scale=converged", f"scale.time_factor={factor!r}", "baselines=[]",
+                f"trials={HORIZON_TRIALS}", *learner]
 
     def _simulator_horizon(self) -> list[dict]:
         """The checked point: the simulator's own ladder at the chapter's parameters, as committed."""
@@ -279,6 +332,7 @@ def run_study(out: Path, results: Path, overrides: Sequence[str], compose: Compo
     with claim_folder(out):
         owned = take(out, STUDY, STUDY_FILES, "--results")
     study = Study(out, results, overrides, compose, progress=progress, echo=echo)
+    study.check_beside(wanted)
     written = []
     for part, name in (("compare", "comparison"), ("ladder", "ladder"), ("phase", "phase"), ("horizon", "horizon"),
                        ("speed", "speed")):
