@@ -1,5 +1,5 @@
 """What several test modules need: the repository's root, the command line in a process of its
-own, a folder's files by digest and those changed since, the settings of a small run, and a
+own or in this one, a folder's files by digest and those changed since, the settings of a small run, and a
 run's robots' and Q-values' tables made by hand."""
 
 from __future__ import annotations
@@ -23,6 +23,18 @@ def tavc(*args: str, cwd: Path = REPO, env: Mapping[str, str] | None = None,
     """`python -m tavc_cli ARGS` in a process of its own, run in `cwd`; its output captured as text."""
     return subprocess.run([sys.executable, "-m", "tavc_cli", *args], cwd=cwd, env=env, capture_output=True,
                           text=True, timeout=timeout)
+
+
+def tavc_here(*args: str) -> subprocess.CompletedProcess:
+    """`tavc ARGS` in this process, answered as `tavc` answers (a refusal or a short command needs
+    no process of its own, and saves one's start)."""
+    # deferred: the command line loads its commands' modules
+    from typer.testing import CliRunner
+
+    from tavc_cli.cli import app
+
+    result = CliRunner().invoke(app, list(args))
+    return subprocess.CompletedProcess(["tavc", *args], result.exit_code, result.stdout, result.stderr)
 
 
 def file_digests(folder: Path) -> dict[str, str]:

@@ -24,7 +24,7 @@ from tavc_cli.compare.metrics import (
 )
 from tavc_cli.compare.run import controller_overrides, parse_reuse
 from tavc_cli.errors import TavcError
-from tests.helpers import tavc
+from tests.helpers import tavc, tavc_here
 
 REPO = Path(__file__).resolve().parent.parent
 SAME = [{"speed_mps": 0.25, "group": "all"}] * 6
@@ -162,39 +162,34 @@ def test_compare_end_to_end_reruns_nothing_and_reuses_runs(tmp_path):
         table.set_index(["controller", "metric"]).loc[("tavc", "score_per_s"), "mean"])
 
 
-def _tavc(*args: str):
-    """`tavc ARGS` in this process (a refusal needs no process of its own)."""
-    return CliRunner().invoke(app, list(args))
-
-
 def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_path):
     run = tmp_path / "run"
-    assert _tavc("run", "experiment=initial_distribution", "scale=smoke", "trials=1", "baselines=[]",
-                 f"output_dir={run}", "--no-progress").exit_code == 0
-    result = _tavc("compare", "scale=smoke", "--results", str(run))
-    assert result.exit_code == 1 and "is a tavc run's folder, not a comparison's folder" in result.stderr
-    result = _tavc("compare", "scale=smoke", "--learners", "tavc,nobody", "--results", str(tmp_path / "c"))
-    assert result.exit_code == 1 and "nobody" in result.stderr and "Traceback" not in result.stderr
+    assert tavc_here("run", "experiment=initial_distribution", "scale=smoke", "trials=1", "baselines=[]",
+                     f"output_dir={run}", "--no-progress").returncode == 0
+    result = tavc_here("compare", "scale=smoke", "--results", str(run))
+    assert result.returncode == 1 and "is a tavc run's folder, not a comparison's folder" in result.stderr
+    result = tavc_here("compare", "scale=smoke", "--learners", "tavc,nobody", "--results", str(tmp_path / "c"))
+    assert result.returncode == 1 and "nobody" in result.stderr and "Traceback" not in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
-    result = _tavc("compare", "scale=smoke", "--learners", ",", "--results", str(tmp_path / "c"))
-    assert result.exit_code == 1 and "--learners: name each learner once" in result.stderr
+    result = tavc_here("compare", "scale=smoke", "--learners", ",", "--results", str(tmp_path / "c"))
+    assert result.returncode == 1 and "--learners: name each learner once" in result.stderr
     # a model file that is not there, and a folder to reuse without runs: refused before anything runs
-    result = _tavc("compare", "scale=smoke", "--learners", "tavc,random", "learner.model_file=/nowhere/model.json",
-                   "--results", str(tmp_path / "d"))
-    assert result.exit_code == 1 and "learner.model_file: no model at /nowhere/model.json" in result.stderr
+    result = tavc_here("compare", "scale=smoke", "--learners", "tavc,random", "learner.model_file=/nowhere/model.json",
+                       "--results", str(tmp_path / "d"))
+    assert result.returncode == 1 and "learner.model_file: no model at /nowhere/model.json" in result.stderr
     # the model the predicted states come from is one of the comparison's world, whoever is compared
-    result = _tavc("compare", "scale=smoke", "--learners", "tavc,random", "arena=two_circuits_parallel",
-                   f"learner.model_file={REPO / 'results/initial_distribution/model/model.json'}",
-                   "--results", str(tmp_path / "d"))
-    assert result.exit_code == 1 and "(arena two_circuits (the run: two_circuits_parallel))" in result.stderr
-    result = _tavc("compare", "scale=smoke", "--learners", "tavc,random", "--reuse", f"tavc={tmp_path}",
-                   "--results", str(tmp_path / "e"))
-    assert result.exit_code == 1 and "--reuse:" in result.stderr and "holds no finished run" in result.stderr
+    result = tavc_here("compare", "scale=smoke", "--learners", "tavc,random", "arena=two_circuits_parallel",
+                       f"learner.model_file={REPO / 'results/initial_distribution/model/model.json'}",
+                       "--results", str(tmp_path / "d"))
+    assert result.returncode == 1 and "(arena two_circuits (the run: two_circuits_parallel))" in result.stderr
+    result = tavc_here("compare", "scale=smoke", "--learners", "tavc,random", "--reuse", f"tavc={tmp_path}",
+                       "--results", str(tmp_path / "e"))
+    assert result.returncode == 1 and "--reuse:" in result.stderr and "holds no finished run" in result.stderr
     assert not (tmp_path / "d" / "runs").exists() and not (tmp_path / "e" / "runs").exists()
     # an experiment compare does not serve: refused before its runs, which it could not compare
-    result = _tavc("compare", "scale=smoke", "--experiments", "spatiotemporal", "--learners", "tavc",
-                   "--results", str(tmp_path / "f"))
-    assert result.exit_code == 1 and len(result.stderr.strip().splitlines()) == 1
+    result = tavc_here("compare", "scale=smoke", "--experiments", "spatiotemporal", "--learners", "tavc",
+                       "--results", str(tmp_path / "f"))
+    assert result.returncode == 1 and len(result.stderr.strip().splitlines()) == 1
     assert result.stderr.startswith("error: --experiments: 'spatiotemporal' is not a scenario compare serves")
     assert not (tmp_path / "f").exists()
 

@@ -14,7 +14,7 @@ import pytest
 from tavc_cli.errors import TavcError
 from tavc_cli.learning.informed import InformedPolicy, ModelPolicy, ranked
 from tavc_cli.model.allocations import model_allocations, model_differences
-from tests.helpers import REPO, tavc
+from tests.helpers import REPO, tavc, tavc_here
 
 
 def write_model(path: Path, values: list[float], states: dict[str, str]) -> Path:
@@ -114,23 +114,23 @@ def test_robots_are_drawn_onto_the_allocation_not_taken_in_order():
 
 
 def test_a_team_the_model_has_not_predicted_is_refused_in_one_line(tmp_path):
-    result = tavc("run", "experiment=initial_distribution", "learner=model", "team.n_robots=4", "scale=smoke",
-                  f"output_dir={tmp_path}/out")
+    result = tavc_here("run", "experiment=initial_distribution", "learner=model", "team.n_robots=4", "scale=smoke",
+                       f"output_dir={tmp_path}/out")
     assert result.returncode != 0
     assert "learner.allocations: the model predicts nothing for a team of 4" in result.stderr
     assert "Traceback" not in result.stderr
-    result = tavc("run", "experiment=initial_distribution", "learner=model", f"learner.model_file={tmp_path}/x.json",
-                  "scale=smoke", f"output_dir={tmp_path}/out")
+    result = tavc_here("run", "experiment=initial_distribution", "learner=model",
+                       f"learner.model_file={tmp_path}/x.json", "scale=smoke", f"output_dir={tmp_path}/out")
     assert result.returncode != 0 and "learner.model_file: no model at" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
     # informed needs the model's allocation for the team a breakdown leaves, known before the warm-up
     six = write_model(tmp_path / "six.json", [2200.0, 2000.0], {"6": "3:3"})
-    result = tavc("run", "experiment=breakdown", "learner=informed", f"learner.model_file={six}", "scale=smoke",
-                  f"output_dir={tmp_path}/out")
+    result = tavc_here("run", "experiment=breakdown", "learner=informed", f"learner.model_file={six}", "scale=smoke",
+                       f"output_dir={tmp_path}/out")
     assert result.returncode != 0
     assert "the model predicts nothing for the 5 robots left after a breakdown" in result.stderr
     # the model's allocation kept through events needs only the starting team's
-    result = tavc("config", "experiment=breakdown", "learner=model", f"learner.model_file={six}", "scale=smoke")
+    result = tavc_here("config", "experiment=breakdown", "learner=model", f"learner.model_file={six}", "scale=smoke")
     assert result.returncode == 0, result.stderr
 
 
