@@ -203,24 +203,32 @@ def test_an_unreachable_cluster_is_refused_before_anything_is_written(tmp_path, 
 
 # --- a run killed at any moment ------------------------------------------------------------------
 
+_KILLED_RUN = [sys.executable, "-m", "tavc_cli", "run", *SMOKE, "trials=6", "executor.batch_size=1",
+               "executor.n_jobs=2", "duration_s=1500", "convergence_s=300"]
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    """The run the killed ones are held to, made once, and how long it took (seconds)."""
+    whole = tmp_path_factory.mktemp("uninterrupted") / "whole"
+    start = time.perf_counter()
+    subprocess.run([*_KILLED_RUN, f"output_dir={whole}"], check=True, capture_output=True)
+    return whole, time.perf_counter() - start
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("moment_seed", [1, 5, 2])
-def test_a_run_killed_with_sigkill_resumes_to_the_same_tables(tmp_path, moment_seed):
+def test_a_run_killed_with_sigkill_resumes_to_the_same_tables(tmp_path, uninterrupted, moment_seed):
     """kill -9 at a random moment of the run (starting, simulating or writing): the rerun
     reuses what was finished and writes tables byte-identical to an uninterrupted run's."""
-    args = [*SMOKE, "trials=6", "executor.batch_size=1", "executor.n_jobs=2", "duration_s=1500",
-            "convergence_s=300"]
-    whole, killed = tmp_path / "whole", tmp_path / "killed"
-    run = [sys.executable, "-m", "tavc_cli", "run", *args]
-    start = time.perf_counter()
-    subprocess.run([*run, f"output_dir={whole}"], check=True, capture_output=True)
-    moment = random.Random(moment_seed).uniform(0.05, 0.95) * (time.perf_counter() - start)
-    proc = subprocess.Popen([*run, f"output_dir={killed}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
+    (whole, took), killed = uninterrupted, tmp_path / "killed"
+    moment = random.Random(moment_seed).uniform(0.05, 0.95) * took
+    proc = subprocess.Popen([*_KILLED_RUN, f"output_dir={killed}"], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
     time.sleep(moment)
     os.killpg(proc.pid, signal.SIGKILL)  # the run and its worker processes
     proc.wait()
-    subprocess.run([*run, f"output_dir={killed}"], check=True, capture_output=True)
+    subprocess.run([*_KILLED_RUN, f"output_dir={killed}"], check=True, capture_output=True)
     assert [p.name for p in killed.rglob(".*.tmp")] == []  # what the kill left half-written is gone
     tables = sorted(p.name for p in whole.glob("*.csv"))
     assert {"state_time.csv", "performance.csv"} <= set(tables)
