@@ -176,16 +176,15 @@ class Study:
     # -- the parts
     def compare(self) -> pd.DataFrame:
         """The side-by-side comparison: every served experiment, both horizons, both calibrations."""
-        rows = []
-        for experiment, horizon, simulator, engines in self.compared("compare"):
-            folders = {engine: self.surrogate(f, o) for engine, (f, o) in engines.items()}
-            rows += comparison_rows(experiment, horizon, simulator, folders)
-        return pd.DataFrame(rows)
+        return self._side_by_side("compare")
 
     def ladder(self) -> pd.DataFrame:
         """The surrogate's horizon ladder of the base case."""
+        return self._side_by_side("ladder")
+
+    def _side_by_side(self, part: str) -> pd.DataFrame:
         rows = []
-        for experiment, horizon, simulator, engines in self.compared("ladder"):
+        for experiment, horizon, simulator, engines in self.compared(part):
             folders = {engine: self.surrogate(f, o) for engine, (f, o) in engines.items()}
             rows += comparison_rows(experiment, horizon, simulator, folders)
         return pd.DataFrame(rows)
