@@ -5,18 +5,19 @@ make a misspelled key or a wrong type fail at compose time; the learner's node w
 settings class reads it, before anything runs) and hands the library a `TavcConfig`, whose
 attributes everything below the CLI reads. `from_yaml` reads a run's ``config.yaml`` back."""
 
-import copy
 from dataclasses import dataclass, field, fields
 from functools import cache
 from pathlib import Path
 from typing import Any, Dict, List, Optional
 
+import yaml
 from omegaconf import MISSING, OmegaConf
-from omegaconf._utils import get_yaml_loader
+from omegaconf._utils import get_omega_conf_dumper, get_yaml_loader
 from omegaconf.errors import OmegaConfBaseException
 
+from tavc_cli.dotted import plain
 from tavc_cli.errors import TavcError
-from tavc_cli.learning.parameters import LearnerSettings, PluginSettings, recorded_learner, settings_mapping
+from tavc_cli.learning.parameters import LearnerSettings, PluginSettings, recorded_learner
 from tavc_cli.learning.registry import SETTINGS
 from tavc_cli.readers import load_yaml
 from tavc_cli.settings_studies import CalibrationConfig, GridAxis, ModelConfig, SurrogateConfig  # noqa: F401 (groups)
@@ -369,10 +370,9 @@ def settings_of(node: Any) -> LearnerSettings:
 
 
 def to_yaml(settings: TavcConfig) -> str:
-    """The settings as the YAML ``config.yaml`` holds."""
-    plain = copy.copy(settings)  # the learner as the plain node it is composed as (no __post_init__)
-    plain.learner = settings_mapping(settings.learner)
-    return OmegaConf.to_yaml(OmegaConf.structured(plain))
+    """The settings as the YAML ``config.yaml`` holds: OmegaConf's text, its dumper on `dotted.plain`'s data."""
+    return yaml.dump(plain(settings), Dumper=get_omega_conf_dumper(), default_flow_style=False, allow_unicode=True,
+                     sort_keys=False)
 
 
 def from_yaml(path: Path) -> TavcConfig:

@@ -2,14 +2,19 @@
 settings as OmegaConf's path for every committed config, and OmegaConf's path (its result, its
 message) for anything else."""
 
+import copy
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional
 
 import pytest
+import yaml
 from omegaconf import MISSING, OmegaConf
 from omegaconf._utils import get_yaml_loader
 
-from tavc_cli.learning.parameters import recorded_learner
+from tavc_cli.config import load_config
+from tavc_cli.config import settings as to_settings
+from tavc_cli.dotted import plain
+from tavc_cli.learning.parameters import recorded_learner, settings_mapping
 from tavc_cli.learning.registry import SETTINGS
 from tavc_cli.readers import load_yaml
 from tavc_cli.settings import TavcConfig, from_mapping, from_yaml, to_yaml
@@ -109,6 +114,25 @@ def test_every_committed_config_reads_as_omegaconf_reads_it():
         slow = from_mapping(TavcConfig, OmegaConf.create(data))
         assert fast == slow and repr(fast) == repr(slow) and to_yaml(fast) == to_yaml(slow), path
         assert repr(from_yaml(path)) == repr(slow)  # the path the report reads by
+        # written and compared without OmegaConf: its text of the settings, and that text read back
+        text = _omegaconf_yaml(slow)
+        assert to_yaml(slow) == text and plain(slow) == yaml.safe_load(text), path
+
+
+def _omegaconf_yaml(settings: TavcConfig) -> str:
+    """The settings' YAML as OmegaConf writes it from a structured copy (the learner as its plain node)."""
+    node = copy.copy(settings)
+    node.learner = settings_mapping(settings.learner)
+    return OmegaConf.to_yaml(OmegaConf.structured(node))
+
+
+@pytest.mark.parametrize("overrides", [["experiment=breakdown"], ["experiment=heterogeneous", "scale=converged"],
+                                       ["experiment=spatiotemporal"], ["learner=random", "team.n_robots=3"],
+                                       ["experiment=value_change", "learner=tavc_egreedy"]])
+def test_a_composed_run_is_written_as_omegaconf_writes_it(overrides):
+    settings = to_settings(load_config(overrides))
+    text = _omegaconf_yaml(settings)
+    assert to_yaml(settings) == text and plain(settings) == yaml.safe_load(text)
 
 
 def test_a_settings_section_left_out_is_left_to_omegaconf():

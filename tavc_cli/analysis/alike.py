@@ -8,11 +8,9 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import yaml
-
 from tavc_cli.chapter import claims
-from tavc_cli.dotted import dotted
-from tavc_cli.settings import TavcConfig, to_yaml
+from tavc_cli.dotted import dotted, plain
+from tavc_cli.settings import TavcConfig
 
 # What claims 7 and 8 (`Claim.against`) take to be alike in the runs of the two experiments they
 # compare: the world, the team, the learner, the tasks, the simulation's step and the window the
@@ -42,7 +40,7 @@ def unlike(cfg: TavcConfig, made_by: Mapping, other: TavcConfig, other_made_by: 
 
 def _comparable(cfg: TavcConfig, made_by: Mapping) -> dict[str, object]:
     """A run's settings of `ALIKE` as dotted keys, its horizon, and what computed its trials."""
-    settings = dotted(yaml.safe_load(to_yaml(cfg)), keep_empty=False)
+    settings = dotted(plain(cfg), keep_empty=False)
     out = {k: v for k, v in settings.items() if any(k == a or k.startswith(f"{a}.") for a in ALIKE)}
     out.update(_horizon(cfg))
     learners = made_by.get("learner_code") or {}

@@ -16,12 +16,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import pandas as pd
-import yaml
 
 from tavc_cli.analysis.claims import scale_shortfall
 from tavc_cli.analysis.comparison import experiment_comparison
 from tavc_cli.chapter import order_key, state_table_id
-from tavc_cli.dotted import dotted
+from tavc_cli.dotted import dotted, plain
 from tavc_cli.ownership import (
     CALIBRATION,
     COMPARE,
@@ -49,7 +48,7 @@ from tavc_cli.report.files import (
 from tavc_cli.report.spatiotemporal import spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.run_checks import this_code
-from tavc_cli.settings import TavcConfig, to_yaml
+from tavc_cli.settings import TavcConfig
 from tavc_cli.table_cells import damaged
 
 RUNS_DIR = "runs"  # under a horizon's figures/: one folder of figures per run beside the designated one
@@ -216,7 +215,7 @@ def _settings(d: Path) -> dict:
     """Run `d`'s settings as today's tavc reads its config.yaml (`from_yaml`: a record written
     before a key existed reads with its default, and its learner's node as the learner declares
     it), as dotted keys."""
-    return dotted(yaml.safe_load(to_yaml(config_of(d / "config.yaml"))), keep_empty=False)
+    return dotted(plain(config_of(d / "config.yaml")), keep_empty=False)
 
 
 def _show(value) -> str:
