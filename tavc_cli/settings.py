@@ -361,8 +361,8 @@ def settings_of(node: Any) -> LearnerSettings:
         if key not in declared:
             takes = ", ".join(p for p in declared if p != "name") or "no parameters"
             raise TavcError(f"learner.{key}: the learner {name} takes no parameter {key} (it takes {takes})")
-    try:
-        return OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(cls), data))
+    try:  # values of their fields' types already read without OmegaConf (`typed_data.exact`), else as it reads them
+        return fast if (fast := exact(cls, data)) is not DECLINED else from_mapping(cls, data)
     except OmegaConfBaseException as error:
         key = getattr(error, "key", None) or "name"
         raise TavcError(f"learner.{key}: {str(error).splitlines()[0]}") from None

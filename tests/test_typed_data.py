@@ -161,3 +161,28 @@ def test_an_interrupt_hidden_in_the_class_own_check_is_not_taken_for_a_refusal(m
     with pytest.raises(TavcError) as raised:
         exact(TavcConfig, data)
     assert isinstance(interrupt_behind(raised.value), KeyboardInterrupt)
+
+
+@pytest.mark.parametrize(("node", "fast_path"), [
+    ({"name": "random"}, True), ({"name": "static", "allocation": [3, 3]}, True),
+    ({"name": "alternate", "roles": None}, True), ({"name": "wolf_phc", "alpha": 1, "delta_win": 0.01}, True),
+    ({"name": "threshold", "theta_low": 2}, True), ({"name": "tavc_softmax", "tau": 3}, True),
+    ({"name": "tavc_egreedy", "epsilon": 0.2, "q_init_low": -1}, True),
+    ({"name": "behaviour_softmax", "decide_on_change": False, "decision_period_s": 2}, True),
+    ({"name": "informed", "model_file": "m.json", "allocations": None}, True),
+    ({"name": "mine", "target": "pkg.mod.Learner", "params": {"rate": 1, "nested": {"a": [1, 2]}}}, True),
+    # a mapping of lists in a typed field is OmegaConf's to convert
+    ({"name": "model", "model_file": "m.json", "allocations": {"6": [3, 3], "5": [3, 2]}}, False),
+])
+def test_a_learners_node_read_without_omegaconf_is_what_omegaconf_reads(node, fast_path):
+    """A learner's node whose values are of its fields' types (an integer standing for a float)
+    is read straight into its settings class: the settings OmegaConf's path gives, of the same
+    types; a node it cannot read so is OmegaConf's, with the same result."""
+    from tavc_cli.learning.parameters import PluginSettings
+    from tavc_cli.settings import settings_of
+
+    cls = PluginSettings if "target" in node else SETTINGS[node["name"]]
+    fast, slow = settings_of(copy.deepcopy(node)), from_mapping(cls, copy.deepcopy(node))
+    assert fast == slow and repr(fast) == repr(slow)
+    assert [type(getattr(fast, k)) for k in node] == [type(getattr(slow, k)) for k in node]
+    assert (exact(cls, node) is not DECLINED) == fast_path
