@@ -371,6 +371,6 @@ def _calibrate(overrides: Sequence[str], save: bool, progress: bool, echo: Calla
         raise TavcError("calibration.grid: empty; nothing to search")
     world_dir = config.find_conf_dir() / "world"
     grid = grid_points(base.calibration.grid)
-    plan_search(base, len(grid), world_dir, save=save, progress=progress)  # its checks, before composing the points
+    plan = plan_search(base, len(grid), world_dir, save=save, progress=progress)  # checked before the points compose
     points = [(p, config.settings(config.load_config([*overrides, *point_overrides(p)]))) for p in grid]
-    calibrate_world(base, points, world_dir, save=save, progress=progress, echo=echo)
+    calibrate_world(base, points, plan, world_dir, save=save, echo=echo)

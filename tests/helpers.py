@@ -5,6 +5,7 @@ run's robots' and Q-values' tables made by hand."""
 from __future__ import annotations
 
 import hashlib
+import os
 import subprocess
 import sys
 from collections.abc import Mapping, Sequence
@@ -26,14 +27,20 @@ def tavc(*args: str, cwd: Path = REPO, env: Mapping[str, str] | None = None,
 
 
 def tavc_here(*args: str) -> subprocess.CompletedProcess:
-    """`tavc ARGS` in this process, answered as `tavc` answers (a refusal or a short command needs
-    no process of its own, and saves one's start)."""
+    """`tavc ARGS` in this process, run in the repository's folder as `tavc` is, answered as `tavc`
+    answers (a refusal or a short command needs no process of its own, and saves one's start); an
+    exception tavc lets out is raised here, as the traceback its process would print."""
     # deferred: the command line loads its commands' modules
     from typer.testing import CliRunner
 
     from tavc_cli.cli import app
 
-    result = CliRunner().invoke(app, list(args))
+    here = os.getcwd()
+    os.chdir(REPO)
+    try:
+        result = CliRunner().invoke(app, list(args), catch_exceptions=False)
+    finally:
+        os.chdir(here)
     return subprocess.CompletedProcess(["tavc", *args], result.exit_code, result.stdout, result.stderr)
 
 

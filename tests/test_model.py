@@ -306,8 +306,8 @@ def test_a_calibration_search_writes_into_its_output_dir_and_nowhere_beside_it(t
 
 def test_a_calibration_search_is_refused_before_its_grid_is_composed(tmp_path, monkeypatch):
     """Composing the grid's points takes the better part of a minute; a link where the search
-    writes, a run's folder, and `--save` over a world searched otherwise are each refused before
-    a single point is composed."""
+    writes, a run's folder, a file where a folder goes, and `--save` over a world searched
+    otherwise are each refused before a single point is composed."""
     import tavc_cli.model.world_search as world_search
 
     def composed(point):
@@ -322,8 +322,13 @@ def test_a_calibration_search_is_refused_before_its_grid_is_composed(tmp_path, m
     run = tmp_path / "run"
     run.mkdir()
     (run / ".tavc.json").write_text('{"tavc": "run", "files": []}')
+    (tmp_path / "notes.txt").write_text("mine")
+    (tmp_path / "filed" / "calibration").mkdir(parents=True)
+    (tmp_path / "filed" / "calibration" / "world").write_text("mine")
     for args, words in [([f"output_dir={named}"], "is a symbolic link to"),
                         ([f"output_dir={run}"], "is a tavc run's folder"),
+                        ([f"output_dir={tmp_path / 'notes.txt'}"], "calibration/world: Not a directory"),
+                        ([f"output_dir={tmp_path / 'filed'}"], "calibration/world: File exists"),
                         (["--save", f"output_dir={tmp_path / 'fresh'}"], "was made with other settings")]:
         result = CliRunner().invoke(app, ["calibrate", "scale=smoke", *args])
         assert result.exit_code == 1 and len(result.output.strip().splitlines()) == 1, result.output

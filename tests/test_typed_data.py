@@ -3,7 +3,9 @@ settings as OmegaConf's path for every committed config, and OmegaConf's path (i
 message) for anything else."""
 
 import copy
+import dataclasses
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Dict, List, Optional
 
 import pytest
@@ -132,6 +134,17 @@ def _omegaconf_yaml(settings: TavcConfig) -> str:
 def test_a_composed_run_is_written_as_omegaconf_writes_it(overrides):
     settings = to_settings(load_config(overrides))
     text = _omegaconf_yaml(settings)
+    assert to_yaml(settings) == text and plain(settings) == yaml.safe_load(text)
+
+
+def test_settings_changed_in_code_are_written_as_omegaconf_writes_them():
+    """Settings a program changed (a whole number where a float goes, in a field and in a list of
+    floats; a path for a folder) are written as OmegaConf's structured copy wrote them."""
+    settings = dataclasses.replace(to_settings(load_config(["experiment=breakdown"])), duration_s=100,
+                                   output_dir=Path("/tmp/somewhere"))
+    settings.tasks.values = [2200, 2000]
+    text = _omegaconf_yaml(settings)
+    assert "duration_s: 100.0\n" in text and "- 2200.0\n" in text and "output_dir: /tmp/somewhere\n" in text
     assert to_yaml(settings) == text and plain(settings) == yaml.safe_load(text)
 
 

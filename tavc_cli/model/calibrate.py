@@ -5,6 +5,8 @@ composes the points' settings."""
 
 from __future__ import annotations
 
+import errno
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from operator import attrgetter
@@ -42,10 +44,10 @@ class SearchPlan:
 
 def plan_search(base: TavcConfig, n_points: int, world_dir: Path, *, save: bool, progress: bool) -> SearchPlan:
     """The search of `n_points` grid points `base` asks for, once every check that needs no
-    point's settings has passed: the folder its user named is no run's, nothing between it and
-    the search's folder is a link or stands in the way, the executor can run, and with `save`,
-    the world recorded in `world_dir` (conf/world/) was searched with the same settings or
-    `overwrite` is set. Cheap: a command plans before it composes the grid's points."""
+    point's settings has passed: the folder its user named is no run's nor the file system's
+    root, nothing between it and the search's folder is a link or a file, the executor can run,
+    and with `save`, the world recorded in `world_dir` (conf/world/) was searched with the same
+    settings or `overwrite` is set. Cheap: a command plans before it composes the grid's points."""
     cal, factor = base.calibration, float(base.scale.time_factor)
     trials = int(cal.trials_per_split)
     if base.scale.trials:
@@ -58,6 +60,11 @@ def plan_search(base: TavcConfig, n_points: int, world_dir: Path, *, save: bool,
                         "or another")
     refuse_folder_problem(holder, "output_dir")
     out_dir = owned_path(holder, holder / WORLD_SEARCH_DIR, folder=True, what="output_dir")
+    parts = Path(WORLD_SEARCH_DIR).parts
+    for k in range(len(parts) + 1):  # a file on the way: refused as making the folder would refuse it
+        if holder.joinpath(*parts[:k]).exists() and not holder.joinpath(*parts[:k]).is_dir():
+            why = os.strerror(errno.EEXIST if k == len(parts) else errno.ENOTDIR)
+            raise TavcError(f"output_dir: cannot create {out_dir}: {why}")
     measurement = dict(
         n_robots=int(base.team.n_robots), trials=trials, warmup_s=float(cal.warmup_s) * factor,
         measure_s=float(cal.measure_s) * factor, confidence=float(base.model.confidence),
@@ -75,12 +82,11 @@ def plan_search(base: TavcConfig, n_points: int, world_dir: Path, *, save: bool,
     return SearchPlan(holder, out_dir, measurement, identity)
 
 
-def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]], world_dir: Path, *, save: bool,
-                    progress: bool, echo: Callable[[str], None]) -> None:
-    """Run the search over `points` (each grid point with its settings; `base` holds the
-    search's own settings) and the sensitivity step, printing through `echo` as each finishes.
-    With `save`, the chosen world is recorded in `world_dir` (conf/world/)."""
-    plan = plan_search(base, len(points), world_dir, save=save, progress=progress)
+def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]], plan: SearchPlan, world_dir: Path,
+                    *, save: bool, echo: Callable[[str], None]) -> None:
+    """Run the search `plan` planned (`plan_search`) over `points` (each grid point with its
+    settings; `base` holds the search's own settings) and the sensitivity step, printing through
+    `echo` as each finishes. With `save`, the chosen world is recorded in `world_dir` (conf/world/)."""
     out_dir = plan.out_dir
     with claim_folder(out_dir, within=plan.holder):
         owned = take(out_dir, CALIBRATION, CALIBRATION_FILES, save=False)  # nothing written until the checks pass

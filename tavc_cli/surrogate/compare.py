@@ -66,8 +66,8 @@ def comparison_rows(experiment: str, horizon: str, simulator: Path | None, engin
     rows, reference = [], None
     runs = ([("simulator", simulator)] if simulator is not None and (simulator / "state_time.csv").is_file() else [])
     if runs:
-        check_beside(simulator, [(f, from_yaml(f / "config.yaml")) for f in engines.values()
-                                 if (f / "config.yaml").is_file()])
+        check_beside(simulator, ((f, from_yaml(f / "config.yaml")) for f in engines.values()
+                                 if (f / "config.yaml").is_file()))  # each read as it is compared
     for engine, folder in [*runs, *engines.items()]:
         if not (folder / "state_time.csv").is_file():
             continue

@@ -84,7 +84,7 @@ class Study:
         self.out, self.results, self.overrides, self.compose = Path(out), Path(results), list(overrides), compose
         self.progress, self.echo = progress, echo
         self.tasks_dir = self.below(self.out / "tasks")
-        self._settings: dict[Path, TavcConfig] = {}
+        self._settings: dict[tuple[Path, tuple[str, ...]], TavcConfig] = {}
 
     def below(self, folder: Path) -> Path:
         """`folder`, a run's folder the study names below its own, once no part of it there is a link
@@ -105,11 +105,12 @@ class Study:
 
     def settings(self, folder: Path, overrides: Sequence[str]) -> TavcConfig:
         """The settings of the surrogate run of `overrides` into `folder`, composed once."""
-        if folder not in self._settings:
-            self._settings[folder] = self.compose([*self.overrides, *overrides,
-                                                   setting("surrogate.tasks_dir", self.tasks_dir),
-                                                   setting("output_dir", self.below(folder))])
-        return self._settings[folder]
+        key = (folder, tuple(overrides))
+        if key not in self._settings:
+            self._settings[key] = self.compose([*self.overrides, *overrides,
+                                                setting("surrogate.tasks_dir", self.tasks_dir),
+                                                setting("output_dir", self.below(folder))])
+        return self._settings[key]
 
     def simulator(self, folder: Path, overrides: Sequence[str]) -> Path:
         """A run of `overrides` in the physical simulator into `folder`, unless it is finished there as
