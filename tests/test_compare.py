@@ -164,8 +164,8 @@ def test_compare_end_to_end_reruns_nothing_and_reuses_runs(tmp_path):
 
 def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_path):
     run = tmp_path / "run"
-    assert tavc_here("run", "experiment=initial_distribution", "scale=smoke", "trials=1", "baselines=[]",
-                     f"output_dir={run}", "--no-progress").returncode == 0
+    run.mkdir()
+    (run / ".tavc.json").write_text('{"tavc": "run", "files": []}')  # a run's folder, as tavc marks it
     result = tavc_here("compare", "scale=smoke", "--results", str(run))
     assert result.returncode == 1 and "is a tavc run's folder, not a comparison's folder" in result.stderr
     result = tavc_here("compare", "scale=smoke", "--learners", "tavc,nobody", "--results", str(tmp_path / "c"))

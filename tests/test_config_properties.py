@@ -140,7 +140,7 @@ def configs(draw, bad_percent: int) -> list[str]:
 
 
 @pytest.mark.slow
-@settings(max_examples=12, deadline=None, database=None,
+@settings(max_examples=8, deadline=None, database=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(overrides=configs(bad_percent=0))
 def test_every_accepted_config_runs_a_short_trial(overrides, tmp_path_factory):

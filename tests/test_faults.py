@@ -56,7 +56,7 @@ def _assert_healed(out, undisturbed):
 
 
 @pytest.mark.slow
-@hyp_settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@hyp_settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(trial=st.integers(0, 2), where=st.floats(0.0, 0.999), length=st.integers(1, 64), xor=st.integers(1, 255))
 def test_a_trial_file_damaged_anywhere_is_named_and_run_again(undisturbed, tmp_path_factory, trial, where, length,
                                                              xor):
@@ -211,7 +211,7 @@ def test_sigterm_while_tables_are_written_stops_at_once(monkeypatch, tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("moment", [0.05, 0.1, 0.3, 0.6, *[random.Random(k).uniform(0.8, 6.0) for k in (1, 2)]])
+@pytest.mark.parametrize("moment", [0.05, 0.3, *[random.Random(k).uniform(0.8, 6.0) for k in (1, 2)]])
 def test_ctrl_c_at_any_moment_is_one_line_and_the_rerun_heals(undisturbed, tmp_path, moment):
     """Ctrl-C (SIGINT to the run's process group, as a terminal sends it) at a moment from the
     first imports to the tables: at most one line on standard error, no traceback, exit 130
