@@ -1,6 +1,6 @@
 """What several test modules need: the repository's root, the command line in a process of its
-own or in this one, a folder's files by digest and those changed since, the settings of a small run, and a
-run's robots' and Q-values' tables made by hand."""
+own or in this one, a folder's files by digest and those changed since, the settings of a small
+run, and a run's robots' and Q-values' tables made by hand."""
 
 from __future__ import annotations
 
