@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 from tavc_cli.cli import app
 from tavc_cli.config import load_config, settings
 from tavc_cli.experiments.store import Executor
-from tavc_cli.model import core
+from tavc_cli.model import core, world_search
 from tavc_cli.model.api import run_model
 
 
@@ -308,8 +308,6 @@ def test_a_calibration_search_is_refused_before_its_grid_is_composed(tmp_path, m
     """Composing the grid's points takes the better part of a minute; a link where the search
     writes, a run's folder, a file where a folder goes, and `--save` over a world searched
     otherwise are each refused before a single point is composed."""
-    import tavc_cli.model.world_search as world_search
-
     def composed(point):
         raise AssertionError(f"grid point {point} composed before the refusal")
 

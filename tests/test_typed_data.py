@@ -16,10 +16,10 @@ from omegaconf._utils import get_yaml_loader
 from tavc_cli.config import load_config
 from tavc_cli.config import settings as to_settings
 from tavc_cli.dotted import plain
-from tavc_cli.learning.parameters import recorded_learner, settings_mapping
+from tavc_cli.learning.parameters import PluginSettings, recorded_learner, settings_mapping
 from tavc_cli.learning.registry import SETTINGS
 from tavc_cli.readers import load_yaml
-from tavc_cli.settings import TavcConfig, from_mapping, from_yaml, to_yaml
+from tavc_cli.settings import TavcConfig, from_mapping, from_yaml, settings_of, to_yaml
 from tavc_cli.typed_data import DECLINED, exact
 from tests.helpers import REPO
 
@@ -191,9 +191,6 @@ def test_a_learners_node_read_without_omegaconf_is_what_omegaconf_reads(node, fa
     """A learner's node whose values are of its fields' types (an integer standing for a float)
     is read straight into its settings class: the settings OmegaConf's path gives, of the same
     types; a node it cannot read so is OmegaConf's, with the same result."""
-    from tavc_cli.learning.parameters import PluginSettings
-    from tavc_cli.settings import settings_of
-
     cls = PluginSettings if "target" in node else SETTINGS[node["name"]]
     fast, slow = settings_of(copy.deepcopy(node)), from_mapping(cls, copy.deepcopy(node))
     assert fast == slow and repr(fast) == repr(slow)

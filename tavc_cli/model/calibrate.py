@@ -62,7 +62,7 @@ def plan_search(base: TavcConfig, n_points: int, world_dir: Path, *, save: bool,
     out_dir = owned_path(holder, holder / WORLD_SEARCH_DIR, folder=True, what="output_dir")
     parts = Path(WORLD_SEARCH_DIR).parts
     for k in range(len(parts) + 1):  # a file on the way: refused as making the folder would refuse it
-        if holder.joinpath(*parts[:k]).exists() and not holder.joinpath(*parts[:k]).is_dir():
+        if (here := holder.joinpath(*parts[:k])).exists() and not here.is_dir():
             why = os.strerror(errno.EEXIST if k == len(parts) else errno.ENOTDIR)
             raise TavcError(f"output_dir: cannot create {out_dir}: {why}")
     measurement = dict(

@@ -54,7 +54,8 @@ PHASE_TEAMS = tuple(range(2, 11))
 PHASE_RATIOS = (1.0, 1.1, 1.25, 1.5, 1.75, 2.0)
 PHASE_TRIALS = 8
 LOW_VALUE = 2000.0  # the chapter's low value; the high one is the ratio times it
-CHECKED = ((4, 1.5), (8, 1.1))  # the checked points beside the chapter's own (6 robots, 1.1)
+CHAPTER_POINT = (6, 1.1)  # the chapter's own team and value ratio, whose committed runs the phase diagram shows
+CHECKED = ((4, 1.5), (8, 1.1))  # the checked points beside the chapter's own
 CHECKED_TRIALS = {"paper": 20, "converged": 8}
 HORIZON_FACTORS = (1.0, 2.0, 4.0, 10.0, 20.0, 40.0, 80.0)
 HORIZON_TRIALS = 8
@@ -145,7 +146,7 @@ class Study:
         """The simulator's run of the chapter's own point (six robots, its values) the phase diagram
         shows at `scale`, beside the surrogate's folder and overrides of the same point."""
         chapter = self.results / BASE if scale == "paper" else self.results / "converged" / BASE
-        return chapter, *self._phase_point(scale, 6, 1.1)
+        return chapter, *self._phase_point(scale, *CHAPTER_POINT)
 
     def _phase_point(self, scale: str, n: int, ratio: float) -> tuple[Path, list[str]]:
         """A surrogate run of the phase diagram: its folder and overrides (`n` robots, the high value
@@ -208,7 +209,7 @@ class Study:
                         rows.append(self._phase_row("simulator", scale, factor, n, ratio, checked))
             chapter = self.chapter_point(scale)[0]
             if (chapter / "state_time.csv").is_file():  # the chapter's own point, as committed
-                rows.append(self._phase_row("simulator", scale, factor, 6, 1.1, chapter))
+                rows.append(self._phase_row("simulator", scale, factor, *CHAPTER_POINT, chapter))
         table = pd.DataFrame(rows)
         # the model's prediction, from the same static runs' stay tasks
         predicted = []
