@@ -238,7 +238,7 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     folder_of(results_dir, "results_dir")
     mapping_of(reuse, "reuse")
     # deferred: loads scipy
-    from tavc_cli.compare.run import controller_overrides, run_compare
+    from tavc_cli.compare.run import controller_overrides, refuse_reuse, run_compare
 
     config.refuse_deletions(overrides)
     # learner.model_file is the comparison's: the model its predicted states come from, and the one the
@@ -262,6 +262,10 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
                         "an experiment of your own, where its registry entry says compare=True)")
     if not learners or len(set(learners)) != len(learners):
         raise TavcError(f"--learners: name each learner once ({', '.join(learners) or 'none given'})")
+    options = config.group_options("learner")
+    if other := next((name for name in learners if name != "tavc" and name not in options), None):
+        raise TavcError(f"--learners: {other}: learner={other}: no such option; choose tavc (each scenario's own) or "
+                        f"one of {', '.join(options)}")
     if results_dir is not None:
         refuse_folder_problem(results_dir, "--results", in_setting=True)
     results = Path(results_dir) if results_dir is not None else config.results_root(overrides) / "compare"
@@ -269,6 +273,7 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     for name in learners:  # its runs' folders are named below it: a link there is refused, not followed
         owned_path(results, results / "runs" / name, folder=True, what="--results")
     reuse = {name: path_of(folder, f"reuse[{name!r}]") for name, folder in (reuse or {}).items()}
+    refuse_reuse(reuse, learners, experiments)  # what needs no settings, before composing them
     base = config.load_config([f"experiment={experiments[0]}", *overrides])
     # read as a model learner's run reads it (its grammar and interpolations), then the file itself and
     # the world it was measured in, the comparison's (`model.allocations.model_world`); the teams it

@@ -194,6 +194,34 @@ def test_compare_refuses_a_run_folder_and_an_unknown_learner_in_one_line(tmp_pat
     assert not (tmp_path / "f").exists()
 
 
+@pytest.mark.parametrize(("learners", "reuse", "line"), [
+    (["tavc", "nobody"], {}, "--learners: nobody: learner=nobody: no such option; choose tavc (each scenario's own) "
+                             "or one of alternate, behaviour_softmax, informed, model, plugin, random, static, "
+                             "tavc_egreedy, tavc_softmax, threshold, wolf_phc"),
+    (["tavc", "random"], {"wolf_phc": "."}, "--reuse: wolf_phc is not one of the controllers compared (tavc, random)"),
+    (["tavc", "random"], {"random": "."}, "--reuse: initial_distribution: holds no finished run of "
+                                          "initial_distribution (no provenance.json)"),
+])
+def test_a_learner_or_a_folder_to_reuse_the_comparison_cannot_take_is_refused_before_it_composes(
+        learners, reuse, line, tmp_path, monkeypatch):
+    """Composing every controller's settings for every scenario takes seconds; what needs none of
+    them (a learner with no config, a controller reused but not compared, a folder to reuse with
+    no finished run) is refused first."""
+    from tavc_cli import api, config
+
+    def composed(*args, **kwargs):
+        raise AssertionError("composed before refusing")
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(config, "load_config", composed)
+    monkeypatch.setattr(config, "load_experiments", composed)
+    with pytest.raises(TavcError) as refused:
+        api.compare_summary(["scale=smoke"], learners=learners, experiments=["initial_distribution", "breakdown"],
+                            results_dir=tmp_path / "c", reuse=reuse)
+    assert str(refused.value).startswith(line)
+    assert not (tmp_path / "c").exists()
+
+
 @pytest.mark.parametrize(("override", "line"), [
     ("~learner.model_file", "error: learner.model_file: every run reads it, so ~ cannot remove it (the schema's "
                             "default would take its place); set it (learner.model_file=<value>)"),

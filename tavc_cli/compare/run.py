@@ -79,9 +79,7 @@ def check_reused(folder: Path, planned: TavcConfig, label: str) -> None:
     that learner with trials of `label` (of a learner from outside tavc, by its code as it is now),
     at `planned`'s settings but `REUSE_MAY_DIFFER`, and with at least `planned`'s trials."""
     experiment = str(planned.experiment_name)
-    for name in ("provenance.json", "trial_stats.csv"):
-        if not (folder / name).is_file():
-            raise _refused(folder, f"holds no finished run of {experiment} (no {name})")
+    _refuse_unfinished(folder, experiment)
     try:
         facts = check_run(folder)
     except TavcError as error:
@@ -109,6 +107,24 @@ def check_reused(folder: Path, planned: TavcConfig, label: str) -> None:
         raise _refused(folder, short)
 
 
+def refuse_reuse(reuse: Mapping[str, Path], controllers: Sequence[str], experiments: Sequence[str]) -> None:
+    """What `check_reused` can tell before any run is planned, so that it is said before the
+    settings of every controller are composed: a controller in `reuse` that is not compared, and a
+    scenario's folder there that holds no finished run."""
+    unknown = [name for name in reuse if name not in controllers]
+    if unknown:
+        raise TavcError(f"--reuse: {unknown[0]} is not one of the controllers compared ({', '.join(controllers)})")
+    for folder in reuse.values():
+        for experiment in experiments:
+            _refuse_unfinished(Path(folder) / experiment, experiment)
+
+
+def _refuse_unfinished(folder: Path, experiment: str) -> None:
+    for name in ("provenance.json", "trial_stats.csv"):
+        if not (folder / name).is_file():
+            raise _refused(folder, f"holds no finished run of {experiment} (no {name})")
+
+
 def trials_short(trials: frozenset[tuple[str, int]], label: str, wanted: int) -> str:
     """What is missing of the trials ``0..wanted-1`` labelled `label` among `trials` ((label,
     trial) pairs, as a run's provenance.json lists them); empty where none is."""
@@ -132,9 +148,7 @@ def run_compare(plans: Mapping[str, Sequence[TavcConfig]], results: Path, *, con
     # deferred: loads the simulator's compiled kernels
     from tavc_cli.pipeline import run_experiments
 
-    unknown = [name for name in reuse if name not in controllers]
-    if unknown:
-        raise TavcError(f"--reuse: {unknown[0]} is not one of the controllers compared ({', '.join(controllers)})")
+    refuse_reuse(reuse, controllers, experiments)
     allocations = model_allocations(model_file)  # the predicted states: known before anything runs
     for name, folder in reuse.items():
         planned = {str(cfg.experiment_name): cfg for cfg in plans[name]}

@@ -160,7 +160,13 @@ def results_root(overrides: Sequence[str] = (), default_scale: str | None = None
 def experiment_names(own: bool = False) -> list[str]:
     """The experiments there are files for (``experiment/<name>.yaml``), sorted: tavc's and those of
     the user's config folders (``--config-dir``), or tavc's only (`own`)."""
-    return sorted({p.stem for d in config_folders(own) for p in (d / "experiment").glob("*.yaml")})
+    return group_options("experiment", own)
+
+
+def group_options(group: str, own: bool = False) -> list[str]:
+    """The options of config group `group` there are files for (``<group>/<name>.yaml``), sorted:
+    tavc's and those of the user's config folders (``--config-dir``), or tavc's only (`own`)."""
+    return sorted({p.stem for d in config_folders(own) for p in (d / group).glob("*.yaml")})
 
 
 def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
