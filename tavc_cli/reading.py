@@ -19,7 +19,7 @@ from tavc_cli.ownership import SURROGATE, trial_path
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.readers import load_yaml, record_size
 from tavc_cli.run_checks import check_table, checked_plan, load_record, read_trial, run_facts
-from tavc_cli.run_provenance import keys_of, read_provenance
+from tavc_cli.run_provenance import digest_now, keys_of, read_provenance
 from tavc_cli.run_tables import checked_sweep, job_folder
 from tavc_cli.settings import from_yaml
 from tavc_cli.table_cells import damaged, unreadable
@@ -116,8 +116,10 @@ class Results:
         trials finished so far: each record in `trials/` of a trial its `config.yaml` and
         `plan.json` plan, under its own file name and the key this tavc's code gives it (a record
         of other settings or code, which resuming the run computes anew, is left out; a learner
-        from outside tavc, or the surrogate, gives keys its folder does not keep, and every
-        planned trial's file is taken as it is; a file that cannot be read is left out too). Records
+        from outside tavc enters its keys by its code as it is now, where its files are found
+        from here (`run_provenance.digest_now`); where they are not, and on the surrogate, whose
+        keys hold the tasks it drew, every planned trial's file is taken as it is; a file that
+        cannot be read is left out too). Records
         that declare more arrays together than this machine has memory are refused: of a finished
         run before any is read; of one that did not finish, whose files are known to be its own
         only once read, as soon as those it keeps and the next would."""
@@ -141,7 +143,7 @@ class Results:
         owned, plan = read_owned(self.path), self.plan
         try:  # a surrogate run's keys hold the digest of the tasks it drew, which its folder does not keep
             surrogate = owned is not None and owned.kind == SURROGATE
-            keys = None if surrogate else keys_of(from_yaml(self.path / "config.yaml"), plan)
+            keys = None if surrogate else keys_of(from_yaml(self.path / "config.yaml"), plan, None, digest_now)
         except TavcError:
             raise
         except Exception as exc:  # noqa: BLE001 - settings no run was made with: whatever fails in planning them

@@ -5,14 +5,18 @@ they give it. A table or record that fails is one line naming the file (`table_c
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import replace
+import hashlib
+import json
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, replace
 from typing import TYPE_CHECKING
 
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, plan_run
-from tavc_cli.experiments.spec import code_digest
+from tavc_cli.experiments.spec import _jsonable, code_digest
 from tavc_cli.learning.parameters import PluginSettings
+from tavc_cli.learning.plugins import target_digest, target_files
 from tavc_cli.ownership import SURROGATE
 from tavc_cli.ownership import read as read_owned
 from tavc_cli.readers import load_json
@@ -21,6 +25,7 @@ from tavc_cli.table_cells import damaged, unreadable
 if TYPE_CHECKING:
     from pathlib import Path
 
+    from tavc_cli.experiments.spec import TrialSpec
     from tavc_cli.run_checks import RunFacts
     from tavc_cli.settings import TavcConfig
 
@@ -77,11 +82,12 @@ def check_planned(facts: RunFacts, plan: RunPlan) -> None:
     the controllers and trial counts the config gives, each trial listed once, and, where this
     tavc's code computed them (`RunFacts.other_code` is None), each under the key its settings
     give it (`TrialSpec.key`: everything that fixes its outcome, with the engine provenance.json
-    records). So a config.yaml edited after its run is refused even where its digest was
-    re-signed or never recorded. A run of a learner from outside tavc, or on the surrogate where
-    provenance.json records no engine (runs written before it did), is checked for its trials but
-    not their keys: those hold the digest of the learner's files, or of the tasks the run drew
-    from, which the run's folder does not keep."""
+    records, and for a learner from outside tavc the digest of its code it records). So a
+    config.yaml edited after its run is refused even where its digest was re-signed or never
+    recorded. A run on the surrogate where provenance.json records no engine (runs written before
+    it did), or of a learner from outside tavc whose code's digest it does not record, is checked
+    for its trials but not their keys: those hold the digest of the tasks the run drew from, or of
+    the learner's files, which the run's folder does not keep."""
     cfg, path = facts.cfg, facts.folder / "provenance.json"
     try:
         given = [(c.label, c.trials) for c in plan_run(cfg).controllers]
@@ -101,7 +107,7 @@ def check_planned(facts: RunFacts, plan: RunPlan) -> None:
     owned = read_owned(facts.folder) if facts.engine is None else None
     if owned is not None and owned.kind == SURROGATE:  # its engine not recorded: the tasks it drew are unknown
         return
-    planned_keys = keys_of(cfg, plan, facts.engine)
+    planned_keys = keys_of(cfg, plan, facts.engine, recorded_digests(facts))
     if planned_keys is None:
         return
     listed_keys = {(c, j): key for c, j, key in facts.listed}
@@ -112,16 +118,53 @@ def check_planned(facts: RunFacts, plan: RunPlan) -> None:
                           f"{PLAN_FILE} do not give it (edited after the run?)")
 
 
-def keys_of(cfg: TavcConfig, plan: RunPlan, engine: str | None = None) -> dict[tuple[str, int], str] | None:
+def keys_of(cfg: TavcConfig, plan: RunPlan, engine: str | None = None,
+            learner_digest: Callable[[str], str | None] | None = None) -> dict[tuple[str, int], str] | None:
     """The key this tavc's code gives each trial `cfg` and `plan` plan (`TrialSpec.key`, on
-    `engine` where the run records one), by controller and trial; None for a run of a learner from
-    outside tavc, whose keys hold the digest of files the run's folder does not keep."""
+    `engine` where the run records one), by controller and trial. A learner from outside tavc
+    enters its trials' keys by the digest of its code (`plugins.target_digest`), which the run's
+    folder does not keep: `learner_digest` gives it by target (as `provenance.json` records it,
+    or `digest_now`); None where it gives none."""
     specs = trial_specs(cfg, plan)
-    if any(isinstance(s.policy, PluginSettings) for s in specs):
-        return None
     if engine is not None:
         specs = [replace(s, engine=engine) for s in specs]
-    return {(s.controller, s.trial): s.key() for s in specs}
+    keys = {}
+    for s in specs:
+        if isinstance(s.policy, PluginSettings):
+            digest = learner_digest(str(s.policy.target)) if learner_digest is not None else None
+            if not isinstance(digest, str):
+                return None
+            keys[s.controller, s.trial] = key_with_learner(s, digest)
+        else:
+            keys[s.controller, s.trial] = s.key()
+    return keys
+
+
+def key_with_learner(spec: TrialSpec, digest: str) -> str:
+    """`spec.key()` of a trial of a learner from outside tavc, with `digest` standing for the
+    digest of the learner's code (`TrialSpec.key` computes it from the files as they are now)."""
+    blob = json.dumps(asdict(spec), sort_keys=True, default=_jsonable) + code_digest() + digest
+    return hashlib.sha256(blob.encode()).hexdigest()[:20]
+
+
+def recorded_digests(facts: RunFacts) -> Callable[[str], str | None]:
+    """The digest of a learner from outside tavc by its target, as the run's `provenance.json`
+    records it (`learner_code`; None where it records none)."""
+    def digest(target: str) -> str | None:
+        entry = facts.learner_code.get(target)
+        return entry.get("digest") if isinstance(entry, dict) else None
+
+    return digest
+
+
+def digest_now(target: str) -> str | None:
+    """The digest of a learner from outside tavc from its code as it is now
+    (`plugins.target_digest`), where its files are found from here (a file target relative to a
+    config folder only while that folder is searched); None where they are not."""
+    try:
+        return target_digest(target) if target_files(target) else None
+    except TavcError:  # its file is not where the target says, from here
+        return None
 
 
 def _counts(controllers: list[tuple[str, int]]) -> str:

@@ -3,15 +3,24 @@ one of the built-in policies the compiled paths serve."""
 
 from __future__ import annotations
 
+import json
+import shutil
+
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
-from tavc_cli import config
+from tavc_cli import api, config
+from tavc_cli.cli import app
+from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.engine import run_trials
+from tavc_cli.io import file_digest
 from tavc_cli.learning import policies
 from tavc_cli.learning.compiled import POLICY_EGREEDY, POLICY_PYTHON, policy_kind
+from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
 from tavc_cli.learning.policies import TavcPolicy
+from tavc_cli.run_checks import check_run
 
 
 class AlwaysZero(TavcPolicy):
@@ -277,3 +286,42 @@ def test_a_parameter_the_learners_yaml_does_not_list_says_how_to_add_it(tmp_path
         config.load_config([*base, "learner.params.other=1"])
     with pytest.raises(TavcError, match=r"learner.params.other: Stubborn takes no parameter 'other'"):
         config.load_config([*base, "+learner.params.other=1"])  # with the plus, the class's signature decides
+
+
+def test_a_run_of_a_learner_from_outside_is_held_to_its_keys_by_the_code_it_records(tmp_path, monkeypatch):
+    """A finished run's `provenance.json` records the digest of the learner's code; its trials'
+    keys are held to it as a built-in learner's are to its settings, so a value edited after the
+    run is refused though the config's digest was written again. Of a run that did not finish,
+    `records()` keeps only the trials the learner's code as it is now gives, where it finds that
+    code; where it cannot, it takes them as they are."""
+    folder = _plugin_folder(tmp_path)
+    monkeypatch.setenv(CONFIG_DIRS_ENV, "")
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["--config-dir", str(folder), "run", "experiment=initial_distribution",
+                                      "scale=smoke", "learner=stubborn", "baselines=[]", "trials=1",
+                                      f"output_dir={out}", "--no-progress"])
+    assert result.exit_code == 0, result.output
+    monkeypatch.setenv(CONFIG_DIRS_ENV, "")  # the learner's folder no longer searched: read from the record
+    check_run(out)  # its keys are those its settings and its learner's recorded digest give
+
+    edited = tmp_path / "edited"
+    shutil.copytree(out, edited)
+    path = edited / "config.yaml"
+    path.write_text(path.read_text().replace("  - 2200.0\n", "  - 2300.0\n", 1))
+    prov = json.loads((edited / "provenance.json").read_text())
+    prov["tables"]["config.yaml"] = file_digest(path)
+    (edited / "provenance.json").write_text(json.dumps(prov, indent=2))
+    with pytest.raises(TavcError, match=r"provenance.json: stubborn trial 0 is listed under a key its config.yaml "
+                                        r"and plan.json do not give it"):
+        check_run(edited)
+
+    unfinished = tmp_path / "unfinished"
+    shutil.copytree(out, unfinished)
+    (unfinished / "provenance.json").unlink()
+    assert len(api.load(unfinished).records()) == 1  # its learner not found from here: taken as it is
+    monkeypatch.setenv(CONFIG_DIRS_ENV, str(folder))
+    assert len(api.load(unfinished).records()) == 1  # found, and the code that made it
+    (folder / "stubborn.py").write_text(LEARNER_FILE + "\n# another version\n")
+    with pytest.raises(TavcError, match="no trial of its run has finished yet"):
+        api.load(unfinished).records()  # a record of the learner's earlier code: resuming computes it anew

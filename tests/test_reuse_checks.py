@@ -229,8 +229,8 @@ def test_a_run_that_did_not_finish_is_held_to_memory_by_the_records_it_keeps(see
     _two_gib_in_one_and_a_half(folder, monkeypatch)
     keys = reading.keys_of
 
-    def random_of_other_settings(cfg, plan):
-        return {**keys(cfg, plan), ("random", 0): "another"}
+    def random_of_other_settings(*args):
+        return {**keys(*args), ("random", 0): "another"}
 
     monkeypatch.setattr(reading, "keys_of", random_of_other_settings)
     assert [r.meta["controller"] for r in api.load(folder).records()] == ["tavc"]
