@@ -267,6 +267,18 @@ def test_claim_8_needs_every_other_state_below_random_and_performance_back():
     assert row["verdict"] == "inconclusive" and "breakdown not run" in row["detail"]
 
 
+def test_section_1_4s_claims_say_whether_their_experiment_ran_without_the_behaviour_learner():
+    """Claims 1 and 2 read tables only a learner of behaviours' trials give: a spatiotemporal run
+    of another learner is said to be one, not said not to have run."""
+    for claim_id in (1, 2):
+        row = C.claim_rows({}, "spatiotemporal").set_index("claim_id").loc[claim_id]
+        assert row["verdict"] == "inconclusive" and "spatiotemporal not run" in row["detail"]
+        ran = {"spatiotemporal": _trials("random", _peaked(STATES5, "3:2", 90), rate=0.3)}
+        row = C.claim_rows(ran, "spatiotemporal").set_index("claim_id").loc[claim_id]
+        assert row["verdict"] == "inconclusive" and "not run" not in row["detail"]
+        assert "spatiotemporal ran no behaviour learner" in row["detail"]
+
+
 def test_claims_csv_columns_follow_the_contract():
     frame = C.claim_rows({})
     # the contract's columns first, then the observations beside each verdict

@@ -82,6 +82,19 @@ def test_what_falls_short_of_the_chapter_by_hand():
     assert C.scale_shortfall(_settings("scale=paper", "trials=19")) == "19 of the chapter's 20 trials"
 
 
+@pytest.mark.parametrize(("baselines", "short"), [
+    ("[random,static]", "6 of the chapter's 20 baseline trials, 6 of the chapter's 20 static trials, "),
+    ("[random]", "6 of the chapter's 20 baseline trials, "),
+    ("[static]", "6 of the chapter's 20 static trials, "),
+    ("[]", ""),
+])
+def test_only_the_baselines_a_run_has_fall_short(baselines, short):
+    """breakdown at quick: 6 trials of each controller where the chapter ran 20; a baseline the run
+    does not have ran no trials, and is not said to have run too few."""
+    cfg = config.settings(config.load_config(["experiment=breakdown", "scale=quick", f"baselines={baselines}"]))
+    assert C.scale_shortfall(cfg) == f"6 of the chapter's 20 trials, {short}0.25 of its duration"
+
+
 @pytest.mark.parametrize("scale", ["smoke", "quick"])
 def test_a_report_of_runs_below_the_chapters_scale_is_headed_not_a_verdict(tmp_path, scale):
     _run(tmp_path / "initial_distribution", f"scale={scale}")
@@ -184,6 +197,19 @@ def test_the_p_shown_is_the_failing_part_not_the_first(monkeypatch, tmp_path):
     line = next(x for x in claims_table(table[table["claim_id"] == 5]) if x.startswith("| 5:"))
     assert "| -0.30 | 0.6 | sub-test 2 |" in line
     assert p_cell(next(table[table["claim_id"] == 5].itertuples())) == "0.6 (sub-test 2)"
+
+
+def test_a_comparison_of_means_shows_its_value_under_p_named_as_a_value():
+    """A part with no test (claim 4's Cohen's w) shows the value it compares where the others show
+    their p, said to be a value, so that it is not read as a p."""
+    from types import SimpleNamespace
+
+    from tavc_cli.report.text import p_cell
+
+    row = SimpleNamespace(verdict="reproduced", p_value=math.nan, deciding_p_value=math.nan,
+                          deciding_statistic=0.0916443, deciding_test="close to the theory row",
+                          deciding_holds_if="a comparison of means, no test")
+    assert p_cell(row) == "value 0.0916 (close to the theory row (a comparison of means, no test))"
 
 
 def test_the_deciding_part_by_hand():

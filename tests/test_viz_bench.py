@@ -40,6 +40,27 @@ def test_animate_never_replaces_a_file_it_did_not_write(tmp_path):
     assert (tmp_path / "b" / "trajectories.png").read_bytes() == b"mine" and not (tmp_path / "b" / "run.gif").exists()
 
 
+def test_animate_into_a_runs_folder_only_beside_a_run_of_its_own_settings(tmp_path):
+    """An animation in a run's folder would be taken for that run's: beside a run of other
+    settings it is refused in one line before anything is simulated; beside one of its own it is
+    drawn."""
+    from tavc_cli import config
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / ".tavc.json").write_text('{"tavc": "run", "files": ["config.yaml"]}')  # a run's folder, as tavc marks it
+    (run / "config.yaml").write_text(config.to_yaml(config.load_config(["team.n_robots=3"])))
+    args = ["animate", "--duration-s", "4", "--no-mp4", "--out", str(run / "animation.gif")]
+    result = runner.invoke(app, [*args, "team.n_robots=2"])
+    assert result.exit_code == 1 and result.output.count("\n") == 1
+    assert result.output.startswith(f"error: --out: {run} holds a run of another configuration (")
+    assert "team.n_robots: 3 -> 2), which the animation would be taken for" in result.output
+    assert sorted(p.name for p in run.iterdir()) == [".tavc.json", "config.yaml"]
+    result = runner.invoke(app, [*args, "team.n_robots=3"])
+    assert result.exit_code == 0, result.output
+    assert (run / "animation.gif").is_file()
+
+
 def test_animate_rejects_a_non_gif_output_with_one_line(tmp_path):
     result = runner.invoke(app, ["animate", "--out", str(tmp_path / "run.mp4")])
     assert result.exit_code == 1

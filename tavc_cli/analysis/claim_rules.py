@@ -327,15 +327,24 @@ def claim_9(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
     return parts
 
 
+def _no_behaviours(runs: Mapping[str, pd.DataFrame], claim_id: int) -> str:
+    """Why a claim of section 1.4 has none of its tables: its experiment not run, or run without
+    the learner of behaviours, whose trials alone section 1.4's tables are of."""
+    name, run = _run(runs, claim_id)
+    if run is None:
+        return f"{name} not run"
+    return f"{name} ran no behaviour learner (section 1.4's tables are of its trials)"
+
+
 def claim_1(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     """Claim 1's parts, read from the runs of its experiment (`chapter` names it and quotes
     the chapter's words), each on `learner`'s trials."""
     # deferred: loads the simulator's compiled kernels
     from tavc_cli.analysis.spatiotemporal import ARRIVAL_ROWS, TRAVERSAL_ROWS
 
-    (name, trav), (_, targ) = _run(runs, 1, "traversals"), _run(runs, 1, "target_times")
+    (_, trav), (_, targ) = _run(runs, 1, "traversals"), _run(runs, 1, "target_times")
     if trav is None or targ is None:
-        return [_missing(f"{name} not run")]
+        return [_missing(_no_behaviours(runs, 1))]
     parts = []
     first = trav.loc[trav["traversal"] == 0, "time_s"]
     for n in TRAVERSAL_ROWS[1:]:
@@ -351,9 +360,9 @@ def claim_1(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Pa
 def claim_2(runs: Mapping[str, pd.DataFrame], learner: str = LEARNER) -> list[Part]:
     """Claim 2's parts, read from the runs of its experiment (`chapter` names it and quotes
     the chapter's words), each on `learner`'s trials."""
-    (name, pol), (_, lanes) = _run(runs, 2, "policy"), _run(runs, 2, "lanes")
+    (_, pol), (_, lanes) = _run(runs, 2, "policy"), _run(runs, 2, "lanes")
     if pol is None or lanes is None:
-        return [_missing(f"{name} not run")]
+        return [_missing(_no_behaviours(runs, 2))]
     late = lanes.loc[lanes["window"] == "late", "mean_left_m"]
     return [paired_greater("robots' share of states whose best behaviour is direct approach, above wall following",
                            pol["share_direct"], pol["share_wall"]),

@@ -202,13 +202,15 @@ def scale_shortfall(cfg) -> str:
     chapter's 20 trials, 0.25 of its duration"), or "" where it does not: fewer trials than
     the chapter ran (the learners', and each baseline's where the chapter gives their own
     count), or a shorter trial (in traversals where the chapter ends its trials with them,
-    section 1.4; else in seconds). Longer trials (scale=converged) are not below it.
-    `cfg` is a run's settings (`settings.TavcConfig`)."""
+    section 1.4; else in seconds). Longer trials (scale=converged) are not below it; a baseline
+    the run does not have is not counted. `cfg` is a run's settings (`settings.TavcConfig`)."""
     paper, out = cfg.paper, []
-    for ours, theirs, who in ((cfg.trials, paper.trials, ""),
-                              (cfg.baseline_trials, paper.baseline_trials, " baseline"),
-                              (cfg.static_trials, paper.static_trials, " static")):
-        if ours is not None and theirs is not None and int(ours) < int(theirs):
+    baselines = [str(name) for name in cfg.baselines or []]
+    for ours, theirs, who, ran in ((cfg.trials, paper.trials, "", True),
+                                   (cfg.baseline_trials, paper.baseline_trials, " baseline",
+                                    any(name != "static" for name in baselines)),
+                                   (cfg.static_trials, paper.static_trials, " static", "static" in baselines)):
+        if ran and ours is not None and theirs is not None and int(ours) < int(theirs):
             out.append(f"{int(ours)} of the chapter's {int(theirs)}{who} trials")
     if paper.deliveries is not None and cfg.deliveries is not None:
         if int(cfg.deliveries) < int(paper.deliveries):

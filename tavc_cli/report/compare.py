@@ -88,8 +88,9 @@ def compare_lines(results_dir: Path) -> list[str]:
              f"two-sided Mann-Whitney U test at p < {ALPHA:g} (the side its trials are more likely on); ◇: not "
              "different from random allocation at that level. A vacancy's fill time is cut at the shortest "
              "period after the event any controller ran (the chapter's). "
-             "Controllers that learn nothing run the chapter's schedule at every scale (their "
-             "distribution does not depend on the horizon).", ""]
+             "Controllers that learn nothing run on the baselines' schedule (at 40x the chapter's "
+             "durations: their distribution does not depend on the horizon); each heading gives the "
+             "multiple each controller ran at.", ""]
     for folder, table in found.items():
         lines += _scale_lines(folder, table, Path(results_dir))
     return lines

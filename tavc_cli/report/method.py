@@ -24,11 +24,12 @@ def method_lines() -> list[str]:
             "needs and the chapter does not state as a finding is reported beside the verdict, never in it. A "
             "claim holds only if every part does; the p shown is that of the part that decides the verdict, "
             "named beside it: of a claim not reproduced, the failing part furthest from holding, of a claim "
-            "reproduced, the part closest to failing. A part whose t cannot be computed (one trial, no spread "
+            "reproduced, the part closest to failing (where that part is a comparison of means, the value it "
+            "compares, marked as a value). A part whose t cannot be computed (one trial, no spread "
             "in either sample) or an equivalence the trials show neither way leaves its claim inconclusive, "
             "unless another part decides against it. Each claim is tested on one run of its experiment: the "
             "folder named after it, else the first by name (*The runs in this folder* lists every run). The "
-            "rules are in `tavc_cli/analysis/claims.py`.", ""]
+            "rules are in `tavc_cli/analysis/claim_rules.py`, applied by `tavc_cli/analysis/claims.py`.", ""]
 
 
 def chapter_check_lines() -> list[str]:

@@ -94,11 +94,12 @@ def decided_by(r) -> str:
 
 
 def p_cell(r) -> str:
-    """A claim's p in a summary table: the deciding part's p (for a comparison of means, the
-    compared value) and, in brackets, which part that is (`decided_by`)."""
+    """A claim's p in a summary table: the deciding part's p (for a comparison of means, which
+    has none, "value" and the compared value) and, in brackets, which part that is (`decided_by`)."""
     p = fmt(getattr(r, "deciding_p_value", r.p_value), ".3g")
     if not p and str(getattr(r, "deciding_holds_if", "")).startswith("a comparison of means"):
-        p = fmt(getattr(r, "deciding_statistic", math.nan), ".3g")  # the compared value (Cohen's w, a gap)
+        value = fmt(getattr(r, "deciding_statistic", math.nan), ".3g")  # the compared value (Cohen's w, a gap)
+        p = f"value {value}" if value else ""
     by = decided_by(r)
     return f"{p} ({by})" if p and by else (p or (f"({by})" if by else ""))
 

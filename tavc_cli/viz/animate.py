@@ -24,8 +24,8 @@ from tavc_cli.experiments.build import in_this_process, trial_specs
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.records import TrialRecord
 from tavc_cli.io import atomic_path, owned_path
-from tavc_cli.ownership import ANIMATION, Owned, read
-from tavc_cli.settings import TavcConfig
+from tavc_cli.ownership import ANIMATION, RUN, Owned, config_differences, read
+from tavc_cli.settings import TavcConfig, to_yaml
 from tavc_cli.sim.arena import Arena, arena_from_config
 from tavc_cli.viz.figures import plt, write_figure
 from tavc_cli.vocabulary import SOURCE
@@ -169,7 +169,7 @@ def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float =
             pass
     except OSError as exc:
         raise TavcError(f"--out: cannot write into {out.parent}: {exc.strerror}") from None
-    owned = _owned_beside(out, mp4)
+    owned = _owned_beside(out, mp4, cfg)
     if mp4 and not shutil.which("ffmpeg"):
         print("note: ffmpeg not found, so no MP4 is written (the GIF is)", file=sys.stderr)
     rec, arena = simulate_for_pictures(cfg, duration_s, frame_every_s)
@@ -180,11 +180,17 @@ def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float =
     return written
 
 
-def _owned_beside(out: Path, mp4: bool):
+def _owned_beside(out: Path, mp4: bool, cfg: TavcConfig):
     """What tavc owns in the animation's folder (`ownership`): a run's, or one of animations
     (listed there from now on); refuses, before anything is simulated, a file the animation
-    would replace that tavc did not write."""
+    would replace that tavc did not write, and a run's folder whose run is of other settings
+    than `cfg` (the animation beside it would be taken for that run's)."""
     owned = read(out.parent) or Owned(out.parent, ANIMATION)
+    if owned.kind == RUN and (out.parent / "config.yaml").is_file():
+        differ = config_differences(out.parent / "config.yaml", to_yaml(cfg))
+        if differ:
+            raise TavcError(f"--out: {out.parent} holds a run of another configuration ({'; '.join(differ)}), which "
+                            "the animation would be taken for; choose another --out or output_dir")
     names = [out.name, *([out.with_suffix(".mp4").name] if mp4 else []), "trajectories.png"]
     for name in names:  # a link, a pipe or a device where a picture goes: refused now, not after simulating
         owned_path(out.parent, out.parent / name, what="--out")
