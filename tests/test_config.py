@@ -619,3 +619,26 @@ def test_a_key_a_config_of_your_own_lacks_names_your_file_not_tavcs(tmp_path):
     (tmp_path / "experiment" / "breakdown.yaml").write_text("seed: 3\n")
     with using_config_dirs(tmp_path):
         assert load_config(["experiment=breakdown"]).seed == 0  # tavc's, found first
+
+
+def test_the_committed_headline_runs_hold_the_settings_make_reproduce_all_writes_now(monkeypatch):
+    """`make reproduce-all` writes each experiment's `config.yaml` again; where tavc composes
+    settings the committed runs lack (a key added since), the main command would change the
+    committed results' settings. Only the number of processes (`executor.n_jobs`, this
+    machine's cores) may differ; every other key is the same."""
+    from pathlib import Path
+
+    from tavc_cli.chapter import EXPERIMENTS
+    from tavc_cli.config import load_experiments
+    from tavc_cli.dotted import dotted
+
+    repo = Path(__file__).resolve().parent.parent
+    monkeypatch.chdir(repo)
+    names = list(EXPERIMENTS.own())
+    assert len(names) == 6
+    for name, cfg in zip(names, load_experiments(names, ["scale=paper"], "results"), strict=True):
+        committed = dotted(yaml.safe_load((repo / "results" / name / "config.yaml").read_text()))
+        now = dotted(yaml.safe_load(to_yaml(cfg)))
+        differ = sorted(k for k in set(committed) | set(now)
+                        if k != "executor.n_jobs" and committed.get(k, "absent") != now.get(k, "absent"))
+        assert not differ, f"results/{name}/config.yaml: {differ[:3]}; run make reproduce-all and commit it"
