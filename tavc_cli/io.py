@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import socket
 import stat
 import sys
@@ -189,6 +190,7 @@ def file_digest(path: Path) -> str:
 
 
 LOCK_NAME = ".tavc.lock"
+_LOCK_TEXT = re.compile(r"pid \d+ on .*, since \d{4}-\d\d-\d\d \d\d:\d\d:\d\d: ")  # what `claim_folder` writes there
 _HELD: set[int] = set()  # descriptors of the folders this process holds
 
 
@@ -250,6 +252,11 @@ def claim_folder(folder: Path, what: str = "output_dir", *, within: Path | None 
         if same:
             break
         os.close(fd)
+    left = os.pread(fd, 4096, 0).decode(errors="replace")
+    if left and not _LOCK_TEXT.match(left):  # a file of the user's by tavc's name: neither emptied nor removed
+        os.close(fd)
+        raise TavcError(f"{what}: {lock_path} was not written by tavc, which keeps its lock under that name; move it "
+                        "away")
     _HELD.add(fd)
     try:
         os.ftruncate(fd, 0)

@@ -353,6 +353,9 @@ def take_report_folders(results_dir: Path, horizon_dirs: Sequence[Path] = (), pa
     for folder, files in roots:
         check_inside(folder, RESULTS, files, what="RESULTS_DIR")
     for folder, _ in roots[:drawn]:
+        if (folder / "figures").exists() and not (folder / "figures").is_dir():
+            raise TavcError(f"RESULTS_DIR: {folder / 'figures'} is a file, where the report draws its figures in a "
+                            "folder of its own; move it away or choose another folder")
         owned = read(folder)
         figures = sorted(p for p in (folder / "figures").rglob("*") if p.is_file()) if (
             folder / "figures").is_dir() else []
@@ -368,8 +371,13 @@ def take_report_folders(results_dir: Path, horizon_dirs: Sequence[Path] = (), pa
 
 
 def list_figures(taken: list) -> None:
-    """Record the figures `tavc report` drew as tavc's."""
+    """Record the figures `tavc report` drew as tavc's, and forget the files it listed before
+    writing them that are not there (a report stopped first): a file of the user's put there
+    later is the user's."""
     for owned in taken:
+        owned.files -= {name for name in owned.files if not (owned.folder / name).exists()}
         if (owned.folder / "figures").is_dir():
             owned.wrote(*(p.relative_to(owned.folder).as_posix() for p in (owned.folder / "figures").rglob("*")
                           if p.is_file()))
+        else:
+            owned.save()

@@ -12,6 +12,7 @@ words its own.
 
 from __future__ import annotations
 
+import errno
 import io
 import json
 import math
@@ -277,7 +278,12 @@ def record_size(path: Path) -> int:
     directory without unpacking anything.
 
     Raises:
-        OSError, zipfile.BadZipFile: The file is missing or no archive.
+        OSError, zipfile.BadZipFile: The file is missing, not a regular file (a pipe, which a
+            read would wait on for ever, a device), or no archive.
     """
-    with zipfile.ZipFile(path) as archive:
-        return sum(member.file_size for member in archive.infolist())
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)  # a pipe never blocks the open
+    with os.fdopen(fd, "rb") as fh:
+        if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+            raise OSError(errno.EINVAL, "not a regular file")
+        with zipfile.ZipFile(fh) as archive:
+            return sum(member.file_size for member in archive.infolist())

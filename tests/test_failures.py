@@ -183,6 +183,26 @@ def test_the_folder_is_released_after_a_refused_or_failed_run(tmp_path, monkeypa
                 pass
 
 
+def test_a_file_of_the_users_by_the_locks_name_is_neither_emptied_nor_removed(tmp_path):
+    """A lock a killed run left (its own text) is taken and removed as tavc's; a file of the
+    user's by that name, refused in one line, is left as it was."""
+    left = tmp_path / "left"
+    left.mkdir()
+    (left / LOCK_NAME).write_text("pid 41 on elsewhere, since 2026-01-02 03:04:05: tavc run\n")  # kill -9's
+    with claim_folder(left):
+        pass
+    assert not (left / LOCK_NAME).exists()
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / LOCK_NAME).write_text("my notes\n")
+    with pytest.raises(TavcError) as refused:
+        with claim_folder(mine):
+            pass
+    assert str(refused.value) == (f"output_dir: {mine / LOCK_NAME} was not written by tavc, which keeps its lock "
+                                  "under that name; move it away")
+    assert (mine / LOCK_NAME).read_text() == "my notes\n"
+
+
 # --- clusters that do not answer ----------------------------------------------------------------
 
 @pytest.mark.parametrize("backend", ["dask", "ray"])

@@ -711,6 +711,36 @@ def test_a_report_stopped_while_drawing_lists_its_figures_and_the_next_one_heals
     assert figures(stopped) == figures(clean)
 
 
+def test_a_report_stopped_before_writing_its_files_leaves_them_unclaimed(breakdown, tmp_path, monkeypatch):
+    """A report stopped while drawing had listed REPORT.md and claims.csv before writing them;
+    they are not there, so they are not tavc's: a REPORT.md the user puts there afterwards is
+    refused by the next report, not replaced. A file where figures/ goes is refused before
+    anything is written."""
+    import tavc_cli.report as report
+    from tavc_cli.ownership import read
+
+    stopped = tmp_path / "stopped"
+    shutil.copytree(breakdown, stopped / "breakdown")
+    monkeypatch.setattr(report, "experiment_sections", then_interrupted(report.experiment_sections))
+    with pytest.raises(KeyboardInterrupt):
+        report.build_report(stopped)
+    monkeypatch.undo()
+    assert not {"REPORT.md", "claims.csv"} & read(stopped).files
+    (stopped / "REPORT.md").write_text("# my own notes\n")
+    result = runner.invoke(app, ["report", str(stopped)])
+    assert result.exit_code == 1 and "REPORT.md was not written by tavc" in result.output
+    assert (stopped / "REPORT.md").read_text() == "# my own notes\n"
+
+    other = tmp_path / "other"
+    shutil.copytree(breakdown, other / "breakdown")
+    (other / "figures").write_text("x")
+    result = runner.invoke(app, ["report", str(other)])
+    assert result.exit_code == 1 and result.output.strip() == (
+        f"error: RESULTS_DIR: {other / 'figures'} is a file, where the report draws its figures in a folder of its "
+        "own; move it away or choose another folder")
+    assert sorted(p.name for p in other.iterdir()) == ["breakdown", "figures"]
+
+
 def test_links_in_a_results_tree_are_not_followed(breakdown, tmp_path):
     """A link that loops back to the results folder, and one to a run elsewhere: the report
     finds the run that lies in the folder once, and writes nothing through either link."""

@@ -7,6 +7,7 @@ one line, exit 1, nothing written and nothing of the folders read changed."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -245,3 +246,31 @@ def test_a_record_provenance_lists_but_missing_is_named(seed3, tmp_path):
         api.load(folder).events("deliveries")
     assert str(info.value) == f"{folder / 'trials' / 'random_000.npz'}: missing, though provenance.json lists it" \
         + REWRITE
+
+
+@pytest.mark.parametrize("what", ["pipe", "device"])
+def test_a_pipe_or_a_device_in_a_records_place_is_one_line_never_a_wait(seed3, tmp_path, what):
+    """A named pipe, or a link to /dev/zero, where a trial record goes: reading the records names
+    the file at once (a pipe's read would wait for a writer for ever, a device's never end)."""
+    import signal
+
+    folder = tmp_path / "breakdown"
+    shutil.copytree(seed3, folder)
+    record = folder / "trials" / "tavc_000.npz"
+    record.unlink()
+    if what == "pipe":
+        os.mkfifo(record)
+    else:
+        record.symlink_to("/dev/zero")
+
+    def waited(*_):
+        raise AssertionError("waited on the record")
+
+    before = signal.signal(signal.SIGALRM, waited)
+    signal.alarm(30)
+    try:
+        with pytest.raises(TavcError, match=f"^{record}: "):
+            api.load(folder).records()
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, before)
