@@ -27,7 +27,16 @@ import pandas as pd
 
 from tavc_cli import config
 from tavc_cli.analysis import tasks_seen
-from tavc_cli.arguments import factors_of, folder_of, folder_setting, mapping_of, names_of, overrides_of
+from tavc_cli.arguments import (
+    echo_of,
+    factors_of,
+    folder_of,
+    folder_setting,
+    mapping_of,
+    names_of,
+    overrides_of,
+    share_of,
+)
 from tavc_cli.chapter import base_case
 from tavc_cli.compare import CONTROLLERS, scenarios
 from tavc_cli.errors import TavcError
@@ -129,7 +138,8 @@ def seen_tasks(run_dir: str | Path, *, controller: str = "tavc", from_share: flo
     provenance lists, each checked to be its own: `Results.records`), by the robots on circuit 0
     once the chooser had chosen, the kind of task and its circuit, from `from_share` of each
     trial on (`analysis.tasks_seen.seen_tasks`)."""
-    return tasks_seen.seen_tasks(load(run_dir).records(controller), from_share)
+    share = share_of(from_share, "from_share")
+    return tasks_seen.seen_tasks(load(run_dir).records(controller), share)
 
 
 def surrogate_seen_switches(prediction: str | Path, learners_run: str | Path, *, output_dir: str | Path) -> Results:
@@ -301,6 +311,7 @@ def model(overrides: Sequence[str] = (), *, save_calibration: bool = False, turn
     ``turn_taking`` key, its runs in ``<output_dir>/turn_taking``). Returns the model's result.
     `config_dir`: folders of your own configs, as ``--config-dir``."""
     overrides = overrides_of(overrides)
+    echo_of(echo)
     with using_config_dirs(config_dir):
         if turn_taking:
             # deferred: pandas and the model's modules, only with turn_taking
@@ -355,6 +366,7 @@ def calibrate(overrides: Sequence[str] = (), *, save: bool = False, progress: bo
     ``runs/<scale>`` unless given); with `save`, record the choice as world=calibrated.
     `config_dir`: folders of your own configs, as ``--config-dir``."""
     overrides = overrides_of(overrides)
+    echo_of(echo)
     with using_config_dirs(config_dir):
         _calibrate(overrides, save, progress, echo)
 

@@ -52,6 +52,20 @@ def factors_of(factors: object) -> list[float] | None:
     return [float(f) for f in given]
 
 
+def echo_of(echo: object) -> None:
+    """The function a command prints its lines through (`print` by default)."""
+    if not callable(echo):
+        raise TavcError(f"echo: a function that takes a line of text, such as print, not {echo!r:.80}")
+
+
+def share_of(value: object, what: str) -> float:
+    """A share of each trial, from 0 up to but not including 1."""
+    if not isinstance(value, Real) or isinstance(value, bool) or not 0 <= float(value) < 1:
+        raise TavcError(f"{what}: a share of each trial from 0 up to but not including 1, such as 0.5, not "
+                        f"{value!r:.80}")
+    return float(value)
+
+
 def folder_of(value: object, what: str) -> None:
     """A folder the caller gives, or None: one line where it is no path (`io.path_of`)."""
     if value is not None:

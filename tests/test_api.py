@@ -77,7 +77,15 @@ def test_errors_are_one_line(tmp_path):
                        (lambda: api.reproduce(["scale=smoke"], experiments=5), "experiments: a name or a list"),
                        (lambda: api.reproduce_summaries(["scale=smoke"], ladder="1,4"), "ladder: a list of multiples"),
                        (lambda: api.compare(["scale=smoke"], reuse=["a"]), "reuse: a mapping of learner to folder"),
-                       (lambda: api.model(["scale=smoke"], config_dir=5), "config_dir: a folder's path, or a list")]:
+                       (lambda: api.model(["scale=smoke"], config_dir=5), "config_dir: a folder's path, or a list"),
+                       (lambda: api.model(["scale=smoke", f"output_dir={tmp_path / 'x'}"], echo=None),
+                        "echo: a function that takes a line of text, such as print, not None"),
+                       (lambda: api.calibrate(["scale=smoke", f"output_dir={tmp_path / 'x'}"], echo="print"),
+                        "echo: a function that takes a line of text"),
+                       *((lambda share=share: api.seen_tasks(tmp_path / "x", from_share=share),
+                          f"from_share: a share of each trial from 0 up to but not including 1, such as 0.5, "
+                          f"not {share!r}")
+                         for share in ("a", 2, -1, float("nan"), True))]:
         with pytest.raises(TavcError, match=f"^{re.escape(line)}"):
             call()
     # every scenario by default, each known: the unknown learner is what is refused, before any run

@@ -304,6 +304,14 @@ def test_yaml_round_trips_to_the_container():
             ["experiment=initial_distribution", "tasks.values=[1,2,3]"],
             "tasks.values: needs one value per circuit (2), got 3",
         ),
+        (
+            ["calibration.grid=[{key: robot.behaviour.passing, values: [nearest, left]}]"],
+            "calibration.grid[0].values: 'nearest' is not a number; the search varies numeric settings of the world",
+        ),
+        (
+            ["calibration.grid=[{key: robot.dock.dwell_s, values: [0.0, nan]}]"],
+            "calibration.grid[0].values: nan is not a number; the search varies numeric settings of the world",
+        ),
     ],
 )
 def test_errors_read_exactly(overrides, message):

@@ -144,6 +144,9 @@ def _validate_calibration(cal: DictConfig) -> None:
         check(len(axis["values"]) >= 1, f"{key}.values", "needs at least one value")
         check(OmegaConf.select(cal._get_root(), axis.key, default="__absent__") != "__absent__", f"{key}.key",
               f"no config key named {axis.key!r}")
+        for value in axis["values"]:  # the search tabulates and ranks worlds by numeric settings
+            check(isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value),
+                  f"{key}.values", f"{value!r} is not a number; the search varies numeric settings of the world")
 
 
 def _validate_surrogate(sur: DictConfig) -> None:
