@@ -13,6 +13,7 @@ from pathlib import Path
 from tavc_cli.analysis.claims import not_a_verdict
 from tavc_cli.chapter import claims
 from tavc_cli.errors import TavcError
+from tavc_cli.experiments.build import trial_specs
 from tavc_cli.experiments.joint import CAN_FORK
 from tavc_cli.experiments.plan import PLAN_FILE, RunPlan, plan_run, write_plan
 from tavc_cli.experiments.pool import stop_workers, worker_start
@@ -24,7 +25,7 @@ from tavc_cli.experiments.runner import (
     run_trials_together,
     write_provenance,
 )
-from tavc_cli.experiments.store import FAILURES_LOG, Executor
+from tavc_cli.experiments.store import FAILURES_LOG, Executor, TrialStore
 from tavc_cli.io import claim_folder, file_digest, write_text_atomic
 from tavc_cli.outputs import write_analysis
 from tavc_cli.ownership import LADDER, LADDER_FILES, RUN, SWEEP, SWEEP_FILES, Owned, config_differences, run_files, take
@@ -72,6 +73,8 @@ def take_run_folder(cfg: TavcConfig, plan: RunPlan, kind: str = RUN) -> Owned:
     of the new one is written."""
     folder = Path(cfg.output_dir)
     owned, differ = check_run_folder(cfg, kind)
+    # a file where trials/ goes, or a folder where a record goes: refused before the folder is rewritten
+    TrialStore(folder, Executor.from_config(cfg.executor)).check_paths(trial_specs(cfg, plan))
     text = to_yaml(cfg)
     owned.wrote("config.yaml", PLAN_FILE)
     owned.remove_temporaries()

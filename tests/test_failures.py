@@ -368,6 +368,10 @@ def test_something_in_the_way_of_the_trial_records_is_one_line(tmp_path):
     (tmp_path / "trials").write_text("")
     with pytest.raises(TavcError, match=r"trials: a file stands where tavc writes its trial records; move it away$"):
         run_experiment(_cfg(tmp_path, "trials=1"))
+    # refused before the folder is rewritten: a rerun that only runs elsewhere leaves the run finished
+    with pytest.raises(TavcError, match=r"trials: a file stands where tavc writes its trial records; move it away$"):
+        run_experiment(_cfg(tmp_path, "trials=1", "executor.batch_size=3"))
+    assert (tmp_path / "provenance.json").is_file()
     (tmp_path / "trials").unlink()
     trial_path(tmp_path, "random", 0).mkdir(parents=True)
     with pytest.raises(TavcError, match=r"random_000.npz: a folder stands where tavc writes its trial records"):
