@@ -78,22 +78,22 @@ def _plugin_folder(tmp_path):
     return folder
 
 
-def test_a_learner_from_a_folder_of_ones_own_runs_with_one_yaml(tmp_path, monkeypatch):
-    from typer.testing import CliRunner
-
-    from tavc_cli.cli import app
-    from tavc_cli.learning.plugins import CONFIG_DIRS_ENV
-
+def _stubborn_run(tmp_path, monkeypatch, baselines: str):
+    """One smoke trial of `Stubborn` from a folder of one's own (`--config-dir`), into tmp_path/run,
+    beside `baselines`; returns the learner's folder and the run's."""
     folder = _plugin_folder(tmp_path)
     monkeypatch.setenv(CONFIG_DIRS_ENV, "")  # restored after the test, whatever the command sets
     monkeypatch.chdir(tmp_path)
     out = tmp_path / "run"
     result = CliRunner().invoke(app, ["--config-dir", str(folder), "run", "experiment=initial_distribution",
-                                      "scale=smoke", "learner=stubborn", "baselines=[random]", "trials=1",
+                                      "scale=smoke", "learner=stubborn", f"baselines={baselines}", "trials=1",
                                       f"output_dir={out}", "--no-progress"])
     assert result.exit_code == 0, result.output
-    from tavc_cli import api
+    return folder, out
 
+
+def test_a_learner_from_a_folder_of_ones_own_runs_with_one_yaml(tmp_path, monkeypatch):
+    _, out = _stubborn_run(tmp_path, monkeypatch, "[random]")
     run = api.load(out)
     choices = run.events("choices")
     mine = choices[choices["controller"] == "stubborn"]
@@ -294,14 +294,7 @@ def test_a_run_of_a_learner_from_outside_is_held_to_its_keys_by_the_code_it_reco
     run is refused though the config's digest was written again. Of a run that did not finish,
     `records()` keeps only the trials the learner's code as it is now gives, where it finds that
     code; where it cannot, it takes them as they are."""
-    folder = _plugin_folder(tmp_path)
-    monkeypatch.setenv(CONFIG_DIRS_ENV, "")
-    monkeypatch.chdir(tmp_path)
-    out = tmp_path / "run"
-    result = CliRunner().invoke(app, ["--config-dir", str(folder), "run", "experiment=initial_distribution",
-                                      "scale=smoke", "learner=stubborn", "baselines=[]", "trials=1",
-                                      f"output_dir={out}", "--no-progress"])
-    assert result.exit_code == 0, result.output
+    folder, out = _stubborn_run(tmp_path, monkeypatch, "[]")
     monkeypatch.setenv(CONFIG_DIRS_ENV, "")  # the learner's folder no longer searched: read from the record
     check_run(out)  # its keys are those its settings and its learner's recorded digest give
 
