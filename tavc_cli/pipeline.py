@@ -67,13 +67,13 @@ def check_run_folder(cfg: TavcConfig, kind: str = RUN) -> tuple[Owned, list[str]
 
 def take_run_folder(cfg: TavcConfig, plan: RunPlan, kind: str = RUN) -> Owned:
     """Check that the run may write its folder (`ownership.take`: new, empty or tavc's, nothing
-    of anybody else's in the way, not another configuration's run unless ``overwrite``) and
-    write its `config.yaml` and its `plan.json`; return what tavc owns there. Replacing another configuration's
+    of anybody else's in the way, not another configuration's run unless ``overwrite``; nothing
+    where its records go, `TrialStore.check_paths`) and write its `config.yaml` and its
+    `plan.json`; return what tavc owns there. Replacing another configuration's
     run, the folder stops being a finished run (its `provenance.json` goes) before anything
     of the new one is written."""
     folder = Path(cfg.output_dir)
     owned, differ = check_run_folder(cfg, kind)
-    # a file where trials/ goes, or a folder where a record goes: refused before the folder is rewritten
     TrialStore(folder, Executor.from_config(cfg.executor)).check_paths(trial_specs(cfg, plan))
     text = to_yaml(cfg)
     owned.wrote("config.yaml", PLAN_FILE)

@@ -12,6 +12,8 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
+from tavc_cli import api
+from tavc_cli import config as tavc_config  # `config` below builds a run's settings
 from tavc_cli.cli import app
 from tavc_cli.compare.metrics import (
     above,
@@ -207,14 +209,12 @@ def test_a_learner_or_a_folder_to_reuse_the_comparison_cannot_take_is_refused_be
     """Composing every controller's settings for every scenario takes seconds; what needs none of
     them (a learner with no config, a controller reused but not compared, a folder to reuse with
     no finished run) is refused first."""
-    from tavc_cli import api, config
-
     def composed(*args, **kwargs):
         raise AssertionError("composed before refusing")
 
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(config, "load_config", composed)
-    monkeypatch.setattr(config, "load_experiments", composed)
+    monkeypatch.setattr(tavc_config, "load_config", composed)
+    monkeypatch.setattr(tavc_config, "load_experiments", composed)
     with pytest.raises(TavcError) as refused:
         api.compare_summary(["scale=smoke"], learners=learners, experiments=["initial_distribution", "breakdown"],
                             results_dir=tmp_path / "c", reuse=reuse)

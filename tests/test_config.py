@@ -3,20 +3,24 @@
 import os
 import re
 from collections import Counter
+from pathlib import Path
 
 import pytest
 import yaml
 
+from tavc_cli.chapter import EXPERIMENTS as CHAPTER
 from tavc_cli.config import (
     expand_sweep,
     find_conf_dir,
     list_experiments,
     load_config,
+    load_experiments,
     load_sweep,
     settings,
     to_container,
     to_yaml,
 )
+from tavc_cli.dotted import dotted
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import trial_specs
 from tavc_cli.user_configs import using_config_dirs
@@ -634,15 +638,9 @@ def test_the_committed_headline_runs_hold_the_settings_make_reproduce_all_writes
     settings the committed runs lack (a key added since), the main command would change the
     committed results' settings. Only the number of processes (`executor.n_jobs`, this
     machine's cores) may differ; every other key is the same."""
-    from pathlib import Path
-
-    from tavc_cli.chapter import EXPERIMENTS
-    from tavc_cli.config import load_experiments
-    from tavc_cli.dotted import dotted
-
     repo = Path(__file__).resolve().parent.parent
     monkeypatch.chdir(repo)
-    names = list(EXPERIMENTS.own())
+    names = list(CHAPTER.own())
     assert len(names) == 6
     for name, cfg in zip(names, load_experiments(names, ["scale=paper"], "results"), strict=True):
         committed = dotted(yaml.safe_load((repo / "results" / name / "config.yaml").read_text()))

@@ -12,6 +12,7 @@ import json
 import math
 import re
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -19,6 +20,7 @@ import pytest
 
 from tavc_cli import config
 from tavc_cli.analysis import claims as C
+from tavc_cli.report.text import p_cell
 from tavc_cli.settings import to_yaml
 
 STATES = ["0:6", "1:5", "2:4", "3:3", "4:2", "5:1", "6:0"]
@@ -202,10 +204,6 @@ def test_the_p_shown_is_the_failing_part_not_the_first(monkeypatch, tmp_path):
 def test_a_comparison_of_means_shows_its_value_under_p_named_as_a_value():
     """A part with no test (claim 4's Cohen's w) shows the value it compares where the others show
     their p, said to be a value, so that it is not read as a p."""
-    from types import SimpleNamespace
-
-    from tavc_cli.report.text import p_cell
-
     row = SimpleNamespace(verdict="reproduced", p_value=math.nan, deciding_p_value=math.nan,
                           deciding_statistic=0.0916443, deciding_test="close to the theory row",
                           deciding_holds_if="a comparison of means, no test")

@@ -8,6 +8,7 @@ import pytest
 from PIL import Image
 from typer.testing import CliRunner
 
+from tavc_cli import config
 from tavc_cli.cli import app
 
 runner = CliRunner()
@@ -44,8 +45,6 @@ def test_animate_into_a_runs_folder_only_beside_a_run_of_its_own_settings(tmp_pa
     """An animation in a run's folder would be taken for that run's: beside a run of other
     settings it is refused in one line before anything is simulated; beside one of its own it is
     drawn."""
-    from tavc_cli import config
-
     run = tmp_path / "run"
     run.mkdir()
     (run / ".tavc.json").write_text('{"tavc": "run", "files": ["config.yaml"]}')  # a run's folder, as tavc marks it
