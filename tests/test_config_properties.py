@@ -262,6 +262,22 @@ REFUSED = [
     (["experiment=heterogeneous", "sim.dt_s=0.4"],
      "sim.dt_s: must be at most robot.dock.lateral_tol_m / top speed = 0.1 m / 0.3 m/s = 0.333333 s (no robot "
      "may move further than its docking tolerance in one control period), got 0.4"),
+    # a robot that could not get going within a trial (smoke: 18,000 s x 0.02 = 360 s, no warm-up):
+    # 1e9 kg x 0.25 m/s / 60 N = 4.17e6 s; the usual 15 kg would take 0.0625 s, so the mass is named
+    (["robot.mass_kg=1e9"],
+     "robot.mass_kg: a robot of robot.mass_kg = 1e+09 kg driven with at most robot.drive_force_n = 60 N would "
+     "need 4.17e+06 s from rest to reach its speed of 0.25 m/s, longer than a whole trial (sim.warmup_s + "
+     "duration_s = 360 s); it would never move as its settings say"),
+    # 15 kg x 0.25 m/s / 0.001 N = 3,750 s: even the usual mass is too heavy for that drive, so it is named
+    (["robot.drive_force_n=0.001"],
+     "robot.drive_force_n: a robot of robot.mass_kg = 15 kg driven with at most robot.drive_force_n = 0.001 N "
+     "would need 3.75e+03 s from rest to reach its speed of 0.25 m/s, longer than a whole trial (sim.warmup_s + "
+     "duration_s = 360 s); it would never move as its settings say"),
+    # a disc's moment 15 kg x 0.22^2 m^2 / 2 = 0.363 kg m^2, x 1.2 rad/s / 1e-6 N m = 435,600 s
+    (["robot.drive_torque_nm=1e-6"],
+     "robot.drive_torque_nm: a robot of robot.mass_kg = 15 kg driven with at most robot.drive_torque_nm = 1e-06 "
+     "N m would need 4.36e+05 s from rest to reach its turn rate of 1.2 rad/s, longer than a whole trial "
+     "(sim.warmup_s + duration_s = 360 s); it would never move as its settings say"),
     (["duration_s=0.05"], "duration_s: must be at least one control period (sim.dt_s = 0.1 s), got 0.05"),
     # narrower bins only cost memory: 1e-6 s bins over a 30 s run took 4 GB
     (["analysis.performance_bin_s=0.01"],
@@ -309,6 +325,16 @@ REFUSED = [
     (["events.value_changes=[{time_s:10,values:[2000,-1]}]"],
      "events.value_changes[0].values[1]: must be > 0 (the reward is the value over the task time), got -1.0"),
     (["tasks.score_values=[-1,1]"], "tasks.score_values[0]: must be >= 0, got -1.0"),
+    # 6 robots x 360 s / 0.1 s = 21,600 deliveries at most; sqrt(1.797e308) = 1.341e154, / 21,600 = 6.21e149
+    (["tasks.score_values=[1e300,1]"],
+     "tasks.score_values[0]: 1e+300 is more than 6.21e+149: scores are summed over a trial's deliveries (at most "
+     "21,600, one per robot and control period) and squared in the spread over trials, and that must stay a "
+     "finite number"),
+    # the score values left unset follow the learning values: the key set is named
+    (["tasks.score_values=null", "tasks.values=[1e300,1]"],
+     "tasks.values[0]: 1e+300 is more than 6.21e+149: scores are summed over a trial's deliveries (at most 21,600, "
+     "one per robot and control period) and squared in the spread over trials, and that must stay a finite number "
+     "(tasks.score_values follows it)"),
     # packed hexagonally, discs of 2 x 0.22 + 0.3 = 0.74 m round centres in the 10.8 x 6.8 m start area fill
     # at most 2 (10.8 + 0.74)(6.8 + 0.74) / (sqrt 3 x 0.74^2) = 183.5 of the arena: refused at once
     (["team.n_robots=100000"], "team.n_robots: 100000 robots of robot.radius_m = 0.22 cannot start 0.3 m apart in "

@@ -9,7 +9,8 @@ control periods to simulate; it is rough (within a factor of two or so), and the
 Refused even with ``force: true``: whatever could never run. A trial longer than its clock
 counts (`MAX_TICKS`); more trials, Q-table snapshots or pose frames than this machine's memory
 holds (a run keeps every trial's plan from the start and its analysis loads every record at
-once); a team or a batch of trials larger than memory.
+once); a team or a batch of trials larger than memory; score values whose sum over a trial's
+deliveries, squared in a spread, no float holds.
 
 Each refusal is one line naming the key that is out of bounds, what it would cost and, for the
 estimates, that ``force=true`` runs it anyway.
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from dataclasses import dataclass
 
 from omegaconf import DictConfig, OmegaConf
@@ -45,7 +47,6 @@ from tavc_cli.estimates import (
 from tavc_cli.experiments.plan import plan_run  # the simulator's modules, only once a config is checked
 from tavc_cli.learning.registry import BASELINES
 from tavc_cli.settings import CalibrationConfig, ModelConfig, PaperConfig
-from tavc_cli.sim.arena import most_robots
 
 # --------------------------------------------------------------------------------------------
 # What a run simulates
@@ -103,6 +104,8 @@ def sources(cfg: DictConfig) -> dict[str, str]:
             out[key] = "scale.trials" if cap is not None and cap < given else f"paper.{key}"
     if cfg.duration_s is None:
         out["duration_s"] = "paper.duration_s"
+    if cfg.tasks.score_values is None:
+        out["tasks.score_values"] = "tasks.values"
     return out
 
 
@@ -217,13 +220,13 @@ def validate_limits(cfg: DictConfig, named: dict[str, str] | None = None) -> Non
     that would take more than a day, naming derived keys as `named` (`sources`) says. `tavc model`
     and `tavc calibrate` check their own time (`validate_measurement_time`): a run need not wait
     for them."""
-    _validate_model_team(cfg)
     run = run_trials(cfg, named)
     plans = [(run, run_timing(cfg, named), "the run"), *(_measurement(cfg, group) for group in MEASUREMENTS)]
     for trials, timing, what in plans:
         _validate_clock(trials, timing)
         _validate_count_memory(trials, what)
     _validate_record_memory(cfg, run, plans[0][1])
+    _validate_scores(cfg, run, plans[0][1], named or {})
     _validate_batch(cfg, run)
     if not cfg.force:
         _validate_time(*plans[0])
@@ -242,16 +245,6 @@ def validate_measurement_time(cfg: DictConfig, group: str) -> None:
 def _measurement(cfg: DictConfig, group: str) -> tuple[list[Trials], Timing, str]:
     points = grid_points(cfg) if group == "calibration" else 1
     return measurement_trials(cfg, group, points), measurement_timing(cfg, group), MEASUREMENTS[group]
-
-
-def _validate_model_team(cfg: DictConfig) -> None:
-    """`tavc model` measures teams of up to model.max_robots: they must fit in the arena."""
-    arena, radius = cfg.arena, float(cfg.robot.radius_m)
-    most = most_robots(float(arena.width_m), float(arena.height_m), radius)
-    if cfg.model.max_robots is not None:
-        check(cfg.model.max_robots <= most, "model.max_robots",
-              f"{cfg.model.max_robots} robots of robot.radius_m = {radius:g} cannot start in the "
-              f"{arena.width_m:g} x {arena.height_m:g} m arena; at most {most} would fit")
 
 
 def _validate_clock(trials: list[Trials], timing: Timing) -> None:
@@ -311,6 +304,19 @@ def _validate_record_memory(cfg: DictConfig, trials: list[Trials], timing: Timin
                   f"{longest.span_s:,.6g} simulated s, about {in_bytes(need(lambda t: t.span_s))} for the run's "
                   f"{sum(t.count for t in trials):,} trials, more than this machine's {in_bytes(memory)} of memory; "
                   "not even force=true runs that")
+
+
+def _validate_scores(cfg: DictConfig, trials: list[Trials], timing: Timing, named: dict[str, str]) -> None:
+    """Score values whose sum over a trial's deliveries, squared in a spread over trials, a float
+    still holds: a robot delivers at most once a control period."""
+    most = max(t.n_robots * math.ceil(t.span_s / timing.dt_s) for t in trials)
+    bound = math.sqrt(sys.float_info.max) / most
+    follows = named.get("tasks.score_values")
+    for index, value in enumerate(cfg.tasks.score_values):
+        check(value <= bound, f"{follows or 'tasks.score_values'}[{index}]",
+              f"{value:g} is more than {bound:.3g}: scores are summed over a trial's deliveries (at most "
+              f"{most:,}, one per robot and control period) and squared in the spread over trials, and that must "
+              f"stay a finite number{' (tasks.score_values follows it)' if follows else ''}")
 
 
 def _validate_batch(cfg: DictConfig, trials: list[Trials]) -> None:

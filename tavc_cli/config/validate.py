@@ -21,8 +21,9 @@ from tavc_cli.config.limits import validate_limits, validate_scaled
 from tavc_cli.config.validate_learner import validate_allocation, validate_learner, validate_model_learner
 from tavc_cli.config.validate_world import (
     validate_arena,
-    validate_dock_speed,
     validate_docks,
+    validate_model_team,
+    validate_periods,
     validate_reachable,
     validate_start,
 )
@@ -111,10 +112,11 @@ def validate(cfg: DictConfig, named: Optional[dict[str, str]] = None) -> None:
         validate_allocation("static_allocation", cfg.static_allocation, n_circuits, n_robots)
     _validate_tasks(cfg.tasks, n_circuits)
     _validate_sim(cfg.sim)
-    _validate_control_period(cfg)
+    validate_periods(cfg)
     _validate_model(cfg.model)
     _validate_calibration(cfg.calibration)
     _validate_surrogate(cfg.surrogate)
+    validate_model_team(cfg)
     validate_limits(cfg, named)  # before anything counts the trials' ticks or plans them
     _validate_events(cfg, n_circuits)  # after sim: events fall due on its control periods
     one_of("analysis.state", cfg.analysis.state, ANALYSIS_STATES)
@@ -376,14 +378,6 @@ def _validate_sim(sim: DictConfig) -> None:
     at_least("sim.q_snapshot_every_s", sim.q_snapshot_every_s, 0)
     at_least("sim.pose_every_s", sim.pose_every_s, 0)
     at_least("sim.warmup_s", sim.warmup_s, 0)
-
-
-def _validate_control_period(cfg: DictConfig) -> None:
-    """No robot outruns its dock in a control period; trials and performance bins span one."""
-    validate_dock_speed(cfg)
-    dt_s = cfg.sim.dt_s
-    for key, value in (("duration_s", cfg.duration_s), ("analysis.performance_bin_s", cfg.analysis.performance_bin_s)):
-        check(value >= dt_s, key, f"must be at least one control period (sim.dt_s = {dt_s:g} s), got {value:g}")
 
 
 def _validate_executor(executor: DictConfig) -> None:

@@ -1,6 +1,6 @@
 """Validation of where things are: the arena, its walls and targets, room to dock at each
-bar-code (and robots slow enough to stop there), every target within reach, and room for the
-team where it starts (``sim.arena`` holds the start rules)."""
+bar-code (and robots slow enough to stop there, with a drive strong enough to get going), every
+target within reach, and room for the team where it starts (``sim.arena`` holds the start rules)."""
 
 import math
 from collections.abc import Sequence
@@ -12,12 +12,13 @@ from tavc_cli.config.checks import at_least, check, fail, one_of, plain, positiv
 from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import stand_in, trial_specs
 from tavc_cli.experiments.trial import TrialState
-from tavc_cli.settings import MIN_DOCK_CLEARANCE_M, TARGET_KINDS, WALL_TOLERANCE_M, SimConfig
+from tavc_cli.settings import MIN_DOCK_CLEARANCE_M, TARGET_KINDS, WALL_TOLERANCE_M, RobotConfig, SimConfig
 from tavc_cli.sim.arena import (
     N_OUTER_WALLS,
     START_GAP_M,
     START_WALL_MARGIN_M,
     arena_from_config,
+    most_robots,
     nearest_wall,
     wall_distance,
 )
@@ -147,6 +148,40 @@ def validate_dock_speed(cfg: DictConfig) -> None:
           f"control period), got {dt_s:g}")
 
 
+def validate_drive(cfg: DictConfig) -> None:
+    """Every robot gets up to its speed and its turn rate within a trial. The drive pushes a disc
+    of robot.mass_kg with at most robot.drive_force_n and turns it with at most
+    robot.drive_torque_nm (the simulator's body and joints), so from rest it needs mass x speed /
+    force seconds to reach its speed, moment x turn rate / torque to reach its turn rate. A robot
+    needing longer than a whole trial, warm-up included, never once moves as its settings say.
+    Named: the drive's key where even the usual mass would be too slow with it, else the mass."""
+    robot = cfg.robot
+    span_s = float(cfg.sim.warmup_s) + float(cfg.duration_s)
+    top_mps = max(member.speed_mps for member in cfg.team.members)
+    disc = robot.radius_m ** 2 / 2  # a uniform disc's moment of inertia per kg
+    for what, rate, unit, per_kg, drive_key, drive, drive_unit in (
+            ("speed", top_mps, "m/s", 1.0, "drive_force_n", robot.drive_force_n, "N"),
+            ("turn rate", robot.turn_rate_radps, "rad/s", disc, "drive_torque_nm", robot.drive_torque_nm, "N m")):
+        needs_s = robot.mass_kg * per_kg * rate / drive
+        if needs_s <= span_s:
+            continue
+        usual_mass_too_slow = RobotConfig.mass_kg * per_kg * rate / drive > span_s
+        fail(f"robot.{drive_key}" if usual_mass_too_slow else "robot.mass_kg",
+             f"a robot of robot.mass_kg = {robot.mass_kg:g} kg driven with at most robot.{drive_key} = {drive:g} "
+             f"{drive_unit} would need {needs_s:.3g} s from rest to reach its {what} of {rate:g} {unit}, longer than "
+             f"a whole trial (sim.warmup_s + duration_s = {span_s:g} s); it would never move as its settings say")
+
+
+def validate_periods(cfg: DictConfig) -> None:
+    """No robot outruns its dock in a control period, or needs longer than a trial to get going;
+    trials and performance bins span a control period."""
+    validate_dock_speed(cfg)
+    dt_s = cfg.sim.dt_s
+    for key, value in (("duration_s", cfg.duration_s), ("analysis.performance_bin_s", cfg.analysis.performance_bin_s)):
+        check(value >= dt_s, key, f"must be at least one control period (sim.dt_s = {dt_s:g} s), got {value:g}")
+    validate_drive(cfg)
+
+
 def validate_reachable(arena: DictConfig, robot: DictConfig) -> None:
     """With interior walls, a robot can get from where robots start to every target.
 
@@ -187,6 +222,16 @@ def validate_reachable(arena: DictConfig, robot: DictConfig) -> None:
         check(pieces[i, j] == where[0], f"arena.targets[{index}]",
               f"target {target.name!r} cannot be reached by {who} from where robots start: "
               "arena.walls close it off or leave no room to dock in front of it")
+
+
+def validate_model_team(cfg: DictConfig) -> None:
+    """`tavc model` measures teams of up to model.max_robots: they must fit in the arena."""
+    arena, radius = cfg.arena, float(cfg.robot.radius_m)
+    most = most_robots(float(arena.width_m), float(arena.height_m), radius)
+    if cfg.model.max_robots is not None:
+        check(cfg.model.max_robots <= most, "model.max_robots",
+              f"{cfg.model.max_robots} robots of robot.radius_m = {radius:g} cannot start in the "
+              f"{arena.width_m:g} x {arena.height_m:g} m arena; at most {most} would fit")
 
 
 def validate_start(cfg: DictConfig) -> None:
