@@ -78,6 +78,13 @@ _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODE
           STUDY: (), COMPARE: COMPARE_FILES, TURN_TAKING_KIND: TURN_TAKING_FILES}
 _WITH_TRIALS = (RUN, MODEL, SURROGATE, TASKS)  # folders whose trials/ holds tavc's records
 _SUBFOLDERS = {**dict.fromkeys(_WITH_TRIALS, ("trials",)), RESULTS: ("figures",)}  # tavc's folders in a folder
+# kinds whose folder holds nothing but tavc's (trial records named by tavc among them): a folder
+# of other files is refused rather than written into
+# (what else the folder holds, what the kind needs), as its refusal says
+_A_RUN = ("files tavc did not write", "a run needs a new or empty folder, or one of its own earlier runs")
+_NEEDS_ITS_OWN = {RUN: _A_RUN, SURROGATE: _A_RUN,
+                  TASKS: ("files that are not the surrogate's measured tasks", "the tasks and the trials they are "
+                          "measured from need a new or empty folder, or one they were measured in before")}
 # folders of their own a run's folder may hold before the run (`_nested`)
 _NESTED = {"model": MODEL, "turn_taking": TURN_TAKING_KIND, "tasks": TASKS}
 
@@ -237,13 +244,13 @@ def take(folder: Path, kind: str, writes: Iterable[str], what: str = "output_dir
         expect(folder, kind, what)
     if owned is None:
         owned = Owned(folder, kind)
-        if kind in (RUN, SURROGATE):
+        if kind in _NEEDS_ITS_OWN:
             foreign = sorted(p.name + ("/" if p.is_dir() else "") for p in folder.iterdir()
                              if not _ours(p.name) and not _nested(p))
             if foreign:
                 shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
-                raise TavcError(f"{what}: {folder} holds files tavc did not write ({shown}); a run needs a new "
-                                "or empty folder, or one of its own earlier runs: choose another folder")
+                holds, needs = _NEEDS_ITS_OWN[kind]
+                raise TavcError(f"{what}: {folder} holds {holds} ({shown}); {needs}: choose another folder")
     in_the_way = sorted(n for n in writes if (folder / n).exists() and not owned.owns(n))
     if in_the_way:
         raise TavcError(f"{what}: {folder / in_the_way[0]} was not written by tavc and tavc would write a file of "

@@ -201,6 +201,43 @@ def test_a_table_tavc_did_not_write_is_refused_not_replaced(copy):
     assert sha(copy / "task_times.csv") == mine
 
 
+def test_a_folder_of_other_files_or_another_runs_trials_is_refused_before_anything_is_measured(tmp_path):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("somebody's notes\n")
+    trials = tmp_path / "run" / "trials"  # another run's records
+    trials.mkdir(parents=True)
+    for name in ("random_000.npz", "tavc_000.npz"):
+        (trials / name).write_bytes(b"a record\n")
+    for folder, shown in ((mine, "notes.txt"), (trials, "random_000.npz, tavc_000.npz")):
+        before = {p.name: sha(p) for p in folder.iterdir()}
+        said: list[str] = []
+        with pytest.raises(TavcError) as refused:
+            measure_tasks(settings(folder), echo=said.append)
+        assert str(refused.value) == (
+            f"surrogate.tasks_dir: {folder} holds files that are not the surrogate's measured tasks ({shown}); the "
+            "tasks and the trials they are measured from need a new or empty folder, or one they were measured in "
+            "before: choose another folder")
+        assert said == [] and {p.name: sha(p) for p in folder.iterdir()} == before  # no lock, list or trials/ left
+
+
+@pytest.mark.parametrize(("tasks", "where"), [
+    ("run", "is the run's folder (output_dir)"),
+    (".", "holds the run's folder (output_dir)"),
+    ("run/trials", "is inside the run's folder (output_dir), where only its tasks/ may be"),
+])
+def test_tasks_that_would_share_the_runs_folder_are_refused_before_anything_is_measured(tmp_path, tasks, where,
+                                                                                          monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    cfg = config.settings(config.load_config([*OVERRIDES, "output_dir=run", f"surrogate.tasks_dir={tasks}"]))
+    with pytest.raises(TavcError) as refused:
+        run_surrogate(cfg, echo=print)
+    assert str(refused.value) == (f"surrogate.tasks_dir: {tasks} {where}; the measured tasks need a folder of their "
+                                  f"own: leave it unset ({tmp_path / 'run' / 'tasks'}) or name one outside "
+                                  f"{tmp_path / 'run'}")
+    assert list(tmp_path.iterdir()) == []  # nothing measured, nothing made
+
+
 def test_the_surrogates_code_is_in_its_digest_and_its_trials_keys(clean, tmp_path, monkeypatch):
     digest = surrogate_code_digest.__wrapped__  # uncached: the same folder is digested again after an edit
     package = Path(surrogate_run.__file__).resolve().parent.parent

@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import json
 import multiprocessing as mp
+import os
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -63,6 +64,20 @@ def tasks_dir(cfg: TavcConfig) -> Path:
     shared = default_root(cfg.scale.name) / "surrogate"
     out = Path(cfg.output_dir)
     return shared / "tasks" if out == shared / cfg.experiment_name else out / "tasks"
+
+
+def check_tasks_place(cfg: TavcConfig) -> None:
+    """Refuse, before anything is measured, measured tasks that would share a folder with the run:
+    they go in the run's own ``tasks/`` (`tasks_dir`'s default) or outside the run's folder, never
+    in the run's folder itself, elsewhere inside it, or in a folder that holds it."""
+    run, tasks = (Path(os.path.abspath(p)) for p in (cfg.output_dir, tasks_dir(cfg)))
+    where = ("is the run's folder (output_dir)" if tasks == run
+             else "holds the run's folder (output_dir)" if tasks in run.parents
+             else "is inside the run's folder (output_dir), where only its tasks/ may be" if run in tasks.parents
+             and tasks != run / "tasks" else None)
+    if where:
+        raise TavcError(f"surrogate.tasks_dir: {tasks_dir(cfg)} {where}; the measured tasks need a folder of their "
+                        f"own: leave it unset ({run / 'tasks'}) or name one outside {run}")
 
 
 def surrogate_supports(cfg: TavcConfig) -> None:
@@ -268,6 +283,7 @@ def run_surrogate(cfg: TavcConfig, *, times: TaskTimes | None = None, progress: 
     surrogate_supports(cfg)
     folder = Path(cfg.output_dir)
     if times is None:
+        check_tasks_place(cfg)
         if folder.exists() or folder.is_symlink():  # checked before its tasks are measured, into it or elsewhere
             with claim_folder(folder):
                 check_run_folder(cfg, SURROGATE)
