@@ -16,6 +16,7 @@ from tavc_cli.learning.policies import AlternatePolicy, alternate_roles
 from tavc_cli.surrogate.engine import SurrogateTrial, run_trial
 from tavc_cli.surrogate.tasks import COLUMNS, STAY, SWITCH, TaskTimes, Team, makeup_name, makeups, teams_needed
 from tavc_cli.vocabulary import ACTIVITIES
+from tests.helpers import REPO
 
 TEAM2 = Team.of(["all", "all"], [0.25, 0.25])
 # by hand: a stay on circuit 0 takes 100 s, on circuit 1 50 s; a switch to 0 takes 200 s, to 1 100 s
@@ -260,8 +261,32 @@ def test_the_study_checks_its_overrides_as_its_runs_compose_them(tmp_path, monke
 
     monkeypatch.setattr(study, "take", take)
     with pytest.raises(Taken):
-        study.run_study(tmp_path / "study", tmp_path, ["convergence_s=5000"],
+        study.run_study(tmp_path / "study", REPO / "results", ["convergence_s=5000"],
                         lambda overrides: config.settings(config.load_config(overrides)))
+
+
+@pytest.mark.parametrize(("parts", "such_as"), [
+    (None, "initial_distribution"), (["ladder"], "converged/ladder/x1"), (["phase"], "initial_distribution"),
+    (["horizon"], "converged/ladder")])
+def test_the_study_refuses_a_simulator_folder_without_the_runs_it_compares_with_before_anything_runs(
+        tmp_path, parts, such_as):
+    """Without one of the simulator's runs its parts compare with, every comparison would stand
+    without its reference: refused in one line before the study's folder is made."""
+    from tavc_cli.surrogate.study import run_study
+
+    def compose(overrides):
+        return config.settings(config.load_config(overrides))
+
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("somebody's notes\n")
+    none = f"holds none of the simulator's runs the study compares with (such as {mine / such_as})"
+    for given, says in ((tmp_path / "missing", "is not a folder"), (mine, none)):
+        with pytest.raises(TavcError) as refused:
+            run_study(tmp_path / "study", given, [], compose, parts=parts)
+        assert str(refused.value) == (f"--simulator: {given} {says}; name the folder of the simulator's committed "
+                                      "runs (results, as make reproduce-all writes it)")
+    assert not (tmp_path / "study").exists()
 
 
 @pytest.mark.parametrize("part", ["ladder", "phase", "horizon"])

@@ -156,6 +156,25 @@ class Study:
             f"experiment={BASE}", f"scale={scale}", f"team.n_robots={n}", f"tasks.values=[{values[0]!r},{values[1]!r}]",
             "baselines=[]", f"trials={PHASE_TRIALS}"]
 
+    def references(self, parts: Sequence[str]) -> list[Path]:
+        """The simulator's tables under `results` that `parts` set the surrogate beside: each run's
+        state_time.csv (the comparison's, the ladder's rungs, the phase diagram's chapter point)
+        and the horizon's ladder.csv."""
+        runs = [run for part in ("compare", "ladder") if part in parts for _, _, run, _ in self.compared(part)]
+        runs += [self.chapter_point(scale)[0] for scale in HORIZONS] if "phase" in parts else []
+        tables = [run / "state_time.csv" for run in runs]
+        return tables + ([self.results / "converged" / "ladder" / "ladder.csv"] if "horizon" in parts else [])
+
+    def check_simulator(self, parts: Sequence[str]) -> None:
+        """Before anything runs: `results` (``--simulator``) holds at least one of the simulator's
+        tables `parts` compare with; with none, every comparison would stand without its reference."""
+        wanted = self.references(parts)
+        if wanted and not any(path.is_file() for path in wanted):
+            found = ("is not a folder" if not self.results.is_dir()
+                     else f"holds none of the simulator's runs the study compares with (such as {wanted[0].parent})")
+            raise TavcError(f"--simulator: {self.results} {found}; name the folder of the simulator's committed runs "
+                            "(results, as make reproduce-all writes it)")
+
     def check_beside(self, parts: Sequence[str]) -> None:
         """Before anything runs: every simulator's run the `parts` will set beside a surrogate's
         run (the comparison's, the ladder's rungs, the phase diagram's chapter point, the rungs
@@ -330,9 +349,10 @@ def run_study(out: Path, results: Path, overrides: Sequence[str], compose: Compo
         raise TavcError(f"--parts: no part {unknown[0]!r} (compare, ladder, phase, horizon, speed)")
     out = Path(out)
     compose([*overrides, f"experiment={BASE}", "scale=paper"])  # as its runs compose them, before anything is written
+    study = Study(out, results, overrides, compose, progress=progress, echo=echo)
+    study.check_simulator(wanted)
     with claim_folder(out):
         owned = take(out, STUDY, STUDY_FILES, "--results")
-    study = Study(out, results, overrides, compose, progress=progress, echo=echo)
     study.check_beside(wanted)
     written = []
     for part, name in (("compare", "comparison"), ("ladder", "ladder"), ("phase", "phase"), ("horizon", "horizon"),
