@@ -57,6 +57,27 @@ def folder_problem(folder: str | Path, *, in_setting: bool = False) -> str | Non
     resolved = Path(folder).resolve()
     if resolved == Path(resolved.anchor):
         return f"{folder} is the root of the file system; give the results a folder of their own"
+    return _not_a_folder(Path(folder))
+
+
+def _not_a_folder(path: Path) -> str | None:
+    """What stands where `path`, a folder tavc is to make or write in, goes: a file, a link to
+    nothing, or a file above it; None where it is a folder or can be made."""
+    for here in (path, *path.parents):
+        try:
+            mode = os.stat(here).st_mode
+        except (FileNotFoundError, NotADirectoryError):  # missing, or below a file: the parent says which
+            if os.path.islink(here):
+                return f"{here} is a link to {os.readlink(here)}, which does not exist; make that folder or name " \
+                    "another"
+            continue
+        except OSError:
+            return None  # not for tavc to judge: making the folder says what is wrong
+        if stat.S_ISDIR(mode):
+            return None
+        what = "a file" if stat.S_ISREG(mode) else "not a folder"
+        return (f"{path} is {what}; name a folder" if here == path
+                else f"{path} lies below {here}, which is {what}; name a folder")
     return None
 
 

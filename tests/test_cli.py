@@ -417,7 +417,7 @@ def test_an_interrupt_a_library_hid_behind_its_own_error_is_still_an_interrupt(c
 
 
 def test_a_run_in_which_nothing_was_delivered_says_so(tmp_path):
-    result = runner.invoke(app, ["run", "scale=smoke", "experiment=initial_distribution", "robot.mass_kg=1e9",
+    result = runner.invoke(app, ["run", "scale=smoke", "experiment=initial_distribution", "robot.speed_mps=0.001",
                                  "trials=1", f"output_dir={tmp_path / 'out'}"])
     assert result.exit_code == 0, result.output
     warnings = [line for line in result.output.splitlines() if line.startswith("warning:")]

@@ -283,8 +283,7 @@ def test_a_calibration_search_writes_into_its_output_dir_and_nowhere_beside_it(t
     result = CliRunner().invoke(app, ["calibrate", "scale=smoke", f"output_dir={tmp_path / 'notes.txt'}",
                                       "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0]}]"])
     assert result.exit_code == 1
-    world = tmp_path / "notes.txt" / "calibration" / "world"
-    assert result.output.strip() == f"error: output_dir: cannot create {world}: Not a directory"
+    assert result.output.strip() == f"error: output_dir: {tmp_path / 'notes.txt'} is a file; name a folder"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
     # an experiment's folder, which the search once took to write beside: refused, naming the folder above it
     run = tmp_path / "runs" / "initial_distribution"
@@ -325,8 +324,8 @@ def test_a_calibration_search_is_refused_before_its_grid_is_composed(tmp_path, m
     (tmp_path / "filed" / "calibration" / "world").write_text("mine")
     for args, words in [([f"output_dir={named}"], "is a symbolic link to"),
                         ([f"output_dir={run}"], "is a tavc run's folder"),
-                        ([f"output_dir={tmp_path / 'notes.txt'}"], "calibration/world: Not a directory"),
-                        ([f"output_dir={tmp_path / 'filed'}"], "calibration/world: File exists"),
+                        ([f"output_dir={tmp_path / 'notes.txt'}"], "notes.txt is a file; name a folder"),
+                        ([f"output_dir={tmp_path / 'filed'}"], "calibration/world is a file; name a folder"),
                         (["--save", f"output_dir={tmp_path / 'fresh'}"], "was made with other settings")]:
         result = CliRunner().invoke(app, ["calibrate", "scale=smoke", *args])
         assert result.exit_code == 1 and len(result.output.strip().splitlines()) == 1, result.output

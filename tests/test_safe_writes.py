@@ -26,6 +26,7 @@ from tavc_cli.ownership import RUN as RUN_KIND
 from tavc_cli.ownership import check_inside, take_report_folders
 from tavc_cli.viz.figures import plt, save_figure
 from tavc_cli.viz.sweep import sweep_figure
+from tests.helpers import tavc
 
 matplotlib.use("Agg")
 runner = CliRunner()
@@ -334,3 +335,28 @@ def test_a_surrogate_run_checks_its_folder_before_measuring_its_tasks_into_it(tm
         assert result.output.startswith(f"error: output_dir: {folder} holds files tavc did not write"), result.output
     assert _snapshot(sibling) == before
     assert sorted(p.name for p in theirs.iterdir()) == ["notes.txt"]
+
+
+@pytest.mark.parametrize("command", [[*RUN, "output_dir={place}"], ["calibrate", "scale=smoke", "output_dir={place}"]])
+def test_a_file_or_a_link_to_nothing_where_a_folder_goes_is_named_as_what_it_is(tmp_path, command):
+    """Where tavc would make or write in a folder: a file there, a file above it, or a link to a
+    place that does not exist is one line saying which, before anything is written."""
+    (tmp_path / "notes.txt").write_bytes(THEIRS)
+    (tmp_path / "gone").symlink_to(tmp_path / "nowhere", target_is_directory=True)
+    before = _snapshot(tmp_path)
+    for place, says in ((tmp_path / "notes.txt", f"{tmp_path / 'notes.txt'} is a file; name a folder"),
+                        (tmp_path / "notes.txt" / "mine", f"{tmp_path / 'notes.txt' / 'mine'} lies below "
+                                                          f"{tmp_path / 'notes.txt'}, which is a file; name a folder"),
+                        (tmp_path / "gone" / "mine", f"{tmp_path / 'gone'} is a link to {tmp_path / 'nowhere'}, "
+                                                     "which does not exist; make that folder or name another")):
+        result = runner.invoke(app, [part.format(place=place) for part in command])
+        assert result.exit_code == 1 and result.output == f"error: output_dir: {says}\n"
+    assert _snapshot(tmp_path) == before
+
+
+def test_a_file_given_as_the_results_folder_is_named_by_its_option(tmp_path):
+    (tmp_path / "notes.txt").write_bytes(THEIRS)
+    result = tavc("reproduce", "scale=smoke", "--experiments", "breakdown", "--results", "notes.txt", cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stderr == "error: Invalid value for '--results': notes.txt is a file; name a folder (tavc --help)\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["notes.txt"]

@@ -5,8 +5,6 @@ composes the points' settings."""
 
 from __future__ import annotations
 
-import errno
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from operator import attrgetter
@@ -60,11 +58,7 @@ def plan_search(base: TavcConfig, n_points: int, world_dir: Path, *, save: bool,
                         "or another")
     refuse_folder_problem(holder, "output_dir")
     out_dir = owned_path(holder, holder / WORLD_SEARCH_DIR, folder=True, what="output_dir")
-    parts = Path(WORLD_SEARCH_DIR).parts
-    for k in range(len(parts) + 1):  # a file on the way: refused as making the folder would refuse it
-        if (here := holder.joinpath(*parts[:k])).exists() and not here.is_dir():
-            why = os.strerror(errno.EEXIST if k == len(parts) else errno.ENOTDIR)
-            raise TavcError(f"output_dir: cannot create {out_dir}: {why}")
+    refuse_folder_problem(out_dir, "output_dir")  # a file on the way: refused before the grid is composed
     measurement = dict(
         n_robots=int(base.team.n_robots), trials=trials, warmup_s=float(cal.warmup_s) * factor,
         measure_s=float(cal.measure_s) * factor, confidence=float(base.model.confidence),
