@@ -266,6 +266,8 @@ def compare_summary(overrides: Sequence[str] = (), *, learners: Sequence[str] | 
     experiments = list(experiments)
     if not experiments:
         raise TavcError("--experiments: no scenario given")
+    if len(set(experiments)) != len(experiments):
+        raise TavcError(f"--experiments: name each scenario once ({', '.join(experiments)})")
     served = scenarios()
     if other := next((name for name in experiments if name not in served), None):  # before any run
         raise TavcError(f"--experiments: {other!r} is not a scenario compare serves (it serves {', '.join(served)}; "

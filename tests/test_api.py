@@ -127,6 +127,10 @@ def test_reproduce_opens_each_experiments_results(tmp_path):
         assert len(res.records()) == 1
     with pytest.raises(TavcError, match="no experiment 'nope'"):
         api.reproduce(["scale=smoke"], experiments=["nope"], results_dir=tmp_path / "x")
+    with pytest.raises(TavcError, match=r"^--experiments: name each experiment once \(breakdown, breakdown\)$"):
+        api.reproduce(["scale=smoke"], experiments=["breakdown", "breakdown"], results_dir=tmp_path / "x")
+    with pytest.raises(TavcError, match=r"^--experiments: name each scenario once \(breakdown, breakdown\)$"):
+        api.compare(["scale=smoke"], experiments=["breakdown", "breakdown"], results_dir=tmp_path / "x")
     assert not (tmp_path / "x").exists()
 
 

@@ -191,6 +191,8 @@ def load_experiments(names: Sequence[str] | None, overrides: Sequence[str] = (),
     if unknown or not chosen:
         raise TavcError(f"--experiments: no experiment {unknown[0] if unknown else ''!r} "
                         f"(known: {', '.join(known)})")
+    if len(set(chosen)) != len(chosen):
+        raise TavcError(f"--experiments: name each experiment once ({', '.join(chosen)})")
     for override in overrides:
         key = setting_key(override)
         if key in ("experiment", "output_dir"):
