@@ -65,9 +65,9 @@ def breakdown_seed1(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def nothing_delivered(tmp_path_factory):
-    """A run whose robots are too heavy to move: no trial has a delivery."""
+    """A run whose robots crawl at 1 mm/s: no trial has a delivery."""
     return _run(tmp_path_factory.mktemp("heavy") / "initial_distribution", "experiment=initial_distribution",
-                *SMOKE, "trials=1", "baselines=[]", "robot.mass_kg=1e9")
+                *SMOKE, "trials=1", "baselines=[]", "robot.speed_mps=0.001")
 
 
 @pytest.fixture(scope="module")
