@@ -151,7 +151,8 @@ def undelivered(delivered: dict[str, int], n_trials: int) -> str:
     idle = [label for label, count in delivered.items() if count == 0]
     if not idle:
         return ""
-    why = "can the robots move and reach the targets? (robot.mass_kg, robot.drive_force_n, arena.walls)"
+    why = ("can the robots move and reach the targets? (robot.speed_mps, robot.mass_kg, robot.drive_force_n, "
+           "arena.walls)")
     if len(idle) == len(delivered):
         return (f"warning: nothing was delivered: no robot delivered anything in any of the {n_trials} trials, so "
                 f"no claim could be tested; {why}")

@@ -422,8 +422,8 @@ def test_a_run_in_which_nothing_was_delivered_says_so(tmp_path):
     assert result.exit_code == 0, result.output
     warnings = [line for line in result.output.splitlines() if line.startswith("warning:")]
     assert warnings == ["warning: nothing was delivered: no robot delivered anything in any of the 2 trials, so no "
-                        "claim could be tested; can the robots move and reach the targets? (robot.mass_kg, "
-                        "robot.drive_force_n, arena.walls)"]
+                        "claim could be tested; can the robots move and reach the targets? (robot.speed_mps, "
+                        "robot.mass_kg, robot.drive_force_n, arena.walls)"]
 
 
 def test_one_trial_shows_no_spread(tmp_path):
