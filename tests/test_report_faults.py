@@ -494,11 +494,16 @@ def test_a_run_of_other_code_is_reported_as_such(breakdown, undamaged_report, tm
                                 "`breakdown`. Their numbers are shown as that code made them")
 
 
-def test_every_committed_run_passes_the_checks():
-    runs = sorted(p.parent for p in RESULTS.rglob("provenance.json"))
-    assert len(runs) >= 12  # both horizons, the ladder's rungs, the value-ratio sweep
-    for run in runs:
-        check_run(run)
+COMMITTED_RUNS = sorted(p.parent for p in RESULTS.rglob("provenance.json"))
+
+
+def test_the_committed_runs_are_all_there():
+    assert len(COMMITTED_RUNS) >= 12  # both horizons, the ladder's rungs, the value-ratio sweep
+
+
+@pytest.mark.parametrize("run", COMMITTED_RUNS, ids=[str(p.relative_to(RESULTS)) for p in COMMITTED_RUNS])
+def test_every_committed_run_passes_the_checks(run):
+    check_run(run)
 
 
 def test_the_states_a_team_can_be_in():
