@@ -78,9 +78,8 @@ _FILES = {SWEEP: SWEEP_FILES, LADDER: LADDER_FILES, RESULTS: RESULTS_FILES, MODE
           STUDY: (), COMPARE: COMPARE_FILES, TURN_TAKING_KIND: TURN_TAKING_FILES}
 _WITH_TRIALS = (RUN, MODEL, SURROGATE, TASKS)  # folders whose trials/ holds tavc's records
 _SUBFOLDERS = {**dict.fromkeys(_WITH_TRIALS, ("trials",)), RESULTS: ("figures",)}  # tavc's folders in a folder
-# kinds whose folder holds nothing but tavc's (trial records named by tavc among them): a folder
-# of other files is refused rather than written into
-# (what else the folder holds, what the kind needs), as its refusal says
+# kinds whose folder holds nothing but tavc's (trial records named by tavc among them), each with
+# what its refusal of a folder of other files says: what else the folder holds, what the kind needs
 _A_RUN = ("files tavc did not write", "a run needs a new or empty folder, or one of its own earlier runs")
 _NEEDS_ITS_OWN = {RUN: _A_RUN, SURROGATE: _A_RUN,
                   TASKS: ("files that are not the surrogate's measured tasks", "the tasks and the trials they are "
