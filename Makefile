@@ -73,9 +73,13 @@ lint: venv-test ## Check the code with ruff (its rules are in pyproject.toml)
 # Test files are spread over the cores whole (--dist loadfile), so each file's module-scoped
 # runs are made once; `make test` and `make test-slow` together run every test.
 PYTEST_PARALLEL ?= -n auto --dist loadfile
+# The tests `make test` runs, as pytest's -m selects them; empty: every test, the slow ones among
+# the others in one session (what CI runs: a file's runs made once for both kinds, and one end
+# for the cores to wait at instead of two)
+TESTS ?= not slow
 
-test: venv-test lint ## Lint, then run the tests not marked slow, in parallel
-	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL) -m "not slow"
+test: venv-test lint ## Lint, then run the tests not marked slow (TESTS= for every test), in parallel
+	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL) $(if $(TESTS),-m "$(TESTS)")
 
 test-slow: venv-test ## Run the tests marked slow (long end-to-end runs), in parallel
 	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL) -m slow
