@@ -1,6 +1,7 @@
 """Composing configs with Hydra's compose API, and a sweep's jobs (`overrides` reads the overrides,
 `messages` turns failures into one line)."""
 
+import functools
 import itertools
 import math
 from collections.abc import Sequence
@@ -15,6 +16,7 @@ from omegaconf.errors import (
 )
 
 from tavc_cli.chapter import base_case
+from tavc_cli.config.composed import composed
 from tavc_cli.config.folders import config_folders, find_conf_dir
 from tavc_cli.config.limits import sources, validate_measurement_time
 from tavc_cli.config.messages import hydra_errors, omegaconf_message, uncaught_by_hydra, uncomposable_message
@@ -304,12 +306,18 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
 
     Only the compose API is used, never ``@hydra.main``: Hydra's own error reporting (and its
     ``HYDRA_FULL_ERROR`` traceback switch) is never involved, and every failure surfaces here
-    as an exception that becomes one ``TavcError`` line.
+    as an exception that becomes one ``TavcError`` line. The same overrides over the same config
+    files are composed once in a process (`composed`).
     """
     refuse_deletions(overrides)
+    search = search_overrides()
+    return composed(overrides, search, config_folders(), lambda: _compose_now(overrides, search))
+
+
+def _compose_now(overrides: Sequence[str], search: list[str]) -> DictConfig:
     with hydra_errors(overrides), initialize_conf():
         try:
-            return compose(config_name="config", overrides=[*search_overrides(), *overrides])
+            return compose(config_name="config", overrides=[*search, *overrides])
         except (ValueError, TypeError, KeyError, IndexError, RecursionError) as error:
             if not uncaught_by_hydra(error):
                 raise  # Hydra's and OmegaConf's own, made one line by `hydra_errors`
@@ -348,8 +356,15 @@ def _typed(cfg: DictConfig) -> DictConfig:
     """
     try:
         OmegaConf.resolve(cfg)
-        return OmegaConf.merge(OmegaConf.structured(TavcConfig), OmegaConf.to_container(cfg))
+        return OmegaConf.merge(_schema(), OmegaConf.to_container(cfg))
     except OmegaConfBaseException as error:
         raise TavcError(omegaconf_message(error)) from None
+
+
+@functools.cache
+def _schema() -> DictConfig:
+    """The schema as OmegaConf types it, built once in a process (a fifth of what typing a config
+    costs): `OmegaConf.merge` copies it before merging into the copy, so it is never changed."""
+    return OmegaConf.structured(TavcConfig)
 
 
