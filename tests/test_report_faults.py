@@ -501,6 +501,16 @@ def test_the_committed_runs_are_all_there():
     assert len(COMMITTED_RUNS) >= 12  # both horizons, the ladder's rungs, the value-ratio sweep
 
 
+def test_the_committed_reports_list_only_files_they_hold():
+    """A report's .tavc.json lists what it wrote in its folder (`ownership`), which the next report
+    replaces or clears: a file listed that is not there is a record an older report left behind."""
+    records = [p for p in sorted(RESULTS.rglob(".tavc.json")) if json.loads(p.read_text())["tavc"] == "results"]
+    assert len(records) >= 2  # the chapter's durations and 40x
+    for path in records:
+        missing = [name for name in json.loads(path.read_text())["files"] if not (path.parent / name).exists()]
+        assert not missing, f"{path.relative_to(RESULTS)} lists {len(missing)} files it does not hold: {missing[:2]}"
+
+
 @pytest.mark.parametrize("run", COMMITTED_RUNS, ids=[str(p.relative_to(RESULTS)) for p in COMMITTED_RUNS])
 def test_every_committed_run_passes_the_checks(run):
     check_run(run)
