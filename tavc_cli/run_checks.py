@@ -24,8 +24,6 @@ configuration or seed is refused, naming the file.
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 import os
 import re
@@ -46,7 +44,7 @@ from tavc_cli.readers import RECORD_LIMIT, TABLE_LIMIT, YAML_LIMIT, read_bounded
 from tavc_cli.run_provenance import check_planned, made_by_of, read_provenance, unfinished_rewrites
 from tavc_cli.settings import TavcConfig, from_yaml
 from tavc_cli.surrogate.digest import engine_code, surrogate_code_digest
-from tavc_cli.table_cells import check_cells, damaged, unreadable
+from tavc_cli.table_cells import check_cells, damaged, table_rows, unreadable
 
 SECTIONS = ("arena", "robot", "team", "learner", "scale", "executor", "paper", "tasks", "events", "sim", "analysis",
             "model", "calibration")
@@ -285,12 +283,7 @@ def check_table(path: Path, facts: RunFacts | None = None) -> None:
         raise damaged(path, "empty")
     if not text.endswith("\n"):
         raise damaged(path, "cut short (its last line has no newline)")
-    reader = csv.reader(io.StringIO(text, newline=""), strict=True)
-    try:
-        header = next(reader)
-        rows = [(reader.line_num, row) for row in reader]
-    except csv.Error as exc:
-        raise damaged(path, f"cannot be read (line {reader.line_num}: {exc})") from None
+    header, rows = table_rows(path, text)
     if len(set(header)) < len(header):
         raise damaged(path, "a column named twice in its header")
     for line, row in rows:
@@ -313,21 +306,31 @@ def _check_columns(path: Path, schema: TableSchema, header: list[str], rows: lis
 
 def _check_trials(path: Path, header: list[str], rows: list, facts: RunFacts) -> None:
     """Every trial is one the run ran (for its controller, where the table has one); the
-    trials' own table has a row for each of them."""
+    trials' own table has a row for each of them. Each (trial, controller) pair of cells is judged
+    once, and the rows walked only to name the first line of one that fails."""
     if "trial" not in header or facts.trials is None:
         return
     at_trial, at_ctrl = header.index("trial"), header.index("controller") if "controller" in header else None
     numbers = {n for _, n in facts.trials}
-    seen = set()
-    for line, row in rows:
-        trial = float(row[at_trial])
+
+    def pair(row: list[str]) -> tuple[str, str | None]:
+        return row[at_trial], (row[at_ctrl] if at_ctrl is not None else None)
+
+    def problem(cells: tuple[str, str | None]) -> str | None:
+        text, controller = cells
+        trial = float(text)
         if not math.isfinite(trial) or trial != int(trial):
-            raise damaged(path, f"line {line}: trial {row[at_trial]!r} is not a whole number")
-        key = (row[at_ctrl], int(trial)) if at_ctrl is not None else None
-        if (key not in facts.trials) if key is not None else (int(trial) not in numbers):
-            which = f"{row[at_ctrl]} trial {int(trial)}" if key is not None else f"trial {int(trial)}"
-            raise damaged(path, f"line {line}: {which} is not among the trials provenance.json lists")
-        seen.add(key)
+            return f"trial {text!r} is not a whole number"
+        if (controller, int(trial)) not in facts.trials if controller is not None else int(trial) not in numbers:
+            which = f"{controller} trial {int(trial)}" if controller is not None else f"trial {int(trial)}"
+            return f"{which} is not among the trials provenance.json lists"
+        return None
+
+    judged = {cells: problem(cells) for cells in {pair(row) for _, row in rows}}
+    if any(judged.values()):
+        line, what = next((line, judged[pair(row)]) for line, row in rows if judged[pair(row)])
+        raise damaged(path, f"line {line}: {what}")
+    seen = {(controller, int(float(text))) for text, controller in judged}
     if path.stem == "trial_stats" and at_ctrl is not None and seen != facts.trials:
         controller, trial = sorted(facts.trials - seen)[0]
         raise damaged(path, f"no row for {controller} trial {trial}, which provenance.json lists")
@@ -346,9 +349,10 @@ def _check_states(path: Path, header: list[str], rows: list, facts: RunFacts) ->
     if "state" not in header:
         return
     at = header.index("state")
-    for line, row in rows:
-        if not facts.valid_state(row[at]):
-            raise damaged(path, f"line {line}: state {row[at]!r} is no state of this experiment's team")
+    invalid = {state for state in {row[at] for _, row in rows} if not facts.valid_state(state)}
+    if invalid:  # each state judged once, the rows walked only to name the first line of one that is none
+        line, state = next((line, row[at]) for line, row in rows if row[at] in invalid)
+        raise damaged(path, f"line {line}: state {state!r} is no state of this experiment's team")
     if path.stem != "state_time" or not rows:
         return
     by_ctrl: dict[str, set[str]] = {}
