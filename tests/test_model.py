@@ -267,13 +267,27 @@ def test_a_circuit_that_delivered_nothing_is_left_for_one_that_pays():
 
 def test_a_calibration_search_records_the_world_it_was_asked_beside_its_choice(tmp_path):
     """`tavc calibrate` with the dwell set to 2.5 s, off its grid over the dwell, writes the world
-    as asked (`configured`) in search.json, the report's way to judge a reading as configured."""
-    result = CliRunner().invoke(app, ["calibrate", "scale=smoke", "robot.dock.dwell_s=2.5",
+    as asked (`configured`) in search.json, the report's way to judge a reading as configured. Into
+    the folder of an earlier search (overwrite=true) it leaves none of that one's tables and figures
+    beside its own (a grid over the dwell alone draws no sensitivity figure), and its .tavc.json
+    lists the files it holds."""
+    from tavc_cli.ownership import CALIBRATION_FILES
+
+    folder = tmp_path / "calibration" / "world"
+    folder.mkdir(parents=True)
+    for name in CALIBRATION_FILES:  # an earlier search's, each marked as such
+        (folder / name).write_text("earlier")
+    (folder / ".tavc.json").write_text(json.dumps({"tavc": "calibration", "files": sorted(CALIBRATION_FILES)}))
+    result = CliRunner().invoke(app, ["calibrate", "scale=smoke", "robot.dock.dwell_s=2.5", "overwrite=true",
                                       "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0,5.0]}]",
                                       f"output_dir={tmp_path}"])
     assert result.exit_code == 0, result.output
-    record = json.loads((tmp_path / "calibration" / "world" / "search.json").read_text())
+    record = json.loads((folder / "search.json").read_text())
     assert record["configured"] == {"robot.dock.dwell_s": 2.5} and record["n_points"] == 2
+    held = sorted(name for name in CALIBRATION_FILES if (folder / name).is_file())
+    assert "search.csv" in held and "sensitivity.png" not in held
+    assert all((folder / name).read_bytes() != b"earlier" for name in held)
+    assert json.loads((folder / ".tavc.json").read_text())["files"] == held
 
 
 def test_a_calibration_search_writes_into_its_output_dir_and_nowhere_beside_it(tmp_path, monkeypatch):

@@ -86,9 +86,14 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
         owned = take(out_dir, CALIBRATION, CALIBRATION_FILES, save=False)  # nothing written until the checks pass
         if owned.owns("search.json"):
             refuse_other_settings(out_dir / "search.json", plan.identity, "output_dir", base.overwrite)
-        owned.wrote(*CALIBRATION_FILES)
+        for name in CALIBRATION_FILES:  # an earlier search's tables and figures: this one writes its own, or none
+            owned.remove(name)
+        owned.wrote(*CALIBRATION_FILES)  # listed before they are written, so a stopped search's are tavc's
         owned.remove_temporaries()
         _search_and_measure(base, points, out_dir, world_dir, plan.measurement, save=save, echo=echo)
+        for name in CALIBRATION_FILES:  # no world chosen: no sensitivity step; a grid without the dock's axes: no
+            if not (out_dir / name).is_file():  # sensitivity figure
+                owned.remove(name)
 
 
 def _search_and_measure(base: TavcConfig, points, out_dir: Path, world_dir: Path, measurement: dict, *, save: bool,
