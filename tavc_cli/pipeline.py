@@ -70,8 +70,9 @@ def take_run_folder(cfg: TavcConfig, plan: RunPlan, kind: str = RUN) -> Owned:
     of anybody else's in the way, not another configuration's run unless ``overwrite``; nothing
     where its records go, `TrialStore.check_paths`) and write its `config.yaml` and its
     `plan.json`; return what tavc owns there. Replacing another configuration's
-    run, the folder stops being a finished run (its `provenance.json` goes) before anything
-    of the new one is written."""
+    run, the folder stops being a finished run (its `provenance.json` goes) and loses what tavc
+    wrote there of that run beside its own files (an animation of it) before anything of the
+    new one is written."""
     folder = Path(cfg.output_dir)
     owned, differ = check_run_folder(cfg, kind)
     TrialStore(folder, Executor.from_config(cfg.executor)).check_paths(trial_specs(cfg, plan))
@@ -84,6 +85,8 @@ def take_run_folder(cfg: TavcConfig, plan: RunPlan, kind: str = RUN) -> Owned:
         # folder) first makes it an unfinished run, so that one stopped before its new
         # provenance.json leaves a folder the same command resumes, not one it refuses
         owned.remove("provenance.json")
+    for name in sorted(owned.files - set(run_files())) if differ else ():
+        owned.remove(name)  # what pictured the other configuration's run (`tavc animate`), not this one
     write_text_atomic(folder / "config.yaml", text)
     write_plan(plan, folder)
     return owned

@@ -152,10 +152,13 @@ def in_hidden_folder(folder: Path, root: Path) -> bool:
 
 def ratio_points(root: Path, controller: str = "tavc") -> pd.DataFrame:
     """One row per finished run below `root` with two circuits (`analysis.value_ratio.ratio_point`):
-    `reading,horizon,ratio,values,mean,std,n_trials,...`, each run named relative to `root`."""
+    `reading,horizon,ratio,values,mean,std,n_trials,...`, each run named relative to `root`. A run
+    without its `provenance.json` has not finished (a rerun that stopped may have left the earlier
+    run's tables beside its own settings) and gives no row."""
     root = Path(root)
     runs = sorted(p.parent for p in root.rglob("trial_stats.csv")
-                  if (p.parent / "config.yaml").is_file() and not in_hidden_folder(p.parent, root))
+                  if (p.parent / "config.yaml").is_file() and (p.parent / "provenance.json").is_file()
+                  and not in_hidden_folder(p.parent, root))
     points, cells, columns = [], {}, {}
     for d in runs:
         cfg = from_yaml(d / "config.yaml")

@@ -551,7 +551,9 @@ def test_ratio_points_gather_a_sweep_from_its_run_folders(tmp_path):
             ("dock-left-two_circuits_parallel/0", "ms", [3000, 2000], 18000.0, (0.0, 0.0), reading),
             # a variant of that reading, named by its folder; a folder naming another reading names no variant
             ("dock-left-two_circuits_parallel-calibrated/0", "ms", [3000, 2000], 18000.0, (0.0, 0.0), reading),
-            ("range-left-two_circuits_parallel-calibrated/0", "ms", [4000, 2000], 18000.0, (0.0, 0.0), reading)):
+            ("range-left-two_circuits_parallel-calibrated/0", "ms", [4000, 2000], 18000.0, (0.0, 0.0), reading),
+            # a run that did not finish (no provenance.json): its tables may be an earlier run's, no row
+            ("paper/2", "ms", [3000, 2000], 18000.0, (0.0, 0.0), [])):
         d = tmp_path / sub
         d.mkdir(parents=True)
         run = load_config(["experiment=initial_distribution", f"tasks.values={values}", f"tasks.time_unit={unit}",
@@ -561,6 +563,8 @@ def test_ratio_points_gather_a_sweep_from_its_run_folders(tmp_path):
         pd.DataFrame({"controller": ["tavc", "tavc", "random"], "trial": [0, 1, 0], "policy_changes": [1, 3, 0],
                       "pct_0:2": [100 - shares[0], 100 - shares[1], 0.0], "pct_2:0": [*shares, 100.0]}
                      ).to_csv(d / "trial_stats.csv", index=False)
+        if sub != "paper/2":
+            (d / "provenance.json").write_text("{}")
     points = ratio_points(tmp_path)
     assert points[["reading", "horizon", "ratio"]].values.tolist() == [
         ["t in ms (the default)", "5 h", 1.0, ], ["t in ms (the default)", "5 h", 2.0],

@@ -31,7 +31,14 @@ def test_animate_never_replaces_a_file_it_did_not_write(tmp_path):
     refused before anything is simulated."""
     args = ["animate", "team.n_robots=2", "--duration-s", "4", "--no-mp4", "--out", str(tmp_path / "a" / "run.gif")]
     assert runner.invoke(app, args).exit_code == 0
+    # an earlier animation's MP4 (written where ffmpeg was): this one writes none, so that one goes
+    folder = tmp_path / "a"
+    (folder / "run.mp4").write_bytes(b"an earlier animation's")
+    record = json.loads((folder / ".tavc.json").read_text())
+    (folder / ".tavc.json").write_text(json.dumps({**record, "files": [*record["files"], "run.mp4"]}))
     assert runner.invoke(app, args).exit_code == 0  # tavc's own files, listed in the folder's .tavc.json
+    assert sorted(p.name for p in folder.iterdir()) == [".tavc.json", "run.gif", "trajectories.png"]
+    assert json.loads((folder / ".tavc.json").read_text())["files"] == ["run.gif", "trajectories.png"]
     (tmp_path / "b").mkdir()
     (tmp_path / "b" / "trajectories.png").write_bytes(b"mine")
     result = runner.invoke(app, [*args[:-1], str(tmp_path / "b" / "run.gif")])
@@ -58,6 +65,11 @@ def test_animate_into_a_runs_folder_only_beside_a_run_of_its_own_settings(tmp_pa
     result = runner.invoke(app, [*args, "team.n_robots=3"])
     assert result.exit_code == 0, result.output
     assert (run / "animation.gif").is_file()
+    # a run of other settings replacing that one (overwrite=true) takes its animation with it
+    result = runner.invoke(app, ["run", "team.n_robots=2", "scale=smoke", "overwrite=true", f"output_dir={run}"])
+    assert result.exit_code == 0, result.output
+    assert not (run / "animation.gif").exists() and not (run / "trajectories.png").exists()
+    assert "animation.gif" not in json.loads((run / ".tavc.json").read_text())["files"]
 
 
 def test_animate_rejects_a_non_gif_output_with_one_line(tmp_path):

@@ -177,6 +177,8 @@ def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float =
     written = animate_record(rec, arena, radius, out, fps, mp4=mp4)
     written.append(trajectory_plot(rec, arena, out.with_name("trajectories.png")))
     owned.wrote(*(p.name for p in written))
+    if out.with_suffix(".mp4") not in written:  # an earlier animation's MP4 would be taken for this one's
+        owned.remove(out.with_suffix(".mp4").name)
     return written
 
 
