@@ -106,6 +106,13 @@ def test_smoke_runs_of_the_four_experiments_through_report(tmp_path):
     assert "## Learning values and time" in text and (tmp_path / "figures" / "value_ratio.png").is_file()
     points = pd.read_csv(tmp_path / "value_ratio" / "value_ratio.csv")
     assert points["ratio"].tolist() == [pytest.approx(1.1)] and points["n_trials"].tolist() == [2]
+    # the sweep's run moved away: its table and figure go with the section, none left of runs not there
+    shutil.move(tmp_path / "value_ratio" / "paper", tmp_path / "elsewhere")
+    result = runner.invoke(app, ["report", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert "## Learning values and time" not in (tmp_path / "REPORT.md").read_text()
+    assert not (tmp_path / "value_ratio" / "value_ratio.csv").exists()
+    assert not (tmp_path / "figures" / "value_ratio.png").exists()
 
 
 @pytest.mark.slow

@@ -12,7 +12,7 @@ from tavc_cli.analysis.makeup_model import readings_summary
 from tavc_cli.analysis.value_ratio import predicted_shares
 from tavc_cli.chapter import base_case
 from tavc_cli.io import write_text_atomic
-from tavc_cli.ownership import VALUE_RATIO_DIR
+from tavc_cli.ownership import VALUE_RATIO_DIR, read
 from tavc_cli.readers import load_json
 from tavc_cli.report.beside import learners_beside_the_models, turn_taking_check_lines, turn_words
 from tavc_cli.report.files import read_stay_switch, there
@@ -38,6 +38,9 @@ def value_ratio_lines(results_dir: Path, model_json: Path | None) -> list[str]:
 
     points = ratio_points(root)
     if not len(points):
+        owned = read(root)  # an earlier report's table, of runs no longer there: not left as this one's
+        if owned is not None:
+            owned.remove("value_ratio.csv")
         return []
     write_text_atomic(root / "value_ratio.csv", points.to_csv(index=False, float_format="%.4f"))
     predicted = None
