@@ -342,13 +342,16 @@ def refuse_other_settings(record: Path, new: dict, what: str, overwrite: bool, *
         raise TavcError(f"{what}: {record} was made with other settings ({'; '.join(differ)}); {allow}")
 
 
-def take_report_folders(results_dir: Path, horizon_dirs: Sequence[Path] = (), page: bool = False) -> list:
+def take_report_folders(results_dir: Path, horizon_dirs: Sequence[Path] = (), page: bool = False,
+                        emptied: Sequence[Path] = ()) -> list:
     """Check, before anything is written, that `tavc report` may write its files (`take`):
     REPORT.md, claims.csv and figures/ on top, each longer horizon's claims.csv and figures/,
     the value-ratio table. Refused: a folder that is a run's; a longer horizon's or the value-ratio
     sweep's folder that is a link (the writes would leave the results folder); a file there that
-    tavc did not write. With `page`, REPORT.html on top too. Returns what tavc owns in the folders
-    whose figures/ the report draws."""
+    tavc did not write. With `page`, REPORT.html on top too. In the `emptied` horizons' folders, which
+    hold no finished run any more, an earlier report's claims.csv and figures are removed, so that
+    none stands as this report's. Returns what tavc owns in the folders whose figures/ the report
+    draws."""
     roots = [(results_dir, ("REPORT.md", "claims.csv", *(["REPORT.html"] if page else []))),
              *((d, ("claims.csv",)) for d in horizon_dirs)]
     drawn = len(roots)
@@ -369,6 +372,10 @@ def take_report_folders(results_dir: Path, horizon_dirs: Sequence[Path] = (), pa
         if foreign:
             raise TavcError(f"RESULTS_DIR: {foreign[0]} was not written by tavc, and the report draws its figures "
                             f"in {folder / 'figures'}; move it away or choose another folder")
+    for folder in emptied:
+        owned = read(owned_path(results_dir, folder, folder=True, what="RESULTS_DIR"))
+        for name in sorted(owned.files) if owned is not None and owned.kind == RESULTS else ():
+            owned.remove(name)
     taken = []
     for folder, files in roots:
         taken.append(take(folder, RESULTS, files, what="RESULTS_DIR"))

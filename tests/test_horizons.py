@@ -288,6 +288,15 @@ def test_every_horizon_folder_is_reported_in_order_of_its_factor(two_horizons, t
     assert (results / "x10" / "claims.csv").is_file() and (results / "converged" / "claims.csv").is_file()
     assert (results / "figures" / "horizons_initial_distribution_x10.png").is_file()
     assert (results / "figures" / "horizons_initial_distribution.png").is_file()
+    assert any((results / "x10" / "figures").iterdir())
+    # x10's run made unfinished (a rerun of other settings stopped): x10 is no horizon any more, its run is
+    # named as left out, and the earlier report's claims and figures there are gone, not left as this one's
+    (results / "x10" / "initial_distribution" / "provenance.json").unlink()
+    result = build_report(results)
+    assert [h["folder"] for h in result["horizons"]] == ["converged"]
+    assert str(results / "x10" / "initial_distribution") in result["unfinished"]
+    assert not (results / "x10" / "claims.csv").exists()
+    assert not [p for p in (results / "x10" / "figures").rglob("*") if p.is_file()]
 
 
 def test_a_folder_named_like_a_horizon_that_holds_a_run_is_a_run(tmp_path):

@@ -209,6 +209,8 @@ def _build(results_dir: Path, say: Callable[[str], None], page: bool, start: flo
     links: list[Path] = []
     found, unfinished = finished_runs(results_dir, links)
     longer_found = [(d, *finished_runs(d, links)) for d in horizon_folders(results_dir)]
+    emptied = [d for d, runs, _ in longer_found if not runs]  # an earlier report's files there go
+    unfinished += [r for d, runs, left in longer_found if not runs for r in left]  # named as left out
     longer_found = [(d, runs, left) for d, runs, left in longer_found if runs]  # a horizon is its finished runs
     stale, other = _check_readable(results_dir, [d for d, _, _ in longer_found], found,
                                    *(runs for _, runs, _ in longer_found))
@@ -228,7 +230,7 @@ def _build(results_dir: Path, say: Callable[[str], None], page: bool, start: flo
     claims = base.claims
     tested, n_ok = base.tested, base.n_reproduced
     # everything read: now the first write
-    taken = take_report_folders(results_dir, [h.folder for h in longer], page)
+    taken = take_report_folders(results_dir, [h.folder for h in longer], page, emptied)
     retested, left = _retest(stale, results_dir)
     drawn_before = figure_files(taken)
     model_json = find_model(experiments)
@@ -269,7 +271,8 @@ def _build(results_dir: Path, say: Callable[[str], None], page: bool, start: flo
            "links": [str(d) for d in links],
            "retested": {rel(d, results_dir): names for d, names in retested.items()}, "retest_left": left,
            "other_code": {rel(d, results_dir): code for d, code in sorted(other.items())},
-           "runs": _run_names(found, results_dir), "not_a_verdict": base.shortfalls,
+           "runs": {name: [rel(d, results_dir) for d in ds] for name, ds in found.items()},  # tested on first
+           "not_a_verdict": base.shortfalls,
            "studies": {what: [rel(d, results_dir) for d in folders] for what, folders in study_runs(results_dir)},
            "horizons": [{"folder": rel(h.folder, results_dir), "factor": h.factor, "experiments": list(h.experiments),
                          "claims": h.claims, "n_reproduced": h.n_reproduced, "n_tested": len(h.tested),
@@ -323,11 +326,6 @@ def _front_lines(every: list, results_dir: Path, model_json: Path | None, other:
     lines += surrogate_lines(results_dir)
     lines += compare_lines(results_dir)
     return lines
-
-
-def _run_names(found: dict[str, list[Path]], results_dir: Path) -> dict[str, list[str]]:
-    """experiment -> its runs' folders as the report names them, the one its claims are tested on first."""
-    return {name: [rel(d, results_dir) for d in folders] for name, folders in found.items()}
 
 
 def summary_lines(result: dict) -> list[str]:
