@@ -3,6 +3,7 @@ from them with the simulator's own learners, seeds and records."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -313,3 +314,40 @@ def test_the_study_refuses_a_simulators_run_of_other_settings_before_its_own_run
                         parts=[part])
     assert str(info.value).startswith(f"{other}: is no simulator's run of the surrogate's {tmp_path / 'study'}")
     assert "it ran with another seed (3; the surrogate's: 0)" in str(info.value)
+
+
+def test_a_part_of_other_settings_is_refused_beside_the_studys_tables_or_replaces_them(tmp_path, monkeypatch):
+    """A study run a part at a time: a part of another seed beside a table of the first is refused in
+    one line; with overwrite=true the earlier part's table goes; where and how fast the runs go is
+    no other setting."""
+    import pandas as pd
+
+    from tavc_cli.surrogate import study
+
+    def stamped(self):  # a part's table, stamped with the overrides it was made with
+        return pd.DataFrame({"overrides": [" ".join(self.overrides)]})
+
+    monkeypatch.setattr(study.Study, "compare", stamped)
+    monkeypatch.setattr(study.Study, "speeds", stamped)
+    monkeypatch.setattr(study.Study, "check_simulator", lambda self, parts: None)
+    monkeypatch.setattr(study.Study, "check_beside", lambda self, parts: None)
+    monkeypatch.setattr("tavc_cli.viz.surrogate.study_figures", lambda folder: [])
+    out = tmp_path / "study"
+
+    def run(*overrides, part):
+        return study.run_study(out, tmp_path, list(overrides), lambda o: config.settings(config.load_config(o)),
+                               parts=[part], echo=lambda line: None)
+
+    run("seed=1", part="compare")
+    with pytest.raises(TavcError) as refused:
+        run("seed=3", part="speed")
+    assert str(refused.value) == (f"--results: {out} holds a study made with other settings (overrides: ['seed=1'] -> "
+                                  "['seed=3']); add overwrite=true to replace its tables, or choose another folder")
+    assert not (out / "speed.csv").exists()
+    run("seed=3", "overwrite=true", part="speed")
+    assert not (out / "comparison.csv").exists() and (out / "speed.csv").is_file()
+    run("seed=3", "executor.n_jobs=1", part="compare")  # the same study, run another way
+    assert pd.read_csv(out / "comparison.csv")["overrides"].tolist() == ["seed=3 executor.n_jobs=1"]
+    assert (out / "speed.csv").is_file()
+    assert json.loads((out / "study.json").read_text()) == {"overrides": ["seed=3"],
+                                                            "simulator": str(tmp_path.resolve())}

@@ -41,6 +41,7 @@ from tavc_cli.ownership import STUDY, take
 from tavc_cli.settings import to_yaml
 from tavc_cli.surrogate.compare import check_beside, comparison_rows, high_share, predicted_state, run_facts
 from tavc_cli.surrogate.engine import run_trial
+from tavc_cli.surrogate.study_record import RECORD, identity, keep_record
 from tavc_cli.surrogate.tasks import Team
 
 if TYPE_CHECKING:
@@ -61,7 +62,7 @@ HORIZON_FACTORS = (1.0, 2.0, 4.0, 10.0, 20.0, 40.0, 80.0)
 HORIZON_TRIALS = 8
 HORIZON_PARAMETERS = {"epsilon": (0.05, 0.1, 0.2), "alpha": (0.05, 0.1, 0.2), "gamma": (0.9, 0.95, 0.99)}
 STUDY_FILES = tuple(f"{name}.csv" for name in ("comparison", "ladder", "phase", "horizon", "speed")) + tuple(
-    f"{name}.{ext}" for name in ("comparison", "phase", "horizon") for ext in ("png", "svg"))
+    f"{name}.{ext}" for name in ("comparison", "phase", "horizon") for ext in ("png", "svg")) + (RECORD,)
 
 # what the study sets for each of its runs: refused as overrides
 STUDY_KEYS = ("experiment", "scale", "scale.time_factor", "output_dir", "surrogate.calibration", "surrogate.tasks_dir",
@@ -348,12 +349,14 @@ def run_study(out: Path, results: Path, overrides: Sequence[str], compose: Compo
     if unknown:
         raise TavcError(f"--parts: no part {unknown[0]!r} (compare, ladder, phase, horizon, speed)")
     out = Path(out)
-    compose([*overrides, f"experiment={BASE}", "scale=paper"])  # as its runs compose them, before anything is written
+    base = compose([*overrides, f"experiment={BASE}", "scale=paper"])  # as its runs compose them, nothing written yet
     study = Study(out, results, overrides, compose, progress=progress, echo=echo)
     study.check_simulator(wanted)
     with claim_folder(out):
         owned = take(out, STUDY, STUDY_FILES, "--results")
     study.check_beside(wanted)
+    with claim_folder(out):  # its parts made alike, or those of other settings gone (`study_record`)
+        keep_record(owned, out, identity(overrides, results), bool(base.overwrite), STUDY_FILES)
     written = []
     for part, name in (("compare", "comparison"), ("ladder", "ladder"), ("phase", "phase"), ("horizon", "horizon"),
                        ("speed", "speed")):

@@ -1,0 +1,46 @@
+"""What a surrogate study's tables were made with: ``study.json`` in its folder records the
+overrides all of the study's runs share (where and how fast they run apart) and the folder of
+the simulator's runs they are compared with.
+
+The study is often run a part at a time (``--parts``), each part adding its table beside the
+others, and the report reads them as one study; a part of other settings would sit beside them
+unnoticed, and the figures drawn from all the tables would mix them. So a part whose settings
+differ from the record is refused in one line naming the difference, unless ``overwrite=true``,
+which removes the earlier parts' tables and figures first. A folder without a record (a study
+made before records were kept) is taken as it is, and recorded from then on.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+from tavc_cli.errors import TavcError
+from tavc_cli.io import write_text_atomic
+from tavc_cli.override_keys import setting_key
+from tavc_cli.ownership import Owned, recorded_differences
+
+RECORD = "study.json"
+# where and how fast the runs go, and whether a command may replace: not what the tables hold
+_NOT_SETTINGS = ("executor", "output_dir", "overwrite", "force")
+
+
+def identity(overrides: Sequence[str], simulator: Path) -> dict:
+    """The record of a study run with `overrides` against the simulator's runs in `simulator`."""
+    kept = [o for o in overrides if setting_key(o).split(".")[0] not in _NOT_SETTINGS]
+    return {"overrides": kept, "simulator": str(Path(simulator).resolve())}
+
+
+def keep_record(owned: Owned, out: Path, made_with: dict, overwrite: bool, files: Iterable[str]) -> None:
+    """Check the study folder `out` (what tavc owns there: `owned`) against `made_with` (`identity`)
+    as the module's docstring says, remove the earlier parts' `files` where they were made otherwise
+    and `overwrite` allows it, and record `made_with`."""
+    differ = recorded_differences(out / RECORD, made_with) if owned.owns(RECORD) else []
+    if differ and not overwrite:
+        raise TavcError(f"--results: {out} holds a study made with other settings ({'; '.join(differ)}); add "
+                        "overwrite=true to replace its tables, or choose another folder")
+    for name in sorted(files) if differ else ():
+        owned.remove(name)
+    owned.wrote(RECORD)
+    write_text_atomic(out / RECORD, json.dumps(made_with, indent=1) + "\n")
