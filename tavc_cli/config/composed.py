@@ -30,7 +30,7 @@ MAX_FILES = 2000
 MAX_BYTES = 16 << 20
 # Folders are walked this deep (Hydra's config groups may nest; a link that loops ends here).
 MAX_DEPTH = 8
-# Compositions kept (each about 1 MB of OmegaConf nodes); the least recently used is dropped first.
+# Compositions kept (each about 0.16 MB of OmegaConf nodes); the least recently used is dropped first.
 MAX_ENTRIES = 64
 
 _memory: OrderedDict[tuple, DictConfig] = OrderedDict()

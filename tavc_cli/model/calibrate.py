@@ -91,8 +91,10 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
         owned.wrote(*CALIBRATION_FILES)  # listed before they are written, so a stopped search's are tavc's
         owned.remove_temporaries()
         _search_and_measure(base, points, out_dir, world_dir, plan.measurement, save=save, echo=echo)
-        for name in CALIBRATION_FILES:  # no world chosen: no sensitivity step; a grid without the dock's axes: no
-            if not (out_dir / name).is_file():  # sensitivity figure
+        # what this search did not write leaves the record: no world chosen, no sensitivity step; a grid
+        # without the docking's four settings, no sensitivity figure
+        for name in CALIBRATION_FILES:
+            if not (out_dir / name).is_file():
                 owned.remove(name)
 
 

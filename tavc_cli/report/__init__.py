@@ -210,7 +210,7 @@ def _build(results_dir: Path, say: Callable[[str], None], page: bool, start: flo
     found, unfinished = finished_runs(results_dir, links)
     longer_found = [(d, *finished_runs(d, links)) for d in horizon_folders(results_dir)]
     emptied = [d for d, runs, _ in longer_found if not runs]  # an earlier report's files there go
-    unfinished += [r for d, runs, left in longer_found if not runs for r in left]  # named as left out
+    unfinished += [r for _, runs, left in longer_found if not runs for r in left]  # named as left out
     longer_found = [(d, runs, left) for d, runs, left in longer_found if runs]  # a horizon is its finished runs
     stale, other = _check_readable(results_dir, [d for d, _, _ in longer_found], found,
                                    *(runs for _, runs, _ in longer_found))
