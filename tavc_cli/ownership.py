@@ -88,7 +88,7 @@ _NEEDS_ITS_OWN = {RUN: _A_RUN, SURROGATE: _A_RUN,
 _NESTED = {"model": MODEL, "turn_taking": TURN_TAKING_KIND, "tasks": TASKS}
 
 # settings that decide where and how fast a run goes, not what it computes
-_NOT_RESULTS = ("executor", "output_dir", "overwrite", "force")
+NOT_RESULTS = ("executor", "output_dir", "overwrite", "force")  # where, how fast, whether it may replace
 
 
 _TEMPORARY = re.compile(r"\.(.+)\.[a-z0-9_]{8}\.tmp")  # `tempfile.mkstemp(prefix=".<name>.", suffix=".tmp")`
@@ -298,7 +298,7 @@ def _ours(name: str) -> bool:
 
 def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3, ignore: Iterable[str] = ()) -> list[str]:
     """The settings (dotted keys, ``old -> new``) in which the run recorded in `old_yaml` differs
-    from the configuration `new_yaml`, leaving out where and how fast it runs (`_NOT_RESULTS`),
+    from the configuration `new_yaml`, leaving out where and how fast it runs (`NOT_RESULTS`),
     the dotted keys in `ignore` and keys only one of them has (a setting a later version of tavc
     added is not another configuration); empty if they would compute the same. At most `limit`
     of them, then how many more."""
@@ -310,7 +310,7 @@ def config_differences(old_yaml: Path, new_yaml: str, limit: int = 3, ignore: It
     a, b = dotted(old if isinstance(old, dict) else {}), dotted(new)
     ignore = set(ignore)
     keys = sorted(k for k in set(a) & set(b)
-                  if a[k] != b[k] and k.split(".")[0] not in _NOT_RESULTS and k not in ignore)
+                  if a[k] != b[k] and k.split(".")[0] not in NOT_RESULTS and k not in ignore)
     shown = [f"{k}: {a.get(k)} -> {b.get(k)}" for k in keys[:limit]]
     return [*shown, f"{len(keys) - limit} more"] if len(keys) > limit else shown
 

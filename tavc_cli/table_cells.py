@@ -1,10 +1,10 @@
-"""A run's table, cell by cell, against its schema (`table_schemas.TABLES`): every column the
-schema names there, numbers where it wants numbers (`is_number`), no empty cell in its keys, only
-its choices where it limits a column, no row repeated in its `unique` columns, and a Q-table's
-entries (`q_<state>_<action>`) for every state and action. Each column is checked in one pass
-where all is well, and row by row only to name the first line that is not
-(`run_checks.check_table` runs it, then what needs the run's facts). `damaged` is the one
-line for a run's file that cannot be trusted."""
+"""A run's table read into rows (`table_rows`), then checked cell by cell against its schema
+(`table_schemas.TABLES`): every column the schema names there, numbers where it wants numbers
+(`is_number`), no empty cell in its keys, only its choices where it limits a column, no row
+repeated in its `unique` columns, and a Q-table's entries (`q_<state>_<action>`) for every state
+and action. Each column is checked in one pass where all is well, and row by row only to name the
+first line that is not (`run_checks.check_table` runs it, then what needs the run's facts).
+`damaged` is the one line for a run's file that cannot be trusted."""
 
 from __future__ import annotations
 

@@ -19,16 +19,14 @@ from pathlib import Path
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
 from tavc_cli.override_keys import setting_key
-from tavc_cli.ownership import Owned, recorded_differences
+from tavc_cli.ownership import NOT_RESULTS, Owned, recorded_differences
 
 RECORD = "study.json"
-# where and how fast the runs go, and whether a command may replace: not what the tables hold
-_NOT_SETTINGS = ("executor", "output_dir", "overwrite", "force")
 
 
 def identity(overrides: Sequence[str], simulator: Path) -> dict:
     """The record of a study run with `overrides` against the simulator's runs in `simulator`."""
-    kept = [o for o in overrides if setting_key(o).split(".")[0] not in _NOT_SETTINGS]
+    kept = [o for o in overrides if setting_key(o).split(".")[0] not in NOT_RESULTS]
     return {"overrides": kept, "simulator": str(Path(simulator).resolve())}
 
 
