@@ -177,3 +177,16 @@ def test_typing_a_config_leaves_the_schema_it_merges_into_as_built():
 
     load_config(["experiment=breakdown", "seed=3", "learner.epsilon=0.3", "tasks.values=[3000,2000]"])
     assert OmegaConf.to_yaml(loading._schema()) == OmegaConf.to_yaml(OmegaConf.structured(TavcConfig))
+
+
+def test_overrides_of_hydras_own_settings_are_composed_every_time(tmp_path, monkeypatch):
+    """A search path given as an override reaches config files the key does not read."""
+    calls = []
+    hydra_compose = loading.compose
+    monkeypatch.setattr(loading, "compose", lambda **kw: calls.append(kw) or hydra_compose(**kw))
+    folder = _folder(tmp_path, "# @package _global_\nteam:\n  n_robots: 4\n")
+    given = [f"hydra.searchpath=[file://{folder}]", "experiment=mine"]
+    assert loading._compose(given).team.n_robots == 4
+    (folder / "experiment" / "mine.yaml").write_text("# @package _global_\nteam:\n  n_robots: 5\n")
+    assert loading._compose(given).team.n_robots == 5
+    assert len(calls) == 2

@@ -11,6 +11,8 @@ those folders, read anew for each call (a file edited, added or removed between 
 new key, however fast it was done). Folders too large to read on each call (`MAX_FILES`,
 `MAX_BYTES`) are not remembered: their configs are composed every time, as without this memory.
 Only compositions that succeed are kept, as copies the caller cannot change, at most `MAX_ENTRIES`.
+Overrides of Hydra's own settings (a search path of their own) are composed every time
+(`loading._compose`).
 """
 
 from __future__ import annotations

@@ -311,6 +311,8 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
     """
     refuse_deletions(overrides)
     search = search_overrides()
+    if any(map(is_hydra_override, overrides)):  # Hydra's own settings (its search path) reach files the key
+        return _compose_now(overrides, search)  # does not read: composed every time
     return composed(overrides, search, config_folders(), lambda: _compose_now(overrides, search))
 
 
