@@ -128,9 +128,10 @@ class Owned:
         self.save()
 
     def remove(self, name: str) -> bool:
-        """Remove `name` if tavc wrote it; True if it was removed. A file of anybody else's stays."""
+        """Remove `name` if tavc wrote it (True if it was); a file of anybody else's stays."""
         if not self.owns(name):
             return False
+        owned_path(self.folder, (self.folder / name).parent, folder=True)  # `..` or a link on the way: refused
         existed = (self.folder / name).is_file()
         (self.folder / name).unlink(missing_ok=True)
         self.files.discard(name)
@@ -372,14 +373,17 @@ def take_report_folders(results_dir: Path, horizon_dirs: Sequence[Path] = (), pa
         if foreign:
             raise TavcError(f"RESULTS_DIR: {foreign[0]} was not written by tavc, and the report draws its figures "
                             f"in {folder / 'figures'}; move it away or choose another folder")
+    cleared = []  # the emptied horizons' report files, each checked to lie inside its folder
     for folder in emptied:
         owned = read(owned_path(results_dir, folder, folder=True, what="RESULTS_DIR"))
         for name in sorted(owned.files) if owned is not None and owned.kind == RESULTS else ():
-            owned.remove(name)
+            cleared.append((owned, owned_path(folder, folder / name, what="RESULTS_DIR")))
     taken = []
     for folder, files in roots:
         taken.append(take(folder, RESULTS, files, what="RESULTS_DIR"))
         taken[-1].wrote(*files)
+    for owned, path in cleared:
+        owned.remove(path.relative_to(owned.folder).as_posix())
     return taken[:drawn]
 
 

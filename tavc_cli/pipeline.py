@@ -133,6 +133,9 @@ def run_experiments(cfgs: list[TavcConfig], *, progress: bool = False) -> list[d
         for cfg in cfgs:
             held.enter_context(claim_folder(cfg.output_dir))
         plans = [plan_run(cfg) for cfg in cfgs]
+        for cfg, plan in zip(cfgs, plans, strict=True):  # every folder checked before any is changed
+            check_run_folder(cfg)
+            TrialStore(Path(cfg.output_dir), Executor.from_config(cfg.executor)).check_paths(trial_specs(cfg, plan))
         owned = [take_run_folder(cfg, plan) for cfg, plan in zip(cfgs, plans, strict=True)]
         with _failures_listed(owned):
             runs = run_trials_together(cfgs, plans, progress=progress)

@@ -292,6 +292,16 @@ def test_every_horizon_folder_is_reported_in_order_of_its_factor(two_horizons, t
     # x10's run made unfinished (a rerun of other settings stopped): x10 is no horizon any more, its run is
     # named as left out, and the earlier report's claims and figures there are gone, not left as this one's
     (results / "x10" / "initial_distribution" / "provenance.json").unlink()
+    # its figures/ a link to a folder elsewhere: refused, and nothing there or in x10/ removed
+    shutil.move(results / "x10" / "figures", tmp_path / "elsewhere")
+    (results / "x10" / "figures").symlink_to(tmp_path / "elsewhere")
+    kept = sorted(p.name for p in (tmp_path / "elsewhere").iterdir())
+    with pytest.raises(TavcError, match="figures is a symbolic link to .*elsewhere"):
+        build_report(results)
+    assert sorted(p.name for p in (tmp_path / "elsewhere").iterdir()) == kept
+    assert (results / "x10" / "claims.csv").is_file()
+    (results / "x10" / "figures").unlink()
+    shutil.move(tmp_path / "elsewhere", results / "x10" / "figures")
     result = build_report(results)
     assert [h["folder"] for h in result["horizons"]] == ["converged"]
     assert str(results / "x10" / "initial_distribution") in result["unfinished"]

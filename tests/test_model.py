@@ -278,9 +278,13 @@ def test_a_calibration_search_records_the_world_it_was_asked_beside_its_choice(t
     for name in CALIBRATION_FILES:  # an earlier search's, each marked as such
         (folder / name).write_text("earlier")
     (folder / ".tavc.json").write_text(json.dumps({"tavc": "calibration", "files": sorted(CALIBRATION_FILES)}))
-    result = CliRunner().invoke(app, ["calibrate", "scale=smoke", "robot.dock.dwell_s=2.5", "overwrite=true",
-                                      "calibration.grid=[{key:robot.dock.dwell_s,values:[0.0,5.0]}]",
-                                      f"output_dir={tmp_path}"])
+    (folder / "search.json").write_text(json.dumps({"n_points": 48}))
+    args = ["calibrate", "scale=smoke", "robot.dock.dwell_s=2.5", "calibration.grid=[{key:robot.dock.dwell_s,values:"
+            "[0.0,5.0]}]", f"output_dir={tmp_path}"]
+    result = CliRunner().invoke(app, args)  # refused as a search of other settings: nothing removed
+    assert result.exit_code == 1 and "was made with other settings (n_points: 48 -> 2)" in result.output
+    assert all((folder / name).is_file() for name in CALIBRATION_FILES)
+    result = CliRunner().invoke(app, [*args, "overwrite=true"])
     assert result.exit_code == 0, result.output
     record = json.loads((folder / "search.json").read_text())
     assert record["configured"] == {"robot.dock.dwell_s": 2.5} and record["n_points"] == 2

@@ -360,3 +360,23 @@ def test_a_file_given_as_the_results_folder_is_named_by_its_option(tmp_path):
     assert result.returncode == 2
     assert result.stderr == "error: Invalid value for '--results': notes.txt is a file; name a folder (tavc --help)\n"
     assert [p.name for p in tmp_path.iterdir()] == ["notes.txt"]
+
+
+def test_reproduce_checks_every_folder_before_it_changes_any(tmp_path):
+    """The first experiment's folder holds a run of other settings with its animation (replaced with
+    overwrite=true), the second a file of the user's where a table goes: refused in one line, and
+    the first run's animation is still there."""
+    from tavc_cli.pipeline import run_experiments
+
+    first, second = tmp_path / "breakdown", tmp_path / "initial_distribution"
+    first.mkdir()
+    (first / "config.yaml").write_text(config.to_yaml(config.load_config(["experiment=breakdown", "seed=9"])))
+    (first / "animation.gif").write_bytes(b"GIF89a")
+    (first / ".tavc.json").write_text('{"tavc": "run", "files": ["animation.gif", "config.yaml"]}')
+    second.mkdir()
+    (second / "performance.csv").write_text("mine\n")
+    cfgs = [config.settings(config.load_config([f"experiment={folder.name}", "scale=smoke", "overwrite=true",
+                                                f"output_dir={folder}"])) for folder in (first, second)]
+    with pytest.raises(TavcError, match=r"holds files tavc did not write \(performance.csv\)"):
+        run_experiments(cfgs)
+    assert (first / "animation.gif").read_bytes() == b"GIF89a" and (second / "performance.csv").read_text() == "mine\n"

@@ -341,13 +341,14 @@ def test_a_part_of_other_settings_is_refused_beside_the_studys_tables_or_replace
     run("seed=1", part="compare")
     with pytest.raises(TavcError) as refused:
         run("seed=3", part="speed")
-    assert str(refused.value) == (f"--results: {out} holds a study made with other settings (overrides: ['seed=1'] -> "
-                                  "['seed=3']); add overwrite=true to replace its tables, or choose another folder")
+    assert str(refused.value) == (f"--results: {out} holds a study made with other settings (settings.seed: 1 -> 3); "
+                                  "add overwrite=true to replace its tables, or choose another folder")
     assert not (out / "speed.csv").exists()
     run("seed=3", "overwrite=true", part="speed")
     assert not (out / "comparison.csv").exists() and (out / "speed.csv").is_file()
-    run("seed=3", "executor.n_jobs=1", part="compare")  # the same study, run another way
-    assert pd.read_csv(out / "comparison.csv")["overrides"].tolist() == ["seed=3 executor.n_jobs=1"]
+    run("executor.n_jobs=1", "seed=3", part="compare")  # the same study, spelled and run another way
+    assert pd.read_csv(out / "comparison.csv")["overrides"].tolist() == ["executor.n_jobs=1 seed=3"]
     assert (out / "speed.csv").is_file()
-    assert json.loads((out / "study.json").read_text()) == {"overrides": ["seed=3"],
-                                                            "simulator": str(tmp_path.resolve())}
+    record = json.loads((out / "study.json").read_text())
+    assert record["settings"]["seed"] == 3 and "executor" not in record["settings"]
+    assert record["simulator"] == str(tmp_path.resolve())

@@ -86,20 +86,17 @@ def calibrate_world(base: TavcConfig, points: Sequence[tuple[Point, TavcConfig]]
         owned = take(out_dir, CALIBRATION, CALIBRATION_FILES, save=False)  # nothing written until the checks pass
         if owned.owns("search.json"):
             refuse_other_settings(out_dir / "search.json", plan.identity, "output_dir", base.overwrite)
-        for name in CALIBRATION_FILES:  # an earlier search's tables and figures: this one writes its own, or none
-            owned.remove(name)
         owned.wrote(*CALIBRATION_FILES)  # listed before they are written, so a stopped search's are tavc's
         owned.remove_temporaries()
-        _search_and_measure(base, points, out_dir, world_dir, plan.measurement, save=save, echo=echo)
-        # what this search did not write leaves the record: no world chosen, no sensitivity step; a grid
-        # without the docking's four settings, no sensitivity figure
-        for name in CALIBRATION_FILES:
-            if not (out_dir / name).is_file():
-                owned.remove(name)
+        written = _search_and_measure(base, points, out_dir, world_dir, plan.measurement, save=save, echo=echo)
+        # an earlier search's tables and figures this one did not write go (no world chosen: no sensitivity
+        # step; a grid without the docking's four settings: no sensitivity figure), only once it is done
+        for name in sorted(set(CALIBRATION_FILES) - written):
+            owned.remove(name)
 
 
 def _search_and_measure(base: TavcConfig, points, out_dir: Path, world_dir: Path, measurement: dict, *, save: bool,
-                        echo: Callable[[str], None]) -> None:
+                        echo: Callable[[str], None]) -> set[str]:
     # deferred: loads matplotlib
     from tavc_cli.viz.sensitivity import sensitivity_figure, task_time_figure
 
@@ -123,3 +120,5 @@ def _search_and_measure(base: TavcConfig, points, out_dir: Path, world_dir: Path
         figures += task_time_figure(out_dir / "sensitivity.csv", out_dir / "sensitivity.json", out_dir / "task_times")
     for path in figures:
         echo(f"figure: {path}")
+    return {"search.csv", "search.json", *(["sensitivity.csv", "sensitivity.json"] if chosen is not None else []),
+            *(Path(path).name for path in figures)}

@@ -356,7 +356,7 @@ def run_study(out: Path, results: Path, overrides: Sequence[str], compose: Compo
         owned = take(out, STUDY, STUDY_FILES, "--results")
     study.check_beside(wanted)
     with claim_folder(out):  # its parts made alike, or those of other settings gone (`study_record`)
-        keep_record(owned, out, identity(overrides, results), bool(base.overwrite), STUDY_FILES)
+        keep_record(owned, out, identity(base, results), bool(base.overwrite), STUDY_FILES)
     written = []
     for part, name in (("compare", "comparison"), ("ladder", "ladder"), ("phase", "phase"), ("horizon", "horizon"),
                        ("speed", "speed")):

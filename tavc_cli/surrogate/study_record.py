@@ -1,6 +1,6 @@
 """What a surrogate study's tables were made with: ``study.json`` in its folder records the
-overrides all of the study's runs share (where and how fast they run apart) and the folder of
-the simulator's runs they are compared with.
+settings all of the study's runs share, as composed for its base case (where and how fast they
+run apart), and the folder of the simulator's runs they are compared with.
 
 The study is often run a part at a time (``--parts``), each part adding its table beside the
 others, and the report reads them as one study; a part of other settings would sit beside them
@@ -13,21 +13,25 @@ made before records were kept) is taken as it is, and recorded from then on.
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from pathlib import Path
+
+import yaml
 
 from tavc_cli.errors import TavcError
 from tavc_cli.io import write_text_atomic
-from tavc_cli.override_keys import setting_key
 from tavc_cli.ownership import NOT_RESULTS, Owned, recorded_differences
+from tavc_cli.settings import TavcConfig, to_yaml
 
 RECORD = "study.json"
 
 
-def identity(overrides: Sequence[str], simulator: Path) -> dict:
-    """The record of a study run with `overrides` against the simulator's runs in `simulator`."""
-    kept = [o for o in overrides if setting_key(o).split(".")[0] not in NOT_RESULTS]
-    return {"overrides": kept, "simulator": str(Path(simulator).resolve())}
+def identity(settings: TavcConfig, simulator: Path) -> dict:
+    """The record of a study whose runs share `settings` (its base case's, as composed with the
+    study's overrides), compared with the simulator's runs in `simulator`."""
+    composed = yaml.safe_load(to_yaml(settings))
+    return {"settings": {k: v for k, v in composed.items() if k not in NOT_RESULTS},
+            "simulator": str(Path(simulator).resolve())}
 
 
 def keep_record(owned: Owned, out: Path, made_with: dict, overwrite: bool, files: Iterable[str]) -> None:
