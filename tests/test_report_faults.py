@@ -170,6 +170,10 @@ def _insert_line(k: int, line: str):
     ("claims.csv", _edit_line(2, 2, "maybe"), "line 2: verdict 'maybe' is none of inconclusive, not_reproduced, "
                                               "reproduced"),
     ("trial_stats.csv", _edit_line(3, 1, "7"), "line 3: tavc trial 7 is not among the trials provenance.json lists"),
+    ("trial_stats.csv", _edit_line(3, 1, "1.5"), "line 3: trial '1.5' is not a whole number"),
+    # two bad trials: the first line's named, whichever fault it has
+    ("trial_stats.csv", lambda data: _edit_line(3, 1, "1.5")(_edit_line(2, 1, "7")(data)),
+     "line 2: tavc trial 7 is not among the trials provenance.json lists"),
     ("state_time.csv", _edit_line(4, 0, "4:4"), "line 4: state '4:4' is no state of this experiment's team"),
     ("robots.csv", _edit_line(2, 0, ""), "line 2: no controller"),
     ("q_values.csv", lambda data: b"\n".join(line.rpartition(b",")[0] for line in data.split(b"\n")),
