@@ -87,8 +87,8 @@ _NEEDS_ITS_OWN = {RUN: _A_RUN, SURROGATE: _A_RUN,
 # folders of their own a run's folder may hold before the run (`_nested`)
 _NESTED = {"model": MODEL, "turn_taking": TURN_TAKING_KIND, "tasks": TASKS}
 
-# settings that decide where and how fast a run goes, not what it computes
-NOT_RESULTS = ("executor", "output_dir", "overwrite", "force")  # where, how fast, whether it may replace
+# settings that decide where and how fast a run goes, and whether it may replace, not what it computes
+NOT_RESULTS = ("executor", "output_dir", "overwrite", "force")
 
 
 _TEMPORARY = re.compile(r"\.(.+)\.[a-z0-9_]{8}\.tmp")  # `tempfile.mkstemp(prefix=".<name>.", suffix=".tmp")`
