@@ -47,12 +47,15 @@ def run_experiment(cfg: TavcConfig, *, progress: bool = False) -> dict:
         return _finish(cfg, run, owned)
 
 
-def check_run_folder(cfg: TavcConfig, kind: str = RUN) -> tuple[Owned, list[str]]:
+def check_run_folder(cfg: TavcConfig, kind: str = RUN, plan: RunPlan | None = None) -> tuple[Owned, list[str]]:
     """What `take_run_folder` checks, writing nothing: the folder new, empty or tavc's, nothing of
-    anybody else's in the way, not another configuration's run unless ``overwrite``. Returns what
-    tavc owns there and how a run there differs from `cfg` (empty: none, or the same settings)."""
+    anybody else's in the way, not another configuration's run unless ``overwrite``; with `plan`,
+    nothing where its trial records go (`TrialStore.check_paths`). Returns what tavc owns there
+    and how a run there differs from `cfg` (empty: none, or the same settings)."""
     folder = Path(cfg.output_dir)
     owned = take(folder, kind, run_files(), save=False)
+    if plan is not None:
+        TrialStore(folder, Executor.from_config(cfg.executor)).check_paths(trial_specs(cfg, plan))
     unknown = recorded_config_problem(folder)
     differ = [unknown] if unknown else (
         config_differences(folder / "config.yaml", to_yaml(cfg)) if (folder / "config.yaml").is_file() else [])
@@ -74,8 +77,7 @@ def take_run_folder(cfg: TavcConfig, plan: RunPlan, kind: str = RUN) -> Owned:
     wrote there of that run beside its own files (an animation of it) before anything of the
     new one is written."""
     folder = Path(cfg.output_dir)
-    owned, differ = check_run_folder(cfg, kind)
-    TrialStore(folder, Executor.from_config(cfg.executor)).check_paths(trial_specs(cfg, plan))
+    owned, differ = check_run_folder(cfg, kind, plan)
     text = to_yaml(cfg)
     owned.wrote("config.yaml", PLAN_FILE)
     owned.remove_temporaries()
@@ -134,8 +136,7 @@ def run_experiments(cfgs: list[TavcConfig], *, progress: bool = False) -> list[d
             held.enter_context(claim_folder(cfg.output_dir))
         plans = [plan_run(cfg) for cfg in cfgs]
         for cfg, plan in zip(cfgs, plans, strict=True):  # every folder checked before any is changed
-            check_run_folder(cfg)
-            TrialStore(Path(cfg.output_dir), Executor.from_config(cfg.executor)).check_paths(trial_specs(cfg, plan))
+            check_run_folder(cfg, plan=plan)
         owned = [take_run_folder(cfg, plan) for cfg, plan in zip(cfgs, plans, strict=True)]
         with _failures_listed(owned):
             runs = run_trials_together(cfgs, plans, progress=progress)
