@@ -225,6 +225,30 @@ def test_a_ladder_table_that_is_not_what_its_rungs_give_now_is_refused(two_horiz
                                      "`tavc ladder` again to rewrite it")
 
 
+def test_a_rung_the_ladder_table_does_not_list_is_named_as_left_out(two_horizons, tmp_path):
+    """A ladder run again with fewer factors leaves the dropped rung's folder: the report lists
+    only the rungs `ladder.csv` lists as the ladder's, names the other as left out, and does not
+    read it (a damaged table there is no refusal)."""
+    import shutil
+
+    from tavc_cli.report import build_report
+
+    results = tmp_path / "results"
+    shutil.copytree(two_horizons, results)
+    ladder = results / "converged" / "ladder"
+    _run_folder(ladder / "x4", "converged", 4.0, 40.0, seed=13)  # an earlier ladder's rung at 4x
+    (ladder / "x4" / "trial_stats.csv").write_text("not,a\ntable")
+    result = build_report(results)
+    assert result["studies"]["the horizon ladder, in *The time scale*"] == ["converged/ladder/x1",
+                                                                           "converged/ladder/x40"]
+    rows = [line for line in (results / "REPORT.md").read_text().splitlines() if line.startswith("| `converged/ladder")]
+    assert len(rows) == 2
+    assert rows[0].startswith("| `converged/ladder/x4` | initial_distribution | converged |")
+    assert rows[0].endswith("| left out: not a rung the `ladder.csv` beside it lists (one of an earlier ladder, or "
+                            "one still running); `tavc ladder` with its factor among the others reads it |")
+    assert rows[1].startswith("| `converged/ladder/`: `x1`, `x40` |") and "x4`," not in rows[1]
+
+
 def test_a_claim_that_fails_at_1x_and_holds_at_40x_is_reported_as_such(two_horizons):
     # the rungs' own claims.csv are not written by hand: the report tests both horizons itself
     from tavc_cli.report import build_report

@@ -207,6 +207,31 @@ def _copy_of_repository(dest: Path) -> None:
     subprocess.run([*git, "commit", "-q", "-m", "copy"], cwd=dest, check=True)
 
 
+def _share_compiled_kernels(clone: Path) -> None:
+    """The checkout's compiled kernels, those it has, put where the copy's numba looks for its own,
+    so that the quickstart compiles only what the checkout has not (the checkout compiles every
+    kernel in its own first tests, as on a fresh machine). numba files a source folder's kernels
+    under a hash of that folder's path and takes them when its source file has the same time and
+    size, which `shutil.copy2` keeps; the folder of this version's kernels is named by the digest
+    of the source, the same in both."""
+    import hashlib
+
+    from tavc_cli import compiled_code_cache, compiled_code_home
+
+    ours, theirs = REPO / "tavc_cli", clone / "tavc_cli"
+    source = compiled_code_cache(ours, compiled_code_home(ours))
+    target = compiled_code_cache(theirs, compiled_code_home(theirs))
+    if not source.is_dir() or source.name != target.name:
+        return
+
+    def filed(folder: Path) -> str:  # numba's name for the kernels of the sources in `folder`
+        return f"{folder.name}_{hashlib.sha1(os.path.abspath(folder).encode()).hexdigest()}"
+
+    for folder in [ours, *(d for d in ours.rglob("*") if d.is_dir() and "__pycache__" not in d.parts)]:
+        if (source / filed(folder)).is_dir():
+            shutil.copytree(source / filed(folder), target / filed(theirs / folder.relative_to(ours)))
+
+
 @pytest.mark.slow
 def test_the_quickstart_runs_as_printed_and_leaves_git_status_clean(tmp_path):
     if shutil.which("git") is None:
@@ -214,7 +239,9 @@ def test_the_quickstart_runs_as_printed_and_leaves_git_status_clean(tmp_path):
     clone = tmp_path / "tavc"
     clone.mkdir()
     _copy_of_repository(clone)
-    env = {**os.environ, "PYTHONPATH": str(clone)}
+    _share_compiled_kernels(clone)
+    # the copy's kernels in its own folder, as on a fresh machine (the tests' process points numba at the checkout's)
+    env = {**{k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}, "PYTHONPATH": str(clone)}
 
     tavc = partial(helpers.tavc, cwd=clone, env=env, timeout=900)
 

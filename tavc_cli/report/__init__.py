@@ -10,13 +10,12 @@ compares two experiments), and writes `claims.csv` (every claim, and the part th
 each verdict) and `REPORT.md` beside the run folders. A folder directly under the results
 directory named `converged` or `x<factor>` holds a longer horizon's runs (`horizons`): their
 claims are tested too, written to its own `claims.csv`, and each experiment gets a subsection
-there. Every other run of an experiment gets a
-section of its own (`runs`), titled with its folder relative to the results directory; the
-runs of the studies the report reads as a whole (the value-ratio sweep, the horizon ladder)
-are named in its list of runs, with where they are used. A report whose claims are tested on
-runs below the chapter's scale is headed "not a verdict". The sections are written by `sections` (an
-experiment's, at any horizon), `text` (its prose), `figures` (its figures), `studies`
-(section 1.4 and the value-ratio sweep) and `time_scale`.
+there. Every other run of an experiment gets a section of its own (`runs`), titled with its
+folder relative to the results directory; the runs of the studies the report reads as a whole
+(the value-ratio sweep, the horizon ladder) are named in its list of runs, with where they are
+used. A report whose claims are tested on runs below the chapter's scale is headed "not a
+verdict". The sections are written by `sections` (an experiment's, at any horizon), `text` (its
+prose), `figures` (its figures), `studies` (section 1.4 and the value-ratio sweep) and `time_scale`.
 
 Each run it reads has its claims tested again, and its comparison with the chapter made again,
 on its own tables by today's rules (`retest`): a run whose `claims.csv` or `comparison.csv` says
@@ -57,15 +56,21 @@ from tavc_cli.report.files import (
     model_alternators,
     model_learners,
     prediction_files,
-    read_ladder,
     read_prediction,
     read_stay_switch,
     sweep_runs,
-    there,
 )
 from tavc_cli.report.html import HTML_FILE, write_report_html
 from tavc_cli.report.method import chapter_check_lines, gaps_lines, method_lines
-from tavc_cli.report.runs import LADDER, LINK_LEFT_OUT, finished_runs, other_code_lines, rel, run_list_lines, study_runs
+from tavc_cli.report.runs import (
+    LINK_LEFT_OUT,
+    finished_runs,
+    horizon_ladders,
+    other_code_lines,
+    rel,
+    run_list_lines,
+    study_runs,
+)
 from tavc_cli.report.sections import experiment_sections, submit_figures
 from tavc_cli.report.studies import STAY_SWITCH_DIRS, check_value_ratio, stay_switch_lines, value_ratio_lines
 from tavc_cli.report.surrogate import study_tables, surrogate_lines
@@ -95,13 +100,10 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path],
         folders += [d for d in sweep_runs(results_dir, sweep) if (d / "trial_stats.csv").is_file()]
     for top in (results_dir, *horizon_folders(results_dir)):  # runs in other readings, read by the studies
         folders += [d for d in sweep_runs(top, READINGS_DIR) if (d / "trial_stats.csv").is_file()]
-    ladders = [d / LADDER / "ladder.csv" for d in horizon_dirs if there(d / LADDER / "ladder.csv")]
-    for ladder in ladders:  # the rungs whose claims the ladder's table tests again
-        folders += sorted(p.parent for p in ladder.parent.glob("*/trial_stats.csv")
-                          if (p.parent / "config.yaml").is_file())
+    ladders = horizon_ladders(horizon_dirs)  # each ladder's table, read and checked, and the rungs it lists
+    folders += [d for rungs in ladders.values() for d in rungs]  # whose claims the ladder's table tests again
     stale, other = _check_runs(folders, results_dir)
     for ladder in ladders:  # its numbers beside its rungs' claims: both as the rungs give them now
-        read_ladder(ladder)
         check_ladder(ladder)
     for d in STAY_SWITCH_DIRS:  # the stay/switch studies' tables, read as a whole
         read_stay_switch(results_dir / d)

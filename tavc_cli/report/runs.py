@@ -42,12 +42,15 @@ from tavc_cli.report.files import (
     is_horizon_folder,
     is_run_folder,
     natural,
+    read_ladder,
     read_or_refuse,
     sweep_runs,
+    there,
 )
 from tavc_cli.report.spatiotemporal import spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.run_checks import this_code
+from tavc_cli.run_tables import rung_folders
 from tavc_cli.settings import TavcConfig
 from tavc_cli.table_cells import damaged
 
@@ -141,11 +144,8 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
     out = []
     for horizon in horizon_folders(results_dir):
         ladder = horizon / LADDER
-        if (ladder / "ladder.csv").is_file():
-            rungs = [d for d in sorted(ladder.iterdir(), key=lambda p: natural(p.name)) if d.is_dir() and
-                     is_run_folder(d)]
-            if rungs:
-                out.append(("the horizon ladder, in *The time scale*", rungs))
+        if (ladder / "ladder.csv").is_file() and (rungs := ladder_rungs(ladder)[0]):
+            out.append(("the horizon ladder, in *The time scale*", rungs))
     for top in (results_dir, *horizon_folders(results_dir)):
         found = sorted((p for p in (top / READINGS_RUNS).rglob("config.yaml")), key=lambda p: natural(p.as_posix())) \
             if (top / READINGS_RUNS).is_dir() else []
@@ -157,6 +157,26 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
         if found:
             out.append((what, found))
     return out
+
+
+def ladder_rungs(ladder: Path) -> tuple[list[Path], list[Path]]:
+    """A horizon ladder's folder (`ladder/`, with its `ladder.csv`): the rungs its table lists, in
+    the order of their factors (`run_tables.rung_folders`), and the other run folders beside them
+    (an earlier ladder's rungs at factors this one left out, or a rung still running), which the report
+    names as left out."""
+    factors = sorted({float(f) for f in read_ladder(ladder / "ladder.csv")["factor"]})
+    found = rung_folders(ladder, factors)
+    rungs = [found[f] for f in factors if f in found]
+    others = [d for d in sorted(ladder.iterdir(), key=lambda p: natural(p.name)) if d.is_dir() and not d.is_symlink()
+              and not d.name.startswith(".") and is_run_folder(d) and d not in rungs]
+    return rungs, others
+
+
+def horizon_ladders(horizon_dirs: Sequence[Path]) -> dict[Path, list[Path]]:
+    """Each horizon ladder's `ladder.csv` among `horizon_dirs` (anything at `<horizon>/ladder/ladder.csv`,
+    read and checked: `files.read_ladder`) -> the rungs it lists that have their tables."""
+    tables = [d / LADDER / "ladder.csv" for d in horizon_dirs if there(d / LADDER / "ladder.csv")]
+    return {t: [d for d in ladder_rungs(t.parent)[0] if (d / "trial_stats.csv").is_file()] for t in tables}
 
 
 def designated_first(name: str, folders: list[Path], results_dir: Path | None = None) -> list[Path]:
@@ -295,6 +315,10 @@ def run_list_lines(results_dir: Path, horizons: list, linked: Sequence[Path] = (
             rows.append((d, f"the claims about {name} {h.named} are tested on it"))
             rows += [(o, f"a section of its own, under {name}") for o in h.others.get(name, [])]
         rows += [(d, "left out: the run did not finish (no provenance.json)") for d in h.unfinished]
+    for ladder in (h / LADDER for h in horizon_folders(results_dir) if (h / LADDER / "ladder.csv").is_file()):
+        rows += [(d, "left out: not a rung the `ladder.csv` beside it lists (one of an earlier ladder, or one "
+                     "still running); `tavc ladder` with its factor among the others reads it")
+                 for d in ladder_rungs(ladder)[1]]
     lines = ["## The runs in this folder", "",
              "Every run under this folder, and where this report uses it.", "",
              "| run | experiment | scale | trials | in this report |", "|---|---|---|---|---|"]
