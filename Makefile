@@ -45,16 +45,22 @@ install: venv ## The tool alone: .venv with tavc at the locked versions, no test
 
 venv: $(STAMP) ## Create .venv and install tavc at the locked versions (requirements.lock)
 
+# Installs under the lock's constraints: with uv (itself at the lock's version, fetched by pip),
+# which installs the same set several times faster than pip; where uv cannot be fetched or fails
+# (a package index only pip is set up to reach), with pip
+locked_install = ($(BIN)/python -m pip install -q -c $(LOCK) uv \
+	&& $(BIN)/python -m uv pip install --python $(BIN)/python -c $(LOCK) $(1)) \
+	|| ($(BIN)/python -m pip install --upgrade pip && $(BIN)/python -m pip install -c $(LOCK) $(1))
+
 $(STAMP): pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --upgrade pip
-	$(BIN)/python -m pip install -c $(LOCK) -e .
+	$(call locked_install,-e .)
 	touch $@
 
 venv-test: $(TEST_STAMP) ## Add the test, lint, docs and cluster tools to .venv, at the locked versions
 
 $(TEST_STAMP): $(STAMP)
-	$(BIN)/python -m pip install -c $(LOCK) -e '.[test]'
+	$(call locked_install,-e '.[test]')
 	touch $@
 
 LOCK_VENV ?= /tmp/tavc-lock-venv

@@ -2,7 +2,8 @@
 (docs/readings.md): the commands they give tavc, each prediction's two ways and the learners'
 runs into the folders the report reads, and a READING that is not a reading refused in one line
 before anything runs. tavc is a stand-in here that prints its arguments; make's own python is
-this one, so the readings are the project's."""
+this one, so the readings are the project's. And the targets that build the environment: the
+locked set through uv, or through pip where uv fails."""
 
 from __future__ import annotations
 
@@ -105,3 +106,32 @@ def test_help_lists_every_target_that_describes_itself(tmp_path):
     listed = [line.split()[0] for line in done.stdout.splitlines() if line.strip()]
     assert "readings-x80" in described  # a name with a digit in it
     assert set(described) <= set(listed)
+
+
+@pytest.mark.parametrize("uv_works", [True, False])
+def test_the_venv_installs_the_locked_set_through_uv_or_else_pip(tmp_path, uv_works):
+    """`make venv` and `make venv-test` install under the lock's constraints through uv, fetched by
+    pip at the lock's version; where uv fails, pip installs the same under the same constraints.
+    The stand-in python logs each call, and fails the ones that are uv's where uv does not work."""
+    venv, log = tmp_path / "venv", tmp_path / "calls"
+    (venv / "bin").mkdir(parents=True)
+    fail = "" if uv_works else 'case "$*" in *"-m uv "*) exit 1;; esac\n'
+    (venv / "bin" / "python").write_text(f'#!/bin/sh\necho "$*" >> "{log}"\n{fail}exit 0\n')
+    (venv / "bin" / "python").chmod(0o755)
+    maker = tmp_path / "python3"  # make's own python: makes the venv (here, nothing)
+    maker.write_text(f'#!/bin/sh\necho "maker $*" >> "{log}"\n')
+    maker.chmod(0o755)
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL", "MAKEOVERRIDES")}
+    done = subprocess.run(["make", "-s", "--no-print-directory", "-C", str(REPO), f"VENV={venv}",
+                           f"PYTHON={maker}", "venv-test"], capture_output=True, text=True, timeout=120, env=env)
+    assert done.returncode == 0, done.stderr
+    py = f"{venv}/bin/python"
+    uv = ["-m pip install -q -c requirements.lock uv", f"-m uv pip install --python {py} -c requirements.lock"]
+    calls = log.read_text().splitlines()
+    expected = [f"maker -m venv {venv}"]
+    for target in ("-e .", "-e .[test]"):
+        expected += [uv[0], f"{uv[1]} {target}"]
+        if not uv_works:
+            expected += ["-m pip install --upgrade pip", f"-m pip install -c requirements.lock {target}"]
+    assert calls == expected
+    assert (venv / ".installed-stamp").is_file() and (venv / ".test-installed-stamp").is_file()
