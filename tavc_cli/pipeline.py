@@ -29,6 +29,7 @@ from tavc_cli.experiments.store import FAILURES_LOG, Executor, TrialStore
 from tavc_cli.io import claim_folder, file_digest, write_text_atomic
 from tavc_cli.outputs import write_analysis
 from tavc_cli.ownership import LADDER, LADDER_FILES, RUN, SWEEP, SWEEP_FILES, Owned, config_differences, run_files, take
+from tavc_cli.pictured import animation_differences
 from tavc_cli.readers import YAML_LIMIT, load_json, read_text
 from tavc_cli.run_checks import SECTIONS
 from tavc_cli.run_tables import ladder_table, summary_text, sweep_table
@@ -49,18 +50,20 @@ def run_experiment(cfg: TavcConfig, *, progress: bool = False) -> dict:
 
 def check_run_folder(cfg: TavcConfig, kind: str = RUN, plan: RunPlan | None = None) -> tuple[Owned, list[str]]:
     """What `take_run_folder` checks, writing nothing: the folder new, empty or tavc's, nothing of
-    anybody else's in the way, not another configuration's run unless ``overwrite``; with `plan`,
-    nothing where its trial records go (`TrialStore.check_paths`). Returns what tavc owns there
-    and how a run there differs from `cfg` (empty: none, or the same settings)."""
+    anybody else's in the way, not another configuration's run, nor (where no run is there) an
+    animation of other settings (`pictured`), unless ``overwrite``; with `plan`, nothing where its
+    trial records go (`TrialStore.check_paths`). Returns what tavc owns there and how a run or
+    animation there differs from `cfg` (empty: none, or the same settings)."""
     folder = Path(cfg.output_dir)
     owned = take(folder, kind, run_files(), save=False)
     if plan is not None:
         TrialStore(folder, Executor.from_config(cfg.executor)).check_paths(trial_specs(cfg, plan))
-    unknown = recorded_config_problem(folder)
-    differ = [unknown] if unknown else (
-        config_differences(folder / "config.yaml", to_yaml(cfg)) if (folder / "config.yaml").is_file() else [])
+    unknown, ran = recorded_config_problem(folder), (folder / "config.yaml").is_file()
+    differ = [unknown] if unknown else (config_differences(folder / "config.yaml", to_yaml(cfg)) if ran else
+                                        animation_differences(owned, to_yaml(cfg)))  # `tavc animate`'s, if any
     if differ and not cfg.overwrite:
-        state = "a finished run" if (folder / "provenance.json").is_file() else "an unfinished run"
+        state = ("a finished run" if (folder / "provenance.json").is_file() else
+                 "an unfinished run" if ran else "an animation")
         what = (f"whose {unknown}, so it may be of another configuration" if unknown else
                 f"of another configuration ({'; '.join(differ)})")
         raise TavcError(f"output_dir: {folder} holds {state} {what}; add overwrite=true to replace it, or choose "
@@ -75,7 +78,7 @@ def take_run_folder(cfg: TavcConfig, plan: RunPlan, kind: str = RUN) -> Owned:
     `plan.json`; return what tavc owns there. Replacing another configuration's
     run, the folder stops being a finished run (its `provenance.json` goes) and loses what tavc
     wrote there of that run beside its own files (an animation of it) before anything of the
-    new one is written."""
+    new one is written; so does a folder of animations of other settings."""
     folder = Path(cfg.output_dir)
     owned, differ = check_run_folder(cfg, kind, plan)
     text = to_yaml(cfg)
@@ -88,7 +91,7 @@ def take_run_folder(cfg: TavcConfig, plan: RunPlan, kind: str = RUN) -> Owned:
         # provenance.json leaves a folder the same command resumes, not one it refuses
         owned.remove("provenance.json")
     for name in sorted(owned.files - set(run_files())) if differ else ():
-        owned.remove(name)  # what pictured the other configuration's run (`tavc animate`), not this one
+        owned.remove(name)  # what pictured other settings than this run's (`tavc animate`)
     write_text_atomic(folder / "config.yaml", text)
     write_plan(plan, folder)
     return owned

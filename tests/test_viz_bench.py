@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 
 from tavc_cli import config
 from tavc_cli.cli import app
+from tavc_cli.settings import from_yaml
 
 runner = CliRunner()
 
@@ -37,8 +38,10 @@ def test_animate_never_replaces_a_file_it_did_not_write(tmp_path):
     record = json.loads((folder / ".tavc.json").read_text())
     (folder / ".tavc.json").write_text(json.dumps({**record, "files": [*record["files"], "run.mp4"]}))
     assert runner.invoke(app, args).exit_code == 0  # tavc's own files, listed in the folder's .tavc.json
-    assert sorted(p.name for p in folder.iterdir()) == [".tavc.json", "run.gif", "trajectories.png"]
-    assert json.loads((folder / ".tavc.json").read_text())["files"] == ["run.gif", "trajectories.png"]
+    ours = ["run.gif", "run.settings.yaml", "trajectories.png"]
+    assert sorted(p.name for p in folder.iterdir()) == [".tavc.json", *ours]
+    assert json.loads((folder / ".tavc.json").read_text())["files"] == ours
+    assert from_yaml(folder / "run.settings.yaml").team.n_robots == 2  # what it pictures
     (tmp_path / "b").mkdir()
     (tmp_path / "b" / "trajectories.png").write_bytes(b"mine")
     result = runner.invoke(app, [*args[:-1], str(tmp_path / "b" / "run.gif")])
@@ -70,6 +73,32 @@ def test_animate_into_a_runs_folder_only_beside_a_run_of_its_own_settings(tmp_pa
     assert result.exit_code == 0, result.output
     assert not (run / "animation.gif").exists() and not (run / "trajectories.png").exists()
     assert "animation.gif" not in json.loads((run / ".tavc.json").read_text())["files"]
+
+
+def test_a_run_into_the_folder_of_an_animation_of_other_settings_is_refused_or_replaces_it(tmp_path):
+    """`tavc animate` first writes into the run's folder: a run of the settings it pictures adopts
+    it, animation kept; a run of other settings is refused in one line, and with overwrite=true
+    the animation goes with the folder's other pictures before the run writes anything."""
+    folder = tmp_path / "run"
+    animate = ["animate", "scale=smoke", "seed=1", "--duration-s", "4", "--no-mp4", f"output_dir={folder}"]
+    run = ["run", "scale=smoke", f"output_dir={folder}"]
+    assert runner.invoke(app, animate).exit_code == 0
+    pictures = {"animation.gif", "animation.settings.yaml", "trajectories.png"}
+    refused = runner.invoke(app, [*run, "seed=2"])
+    assert refused.exit_code == 1
+    assert refused.output == (f"error: output_dir: {folder} holds an animation of another configuration "
+                              "(seed: 1 -> 2); add overwrite=true to replace it, or choose another "
+                              "output_dir\n")
+    assert {p.name for p in folder.iterdir()} == {".tavc.json", *pictures}
+    adopted = runner.invoke(app, [*run, "seed=1"])
+    assert adopted.exit_code == 0, adopted.output
+    assert pictures <= {p.name for p in folder.iterdir()} and (folder / "provenance.json").is_file()
+    shutil.rmtree(folder)
+    assert runner.invoke(app, animate).exit_code == 0
+    replaced = runner.invoke(app, [*run, "seed=2", "overwrite=true"])
+    assert replaced.exit_code == 0, replaced.output
+    assert not pictures & {p.name for p in folder.iterdir()} and (folder / "provenance.json").is_file()
+    assert not pictures & set(json.loads((folder / ".tavc.json").read_text())["files"])
 
 
 def test_animate_rejects_a_non_gif_output_with_one_line(tmp_path):

@@ -23,8 +23,9 @@ from tavc_cli.errors import TavcError
 from tavc_cli.experiments.build import in_this_process, trial_specs
 from tavc_cli.experiments.engine import run_trials
 from tavc_cli.experiments.records import TrialRecord
-from tavc_cli.io import atomic_path, owned_path
+from tavc_cli.io import atomic_path, owned_path, write_text_atomic
 from tavc_cli.ownership import ANIMATION, RUN, Owned, config_differences, read
+from tavc_cli.pictured import settings_record
 from tavc_cli.settings import TavcConfig, to_yaml
 from tavc_cli.sim.arena import Arena, arena_from_config
 from tavc_cli.viz.figures import plt, write_figure
@@ -150,7 +151,8 @@ MAX_FRAMES = 36_000  # ten simulated hours at a frame a second
 
 def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float = 300.0, fps: int = 10,
                 mp4: bool = True, frame_every_s: float = 1.0) -> list[Path]:
-    """Simulate the config's first trial and write animation.gif (+ .mp4) and trajectories.png."""
+    """Simulate the config's first trial and write animation.gif (+ .mp4), trajectories.png and the
+    settings it pictures, animation.settings.yaml (`pictured`)."""
     shortest, longest = 2 * frame_every_s, MAX_FRAMES * frame_every_s
     if not shortest <= duration_s <= longest:  # NaN too
         raise TavcError(f"--duration-s: must be in [{shortest:g}, {longest:g}] s (two frames to {MAX_FRAMES:,}, "
@@ -172,11 +174,16 @@ def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float =
     owned = _owned_beside(out, mp4, cfg)
     if mp4 and not shutil.which("ffmpeg"):
         print("note: ffmpeg not found, so no MP4 is written (the GIF is)", file=sys.stderr)
+    # what it pictures, which a run taking the folder compares with its own (`pictured`): an earlier
+    # animation's record goes first, so that one stopped half-way is never set beside another's
+    owned.remove(settings_record(out).name)
     rec, arena = simulate_for_pictures(cfg, duration_s, frame_every_s)
     radius = float(cfg.robot.radius_m)
     written = animate_record(rec, arena, radius, out, fps, mp4=mp4)
     written.append(trajectory_plot(rec, arena, out.with_name("trajectories.png")))
+    written.append(settings_record(out))
     owned.wrote(*(p.name for p in written))
+    write_text_atomic(settings_record(out), to_yaml(cfg))
     if out.with_suffix(".mp4") not in written:  # an earlier animation's MP4 would be taken for this one's
         owned.remove(out.with_suffix(".mp4").name)
     return written
@@ -193,7 +200,7 @@ def _owned_beside(out: Path, mp4: bool, cfg: TavcConfig):
         if differ:
             raise TavcError(f"--out: {out.parent} holds a run of another configuration ({'; '.join(differ)}), which "
                             "the animation would be taken for; choose another --out or output_dir")
-    names = [out.name, *([out.with_suffix(".mp4").name] if mp4 else []), "trajectories.png"]
+    names = [out.name, *([out.with_suffix(".mp4").name] if mp4 else []), "trajectories.png", settings_record(out).name]
     for name in names:  # a link, a pipe or a device where a picture goes: refused now, not after simulating
         owned_path(out.parent, out.parent / name, what="--out")
     foreign = [name for name in names if (out.parent / name).exists() and not owned.owns(name)]
