@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from tavc_cli.io import owned_path
 from tavc_cli.ownership import Owned, config_differences
 
 SETTINGS_SUFFIX = ".settings.yaml"
@@ -17,15 +18,19 @@ def settings_record(gif: Path) -> Path:
     return gif.with_name(gif.stem + SETTINGS_SUFFIX)
 
 
-def animation_differences(owned: Owned, new_yaml: str) -> list[str]:
-    """How an animation tavc wrote in `owned`'s folder pictures other settings than `new_yaml`
-    (`ownership.config_differences` of its record, the first such animation's by name); empty
-    where each animation with a record pictures these settings. An animation without one is not
-    compared."""
-    for name in sorted(owned.files):
-        gif = name.removesuffix(SETTINGS_SUFFIX) + ".gif"
-        if name.endswith(SETTINGS_SUFFIX) and gif in owned.files and (owned.folder / name).is_file():
-            differ = config_differences(owned.folder / name, new_yaml)
-            if differ:
-                return differ
-    return []
+def animation_differences(owned: Owned, new_yaml: str) -> tuple[str | None, list[str]]:
+    """How the animations tavc wrote in `owned`'s folder (each GIF its record lists, named in any
+    case) picture other settings than `new_yaml`, the first such by name: why its settings are
+    unknown (its record missing: a `tavc animate` stopped before writing it), or how they differ
+    (`ownership.config_differences`). (None, []) where each pictures these settings. A record is
+    read only inside the folder: a link there is refused in one line (`io.owned_path`)."""
+    for gif in sorted(n for n in owned.files if Path(n).suffix.lower() == ".gif"):
+        if not (owned.folder / gif).is_file():
+            continue
+        record = owned_path(owned.folder, settings_record(owned.folder / gif), what="output_dir")
+        if not record.is_file():
+            return f"{record.name} is missing", []
+        differ = config_differences(record, new_yaml)
+        if differ:
+            return None, differ
+    return None, []

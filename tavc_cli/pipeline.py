@@ -59,8 +59,10 @@ def check_run_folder(cfg: TavcConfig, kind: str = RUN, plan: RunPlan | None = No
     if plan is not None:
         TrialStore(folder, Executor.from_config(cfg.executor)).check_paths(trial_specs(cfg, plan))
     unknown, ran = recorded_config_problem(folder), (folder / "config.yaml").is_file()
-    differ = [unknown] if unknown else (config_differences(folder / "config.yaml", to_yaml(cfg)) if ran else
-                                        animation_differences(owned, to_yaml(cfg)))  # `tavc animate`'s, if any
+    differ = config_differences(folder / "config.yaml", to_yaml(cfg)) if ran and not unknown else []
+    if not ran and not unknown:  # no run there: what the animations there picture (`tavc animate`'s), if any
+        unknown, differ = animation_differences(owned, to_yaml(cfg))
+    differ = [unknown] if unknown else differ
     if differ and not cfg.overwrite:
         state = ("a finished run" if (folder / "provenance.json").is_file() else
                  "an unfinished run" if ran else "an animation")

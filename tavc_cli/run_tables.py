@@ -60,13 +60,20 @@ def rung_folders(ladder_dir: Path, factors: Iterable[float]) -> dict[float, Path
     for d in sorted(ladder_dir.iterdir(), key=lambda p: p.name):
         if d.name.startswith(".") or d.is_symlink() or not (d / "config.yaml").is_file():
             continue
-        try:  # its settings as a run keeps them, or it is no rung of this table
-            factor = f"{float(from_yaml(d / 'config.yaml').scale.time_factor):.4f}"
-        except Exception:  # noqa: BLE001 - an unreadable config is the run checks' to name, where it is read
-            continue
+        factor = rung_factor(d)  # its settings as a run keeps them, or it is no rung of this table
         if factor in wanted:
             found.setdefault(wanted[factor], d)
     return found
+
+
+def rung_factor(folder: Path) -> str | None:
+    """The multiple of the chapter's durations the run in `folder` was made at, as `ladder.csv`
+    gives it (four places), or None where its `config.yaml` cannot be read (the run checks name
+    it, where the run is read)."""
+    try:
+        return f"{float(from_yaml(folder / 'config.yaml').scale.time_factor):.4f}"
+    except Exception:  # noqa: BLE001 - whatever is wrong with it, it says no factor
+        return None
 
 
 def check_ladder(path: Path) -> None:

@@ -247,6 +247,36 @@ def test_a_rung_the_ladder_table_does_not_list_is_named_as_left_out(two_horizons
     assert rows[0].endswith("| left out: not a rung the `ladder.csv` beside it lists (one of an earlier ladder, or "
                             "one still running); `tavc ladder` with its factor among the others reads it |")
     assert rows[1].startswith("| `converged/ladder/`: `x1`, `x40` |") and "x4`," not in rows[1]
+    # a second run at a listed factor, and a link to a rung kept elsewhere: named, neither read
+    shutil.copytree(ladder / "x40", ladder / "x40_again")
+    (ladder / "x40_again" / "trial_stats.csv").write_text("not,a\ntable")
+    shutil.copytree(ladder / "x1", tmp_path / "kept_x1")
+    (ladder / "x1_linked").symlink_to(tmp_path / "kept_x1")
+    build_report(results)
+    text = (results / "REPORT.md").read_text()
+    assert ("| `converged/ladder/x40_again` | initial_distribution | converged | 20 | left out: a second run at 40 "
+            "times the chapter's durations, beside the rung the ladder's table is held to, `x40` |") in text
+    assert "| `converged/ladder/x1_linked` | - | - | - | left out: a symbolic link" in text
+    # a run there whose config.yaml cannot be read could be any rung: the run checks name it
+    shutil.rmtree(ladder / "x40_again")
+    (ladder / "x4" / "config.yaml").write_text("scale: [unclosed\n")
+    with pytest.raises(TavcError, match=r"x4/config.yaml: cannot be read"):
+        build_report(results)
+
+
+def test_a_damaged_ladder_table_in_a_horizon_without_runs_is_refused_before_anything_is_written(two_horizons,
+                                                                                                 tmp_path):
+    import shutil
+
+    from tavc_cli.report import build_report
+
+    results = tmp_path / "results"
+    shutil.copytree(two_horizons, results)
+    shutil.rmtree(results / "converged" / "initial_distribution")  # the horizon keeps only its ladder
+    (results / "converged" / "ladder" / "ladder.csv").write_text("garbage\n")
+    with pytest.raises(TavcError, match="ladder.csv"):
+        build_report(results)
+    assert not (results / "REPORT.md").exists() and not (results / "figures").exists()
 
 
 def test_a_claim_that_fails_at_1x_and_holds_at_40x_is_reported_as_such(two_horizons):

@@ -101,6 +101,31 @@ def test_a_run_into_the_folder_of_an_animation_of_other_settings_is_refused_or_r
     assert not pictures & set(json.loads((folder / ".tavc.json").read_text())["files"])
 
 
+def test_an_animation_whose_settings_are_not_known_or_are_read_through_a_link_is_refused(tmp_path):
+    """An animation written as `.GIF` is compared as one written as `.gif`; one whose record is
+    gone (`tavc animate` stopped before writing it last) may picture any settings, and is refused
+    as a run whose config.yaml is missing is; a record that is a link is never read."""
+    folder = tmp_path / "run"
+    animate = ["animate", "scale=smoke", "seed=1", "--duration-s", "4", "--no-mp4", "--out", str(folder / "a.GIF")]
+    assert runner.invoke(app, animate).exit_code == 0
+    assert (folder / "a.settings.yaml").is_file()
+    run = ["run", "scale=smoke", f"output_dir={folder}"]
+    refused = runner.invoke(app, [*run, "seed=2"])
+    assert refused.exit_code == 1 and "holds an animation of another configuration (seed: 1 -> 2)" in refused.output
+    (folder / "a.settings.yaml").unlink()
+    refused = runner.invoke(app, [*run, "seed=1"])
+    assert refused.output == (f"error: output_dir: {folder} holds an animation whose a.settings.yaml is missing, so "
+                              "it may be of another configuration; add overwrite=true to replace it, or choose "
+                              "another output_dir\n")
+    elsewhere = tmp_path / "elsewhere.yaml"
+    elsewhere.write_text("seed: 2\n")
+    (folder / "a.settings.yaml").symlink_to(elsewhere)
+    refused = runner.invoke(app, [*run, "seed=1"])
+    assert refused.exit_code == 1 and refused.output.count("\n") == 1 and "a.settings.yaml" in refused.output
+    assert "seed: 2" not in refused.output
+    assert not (folder / "config.yaml").exists() and elsewhere.read_text() == "seed: 2\n"
+
+
 def test_animate_rejects_a_non_gif_output_with_one_line(tmp_path):
     result = runner.invoke(app, ["animate", "--out", str(tmp_path / "run.mp4")])
     assert result.exit_code == 1

@@ -100,7 +100,7 @@ def _check_readable(results_dir: Path, horizon_dirs: list[Path],
         folders += [d for d in sweep_runs(results_dir, sweep) if (d / "trial_stats.csv").is_file()]
     for top in (results_dir, *horizon_folders(results_dir)):  # runs in other readings, read by the studies
         folders += [d for d in sweep_runs(top, READINGS_DIR) if (d / "trial_stats.csv").is_file()]
-    ladders = horizon_ladders(horizon_dirs)  # each ladder's table, read and checked, and the rungs it lists
+    ladders = horizon_ladders(horizon_folders(results_dir))  # each ladder's table, read and checked, and its rungs
     folders += [d for rungs in ladders.values() for d in rungs]  # whose claims the ladder's table tests again
     stale, other = _check_runs(folders, results_dir)
     for ladder in ladders:  # its numbers beside its rungs' claims: both as the rungs give them now

@@ -50,7 +50,7 @@ from tavc_cli.report.files import (
 from tavc_cli.report.spatiotemporal import spatiotemporal_lines
 from tavc_cli.report.text import performance, run_lines, state_table
 from tavc_cli.run_checks import this_code
-from tavc_cli.run_tables import rung_folders
+from tavc_cli.run_tables import rung_factor, rung_folders
 from tavc_cli.settings import TavcConfig
 from tavc_cli.table_cells import damaged
 
@@ -159,24 +159,46 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
     return out
 
 
-def ladder_rungs(ladder: Path) -> tuple[list[Path], list[Path]]:
+def ladder_rungs(ladder: Path) -> tuple[list[Path], list[tuple[Path, str]]]:
     """A horizon ladder's folder (`ladder/`, with its `ladder.csv`): the rungs its table lists, in
-    the order of their factors (`run_tables.rung_folders`), and the other run folders beside them
-    (an earlier ladder's rungs at factors this one left out, or a rung still running), which the report
-    names as left out."""
+    the order of their factors (`run_tables.rung_folders`), and the other runs beside them, each
+    with why the report leaves it out: a rung at a factor the table does not list (an earlier
+    ladder's, or one still running), a second run at a listed factor, a run whose config.yaml
+    cannot be read, a link to a folder of runs."""
     factors = sorted({float(f) for f in read_ladder(ladder / "ladder.csv")["factor"]})
     found = rung_folders(ladder, factors)
     rungs = [found[f] for f in factors if f in found]
-    others = [d for d in sorted(ladder.iterdir(), key=lambda p: natural(p.name)) if d.is_dir() and not d.is_symlink()
-              and not d.name.startswith(".") and is_run_folder(d) and d not in rungs]
+    read_at = {f"{f:.4f}": d for f, d in found.items()}
+    others = []
+    for d in sorted(ladder.iterdir(), key=lambda p: natural(p.name)):
+        if d.name.startswith(".") or d in rungs or not d.is_dir():
+            continue
+        if d.is_symlink():
+            others += [(d, LINK_LEFT_OUT)] if _holds_runs(d) else []
+            continue
+        if not is_run_folder(d):
+            continue
+        factor = rung_factor(d)
+        others.append((d, "its config.yaml cannot be read" if factor is None else
+                       f"a second run at {float(factor):g} times the chapter's durations, beside the rung the "
+                       f"ladder's table is held to, `{read_at[factor].name}`" if factor in read_at else
+                       "not a rung the `ladder.csv` beside it lists (one of an earlier ladder, or one still "
+                       "running); `tavc ladder` with its factor among the others reads it"))
     return rungs, others
 
 
 def horizon_ladders(horizon_dirs: Sequence[Path]) -> dict[Path, list[Path]]:
     """Each horizon ladder's `ladder.csv` among `horizon_dirs` (anything at `<horizon>/ladder/ladder.csv`,
-    read and checked: `files.read_ladder`) -> the rungs it lists that have their tables."""
+    read and checked: `files.read_ladder`) -> the runs beside it the report checks: the rungs it
+    lists that have their tables, and those whose config.yaml cannot be read, which could be any
+    rung (the run checks name what is wrong with it)."""
     tables = [d / LADDER / "ladder.csv" for d in horizon_dirs if there(d / LADDER / "ladder.csv")]
-    return {t: [d for d in ladder_rungs(t.parent)[0] if (d / "trial_stats.csv").is_file()] for t in tables}
+    out = {}
+    for table in tables:
+        rungs, others = ladder_rungs(table.parent)
+        out[table] = [d for d in [*rungs, *(o for o, _ in others if not o.is_symlink() and rung_factor(o) is None)]
+                      if (d / "trial_stats.csv").is_file()]
+    return out
 
 
 def designated_first(name: str, folders: list[Path], results_dir: Path | None = None) -> list[Path]:
@@ -315,10 +337,11 @@ def run_list_lines(results_dir: Path, horizons: list, linked: Sequence[Path] = (
             rows.append((d, f"the claims about {name} {h.named} are tested on it"))
             rows += [(o, f"a section of its own, under {name}") for o in h.others.get(name, [])]
         rows += [(d, "left out: the run did not finish (no provenance.json)") for d in h.unfinished]
+    linked = list(linked)
     for ladder in (h / LADDER for h in horizon_folders(results_dir) if (h / LADDER / "ladder.csv").is_file()):
-        rows += [(d, "left out: not a rung the `ladder.csv` beside it lists (one of an earlier ladder, or one "
-                     "still running); `tavc ladder` with its factor among the others reads it")
-                 for d in ladder_rungs(ladder)[1]]
+        others = ladder_rungs(ladder)[1]
+        rows += [(d, f"left out: {why}") for d, why in others if not d.is_symlink()]
+        linked += [d for d, _ in others if d.is_symlink()]  # named, never read through
     lines = ["## The runs in this folder", "",
              "Every run under this folder, and where this report uses it.", "",
              "| run | experiment | scale | trials | in this report |", "|---|---|---|---|---|"]

@@ -175,17 +175,18 @@ def animate_run(cfg: TavcConfig, *, out: Path | None = None, duration_s: float =
     if mp4 and not shutil.which("ffmpeg"):
         print("note: ffmpeg not found, so no MP4 is written (the GIF is)", file=sys.stderr)
     # what it pictures, which a run taking the folder compares with its own (`pictured`): an earlier
-    # animation's record goes first, so that one stopped half-way is never set beside another's
+    # animation's record goes first and this one's is written last, so that one stopped half-way
+    # leaves an animation without a record (its settings unknown), never one beside another's record
     owned.remove(settings_record(out).name)
     rec, arena = simulate_for_pictures(cfg, duration_s, frame_every_s)
     radius = float(cfg.robot.radius_m)
     written = animate_record(rec, arena, radius, out, fps, mp4=mp4)
     written.append(trajectory_plot(rec, arena, out.with_name("trajectories.png")))
+    if out.with_suffix(".mp4") not in written:  # an earlier animation's MP4 would be taken for this one's
+        owned.remove(out.with_suffix(".mp4").name)
     written.append(settings_record(out))
     owned.wrote(*(p.name for p in written))
     write_text_atomic(settings_record(out), to_yaml(cfg))
-    if out.with_suffix(".mp4") not in written:  # an earlier animation's MP4 would be taken for this one's
-        owned.remove(out.with_suffix(".mp4").name)
     return written
 
 
