@@ -229,7 +229,8 @@ def _share_compiled_kernels(clone: Path) -> None:
 
     for folder in [ours, *(d for d in ours.rglob("*") if d.is_dir() and "__pycache__" not in d.parts)]:
         if (source / filed(folder)).is_dir():
-            shutil.copytree(source / filed(folder), target / filed(theirs / folder.relative_to(ours)))
+            shutil.copytree(source / filed(folder), target / filed(theirs / folder.relative_to(ours)),
+                            dirs_exist_ok=True)  # one folder for both where the checkout is read-only (user cache)
 
 
 @pytest.mark.slow
