@@ -68,6 +68,8 @@ def reproduce(*, overrides: Sequence[str], names: str | None, results: Optional[
         typer.echo("")
     if ladder:
         typer.echo(f"ladder: {results / 'ladder' / 'ladder.csv'}")
+        for folder in config.runs_beside(results, ladder):
+            typer.echo(f"note: {folder} is no rung of this ladder; kept, and named by the report as left out")
 
 
 def sweep_job(cfg: Any, *, progress: bool) -> str:

@@ -546,6 +546,13 @@ def test_tavc_ladder_end_to_end_at_smoke_scale(tmp_path):
     assert a.read_bytes() == b.read_bytes()
     durations = table[table["quantity"] == "pct_3:3"].groupby("factor")["duration_s"].first()
     assert durations.to_dict() == {0.01: 180.0, 0.02: 360.0}  # 18000 s times each factor
+    # run again with a factor left out: its rung stays, named, and the table lists the other only
+    again = CliRunner().invoke(app, ["ladder", "scale=smoke", "scale.baseline_time_factor=0.01", "--factors",
+                                     "0.01", "--results", str(tmp_path)])
+    assert again.exit_code == 0, again.output
+    assert again.output.strip().endswith(f"note: {tmp_path / 'ladder' / 'x0.02'} is no rung of this ladder; kept, "
+                                         "and named by the report as left out")
+    assert set(pd.read_csv(tmp_path / "ladder" / "ladder.csv")["factor"]) == {0.01} and b.is_file()
 
 
 def test_the_stable_window_at_40x_is_the_chapters_length_at_the_end():

@@ -11,7 +11,7 @@ a Hydra launcher.
 
 from tavc_cli.config.experiments import describe_experiments
 from tavc_cli.config.folders import find_conf_dir
-from tavc_cli.config.ladder import ladder_folder, load_ladder, parse_factors
+from tavc_cli.config.ladder import ladder_folder, load_ladder, parse_factors, runs_beside
 from tavc_cli.config.loading import (
     check_measurement,
     experiment_lines,
@@ -50,6 +50,7 @@ __all__ = [
     "parse_overrides",
     "refuse_deletions",
     "results_root",
+    "runs_beside",
     "setting_of",
     "settings",
     "swept_values",

@@ -32,6 +32,18 @@ def ladder_folder(results_dir: str | Path, factor: float) -> Path:
     return Path(results_dir) / "ladder" / f"x{factor:g}"
 
 
+def runs_beside(results_dir: str | Path, factors: Sequence[float]) -> list[Path]:
+    """The run folders in ``<results_dir>/ladder/`` that are no rung of the ladder at `factors`
+    (an earlier ladder's at a factor these leave out, a copy of one's own): kept, never removed,
+    and named by the report as left out. Hidden folders and links are passed over, as the report
+    passes them."""
+    ladder = Path(results_dir) / "ladder"
+    rungs = {ladder_folder(results_dir, f) for f in factors}
+    return sorted((d for d in ladder.iterdir() if d.is_dir() and not d.is_symlink() and not d.name.startswith(".")
+                   and (d / "config.yaml").is_file() and d not in rungs), key=lambda d: d.name) \
+        if ladder.is_dir() else []
+
+
 def load_ladder(factors: Sequence[float], overrides: Sequence[str] = (),
                 results_dir: str | Path | None = None) -> list[DictConfig]:
     """The horizon ladder: initial_distribution at each factor of the chapter's durations
