@@ -227,8 +227,9 @@ def test_a_ladder_table_that_is_not_what_its_rungs_give_now_is_refused(two_horiz
 
 def test_a_rung_the_ladder_table_does_not_list_is_named_as_left_out(two_horizons, tmp_path):
     """A ladder run again with fewer factors leaves the dropped rung's folder: the report lists
-    only the rungs `ladder.csv` lists as the ladder's, names the other as left out, and does not
-    read it (a damaged table there is no refusal)."""
+    only the rungs `ladder.csv` lists as the ladder's, names the others beside them as left out,
+    each with why, and does not read them (a damaged table there is no refusal), but for a run
+    whose config.yaml cannot be read, which could be any rung and is checked."""
     import shutil
 
     from tavc_cli.report import build_report
