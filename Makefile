@@ -47,9 +47,9 @@ venv: $(STAMP) ## Create .venv and install tavc at the locked versions (requirem
 
 # Installs under the lock's constraints: with uv (itself at the lock's version, fetched by pip),
 # which installs the same set twice as fast as pip, compiled to bytecode as pip leaves it
-# (without, the tests ran a fifth longer: a process that may not write into .venv compiles what
-# it imports each time); where uv cannot be fetched or fails (a package index only pip is set
-# up to reach), with pip
+# (without, the tests ran a fifth longer, most likely in processes that may not write into .venv
+# and so compile what they import each time); where uv cannot be fetched or fails (a package
+# index only pip is set up to reach), with pip
 locked_install = ($(BIN)/python -m pip install -q -c $(LOCK) uv \
 	&& $(BIN)/python -m uv pip install --compile-bytecode --python $(BIN)/python -c $(LOCK) $(1)) \
 	|| ($(BIN)/python -m pip install --upgrade pip && $(BIN)/python -m pip install -c $(LOCK) $(1))

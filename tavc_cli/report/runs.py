@@ -159,6 +159,9 @@ def study_runs(results_dir: Path) -> list[tuple[str, list[Path]]]:
     return out
 
 
+UNREADABLE_RUNG = "its config.yaml cannot be read"  # why `ladder_rungs` leaves a run out that could be any rung
+
+
 def ladder_rungs(ladder: Path) -> tuple[list[Path], list[tuple[Path, str]]]:
     """A horizon ladder's folder (`ladder/`, with its `ladder.csv`): the rungs its table lists, in
     the order of their factors (`run_tables.rung_folders`), and the other runs beside them, each
@@ -179,7 +182,7 @@ def ladder_rungs(ladder: Path) -> tuple[list[Path], list[tuple[Path, str]]]:
         if not is_run_folder(d):
             continue
         factor = rung_factor(d)
-        others.append((d, "its config.yaml cannot be read" if factor is None else
+        others.append((d, UNREADABLE_RUNG if factor is None else
                        f"a second run at {float(factor):g} times the chapter's durations, beside the rung the "
                        f"ladder's table is held to, `{read_at[factor].name}`" if factor in read_at else
                        "not a rung the `ladder.csv` beside it lists (one of an earlier ladder, or one still "
@@ -196,7 +199,7 @@ def horizon_ladders(horizon_dirs: Sequence[Path]) -> dict[Path, list[Path]]:
     out = {}
     for table in tables:
         rungs, others = ladder_rungs(table.parent)
-        out[table] = [d for d in [*rungs, *(o for o, _ in others if not o.is_symlink() and rung_factor(o) is None)]
+        out[table] = [d for d in [*rungs, *(o for o, why in others if why == UNREADABLE_RUNG)]
                       if (d / "trial_stats.csv").is_file()]
     return out
 

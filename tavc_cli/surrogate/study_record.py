@@ -6,8 +6,8 @@ The study is often run a part at a time (``--parts``), each part adding its tabl
 others, and the report reads them as one study; a part of other settings would sit beside them
 unnoticed, and the figures drawn from all the tables would mix them. So a part whose settings
 differ from the record is refused in one line naming the difference, unless ``overwrite=true``,
-which removes the earlier parts' tables and figures first. A folder without a record (a study
-made before records were kept) is taken as it is, and recorded from then on.
+which removes the earlier parts' tables and figures first. A folder without a record is
+taken as it is, and recorded from then on.
 """
 
 from __future__ import annotations
