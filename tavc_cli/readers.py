@@ -203,8 +203,8 @@ def load_json(path: Path, limit: int = JSON_LIMIT, advice: str = REWRITE) -> Any
         raise _refused(path, f"nested more than {MAX_DEPTH} levels deep", advice) from None
 
 
-def _bounded_loader(base: type) -> type:
-    """A subclass of the YAML loader `base` that refuses an alias (more than `MAX_ALIASES`) and
+def _bounded_loader(base: type, max_aliases: float = MAX_ALIASES) -> type:
+    """A subclass of the YAML loader `base` that refuses an alias (more than `max_aliases`) and
     nesting deeper than `MAX_DEPTH`, as it composes the document, before anything expands."""
 
     class Bounded(base):
@@ -214,7 +214,7 @@ def _bounded_loader(base: type) -> type:
         def compose_node(self, parent, index):
             if self.check_event(yaml.AliasEvent):
                 self._aliases += 1
-                if self._aliases > MAX_ALIASES:
+                if self._aliases > max_aliases:
                     raise _Refusal(f"a YAML alias, *{self.peek_event().anchor}, on line "
                                    f"{self.peek_event().start_mark.line + 1}; tavc's files use none")
             self._depth += 1
@@ -271,6 +271,39 @@ def load_yaml(path: Path, limit: int = YAML_LIMIT, advice: str = REWRITE, loader
         if "maximum nesting depth" in str(exc):  # libyaml's own bound (deeper than MAX_DEPTH), met first
             raise _refused(path, f"nested more than {MAX_DEPTH} levels deep", advice) from None
         raise
+
+
+def yaml_nodes(path: Path, limit: int = YAML_LIMIT, advice: str = REWRITE) -> int:
+    """How many nodes the YAML file `path` (read by `read_bounded`) holds with its aliases expanded,
+    as a loader that copies what an alias names builds them (OmegaConf does). Counted on the
+    composed document, where an alias is the node it names, shared: a few lines of nested aliases
+    that expand to billions of nodes are counted as fast as they are read. Refused in one line
+    naming the file when nested deeper than `MAX_DEPTH` or when an alias names a node that holds
+    it (expanding it never ends). Malformed YAML raises `yaml.YAMLError`, as `yaml.safe_load` does."""
+    text = read_text(path, limit, advice)
+    try:
+        root = yaml.compose(text, Loader=_bounded_loader(_on_libyaml(yaml.SafeLoader), max_aliases=math.inf))
+    except _Refusal as exc:
+        raise _refused(path, str(exc), advice) from None
+    except RecursionError:
+        raise _refused(path, f"nested more than {MAX_DEPTH} levels deep", advice) from None
+    sizes: dict[int, int] = {}
+    open_nodes: set[int] = set()  # the nodes whose children are being counted: the current one's ancestors
+    stack = [] if root is None else [(root, False)]
+    while stack:
+        node, closing = stack.pop()
+        children = [n for pair in node.value for n in pair] if isinstance(node, yaml.MappingNode) else \
+            node.value if isinstance(node, yaml.SequenceNode) else []
+        if closing:
+            open_nodes.discard(id(node))
+            sizes[id(node)] = 1 + sum(sizes[id(child)] for child in children)
+        elif id(node) in open_nodes:
+            raise _refused(path, f"the node on line {node.start_mark.line + 1} holds an alias of itself", advice)
+        elif id(node) not in sizes:
+            open_nodes.add(id(node))
+            stack.append((node, True))
+            stack.extend((child, False) for child in children)
+    return 0 if root is None else sizes[id(root)]
 
 
 def record_size(path: Path) -> int:

@@ -529,7 +529,6 @@ def test_an_arena_too_long_for_its_reach_grid_is_one_line():
      "(nested too deeply, or a config file that includes itself)"),
     ("experiment/five.yaml", b"defaults: 5\n", "(ValueError: Invalid defaults list in 'experiment/five', defaults "
                                                 "must be a list (got int))"),
-    ("experiment/alias.yaml", b"seed: &a [*a]\n", "(nested too deeply, or a config file that includes itself)"),
 ])
 def test_a_config_file_of_ones_own_hydra_cannot_read_is_one_line_naming_it(tmp_path, name, text, why):
     (tmp_path / name).parent.mkdir()

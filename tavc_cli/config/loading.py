@@ -29,6 +29,7 @@ from tavc_cli.config.overrides import (
     sweep_choices,
 )
 from tavc_cli.config.resolve import resolve
+from tavc_cli.config.user_files import check_user_configs
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root, owned_path, refuse_folder_problem
@@ -317,6 +318,7 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
 
 
 def _compose_now(overrides: Sequence[str], search: list[str]) -> DictConfig:
+    check_user_configs()  # before Hydra expands their aliases
     with hydra_errors(overrides), initialize_conf():
         try:
             return compose(config_name="config", overrides=[*search, *overrides])
