@@ -29,7 +29,7 @@ from tavc_cli.config.overrides import (
     sweep_choices,
 )
 from tavc_cli.config.resolve import resolve
-from tavc_cli.config.user_files import check_user_configs
+from tavc_cli.config.user_files import search_path_entry
 from tavc_cli.config.validate import check_no_missing, validate, validate_scaling
 from tavc_cli.errors import TavcError
 from tavc_cli.io import default_root, owned_path, refuse_folder_problem
@@ -318,7 +318,6 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
 
 
 def _compose_now(overrides: Sequence[str], search: list[str]) -> DictConfig:
-    check_user_configs()  # before Hydra expands their aliases
     with hydra_errors(overrides), initialize_conf():
         try:
             return compose(config_name="config", overrides=[*search, *overrides])
@@ -339,11 +338,12 @@ def _composes(overrides: Sequence[str]) -> bool:
 
 def search_overrides() -> list[str]:
     """Hydra's search path extended by the user's config folders (`plugins.config_dirs`): their
-    ``learner/``, ``experiment/``, ... options join tavc's own."""
+    ``learner/``, ``experiment/``, ... options join tavc's own, each file checked as Hydra reads it
+    (`user_files.CheckedFileSource`)."""
     dirs = config_dirs()
     if not dirs:
         return []
-    return ["hydra.searchpath=[" + ",".join(f"'file://{d.resolve()}'" for d in dirs) + "]"]
+    return ["hydra.searchpath=[" + ",".join(f"'{search_path_entry(d)}'" for d in dirs) + "]"]
 
 
 def initialize_conf():
