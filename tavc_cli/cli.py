@@ -197,8 +197,9 @@ def surrogate(
     ] = False,
     results: Annotated[Optional[Path], options.results("The study's folder (default: runs/surrogate-study).")] = None,
     simulator: Annotated[
-        Path, typer.Option("--simulator", help="The simulator's runs the study compares with (their results root).")
-    ] = Path("results"),
+        Optional[Path], typer.Option("--simulator", help="The simulator's runs the study compares with (their results "
+                                                         "root; default: results).", show_default=False)
+    ] = None,
     parts: Annotated[
         Optional[str],
         typer.Option("--parts", help="Only these parts of the study: compare,ladder,phase,horizon,speed.",
@@ -212,13 +213,21 @@ def surrogate(
     by the group's make-up (default output: runs/<scale>/surrogate/<experiment>); with --study, the
     surrogate checked against the simulator and what it answers beyond it."""
     with _user_errors(folder=lambda: results):
-        if study:
+        if not study:
+            given = [name for name, value in (("--results", results), ("--simulator", simulator), ("--parts", parts))
+                     if value is not None]
+            if given:
+                raise TavcError(f"{given[0]}: belongs to --study; a surrogate run writes into output_dir")
+        else:
             # deferred: loads pandas
             from tavc_cli.surrogate.study import run_study, summary_lines
 
             out = results if results is not None else Path("runs") / "surrogate-study"  # both horizons: no one scale
             chosen = None if parts is None else [p.strip() for p in parts.split(",") if p.strip()]
-            run_study(out, simulator, overrides or [], lambda o: config.settings(config.load_config(o)), parts=chosen,
+            if chosen == []:
+                raise TavcError("--parts: names no part; give one or more of compare, ladder, phase, horizon, speed")
+            run_study(out, simulator if simulator is not None else Path("results"), overrides or [],
+                      lambda o: config.settings(config.load_config(o)), parts=chosen,
                       progress=options.shown(progress), echo=typer.echo)
             for line in summary_lines(out):
                 typer.echo(line)

@@ -192,6 +192,24 @@ def test_an_empty_config_dir_is_refused_not_taken_for_the_working_folder(tmp_pat
 
 
 @pytest.mark.parametrize(("args", "line"), [
+    (["surrogate", "--results", "elsewhere", "experiment=breakdown", "scale=smoke"],
+     "error: --results: belongs to --study; a surrogate run writes into output_dir"),
+    (["surrogate", "--simulator", "nowhere", "experiment=breakdown", "scale=smoke"],
+     "error: --simulator: belongs to --study; a surrogate run writes into output_dir"),
+    (["surrogate", "--parts", "nope", "experiment=breakdown", "scale=smoke"],
+     "error: --parts: belongs to --study; a surrogate run writes into output_dir"),
+    (["surrogate", "--study", "--parts", " , "],
+     "error: --parts: names no part; give one or more of compare, ladder, phase, horizon, speed"),
+])
+def test_a_surrogate_option_out_of_place_is_one_line_and_runs_nothing(tmp_path, monkeypatch, args, line):
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, args, catch_exceptions=False)
+    assert result.exit_code == 1
+    assert result.output.splitlines() == [line]
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(("args", "line"), [
     (["bench", "--batch", "0"], "error: Invalid value for '--batch': Input should be greater than or equal to 1"),
     (["nosuch"], "error: No such command 'nosuch'."),
     (["run", "--cfg", "job"], "error: No such option: --cfg"),

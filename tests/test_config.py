@@ -461,7 +461,8 @@ def test_a_sweep_too_large_to_be_a_study_is_refused_before_it_is_spelled_out():
 @pytest.mark.parametrize(("override", "line"), [
     ("arena.targets.foo=1", "arena.targets.foo: 'arena.targets.foo=1' cannot be applied (ValueError: invalid "
                             "literal for int() with base 10: 'foo')"),
-    ("tasks=[1]", "tasks: 'tasks=[1]' cannot be applied (TypeError: "),
+    ("tasks=[1]", "tasks: takes one option, not a list (Hydra would merge the options into one config named after "
+                  "the last); choose one (tasks=<option>), or sweep them with -m (tasks=a,b)"),
     ("seed=" + "[" * 500 + "]" * 500, "seed: its value is nested too deeply to read"),
     ("+experiment=value_change", "experiment: a config group holds one option, and it was given two; choose it "
                                  "once, without a + (which adds a second): experiment=<option>"),
@@ -647,3 +648,54 @@ def test_the_committed_headline_runs_hold_the_settings_make_reproduce_all_writes
         differ = sorted(k for k in set(committed) | set(now)
                         if k != "executor.n_jobs" and committed.get(k, "absent") != now.get(k, "absent"))
         assert not differ, f"results/{name}/config.yaml: {differ[:3]}; run make reproduce-all and commit it"
+
+
+@pytest.mark.parametrize(("overrides", "line"), [
+    (["experiment=[value_change,breakdown]"],
+     "experiment: takes one option, not a list (Hydra would merge the options into one config named after the last); "
+     "choose one (experiment=<option>), or sweep them with -m (experiment=a,b)"),
+    (["experiment=breakdown", "team=[homogeneous]"],
+     "team: takes one option, not a list (Hydra would merge the options into one config named after the last); "
+     "choose one (team=<option>), or sweep them with -m (team=a,b)"),
+    (["experiment=value_change", "experiment_name=breakdown"],
+     "experiment_name: 'breakdown' names one of the experiments whose claims the report tests, and this config is "
+     "experiment=value_change; choose experiment=breakdown, or another name"),
+    (["experiment_name=initial_distribution"],
+     "experiment_name: 'initial_distribution' names one of the experiments whose claims the report tests, and this "
+     "config is no experiment; choose experiment=initial_distribution, or another name"),
+    (["experiment=initial_distribution", "experiment_name=" + "a" * 101],
+     "experiment_name: at most 100 bytes (it names the run's folder and, in a report, files of its figures), got 101"),
+])
+def test_a_config_that_would_pass_for_another_experiment_is_one_line(overrides, line):
+    """A list of experiments would merge them into one named after the last, whose claims the report
+    would then test on the others' events; a chapter experiment's name on another's settings likewise."""
+    with pytest.raises(TavcError) as caught:
+        load_config(overrides)
+    assert str(caught.value) == line
+
+
+def test_an_experiment_keeps_its_own_name_and_may_take_another():
+    assert load_config(["experiment='breakdown'"]).experiment_name == "breakdown"
+    assert load_config(["experiment=breakdown", "experiment_name=my_breakdown"]).experiment_name == "my_breakdown"
+    # 50 characters of two bytes each: at the bound, which counts bytes
+    assert load_config(["experiment=initial_distribution", f"experiment_name='{'é' * 50}'"]).experiment_name == "é" * 50
+    with pytest.raises(TavcError, match="at most 100 bytes .* got 102$"):
+        load_config(["experiment=initial_distribution", f"experiment_name='{'é' * 51}'"])
+    assert list(load_config(["experiment=breakdown", "baselines=[random]"]).baselines) == ["random"]
+
+
+@pytest.mark.parametrize(("override", "line"), [
+    ("robot.radius_m=1e-300", "robot.radius_m: must be at least 0.01 m (a smaller disc falls between the laser's rays "
+                              "and its moment of inertia vanishes in the physics), got 1e-300"),
+    ("sim.solver_iterations=99999999999999",
+     "sim.solver_iterations: must be at most 100 (pymunk's default is 10; each step solves every contact this many "
+     "times, a cost the estimate of a run's time does not count), got 99999999999999"),
+])
+def test_a_body_the_physics_cannot_hold_or_a_solver_without_end_is_one_line(override, line):
+    """Both were accepted and failed inside every trial (a disc without a moment of inertia; an iteration
+    count past 32 bits), or ran without end (a billion solver passes a step)."""
+    with pytest.raises(TavcError) as caught:
+        load_config(["experiment=initial_distribution", override])
+    assert str(caught.value) == line
+    load_config(["experiment=initial_distribution", override.split("=")[0] + ("=0.01" if "radius" in override
+                                                                              else "=100")])

@@ -15,7 +15,7 @@ from omegaconf.errors import (
     OmegaConfBaseException,
 )
 
-from tavc_cli.chapter import base_case
+from tavc_cli.chapter import EXPERIMENTS, base_case
 from tavc_cli.config.composed import composed
 from tavc_cli.config.folders import config_folders, find_conf_dir
 from tavc_cli.config.limits import sources, validate_measurement_time
@@ -25,6 +25,7 @@ from tavc_cli.config.overrides import (
     is_hydra_override,
     parse_overrides,
     refuse_deletions,
+    refuse_group_lists,
     slug,
     sweep_choices,
 )
@@ -311,10 +312,25 @@ def _compose(overrides: Sequence[str]) -> DictConfig:
     files are composed once in a process (`composed`).
     """
     refuse_deletions(overrides)
+    refuse_group_lists(overrides)
     search = search_overrides()
     if any(map(is_hydra_override, overrides)):  # Hydra's own settings (its search path) reach files the key
-        return _compose_now(overrides, search)  # does not read: composed every time
-    return composed(overrides, search, config_folders(), lambda: _compose_now(overrides, search))
+        cfg = _compose_now(overrides, search)  # does not read: composed every time
+    else:
+        cfg = composed(overrides, search, config_folders(), lambda: _compose_now(overrides, search))
+    _refuse_borrowed_name(overrides, cfg)
+    return cfg
+
+
+def _refuse_borrowed_name(overrides: Sequence[str], cfg: DictConfig) -> None:
+    """Refuse a config named after one of the registry's experiments (`experiment_name`) that is not
+    that experiment's file: the report would test that experiment's claims on another's runs."""
+    name = cfg.get("experiment_name")
+    chosen = [str(o.value()) for o in parse_overrides([t for t in overrides if setting_key(t) == "experiment"])]
+    if isinstance(name, str) and name in EXPERIMENTS and (not chosen or chosen[-1] != name):
+        raise TavcError(f"experiment_name: {name!r} names one of the experiments whose claims the report tests, "
+                        f"and this config is {'experiment=' + chosen[-1] if chosen else 'no experiment'}; "
+                        f"choose experiment={name}, or another name")
 
 
 def _compose_now(overrides: Sequence[str], search: list[str]) -> DictConfig:

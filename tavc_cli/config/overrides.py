@@ -9,7 +9,7 @@ from typing import Any
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException, OverrideParseException
 
-from tavc_cli.config.folders import find_conf_dir
+from tavc_cli.config.folders import config_folders, find_conf_dir
 from tavc_cli.config.messages import override_syntax_message
 from tavc_cli.errors import TavcError
 from tavc_cli.override_keys import override_key, setting_key
@@ -123,6 +123,27 @@ def refuse_deletions(overrides: Sequence[str]) -> None:
                        else f"set it ({key}=<value>)")
             raise TavcError(f"{key}: every run reads it, so ~ cannot remove it (the schema's default would "
                             f"take its place); {instead}")
+
+
+def refuse_group_lists(overrides: Sequence[str]) -> None:
+    """Refuse a list given for a config group (``experiment=[value_change,breakdown]``): Hydra would
+    merge the options' files into one config, named after the last and holding the others' events
+    and settings, which the report would read as the last one's.
+
+    Raises:
+        TavcError: Naming the first group given a list.
+    """
+    for text in overrides:
+        if is_hydra_override(text) or text.lstrip().startswith("~"):
+            continue
+        group = setting_key(text).split("@", 1)[0]
+        if not group or not any((folder / group).is_dir() for folder in config_folders()):
+            continue
+        for override in parse_overrides([text]):
+            if not override.is_sweep_override() and isinstance(override.value(), list):
+                raise TavcError(f"{group}: takes one option, not a list (Hydra would merge the options into one "
+                                f"config named after the last); choose one ({group}=<option>), or sweep them with -m "
+                                f"({group}=a,b)")
 
 
 def slug(choices: Any) -> str:

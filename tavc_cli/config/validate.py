@@ -25,6 +25,7 @@ from tavc_cli.config.validate_world import (
     validate_model_team,
     validate_periods,
     validate_reachable,
+    validate_sim,
     validate_start,
 )
 from tavc_cli.confine import CONFINE_CHOICES, confinement
@@ -45,6 +46,12 @@ from tavc_cli.vocabulary import ARRIVALS, PASSINGS, TIME_FROM
 
 # The laser needs a ray ahead and one to either side: to read codes, avoid robots, follow walls.
 MIN_LASER_RAYS = 3
+# A robot is a disc of at least this radius (the chapter's Pioneer is 0.22 m): below it the disc's moment
+# of inertia, mass x radius^2 / 2, can underflow to the zero pymunk refuses.
+MIN_RADIUS_M = 0.01
+# An experiment's name names a folder and, in a report, files of its figures (a figure's name adds
+# a few dozen bytes to it); file systems take 255 bytes to a name. tavc's longest is 20.
+MAX_NAME_BYTES = 100
 # The module each cluster backend needs (its extra is the backend's name), as ``experiments.executors``.
 BACKEND_MODULES = {"dask": "distributed", "ray": "ray"}
 
@@ -111,7 +118,7 @@ def validate(cfg: DictConfig, named: Optional[dict[str, str]] = None) -> None:
     if cfg.static_allocation is not None:
         validate_allocation("static_allocation", cfg.static_allocation, n_circuits, n_robots)
     _validate_tasks(cfg.tasks, n_circuits)
-    _validate_sim(cfg.sim)
+    validate_sim(cfg.sim)
     validate_periods(cfg)
     _validate_model(cfg.model)
     _validate_calibration(cfg.calibration)
@@ -178,6 +185,9 @@ def _validate_robot(robot: DictConfig) -> None:
     )
     for name in body:
         positive(f"robot.{name}", robot[name])
+    check(robot.radius_m >= MIN_RADIUS_M, "robot.radius_m",
+          f"must be at least {MIN_RADIUS_M:g} m (a smaller disc falls between the laser's rays and its moment of "
+          f"inertia vanishes in the physics), got {robot.radius_m:g}")
     check(robot.radius_m < START_WALL_MARGIN_M, "robot.radius_m",
           f"must be less than {START_WALL_MARGIN_M:g} m (robots start with their centres "
           f"{START_WALL_MARGIN_M:g} m from the walls), got {robot.radius_m:g}")
@@ -263,6 +273,9 @@ def _validate_run(cfg: DictConfig) -> None:
     check(plain_name(str(cfg.experiment_name)), "experiment_name",
           f"{str(cfg.experiment_name)!r} is not a plain name; runs go to runs/<scale.name>/<experiment_name>/ by "
           "default")
+    check(len(str(cfg.experiment_name).encode()) <= MAX_NAME_BYTES, "experiment_name",
+          f"at most {MAX_NAME_BYTES} bytes (it names the run's folder and, in a report, files of its figures), "
+          f"got {len(str(cfg.experiment_name).encode())}")
     problem = folder_problem(cfg.output_dir or "")
     check(problem is None, "output_dir", problem or "")
 
@@ -368,16 +381,6 @@ def _validate_breakdown_target(
         f"{key}.circuit",
         f"must be null, high, low or a circuit index in [0, {n_circuits}), got {circuit!r}",
     )
-
-
-def _validate_sim(sim: DictConfig) -> None:
-    """Simulator timing."""
-    positive("sim.dt_s", sim.dt_s)
-    at_least("sim.physics_substeps", sim.physics_substeps, 1)
-    at_least("sim.solver_iterations", sim.solver_iterations, 1)
-    at_least("sim.q_snapshot_every_s", sim.q_snapshot_every_s, 0)
-    at_least("sim.pose_every_s", sim.pose_every_s, 0)
-    at_least("sim.warmup_s", sim.warmup_s, 0)
 
 
 def _validate_executor(executor: DictConfig) -> None:

@@ -260,3 +260,20 @@ def validate_start(cfg: DictConfig) -> None:
                  f"cannot place {n_robots} robots of robot.radius_m = {robot.radius_m:g} at random "
                  f"{START_GAP_M:g} m apart and {START_WALL_MARGIN_M:g} m from the walls of {_arena_size(arena)} "
                  f"(trial {spec.trial} of {spec.controller}, seed {cfg.seed}); {always} always fit")
+
+
+# pymunk's contact solver passes per step (its default 10); the estimate of a run's time assumes the default.
+MAX_SOLVER_ITERATIONS = 100
+
+
+def validate_sim(sim: DictConfig) -> None:
+    """Simulator timing."""
+    positive("sim.dt_s", sim.dt_s)
+    at_least("sim.physics_substeps", sim.physics_substeps, 1)
+    at_least("sim.solver_iterations", sim.solver_iterations, 1)
+    check(sim.solver_iterations <= MAX_SOLVER_ITERATIONS, "sim.solver_iterations",
+          f"must be at most {MAX_SOLVER_ITERATIONS} (pymunk's default is 10; each step solves every contact this "
+          f"many times, a cost the estimate of a run's time does not count), got {sim.solver_iterations}")
+    at_least("sim.q_snapshot_every_s", sim.q_snapshot_every_s, 0)
+    at_least("sim.pose_every_s", sim.pose_every_s, 0)
+    at_least("sim.warmup_s", sim.warmup_s, 0)
