@@ -213,12 +213,7 @@ def surrogate(
     by the group's make-up (default output: runs/<scale>/surrogate/<experiment>); with --study, the
     surrogate checked against the simulator and what it answers beyond it."""
     with _user_errors(folder=lambda: results):
-        if not study:
-            given = [name for name, value in (("--results", results), ("--simulator", simulator), ("--parts", parts))
-                     if value is not None]
-            if given:
-                raise TavcError(f"{given[0]}: belongs to --study; a surrogate run writes into output_dir")
-        else:
+        if study:
             # deferred: loads pandas
             from tavc_cli.surrogate.study import run_study, summary_lines
 
@@ -232,6 +227,10 @@ def surrogate(
             for line in summary_lines(out):
                 typer.echo(line)
             return
+        given = [name for name, value in (("--results", results), ("--simulator", simulator), ("--parts", parts))
+                 if value is not None]
+        if given:
+            raise TavcError(f"{given[0]}: belongs to --study; a surrogate run writes into output_dir")
         # deferred: loads pandas
         from tavc_cli.api import surrogate_summary
 

@@ -252,6 +252,8 @@ def _on_libyaml(base: type) -> type:
 
 # a run's config.yaml is read this way; a results folder holds hundreds, which the report reads whole
 _SAFE = _bounded_loader(_on_libyaml(yaml.SafeLoader))
+# a user's config is counted this way: aliases allowed (`yaml_nodes` counts what they expand to), depth bounded
+_ALIASED = _bounded_loader(_on_libyaml(yaml.SafeLoader), max_aliases=math.inf)
 
 
 def load_yaml(path: Path, limit: int = YAML_LIMIT, advice: str = REWRITE, loader: type | None = None) -> Any:
@@ -282,7 +284,7 @@ def yaml_nodes(path: Path, limit: int = YAML_LIMIT, advice: str = REWRITE) -> in
     it (expanding it never ends). Malformed YAML raises `yaml.YAMLError`, as `yaml.safe_load` does."""
     text = read_text(path, limit, advice)
     try:
-        root = yaml.compose(text, Loader=_bounded_loader(_on_libyaml(yaml.SafeLoader), max_aliases=math.inf))
+        root = yaml.compose(text, Loader=_ALIASED)
     except _Refusal as exc:
         raise _refused(path, str(exc), advice) from None
     except RecursionError:

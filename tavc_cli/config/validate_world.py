@@ -35,6 +35,8 @@ REACH_MAX_CELLS = 2_000_000
 # apart, far below anything the simulator resolves; far longer sides overflow the areas the start
 # checks compute (1e200 m does), and robots started that far from the targets deliver nothing.
 MAX_ARENA_M = 1e6
+# pymunk's contact solver passes per step (its default 10); the estimate of a run's time assumes the default.
+MAX_SOLVER_ITERATIONS = 100
 
 
 def validate_arena(arena: DictConfig) -> None:
@@ -260,10 +262,6 @@ def validate_start(cfg: DictConfig) -> None:
                  f"cannot place {n_robots} robots of robot.radius_m = {robot.radius_m:g} at random "
                  f"{START_GAP_M:g} m apart and {START_WALL_MARGIN_M:g} m from the walls of {_arena_size(arena)} "
                  f"(trial {spec.trial} of {spec.controller}, seed {cfg.seed}); {always} always fit")
-
-
-# pymunk's contact solver passes per step (its default 10); the estimate of a run's time assumes the default.
-MAX_SOLVER_ITERATIONS = 100
 
 
 def validate_sim(sim: DictConfig) -> None:
